@@ -1,0 +1,25 @@
+# Every dependency comes from a Debian 12 package that scripts/setup.sh installs
+# (scripts/packages.txt lists them). Nothing is downloaded at build time.
+
+find_package(PkgConfig REQUIRED)
+find_package(Threads REQUIRED)
+find_package(GDAL 3.6 REQUIRED)
+
+find_package(TBB CONFIG REQUIRED)
+find_package(glm CONFIG REQUIRED)
+find_package(CLI11 CONFIG REQUIRED)
+find_package(nlohmann_json CONFIG REQUIRED)
+find_package(meshoptimizer CONFIG REQUIRED)
+find_package(Vulkan REQUIRED COMPONENTS glslc)
+pkg_check_modules(GeographicLib REQUIRED IMPORTED_TARGET geographiclib)
+pkg_check_modules(LZO2 REQUIRED IMPORTED_TARGET lzo2)
+pkg_check_modules(Squish REQUIRED IMPORTED_TARGET libsquish)
+# OpenImageIO through pkg-config: its CMake package references opencv and tool binaries that
+# libopenimageio-dev does not pull in.
+pkg_check_modules(OpenImageIO REQUIRED IMPORTED_TARGET OpenImageIO)
+if(PBDAM_BUILD_TESTS)
+  find_package(GTest CONFIG REQUIRED)
+endif()
+if(PBDAM_BUILD_BENCH)
+  find_package(benchmark CONFIG REQUIRED)
+endif()

@@ -1,0 +1,51 @@
+// Where tests find the real elevation data of ../shared/data and the built-in default data.
+// Missing data fails the test under CI=true and skips it (with the reason) elsewhere.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+namespace pbdam::test {
+
+/// The data directory: $PBDAM_DATA_DIR if set, else the configured default (../shared/data).
+std::filesystem::path dataDir();
+
+/// The message explaining that `path` is missing, or an empty string when it is a readable file.
+std::string missingFileMessage(const std::filesystem::path& path);
+
+/// True when running under CI (CI=true): missing data then fails instead of skipping.
+bool runningInCi();
+
+/// A fresh, empty temporary directory unique to the running test; removed by the caller's
+/// TempDir owner.
+class TempDir final {
+ public:
+  TempDir();
+  ~TempDir();
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const std::filesystem::path& path() const noexcept { return path_; }
+  std::filesystem::path operator/(const std::string& name) const { return path_ / name; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+}  // namespace pbdam::test
+
+/// Declares `var` as the path of a required data file; when it is missing, fails the test
+/// under CI and skips it elsewhere, naming the file either way.
+#define PBDAM_REQUIRE_DATA(var, path)                                        \
+  const std::filesystem::path var = (path);                                  \
+  if (const std::string pbdamMissing_##var = ::pbdam::test::missingFileMessage(var); \
+      !pbdamMissing_##var.empty()) {                                         \
+    if (::pbdam::test::runningInCi()) {                                      \
+      FAIL() << pbdamMissing_##var;                                          \
+    }                                                                        \
+    GTEST_SKIP() << pbdamMissing_##var;                                      \
+  }                                                                          \
+  static_assert(true)
+
+/// ETOPO5 from Debian's ferret-datasets (the built-in default Earth data).
+#define PBDAM_ETOPO5_PATH std::filesystem::path("/usr/share/ferret-vis/data/etopo5.cdf")
