@@ -1,0 +1,658 @@
+// Elevation ingest through GDAL (DemReader.h). GDAL identifies and decodes the file; this file
+// turns its georeference into sample-centre latitude/longitude, converts or warps projected
+// CRSs, checks raw layouts against the file size (GDAL reads short raw files without complaint
+// in some drivers), and maps nodata to NaN.
+#include "pbdam/formats/DemReader.h"
+
+#include "pbdam/formats/NumberList.h"
+
+#include <cpl_conv.h>
+#include <cpl_error.h>
+#include <gdal.h>
+#include <gdal_priv.h>
+#include <gdal_utils.h>
+#include <gdalwarper.h>
+#include <ogr_spatialref.h>
+
+#include <algorithm>
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <memory>
+#include <mutex>
+#include <sstream>
+#include <vector>
+
+namespace pbdam {
+namespace {
+
+namespace fs = std::filesystem;
+
+void registerGdalOnce() {
+  static std::once_flag once;
+  std::call_once(once, [] { GDALAllRegister(); });
+}
+
+/// Collects GDAL's error messages for the duration of one read instead of printing them.
+class GdalErrorCapture final {
+ public:
+  GdalErrorCapture() { CPLPushErrorHandlerEx(&GdalErrorCapture::handler, this); }
+  ~GdalErrorCapture() { CPLPopErrorHandler(); }
+  GdalErrorCapture(const GdalErrorCapture&) = delete;
+  GdalErrorCapture& operator=(const GdalErrorCapture&) = delete;
+
+  /// The collected failures (warnings excluded), joined; empty when there were none.
+  std::string failures() const {
+    std::string joined;
+    for (const auto& m : failures_) joined += (joined.empty() ? "" : "; ") + m;
+    return joined;
+  }
+  bool hasFailures() const noexcept { return !failures_.empty(); }
+
+ private:
+  static void CPL_STDCALL handler(CPLErr level, CPLErrorNum, const char* message) {
+    auto* self = static_cast<GdalErrorCapture*>(CPLGetErrorHandlerUserData());
+    if (self != nullptr && level >= CE_Failure && message != nullptr) {
+      self->failures_.emplace_back(message);
+    }
+  }
+  std::vector<std::string> failures_;
+};
+
+/// Sets a GDAL configuration option on this thread for the lifetime of the object.
+class ScopedConfig final {
+ public:
+  ScopedConfig(const char* key, const char* value) : key_(key) {
+    const char* old = CPLGetThreadLocalConfigOption(key, nullptr);
+    if (old != nullptr) old_ = old;
+    CPLSetThreadLocalConfigOption(key, value);
+  }
+  ~ScopedConfig() { CPLSetThreadLocalConfigOption(key_, old_ ? old_->c_str() : nullptr); }
+  ScopedConfig(const ScopedConfig&) = delete;
+  ScopedConfig& operator=(const ScopedConfig&) = delete;
+
+ private:
+  const char* key_;
+  std::optional<std::string> old_;
+};
+
+struct DatasetCloser {
+  void operator()(GDALDatasetH ds) const noexcept { GDALClose(ds); }
+};
+using DatasetPtr = std::unique_ptr<std::remove_pointer_t<GDALDatasetH>, DatasetCloser>;
+
+Error fail(ErrorCode code, const fs::path& path, const std::string& what) {
+  return makeError(code, path.string() + ": " + what);
+}
+
+std::string withGdal(const std::string& what, const GdalErrorCapture& capture) {
+  return capture.hasFailures() ? what + " (GDAL: " + capture.failures() + ")" : what;
+}
+
+std::string formatDouble(double value, int digits = 10) {
+  std::ostringstream out;
+  out.precision(digits);
+  out << value;
+  return out.str();
+}
+
+std::string xmlEscape(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+std::int64_t rawTypeBytes(RawSampleType type) {
+  switch (type) {
+    case RawSampleType::UInt8:
+      return 1;
+    case RawSampleType::Int16:
+    case RawSampleType::UInt16:
+      return 2;
+    case RawSampleType::Int32:
+    case RawSampleType::UInt32:
+    case RawSampleType::Float32:
+      return 4;
+    case RawSampleType::Float64:
+      return 8;
+  }
+  return 1;
+}
+
+const char* rawTypeGdalName(RawSampleType type) {
+  switch (type) {
+    case RawSampleType::UInt8:
+      return "Byte";
+    case RawSampleType::Int16:
+      return "Int16";
+    case RawSampleType::UInt16:
+      return "UInt16";
+    case RawSampleType::Int32:
+      return "Int32";
+    case RawSampleType::UInt32:
+      return "UInt32";
+    case RawSampleType::Float32:
+      return "Float32";
+    case RawSampleType::Float64:
+      return "Float64";
+  }
+  return "Byte";
+}
+
+/// A VRT description that makes GDAL read the raw file (GDAL's raw support, not our parser).
+std::string rawVrtXml(const fs::path& path, const RawLayout& raw) {
+  const double dx =
+      (raw.bounds.eastDegrees - raw.bounds.westDegrees) / static_cast<double>(raw.width);
+  const double dy =
+      (raw.bounds.northDegrees - raw.bounds.southDegrees) / static_cast<double>(raw.height);
+  const std::int64_t bytes = rawTypeBytes(raw.type);
+  std::ostringstream xml;
+  xml.precision(17);
+  xml << "<VRTDataset rasterXSize=\"" << raw.width << "\" rasterYSize=\"" << raw.height << "\">"
+      << "<GeoTransform>" << raw.bounds.westDegrees << "," << dx << ",0," << raw.bounds.northDegrees
+      << ",0," << -dy << "</GeoTransform>"
+      << "<VRTRasterBand dataType=\"" << rawTypeGdalName(raw.type)
+      << "\" band=\"1\" subClass=\"VRTRawRasterBand\">"
+      << "<SourceFilename relativeToVRT=\"0\">" << xmlEscape(fs::absolute(path).string())
+      << "</SourceFilename><ImageOffset>" << raw.headerBytes << "</ImageOffset><PixelOffset>"
+      << bytes << "</PixelOffset><LineOffset>" << bytes * raw.width << "</LineOffset>"
+      << "<ByteOrder>" << (raw.bigEndian ? "MSB" : "LSB") << "</ByteOrder>"
+      << "</VRTRasterBand></VRTDataset>";
+  return xml.str();
+}
+
+/// Snaps a spacing to 1/n degree and an origin to a multiple of half a cell when they are that
+/// within rounding of the file's numbers (ETOPO5's float32 axis, MOLA's 14.818 km/px scale).
+double snapSpacing(double spacing) {
+  const double perDegree = 1.0 / spacing;
+  const double n = std::round(perDegree);
+  if (n >= 1.0 && std::abs(perDegree - n) <= 1e-4 * n) return 1.0 / n;
+  return spacing;
+}
+
+double snapOrigin(double origin, double spacing) {
+  const double halves = origin / (0.5 * spacing);
+  const double n = std::round(halves);
+  if (std::abs(halves - n) <= 0.05) return n * 0.5 * spacing;
+  return origin;
+}
+
+/// Geographic georeference of a dataset: corner-based like a GDAL geotransform, in degrees.
+struct GeoRef final {
+  double westDegrees = 0.0;
+  double northDegrees = 0.0;
+  double lonSpacingDegrees = 0.0;
+  double latSpacingDegrees = 0.0;
+};
+
+std::string bodyForSemiMajor(double a) {
+  if (a > 3.3e6 && a < 3.5e6) return "mars";
+  if (a > 6.3e6 && a < 6.4e6) return "earth";
+  if (a > 1.7e6 && a < 1.8e6) return "moon";
+  return "";
+}
+
+/// Converts a projected, axis-aligned georeference to degrees when the projection is linear in
+/// latitude and longitude over the grid (equirectangular); nullopt when it is not.
+std::optional<GeoRef> linearGeographic(const OGRSpatialReference& projected,
+                                       const std::array<double, 6>& gt, std::int64_t width,
+                                       std::int64_t height) {
+  std::unique_ptr<OGRSpatialReference> geographic(projected.CloneGeogCS());
+  if (!geographic) return std::nullopt;
+  geographic->SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  OGRSpatialReference source(projected);
+  source.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  std::unique_ptr<OGRCoordinateTransformation> toGeo(
+      OGRCreateCoordinateTransformation(&source, geographic.get()));
+  if (!toGeo) return std::nullopt;
+  auto lonLat = [&](double px, double py, double& lon, double& lat) {
+    lon = gt[0] + px * gt[1];
+    lat = gt[3] + py * gt[5];
+    return toGeo->Transform(1, &lon, &lat) != 0 && std::isfinite(lon) && std::isfinite(lat);
+  };
+  double lon0 = 0, lat0 = 0, lon1 = 0, lat1 = 0, lon2 = 0, lat2 = 0;
+  // Spacing from one cell near the origin (avoids the ±180° wrap of far corners).
+  if (!lonLat(0.5, 0.5, lon0, lat0) || !lonLat(1.5, 0.5, lon1, lat1) ||
+      !lonLat(0.5, 1.5, lon2, lat2)) {
+    return std::nullopt;
+  }
+  const double dLon = lon1 - lon0;
+  const double dLat = lat0 - lat2;
+  if (!(dLon > 0.0) || !(dLat > 0.0) || std::abs(lat1 - lat0) > 1e-9 ||
+      std::abs(lon2 - lon0) > 1e-9 * std::max(1.0, std::abs(lon0))) {
+    return std::nullopt;
+  }
+  // Linear means every sample centre is where the origin and spacing put it.
+  const std::array<double, 3> fx = {0.5, 0.5 * static_cast<double>(width),
+                                    static_cast<double>(width) - 0.5};
+  const std::array<double, 3> fy = {0.5, 0.5 * static_cast<double>(height),
+                                    static_cast<double>(height) - 0.5};
+  for (double px : fx) {
+    for (double py : fy) {
+      double lon = 0, lat = 0;
+      if (!lonLat(px, py, lon, lat)) return std::nullopt;
+      const double expectLon = lon0 + (px - 0.5) * dLon;
+      const double expectLat = lat0 - (py - 0.5) * dLat;
+      const double lonError = std::remainder(lon - expectLon, 360.0);
+      if (std::abs(lonError) > 1e-6 * dLon || std::abs(lat - expectLat) > 1e-6 * dLat) {
+        return std::nullopt;
+      }
+    }
+  }
+  return GeoRef{lon0 - 0.5 * dLon, lat0 + 0.5 * dLat, dLon, dLat};
+}
+
+/// Warps a projected dataset to the geographic CRS of its own datum at native resolution.
+DatasetPtr warpToGeographic(GDALDatasetH source, const OGRSpatialReference& projected,
+                            std::string& why) {
+  std::unique_ptr<OGRSpatialReference> geographic(projected.CloneGeogCS());
+  if (!geographic) {
+    why = "its CRS has no geographic base";
+    return nullptr;
+  }
+  char* wkt = nullptr;
+  geographic->exportToWkt(&wkt);
+  std::string wktString = wkt != nullptr ? wkt : "";
+  CPLFree(wkt);
+  // Native resolution: the source's finer cell size in metres, as degrees of latitude, and as
+  // degrees of longitude at the grid's centre latitude (GDAL's default would use square degree
+  // cells and undersample latitude away from the equator).
+  std::array<double, 6> gt{};
+  GDALGetGeoTransform(source, gt.data());
+  const double cellMeters =
+      std::min(std::hypot(gt[1], gt[4]), std::hypot(gt[2], gt[5])) * projected.GetLinearUnits();
+  OGRSpatialReference src(projected);
+  src.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  geographic->SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  std::unique_ptr<OGRCoordinateTransformation> toGeo(
+      OGRCreateCoordinateTransformation(&src, geographic.get()));
+  double cx =
+      gt[0] + 0.5 * GDALGetRasterXSize(source) * gt[1] + 0.5 * GDALGetRasterYSize(source) * gt[2];
+  double cy =
+      gt[3] + 0.5 * GDALGetRasterXSize(source) * gt[4] + 0.5 * GDALGetRasterYSize(source) * gt[5];
+  if (!toGeo || !toGeo->Transform(1, &cx, &cy) || !(cellMeters > 0.0)) {
+    why = "cannot find the grid's centre in geographic coordinates";
+    return nullptr;
+  }
+  const double metresPerDegree = geographic->GetSemiMajor() * M_PI / 180.0;
+  const double dLat = cellMeters / metresPerDegree;
+  const double dLon = dLat / std::max(0.01, std::cos(cy * M_PI / 180.0));
+  std::vector<std::string> args = {"-of",
+                                   "MEM",
+                                   "-t_srs",
+                                   wktString,
+                                   "-r",
+                                   "bilinear",
+                                   "-ot",
+                                   "Float32",
+                                   "-dstnodata",
+                                   "nan",
+                                   "-tr",
+                                   formatDouble(dLon, 17),
+                                   formatDouble(dLat, 17)};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  GDALWarpAppOptions* options = GDALWarpAppOptionsNew(argv.data(), nullptr);
+  int usageError = 0;
+  GDALDatasetH inputs[1] = {source};
+  GDALDatasetH warped = GDALWarp("", nullptr, 1, inputs, options, &usageError);
+  GDALWarpAppOptionsFree(options);
+  if (warped == nullptr) why = "GDAL's warper could not reproject it to geographic";
+  return DatasetPtr(warped);
+}
+
+/// Checks that the raw bytes a raw-layout driver (PDS, EHdr, VRT raw, SRTM .hgt, ...) will read
+/// exist; GDAL otherwise returns zeros or fails late for a short file.
+Result<void> checkRawExtent(GDALDatasetH ds, const fs::path& path, bool detachedIsError) {
+  GDALDataset::RawBinaryLayout layout;
+  if (!GDALDataset::FromHandle(ds)->GetRawBinaryLayout(layout)) return {};
+  const int typeBytes = GDALGetDataTypeSizeBytes(layout.eDataType);
+  const auto w = static_cast<std::int64_t>(GDALGetRasterXSize(ds));
+  const auto h = static_cast<std::int64_t>(GDALGetRasterYSize(ds));
+  const std::int64_t needed = static_cast<std::int64_t>(layout.nImageOffset) +
+                              (h - 1) * static_cast<std::int64_t>(layout.nLineOffset) +
+                              (w - 1) * static_cast<std::int64_t>(layout.nPixelOffset) + typeBytes;
+  std::error_code ec;
+  const auto size = static_cast<std::int64_t>(fs::file_size(layout.osRawFilename, ec));
+  if (ec) return fail(ErrorCode::IoError, path, "cannot stat " + layout.osRawFilename);
+  const std::string described = std::to_string(w) + "x" + std::to_string(h) + " " +
+                                GDALGetDataTypeName(layout.eDataType) + " samples need " +
+                                std::to_string(needed) + " bytes";
+  if (size < needed) {
+    return fail(ErrorCode::CorruptData, path,
+                "truncated: " + described + " but " + layout.osRawFilename + " has " +
+                    std::to_string(size));
+  }
+  const bool detached = fs::path(layout.osRawFilename) != fs::absolute(path) &&
+                        fs::path(layout.osRawFilename) != path;
+  if (detachedIsError && detached && size > needed + layout.nLineOffset) {
+    return fail(ErrorCode::CorruptData, path,
+                "label/data size mismatch: " + described + " but " + layout.osRawFilename +
+                    " has " + std::to_string(size));
+  }
+  return {};
+}
+
+/// NetCDF classic files store variables uncompressed: a file shorter than its grid is truncated
+/// (libnetcdf then returns fill values without an error).
+Result<void> checkNetcdfClassicSize(const fs::path& path, std::int64_t samples, int typeBytes) {
+  std::ifstream in(path, std::ios::binary);
+  std::array<char, 4> magic{};
+  in.read(magic.data(), 4);
+  if (!in || std::memcmp(magic.data(), "CDF", 3) != 0) return {};  // netCDF-4/HDF5
+  std::error_code ec;
+  const auto size = static_cast<std::int64_t>(fs::file_size(path, ec));
+  const std::int64_t needed = samples * typeBytes;
+  if (!ec && size < needed) {
+    return fail(ErrorCode::CorruptData, path,
+                "truncated: the grid needs " + std::to_string(needed) + " bytes, the file has " +
+                    std::to_string(size));
+  }
+  return {};
+}
+
+/// Metres per unit for the height units GDAL reports.
+std::optional<double> metresPerUnit(std::string units) {
+  std::transform(units.begin(), units.end(), units.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (units.empty() || units == "m" || units == "meter" || units == "meters" || units == "metre" ||
+      units == "metres") {
+    return 1.0;
+  }
+  if (units == "ft" || units == "foot" || units == "feet" || units == "international foot") {
+    return 0.3048;
+  }
+  if (units == "us-ft" || units == "us survey foot" || units == "ftus") return 1200.0 / 3937.0;
+  if (units == "km" || units == "kilometers" || units == "kilometres") return 1000.0;
+  return std::nullopt;
+}
+
+}  // namespace
+
+Result<RawLayout> parseRawType(std::string_view name) {
+  struct Entry {
+    std::string_view name;
+    RawSampleType type;
+    bool bigEndian;
+  };
+  static constexpr std::array<Entry, 13> kTypes = {{
+      {"uint8", RawSampleType::UInt8, false},
+      {"int16be", RawSampleType::Int16, true},
+      {"int16le", RawSampleType::Int16, false},
+      {"uint16be", RawSampleType::UInt16, true},
+      {"uint16le", RawSampleType::UInt16, false},
+      {"int32be", RawSampleType::Int32, true},
+      {"int32le", RawSampleType::Int32, false},
+      {"uint32be", RawSampleType::UInt32, true},
+      {"uint32le", RawSampleType::UInt32, false},
+      {"float32be", RawSampleType::Float32, true},
+      {"float32le", RawSampleType::Float32, false},
+      {"float64be", RawSampleType::Float64, true},
+      {"float64le", RawSampleType::Float64, false},
+  }};
+  for (const auto& e : kTypes) {
+    if (e.name == name) {
+      RawLayout layout;
+      layout.type = e.type;
+      layout.bigEndian = e.bigEndian;
+      return layout;
+    }
+  }
+  return makeError(ErrorCode::InvalidArgument,
+                   "--raw-type '" + std::string(name) +
+                       "': expected one of uint8, int16be, int16le, uint16be, uint16le, int32be, "
+                       "int32le, uint32be, uint32le, float32be, float32le, float64be, float64le");
+}
+
+Result<void> parseRawSize(std::string_view text, RawLayout& layout) {
+  std::vector<double> v;
+  if (!parseNumberList(text, 2, v) || v[0] < 1 || v[1] < 1 || v[0] != std::floor(v[0]) ||
+      v[1] != std::floor(v[1]) || v[0] > 1e7 || v[1] > 1e7) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "--raw-size '" + std::string(text) + "': expected W,H positive integers");
+  }
+  layout.width = static_cast<std::int64_t>(v[0]);
+  layout.height = static_cast<std::int64_t>(v[1]);
+  return {};
+}
+
+Result<void> parseRawBounds(std::string_view text, RawLayout& layout) {
+  std::vector<double> v;
+  if (!parseNumberList(text, 4, v) || v[0] < -90.0 || v[2] > 90.0 || v[0] >= v[2] || v[1] >= v[3] ||
+      v[3] - v[1] > 360.0 + 1e-9 || v[1] < -360.0 || v[3] > 720.0) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "--bounds '" + std::string(text) +
+                         "': expected S,W,N,E degrees with -90 <= S < N <= 90 and W < E, "
+                         "at most 360 degrees apart");
+  }
+  layout.bounds = LatLonBounds{v[0], v[1], v[2], v[3]};
+  return {};
+}
+
+Result<HeightGrid> readDem(const fs::path& path, const DemReadOptions& options) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) return fail(ErrorCode::NotFound, path, "no such file");
+  if (!fs::is_regular_file(path, ec)) return fail(ErrorCode::InvalidArgument, path, "not a file");
+  registerGdalOnce();
+  GdalErrorCapture capture;
+  // Never write .aux.xml side files next to the input.
+  ScopedConfig noPam("GDAL_PAM_ENABLED", "NO");
+  // PDS3 *_PROJECTION_OFFSET counts from 1 at the first pixel's centre (the MEGDR convention);
+  // GDAL's default places such grids one pixel off.
+  ScopedConfig pdsSample("PDS_SampleProjOffset_Shift", "-0.5");
+  ScopedConfig pdsLine("PDS_LineProjOffset_Shift", "-0.5");
+
+  DatasetPtr dataset;
+  if (options.raw) {
+    const RawLayout& raw = *options.raw;
+    if (raw.width < 1 || raw.height < 1) {
+      return fail(ErrorCode::InvalidArgument, path, "raw grid needs --raw-size W,H");
+    }
+    const std::int64_t needed = raw.headerBytes + raw.width * raw.height * rawTypeBytes(raw.type);
+    const auto size = static_cast<std::int64_t>(fs::file_size(path, ec));
+    if (ec) return fail(ErrorCode::IoError, path, "cannot stat");
+    if (size != needed) {
+      return fail(ErrorCode::CorruptData, path,
+                  "raw size mismatch: " + std::to_string(raw.width) + "x" +
+                      std::to_string(raw.height) + " " + rawTypeGdalName(raw.type) +
+                      " samples need " + std::to_string(needed) + " bytes, the file has " +
+                      std::to_string(size));
+    }
+    const std::string xml = rawVrtXml(path, raw);
+    dataset.reset(
+        GDALOpenEx(xml.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr));
+  } else {
+    dataset.reset(
+        GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr));
+  }
+  if (!dataset) {
+    return fail(ErrorCode::UnsupportedFormat, path,
+                withGdal("not a raster format GDAL can read, or a corrupt one", capture));
+  }
+
+  GridSource source;
+  source.path = path.string();
+  GDALDriverH driver = GDALGetDatasetDriver(dataset.get());
+  source.format = options.raw ? std::string("raw (GDAL VRT raw band)")
+                              : std::string(GDALGetDriverShortName(driver)) + " (" +
+                                    GDALGetDriverLongName(driver) + ")";
+  const std::string driverName = options.raw ? "VRT" : GDALGetDriverShortName(driver);
+  if (GDALGetRasterCount(dataset.get()) < 1) {
+    return fail(ErrorCode::UnsupportedFormat, path, "has no raster band");
+  }
+
+  // Projected or rotated grids: convert exactly if equirectangular, otherwise warp.
+  OGRSpatialReference crs;
+  bool hasCrs = false;
+  if (const OGRSpatialReferenceH h = GDALGetSpatialRef(dataset.get()); h != nullptr) {
+    crs = *OGRSpatialReference::FromHandle(h);
+    crs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    hasCrs = true;
+  }
+  std::array<double, 6> gt{};
+  if (GDALGetGeoTransform(dataset.get(), gt.data()) != CE_None) {
+    return fail(ErrorCode::UnsupportedFormat, path,
+                "has no georeferencing (for a headerless grid use --raw-size, --raw-type and "
+                "--bounds)");
+  }
+  GeoRef geo;
+  bool haveGeo = false;
+  const bool rotated = gt[2] != 0.0 || gt[4] != 0.0;
+  if (hasCrs && crs.IsProjected() && !rotated) {
+    if (auto linear = linearGeographic(crs, gt, GDALGetRasterXSize(dataset.get()),
+                                       GDALGetRasterYSize(dataset.get()))) {
+      geo = *linear;
+      haveGeo = true;
+    }
+  }
+  if (!haveGeo && ((hasCrs && crs.IsProjected()) || rotated)) {
+    if (!hasCrs) return fail(ErrorCode::UnsupportedFormat, path, "rotated grid without a CRS");
+    std::string why;
+    DatasetPtr warped = warpToGeographic(dataset.get(), crs, why);
+    if (!warped) return fail(ErrorCode::UnsupportedFormat, path, withGdal(why, capture));
+    dataset = std::move(warped);
+    source.warped = true;
+    if (GDALGetGeoTransform(dataset.get(), gt.data()) != CE_None) {
+      return fail(ErrorCode::Internal, path, "warped grid has no georeferencing");
+    }
+  }
+  if (!haveGeo) {
+    if (hasCrs && !crs.IsGeographic() && !crs.IsProjected()) {
+      return fail(ErrorCode::UnsupportedFormat, path, "CRS is neither geographic nor projected");
+    }
+    geo = GeoRef{gt[0], gt[3], gt[1], -gt[5]};
+  }
+  if (!(geo.lonSpacingDegrees > 0.0) || !(geo.latSpacingDegrees > 0.0)) {
+    return fail(ErrorCode::UnsupportedFormat, path,
+                "georeferencing is not north-up with positive spacing");
+  }
+  if (hasCrs) {
+    const char* name = crs.GetName();
+    source.crs = name != nullptr ? name : "unnamed";
+    OGRErr err = OGRERR_NONE;
+    source.semiMajorMeters = crs.GetSemiMajor(&err);
+    const double inverseFlattening = crs.GetInvFlattening(&err);
+    source.flattening = inverseFlattening > 0.0 ? 1.0 / inverseFlattening : 0.0;
+    source.body = bodyForSemiMajor(source.semiMajorMeters);
+  } else {
+    source.crs = "none";
+  }
+
+  const std::int64_t width = GDALGetRasterXSize(dataset.get());
+  const std::int64_t height = GDALGetRasterYSize(dataset.get());
+  if (width * height > options.maxSamples) {
+    return fail(ErrorCode::InvalidArgument, path,
+                std::to_string(width) + "x" + std::to_string(height) +
+                    " samples exceed the in-memory limit of " + std::to_string(options.maxSamples));
+  }
+
+  GridGeometry geometry;
+  geometry.width = width;
+  geometry.height = height;
+  geometry.lonSpacingDegrees = snapSpacing(geo.lonSpacingDegrees);
+  geometry.latSpacingDegrees = snapSpacing(geo.latSpacingDegrees);
+  const double west = snapOrigin(geo.westDegrees, geometry.lonSpacingDegrees);
+  const double north = snapOrigin(geo.northDegrees, geometry.latSpacingDegrees);
+  geometry.firstLonDegrees = west + 0.5 * geometry.lonSpacingDegrees;
+  geometry.firstLatDegrees = north - 0.5 * geometry.latSpacingDegrees;
+  const char* areaOrPoint = GDALGetMetadataItem(dataset.get(), "AREA_OR_POINT", nullptr);
+  geometry.pixelIsArea = areaOrPoint == nullptr || !EQUAL(areaOrPoint, "Point");
+  const double lastLat =
+      geometry.firstLatDegrees - static_cast<double>(height - 1) * geometry.latSpacingDegrees;
+  // A grid whose outer sample centres sit on the poles samples points (ETOPO5's −90…90 rows),
+  // whatever the file's cell convention says.
+  const double poleTolerance = 1e-6 * geometry.latSpacingDegrees;
+  if (std::abs(geometry.firstLatDegrees - 90.0) <= poleTolerance ||
+      std::abs(lastLat + 90.0) <= poleTolerance) {
+    geometry.pixelIsArea = false;
+  }
+  const double northEdge =
+      geometry.firstLatDegrees + (geometry.pixelIsArea ? 0.5 * geometry.latSpacingDegrees : 0.0);
+  const double southEdge =
+      lastLat - (geometry.pixelIsArea ? 0.5 * geometry.latSpacingDegrees : 0.0);
+  if (northEdge > 90.0 + poleTolerance || southEdge < -90.0 - poleTolerance) {
+    return fail(ErrorCode::CorruptData, path,
+                "georeferencing puts the grid beyond a pole (north edge " +
+                    formatDouble(northEdge) + "°, south edge " + formatDouble(southEdge) +
+                    "°): wrong label or projection offsets");
+  }
+  if (static_cast<double>(width) * geometry.lonSpacingDegrees >
+      360.0 + 1.5 * geometry.lonSpacingDegrees) {
+    return fail(ErrorCode::CorruptData, path, "georeferencing spans more than 360° of longitude");
+  }
+
+  // Truncation checks that GDAL does not always make.
+  if (!options.raw && !source.warped) {
+    const bool detachedLabel = driverName == "PDS" || driverName == "ISIS3" ||
+                               driverName == "EHdr" || driverName == "ENVI";
+    if (auto r = checkRawExtent(dataset.get(), path, detachedLabel); !r) return r.error();
+    if (driverName == "netCDF") {
+      GDALRasterBandH band = GDALGetRasterBand(dataset.get(), 1);
+      if (auto r = checkNetcdfClassicSize(path, width * height,
+                                          GDALGetDataTypeSizeBytes(GDALGetRasterDataType(band)));
+          !r) {
+        return r.error();
+      }
+    }
+  }
+
+  GDALRasterBandH band = GDALGetRasterBand(dataset.get(), 1);
+  std::vector<float> heights(static_cast<std::size_t>(width * height));
+  if (GDALRasterIO(band, GF_Read, 0, 0, static_cast<int>(width), static_cast<int>(height),
+                   heights.data(), static_cast<int>(width), static_cast<int>(height), GDT_Float32,
+                   0, 0) != CE_None ||
+      capture.hasFailures()) {
+    return fail(ErrorCode::CorruptData, path, withGdal("cannot read the samples", capture));
+  }
+
+  int hasNoData = 0;
+  const double noData = GDALGetRasterNoDataValue(band, &hasNoData);
+  if (hasNoData != 0) source.noDataValue = noData;
+  int hasScale = 0;
+  int hasOffset = 0;
+  const double scale = GDALGetRasterScale(band, &hasScale);
+  const double offset = GDALGetRasterOffset(band, &hasOffset);
+  const char* unitType = GDALGetRasterUnitType(band);
+  source.units = unitType != nullptr && *unitType != '\0' ? unitType : "m";
+  const auto perUnit = metresPerUnit(unitType != nullptr ? unitType : "");
+  if (!perUnit) {
+    return fail(ErrorCode::UnsupportedFormat, path,
+                "height unit '" + source.units + "' is not a length unit pbdam knows");
+  }
+  const auto noDataFloat = static_cast<float>(noData);
+  const double factor = (hasScale != 0 ? scale : 1.0) * *perUnit;
+  const double shift = (hasOffset != 0 ? offset : 0.0) * *perUnit;
+  for (float& v : heights) {
+    // Huge fill values (ETOPO's −1e34) may differ in their last bits between attribute and data.
+    const bool isNoData =
+        hasNoData != 0 && (v == noDataFloat || (std::abs(noData) > 1e30 && std::abs(v) > 1e30f));
+    if (!std::isfinite(v) || isNoData) {
+      v = std::numeric_limits<float>::quiet_NaN();
+    } else if (factor != 1.0 || shift != 0.0) {
+      v = static_cast<float>(static_cast<double>(v) * factor + shift);
+    }
+  }
+  return HeightGrid(geometry, std::move(heights), std::move(source));
+}
+
+}  // namespace pbdam

@@ -34,8 +34,8 @@ TempDir::TempDir() {
   std::string name = info != nullptr ? std::string(info->test_suite_name()) + "." + info->name()
                                      : std::string("pbdam");
   std::random_device rd;
-  path_ = std::filesystem::temp_directory_path() /
-          ("pbdam-test-" + name + "-" + std::to_string(rd()));
+  path_ =
+      std::filesystem::temp_directory_path() / ("pbdam-test-" + name + "-" + std::to_string(rd()));
   std::filesystem::create_directories(path_);
 }
 

@@ -36,15 +36,15 @@ class TempDir final {
 
 /// Declares `var` as the path of a required data file; when it is missing, fails the test
 /// under CI and skips it elsewhere, naming the file either way.
-#define PBDAM_REQUIRE_DATA(var, path)                                        \
-  const std::filesystem::path var = (path);                                  \
+#define PBDAM_REQUIRE_DATA(var, file)                                                \
+  const std::filesystem::path var = (file);                                          \
   if (const std::string pbdamMissing_##var = ::pbdam::test::missingFileMessage(var); \
-      !pbdamMissing_##var.empty()) {                                         \
-    if (::pbdam::test::runningInCi()) {                                      \
-      FAIL() << pbdamMissing_##var;                                          \
-    }                                                                        \
-    GTEST_SKIP() << pbdamMissing_##var;                                      \
-  }                                                                          \
+      !pbdamMissing_##var.empty()) {                                                 \
+    if (::pbdam::test::runningInCi()) {                                              \
+      FAIL() << pbdamMissing_##var;                                                  \
+    }                                                                                \
+    GTEST_SKIP() << pbdamMissing_##var;                                              \
+  }                                                                                  \
   static_assert(true)
 
 /// ETOPO5 from Debian's ferret-datasets (the built-in default Earth data).

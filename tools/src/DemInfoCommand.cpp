@@ -1,0 +1,204 @@
+// `pbdam dem info`: what an elevation file holds, as GDAL reads it and pbdam georeferences it —
+// format, CRS/body, size, bounds, spacing, extremes with their positions, mean, nodata count,
+// and the height sampled at a point.
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <optional>
+#include <string>
+
+#include "Commands.h"
+#include "pbdam/formats/DemReader.h"
+#include "pbdam/formats/NumberList.h"
+
+namespace pbdam::tools {
+namespace {
+
+struct DemInfoOptions {
+  std::string file;
+  std::string at;
+  bool json = false;
+  std::string rawSize;
+  std::string rawType;
+  std::string bounds;
+  std::int64_t rawHeaderBytes = 0;
+};
+
+int reportError(const Error& error) {
+  std::cerr << "pbdam: " << error.message << "\n";
+  return error.code == ErrorCode::Internal ? kExitFailure : kExitBadInput;
+}
+
+std::string latLonText(double latDegrees, double lonDegrees) {
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "%.4f°%c %.4f°E", std::abs(latDegrees),
+                latDegrees >= 0.0 ? 'N' : 'S', lonDegrees);
+  return buf;
+}
+
+/// Parses "LAT,LON" into finite degrees with |LAT| ≤ 90.
+Result<std::pair<double, double>> parseLatLon(const std::string& text) {
+  std::vector<double> v;
+  if (!parseNumberList(text, 2, v) || std::abs(v[0]) > 90.0) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "--at '" + text + "': expected LAT,LON in degrees with -90 <= LAT <= 90");
+  }
+  const double lat = v[0];
+  const double lon = v[1];
+  return std::pair{lat, lon};
+}
+
+int runDemInfo(const DemInfoOptions& o) {
+  DemReadOptions readOptions;
+  const bool anyRaw = !o.rawSize.empty() || !o.rawType.empty() || !o.bounds.empty();
+  if (anyRaw) {
+    if (o.rawSize.empty() || o.rawType.empty() || o.bounds.empty()) {
+      return reportError(makeError(ErrorCode::InvalidArgument,
+                                   "a raw grid needs all of --raw-size, --raw-type and --bounds"));
+    }
+    auto layout = parseRawType(o.rawType);
+    if (!layout) return reportError(layout.error());
+    if (auto r = parseRawSize(o.rawSize, *layout); !r) return reportError(r.error());
+    if (auto r = parseRawBounds(o.bounds, *layout); !r) return reportError(r.error());
+    layout->headerBytes = o.rawHeaderBytes;
+    readOptions.raw = *layout;
+  }
+  std::optional<std::pair<double, double>> point;
+  if (!o.at.empty()) {
+    auto parsed = parseLatLon(o.at);
+    if (!parsed) return reportError(parsed.error());
+    point = *parsed;
+  }
+
+  auto grid = readDem(o.file, readOptions);
+  if (!grid) return reportError(grid.error());
+  const GridGeometry& g = grid->geometry();
+  const GridSource& s = grid->source();
+  const LatLonBounds b = grid->bounds();
+  const GridStats stats = grid->computeStats();
+  std::optional<double> bilinear;
+  std::optional<double> bicubic;
+  if (point) {
+    if (!grid->contains(point->first, point->second)) {
+      return reportError(makeError(
+          ErrorCode::InvalidArgument,
+          o.file + ": point " + latLonText(point->first, point->second) + " is outside the grid"));
+    }
+    bilinear = grid->sampleBilinear(point->first, point->second);
+    bicubic = grid->sampleBicubic(point->first, point->second);
+  }
+
+  if (o.json) {
+    nlohmann::ordered_json j;
+    j["file"] = s.path;
+    j["format"] = s.format;
+    j["crs"] = s.crs;
+    j["body"] = s.body.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(s.body);
+    if (s.semiMajorMeters > 0.0) {
+      j["semi_major_m"] = s.semiMajorMeters;
+      j["flattening"] = s.flattening;
+    }
+    j["warped"] = s.warped;
+    j["width"] = g.width;
+    j["height"] = g.height;
+    j["pixel_is_area"] = g.pixelIsArea;
+    j["bounds_deg"] = {{"south", b.southDegrees},
+                       {"west", b.westDegrees},
+                       {"north", b.northDegrees},
+                       {"east", b.eastDegrees}};
+    j["spacing_deg"] = {{"lat", g.latSpacingDegrees}, {"lon", g.lonSpacingDegrees}};
+    j["wraps_longitude"] = grid->wrapsLongitude();
+    j["covers_poles"] = grid->coversPoles();
+    j["units"] = s.units;
+    j["nodata_value"] =
+        s.noDataValue ? nlohmann::ordered_json(*s.noDataValue) : nlohmann::ordered_json(nullptr);
+    j["nodata_count"] = stats.noDataCount;
+    if (stats.validCount > 0) {
+      j["min"] = {{"height_m", stats.minMeters},
+                  {"lat_deg", stats.minLatDegrees},
+                  {"lon_deg", stats.minLonDegrees}};
+      j["max"] = {{"height_m", stats.maxMeters},
+                  {"lat_deg", stats.maxLatDegrees},
+                  {"lon_deg", stats.maxLonDegrees}};
+      j["mean_m"] = stats.meanMeters;
+    }
+    if (point) {
+      auto opt = [](const std::optional<double>& v) {
+        return v ? nlohmann::ordered_json(*v) : nlohmann::ordered_json(nullptr);
+      };
+      j["at"] = {{"lat_deg", point->first},
+                 {"lon_deg", point->second},
+                 {"bilinear_m", opt(bilinear)},
+                 {"bicubic_m", opt(bicubic)}};
+    }
+    std::cout << j.dump(2) << "\n";
+    return kExitOk;
+  }
+
+  std::printf("file:     %s\n", s.path.c_str());
+  std::printf("format:   %s\n", s.format.c_str());
+  std::printf("crs:      %s%s\n", s.crs.c_str(), s.warped ? " (warped to geographic)" : "");
+  if (s.semiMajorMeters > 0.0) {
+    std::printf("body:     %s (semi-major axis %.1f m, flattening %.9g)\n",
+                s.body.empty() ? "unknown" : s.body.c_str(), s.semiMajorMeters, s.flattening);
+  } else {
+    std::printf("body:     unknown (the file has no CRS: pass --planet when building)\n");
+  }
+  std::printf("size:     %lld x %lld samples, pixel-is-%s\n", static_cast<long long>(g.width),
+              static_cast<long long>(g.height), g.pixelIsArea ? "area" : "point");
+  std::printf("bounds:   S %.6f  W %.6f  N %.6f  E %.6f (degrees)%s%s\n", b.southDegrees,
+              b.westDegrees, b.northDegrees, b.eastDegrees,
+              grid->wrapsLongitude() ? ", wraps in longitude" : "",
+              grid->coversPoles() ? ", reaches both poles" : "");
+  std::printf("spacing:  %.9g° lat x %.9g° lon (%.4g x %.4g arc-seconds)\n", g.latSpacingDegrees,
+              g.lonSpacingDegrees, g.latSpacingDegrees * 3600.0, g.lonSpacingDegrees * 3600.0);
+  if (stats.validCount > 0) {
+    std::printf("min:      %.1f m at %s\n", stats.minMeters,
+                latLonText(stats.minLatDegrees, stats.minLonDegrees).c_str());
+    std::printf("max:      %.1f m at %s\n", stats.maxMeters,
+                latLonText(stats.maxLatDegrees, stats.maxLonDegrees).c_str());
+    std::printf("mean:     %.2f m\n", stats.meanMeters);
+  }
+  if (s.noDataValue) {
+    std::printf("nodata:   %lld samples (value %g)\n", static_cast<long long>(stats.noDataCount),
+                *s.noDataValue);
+  } else {
+    std::printf("nodata:   %lld samples\n", static_cast<long long>(stats.noDataCount));
+  }
+  if (point) {
+    auto text = [](const std::optional<double>& v) {
+      char buf[48];
+      if (!v) return std::string("nodata");
+      std::snprintf(buf, sizeof buf, "%.2f m", *v);
+      return std::string(buf);
+    };
+    std::printf("at %s: bilinear %s, bicubic %s\n", latLonText(point->first, point->second).c_str(),
+                text(bilinear).c_str(), text(bicubic).c_str());
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+void addDemCommands(CLI::App& app, CommandStatus& status) {
+  CLI::App* dem = app.add_subcommand("dem", "Inspect elevation inputs (anything GDAL reads)");
+  dem->require_subcommand(1);
+  auto options = std::make_shared<DemInfoOptions>();
+  CLI::App* info = dem->add_subcommand(
+      "info", "Format, CRS/body, size, bounds, spacing, extremes, mean, nodata of a DEM");
+  info->add_option("FILE", options->file, "Elevation file (PDS3 .lbl, NetCDF, .hgt, GeoTIFF, raw)")
+      ->required();
+  info->add_option("--at", options->at, "Also sample the height at LAT,LON (degrees)");
+  info->add_flag("--json", options->json, "Machine-readable JSON output");
+  info->add_option("--raw-size", options->rawSize, "Raw grid size W,H");
+  info->add_option("--raw-type", options->rawType,
+                   "Raw sample type: int16be, int16le, uint16be, float32le, ...");
+  info->add_option("--bounds", options->bounds, "Raw grid area bounds S,W,N,E (degrees)");
+  info->add_option("--raw-header", options->rawHeaderBytes, "Raw grid header bytes to skip")
+      ->check(CLI::NonNegativeNumber);
+  info->callback([options, &status] { status.exitCode = runDemInfo(*options); });
+}
+
+}  // namespace pbdam::tools

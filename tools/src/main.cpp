@@ -1,0 +1,33 @@
+// The `pbdam` command line: subcommands for inspecting inputs (dem), and later building,
+// rendering, benchmarking and serving datasets.
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <iostream>
+
+#include "Commands.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "pbdam: out-of-core planet-scale terrain (P-BDAM) — build, inspect and render "
+      "planet datasets",
+      "pbdam"};
+  app.set_version_flag("--version", std::string("pbdam ") + PBDAM_VERSION);
+  app.require_subcommand(1);
+  pbdam::tools::CommandStatus status;
+  pbdam::tools::addDemCommands(app, status);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    // One line naming what was wrong, like every other bad-input report.
+    std::cerr << "pbdam: " << e.what() << " (run with --help for usage)\n";
+    return pbdam::tools::kExitBadInput;
+  }
+  return status.exitCode;
+}

@@ -11,13 +11,13 @@ namespace pbdam {
 
 /// What went wrong, coarsely, so callers can map it to an exit code or an HTTP status.
 enum class ErrorCode {
-  InvalidArgument,  ///< a parameter is missing, NaN or out of range
-  NotFound,         ///< a file or resource does not exist
-  UnsupportedFormat,///< a format/driver/CRS that pbdam cannot handle
-  CorruptData,      ///< bytes that do not decode: truncated, bad checksum, size mismatch
-  IoError,          ///< the OS refused a read, write, map or rename
-  DeviceError,      ///< Vulkan or another device API failed
-  Internal,         ///< a broken invariant inside pbdam
+  InvalidArgument,    ///< a parameter is missing, NaN or out of range
+  NotFound,           ///< a file or resource does not exist
+  UnsupportedFormat,  ///< a format/driver/CRS that pbdam cannot handle
+  CorruptData,        ///< bytes that do not decode: truncated, bad checksum, size mismatch
+  IoError,            ///< the OS refused a read, write, map or rename
+  DeviceError,        ///< Vulkan or another device API failed
+  Internal,           ///< a broken invariant inside pbdam
 };
 
 /// Returns a short, stable name for `code` ("invalid-argument", "corrupt-data", ...).
@@ -35,22 +35,37 @@ struct Error final {
 template <typename T>
 class [[nodiscard]] Result final {
  public:
-  Result(T value) : state_(std::in_place_index<0>, std::move(value)) {}            // NOLINT
-  Result(Error error) : state_(std::in_place_index<1>, std::move(error)) {}        // NOLINT
+  Result(T value) : state_(std::in_place_index<0>, std::move(value)) {}      // NOLINT
+  Result(Error error) : state_(std::in_place_index<1>, std::move(error)) {}  // NOLINT
 
   bool ok() const noexcept { return state_.index() == 0; }
   explicit operator bool() const noexcept { return ok(); }
 
-  T& value() & { assert(ok()); return std::get<0>(state_); }
-  const T& value() const& { assert(ok()); return std::get<0>(state_); }
-  T&& value() && { assert(ok()); return std::get<0>(std::move(state_)); }
+  T& value() & {
+    assert(ok());
+    return std::get<0>(state_);
+  }
+  const T& value() const& {
+    assert(ok());
+    return std::get<0>(state_);
+  }
+  T&& value() && {
+    assert(ok());
+    return std::get<0>(std::move(state_));
+  }
   T* operator->() { return &value(); }
   const T* operator->() const { return &value(); }
   T& operator*() & { return value(); }
   const T& operator*() const& { return value(); }
 
-  const Error& error() const& { assert(!ok()); return std::get<1>(state_); }
-  Error&& error() && { assert(!ok()); return std::get<1>(std::move(state_)); }
+  const Error& error() const& {
+    assert(!ok());
+    return std::get<1>(state_);
+  }
+  Error&& error() && {
+    assert(!ok());
+    return std::get<1>(std::move(state_));
+  }
 
  private:
   std::variant<T, Error> state_;
@@ -64,8 +79,14 @@ class [[nodiscard]] Result<void> final {
   Result(Error error) : error_(std::move(error)), ok_(false) {}  // NOLINT
   bool ok() const noexcept { return ok_; }
   explicit operator bool() const noexcept { return ok_; }
-  const Error& error() const& { assert(!ok_); return error_; }
-  Error&& error() && { assert(!ok_); return std::move(error_); }
+  const Error& error() const& {
+    assert(!ok_);
+    return error_;
+  }
+  Error&& error() && {
+    assert(!ok_);
+    return std::move(error_);
+  }
 
  private:
   Error error_;

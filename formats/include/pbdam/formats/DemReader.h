@@ -1,0 +1,53 @@
+// Elevation ingest through GDAL: any raster GDAL reads (PDS3 MOLA MEGDR, NetCDF ETOPO, SRTM .hgt,
+// GeoTIFF, ...) and raw grids described on the command line, turned into a geographic HeightGrid.
+// Projected CRSs are converted exactly when the projection is a linear lat/lon scaling
+// (equirectangular) and warped to geographic at native resolution otherwise.
+// Thread-safety: readDem may be called from several threads at once (GDAL handles are per call).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "pbdam/formats/HeightGrid.h"
+#include "pbdam/formats/Result.h"
+
+namespace pbdam {
+
+/// Sample types of raw grids.
+enum class RawSampleType { UInt8, Int16, UInt16, Int32, UInt32, Float32, Float64 };
+
+/// How a headerless raw grid is laid out: rows north to south, no padding after `headerBytes`.
+struct RawLayout final {
+  std::int64_t width = 0;
+  std::int64_t height = 0;
+  RawSampleType type = RawSampleType::Int16;
+  bool bigEndian = false;
+  LatLonBounds bounds;           ///< area bounds of the whole grid (pixel-is-area)
+  std::int64_t headerBytes = 0;  ///< bytes to skip before the first sample
+};
+
+/// Parses a raw type name: uint8, int16be, int16le, uint16be, uint16le, int32be, int32le,
+/// uint32be, uint32le, float32be, float32le, float64be, float64le.
+Result<RawLayout> parseRawType(std::string_view name);
+
+/// Parses "W,H" into the layout's size and "S,W,N,E" into its bounds; checks them.
+Result<void> parseRawSize(std::string_view text, RawLayout& layout);
+Result<void> parseRawBounds(std::string_view text, RawLayout& layout);
+
+/// Options for readDem.
+struct DemReadOptions final {
+  /// Read the file as a raw grid with this layout instead of letting GDAL identify it.
+  std::optional<RawLayout> raw;
+  /// Refuse grids with more samples than this (they must be read tile by tile).
+  std::int64_t maxSamples = std::int64_t{1} << 31;
+};
+
+/// Reads the first band of an elevation raster into a geographic HeightGrid in metres.
+/// Returns an error naming the file and the problem for a missing, unrecognised, truncated or
+/// inconsistent file, a CRS that cannot be made geographic, or georeferencing beyond the poles.
+Result<HeightGrid> readDem(const std::filesystem::path& path, const DemReadOptions& options = {});
+
+}  // namespace pbdam

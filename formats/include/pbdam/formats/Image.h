@@ -1,0 +1,53 @@
+// Imagery ingest: equirectangular colour images (JPEG/PNG/TIFF) read through OpenImageIO into
+// RGBA8, with their lat/lon bounds (GDAL's georeference where the file has one, else the whole
+// globe from −180° to 180°). Thread-safety: immutable after loading; const members are safe from
+// any thread.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "pbdam/formats/HeightGrid.h"
+#include "pbdam/formats/Result.h"
+
+namespace pbdam {
+
+/// An RGBA8 image covering `bounds` in equirectangular projection, row 0 at the north edge.
+class GeoImage final {
+ public:
+  GeoImage() = default;
+  GeoImage(std::int64_t width, std::int64_t height, std::vector<std::uint8_t> rgba,
+           LatLonBounds bounds, bool georeferenced);
+
+  std::int64_t width() const noexcept { return width_; }
+  std::int64_t height() const noexcept { return height_; }
+  const LatLonBounds& bounds() const noexcept { return bounds_; }
+  /// True when the bounds came from the file's georeference rather than the global default.
+  bool georeferenced() const noexcept { return georeferenced_; }
+  const std::vector<std::uint8_t>& rgba() const noexcept { return rgba_; }
+
+  /// The RGBA of pixel (row, col); indices must be in range.
+  std::array<std::uint8_t, 4> pixel(std::int64_t row, std::int64_t col) const noexcept;
+
+  /// Bilinear RGBA at (lat, lon), channels in [0, 255]; longitude wraps for global images.
+  /// nullopt outside the image or for non-finite input.
+  std::optional<std::array<float, 4>> sampleBilinear(double latDegrees,
+                                                     double lonDegrees) const noexcept;
+
+ private:
+  std::int64_t width_ = 0;
+  std::int64_t height_ = 0;
+  std::vector<std::uint8_t> rgba_;
+  LatLonBounds bounds_;
+  bool georeferenced_ = false;
+};
+
+/// Reads an image (JPEG, PNG, TIFF, ... anything OpenImageIO reads) as RGBA8. Grey images are
+/// expanded, alpha defaults to 255. Errors name the file: missing, unreadable, truncated.
+Result<GeoImage> readImage(const std::filesystem::path& path);
+
+}  // namespace pbdam

@@ -1,0 +1,108 @@
+// The `pbdam` command line as a user runs it: --help everywhere, --version, `dem info` output
+// in text and JSON on real data, and bad input → one clear line on stderr and exit code 2.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <nlohmann/json.hpp>
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+
+#include "TestData.h"
+
+namespace pbdam {
+namespace {
+
+struct CliRun {
+  int exitCode = -1;
+  std::string out;
+  std::string err;
+};
+
+/// Runs pbdam with `args` (a shell-quoted string), capturing stdout and stderr.
+CliRun runPbdam(const std::string& args) {
+  test::TempDir dir;
+  const std::string errFile = (dir / "stderr.txt").string();
+  const std::string command = std::string("'") + PBDAM_EXE + "' " + args + " 2>'" + errFile + "'";
+  CliRun run;
+  FILE* pipe = ::popen(command.c_str(), "r");
+  if (pipe == nullptr) return run;
+  std::array<char, 4096> buf{};
+  std::size_t n = 0;
+  while ((n = std::fread(buf.data(), 1, buf.size(), pipe)) > 0) run.out.append(buf.data(), n);
+  const int status = ::pclose(pipe);
+  run.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream in(errFile);
+  run.err.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  return run;
+}
+
+TEST(Cli, HelpAndVersion) {
+  for (const char* args : {"--help", "dem --help", "dem info --help"}) {
+    const CliRun run = runPbdam(args);
+    EXPECT_EQ(run.exitCode, 0) << args << "\n" << run.err;
+    EXPECT_NE(run.out.find("Usage"), std::string::npos) << args << "\n" << run.out;
+  }
+  const CliRun version = runPbdam("--version");
+  EXPECT_EQ(version.exitCode, 0);
+  EXPECT_NE(version.out.find("pbdam 0."), std::string::npos) << version.out;
+  EXPECT_NE(runPbdam("").exitCode, 0);  // a subcommand is required
+}
+
+TEST(Cli, DemInfoJsonOnMola) {
+  PBDAM_REQUIRE_DATA(label, test::dataDir() / "mars/megt90n000cb.lbl");
+  const CliRun run = runPbdam("dem info '" + label.string() + "' --at 17.375,-133.125 --json");
+  ASSERT_EQ(run.exitCode, 0) << run.err;
+  const auto j = nlohmann::json::parse(run.out);
+  EXPECT_EQ(j["width"], 1440);
+  EXPECT_EQ(j["height"], 720);
+  EXPECT_EQ(j["body"], "mars");
+  EXPECT_EQ(j["format"].get<std::string>().rfind("PDS", 0), 0u);
+  EXPECT_EQ(j["max"]["height_m"], 21134.0);
+  EXPECT_EQ(j["max"]["lat_deg"], 17.375);
+  EXPECT_EQ(j["max"]["lon_deg"], 226.875);
+  EXPECT_EQ(j["min"]["height_m"], -8068.0);
+  EXPECT_EQ(j["bounds_deg"]["north"], 90.0);
+  EXPECT_EQ(j["bounds_deg"]["west"], 0.0);
+  EXPECT_EQ(j["at"]["bilinear_m"], 21134.0);  // −133.125°E is 226.875°E
+  EXPECT_EQ(j["nodata_count"], 0);
+}
+
+TEST(Cli, DemInfoTextOnEtopo5) {
+  PBDAM_REQUIRE_DATA(path, PBDAM_ETOPO5_PATH);
+  const CliRun run = runPbdam("dem info '" + path.string() + "' --at 27.988,86.925");
+  ASSERT_EQ(run.exitCode, 0) << run.err;
+  EXPECT_NE(run.out.find("4320 x 2161"), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("min:      -10376.0 m at 11.3333°N 142.3333°E"), std::string::npos)
+      << run.out;
+  EXPECT_NE(run.out.find("max:      7833.0 m"), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("bilinear"), std::string::npos);
+}
+
+void expectBadInput(const std::string& args, const std::string& mention) {
+  const CliRun run = runPbdam(args);
+  EXPECT_EQ(run.exitCode, 2) << args << "\nstdout: " << run.out << "\nstderr: " << run.err;
+  EXPECT_NE(run.err.find(mention), std::string::npos) << args << "\nstderr: " << run.err;
+  EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
+}
+
+TEST(Cli, BadInputGivesOneLineAndExitCode2) {
+  test::TempDir dir;
+  std::ofstream(dir / "junk.tif") << "not a raster";
+  std::ofstream(dir / "short.cdf") << "CDF\x01";
+  expectBadInput("dem info '" + (dir / "missing.lbl").string() + "'", "missing.lbl: no such file");
+  expectBadInput("dem info '" + (dir / "junk.tif").string() + "'", "junk.tif");
+  expectBadInput("dem info '" + (dir / "short.cdf").string() + "'", "short.cdf");
+  expectBadInput("dem info x --at 95,0", "--at '95,0'");
+  expectBadInput("dem info x --at 10", "--at '10'");
+  expectBadInput("dem info x --raw-size 10,10", "needs all of");
+  expectBadInput("dem info x --raw-size 10,10 --raw-type int17 --bounds 0,0,1,1", "int17");
+  expectBadInput("dem info x --bogus", "--bogus");
+  expectBadInput("dem info", "FILE is required");
+  expectBadInput("dem info x --raw-header -5", "raw-header");
+  PBDAM_REQUIRE_DATA(tif, test::dataDir() / "geotiff/terra_elev_luxembourg.tif");
+  expectBadInput("dem info '" + tif.string() + "' --at 0,0", "outside the grid");
+}
+
+}  // namespace
+}  // namespace pbdam
