@@ -1,0 +1,77 @@
+// OffscreenTarget: a headless render target — an RGBA8 colour image and a D32_SFLOAT depth
+// image (reversed-Z: cleared to 0, nearer is greater) drawn with dynamic rendering — and the
+// readback of the colour image into host memory through a staging buffer.
+#pragma once
+
+#include "pbdam/formats/Result.h"
+#include "pbdam/gpu/GpuMemory.h"
+#include "pbdam/gpu/RgbaImage.h"
+
+#include <vulkan/vulkan.h>
+
+#include <array>
+#include <cstdint>
+#include <functional>
+
+namespace pbdam::gpu {
+
+class VulkanContext;
+
+/// Colour + depth attachments of a fixed size plus a host-visible staging buffer for readback.
+/// Move-only; a moved-from target is empty. Must be destroyed before its VulkanContext, and
+/// not while a submitted command buffer that uses it is still executing.
+///
+/// Use: record recordBeginRendering(), draw, recordEndRenderingAndReadback() into one command
+/// buffer, submit and wait, then readPixels(); or call render(), which does all of that.
+/// Thread-safety: none; one thread records and reads back at a time.
+class OffscreenTarget final {
+ public:
+  static constexpr VkFormat kColorFormat = VK_FORMAT_R8G8B8A8_UNORM;
+  static constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+  /// The reversed-Z depth clear value: the far plane.
+  static constexpr float kFarDepth = 0.0f;
+
+  /// Creates the images and the staging buffer. Errors: InvalidArgument for a zero or
+  /// too-large size, DeviceError for Vulkan failures.
+  static Result<OffscreenTarget> create(const VulkanContext& context, uint32_t widthPixels,
+                                        uint32_t heightPixels);
+
+  OffscreenTarget() noexcept = default;
+  OffscreenTarget(OffscreenTarget&&) noexcept = default;
+  OffscreenTarget& operator=(OffscreenTarget&&) noexcept = default;
+  OffscreenTarget(const OffscreenTarget&) = delete;
+  OffscreenTarget& operator=(const OffscreenTarget&) = delete;
+  ~OffscreenTarget() = default;
+
+  uint32_t widthPixels() const noexcept { return color_.desc().widthPixels; }
+  uint32_t heightPixels() const noexcept { return color_.desc().heightPixels; }
+  VkExtent2D extent() const noexcept { return color_.extent(); }
+  const GpuImage& colorImage() const noexcept { return color_; }
+  const GpuImage& depthImage() const noexcept { return depth_; }
+
+  /// Records: both images to attachment layouts (previous contents discarded), begin dynamic
+  /// rendering clearing colour to `clearRgba` (linear 0..1) and depth to `clearDepth`, and a
+  /// viewport and scissor covering the whole target (y down, depth range 0..1).
+  void recordBeginRendering(VkCommandBuffer cmd, const std::array<float, 4>& clearRgba,
+                            float clearDepth = kFarDepth) const;
+
+  /// Records: end rendering, the colour image to TRANSFER_SRC, its copy into the staging
+  /// buffer, and a barrier that makes the copy visible to host reads.
+  void recordEndRenderingAndReadback(VkCommandBuffer cmd) const;
+
+  /// The staging buffer's pixels. Valid once the work recorded by recordEndRenderingAndReadback
+  /// has completed (its fence signalled).
+  Result<RgbaImage> readPixels() const;
+
+  /// Convenience: records begin, `draw(cmd)`, end + readback; submits with
+  /// context.submitAndWait() and returns the pixels.
+  Result<RgbaImage> render(VulkanContext& context, const std::array<float, 4>& clearRgba,
+                           const std::function<void(VkCommandBuffer)>& draw) const;
+
+ private:
+  GpuImage color_;
+  GpuImage depth_;
+  GpuBuffer staging_;
+};
+
+}  // namespace pbdam::gpu

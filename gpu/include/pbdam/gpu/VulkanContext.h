@@ -1,0 +1,122 @@
+// VulkanContext: the headless Vulkan instance, the chosen physical device (lavapipe unless told
+// otherwise), the logical device with one graphics queue, optional Khronos validation, and a
+// blocking "record, submit, wait" helper. No window system is involved anywhere.
+#pragma once
+
+#include "pbdam/formats/Result.h"
+#include "pbdam/gpu/DeviceCaps.h"
+#include "pbdam/gpu/PhysicalDevices.h"
+#include "pbdam/gpu/UniqueHandle.h"
+#include "pbdam/gpu/ValidationLog.h"
+
+#include <vulkan/vulkan.h>
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace pbdam::gpu {
+
+/// Whether validation is on when ContextOptions does not say: on in builds without NDEBUG.
+#ifdef NDEBUG
+inline constexpr bool kValidationByDefault = false;
+#else
+inline constexpr bool kValidationByDefault = true;
+#endif
+
+/// How to create a VulkanContext.
+struct ContextOptions final {
+  /// Physical device to use, by vkEnumeratePhysicalDevices index (the CLI's `--device N`).
+  /// Unset: Mesa's lavapipe; if it is not installed, creation fails and lists the devices.
+  std::optional<uint32_t> deviceIndex;
+  /// Load VK_LAYER_KHRONOS_validation and record its warnings/errors in the validation log.
+  /// Creation fails if this is set and the layer is not installed.
+  bool enableValidation = kValidationByDefault;
+  /// With validation: also run synchronization validation (VK_EXT_validation_features), when
+  /// the layer offers it.
+  bool enableSynchronizationValidation = true;
+  /// Print validation messages to stderr as they arrive (they are recorded either way). Used
+  /// only when validationLog is null.
+  bool echoValidationToStderr = true;
+  /// Where validation messages go. Null: the context makes its own. Pass one to keep reading
+  /// it after the context is destroyed (destruction-time messages count too).
+  std::shared_ptr<ValidationLog> validationLog;
+  /// Reported to the driver in VkApplicationInfo.
+  std::string applicationName = "pbdam";
+};
+
+/// The Vulkan instance, device and graphics queue that everything in pbdam_gpu is created from.
+/// Move-only; objects created from it (buffers, images, pipelines) must be destroyed before it.
+/// Destruction waits for the device to be idle, then destroys the command pool, the device, the
+/// debug messenger and the instance, in that order.
+///
+/// Thread-safety: the accessors are thread-safe. submitAndWait() and waitIdle() use the one
+/// queue and the context's command pool, which Vulkan requires to be externally synchronised:
+/// call them from one thread at a time (the render thread). Creating device objects from
+/// device() is thread-safe, as in Vulkan.
+class VulkanContext final {
+ public:
+  /// Creates the instance (Vulkan 1.3, no window-system extensions), picks the physical device
+  /// (see ContextOptions::deviceIndex) and creates the logical device with dynamic rendering,
+  /// synchronization2 and timeline semaphores, plus whichever optional features of DeviceCaps
+  /// the device has. Errors: ErrorCode::InvalidArgument for a device index out of range,
+  /// NotFound when lavapipe or the validation layer is requested but missing, DeviceError when
+  /// a Vulkan call fails or the device lacks a required feature; messages list the devices.
+  static Result<VulkanContext> create(const ContextOptions& options = {});
+
+  VulkanContext(VulkanContext&&) noexcept;
+  VulkanContext& operator=(VulkanContext&&) noexcept;
+  VulkanContext(const VulkanContext&) = delete;
+  VulkanContext& operator=(const VulkanContext&) = delete;
+  ~VulkanContext();
+
+  /// False only for a moved-from context, which may only be destroyed or assigned to.
+  explicit operator bool() const noexcept { return impl_ != nullptr; }
+
+  VkInstance instance() const noexcept;
+  VkPhysicalDevice physicalDevice() const noexcept;
+  VkDevice device() const noexcept;
+  /// The graphics queue (it also does transfers); family queueFamilyIndex().
+  VkQueue queue() const noexcept;
+  uint32_t queueFamilyIndex() const noexcept;
+
+  const PhysicalDeviceInfo& deviceInfo() const noexcept;
+  const DeviceCaps& caps() const noexcept;
+  const VkPhysicalDeviceMemoryProperties& memoryProperties() const noexcept;
+
+  /// Whether the validation layer is loaded (the messenger feeds validationLog()).
+  bool validationEnabled() const noexcept;
+  /// The log the debug messenger writes to (empty forever when validation is off).
+  ValidationLog& validationLog() const noexcept;
+  std::shared_ptr<ValidationLog> sharedValidationLog() const noexcept;
+
+  /// Records commands with `record` into a fresh primary command buffer, submits it to the
+  /// queue and blocks until it has executed (fence wait, at most `timeoutNanoseconds`).
+  /// `what` names the work in error messages. Not thread-safe (see the class comment).
+  Result<void> submitAndWait(const std::function<void(VkCommandBuffer)>& record,
+                             std::string_view what = "submitAndWait",
+                             uint64_t timeoutNanoseconds = 60'000'000'000ull);
+
+  /// vkDeviceWaitIdle. Not thread-safe (see the class comment).
+  Result<void> waitIdle();
+
+  /// Creates a timeline semaphore starting at `initialValue`.
+  Result<UniqueSemaphore> createTimelineSemaphore(uint64_t initialValue = 0) const;
+
+  /// Names a Vulkan object for validation messages (no-op when validation is off).
+  void setObjectName(VkObjectType type, uint64_t handle, const char* name) const noexcept;
+  template <typename Handle>
+  void setObjectName(VkObjectType type, Handle handle, const char* name) const noexcept {
+    setObjectName(type, reinterpret_cast<uint64_t>(handle), name);
+  }
+
+ private:
+  struct Impl;
+  explicit VulkanContext(std::unique_ptr<Impl> impl) noexcept;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace pbdam::gpu

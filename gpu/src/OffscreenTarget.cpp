@@ -1,0 +1,192 @@
+// OffscreenTarget: colour + reversed-Z depth attachments, dynamic rendering, readback.
+#include "pbdam/gpu/OffscreenTarget.h"
+
+#include "pbdam/gpu/VulkanContext.h"
+#include "pbdam/gpu/VulkanError.h"
+
+#include <cstring>
+#include <string>
+
+namespace pbdam::gpu {
+namespace {
+
+VkImageMemoryBarrier2 imageBarrier(VkImage image, VkImageAspectFlags aspect,
+                                   VkPipelineStageFlags2 srcStage, VkAccessFlags2 srcAccess,
+                                   VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess,
+                                   VkImageLayout oldLayout, VkImageLayout newLayout) noexcept {
+  VkImageMemoryBarrier2 barrier{};
+  barrier.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2;
+  barrier.srcStageMask = srcStage;
+  barrier.srcAccessMask = srcAccess;
+  barrier.dstStageMask = dstStage;
+  barrier.dstAccessMask = dstAccess;
+  barrier.oldLayout = oldLayout;
+  barrier.newLayout = newLayout;
+  barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  barrier.image = image;
+  barrier.subresourceRange = {aspect, 0, 1, 0, 1};
+  return barrier;
+}
+
+constexpr VkPipelineStageFlags2 kDepthStages =
+    VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
+
+}  // namespace
+
+Result<OffscreenTarget> OffscreenTarget::create(const VulkanContext& context, uint32_t widthPixels,
+                                                uint32_t heightPixels) {
+  const std::string size = std::to_string(widthPixels) + "x" + std::to_string(heightPixels);
+  OffscreenTarget target;
+
+  ImageDesc colorDesc;
+  colorDesc.format = kColorFormat;
+  colorDesc.widthPixels = widthPixels;
+  colorDesc.heightPixels = heightPixels;
+  colorDesc.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  colorDesc.aspect = VK_IMAGE_ASPECT_COLOR_BIT;
+  Result<GpuImage> color = createImage2D(context, colorDesc, "offscreen colour " + size);
+  if (!color) return std::move(color).error();
+  target.color_ = std::move(*color);
+
+  ImageDesc depthDesc = colorDesc;
+  depthDesc.format = kDepthFormat;
+  depthDesc.usage = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT;
+  depthDesc.aspect = VK_IMAGE_ASPECT_DEPTH_BIT;
+  Result<GpuImage> depth = createImage2D(context, depthDesc, "offscreen depth " + size);
+  if (!depth) return std::move(depth).error();
+  target.depth_ = std::move(*depth);
+
+  const VkDeviceSize bytes = VkDeviceSize{4} * widthPixels * heightPixels;
+  Result<GpuBuffer> staging = createBuffer(context, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                           MemoryUse::HostReadback, "offscreen readback " + size);
+  if (!staging) return std::move(staging).error();
+  target.staging_ = std::move(*staging);
+  return target;
+}
+
+void OffscreenTarget::recordBeginRendering(VkCommandBuffer cmd,
+                                           const std::array<float, 4>& clearRgba,
+                                           float clearDepth) const {
+  // Old contents are discarded (UNDEFINED); the source scopes cover the previous frame's
+  // attachment writes and readback copy (write-after-write / write-after-read).
+  const std::array<VkImageMemoryBarrier2, 2> barriers = {
+      imageBarrier(color_.image(), VK_IMAGE_ASPECT_COLOR_BIT,
+                   VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_2_COPY_BIT,
+                   VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+                   VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                   VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT,
+                   VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL),
+      imageBarrier(depth_.image(), VK_IMAGE_ASPECT_DEPTH_BIT, kDepthStages,
+                   VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, kDepthStages,
+                   VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT |
+                       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT,
+                   VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL),
+  };
+  VkDependencyInfo dependency{};
+  dependency.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
+  dependency.imageMemoryBarrierCount = static_cast<uint32_t>(barriers.size());
+  dependency.pImageMemoryBarriers = barriers.data();
+  vkCmdPipelineBarrier2(cmd, &dependency);
+
+  VkRenderingAttachmentInfo colorAttachment{};
+  colorAttachment.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
+  colorAttachment.imageView = color_.view();
+  colorAttachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  colorAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  colorAttachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  colorAttachment.clearValue.color = {{clearRgba[0], clearRgba[1], clearRgba[2], clearRgba[3]}};
+
+  VkRenderingAttachmentInfo depthAttachment{};
+  depthAttachment.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
+  depthAttachment.imageView = depth_.view();
+  depthAttachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depthAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  depthAttachment.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  depthAttachment.clearValue.depthStencil = {clearDepth, 0};
+
+  VkRenderingInfo rendering{};
+  rendering.sType = VK_STRUCTURE_TYPE_RENDERING_INFO;
+  rendering.renderArea = {{0, 0}, extent()};
+  rendering.layerCount = 1;
+  rendering.colorAttachmentCount = 1;
+  rendering.pColorAttachments = &colorAttachment;
+  rendering.pDepthAttachment = &depthAttachment;
+  vkCmdBeginRendering(cmd, &rendering);
+
+  VkViewport viewport{};
+  viewport.width = static_cast<float>(widthPixels());
+  viewport.height = static_cast<float>(heightPixels());
+  viewport.minDepth = 0.0f;
+  viewport.maxDepth = 1.0f;
+  vkCmdSetViewport(cmd, 0, 1, &viewport);
+  const VkRect2D scissor{{0, 0}, extent()};
+  vkCmdSetScissor(cmd, 0, 1, &scissor);
+}
+
+void OffscreenTarget::recordEndRenderingAndReadback(VkCommandBuffer cmd) const {
+  vkCmdEndRendering(cmd);
+
+  const VkImageMemoryBarrier2 toTransfer = imageBarrier(
+      color_.image(), VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+      VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT,
+      VK_ACCESS_2_TRANSFER_READ_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+      VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+  VkDependencyInfo before{};
+  before.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
+  before.imageMemoryBarrierCount = 1;
+  before.pImageMemoryBarriers = &toTransfer;
+  vkCmdPipelineBarrier2(cmd, &before);
+
+  VkBufferImageCopy region{};
+  region.bufferOffset = 0;
+  region.bufferRowLength = 0;  // tightly packed
+  region.bufferImageHeight = 0;
+  region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+  region.imageExtent = {widthPixels(), heightPixels(), 1};
+  vkCmdCopyImageToBuffer(cmd, color_.image(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                         staging_.buffer(), 1, &region);
+
+  VkBufferMemoryBarrier2 toHost{};
+  toHost.sType = VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2;
+  toHost.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+  toHost.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  toHost.dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT;
+  toHost.dstAccessMask = VK_ACCESS_2_HOST_READ_BIT;
+  toHost.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  toHost.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  toHost.buffer = staging_.buffer();
+  toHost.offset = 0;
+  toHost.size = VK_WHOLE_SIZE;
+  VkDependencyInfo after{};
+  after.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
+  after.bufferMemoryBarrierCount = 1;
+  after.pBufferMemoryBarriers = &toHost;
+  vkCmdPipelineBarrier2(cmd, &after);
+}
+
+Result<RgbaImage> OffscreenTarget::readPixels() const {
+  if (Result<void> r = staging_.invalidateForHostRead(); !r) return std::move(r).error();
+  RgbaImage image;
+  image.widthPixels = widthPixels();
+  image.heightPixels = heightPixels();
+  image.rgba.resize(std::size_t{4} * widthPixels() * heightPixels());
+  std::memcpy(image.rgba.data(), staging_.mappedBytes().data(), image.rgba.size());
+  return image;
+}
+
+Result<RgbaImage> OffscreenTarget::render(VulkanContext& context,
+                                          const std::array<float, 4>& clearRgba,
+                                          const std::function<void(VkCommandBuffer)>& draw) const {
+  Result<void> done = context.submitAndWait(
+      [&](VkCommandBuffer cmd) {
+        recordBeginRendering(cmd, clearRgba);
+        draw(cmd);
+        recordEndRenderingAndReadback(cmd);
+      },
+      "offscreen render");
+  if (!done) return std::move(done).error();
+  return readPixels();
+}
+
+}  // namespace pbdam::gpu

@@ -1,0 +1,44 @@
+// LeakSanitizer support for test_gpu: Vulkan drivers and layers (lavapipe, its LLVM JIT, the
+// Khronos validation layer, Mesa's device-select layer) keep process-lifetime allocations that
+// LSan reports at exit. The loader dlclose()s them first, so LSan could not even name them
+// ("<unknown module>"). Under ASan we pin those libraries (RTLD_NODELETE) so their frames stay
+// symbolised, and suppress leaks whose stacks pass through them. Nothing of pbdam's own is
+// suppressed: a leak of ours still fails the run. No LSAN_OPTIONS are needed.
+#if defined(__SANITIZE_ADDRESS__)
+
+#include <dlfcn.h>
+
+namespace {
+
+// Libraries named in the Debian 12 ICD and layer manifests (/usr/share/vulkan/*/*.json).
+constexpr const char* kVulkanLibraries[] = {
+    "libvulkan_lvp.so",   "libVkLayer_khronos_validation.so", "libVkLayer_MESA_device_select.so",
+    "libvulkan_intel.so", "libvulkan_intel_hasvk.so",         "libvulkan_radeon.so",
+};
+
+struct PinVulkanLibraries {
+  PinVulkanLibraries() {
+    for (const char* name : kVulkanLibraries) {
+      // A missing library is fine (the test then reports the missing driver itself). The
+      // handle is deliberately never closed.
+      (void)dlopen(name, RTLD_NOW | RTLD_LOCAL | RTLD_NODELETE);
+    }
+  }
+};
+const PinVulkanLibraries pinVulkanLibraries;
+
+}  // namespace
+
+// LSan reads these suppressions at start-up, in addition to any LSAN_OPTIONS suppressions.
+extern "C" const char* __lsan_default_suppressions();  // NOLINT(bugprone-reserved-identifier)
+extern "C" const char* __lsan_default_suppressions() {
+  return "leak:libvulkan_lvp.so\n"
+         "leak:libLLVM-15.so\n"
+         "leak:libVkLayer_khronos_validation.so\n"
+         "leak:libVkLayer_MESA_device_select.so\n"
+         "leak:libvulkan_intel.so\n"
+         "leak:libvulkan_intel_hasvk.so\n"
+         "leak:libvulkan_radeon.so\n";
+}
+
+#endif  // __SANITIZE_ADDRESS__
