@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# The whole test suite (README command 2; .ci/run calls exactly this): set up, build and test the
+# release preset, then the ASan+UBSan and TSan presets, then the formatting check. GPU tests run
+# on lavapipe with the Khronos validation layer on; any validation message fails them.
+#   scripts/test.sh            everything but tests labelled "long"
+#   PBDAM_TEST_PRESETS="release" scripts/test.sh   only some presets
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+cd "$root"
+presets=${PBDAM_TEST_PRESETS:-"release asan tsan"}
+jobs=$(nproc)
+
+# shellcheck disable=SC2086
+scripts/setup.sh $presets
+
+status=0
+for preset in $presets; do
+  echo "== ctest --preset $preset"
+  if ! ctest --preset "$preset" -j "$jobs" --timeout 600; then status=1; fi
+done
+
+echo "== clang-format check"
+if ! git ls-files '*.h' '*.cpp' | xargs clang-format --dry-run -Werror; then
+  echo "clang-format: files above differ from .clang-format (run scripts/format.sh)"
+  status=1
+fi
+exit $status
