@@ -10,10 +10,16 @@ find_package(glm CONFIG REQUIRED)
 find_package(CLI11 CONFIG REQUIRED)
 find_package(nlohmann_json CONFIG REQUIRED)
 find_package(meshoptimizer CONFIG REQUIRED)
+find_package(ZLIB REQUIRED)
 find_package(Vulkan REQUIRED COMPONENTS glslc)
 pkg_check_modules(GeographicLib REQUIRED IMPORTED_TARGET geographiclib)
 pkg_check_modules(LZO2 REQUIRED IMPORTED_TARGET lzo2)
-pkg_check_modules(Squish REQUIRED IMPORTED_TARGET libsquish)
+# libsquish's pkg-config file has an empty prefix (Debian 12): locate it directly.
+find_path(SQUISH_INCLUDE_DIR squish.h REQUIRED)
+find_library(SQUISH_LIBRARY squish REQUIRED)
+add_library(Squish::Squish UNKNOWN IMPORTED)
+set_target_properties(Squish::Squish PROPERTIES IMPORTED_LOCATION ${SQUISH_LIBRARY}
+                                                INTERFACE_INCLUDE_DIRECTORIES ${SQUISH_INCLUDE_DIR})
 # OpenImageIO through pkg-config: its CMake package references opencv and tool binaries that
 # libopenimageio-dev does not pull in.
 pkg_check_modules(OpenImageIO REQUIRED IMPORTED_TARGET OpenImageIO)

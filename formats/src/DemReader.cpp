@@ -31,10 +31,14 @@ namespace {
 namespace fs = std::filesystem;
 
 void registerGdalOnce() {
-  static std::once_flag once;
-  std::call_once(once, [] { GDALAllRegister(); });
+  // A function-local static rather than std::call_once: GDAL takes its own mutex inside, which
+  // ThreadSanitizer reports as a lock-order inversion against call_once's lock.
+  static const bool registered = [] {
+    GDALAllRegister();
+    return true;
+  }();
+  (void)registered;
 }
-
 /// Collects GDAL's error messages for the duration of one read instead of printing them.
 class GdalErrorCapture final {
  public:

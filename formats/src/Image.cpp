@@ -68,8 +68,11 @@ namespace {
 
 /// The file's geographic bounds when GDAL finds a north-up geographic georeference in it.
 std::optional<LatLonBounds> georeference(const std::filesystem::path& path) {
-  static std::once_flag once;
-  std::call_once(once, [] { GDALAllRegister(); });
+  static const bool registered = [] {
+    GDALAllRegister();
+    return true;
+  }();
+  (void)registered;
   CPLPushErrorHandler(CPLQuietErrorHandler);
   CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", "NO");
   std::optional<LatLonBounds> bounds;

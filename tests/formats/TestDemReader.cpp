@@ -7,7 +7,6 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
-#include <regex>
 
 #include "TestData.h"
 #include "pbdam/formats/DemReader.h"
@@ -20,6 +19,14 @@ namespace fs = std::filesystem;
 const fs::path kMolaLabel = "mars/megt90n000cb.lbl";
 const fs::path kMolaImage = "mars/megt90n000cb.img";
 const fs::path kMolaRadius = "mars/megr90n000cb.img";
+
+/// `text` with the first occurrence of `from` replaced by `to`.
+std::string replaceOnce(std::string text, const std::string& from, const std::string& to) {
+  const auto at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  if (at != std::string::npos) text.replace(at, from.size(), to);
+  return text;
+}
 
 std::string readText(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
@@ -291,8 +298,8 @@ TEST(DemReader, RejectsLabelDataSizeMismatch) {
   PBDAM_REQUIRE_DATA(label, test::dataDir() / kMolaLabel);
   test::TempDir dir;
   const fs::path copy = copyMola(dir.path(), -1, [](std::string l) {
-    return std::regex_replace(l, std::regex("LINES                        = 720"),
-                              "LINES                        = 700");
+    return replaceOnce(l, "LINES                        = 720",
+                       "LINES                        = 700");
   });
   expectRejected(readDem(copy), copy, "mismatch");
 }
@@ -301,8 +308,8 @@ TEST(DemReader, RejectsProjectionOffsetsBeyondThePole) {
   PBDAM_REQUIRE_DATA(label, test::dataDir() / kMolaLabel);
   test::TempDir dir;
   const fs::path copy = copyMola(dir.path(), -1, [](std::string l) {
-    return std::regex_replace(l, std::regex("LINE_PROJECTION_OFFSET       = 360.5"),
-                              "LINE_PROJECTION_OFFSET       = 370.5");
+    return replaceOnce(l, "LINE_PROJECTION_OFFSET       = 360.5",
+                       "LINE_PROJECTION_OFFSET       = 370.5");
   });
   expectRejected(readDem(copy), copy, "beyond a pole");
 }

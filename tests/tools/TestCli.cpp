@@ -38,7 +38,7 @@ CliRun runPbdam(const std::string& args) {
 }
 
 TEST(Cli, HelpAndVersion) {
-  for (const char* args : {"--help", "dem --help", "dem info --help"}) {
+  for (const char* args : {"--help", "dem --help", "dem info --help", "devices --help"}) {
     const CliRun run = runPbdam(args);
     EXPECT_EQ(run.exitCode, 0) << args << "\n" << run.err;
     EXPECT_NE(run.out.find("Usage"), std::string::npos) << args << "\n" << run.out;
@@ -47,6 +47,22 @@ TEST(Cli, HelpAndVersion) {
   EXPECT_EQ(version.exitCode, 0);
   EXPECT_NE(version.out.find("pbdam 0."), std::string::npos) << version.out;
   EXPECT_NE(runPbdam("").exitCode, 0);  // a subcommand is required
+}
+
+TEST(Cli, DevicesListsLavapipeAsDefault) {
+  const CliRun run = runPbdam("devices --json");
+  ASSERT_EQ(run.exitCode, 0) << run.err;
+  const auto j = nlohmann::json::parse(run.out);
+  ASSERT_TRUE(j.is_array());
+  int defaults = 0;
+  for (const auto& d : j) {
+    if (d["default"].get<bool>()) {
+      ++defaults;
+      EXPECT_EQ(d["driver"], "llvmpipe");
+      EXPECT_EQ(d["type"], "cpu");
+    }
+  }
+  EXPECT_EQ(defaults, 1) << run.out;
 }
 
 TEST(Cli, DemInfoJsonOnMola) {

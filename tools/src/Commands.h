@@ -17,4 +17,7 @@ struct CommandStatus final {
 /// `pbdam dem info FILE [--at LAT,LON] [--json] [raw options]`.
 void addDemCommands(CLI::App& app, CommandStatus& status);
 
+/// `pbdam devices [--json]`.
+void addDevicesCommand(CLI::App& app, CommandStatus& status);
+
 }  // namespace pbdam::tools

@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   pbdam::tools::CommandStatus status;
   pbdam::tools::addDemCommands(app, status);
+  pbdam::tools::addDevicesCommand(app, status);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -1,10 +1,11 @@
-// LeakSanitizer support for test_gpu: Vulkan drivers and layers (lavapipe, its LLVM JIT, the
-// Khronos validation layer, Mesa's device-select layer) keep process-lifetime allocations that
-// LSan reports at exit. The loader dlclose()s them first, so LSan could not even name them
-// ("<unknown module>"). Under ASan we pin those libraries (RTLD_NODELETE) so their frames stay
-// symbolised, and suppress leaks whose stacks pass through them. Nothing of pbdam's own is
-// suppressed: a leak of ours still fails the run. No LSAN_OPTIONS are needed.
-#if defined(__SANITIZE_ADDRESS__)
+// Sanitizer support for every executable that links pbdam_gpu. Vulkan drivers and layers
+// (lavapipe, its LLVM JIT, the Khronos validation layer, Mesa's device-select layer) keep
+// process-lifetime allocations that LSan reports at exit, and the loader dlclose()s them first,
+// so LSan could not even name them ("<unknown module>") and TSan aborts when a library named in
+// a called_from_lib suppression (tests/sanitizers/tsan.supp) is unloaded. Under ASan and TSan we
+// pin those libraries (RTLD_NODELETE); under ASan we also suppress leaks whose stacks pass
+// through them. Nothing of pbdam's own is suppressed: a leak or race of ours still fails.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
 
 #include <dlfcn.h>
 
@@ -28,6 +29,10 @@ struct PinVulkanLibraries {
 const PinVulkanLibraries pinVulkanLibraries;
 
 }  // namespace
+
+#endif  // __SANITIZE_ADDRESS__ || __SANITIZE_THREAD__
+
+#if defined(__SANITIZE_ADDRESS__)
 
 // LSan reads these suppressions at start-up, in addition to any LSAN_OPTIONS suppressions.
 extern "C" const char* __lsan_default_suppressions();  // NOLINT(bugprone-reserved-identifier)

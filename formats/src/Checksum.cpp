@@ -1,0 +1,23 @@
+// CRC-32 through zlib (Checksum.h).
+#include "pbdam/formats/Checksum.h"
+
+#include <zlib.h>
+
+#include <algorithm>
+
+namespace pbdam {
+
+std::uint32_t crc32(std::span<const std::byte> bytes, std::uint32_t crc) noexcept {
+  uLong value = crc;
+  const auto* data = reinterpret_cast<const Bytef*>(bytes.data());  // NOLINT: byte view
+  std::size_t left = bytes.size();
+  while (left > 0) {
+    const auto chunk = static_cast<uInt>(std::min<std::size_t>(left, 1U << 30));
+    value = ::crc32(value, data, chunk);
+    data += chunk;
+    left -= chunk;
+  }
+  return static_cast<std::uint32_t>(value);
+}
+
+}  // namespace pbdam
