@@ -1,0 +1,87 @@
+// Texture tiles of the per-face texture quadtree (design.md §3; P-BDAM paper 004 §3/§4, the
+// texture quadtree, and §5: tiles stored GPU-compressed as BC1 = DXT1): the in-memory image, the
+// on-disk tile codec (header + CRC-32 + LZO1X payload; byte layout in formats/TextureTile.md) and
+// BC1 compression through libsquish. Thread-safety: every function is pure and may be called from
+// any number of threads at once.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <string_view>
+#include <vector>
+
+#include "pbdam/formats/Result.h"
+
+namespace pbdam {
+
+/// How a tile's texels are stored. The numeric values are written to disk.
+enum class TexelFormat : std::uint8_t {
+  Rgba8 = 0,  ///< 4 bytes per texel: R, G, B, A
+  Bc1 = 1,    ///< BC1 (DXT1) 4×4 blocks of 8 bytes, opaque (alpha always 255)
+};
+
+/// The largest tile side the codec accepts, in texels.
+inline constexpr std::uint32_t kMaxTextureTileTexels = 4096;
+
+/// A square texture tile.
+///
+/// Orientation (the same for both formats, and what a GPU upload of `data` gives): texel (x, y)
+/// has face u growing with x and face v growing with y; row y = 0 is the tile's lowest-v row.
+///  - Rgba8: texel (x, y) is data[4·(y·sizeTexels + x) .. +4), rows packed, no padding.
+///  - Bc1: block (bx, by) covers texels x in [4bx, 4bx+4), y in [4by, 4by+4) and is the 8 bytes
+///    at data[8·(by·(sizeTexels/4) + bx)]; inside a block, row 0 is the block's lowest y (the
+///    standard BC1 layout, so the bytes upload to VK_FORMAT_BC1_RGB(A)_*_BLOCK unchanged).
+/// `borderTexels` texels on each side lie beyond the tile's quadtree square (filtering border);
+/// the codec stores the number and checks 2·borderTexels < sizeTexels, nothing more.
+struct TextureTileImage final {
+  std::uint32_t sizeTexels = 0;
+  TexelFormat format = TexelFormat::Rgba8;
+  std::uint32_t borderTexels = 0;
+  std::vector<std::uint8_t> data;
+
+  friend bool operator==(const TextureTileImage&, const TextureTileImage&) = default;
+};
+
+/// Returns the number of bytes `data` must hold for a tile of `sizeTexels` in `format`
+/// (size²·4 for Rgba8, (size/4)²·8 for Bc1), or 0 when the size is not valid for the format
+/// (0, over kMaxTextureTileTexels, or not a multiple of 4 for Bc1).
+std::size_t textureTileDataBytes(std::uint32_t sizeTexels, TexelFormat format) noexcept;
+
+/// Encodes `tile` into a self-contained blob: a 24-byte header (magic "PBTX", version, format,
+/// payload compression, size, border, payload sizes, CRC-32 of every other byte) followed by the
+/// payload. The payload is LZO1X-1 compressed when that makes it smaller, else stored as is
+/// (decided per tile; formats/TextureTile.md has the measurements behind it). Deterministic: the
+/// same tile always gives the same bytes. Returns InvalidArgument when the size, border or data
+/// length is inconsistent (see textureTileDataBytes).
+Result<std::vector<std::byte>> encodeTextureTile(const TextureTileImage& tile);
+
+/// Decodes a blob written by encodeTextureTile. Safe for untrusted input: every field and length
+/// is checked before use (size ≤ kMaxTextureTileTexels, a multiple of 4 for Bc1, exact payload
+/// lengths, no trailing bytes), the CRC-32 is verified, and LZO payloads are expanded with
+/// lzo1x_decompress_safe into exactly the expected length. Returns CorruptData with a message
+/// "<context>: <what was wrong>" (context names the file and offset, e.g. "face2.bin@123456").
+Result<TextureTileImage> decodeTextureTile(std::span<const std::byte> blob,
+                                           std::string_view context);
+
+/// libsquish's colour fit for BC1. Measured on shaded-relief and imagery tiles (one core of the
+/// build machine; formats/TextureTile.md): High 0.5–0.9 Mtexel/s at 36–41 dB PSNR, Fast
+/// 20–22 Mtexel/s at 33–38 dB. High is the default: tiles are built once and looked at often.
+enum class Bc1Quality : std::uint8_t {
+  High = 0,  ///< squish::kColourClusterFit
+  Fast = 1,  ///< squish::kColourRangeFit
+};
+
+/// Compresses an Rgba8 tile to Bc1 with libsquish (kDxt1 and the colour fit of `quality`; alpha
+/// is ignored, the result is opaque). Blocks are compressed one at a time on the calling thread
+/// (never through libsquish's OpenMP path), so the result is deterministic and the call nests
+/// safely inside TBB tasks. `rgba` must be Rgba8 with a size that is a multiple of 4, else
+/// InvalidArgument. borderTexels is kept.
+Result<TextureTileImage> compressBc1(const TextureTileImage& rgba,
+                                     Bc1Quality quality = Bc1Quality::High);
+
+/// Expands a Bc1 tile to Rgba8 (libsquish's reference decoder, one block at a time); an Rgba8
+/// tile is returned unchanged. InvalidArgument when the data length does not match the size.
+Result<TextureTileImage> expandToRgba8(const TextureTileImage& tile);
+
+}  // namespace pbdam

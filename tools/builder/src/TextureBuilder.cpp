@@ -1,0 +1,451 @@
+// Texture tile generation (TextureBuilder.h, HypsometricTint.h): shaded relief with hypsometric
+// tint, or supersampled imagery, for one node of a face's texture quadtree (design.md §3; P-BDAM
+// paper 004 §3/§4, the texture quadtree; docs/builder.md "Textures").
+#include "pbdam/builder/TextureBuilder.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <glm/geometric.hpp>
+#include <numbers>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "pbdam/runtime/CubeMap.h"
+
+namespace pbdam::builder {
+namespace {
+
+constexpr double kDegrees = std::numbers::pi / 180.0;
+constexpr int kMaxLevel = 24;
+constexpr int kMaxImageSupersampling = 8;
+
+// ---- colour ramps -------------------------------------------------------------------------
+
+struct RampStop final {
+  double at;  // metres (ocean ramp) or fraction of the range (dry ramp)
+  Rgb8 colour;
+};
+
+// Bathymetry: light blue at the shore, dark blue in the trenches.
+constexpr std::array<RampStop, 6> kWaterStops{{
+    {-11000.0, {10, 22, 68}},
+    {-6000.0, {22, 56, 128}},
+    {-3500.0, {42, 96, 170}},
+    {-1500.0, {72, 138, 204}},
+    {-200.0, {118, 178, 226}},
+    {0.0, {162, 210, 240}},
+}};
+
+// Land: lowland green, yellow-tan hills, brown mountains, grey-brown high plateaus, snow only on
+// the highest peaks (so that Tibet reads as a plateau, not a glacier).
+constexpr std::array<RampStop, 9> kLandStops{{
+    {0.0, {78, 138, 76}},
+    {250.0, {122, 166, 92}},
+    {700.0, {190, 192, 124}},
+    {1300.0, {204, 168, 110}},
+    {2100.0, {168, 122, 82}},
+    {3100.0, {142, 112, 98}},
+    {4500.0, {178, 162, 150}},
+    {5800.0, {232, 230, 226}},
+    {7000.0, {255, 255, 255}},
+}};
+
+// Dry bodies, over the dataset's range: the classic MOLA-style blue → cyan → green → yellow →
+// orange → red-brown → white, with the stops packed into the lower half where most of a
+// planet's surface lies (Mars: 90% of the area within −5..+5 km of a −8..+21 km range).
+constexpr std::array<RampStop, 9> kDryStops{{
+    {0.00, {28, 30, 104}},
+    {0.10, {38, 86, 178}},
+    {0.20, {58, 156, 196}},
+    {0.28, {92, 176, 116}},
+    {0.36, {208, 204, 104}},
+    {0.46, {214, 144, 70}},
+    {0.60, {170, 88, 62}},
+    {0.80, {196, 160, 150}},
+    {1.00, {255, 255, 255}},
+}};
+
+Rgb8 interpolate(std::span<const RampStop> stops, double at) noexcept {
+  if (at <= stops.front().at) return stops.front().colour;
+  if (at >= stops.back().at) return stops.back().colour;
+  std::size_t upper = 1;
+  while (upper + 1 < stops.size() && stops[upper].at < at) ++upper;
+  const RampStop& a = stops[upper - 1];
+  const RampStop& b = stops[upper];
+  const double t = (at - a.at) / (b.at - a.at);
+  Rgb8 colour{};
+  for (std::size_t c = 0; c < 3; ++c) {
+    const double value = a.colour[c] + t * (b.colour[c] - a.colour[c]);
+    colour[c] = static_cast<std::uint8_t>(std::lround(std::clamp(value, 0.0, 255.0)));
+  }
+  return colour;
+}
+
+// ---- geometry -----------------------------------------------------------------------------
+
+// East and north unit vectors (ECEF) at a geodetic latitude/longitude.
+struct LocalAxes final {
+  glm::dvec3 east;
+  glm::dvec3 north;
+};
+
+LocalAxes localAxes(double latDegrees, double lonDegrees) noexcept {
+  const double sinLat = std::sin(latDegrees * kDegrees);
+  const double cosLat = std::cos(latDegrees * kDegrees);
+  const double sinLon = std::sin(lonDegrees * kDegrees);
+  const double cosLon = std::cos(lonDegrees * kDegrees);
+  return {glm::dvec3(-sinLon, cosLon, 0.0), glm::dvec3(-sinLat * cosLon, -sinLat * sinLon, cosLat)};
+}
+
+// Surface points of texel centres (x, y) for x, y in [first, first + count), row-major.
+struct TexelGrid final {
+  int first = 0;
+  int count = 0;
+  std::vector<glm::dvec3> directions;
+  std::vector<glm::dvec3> surface;
+
+  std::size_t index(int x, int y) const noexcept {
+    return static_cast<std::size_t>(y - first) * static_cast<std::size_t>(count) +
+           static_cast<std::size_t>(x - first);
+  }
+};
+
+TexelGrid makeTexelGrid(const Planet& planet, const TextureTileRequest& request, int first,
+                        int count) {
+  TexelGrid grid;
+  grid.first = first;
+  grid.count = count;
+  const auto total = static_cast<std::size_t>(count) * static_cast<std::size_t>(count);
+  grid.directions.resize(total);
+  grid.surface.resize(total);
+  const CubeFace face = cubeFaceFromIndex(request.face);
+  for (int y = first; y < first + count; ++y) {
+    for (int x = first; x < first + count; ++x) {
+      const glm::dvec2 uv = textureTexelFaceUv(request, x, y);
+      const glm::dvec3 direction = CubeMap::faceUvToDirection(face, uv);
+      grid.directions[grid.index(x, y)] = direction;
+      grid.surface[grid.index(x, y)] = planet.directionToSurfaceEcef(direction);
+    }
+  }
+  return grid;
+}
+
+// Largest distance between adjacent texel centres among texels [lo, hi)² of `grid`.
+double largestSpacing(const TexelGrid& grid, int lo, int hi) noexcept {
+  double largest = 0.0;
+  for (int y = lo; y < hi; ++y) {
+    for (int x = lo; x < hi; ++x) {
+      const glm::dvec3& p = grid.surface[grid.index(x, y)];
+      if (x + 1 < hi)
+        largest = std::max(largest, glm::distance(p, grid.surface[grid.index(x + 1, y)]));
+      if (y + 1 < hi)
+        largest = std::max(largest, glm::distance(p, grid.surface[grid.index(x, y + 1)]));
+    }
+  }
+  return largest;
+}
+
+// ---- shading ------------------------------------------------------------------------------
+
+// Everything the relief computation learns about one texel.
+struct ReliefSample final {
+  bool valid = false;
+  double tintHeightMeters = 0.0;  // centre weighted 1/2, the four neighbours 1/8 each
+  double relief = 1.0;            // lit fraction relative to flat ground: 0 .. 1/sin(elevation)
+};
+
+class ReliefSampler final {
+ public:
+  explicit ReliefSampler(const TextureSource& source)
+      : source_(source),
+        exaggeration_(source.shading.verticalExaggeration),
+        sinElevation_(std::sin(source.shading.lightElevationDegrees * kDegrees)) {
+    const double azimuth = source.shading.lightAzimuthDegrees * kDegrees;
+    const double cosElevation = std::cos(source.shading.lightElevationDegrees * kDegrees);
+    light_ = glm::dvec3(cosElevation * std::sin(azimuth), cosElevation * std::cos(azimuth),
+                        sinElevation_);
+  }
+
+  std::optional<double> heightAt(const glm::dvec3& point) const {
+    const GeodeticPosition position = source_.planet.directionToGeodetic(point);
+    return source_.heightMeters(position.latDegrees, position.lonDegrees);
+  }
+
+  // Relief of the texel centred on `surface` (geodetic lat/lon given) of ground size `spacing`.
+  ReliefSample sample(const glm::dvec3& surface, double latDegrees, double lonDegrees,
+                      double spacingMeters) const {
+    ReliefSample result;
+    const std::optional<double> centre = source_.heightMeters(latDegrees, lonDegrees);
+    const LocalAxes axes = localAxes(latDegrees, lonDegrees);
+    const double half = 0.5 * spacingMeters;
+    const std::optional<double> east = heightAt(surface + half * axes.east);
+    const std::optional<double> west = heightAt(surface - half * axes.east);
+    const std::optional<double> north = heightAt(surface + half * axes.north);
+    const std::optional<double> south = heightAt(surface - half * axes.north);
+
+    double weightSum = 0.0;
+    double weighted = 0.0;
+    if (centre) {
+      weighted += 0.5 * *centre;
+      weightSum += 0.5;
+    }
+    for (const std::optional<double>& h : {east, west, north, south}) {
+      if (h) {
+        weighted += 0.125 * *h;
+        weightSum += 0.125;
+      }
+    }
+    if (weightSum == 0.0) return result;
+    result.valid = true;
+    result.tintHeightMeters = weighted / weightSum;
+
+    // Slopes over one texel; where one side has no data, the one-sided difference to the centre.
+    const auto slope = [&](const std::optional<double>& plus, const std::optional<double>& minus) {
+      if (plus && minus) return (*plus - *minus) / spacingMeters;
+      if (plus && centre) return (*plus - *centre) / half;
+      if (minus && centre) return (*centre - *minus) / half;
+      return 0.0;
+    };
+    const double slopeEast = exaggeration_ * slope(east, west);
+    const double slopeNorth = exaggeration_ * slope(north, south);
+    const glm::dvec3 normal = glm::normalize(glm::dvec3(-slopeEast, -slopeNorth, 1.0));
+    result.relief = std::max(0.0, glm::dot(normal, light_)) / sinElevation_;
+    return result;
+  }
+
+ private:
+  const TextureSource& source_;
+  double exaggeration_;
+  double sinElevation_;
+  glm::dvec3 light_{0.0};
+};
+
+// Applies hillshading to a colour: relief 1 (flat) keeps it, darker relief scales it down,
+// brighter relief blends it towards white. `strength` in [0, 1].
+std::array<double, 3> shade(const std::array<double, 3>& colour, double relief,
+                            double strength) noexcept {
+  const double factor = 1.0 + strength * (relief - 1.0);
+  std::array<double, 3> out{};
+  for (std::size_t c = 0; c < 3; ++c) {
+    out[c] = factor <= 1.0 ? colour[c] * factor : colour[c] + (255.0 - colour[c]) * (factor - 1.0);
+  }
+  return out;
+}
+
+std::array<double, 3> toDouble(const Rgb8& colour) noexcept {
+  return {static_cast<double>(colour[0]), static_cast<double>(colour[1]),
+          static_cast<double>(colour[2])};
+}
+
+void store(std::uint8_t* texel, const std::array<double, 3>& colour) noexcept {
+  for (std::size_t c = 0; c < 3; ++c) {
+    texel[c] = static_cast<std::uint8_t>(std::lround(std::clamp(colour[c], 0.0, 255.0)));
+  }
+  texel[3] = 255;
+}
+
+// Ground size in metres of one image pixel along latitude, and along longitude at the equator.
+struct ImagePixelSize final {
+  double latMeters = 0.0;
+  double lonMetersAtEquator = 0.0;
+};
+
+ImagePixelSize imagePixelSize(const GeoImage& image, const Planet& planet) noexcept {
+  const LatLonBounds& bounds = image.bounds();
+  const double radius = planet.equatorialRadiusMeters();
+  return {(bounds.northDegrees - bounds.southDegrees) / static_cast<double>(image.height()) *
+              kDegrees * radius,
+          (bounds.eastDegrees - bounds.westDegrees) / static_cast<double>(image.width()) *
+              kDegrees * radius};
+}
+
+}  // namespace
+
+// ---- public functions ---------------------------------------------------------------------
+
+Rgb8 hypsometricTint(double heightMeters, const HypsometricRamp& ramp) noexcept {
+  if (std::isnan(heightMeters)) return kNoDataTint;
+  if (ramp.hasOcean) {
+    return heightMeters < 0.0 ? interpolate(kWaterStops, heightMeters)
+                              : interpolate(kLandStops, heightMeters);
+  }
+  const double span = ramp.maxMeters - ramp.minMeters;
+  const double at = span > 0.0 ? (heightMeters - ramp.minMeters) / span : 0.5;
+  return interpolate(kDryStops, at);
+}
+
+Result<void> validateTextureTileRequest(const TextureTileRequest& request) {
+  const auto invalid = [](const std::string& what) {
+    return makeError(ErrorCode::InvalidArgument, "texture tile request: " + what);
+  };
+  if (request.face < 0 || request.face >= kCubeFaceCount) {
+    return invalid("face " + std::to_string(request.face) + " is not in 0..5");
+  }
+  if (request.level < 0 || request.level > kMaxLevel) {
+    return invalid("level " + std::to_string(request.level) + " is not in 0.." +
+                   std::to_string(kMaxLevel));
+  }
+  const std::uint64_t nodes = std::uint64_t{1} << request.level;
+  if (request.qi >= nodes || request.qj >= nodes) {
+    return invalid("node (" + std::to_string(request.qi) + ", " + std::to_string(request.qj) +
+                   ") is outside level " + std::to_string(request.level) + " (0.." +
+                   std::to_string(nodes - 1) + ")");
+  }
+  if (request.sizeTexels > kMaxTextureTileTexels ||
+      2ull * request.borderTexels >= request.sizeTexels) {
+    return invalid("size " + std::to_string(request.sizeTexels) + " with border " +
+                   std::to_string(request.borderTexels) + " (size at most " +
+                   std::to_string(kMaxTextureTileTexels) + ", more than twice the border)");
+  }
+  // The border (and the one extra ring used for texel spacing) must stay within the half face
+  // beyond the node's square that the cube map's face planes extend to (CubeMap.h).
+  const double inner = static_cast<double>(request.sizeTexels - 2 * request.borderTexels);
+  if (std::ldexp((request.borderTexels + 1.0) / inner, -request.level) >= 0.5) {
+    return invalid("border " + std::to_string(request.borderTexels) + " of " +
+                   std::to_string(request.sizeTexels) +
+                   " texels reaches beyond the neighbouring faces");
+  }
+  return {};
+}
+
+glm::dvec2 textureTexelFaceUv(const TextureTileRequest& request, double x, double y) noexcept {
+  const double inner = static_cast<double>(request.sizeTexels - 2 * request.borderTexels);
+  const double border = static_cast<double>(request.borderTexels);
+  const double u = (static_cast<double>(request.qi) + (x - border + 0.5) / inner);
+  const double v = (static_cast<double>(request.qj) + (y - border + 0.5) / inner);
+  return {std::ldexp(u, -request.level), std::ldexp(v, -request.level)};
+}
+
+double textureTileErrorMeters(const Planet& planet, const TextureTileRequest& request) noexcept {
+  const int border = static_cast<int>(request.borderTexels);
+  const int inner = static_cast<int>(request.sizeTexels) - 2 * border;
+  const TexelGrid grid = makeTexelGrid(planet, request, border, inner);
+  return largestSpacing(grid, border, border + inner);
+}
+
+Result<TextureTileResult> buildTextureTile(const TextureSource& source,
+                                           const TextureTileRequest& request) {
+  if (Result<void> valid = validateTextureTileRequest(request); !valid) {
+    return std::move(valid).error();
+  }
+  const bool haveHeights = static_cast<bool>(source.heightMeters);
+  if (!haveHeights && source.imagery == nullptr) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "texture source has neither a height function nor imagery");
+  }
+  if (source.imagery != nullptr &&
+      (source.imagery->width() <= 0 || source.imagery->height() <= 0)) {
+    return makeError(ErrorCode::InvalidArgument, "texture source imagery is empty");
+  }
+
+  const int size = static_cast<int>(request.sizeTexels);
+  const int border = static_cast<int>(request.borderTexels);
+  // Texel centres one beyond the tile on every side, for the spacing at the outermost texels.
+  const TexelGrid grid = makeTexelGrid(source.planet, request, -1, size + 2);
+  const double texelUv = std::ldexp(1.0 / static_cast<double>(size - 2 * border), -request.level);
+  const CubeFace face = cubeFaceFromIndex(request.face);
+
+  TextureTileResult result;
+  result.textureErrorMeters = largestSpacing(grid, border, size - border);
+  result.image.sizeTexels = request.sizeTexels;
+  result.image.format = TexelFormat::Rgba8;
+  result.image.borderTexels = request.borderTexels;
+  result.image.data.resize(textureTileDataBytes(request.sizeTexels, TexelFormat::Rgba8));
+
+  const ReliefSampler relief(source);
+  const double reliefStrength = std::clamp(source.shading.strength, 0.0, 1.0);
+  const double imageryStrength = std::clamp(source.imageryShadingStrength, 0.0, 1.0);
+  const ImagePixelSize pixel =
+      source.imagery != nullptr ? imagePixelSize(*source.imagery, source.planet) : ImagePixelSize{};
+
+  for (int y = 0; y < size; ++y) {
+    for (int x = 0; x < size; ++x) {
+      const std::size_t at = grid.index(x, y);
+      const glm::dvec3& surface = grid.surface[at];
+      const double spacingU = 0.5 * glm::distance(grid.surface[grid.index(x + 1, y)],
+                                                  grid.surface[grid.index(x - 1, y)]);
+      const double spacingV = 0.5 * glm::distance(grid.surface[grid.index(x, y + 1)],
+                                                  grid.surface[grid.index(x, y - 1)]);
+      const double spacing = std::max(spacingU, spacingV);
+      const GeodeticPosition position = source.planet.directionToGeodetic(grid.directions[at]);
+
+      // Relief is needed for the tint and for shaded imagery.
+      ReliefSample reliefSample;
+      const bool wantRelief = haveHeights && (source.imagery == nullptr || imageryStrength > 0.0);
+      if (wantRelief) {
+        reliefSample = relief.sample(surface, position.latDegrees, position.lonDegrees, spacing);
+      }
+
+      std::optional<std::array<double, 3>> colour;
+      double strength = reliefStrength;
+      if (source.imagery != nullptr) {
+        // k×k subsamples spread over the texel's footprint in (u, v).
+        const double pixelMeters =
+            std::min(pixel.latMeters, pixel.lonMetersAtEquator *
+                                          std::max(std::cos(position.latDegrees * kDegrees), 1e-6));
+        const int k = std::clamp(static_cast<int>(std::ceil(spacing / pixelMeters)), 1,
+                                 kMaxImageSupersampling);
+        const glm::dvec2 centreUv = textureTexelFaceUv(request, x, y);
+        std::array<double, 3> sum{0.0, 0.0, 0.0};
+        int count = 0;
+        for (int b = 0; b < k; ++b) {
+          for (int a = 0; a < k; ++a) {
+            const glm::dvec2 offset((a + 0.5) / k - 0.5, (b + 0.5) / k - 0.5);
+            const glm::dvec3 direction =
+                CubeMap::faceUvToDirection(face, centreUv + texelUv * offset);
+            const GeodeticPosition p = source.planet.directionToGeodetic(direction);
+            if (const auto rgba = source.imagery->sampleBilinear(p.latDegrees, p.lonDegrees)) {
+              for (std::size_t c = 0; c < 3; ++c) sum[c] += static_cast<double>((*rgba)[c]);
+              ++count;
+            }
+          }
+        }
+        if (count > 0) {
+          for (double& c : sum) c /= count;
+          colour = sum;
+          strength = imageryStrength;
+          if (source.ramp.hasOcean && reliefSample.valid && reliefSample.tintHeightMeters < 0.0) {
+            strength *= 0.5;
+          }
+        } else if (haveHeights && !wantRelief) {
+          // Outside the image: fall back to the shaded relief.
+          reliefSample = relief.sample(surface, position.latDegrees, position.lonDegrees, spacing);
+        }
+      }
+      if (!colour && reliefSample.valid) {
+        colour = toDouble(hypsometricTint(reliefSample.tintHeightMeters, source.ramp));
+        // Water is shaded more softly than land: bathymetry reads as depth, not as mountains.
+        if (source.ramp.hasOcean && reliefSample.tintHeightMeters < 0.0) strength *= 0.5;
+      }
+      std::uint8_t* texel =
+          result.image.data.data() +
+          (static_cast<std::size_t>(y) * request.sizeTexels + static_cast<std::size_t>(x)) * 4;
+      if (!colour) {
+        store(texel, toDouble(kNoDataTint));
+        continue;
+      }
+      if (reliefSample.valid && strength > 0.0) {
+        colour = shade(*colour, reliefSample.relief, strength);
+      }
+      store(texel, *colour);
+    }
+  }
+  return result;
+}
+
+std::function<std::optional<double>(double, double)> heightFunctionFromGrid(const HeightGrid& grid,
+                                                                            bool bicubic) {
+  if (bicubic) {
+    return [&grid](double latDegrees, double lonDegrees) {
+      return grid.sampleBicubic(latDegrees, lonDegrees);
+    };
+  }
+  return [&grid](double latDegrees, double lonDegrees) {
+    return grid.sampleBilinear(latDegrees, lonDegrees);
+  };
+}
+
+}  // namespace pbdam::builder
