@@ -4,6 +4,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "pbdam/formats/Result.h"
+
 namespace pbdam::tools {
 
 /// Exit codes: 0 success, 1 internal failure, 2 bad input (unreadable file, bad parameter).
@@ -19,5 +21,14 @@ void addDemCommands(CLI::App& app, CommandStatus& status);
 
 /// `pbdam devices [--json]`.
 void addDevicesCommand(CLI::App& app, CommandStatus& status);
+
+/// `pbdam build --dem FILE --planet P --out DIR [...]`.
+void addBuildCommand(CLI::App& app, CommandStatus& status);
+
+/// `pbdam info DIR [--json]` and `pbdam verify DIR [--dem FILE]`.
+void addDatasetCommands(CLI::App& app, CommandStatus& status);
+
+/// Prints "pbdam: <message>" on stderr; returns the exit code for the error's kind.
+int reportError(const Error& error);
 
 }  // namespace pbdam::tools

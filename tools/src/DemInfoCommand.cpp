@@ -26,11 +26,6 @@ struct DemInfoOptions {
   std::int64_t rawHeaderBytes = 0;
 };
 
-int reportError(const Error& error) {
-  std::cerr << "pbdam: " << error.message << "\n";
-  return error.code == ErrorCode::Internal ? kExitFailure : kExitBadInput;
-}
-
 std::string latLonText(double latDegrees, double lonDegrees) {
   char buf[96];
   std::snprintf(buf, sizeof buf, "%.4f°%c %.4f°E", std::abs(latDegrees),
@@ -181,6 +176,14 @@ int runDemInfo(const DemInfoOptions& o) {
 }
 
 }  // namespace
+
+int reportError(const Error& error) {
+  std::cerr << "pbdam: " << error.message << "\n";
+  return error.code == ErrorCode::Internal || error.code == ErrorCode::IoError ||
+                 error.code == ErrorCode::DeviceError
+             ? kExitFailure
+             : kExitBadInput;
+}
 
 void addDemCommands(CLI::App& app, CommandStatus& status) {
   CLI::App* dem = app.add_subcommand("dem", "Inspect elevation inputs (anything GDAL reads)");

@@ -17,6 +17,8 @@ int main(int argc, char** argv) {
   pbdam::tools::CommandStatus status;
   pbdam::tools::addDemCommands(app, status);
   pbdam::tools::addDevicesCommand(app, status);
+  pbdam::tools::addBuildCommand(app, status);
+  pbdam::tools::addDatasetCommands(app, status);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -1,0 +1,121 @@
+// The on-disk layout of a P-BDAM face file (formats/FORMAT.md): a fixed header, the node table
+// (fixed-size records of both bintrees of the face in heap order — pointerless and breadth-first,
+// so top-down refinement reads it front to back), the texture table (quadtree in heap order),
+// then patch and texture blobs. Little-endian. Decoding is safe for untrusted bytes: every
+// offset and size is checked against the file, and the header and tables carry CRC-32s.
+// Thread-safety: pure functions and values; FaceView is read-only over caller-owned bytes.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "pbdam/formats/Result.h"
+
+namespace pbdam {
+
+inline constexpr std::uint32_t kDatasetFormatVersion = 1;
+inline constexpr std::size_t kFaceHeaderBytes = 128;
+inline constexpr std::size_t kNodeRecordBytes = 176;
+inline constexpr std::size_t kTextureRecordBytes = 16;
+/// Deepest bintree a face file may declare (2^(depth+1) − 1 nodes per tree).
+inline constexpr std::uint32_t kMaxBintreeDepth = 30;
+inline constexpr std::uint32_t kMaxTextureLevels = 16;
+
+/// The header of one face file.
+struct FaceHeader final {
+  std::uint32_t version = kDatasetFormatVersion;
+  std::uint32_t face = 0;           ///< 0..5 (runtime/CubeMap.h)
+  std::uint32_t latticeCells = 0;   ///< N: lattice cells per face side
+  std::uint32_t leafCells = 0;      ///< L: leaf leg length in cells
+  std::uint32_t depth = 0;          ///< D: deepest bintree level (leaves)
+  std::uint32_t textureLevels = 0;  ///< quadtree levels 0 .. textureLevels−1
+  std::uint32_t textureTileTexels = 0;
+  std::uint32_t textureBorderTexels = 0;
+  std::uint64_t nodeCount = 0;  ///< 2 · (2^(D+1) − 1)
+  std::uint64_t nodeTableOffset = 0;
+  std::uint64_t textureNodeCount = 0;  ///< (4^textureLevels − 1) / 3
+  std::uint64_t textureTableOffset = 0;
+  std::uint64_t blobsOffset = 0;
+  std::uint64_t fileBytes = 0;
+  std::uint32_t nodeTableCrc = 0;
+  std::uint32_t textureTableCrc = 0;
+};
+
+/// One bintree node: corners, bounding sphere, errors, and where its patch blob is.
+struct NodeRecord final {
+  std::array<double, 9> cornerPositions{};  ///< P0 (apex), P1 (left), P2 (right), planetocentric m
+  std::array<float, 9> cornerNormals{};     ///< N0, N1, N2 (unit surface normals)
+  std::array<double, 3> sphereCenter{};     ///< saturated: shared by diamond partners, nested
+  float sphereRadiusMeters = 0.0f;
+  float errorMeters = 0.0f;          ///< saturated object-space error
+  float measuredErrorMeters = 0.0f;  ///< the patch's own measured error
+  float minHeightMeters = 0.0f;      ///< of its vertices
+  float maxHeightMeters = 0.0f;
+  std::uint64_t blobOffset = 0;  ///< from the start of the file
+  std::uint32_t blobBytes = 0;
+  std::uint32_t vertexCount = 0;
+  std::uint32_t triangleCount = 0;
+};
+
+/// One texture quadtree node: its tile blob and its texture error.
+struct TextureRecord final {
+  std::uint64_t blobOffset = 0;
+  std::uint32_t blobBytes = 0;
+  float errorMeters = 0.0f;  ///< largest texel footprint on the ground
+};
+
+/// Serialises into exactly k*Bytes bytes (the header's own CRC is computed here).
+void encodeFaceHeader(const FaceHeader& header,
+                      std::span<std::byte, kFaceHeaderBytes> out) noexcept;
+void encodeNodeRecord(const NodeRecord& record,
+                      std::span<std::byte, kNodeRecordBytes> out) noexcept;
+void encodeTextureRecord(const TextureRecord& record,
+                         std::span<std::byte, kTextureRecordBytes> out) noexcept;
+
+/// Decodes a header: magic, version, CRC, and internal consistency (counts match the depth and
+/// texture levels, tables and blobs lie in order inside `fileBytes`). `context` names the file.
+Result<FaceHeader> decodeFaceHeader(std::span<const std::byte> bytes, std::string_view context);
+NodeRecord decodeNodeRecord(std::span<const std::byte, kNodeRecordBytes> bytes) noexcept;
+TextureRecord decodeTextureRecord(std::span<const std::byte, kTextureRecordBytes> bytes) noexcept;
+
+/// A validated, read-only view of a whole face file held in memory or mapped.
+class FaceView final {
+ public:
+  /// Validates the header, both table CRCs, and that every node's and tile's blob lies inside the
+  /// blob area. Errors are CorruptData naming `context` and the offset.
+  static Result<FaceView> open(std::span<const std::byte> file, std::string context);
+
+  const FaceHeader& header() const noexcept { return header_; }
+  const std::string& context() const noexcept { return context_; }
+  std::uint64_t nodesPerTree() const noexcept { return header_.nodeCount / 2; }
+  /// Node `heapIndex` of tree `tree` (0 or 1).
+  NodeRecord node(std::uint32_t tree, std::uint64_t heapIndex) const noexcept;
+  NodeRecord nodeAt(std::uint64_t tableIndex) const noexcept;
+  /// The patch blob of a node (empty when the node has none).
+  std::span<const std::byte> patchBlob(const NodeRecord& node) const noexcept;
+  TextureRecord textureNode(std::uint64_t heapIndex) const noexcept;
+  std::span<const std::byte> textureBlob(const TextureRecord& record) const noexcept;
+  /// Byte offset of a table entry in the file (for error messages and prefetch).
+  std::uint64_t nodeRecordOffset(std::uint64_t tableIndex) const noexcept {
+    return header_.nodeTableOffset + tableIndex * kNodeRecordBytes;
+  }
+
+ private:
+  FaceHeader header_;
+  std::span<const std::byte> file_;
+  std::string context_;
+};
+
+/// Heap index of texture quadtree node (level, qi, qj): (4^level − 1)/3 + qj·2^level + qi.
+inline std::uint64_t textureHeapIndex(std::uint32_t level, std::uint32_t qi,
+                                      std::uint32_t qj) noexcept {
+  return ((std::uint64_t{1} << (2 * level)) - 1) / 3 + (static_cast<std::uint64_t>(qj) << level) +
+         qi;
+}
+
+}  // namespace pbdam

@@ -1,0 +1,61 @@
+// manifest.json of a dataset directory (formats/FORMAT.md): what the six face files are, how they
+// were built, and their sizes and checksums. Written last by the builder, so a directory without
+// a valid manifest is never taken for a complete dataset. Thread-safety: plain values.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+#include "pbdam/formats/Result.h"
+
+namespace pbdam {
+
+inline constexpr std::string_view kManifestFileName = "manifest.json";
+inline constexpr std::string_view kManifestFormatName = "pbdam-dataset";
+
+/// One face file as the manifest records it.
+struct ManifestFace final {
+  std::string file;  ///< name inside the dataset directory, e.g. "face0.pbdam"
+  std::uint64_t bytes = 0;
+  std::uint32_t crc32 = 0;  ///< CRC-32 of the whole file
+};
+
+struct Manifest final {
+  std::uint32_t version = 0;
+  std::string planetSpec;  ///< Planet::fromSpec form, e.g. "mars", "earth"
+  double equatorialRadiusMeters = 0.0;
+  double flattening = 0.0;
+  std::string cubeMap = "tangent";  ///< the cube-map kind (runtime/CubeMap.h)
+  std::uint32_t latticeCells = 0;
+  std::uint32_t leafCells = 0;
+  std::uint32_t depth = 0;
+  std::uint32_t patchVertices = 0;
+  double heightStepMeters = 0.0;
+  std::uint32_t textureLevels = 0;
+  std::uint32_t textureTileTexels = 0;
+  std::uint32_t textureBorderTexels = 0;
+  std::string textureFormat;  ///< "rgba8" or "bc1"
+  std::string textureSource;  ///< "shaded-relief" or "image:<file name>"
+  std::string sourceDem;      ///< file name of the DEM (no directories: builds elsewhere
+                              ///< give the same bytes)
+  std::string sourceFormat;   ///< GDAL driver of the DEM
+  std::uint64_t sourceSamples = 0;
+  double minHeightMeters = 0.0;  ///< over the lattice
+  double maxHeightMeters = 0.0;
+  std::array<ManifestFace, 6> faces;
+};
+
+/// The manifest as pretty-printed JSON (stable key order: byte-identical for equal manifests).
+std::string manifestToJson(const Manifest& manifest);
+
+/// Parses and checks a manifest: format name, version, six faces, positive sizes. `context`
+/// names the file in errors.
+Result<Manifest> parseManifest(std::string_view json, std::string_view context);
+
+/// Reads DIR/manifest.json; NotFound when the directory has none (an incomplete dataset).
+Result<Manifest> readManifest(const std::filesystem::path& datasetDir);
+
+}  // namespace pbdam

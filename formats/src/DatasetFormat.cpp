@@ -1,0 +1,255 @@
+// Face-file header, node and texture records (DatasetFormat.h, FORMAT.md).
+#include "pbdam/formats/DatasetFormat.h"
+
+#include <bit>
+#include <cstring>
+
+#include "pbdam/formats/Checksum.h"
+
+namespace pbdam {
+namespace {
+
+static_assert(std::endian::native == std::endian::little,
+              "the dataset format is little-endian; a big-endian port must swap here");
+
+constexpr std::array<char, 8> kMagic = {'P', 'B', 'D', 'A', 'M', 'F', 'C', '1'};
+
+class Writer {
+ public:
+  explicit Writer(std::span<std::byte> out) : out_(out) {}
+  template <typename T>
+  void put(const T& value) noexcept {
+    std::memcpy(out_.data() + at_, &value, sizeof(T));
+    at_ += sizeof(T);
+  }
+  std::size_t at() const noexcept { return at_; }
+
+ private:
+  std::span<std::byte> out_;
+  std::size_t at_ = 0;
+};
+
+class Reader {
+ public:
+  explicit Reader(std::span<const std::byte> in) : in_(in) {}
+  template <typename T>
+  T get() noexcept {
+    T value{};
+    std::memcpy(&value, in_.data() + at_, sizeof(T));
+    at_ += sizeof(T);
+    return value;
+  }
+
+ private:
+  std::span<const std::byte> in_;
+  std::size_t at_ = 0;
+};
+
+Error corrupt(std::string_view context, std::uint64_t offset, const std::string& what) {
+  return makeError(ErrorCode::CorruptData,
+                   std::string(context) + " offset " + std::to_string(offset) + ": " + what);
+}
+
+}  // namespace
+
+void encodeFaceHeader(const FaceHeader& h, std::span<std::byte, kFaceHeaderBytes> out) noexcept {
+  std::memset(out.data(), 0, out.size());
+  Writer w(out);
+  for (char c : kMagic) w.put(c);
+  w.put(h.version);
+  w.put(h.face);
+  w.put(h.latticeCells);
+  w.put(h.leafCells);
+  w.put(h.depth);
+  w.put(h.textureLevels);
+  w.put(h.textureTileTexels);
+  w.put(h.textureBorderTexels);
+  w.put(h.nodeCount);
+  w.put(h.nodeTableOffset);
+  w.put(h.textureNodeCount);
+  w.put(h.textureTableOffset);
+  w.put(h.blobsOffset);
+  w.put(h.fileBytes);
+  w.put(h.nodeTableCrc);
+  w.put(h.textureTableCrc);
+  // The CRC of the first 124 bytes sits in the last 4.
+  const std::uint32_t crc = crc32(std::span<const std::byte>(out.data(), kFaceHeaderBytes - 4));
+  std::memcpy(out.data() + kFaceHeaderBytes - 4, &crc, 4);
+}
+
+Result<FaceHeader> decodeFaceHeader(std::span<const std::byte> bytes, std::string_view context) {
+  if (bytes.size() < kFaceHeaderBytes) {
+    return corrupt(context, 0,
+                   "file of " + std::to_string(bytes.size()) + " bytes is shorter than the " +
+                       std::to_string(kFaceHeaderBytes) + "-byte header");
+  }
+  if (std::memcmp(bytes.data(), kMagic.data(), kMagic.size()) != 0) {
+    return corrupt(context, 0, "not a pbdam face file (bad magic)");
+  }
+  std::uint32_t storedCrc = 0;
+  std::memcpy(&storedCrc, bytes.data() + kFaceHeaderBytes - 4, 4);
+  if (crc32(bytes.first(kFaceHeaderBytes - 4)) != storedCrc) {
+    return corrupt(context, 0, "header checksum mismatch");
+  }
+  Reader r(bytes.subspan(kMagic.size()));
+  FaceHeader h;
+  h.version = r.get<std::uint32_t>();
+  h.face = r.get<std::uint32_t>();
+  h.latticeCells = r.get<std::uint32_t>();
+  h.leafCells = r.get<std::uint32_t>();
+  h.depth = r.get<std::uint32_t>();
+  h.textureLevels = r.get<std::uint32_t>();
+  h.textureTileTexels = r.get<std::uint32_t>();
+  h.textureBorderTexels = r.get<std::uint32_t>();
+  h.nodeCount = r.get<std::uint64_t>();
+  h.nodeTableOffset = r.get<std::uint64_t>();
+  h.textureNodeCount = r.get<std::uint64_t>();
+  h.textureTableOffset = r.get<std::uint64_t>();
+  h.blobsOffset = r.get<std::uint64_t>();
+  h.fileBytes = r.get<std::uint64_t>();
+  h.nodeTableCrc = r.get<std::uint32_t>();
+  h.textureTableCrc = r.get<std::uint32_t>();
+  if (h.version != kDatasetFormatVersion) {
+    return corrupt(context, 8,
+                   "format version " + std::to_string(h.version) + " (this pbdam reads version " +
+                       std::to_string(kDatasetFormatVersion) + ")");
+  }
+  if (h.face > 5) return corrupt(context, 12, "face index " + std::to_string(h.face));
+  if (h.depth > kMaxBintreeDepth || h.textureLevels > kMaxTextureLevels) {
+    return corrupt(context, 24, "bintree depth or texture levels out of range");
+  }
+  if (h.latticeCells == 0 || !std::has_single_bit(h.latticeCells) || h.leafCells == 0 ||
+      !std::has_single_bit(h.leafCells) || h.leafCells > h.latticeCells) {
+    return corrupt(context, 16, "lattice or leaf size is not a power of two");
+  }
+  const std::uint64_t expectedNodes = 2 * ((std::uint64_t{1} << (h.depth + 1)) - 1);
+  const std::uint64_t expectedTextures = ((std::uint64_t{1} << (2 * h.textureLevels)) - 1) / 3;
+  if (h.nodeCount != expectedNodes || h.textureNodeCount != expectedTextures) {
+    return corrupt(context, 40, "node counts do not match the depth and texture levels");
+  }
+  if (h.fileBytes != bytes.size()) {
+    return corrupt(context, 80,
+                   "header says " + std::to_string(h.fileBytes) + " bytes, the file has " +
+                       std::to_string(bytes.size()) + " (truncated or padded)");
+  }
+  const std::uint64_t nodeEnd = h.nodeTableOffset + h.nodeCount * kNodeRecordBytes;
+  const std::uint64_t textureEnd = h.textureTableOffset + h.textureNodeCount * kTextureRecordBytes;
+  if (h.nodeTableOffset < kFaceHeaderBytes || nodeEnd > h.textureTableOffset ||
+      textureEnd > h.blobsOffset || h.blobsOffset > h.fileBytes) {
+    return corrupt(context, 48, "tables overlap or lie outside the file");
+  }
+  return h;
+}
+
+void encodeNodeRecord(const NodeRecord& n, std::span<std::byte, kNodeRecordBytes> out) noexcept {
+  std::memset(out.data(), 0, out.size());
+  Writer w(out);
+  for (double v : n.cornerPositions) w.put(v);
+  for (float v : n.cornerNormals) w.put(v);
+  for (double v : n.sphereCenter) w.put(v);
+  w.put(n.sphereRadiusMeters);
+  w.put(n.errorMeters);
+  w.put(n.measuredErrorMeters);
+  w.put(n.minHeightMeters);
+  w.put(n.maxHeightMeters);
+  w.put(n.blobOffset);
+  w.put(n.blobBytes);
+  w.put(n.vertexCount);
+  w.put(n.triangleCount);
+}
+
+NodeRecord decodeNodeRecord(std::span<const std::byte, kNodeRecordBytes> bytes) noexcept {
+  Reader r(bytes);
+  NodeRecord n;
+  for (double& v : n.cornerPositions) v = r.get<double>();
+  for (float& v : n.cornerNormals) v = r.get<float>();
+  for (double& v : n.sphereCenter) v = r.get<double>();
+  n.sphereRadiusMeters = r.get<float>();
+  n.errorMeters = r.get<float>();
+  n.measuredErrorMeters = r.get<float>();
+  n.minHeightMeters = r.get<float>();
+  n.maxHeightMeters = r.get<float>();
+  n.blobOffset = r.get<std::uint64_t>();
+  n.blobBytes = r.get<std::uint32_t>();
+  n.vertexCount = r.get<std::uint32_t>();
+  n.triangleCount = r.get<std::uint32_t>();
+  return n;
+}
+
+void encodeTextureRecord(const TextureRecord& t,
+                         std::span<std::byte, kTextureRecordBytes> out) noexcept {
+  std::memset(out.data(), 0, out.size());
+  Writer w(out);
+  w.put(t.blobOffset);
+  w.put(t.blobBytes);
+  w.put(t.errorMeters);
+}
+
+TextureRecord decodeTextureRecord(std::span<const std::byte, kTextureRecordBytes> bytes) noexcept {
+  Reader r(bytes);
+  TextureRecord t;
+  t.blobOffset = r.get<std::uint64_t>();
+  t.blobBytes = r.get<std::uint32_t>();
+  t.errorMeters = r.get<float>();
+  return t;
+}
+
+Result<FaceView> FaceView::open(std::span<const std::byte> file, std::string context) {
+  auto header = decodeFaceHeader(file, context);
+  if (!header) return std::move(header).error();
+  FaceView view;
+  view.header_ = *header;
+  view.file_ = file;
+  view.context_ = std::move(context);
+  const FaceHeader& h = view.header_;
+  const auto nodeTable = file.subspan(h.nodeTableOffset, h.nodeCount * kNodeRecordBytes);
+  if (crc32(nodeTable) != h.nodeTableCrc) {
+    return corrupt(view.context_, h.nodeTableOffset, "node table checksum mismatch");
+  }
+  const auto textureTable =
+      file.subspan(h.textureTableOffset, h.textureNodeCount * kTextureRecordBytes);
+  if (crc32(textureTable) != h.textureTableCrc) {
+    return corrupt(view.context_, h.textureTableOffset, "texture table checksum mismatch");
+  }
+  for (std::uint64_t k = 0; k < h.nodeCount; ++k) {
+    const NodeRecord n = view.nodeAt(k);
+    if (n.blobBytes != 0 && (n.blobOffset < h.blobsOffset || n.blobOffset > h.fileBytes ||
+                             n.blobBytes > h.fileBytes - n.blobOffset)) {
+      return corrupt(view.context_, view.nodeRecordOffset(k),
+                     "node " + std::to_string(k) + " points outside the blob area");
+    }
+  }
+  for (std::uint64_t k = 0; k < h.textureNodeCount; ++k) {
+    const TextureRecord t = view.textureNode(k);
+    if (t.blobBytes != 0 && (t.blobOffset < h.blobsOffset || t.blobOffset > h.fileBytes ||
+                             t.blobBytes > h.fileBytes - t.blobOffset)) {
+      return corrupt(view.context_, h.textureTableOffset + k * kTextureRecordBytes,
+                     "texture node " + std::to_string(k) + " points outside the blob area");
+    }
+  }
+  return view;
+}
+
+NodeRecord FaceView::nodeAt(std::uint64_t tableIndex) const noexcept {
+  return decodeNodeRecord(file_.subspan(nodeRecordOffset(tableIndex)).first<kNodeRecordBytes>());
+}
+
+NodeRecord FaceView::node(std::uint32_t tree, std::uint64_t heapIndex) const noexcept {
+  return nodeAt(tree * nodesPerTree() + heapIndex);
+}
+
+std::span<const std::byte> FaceView::patchBlob(const NodeRecord& n) const noexcept {
+  return file_.subspan(n.blobOffset, n.blobBytes);
+}
+
+TextureRecord FaceView::textureNode(std::uint64_t heapIndex) const noexcept {
+  return decodeTextureRecord(
+      file_.subspan(header_.textureTableOffset + heapIndex * kTextureRecordBytes)
+          .first<kTextureRecordBytes>());
+}
+
+std::span<const std::byte> FaceView::textureBlob(const TextureRecord& t) const noexcept {
+  return file_.subspan(t.blobOffset, t.blobBytes);
+}
+
+}  // namespace pbdam

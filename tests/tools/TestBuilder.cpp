@@ -1,0 +1,271 @@
+// pbdam build on real data (MOLA 4 px/deg, ETOPO5) checked by verify against the source DEM,
+// determinism across thread counts, atomicity, rejection of bad options, and detection of a
+// corrupted byte in every section of a face file (paper 004 §3–5; docs/builder.md).
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "TestData.h"
+#include "pbdam/builder/Builder.h"
+#include "pbdam/builder/Lattice.h"
+#include "pbdam/builder/Verify.h"
+#include "pbdam/formats/DatasetFormat.h"
+#include "pbdam/formats/Manifest.h"
+#include "pbdam/formats/PatchCodec.h"
+#include "pbdam/formats/TextureTile.h"
+
+namespace pbdam::builder {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string readFile(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+void writeFile(const fs::path& p, const std::string& bytes) {
+  std::ofstream(p, std::ios::binary)
+      .write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+/// A small MOLA build: 17-vertex leaves, depth 6 (lattice 128), RGBA8 64-texel tiles.
+BuildOptions smallMola(const fs::path& dem, const fs::path& out) {
+  BuildOptions o;
+  o.demPath = dem;
+  o.planetSpec = "mars";
+  o.outDir = out;
+  o.leafVertices = 17;
+  o.patchVertices = 128;
+  o.depth = 6;
+  o.textureTileTexels = 64;
+  o.textureFormat = TexelFormat::Rgba8;
+  o.threads = 2;
+  return o;
+}
+
+VerifyReport verify(const fs::path& dir, const fs::path& dem = {}) {
+  VerifyOptions v;
+  v.datasetDir = dir;
+  v.demPath = dem;
+  auto r = verifyDataset(v);
+  EXPECT_TRUE(r) << (r ? "" : r.error().message);
+  return r ? *r : VerifyReport{};
+}
+
+std::string describe(const VerifyReport& r) {
+  std::string s = std::to_string(r.violationCount) + " violations";
+  for (const auto& v : r.violations) s += "\n  " + v;
+  return s;
+}
+
+TEST(Builder, MolaBuildPassesVerifyAgainstTheDem) {
+  PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
+  test::TempDir dir;
+  auto summary = buildDataset(smallMola(dem, dir / "mola"));
+  ASSERT_TRUE(summary) << summary.error().message;
+  EXPECT_EQ(summary->latticeCells, 128u);
+  EXPECT_EQ(summary->depth, 6u);
+  EXPECT_EQ(summary->patches, 12u * 127u);
+  EXPECT_EQ(summary->leafTriangles, 12u * 64u * 256u);
+  EXPECT_EQ(summary->halvesKeptUnsimplified, 0u);
+  EXPECT_LT(summary->patchBytesCompressed, summary->patchBytesRaw / 2);  // ≤ 50% compressed
+  // Interior patches are simplified towards --patch-vertices: far fewer triangles than leaves.
+  EXPECT_LT(summary->totalTriangles, 3 * summary->leafTriangles);
+
+  const VerifyReport r = verify(dir / "mola", dem);
+  EXPECT_TRUE(r.ok()) << describe(r);
+  EXPECT_EQ(r.patchesDecoded, 12u * 127u);
+  EXPECT_GT(r.edgesCompared, 1000u);
+  EXPECT_GT(r.demSamplesChecked, 1000000u);  // every level covers all 1,036,800 samples
+  EXPECT_LE(r.worstErrorRatio, 1.0);
+
+  auto manifest = readManifest(dir / "mola");
+  ASSERT_TRUE(manifest) << manifest.error().message;
+  EXPECT_EQ(manifest->planetSpec, "mars");
+  EXPECT_NEAR(manifest->maxHeightMeters, 21000.0, 500.0);  // Olympus Mons, resampled
+  EXPECT_NEAR(manifest->minHeightMeters, -8000.0, 500.0);  // Hellas
+}
+
+TEST(Builder, Etopo5BuildPassesVerifyAgainstTheDem) {
+  PBDAM_REQUIRE_DATA(dem, PBDAM_ETOPO5_PATH);
+  test::TempDir dir;
+  BuildOptions o = smallMola(dem, dir / "earth");
+  o.planetSpec = "earth";
+  o.textureFormat = TexelFormat::Bc1;
+  auto summary = buildDataset(o);
+  ASSERT_TRUE(summary) << summary.error().message;
+  const VerifyReport r = verify(dir / "earth", dem);
+  EXPECT_TRUE(r.ok()) << describe(r);
+  EXPECT_GT(r.demSamplesChecked, 9000000u);
+}
+
+TEST(Builder, SameInputsGiveIdenticalBytesForAnyThreadCount) {
+  PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
+  test::TempDir dir;
+  BuildOptions a = smallMola(dem, dir / "a");
+  a.depth = 4;
+  a.threads = 1;
+  BuildOptions b = a;
+  b.outDir = dir / "b";
+  b.threads = 2;
+  ASSERT_TRUE(buildDataset(a));
+  ASSERT_TRUE(buildDataset(b));
+  for (const auto& entry : fs::directory_iterator(dir / "a")) {
+    const auto name = entry.path().filename();
+    EXPECT_EQ(readFile(dir / "a" / name), readFile(dir / "b" / name)) << name;
+  }
+  // Rebuilding over the same directory needs --force and reproduces the same bytes.
+  const std::string before = readFile(dir / "a" / "face3.pbdam");
+  auto again = buildDataset(a);
+  ASSERT_FALSE(again);
+  EXPECT_NE(again.error().message.find("--force"), std::string::npos);
+  a.force = true;
+  ASSERT_TRUE(buildDataset(a));
+  EXPECT_EQ(readFile(dir / "a" / "face3.pbdam"), before);
+}
+
+TEST(Builder, ADirectoryWithoutManifestIsNotADataset) {
+  PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
+  test::TempDir dir;
+  BuildOptions o = smallMola(dem, dir / "d");
+  o.depth = 2;
+  ASSERT_TRUE(buildDataset(o));
+  // A build killed before its last step leaves face files but no manifest.
+  fs::remove(dir / "d" / "manifest.json");
+  VerifyOptions v;
+  v.datasetDir = dir / "d";
+  auto r = verifyDataset(v);
+  ASSERT_FALSE(r);
+  EXPECT_EQ(r.error().code, ErrorCode::NotFound);
+  EXPECT_FALSE(readManifest(dir / "d"));
+}
+
+TEST(Builder, RejectsBadOptions) {
+  PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
+  test::TempDir dir;
+  auto expectRejected = [&](BuildOptions o, const std::string& mention) {
+    auto r = buildDataset(o);
+    ASSERT_FALSE(r) << mention;
+    EXPECT_NE(r.error().message.find(mention), std::string::npos) << r.error().message;
+  };
+  BuildOptions o = smallMola(dem, dir / "x");
+  o.leafVertices = 20;
+  expectRejected(o, "--leaf-vertices");
+  o = smallMola(dem, dir / "x");
+  o.depth = 5;
+  expectRejected(o, "--levels");
+  o = smallMola(dem, dir / "x");
+  o.textureTileTexels = 30;
+  expectRejected(o, "--texture-tile");
+  o = smallMola(dem, dir / "x");
+  o.planetSpec = "pluto";
+  expectRejected(o, "pluto");
+  o = smallMola(dem, dir / "x");
+  o.planetSpec = "earth";  // MOLA's CRS is on Mars
+  expectRejected(o, "mars");
+  o = smallMola(dir / "missing.lbl", dir / "x");
+  expectRejected(o, "missing.lbl");
+  EXPECT_FALSE(fs::exists(dir / "x" / "manifest.json"));
+}
+
+class CorruptionTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    const fs::path dem = test::dataDir() / "mars/megt90n000cb.lbl";
+    if (!test::missingFileMessage(dem).empty()) return;
+    dir_ = new test::TempDir();
+    BuildOptions o = smallMola(dem, dir_->path() / "ds");
+    o.depth = 2;
+    ASSERT_TRUE(buildDataset(o));
+  }
+  static void TearDownTestSuite() {
+    delete dir_;
+    dir_ = nullptr;
+  }
+  static test::TempDir* dir_;
+};
+test::TempDir* CorruptionTest::dir_ = nullptr;
+
+TEST_F(CorruptionTest, AByteFlippedInAnySectionIsCaughtByVerifyAndByDecode) {
+  PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
+  ASSERT_NE(dir_, nullptr);
+  const fs::path face = dir_->path() / "ds" / "face2.pbdam";
+  const std::string original = readFile(face);
+  auto span = [](const std::string& s) {
+    return std::as_bytes(std::span<const char>(s.data(), s.size()));
+  };
+  auto view = FaceView::open(span(original), "face2");
+  ASSERT_TRUE(view);
+  const FaceHeader h = view->header();
+  const NodeRecord node = view->node(1, 2);
+  const TextureRecord tile = view->textureNode(0);
+  const std::vector<std::pair<std::string, std::uint64_t>> sections = {
+      {"header", 20},
+      {"node table", h.nodeTableOffset + 5 * kNodeRecordBytes + 17},
+      {"texture table", h.textureTableOffset + 3},
+      {"patch blob", node.blobOffset + node.blobBytes / 2},
+      {"texture tile", tile.blobOffset + tile.blobBytes / 3},
+  };
+  for (const auto& [section, offset] : sections) {
+    std::string damaged = original;
+    damaged[offset] = static_cast<char>(damaged[offset] ^ 0x20);
+    writeFile(face, damaged);
+    const VerifyReport r = verify(dir_->path() / "ds");
+    EXPECT_FALSE(r.ok()) << section;
+    // Decoding the damaged section fails too.
+    auto damagedView = FaceView::open(span(damaged), "face2");
+    if (section == "header" || section == "node table" || section == "texture table") {
+      EXPECT_FALSE(damagedView) << section;
+    } else if (section == "patch blob") {
+      ASSERT_TRUE(damagedView);
+      PatchMesh mesh;
+      EXPECT_FALSE(decodePatch(damagedView->patchBlob(damagedView->node(1, 2)), mesh, "x"));
+    } else {
+      ASSERT_TRUE(damagedView);
+      EXPECT_FALSE(decodeTextureTile(damagedView->textureBlob(damagedView->textureNode(0)), "x"));
+    }
+  }
+  writeFile(face, original);
+  EXPECT_TRUE(verify(dir_->path() / "ds").ok());
+  // The manifest carries its own checksum.
+  const fs::path manifestPath = dir_->path() / "ds" / "manifest.json";
+  const std::string manifest = readFile(manifestPath);
+  std::string edited = manifest;
+  const auto at = edited.find("\"patch_vertices\": 128");
+  ASSERT_NE(at, std::string::npos);
+  edited.replace(at, 21, "\"patch_vertices\": 129");
+  writeFile(manifestPath, edited);
+  EXPECT_FALSE(verify(dir_->path() / "ds").ok());
+  writeFile(manifestPath, manifest);
+  // A truncated face file.
+  writeFile(face, original.substr(0, original.size() - 100));
+  EXPECT_FALSE(verify(dir_->path() / "ds").ok());
+  writeFile(face, original);
+}
+
+TEST(Lattice, DiamondsPairEveryHypotenuseAcrossFaces) {
+  const Lattice lattice(64);
+  for (int level = 0; level <= 6; ++level) {
+    const auto diamonds = diamondsOfLevel(lattice, 6, level);
+    EXPECT_EQ(diamonds.size(), 6u << level) << level;
+    int crossFace = 0;
+    for (const Diamond& d : diamonds) {
+      const BinTriangle a = triangleOfNode(lattice, d[0], 6);
+      const BinTriangle b = triangleOfNode(lattice, d[1], 6);
+      EXPECT_EQ(lattice.edgeKey(a.face, a.left, a.right), lattice.edgeKey(b.face, b.left, b.right));
+      EXPECT_EQ(a.level, level);
+      crossFace += a.face != b.face;
+    }
+    // Odd levels' hypotenuses are axis-aligned; those on face edges pair across faces.
+    if (level == 1) {
+      EXPECT_EQ(crossFace, 12);
+    }
+    if (level == 0) {
+      EXPECT_EQ(crossFace, 0);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace pbdam::builder

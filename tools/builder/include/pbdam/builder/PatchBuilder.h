@@ -1,0 +1,87 @@
+// Patch construction for P-BDAM (paper 004 §5 "Out-of-core Geometric Simplification";
+// docs/builder.md "Patches"): regular leaf patches, the simplification of one block (the four
+// children of a diamond) into the diamond's two patches with meshoptimizer, and the measurement
+// and encoding of a patch (exact barycentrics, displacement along the interpolated normal,
+// error against lattice and source samples, bounding sphere). Thread-safety: free functions on
+// their own data; SampleGrid is read-only, so blocks may be processed concurrently.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <glm/vec3.hpp>
+#include <vector>
+
+#include "pbdam/builder/Lattice.h"
+#include "pbdam/builder/SampleGrid.h"
+#include "pbdam/formats/PatchCodec.h"
+
+namespace pbdam::builder {
+
+/// A patch while it is being built: lattice points of its face and a CCW (in (u,v)) triangle
+/// list indexing them.
+struct WorkPatch final {
+  std::vector<LatticeXY> points;
+  std::vector<std::uint32_t> indices;
+};
+
+/// The regular triangulation of a leaf triangle: its longest-edge bisection down to single
+/// lattice cells; every lattice point inside or on the triangle is a vertex.
+WorkPatch makeLeafPatch(const BinTriangle& triangle);
+
+/// What happened in one block.
+struct BlockStats final {
+  std::uint32_t diagonalBefore = 0;   ///< vertices on the block diagonal before
+  std::uint32_t diagonalAfter = 0;    ///< and after its polyline simplification
+  std::uint32_t simplifyRetries = 0;  ///< meshopt results rejected for a (u,v) flip
+  std::uint32_t halvesKeptUnsimplified = 0;
+  std::uint32_t delaunayFallbacks = 0;  ///< folded meshopt steps retriangulated (GEOS Delaunay)
+};
+
+/// The two patches of a diamond, built from its block.
+struct BlockResult final {
+  WorkPatch first;   ///< patch of `triangles[0]`
+  WorkPatch second;  ///< patch of `triangles[1]`
+  BlockStats stats;
+};
+
+/// Builds the patches of the diamond (triangles[0], triangles[1]) — two bintree triangles that
+/// share their hypotenuse, possibly on different faces — from their children's patches
+/// (children[0] are triangles[0]'s, children[1] triangles[1]'s). The block boundary stays
+/// locked; the diagonal keeps its vertices on it and is simplified first to about half; then
+/// each half is simplified with meshopt_simplify (locked border) to about `targetVertices`.
+BlockResult simplifyBlock(const SampleGrid& grid, const std::array<BinTriangle, 2>& triangles,
+                          const std::array<std::array<const WorkPatch*, 2>, 2>& children,
+                          std::uint32_t targetVertices);
+
+/// The corner data of a node: terrain positions (double), surface normals (float-rounded, as
+/// stored), in the order apex, left, right.
+struct NodeCorners final {
+  std::array<glm::dvec3, 3> positions{};
+  std::array<glm::vec3, 3> normals{};
+};
+NodeCorners nodeCorners(const SampleGrid& grid, const BinTriangle& triangle);
+
+/// A measured, encodable patch.
+struct MeasuredPatch final {
+  PatchMesh mesh;                  ///< exact barycentrics and quantised displacements
+  double sampleErrorMeters = 0.0;  ///< max |patch − sample| over lattice and source samples
+  double representationErrorMeters = 0.0;  ///< max |rendered vertex − terrain point|
+  double chordErrorMeters = 0.0;           ///< e²/(8·R_min) for its longest triangle edge
+  double errorMeters = 0.0;                ///< the sum of the three
+  glm::dvec3 sphereCenter{0.0};            ///< bounding sphere of the rendered vertices
+  double sphereRadiusMeters = 0.0;
+  double minHeightMeters = 0.0;  ///< over its vertices
+  double maxHeightMeters = 0.0;
+};
+
+/// Measures `patch` of `triangle` (docs/builder.md "Errors") and converts it to the stored
+/// representation with `heightStepMeters` quantisation.
+MeasuredPatch measurePatch(const SampleGrid& grid, const BinTriangle& triangle,
+                           const WorkPatch& patch, double heightStepMeters);
+
+/// The height of the patch surface (piecewise-linear over (u,v) in the vertices' lattice
+/// heights) at every lattice point it covers is compared with the grid; this is the maximum.
+/// Exposed for verify.
+double maxLatticeDeviation(const SampleGrid& grid, int face, const WorkPatch& patch);
+
+}  // namespace pbdam::builder

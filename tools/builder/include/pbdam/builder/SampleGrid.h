@@ -1,0 +1,79 @@
+// The DEM resampled onto the cube-map lattice (paper 004 §5 "Data preparation and resampling"):
+// one height per lattice point of every face, terrain positions and normals derived from them,
+// and the source DEM's own samples bucketed by face cell so that patch errors can be measured
+// against the original data. Thread-safety: immutable after build(); const members are safe from
+// any thread.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <glm/vec3.hpp>
+#include <span>
+#include <vector>
+
+#include "pbdam/builder/Lattice.h"
+#include "pbdam/formats/HeightGrid.h"
+#include "pbdam/runtime/Planet.h"
+
+namespace pbdam::builder {
+
+/// A source DEM sample placed on a face: (u, v) on that face and its height.
+struct SourceSample final {
+  float u = 0.0f;
+  float v = 0.0f;
+  float heightMeters = 0.0f;
+};
+
+class SampleGrid final {
+ public:
+  /// Resamples `dem` (bicubic, bilinear where bicubic lacks data, 0 m where the DEM has none) at
+  /// every lattice point of every face, in parallel, and buckets the DEM's valid samples into
+  /// `bucketCells`-sized squares of each face. `progress(done, total)` is called from the calling
+  /// thread only.
+  static SampleGrid build(const HeightGrid& dem, const Planet& planet, const Lattice& lattice,
+                          std::uint32_t bucketCells,
+                          const std::function<void(std::size_t, std::size_t)>& progress = {});
+
+  const Lattice& lattice() const noexcept { return lattice_; }
+  const Planet& planet() const noexcept { return planet_; }
+
+  /// Height of lattice point p of `face` (equal on every face sharing the point).
+  float height(int face, LatticeXY p) const noexcept {
+    const auto n1 = static_cast<std::size_t>(lattice_.sideCells()) + 1;
+    return heights_[static_cast<std::size_t>(face)]
+                   [static_cast<std::size_t>(p.y) * n1 + static_cast<std::size_t>(p.x)];
+  }
+  /// The terrain point (planetocentric, metres) of lattice point p: the surface point of its
+  /// direction raised by its height along the surface normal. Bit-identical on every face.
+  glm::dvec3 terrainPoint(int face, LatticeXY p) const noexcept;
+  /// The terrain point of a direction at a given height.
+  glm::dvec3 terrainPoint(const glm::dvec3& direction, double heightMeters) const noexcept;
+  /// The planet's unit surface normal at lattice point p. Bit-identical on every face.
+  glm::dvec3 surfaceNormal(int face, LatticeXY p) const noexcept;
+
+  /// Source samples of `face` in bucket (bx, by), bx, by in [0, bucketsPerSide()).
+  std::uint32_t bucketsPerSide() const noexcept { return bucketsPerSide_; }
+  std::uint32_t bucketCells() const noexcept { return bucketCells_; }
+  std::span<const SourceSample> bucket(int face, std::uint32_t bx, std::uint32_t by) const noexcept;
+  std::size_t sourceSampleCount() const noexcept;
+
+  /// Lattice points where the DEM had no data (given height 0).
+  std::uint64_t noDataPoints() const noexcept { return noDataPoints_; }
+  float minHeightMeters() const noexcept { return minHeight_; }
+  float maxHeightMeters() const noexcept { return maxHeight_; }
+
+ private:
+  SampleGrid(const Lattice& lattice, const Planet& planet) : lattice_(lattice), planet_(planet) {}
+  Lattice lattice_;
+  Planet planet_;
+  std::vector<std::vector<float>> heights_;  // per face, (N+1)² row-major by j
+  std::uint32_t bucketCells_ = 1;
+  std::uint32_t bucketsPerSide_ = 1;
+  std::vector<std::vector<std::uint32_t>> bucketStart_;  // per face, CSR offsets
+  std::vector<std::vector<SourceSample>> samples_;       // per face, grouped by bucket
+  std::uint64_t noDataPoints_ = 0;
+  float minHeight_ = 0.0f;
+  float maxHeight_ = 0.0f;
+};
+
+}  // namespace pbdam::builder

@@ -1,0 +1,121 @@
+// Bintree triangles on the cube-map lattice (Lattice.h).
+#include "pbdam/builder/Lattice.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <bit>
+#include <cassert>
+
+namespace pbdam::builder {
+
+BinTriangle Lattice::root(int face, int tree) const noexcept {
+  const auto n = static_cast<std::int32_t>(sideCells_);
+  BinTriangle t;
+  t.face = face;
+  t.tree = tree;
+  if (tree == 0) {
+    t.apex = {n, 0};
+    t.left = {0, 0};
+    t.right = {n, n};
+  } else {
+    t.apex = {0, n};
+    t.left = {n, n};
+    t.right = {0, 0};
+  }
+  return t;
+}
+
+std::array<BinTriangle, 2> Lattice::children(const BinTriangle& t) noexcept {
+  const LatticeXY sum = t.left + t.right;
+  assert(sum.x % 2 == 0 && sum.y % 2 == 0);
+  const LatticeXY m = sum / 2;
+  BinTriangle first = t;
+  first.level = t.level + 1;
+  first.index = 2 * t.index + 1;
+  first.apex = m;
+  first.left = t.left;
+  first.right = t.apex;
+  BinTriangle second = first;
+  second.index = 2 * t.index + 2;
+  second.left = t.apex;
+  second.right = t.right;
+  return {first, second};
+}
+
+BinTriangle Lattice::triangle(int face, int tree, int level, std::uint64_t index) const noexcept {
+  BinTriangle t = root(face, tree);
+  // index + 1 in binary is 1 followed by the child choices, most significant first.
+  const std::uint64_t path = index + 1;
+  for (int bit = level - 1; bit >= 0; --bit) {
+    t = children(t)[(path >> bit) & 1U];
+  }
+  assert(t.index == index);
+  return t;
+}
+
+PointKey Lattice::key(int face, LatticeXY p) const noexcept {
+  const CubeLatticePoint point{cubeFaceFromIndex(face), static_cast<std::uint32_t>(p.x),
+                               static_cast<std::uint32_t>(p.y)};
+  const CubeLatticePoint c = CubeMap::canonicalLatticePoint(point, sideCells_);
+  return (static_cast<std::uint64_t>(cubeFaceIndex(c.face)) << 58) |
+         (static_cast<std::uint64_t>(c.i) << 29) | static_cast<std::uint64_t>(c.j);
+}
+
+CubeLatticePoint Lattice::unpack(PointKey key) noexcept {
+  constexpr std::uint64_t mask = (std::uint64_t{1} << 29) - 1;
+  return CubeLatticePoint{cubeFaceFromIndex(static_cast<int>(key >> 58)),
+                          static_cast<std::uint32_t>((key >> 29) & mask),
+                          static_cast<std::uint32_t>(key & mask)};
+}
+
+EdgeKey Lattice::edgeKey(int face, LatticeXY a, LatticeXY b) const noexcept {
+  const PointKey ka = key(face, a);
+  const PointKey kb = key(face, b);
+  return ka < kb ? EdgeKey{ka, kb} : EdgeKey{kb, ka};
+}
+
+glm::dvec2 Lattice::uv(LatticeXY p) const noexcept {
+  const double n = static_cast<double>(sideCells_);
+  return {static_cast<double>(p.x) / n, static_cast<double>(p.y) / n};
+}
+
+glm::dvec3 Lattice::direction(int face, LatticeXY p) const noexcept {
+  const CubeLatticePoint c = unpack(key(face, p));
+  const double n = static_cast<double>(sideCells_);
+  return CubeMap::faceUvToDirection(c.face,
+                                    {static_cast<double>(c.i) / n, static_cast<double>(c.j) / n});
+}
+
+std::uint64_t nodeId(const BinTriangle& t, int depth) noexcept {
+  return static_cast<std::uint64_t>(t.face * 2 + t.tree) * Lattice::nodesPerTree(depth) + t.index;
+}
+
+BinTriangle triangleOfNode(const Lattice& lattice, std::uint64_t id, int depth) noexcept {
+  const std::uint64_t perTree = Lattice::nodesPerTree(depth);
+  const auto g = static_cast<int>(id / perTree);
+  const std::uint64_t index = id % perTree;
+  const int level = static_cast<int>(std::bit_width(index + 1)) - 1;
+  return lattice.triangle(g / 2, g % 2, level, index);
+}
+
+std::vector<Diamond> diamondsOfLevel(const Lattice& lattice, int depth, int level) {
+  const std::uint64_t first = Lattice::firstIndexOfLevel(level);
+  const std::uint64_t count = std::uint64_t{1} << level;
+  std::vector<std::pair<EdgeKey, std::uint64_t>> keyed(12 * count);
+  tbb::parallel_for(std::uint64_t{0}, 12 * count, [&](std::uint64_t k) {
+    const auto g = static_cast<int>(k / count);
+    const BinTriangle t = lattice.triangle(g / 2, g % 2, level, first + k % count);
+    keyed[k] = {lattice.edgeKey(t.face, t.left, t.right), nodeId(t, depth)};
+  });
+  std::sort(keyed.begin(), keyed.end());
+  std::vector<Diamond> diamonds;
+  diamonds.reserve(keyed.size() / 2);
+  for (std::size_t k = 0; k + 1 < keyed.size(); k += 2) {
+    assert(keyed[k].first == keyed[k + 1].first);
+    diamonds.push_back({keyed[k].second, keyed[k + 1].second});
+  }
+  return diamonds;
+}
+
+}  // namespace pbdam::builder

@@ -1,0 +1,144 @@
+// `pbdam build`: a DEM (+ imagery) into a P-BDAM dataset (tools/builder/Builder.h).
+#include <cstdio>
+#include <iostream>
+#include <memory>
+
+#include "Commands.h"
+#include "Progress.h"
+#include "pbdam/builder/Builder.h"
+
+namespace pbdam::tools {
+namespace {
+
+struct BuildCliOptions {
+  std::string dem;
+  std::string texture;
+  std::string planet;
+  std::string out;
+  std::uint32_t leafVertices = 33;
+  std::uint32_t patchVertices = 512;
+  std::uint32_t textureTile = 256;
+  std::string levels = "auto";
+  std::string textureFormat = "bc1";
+  std::string textureQuality = "fast";
+  int threads = 0;
+  bool force = false;
+  bool quiet = false;
+  std::string rawSize;
+  std::string rawType;
+  std::string bounds;
+};
+
+int runBuild(const BuildCliOptions& c) {
+  builder::BuildOptions o;
+  o.demPath = c.dem;
+  o.texturePath = c.texture;
+  o.planetSpec = c.planet;
+  o.outDir = c.out;
+  o.leafVertices = c.leafVertices;
+  o.patchVertices = c.patchVertices;
+  o.textureTileTexels = c.textureTile;
+  o.threads = c.threads;
+  o.force = c.force;
+  if (c.levels != "auto") {
+    try {
+      std::size_t used = 0;
+      const int depth = std::stoi(c.levels, &used);
+      if (used != c.levels.size() || depth < 0) throw std::invalid_argument("levels");
+      o.depth = static_cast<std::uint32_t>(depth);
+    } catch (const std::exception&) {
+      std::cerr << "pbdam: --levels '" << c.levels << "': expected 'auto' or an even depth\n";
+      return kExitBadInput;
+    }
+  }
+  if (c.textureFormat == "bc1") {
+    o.textureFormat = TexelFormat::Bc1;
+  } else if (c.textureFormat == "rgba8") {
+    o.textureFormat = TexelFormat::Rgba8;
+  } else {
+    std::cerr << "pbdam: --texture-format '" << c.textureFormat << "': expected bc1 or rgba8\n";
+    return kExitBadInput;
+  }
+  o.bc1Quality = c.textureQuality == "high" ? Bc1Quality::High : Bc1Quality::Fast;
+  if (!c.rawSize.empty() || !c.rawType.empty() || !c.bounds.empty()) {
+    auto layout = parseRawType(c.rawType);
+    if (!layout) return reportError(layout.error());
+    if (auto r = parseRawSize(c.rawSize, *layout); !r) return reportError(r.error());
+    if (auto r = parseRawBounds(c.bounds, *layout); !r) return reportError(r.error());
+    o.rawLayout = *layout;
+  }
+  Progress progress(c.quiet);
+  o.progress = [&](std::string_view stage, double f) { progress.update(stage, f); };
+  auto summary = builder::buildDataset(o);
+  progress.finish();
+  if (!summary) return reportError(summary.error());
+  const auto& s = *summary;
+  std::printf("built %s in %.1f s\n", c.out.c_str(), s.seconds);
+  std::printf("  lattice     %u cells per face side, bintree depth %u, %u texture levels\n",
+              s.latticeCells, s.depth, s.textureLevels);
+  std::printf("  input       %llu source samples -> %llu lattice samples (%.2f M samples/s)\n",
+              static_cast<unsigned long long>(s.sourceSamples),
+              static_cast<unsigned long long>(s.latticeSamples),
+              static_cast<double>(s.latticeSamples) / s.seconds / 1e6);
+  std::printf("  patches     %llu (%llu triangles, %llu at full resolution)\n",
+              static_cast<unsigned long long>(s.patches),
+              static_cast<unsigned long long>(s.totalTriangles),
+              static_cast<unsigned long long>(s.leafTriangles));
+  std::printf("  errors      leaves <= %.2f m, roots %.1f m\n", s.leafMaxErrorMeters,
+              s.rootErrorMeters);
+  std::printf(
+      "  geometry    %.1f MB compressed from %.1f MB (ratio %.2f)\n",
+      static_cast<double>(s.patchBytesCompressed) / 1e6, static_cast<double>(s.patchBytesRaw) / 1e6,
+      s.patchBytesRaw > 0
+          ? static_cast<double>(s.patchBytesCompressed) / static_cast<double>(s.patchBytesRaw)
+          : 0.0);
+  std::printf("  textures    %llu tiles\n", static_cast<unsigned long long>(s.textureTiles));
+  std::printf("  dataset     %.1f MB on disk\n", static_cast<double>(s.datasetBytes) / 1e6);
+  if (s.noDataPoints > 0) {
+    std::printf("  note        %llu lattice points had no DEM data (height 0)\n",
+                static_cast<unsigned long long>(s.noDataPoints));
+  }
+  if (s.halvesKeptUnsimplified > 0) {
+    std::printf(
+        "  note        %llu block halves kept unsimplified (every simplification flipped)\n",
+        static_cast<unsigned long long>(s.halvesKeptUnsimplified));
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+void addBuildCommand(CLI::App& app, CommandStatus& status) {
+  auto c = std::make_shared<BuildCliOptions>();
+  CLI::App* cmd = app.add_subcommand("build", "Build a P-BDAM dataset from a DEM (+ imagery)");
+  cmd->add_option("--dem", c->dem, "Elevation file (anything `pbdam dem info` reads)")->required();
+  cmd->add_option("--texture", c->texture,
+                  "Equirectangular image for the texture (default: shaded relief)");
+  cmd->add_option("--planet", c->planet,
+                  "mars | mars-iau2000 | earth | moon | sphere:R | ellipsoid:A,F")
+      ->required();
+  cmd->add_option("--out", c->out, "Dataset directory to write")->required();
+  cmd->add_option("--leaf-vertices", c->leafVertices, "Vertices along a leaf patch leg (2^k+1)")
+      ->capture_default_str();
+  cmd->add_option("--patch-vertices", c->patchVertices, "Target vertices of interior patches")
+      ->capture_default_str();
+  cmd->add_option("--texture-tile", c->textureTile, "Texture tile side in texels (border incl.)")
+      ->capture_default_str();
+  cmd->add_option("--texture-format", c->textureFormat, "bc1 or rgba8")->capture_default_str();
+  cmd->add_option("--texture-quality", c->textureQuality, "BC1 fit: fast or high")
+      ->check(CLI::IsMember({"fast", "high"}))
+      ->capture_default_str();
+  cmd->add_option("--levels", c->levels, "Bintree depth (even) or 'auto' from the DEM density")
+      ->capture_default_str();
+  cmd->add_option("--threads", c->threads, "Worker threads (0: all cores)")
+      ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
+  cmd->add_flag("--force", c->force, "Replace an existing dataset in --out");
+  cmd->add_flag("--quiet", c->quiet, "No progress output");
+  cmd->add_option("--raw-size", c->rawSize, "Raw DEM size W,H");
+  cmd->add_option("--raw-type", c->rawType, "Raw DEM sample type (int16be, float32le, ...)");
+  cmd->add_option("--bounds", c->bounds, "Raw DEM area bounds S,W,N,E (degrees)");
+  cmd->callback([c, &status] { status.exitCode = runBuild(*c); });
+}
+
+}  // namespace pbdam::tools
