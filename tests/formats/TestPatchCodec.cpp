@@ -137,10 +137,12 @@ void expectRoundTrip(const PatchMesh& mesh) {
 std::vector<std::byte> handMadeBlob(std::uint32_t vertices, std::uint32_t triangles,
                                     std::uint32_t wideCodes, const std::vector<std::uint8_t>& raw,
                                     std::uint32_t declaredRawBytes = 0) {
-  std::vector<std::uint8_t> lzo;
-  lzo.push_back(static_cast<std::uint8_t>(17 + raw.size()));
-  lzo.insert(lzo.end(), raw.begin(), raw.end());
-  lzo.insert(lzo.end(), {0x11, 0x00, 0x00});
+  // Sized up front: GCC 12 at -O2 with sanitizers reports a false -Warray-bounds for
+  // push_back followed by insert into a one-element vector.
+  std::vector<std::uint8_t> lzo(1 + raw.size() + 3);
+  lzo[0] = static_cast<std::uint8_t>(17 + raw.size());
+  std::copy(raw.begin(), raw.end(), lzo.begin() + 1);
+  lzo[1 + raw.size()] = 0x11;
   std::vector<std::uint8_t> bytes = {'P', 'B', 'P', 'T', 1, 0, 0, 0};
   auto put32 = [&](std::uint32_t v) {
     for (int i = 0; i < 4; ++i) bytes.push_back(static_cast<std::uint8_t>(v >> (8 * i)));

@@ -278,7 +278,8 @@ Result<BuildSummary> buildDataset(const BuildOptions& o) {
   arena.execute([&] {
     // ---- Resample.
     SampleGrid grid = SampleGrid::build(
-        *dem, *planet, lattice, leafCells, [&](std::size_t done, std::size_t total) {
+        *dem, *planet, lattice, SampleGrid::defaultBucketCells(lattice),
+        [&](std::size_t done, std::size_t total) {
           report("resample", static_cast<double>(done) / static_cast<double>(total));
         });
     summary.sourceSamples = grid.sourceSampleCount();

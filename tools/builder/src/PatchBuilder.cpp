@@ -231,20 +231,28 @@ void simplifyDiagonal(const SampleGrid& grid, Half& a, Half& b, BlockStats& stat
 /// (a, w, b) with w between a and b, and (a, b, x) become (a, w, x) and (w, b, x), which cover
 /// the neighbour's area exactly.
 void repairDegenerate(const std::vector<LatticeXY>& points, std::vector<std::uint32_t>& idx) {
+  auto edgeKey = [](std::uint32_t i, std::uint32_t j) {
+    if (i > j) std::swap(i, j);
+    return (static_cast<std::uint64_t>(i) << 32) | j;
+  };
+  std::vector<std::pair<std::uint64_t, std::size_t>> byEdge;
   for (int pass = 0; pass < 8; ++pass) {
+    bool anyDegenerate = false;
+    for (std::size_t k = 0; k < idx.size() && !anyDegenerate; k += 3) {
+      anyDegenerate = doubleArea(points[idx[k]], points[idx[k + 1]], points[idx[k + 2]]) == 0;
+    }
+    if (!anyDegenerate) return;
     bool changed = false;
-    std::unordered_map<std::uint64_t, std::vector<std::size_t>> byEdge;
-    auto edgeKey = [](std::uint32_t i, std::uint32_t j) {
-      if (i > j) std::swap(i, j);
-      return (static_cast<std::uint64_t>(i) << 32) | j;
-    };
+    // Edge → triangles, as a sorted list (one allocation, no hashing).
+    byEdge.clear();
     for (std::size_t t = 0; t < idx.size() / 3; ++t) {
       for (int e = 0; e < 3; ++e) {
-        byEdge[edgeKey(idx[3 * t + static_cast<std::size_t>(e)],
-                       idx[3 * t + static_cast<std::size_t>((e + 1) % 3)])]
-            .push_back(t);
+        byEdge.emplace_back(edgeKey(idx[3 * t + static_cast<std::size_t>(e)],
+                                    idx[3 * t + static_cast<std::size_t>((e + 1) % 3)]),
+                            t);
       }
     }
+    std::sort(byEdge.begin(), byEdge.end());
     std::vector<bool> touched(idx.size() / 3, false);
     for (std::size_t t = 0; t < idx.size() / 3; ++t) {
       if (touched[t]) continue;
@@ -262,10 +270,13 @@ void repairDegenerate(const std::vector<LatticeXY>& points, std::vector<std::uin
         if (static_cast<std::int64_t>(da.x) * db.x + static_cast<std::int64_t>(da.y) * db.y >= 0) {
           continue;  // w is not between the other two
         }
-        const auto& users = byEdge[edgeKey(prev, next)];
+        const std::uint64_t key = edgeKey(prev, next);
+        auto first = std::lower_bound(byEdge.begin(), byEdge.end(),
+                                      std::pair<std::uint64_t, std::size_t>{key, 0});
         std::size_t n = idx.size();
         std::uint32_t x = 0;
-        for (std::size_t u : users) {
+        for (auto it = first; it != byEdge.end() && it->first == key; ++it) {
+          const std::size_t u = it->second;
           if (u == t) continue;
           for (int q = 0; q < 3; ++q) {
             if (idx[3 * u + static_cast<std::size_t>(q)] == prev &&
@@ -350,21 +361,26 @@ WorkPatch simplifyHalf(const SampleGrid& grid, const Half& h, std::uint32_t targ
   if (vertexCount <= targetVertices) return patch;
   // Boundary vertices (on edges used by one triangle) are locked; Euler for a triangulated disk
   // gives the triangle count that leaves `targetVertices` vertices: T = 2V − B − 2.
-  std::unordered_map<std::uint64_t, int> edgeUse;
+  std::vector<std::uint64_t> edges;
+  edges.reserve(patch.indices.size());
   for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
     for (int e = 0; e < 3; ++e) {
       std::uint32_t i = patch.indices[k + static_cast<std::size_t>(e)];
       std::uint32_t j = patch.indices[k + static_cast<std::size_t>((e + 1) % 3)];
       if (i > j) std::swap(i, j);
-      ++edgeUse[(static_cast<std::uint64_t>(i) << 32) | j];
+      edges.push_back((static_cast<std::uint64_t>(i) << 32) | j);
     }
   }
+  std::sort(edges.begin(), edges.end());
   std::vector<bool> onBorder(vertexCount, false);
-  for (const auto& [edge, uses] : edgeUse) {
-    if (uses == 1) {
-      onBorder[static_cast<std::size_t>(edge >> 32)] = true;
-      onBorder[static_cast<std::size_t>(edge & 0xffffffffU)] = true;
+  for (std::size_t k = 0; k < edges.size();) {
+    std::size_t end = k + 1;
+    while (end < edges.size() && edges[end] == edges[k]) ++end;
+    if (end - k == 1) {  // used by one triangle: a border edge
+      onBorder[static_cast<std::size_t>(edges[k] >> 32)] = true;
+      onBorder[static_cast<std::size_t>(edges[k] & 0xffffffffU)] = true;
     }
+    k = end;
   }
   const auto border = static_cast<std::int64_t>(std::count(onBorder.begin(), onBorder.end(), true));
   std::int64_t targetTriangles = 2 * static_cast<std::int64_t>(targetVertices) - border - 2;

@@ -135,7 +135,8 @@ Result<VerifyReport> verifyDataset(const VerifyOptions& o) {
     auto dem = readDem(o.demPath, readOptions);
     if (!dem) return std::move(dem).error();
     progress("read dem", 1.0);
-    grid.emplace(SampleGrid::build(*dem, *planet, lattice, manifest->leafCells));
+    grid.emplace(
+        SampleGrid::build(*dem, *planet, lattice, SampleGrid::defaultBucketCells(lattice)));
   }
 
   // ---- Every node: decode, coverage, orientation, sphere, edges, error against the DEM.

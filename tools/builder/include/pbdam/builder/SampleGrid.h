@@ -5,6 +5,7 @@
 // any thread.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <functional>
 #include <glm/vec3.hpp>
@@ -33,6 +34,12 @@ class SampleGrid final {
   static SampleGrid build(const HeightGrid& dem, const Planet& planet, const Lattice& lattice,
                           std::uint32_t bucketCells,
                           const std::function<void(std::size_t, std::size_t)>& progress = {});
+
+  /// The bucket size that keeps buckets about a lattice cell wide (a patch triangle then tests
+  /// only the source samples near it) while bounding the bucket table to 1024² per face.
+  static std::uint32_t defaultBucketCells(const Lattice& lattice) noexcept {
+    return std::max<std::uint32_t>(1, lattice.sideCells() / 1024);
+  }
 
   const Lattice& lattice() const noexcept { return lattice_; }
   const Planet& planet() const noexcept { return planet_; }
