@@ -38,7 +38,8 @@ CliRun runPbdam(const std::string& args) {
 }
 
 TEST(Cli, HelpAndVersion) {
-  for (const char* args : {"--help", "dem --help", "dem info --help", "devices --help"}) {
+  for (const char* args : {"--help", "dem --help", "dem info --help", "devices --help",
+                           "build --help", "info --help", "verify --help"}) {
     const CliRun run = runPbdam(args);
     EXPECT_EQ(run.exitCode, 0) << args << "\n" << run.err;
     EXPECT_NE(run.out.find("Usage"), std::string::npos) << args << "\n" << run.out;
@@ -47,6 +48,36 @@ TEST(Cli, HelpAndVersion) {
   EXPECT_EQ(version.exitCode, 0);
   EXPECT_NE(version.out.find("pbdam 0."), std::string::npos) << version.out;
   EXPECT_NE(runPbdam("").exitCode, 0);  // a subcommand is required
+}
+
+TEST(Cli, BuildInfoVerifyOnMola) {
+  PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
+  test::TempDir dir;
+  const std::string out = (dir / "mars").string();
+  const CliRun build = runPbdam("build --dem '" + dem.string() + "' --planet mars --out '" + out +
+                                "' --levels 2 --leaf-vertices 17 --texture-tile 32 --quiet");
+  ASSERT_EQ(build.exitCode, 0) << build.err;
+  EXPECT_NE(build.out.find("built "), std::string::npos) << build.out;
+  const CliRun info = runPbdam("info '" + out + "' --json");
+  ASSERT_EQ(info.exitCode, 0) << info.err;
+  const auto j = nlohmann::json::parse(info.out);
+  EXPECT_EQ(j["planet"], "mars");
+  EXPECT_EQ(j["depth"], 2);
+  EXPECT_EQ(j["patches"], 12 * 7);
+  EXPECT_LT(j["compression_ratio"].get<double>(), 0.6);
+  const CliRun verify = runPbdam("verify '" + out + "' --dem '" + dem.string() + "' --json");
+  ASSERT_EQ(verify.exitCode, 0) << verify.err << verify.out;
+  EXPECT_TRUE(nlohmann::json::parse(verify.out)["ok"].get<bool>());
+  // Damage one byte of a face file: verify exits 2 and names the file.
+  const std::string face = out + "/face1.pbdam";
+  {
+    std::fstream f(face, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(300);
+    f.put('\x7f');
+  }
+  const CliRun bad = runPbdam("verify '" + out + "' --quiet");
+  EXPECT_EQ(bad.exitCode, 2);
+  EXPECT_NE(bad.err.find("face1.pbdam"), std::string::npos) << bad.err;
 }
 
 TEST(Cli, DevicesListsLavapipeAsDefault) {
@@ -116,6 +147,14 @@ TEST(Cli, BadInputGivesOneLineAndExitCode2) {
   expectBadInput("dem info x --bogus", "--bogus");
   expectBadInput("dem info", "FILE is required");
   expectBadInput("dem info x --raw-header -5", "raw-header");
+  expectBadInput("build --planet mars --out x", "--dem");
+  expectBadInput("build --dem '" + (dir / "missing.lbl").string() + "' --planet mars --out '" +
+                     (dir / "out").string() + "'",
+                 "missing.lbl");
+  expectBadInput("build --dem x --planet mars --out y --levels seven", "--levels 'seven'");
+  expectBadInput("build --dem x --planet mars --out y --texture-format png", "png");
+  expectBadInput("info '" + (dir / "nothing").string() + "'", "no manifest");
+  expectBadInput("verify '" + (dir / "nothing").string() + "'", "no manifest");
   PBDAM_REQUIRE_DATA(tif, test::dataDir() / "geotiff/terra_elev_luxembourg.tif");
   expectBadInput("dem info '" + tif.string() + "' --at 0,0", "outside the grid");
 }
