@@ -51,6 +51,11 @@ TEST(Cli, HelpAndVersion) {
 }
 
 TEST(Cli, BuildInfoVerifyOnMola) {
+#if defined(__SANITIZE_THREAD__)
+  // build and verify run TBB-parallel code, and Debian's libtbb is not instrumented: TSan would
+  // report TBB's own task handoffs (docs/decisions.md). Covered by the release and asan runs.
+  GTEST_SKIP() << "TBB-parallel commands are not checked under ThreadSanitizer";
+#endif
   PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
   test::TempDir dir;
   const std::string out = (dir / "mars").string();
