@@ -653,44 +653,19 @@ MeasuredPatch measurePatch(const SampleGrid& grid, const BinTriangle& t, const W
 
   // Sample error: lattice samples, then the source DEM's own samples.
   double sampleError = maxLatticeDeviation(grid, t.face, patch);
-  const double nCells = static_cast<double>(lattice.sideCells());
-  const double bucketScale = nCells / static_cast<double>(grid.bucketCells());
-  const auto maxBucket = static_cast<double>(grid.bucketsPerSide() - 1);
   for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
     const LatticeXY la = patch.points[patch.indices[k]];
     const LatticeXY lb = patch.points[patch.indices[k + 1]];
     const LatticeXY lc = patch.points[patch.indices[k + 2]];
-    const glm::dvec2 a = lattice.uv(la);
-    const glm::dvec2 b = lattice.uv(lb);
-    const glm::dvec2 c = lattice.uv(lc);
-    const double total = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
-    if (total <= 0.0) continue;
-    const double eps = -1e-9 * total;
     const double ha = static_cast<double>(grid.height(t.face, la));
     const double hb = static_cast<double>(grid.height(t.face, lb));
     const double hc = static_cast<double>(grid.height(t.face, lc));
-    const auto bx0 = static_cast<std::uint32_t>(
-        std::clamp(std::floor(std::min({a.x, b.x, c.x}) * bucketScale), 0.0, maxBucket));
-    const auto bx1 = static_cast<std::uint32_t>(
-        std::clamp(std::floor(std::max({a.x, b.x, c.x}) * bucketScale), 0.0, maxBucket));
-    const auto by0 = static_cast<std::uint32_t>(
-        std::clamp(std::floor(std::min({a.y, b.y, c.y}) * bucketScale), 0.0, maxBucket));
-    const auto by1 = static_cast<std::uint32_t>(
-        std::clamp(std::floor(std::max({a.y, b.y, c.y}) * bucketScale), 0.0, maxBucket));
-    for (std::uint32_t by = by0; by <= by1; ++by) {
-      for (std::uint32_t bx = bx0; bx <= bx1; ++bx) {
-        for (const SourceSample& s : grid.bucket(t.face, bx, by)) {
-          const double px = static_cast<double>(s.u);
-          const double py = static_cast<double>(s.v);
-          const double w0 = (c.x - b.x) * (py - b.y) - (c.y - b.y) * (px - b.x);
-          const double w1 = (a.x - c.x) * (py - c.y) - (a.y - c.y) * (px - c.x);
-          const double w2 = (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x);
-          if (w0 < eps || w1 < eps || w2 < eps) continue;
-          const double hp = (w0 * ha + w1 * hb + w2 * hc) / total;
+    grid.forEachSourceSampleIn(
+        t.face, lattice.uv(la), lattice.uv(lb), lattice.uv(lc),
+        [&](double l0, double l1, double l2, const SourceSample& s) {
+          const double hp = l0 * ha + l1 * hb + l2 * hc;
           sampleError = std::max(sampleError, std::abs(hp - static_cast<double>(s.heightMeters)));
-        }
-      }
-    }
+        });
   }
   out.sampleErrorMeters = sampleError;
   out.errorMeters = out.sampleErrorMeters + out.representationErrorMeters + out.chordErrorMeters;

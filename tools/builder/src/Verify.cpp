@@ -236,40 +236,17 @@ Result<VerifyReport> verifyDataset(const VerifyOptions& o) {
     if (grid) {
       double worst = 0.0;
       std::uint64_t checked = 0;
-      const double nCells = static_cast<double>(lattice.sideCells());
-      const double scale = nCells / static_cast<double>(grid->bucketCells());
-      const auto maxBucket = static_cast<double>(grid->bucketsPerSide() - 1);
       for (std::size_t k = 0; k < mesh.indices.size(); k += 3) {
         const std::array<std::uint16_t, 3> tri = {mesh.indices[k], mesh.indices[k + 1],
                                                   mesh.indices[k + 2]};
-        const glm::dvec2 a = lattice.uv(points[tri[0]]);
-        const glm::dvec2 b = lattice.uv(points[tri[1]]);
-        const glm::dvec2 cc = lattice.uv(points[tri[2]]);
-        const double total = (b.x - a.x) * (cc.y - a.y) - (b.y - a.y) * (cc.x - a.x);
-        const double eps = -1e-9 * total;
-        auto bucketRange = [&](double lo, double hi) {
-          return std::pair{
-              static_cast<std::uint32_t>(std::clamp(std::floor(lo * scale), 0.0, maxBucket)),
-              static_cast<std::uint32_t>(std::clamp(std::floor(hi * scale), 0.0, maxBucket))};
-        };
-        const auto [bx0, bx1] = bucketRange(std::min({a.x, b.x, cc.x}), std::max({a.x, b.x, cc.x}));
-        const auto [by0, by1] = bucketRange(std::min({a.y, b.y, cc.y}), std::max({a.y, b.y, cc.y}));
-        for (std::uint32_t by = by0; by <= by1; ++by) {
-          for (std::uint32_t bx = bx0; bx <= bx1; ++bx) {
-            for (const SourceSample& s : grid->bucket(t.face, bx, by)) {
-              const double px = static_cast<double>(s.u);
-              const double py = static_cast<double>(s.v);
-              const double w0 = (cc.x - b.x) * (py - b.y) - (cc.y - b.y) * (px - b.x);
-              const double w1 = (a.x - cc.x) * (py - cc.y) - (a.y - cc.y) * (px - cc.x);
-              const double w2 = (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x);
-              if (w0 < eps || w1 < eps || w2 < eps) continue;
-              const double hp =
-                  (w0 * heights[tri[0]] + w1 * heights[tri[1]] + w2 * heights[tri[2]]) / total;
+        grid->forEachSourceSampleIn(
+            t.face, lattice.uv(points[tri[0]]), lattice.uv(points[tri[1]]),
+            lattice.uv(points[tri[2]]),
+            [&](double l0, double l1, double l2, const SourceSample& s) {
+              const double hp = l0 * heights[tri[0]] + l1 * heights[tri[1]] + l2 * heights[tri[2]];
               worst = std::max(worst, std::abs(hp - static_cast<double>(s.heightMeters)));
               ++checked;
-            }
-          }
-        }
+            });
       }
       demSamples += checked;
       const double stored = static_cast<double>(node.record.errorMeters);

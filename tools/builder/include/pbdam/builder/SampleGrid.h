@@ -6,8 +6,10 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <functional>
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 #include <span>
 #include <vector>
@@ -63,6 +65,38 @@ class SampleGrid final {
   std::uint32_t bucketCells() const noexcept { return bucketCells_; }
   std::span<const SourceSample> bucket(int face, std::uint32_t bx, std::uint32_t by) const noexcept;
   std::size_t sourceSampleCount() const noexcept;
+
+  /// Calls fn(l0, l1, l2, sample) for every source sample inside or on the counter-clockwise
+  /// (u,v) triangle (a, b, c) of `face`, with (l0, l1, l2) its barycentric weights (summing to
+  /// 1). Degenerate or clockwise triangles visit nothing.
+  template <typename Fn>
+  void forEachSourceSampleIn(int face, glm::dvec2 a, glm::dvec2 b, glm::dvec2 c, Fn&& fn) const {
+    const double total = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+    if (!(total > 0.0)) return;
+    const double eps = -1e-9 * total;
+    const double scale = static_cast<double>(lattice_.sideCells()) / bucketCells_;
+    const double last = static_cast<double>(bucketsPerSide_ - 1);
+    auto bucketOf = [&](double x) {
+      return static_cast<std::uint32_t>(std::clamp(std::floor(x * scale), 0.0, last));
+    };
+    const std::uint32_t bx0 = bucketOf(std::min({a.x, b.x, c.x}));
+    const std::uint32_t bx1 = bucketOf(std::max({a.x, b.x, c.x}));
+    const std::uint32_t by0 = bucketOf(std::min({a.y, b.y, c.y}));
+    const std::uint32_t by1 = bucketOf(std::max({a.y, b.y, c.y}));
+    for (std::uint32_t by = by0; by <= by1; ++by) {
+      for (std::uint32_t bx = bx0; bx <= bx1; ++bx) {
+        for (const SourceSample& s : bucket(face, bx, by)) {
+          const double px = static_cast<double>(s.u);
+          const double py = static_cast<double>(s.v);
+          const double w0 = (c.x - b.x) * (py - b.y) - (c.y - b.y) * (px - b.x);
+          const double w1 = (a.x - c.x) * (py - c.y) - (a.y - c.y) * (px - c.x);
+          const double w2 = (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x);
+          if (w0 < eps || w1 < eps || w2 < eps) continue;
+          fn(w0 / total, w1 / total, w2 / total, s);
+        }
+      }
+    }
+  }
 
   /// Lattice points where the DEM had no data (given height 0).
   std::uint64_t noDataPoints() const noexcept { return noDataPoints_; }
