@@ -9,6 +9,7 @@
 #include <random>
 #include <vector>
 
+#include "SyntheticPatches.h"
 #include "pbdam/formats/PatchCodec.h"
 
 namespace {
@@ -17,80 +18,19 @@ using pbdam::PatchCompression;
 using pbdam::PatchMesh;
 using pbdam::PatchVertex;
 
-// ---- realistic patches (the same generators as tests/formats/TestPatchCodec.cpp) -------------
+// ---- realistic patches (tests/support/SyntheticPatches.h, shared with the codec tests) -------
 
-double terrainMeters(double x, double y, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> phase(0.0, 6.283185307179586);
-  double h = 0.0;
-  double amplitude = 400.0;
-  double frequency = 1.5;
-  for (int octave = 0; octave < 8; ++octave) {
-    const double px = phase(rng);
-    const double py = phase(rng);
-    h += amplitude * std::sin(frequency * 6.283 * x + px) * std::cos(frequency * 5.65 * y + py);
-    amplitude *= 0.5;
-    frequency *= 2.0;
-  }
-  return h;
-}
-
-// Leaf patch: regular right-triangulated grid, legs of `cells` cells, heights in 1/64 m steps.
-PatchMesh gridPatch(unsigned cells, unsigned seed, double noiseMeters = 1.0) {
-  std::mt19937 rng(seed * 7 + 1);
-  std::uniform_real_distribution<double> noise(-noiseMeters, noiseMeters);
-  PatchMesh mesh;
-  std::vector<unsigned> id((cells + 1) * (cells + 1));
-  for (unsigned j = 0; j <= cells; ++j) {
-    for (unsigned i = 0; i + j <= cells; ++i) {
-      id[j * (cells + 1) + i] = static_cast<unsigned>(mesh.vertices.size());
-      const double h = terrainMeters(i / double(cells), j / double(cells), seed) + noise(rng);
-      mesh.vertices.push_back(PatchVertex{static_cast<std::uint16_t>(i * 32768U / cells),
-                                          static_cast<std::uint16_t>(j * 32768U / cells),
-                                          static_cast<std::int32_t>(std::lround(h * 64.0))});
-    }
-  }
-  auto at = [&](unsigned i, unsigned j) {
-    return static_cast<std::uint16_t>(id[j * (cells + 1) + i]);
-  };
-  for (unsigned j = 0; j < cells; ++j) {
-    for (unsigned i = 0; i + j < cells; ++i) {
-      mesh.indices.insert(mesh.indices.end(), {at(i, j), at(i + 1, j), at(i, j + 1)});
-      if (i + j + 1 < cells) {
-        mesh.indices.insert(mesh.indices.end(), {at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)});
-      }
-    }
-  }
-  pbdam::optimizePatchForRendering(mesh);
-  return mesh;
-}
-
-// Upper-level patch: a fine grid simplified by meshopt_simplify to about `triangles` triangles.
-PatchMesh simplifiedPatch(unsigned fineCells, std::size_t triangles, unsigned seed) {
-  const PatchMesh fine = gridPatch(fineCells, seed, 0.5);
-  std::vector<float> positions(fine.vertices.size() * 3);
-  const double cellMeters = 400.0;
-  for (std::size_t i = 0; i < fine.vertices.size(); ++i) {
-    positions[3 * i] = static_cast<float>(fine.vertices[i].b1 / 32768.0 * fineCells * cellMeters);
-    positions[3 * i + 1] =
-        static_cast<float>(fine.vertices[i].b2 / 32768.0 * fineCells * cellMeters);
-    positions[3 * i + 2] = static_cast<float>(fine.vertices[i].heightSteps / 64.0);
-  }
-  std::vector<std::uint16_t> simplified(fine.indices.size());
-  const std::size_t count = meshopt_simplify(
-      simplified.data(), fine.indices.data(), fine.indices.size(), positions.data(),
-      fine.vertices.size(), 3 * sizeof(float), triangles * 3, 1.0f, 0, nullptr);
-  PatchMesh mesh;
-  mesh.vertices = fine.vertices;
-  mesh.indices.assign(simplified.begin(), simplified.begin() + static_cast<std::ptrdiff_t>(count));
+PatchMesh optimizedGrid(unsigned cells, unsigned seed) {
+  PatchMesh mesh = pbdam::test::gridPatch(cells, seed);
   pbdam::optimizePatchForRendering(mesh);
   return mesh;
 }
 
 // 0: 32-cell leaf grid (561 vertices, 1024 triangles); 1, 2: simplified (~520 v, ~1000 t).
 const std::vector<PatchMesh>& patches() {
-  static const std::vector<PatchMesh> all = {gridPatch(32, 1), simplifiedPatch(128, 1000, 2),
-                                             simplifiedPatch(256, 1000, 3)};
+  static const std::vector<PatchMesh> all = {optimizedGrid(32, 1),
+                                             pbdam::test::simplifiedPatch(128, 1000, 2),
+                                             pbdam::test::simplifiedPatch(256, 1000, 3)};
   return all;
 }
 
