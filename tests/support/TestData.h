@@ -49,3 +49,25 @@ class TempDir final {
 
 /// ETOPO5 from Debian's ferret-datasets (the built-in default Earth data).
 #define PBDAM_ETOPO5_PATH std::filesystem::path("/usr/share/ferret-vis/data/etopo5.cdf")
+
+namespace pbdam::test {
+/// The directory of a test dataset built by the `datasets` fixture (tests/CMakeLists.txt):
+/// "mola" (MOLA 4 px/deg) or "earth" (ETOPO5, 512 cells per face side).
+inline std::filesystem::path testDatasetDir(const std::string& name) {
+  return std::filesystem::path(PBDAM_TEST_DATASET_DIR) / name;
+}
+}  // namespace pbdam::test
+
+/// Declares `var` as the directory of test dataset `name`; when it was not built (its input data
+/// is missing), fails under CI and skips elsewhere.
+#define PBDAM_REQUIRE_DATASET(var, name)                                                      \
+  const std::filesystem::path var = ::pbdam::test::testDatasetDir(name);                      \
+  if (!std::filesystem::exists(var / "manifest.json")) {                                      \
+    const std::string pbdamWhy_##var =                                                        \
+        "test dataset " + var.string() + " was not built (see the build_test_datasets test)"; \
+    if (::pbdam::test::runningInCi()) {                                                       \
+      FAIL() << pbdamWhy_##var;                                                               \
+    }                                                                                         \
+    GTEST_SKIP() << pbdamWhy_##var;                                                           \
+  }                                                                                           \
+  static_assert(true)

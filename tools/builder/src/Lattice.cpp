@@ -10,56 +10,22 @@
 namespace pbdam::builder {
 
 BinTriangle Lattice::root(int face, int tree) const noexcept {
-  const auto n = static_cast<std::int32_t>(sideCells_);
-  BinTriangle t;
-  t.face = face;
-  t.tree = tree;
-  if (tree == 0) {
-    t.apex = {n, 0};
-    t.left = {0, 0};
-    t.right = {n, n};
-  } else {
-    t.apex = {0, n};
-    t.left = {n, n};
-    t.right = {0, 0};
-  }
-  return t;
+  return bintreeRoot(sideCells_, face, tree);
 }
 
 std::array<BinTriangle, 2> Lattice::children(const BinTriangle& t) noexcept {
-  const LatticeXY sum = t.left + t.right;
-  assert(sum.x % 2 == 0 && sum.y % 2 == 0);
-  const LatticeXY m = sum / 2;
-  BinTriangle first = t;
-  first.level = t.level + 1;
-  first.index = 2 * t.index + 1;
-  first.apex = m;
-  first.left = t.left;
-  first.right = t.apex;
-  BinTriangle second = first;
-  second.index = 2 * t.index + 2;
-  second.left = t.apex;
-  second.right = t.right;
-  return {first, second};
+  return bintreeChildren(t);
 }
 
 BinTriangle Lattice::triangle(int face, int tree, int level, std::uint64_t index) const noexcept {
-  BinTriangle t = root(face, tree);
-  // index + 1 in binary is 1 followed by the child choices, most significant first.
-  const std::uint64_t path = index + 1;
-  for (int bit = level - 1; bit >= 0; --bit) {
-    t = children(t)[(path >> bit) & 1U];
-  }
-  assert(t.index == index);
+  BinTriangle t = bintreeTriangle(sideCells_, face, tree, index);
+  assert(t.level == level);
+  (void)level;
   return t;
 }
 
 PointKey Lattice::key(int face, LatticeXY p) const noexcept {
-  const CubeLatticePoint point{cubeFaceFromIndex(face), static_cast<std::uint32_t>(p.x),
-                               static_cast<std::uint32_t>(p.y)};
-  const CubeLatticePoint c = CubeMap::canonicalLatticePoint(point, sideCells_);
-  return (static_cast<std::uint64_t>(cubeFaceIndex(c.face)) << 58) |
-         (static_cast<std::uint64_t>(c.i) << 29) | static_cast<std::uint64_t>(c.j);
+  return latticePointKey(sideCells_, face, p);
 }
 
 CubeLatticePoint Lattice::unpack(PointKey key) noexcept {

@@ -10,32 +10,18 @@
 #include <utility>
 #include <vector>
 
+#include "pbdam/runtime/Bintree.h"
 #include "pbdam/runtime/CubeMap.h"
 
 namespace pbdam::builder {
 
-/// A lattice point of one face: (i, j) in [0, N]².
-using LatticeXY = glm::i32vec2;
-
-/// A key identifying a point of the sphere on the lattice: the canonical (smallest) alias
-/// packed as face·2^58 + i·2^29 + j. Equal keys ⇔ the same point, on any face.
-using PointKey = std::uint64_t;
+using pbdam::LatticeXY;
+using pbdam::PointKey;
 
 /// An unordered pair of point keys (smaller first): the key of an edge across faces.
 using EdgeKey = std::pair<PointKey, PointKey>;
 
-/// One bintree triangle: face, tree (0 or 1: which half of the face the root is), level (0 =
-/// root), heap index within its tree, and its corners. The hypotenuse is left–right; the right
-/// angle is at the apex.
-struct BinTriangle final {
-  int face = 0;
-  int tree = 0;
-  int level = 0;
-  std::uint64_t index = 0;
-  LatticeXY apex{0};
-  LatticeXY left{0};
-  LatticeXY right{0};
-};
+using pbdam::BinTriangle;
 
 /// The lattice of one dataset: N cells per face side (a power of two ≤ 2^28).
 class Lattice final {

@@ -1,0 +1,95 @@
+// The double-precision camera (design.md §4): position in planetocentric metres, orientation from
+// heading/pitch/roll in the local east-north-up frame, a symmetric perspective with an infinite
+// reversed-Z projection, frustum planes for culling and the screen-space error scale. Nothing here
+// is float except the projection handed to the GPU: positions are made camera-relative in double
+// before they are rounded (runtime/PatchDraw.h). Thread-safety: plain values.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <glm/mat3x3.hpp>
+#include <glm/mat4x4.hpp>
+#include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
+#include <string_view>
+
+#include "pbdam/formats/Result.h"
+#include "pbdam/runtime/Planet.h"
+
+namespace pbdam {
+
+/// Where a camera is and where it looks: degrees, metres above the reference surface (the
+/// planet's sphere or ellipsoid, not the terrain), heading clockwise from north, pitch up from
+/// the horizon (−90 = straight down), roll clockwise about the view direction.
+struct CameraPose final {
+  double latDegrees = 0.0;
+  double lonDegrees = 0.0;
+  double altitudeMeters = 0.0;
+  double headingDegrees = 0.0;
+  double pitchDegrees = -90.0;
+  double rollDegrees = 0.0;
+};
+
+/// Parses "LAT,LON,ALT[,HEADING,PITCH,ROLL]" (pitch defaults to −90: looking down).
+Result<CameraPose> parseCameraPose(std::string_view text);
+
+/// Checks ranges: |lat| ≤ 90, |lon| ≤ 360, altitude > −0.5·polar radius and finite, angles
+/// finite.
+Result<void> validateCameraPose(const CameraPose& pose, const Planet& planet);
+
+/// The image a camera renders: size in pixels and vertical field of view.
+struct Viewport final {
+  std::uint32_t width = 1280;
+  std::uint32_t height = 720;
+  double fovYDegrees = 60.0;
+};
+
+/// Checks 1 ≤ width, height ≤ 16384 and 0 < fov < 179°.
+Result<void> validateViewport(const Viewport& viewport);
+
+class Camera final {
+ public:
+  /// A camera at `positionEcef` with orthonormal world-space axes (right, up, forward).
+  Camera(const glm::dvec3& positionEcef, const glm::dvec3& right, const glm::dvec3& up,
+         const glm::dvec3& forward, const Viewport& viewport) noexcept;
+
+  /// The camera of a pose on a planet.
+  static Camera fromPose(const Planet& planet, const CameraPose& pose,
+                         const Viewport& viewport) noexcept;
+
+  const glm::dvec3& position() const noexcept { return position_; }
+  const glm::dvec3& right() const noexcept { return right_; }
+  const glm::dvec3& up() const noexcept { return up_; }
+  const glm::dvec3& forward() const noexcept { return forward_; }
+  const Viewport& viewport() const noexcept { return viewport_; }
+
+  /// Pixels per unit of (size / distance): viewport height / (2·tan(fov/2)).
+  double pixelsPerRadian() const noexcept { return pixelScale_; }
+
+  /// Screen-space size in pixels of an object-space `errorMeters` at the nearest point of the
+  /// sphere (design.md §4); infinite when the camera is inside the sphere.
+  double screenError(double errorMeters, const glm::dvec3& centre, double radius) const noexcept;
+
+  /// False when the sphere lies wholly outside one of the frustum's side or near planes.
+  bool sphereInFrustum(const glm::dvec3& centre, double radius) const noexcept;
+
+  /// World-to-view rotation for camera-relative positions (view looks along −z, y up), and the
+  /// infinite reversed-Z Vulkan projection (depth 1 at the near plane, → 0 at infinity, y down).
+  glm::mat4 viewRotation() const noexcept;
+  glm::mat4 projection() const noexcept;
+  double nearMeters() const noexcept { return nearMeters_; }
+  /// Sets the near plane (default 0.1 m; reversed-Z float depth keeps precision far away).
+  void setNearMeters(double nearMeters) noexcept;
+
+ private:
+  void updatePlanes() noexcept;
+
+  glm::dvec3 position_;
+  glm::dvec3 right_, up_, forward_;
+  Viewport viewport_;
+  double pixelScale_ = 1.0;
+  double nearMeters_ = 0.1;
+  std::array<glm::dvec4, 5> planes_{};  ///< inward normals (xyz) and offsets (w), world space
+};
+
+}  // namespace pbdam

@@ -1,0 +1,84 @@
+// Opening a dataset's six faces against its manifest (DatasetView.h).
+#include "pbdam/runtime/DatasetView.h"
+
+#include <algorithm>
+
+namespace pbdam {
+namespace {
+
+Error mismatch(const std::string& context, const std::string& what) {
+  return makeError(ErrorCode::CorruptData, context + ": " + what + " differs from manifest.json");
+}
+
+}  // namespace
+
+Result<DatasetView> DatasetView::open(const Manifest& manifest,
+                                      const std::array<std::span<const std::byte>, 6>& faceBytes,
+                                      const std::string& directory) {
+  auto planet = Planet::fromSpec(manifest.planetSpec);
+  if (!planet) {
+    return makeError(ErrorCode::CorruptData,
+                     directory + "/manifest.json: planet: " + planet.error().message);
+  }
+  if (manifest.textureLevels == 0 || manifest.depth > kMaxBintreeDepth) {
+    return makeError(ErrorCode::CorruptData,
+                     directory + "/manifest.json: depth or texture levels out of range");
+  }
+  DatasetView view;
+  view.manifest_ = manifest;
+  view.planet_ = std::move(planet).value();
+  view.textureErrorOfLevel_.assign(manifest.textureLevels, 0.0);
+  for (int f = 0; f < 6; ++f) {
+    const auto fi = static_cast<std::size_t>(f);
+    const std::string context = directory + "/" + manifest.faces[fi].file;
+    if (faceBytes[fi].size() != manifest.faces[fi].bytes) {
+      return makeError(ErrorCode::CorruptData, context + ": " +
+                                                   std::to_string(faceBytes[fi].size()) +
+                                                   " bytes, manifest.json says " +
+                                                   std::to_string(manifest.faces[fi].bytes));
+    }
+    auto face = FaceView::open(faceBytes[fi], context);
+    if (!face) return std::move(face).error();
+    const FaceHeader& h = face->header();
+    if (h.face != fi) return mismatch(context, "face index");
+    if (h.latticeCells != manifest.latticeCells) return mismatch(context, "lattice_cells");
+    if (h.leafCells != manifest.leafCells) return mismatch(context, "leaf_cells");
+    if (h.depth != manifest.depth) return mismatch(context, "depth");
+    if (h.textureLevels != manifest.textureLevels) return mismatch(context, "texture levels");
+    if (h.textureTileTexels != manifest.textureTileTexels ||
+        h.textureBorderTexels != manifest.textureBorderTexels) {
+      return mismatch(context, "texture tile size");
+    }
+    for (std::uint64_t k = 0; k < h.nodeCount; ++k) {
+      const NodeRecord n = face->nodeAt(k);
+      view.maxPatchVertices_ = std::max(view.maxPatchVertices_, n.vertexCount);
+      view.maxPatchTriangles_ = std::max(view.maxPatchTriangles_, n.triangleCount);
+    }
+    for (std::uint32_t t = 0; t < manifest.textureLevels; ++t) {
+      const std::uint64_t first = textureHeapIndex(t, 0, 0);
+      const std::uint64_t count = std::uint64_t{1} << (2 * t);
+      double& e = view.textureErrorOfLevel_[t];
+      for (std::uint64_t k = first; k < first + count; ++k) {
+        e = std::max(e, static_cast<double>(face->textureNode(k).errorMeters));
+      }
+    }
+    view.faces_[fi] = std::move(face).value();
+  }
+  return view;
+}
+
+std::uint32_t DatasetView::textureLevelOf(int level) const noexcept {
+  return std::min(static_cast<std::uint32_t>(level / 2), manifest_.textureLevels - 1);
+}
+
+TileKey DatasetView::tileOf(const NodeKey& key) const noexcept {
+  const BinTriangle t = triangle(key);
+  const std::uint32_t tl = textureLevelOf(t.level);
+  const auto side = static_cast<std::int32_t>(manifest_.latticeCells >> tl);
+  const std::int32_t minX = std::min({t.apex.x, t.left.x, t.right.x});
+  const std::int32_t minY = std::min({t.apex.y, t.left.y, t.right.y});
+  return TileKey{key.face, textureHeapIndex(tl, static_cast<std::uint32_t>(minX / side),
+                                            static_cast<std::uint32_t>(minY / side))};
+}
+
+}  // namespace pbdam

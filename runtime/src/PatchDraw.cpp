@@ -1,0 +1,195 @@
+// Camera-relative patch vertices (PatchDraw.h). Built with -ffp-contract=off: the float code
+// below must match gpu/shaders/patch.vert operation for operation.
+#include "pbdam/runtime/PatchDraw.h"
+
+#include <algorithm>
+#include <cmath>
+#include <glm/geometric.hpp>
+
+namespace pbdam {
+namespace {
+
+constexpr double kBaryUnit = 1.0 / static_cast<double>(kPatchBarycentricOne);
+
+glm::dvec3 position(const NodeRecord& n, int k) {
+  const auto i = static_cast<std::size_t>(3 * k);
+  return {n.cornerPositions[i], n.cornerPositions[i + 1], n.cornerPositions[i + 2]};
+}
+glm::dvec3 normalOf(const NodeRecord& n, int k) {
+  const auto i = static_cast<std::size_t>(3 * k);
+  return {n.cornerNormals[i], n.cornerNormals[i + 1], n.cornerNormals[i + 2]};
+}
+glm::vec3 fnormalOf(const NodeRecord& n, int k) {
+  const auto i = static_cast<std::size_t>(3 * k);
+  return {n.cornerNormals[i], n.cornerNormals[i + 1], n.cornerNormals[i + 2]};
+}
+
+std::array<float, 4> vec4(const glm::vec3& v, float w) { return {v.x, v.y, v.z, w}; }
+glm::vec3 xyz(const std::array<float, 4>& v) { return {v[0], v[1], v[2]}; }
+
+// Rounds a weight in [0, 1] down to the barycentric grid (exactly representable in float, and so
+// is its difference with any vertex weight).
+double toBaryGrid(double w) { return std::floor(std::clamp(w, 0.0, 1.0) / kBaryUnit) * kBaryUnit; }
+
+double toHeightGrid(double h, double step) { return std::round(h / step) * step; }
+
+}  // namespace
+
+float vertexHeightMeters(std::int32_t heightSteps, double heightStepMeters) noexcept {
+  return static_cast<float>(static_cast<double>(heightSteps) * heightStepMeters);
+}
+
+PatchDrawRecord makePatchDrawRecord(const DatasetView& dataset, const PatchDrawInput& input,
+                                    const glm::dvec3& cam) noexcept {
+  const NodeRecord& n = input.record;
+  const double step = dataset.manifest().heightStepMeters;
+  const BinTriangle tri = dataset.triangle(input.node);
+  const std::array<LatticeXY, 3> lattice{tri.apex, tri.left, tri.right};
+  std::array<PointKey, 3> keys{};
+  for (int k = 0; k < 3; ++k) {
+    keys[static_cast<std::size_t>(k)] = latticePointKey(dataset.latticeCells(), input.node.face,
+                                                        lattice[static_cast<std::size_t>(k)]);
+  }
+  std::array<glm::dvec3, 3> p{}, nd{};
+  std::array<glm::vec3, 3> nf{};
+  for (int k = 0; k < 3; ++k) {
+    p[static_cast<std::size_t>(k)] = position(n, k);
+    nd[static_cast<std::size_t>(k)] = normalOf(n, k);
+    nf[static_cast<std::size_t>(k)] = fnormalOf(n, k);
+  }
+
+  PatchDrawRecord d{};
+  for (std::size_t k = 0; k < 3; ++k) {
+    d.corner[k] = vec4(glm::vec3(p[k] - cam), 0.0f);
+    d.normal[k] = vec4(nf[k], 0.0f);
+  }
+
+  // Edges: computed from the edge's data only, corners in canonical key order.
+  const double radius = dataset.planet().equatorialRadiusMeters();
+  const double span = dataset.manifest().maxHeightMeters - dataset.manifest().minHeightMeters;
+  for (std::size_t k = 0; k < 3; ++k) {
+    std::size_t a = (k + 1) % 3, b = (k + 2) % 3;
+    if (keys[b] < keys[a]) std::swap(a, b);
+    const glm::dvec3 e = p[b] - p[a];
+    const double tr = toBaryGrid(glm::dot(cam - p[a], e) / glm::dot(e, e));
+    const glm::dvec3 dn = glm::dvec3(nf[b] - nf[a]);
+    const glm::dvec3 nr = nd[a] + tr * dn;
+    const glm::dvec3 pr = p[a] + tr * e;
+    const double sag = glm::dot(e, e) / (8.0 * radius);
+    const double hr = toHeightGrid(
+        std::clamp(glm::dot(cam - pr, nr) / glm::dot(nr, nr), -span - 1.0, sag + span + 1.0), step);
+    d.edgeOrigin[k] = vec4(glm::vec3(pr + hr * nr - cam), static_cast<float>(tr));
+    d.edgeVector[k] = vec4(glm::vec3(e), static_cast<float>(hr));
+    d.edgeNormal[k] = vec4(nf[a], static_cast<float>(b));
+    d.edgeNormalDelta[k] = vec4(nf[b] - nf[a], 0.0f);
+  }
+
+  // Interior: the camera's projection on the corner plane, clamped into the triangle.
+  const glm::dvec3 e1 = p[1] - p[0], e2 = p[2] - p[0], rel = cam - p[0];
+  const double a11 = glm::dot(e1, e1), a12 = glm::dot(e1, e2), a22 = glm::dot(e2, e2);
+  const double c1 = glm::dot(rel, e1), c2 = glm::dot(rel, e2);
+  const double det = a11 * a22 - a12 * a12;
+  double r1 = det > 0.0 ? (c1 * a22 - c2 * a12) / det : 0.0;
+  double r2 = det > 0.0 ? (c2 * a11 - c1 * a12) / det : 0.0;
+  r1 = std::clamp(r1, 0.0, 1.0);
+  r2 = std::clamp(r2, 0.0, 1.0);
+  if (r1 + r2 > 1.0) {
+    const double s = r1 + r2;
+    r1 /= s;
+    r2 /= s;
+  }
+  r1 = toBaryGrid(r1);
+  r2 = toBaryGrid(r2);
+  const glm::dvec3 dn1 = glm::dvec3(nf[1] - nf[0]), dn2 = glm::dvec3(nf[2] - nf[0]);
+  const glm::dvec3 nr = nd[0] + r1 * dn1 + r2 * dn2;
+  const glm::dvec3 pr = p[0] + r1 * e1 + r2 * e2;
+  const double hr = toHeightGrid(
+      std::clamp(glm::dot(cam - pr, nr) / glm::dot(nr, nr), static_cast<double>(n.minHeightMeters),
+                 static_cast<double>(n.maxHeightMeters)),
+      step);
+  d.origin = vec4(glm::vec3(pr + hr * nr - cam), static_cast<float>(r1));
+  d.axis1 = vec4(glm::vec3(e1), static_cast<float>(r2));
+  d.axis2 = vec4(glm::vec3(e2), static_cast<float>(hr));
+  d.normalDelta1 = vec4(nf[1] - nf[0], 0.0f);
+  d.normalDelta2 = vec4(nf[2] - nf[0], 0.0f);
+
+  // Texture coordinates of the corners in the patch's tile.
+  const std::uint32_t tl = dataset.textureLevelOf(tri.level);
+  const double side = static_cast<double>(dataset.latticeCells() >> tl);
+  const std::int32_t sideCells = static_cast<std::int32_t>(dataset.latticeCells() >> tl);
+  const std::int32_t qi = std::min({tri.apex.x, tri.left.x, tri.right.x}) / sideCells;
+  const std::int32_t qj = std::min({tri.apex.y, tri.left.y, tri.right.y}) / sideCells;
+  const double size = dataset.manifest().textureTileTexels;
+  const double border = dataset.manifest().textureBorderTexels;
+  const double inner = size - 2.0 * border;
+  std::array<float, 6> tc{};
+  for (std::size_t k = 0; k < 3; ++k) {
+    const double x = (static_cast<double>(lattice[k].x) - qi * side) / side;
+    const double y = (static_cast<double>(lattice[k].y) - qj * side) / side;
+    tc[2 * k] = static_cast<float>((border + x * inner) / size);
+    tc[2 * k + 1] = static_cast<float>((border + y * inner) / size);
+  }
+  d.texCoord01 = {tc[0], tc[1], tc[2], tc[3]};
+  d.texCoord2Layer = {tc[4], tc[5], static_cast<float>(input.textureLayer), 0.0f};
+  return d;
+}
+
+glm::vec3 shaderVertexPosition(const PatchDrawRecord& d, std::uint16_t b1, std::uint16_t b2,
+                               float h) noexcept {
+  // Mirrors patch.vert: every line is one float operation in the same order.
+  const float unit = 1.0f / 32768.0f;
+  const float w1 = static_cast<float>(b1) * unit;
+  const float w2 = static_cast<float>(b2) * unit;
+  const float w0 = (1.0f - w1) - w2;
+  const float w[3] = {w0, w1, w2};
+  for (std::size_t k = 0; k < 3; ++k) {
+    if (w[k] == 1.0f) return xyz(d.corner[k]) + h * xyz(d.normal[k]);
+  }
+  for (std::size_t k = 0; k < 3; ++k) {
+    if (w[k] == 0.0f) {
+      const auto b = static_cast<std::size_t>(d.edgeNormal[k][3]);
+      const float t = w[b];
+      const float s = t - d.edgeOrigin[k][3];
+      const float hr = d.edgeVector[k][3];
+      const glm::vec3 dn = xyz(d.edgeNormalDelta[k]);
+      const glm::vec3 nrm = xyz(d.edgeNormal[k]) + t * dn;
+      const glm::vec3 flat = xyz(d.edgeOrigin[k]) + s * xyz(d.edgeVector[k]);
+      return (flat + (h - hr) * nrm) + hr * (s * dn);
+    }
+  }
+  const float d1 = w1 - d.origin[3];
+  const float d2 = w2 - d.axis1[3];
+  const float hr = d.axis2[3];
+  const glm::vec3 dn1 = xyz(d.normalDelta1), dn2 = xyz(d.normalDelta2);
+  const glm::vec3 nrm = (xyz(d.normal[0]) + w1 * dn1) + w2 * dn2;
+  const glm::vec3 flat = (xyz(d.origin) + d1 * xyz(d.axis1)) + d2 * xyz(d.axis2);
+  return (flat + (h - hr) * nrm) + hr * ((d1 * dn1) + (d2 * dn2));
+}
+
+glm::dvec3 exactVertexPosition(const NodeRecord& n, std::uint16_t b1, std::uint16_t b2, double h,
+                               const glm::dvec3& cam) noexcept {
+  const double w1 = b1 * kBaryUnit, w2 = b2 * kBaryUnit, w0 = 1.0 - w1 - w2;
+  const glm::dvec3 flat = w0 * position(n, 0) + w1 * position(n, 1) + w2 * position(n, 2);
+  const glm::dvec3 nrm = w0 * normalOf(n, 0) + w1 * normalOf(n, 1) + w2 * normalOf(n, 2);
+  return (flat - cam) + h * nrm;
+}
+
+glm::vec3 absoluteFloatVertexPosition(const NodeRecord& n, std::uint16_t b1, std::uint16_t b2,
+                                      float h, const glm::dvec3& cam) noexcept {
+  const float w1 = static_cast<float>(b1) / 32768.0f, w2 = static_cast<float>(b2) / 32768.0f;
+  const glm::vec3 p0(position(n, 0)), p1(position(n, 1)), p2(position(n, 2));
+  const glm::vec3 n0 = fnormalOf(n, 0), n1 = fnormalOf(n, 1), n2 = fnormalOf(n, 2);
+  const glm::vec3 world =
+      p0 + w1 * (p1 - p0) + w2 * (p2 - p0) + h * (n0 + w1 * (n1 - n0) + w2 * (n2 - n0));
+  return world - glm::vec3(cam);
+}
+
+glm::vec3 cornerRelativeVertexPosition(const NodeRecord& n, std::uint16_t b1, std::uint16_t b2,
+                                       float h, const glm::dvec3& cam) noexcept {
+  const float w1 = static_cast<float>(b1) / 32768.0f, w2 = static_cast<float>(b2) / 32768.0f;
+  const glm::vec3 p0(position(n, 0) - cam), p1(position(n, 1) - cam), p2(position(n, 2) - cam);
+  const glm::vec3 n0 = fnormalOf(n, 0), n1 = fnormalOf(n, 1), n2 = fnormalOf(n, 2);
+  return p0 + w1 * (p1 - p0) + w2 * (p2 - p0) + h * (n0 + w1 * (n1 - n0) + w2 * (n2 - n0));
+}
+
+}  // namespace pbdam

@@ -1,0 +1,39 @@
+// A dataset directory mapped read-only: manifest.json read and checked, the six face files
+// mmapped (MADV_RANDOM, so a fault reads its page and not megabytes around it: design.md §9),
+// and a validated DatasetView over the mappings. Everything on the render path reads the face
+// files through these mappings, never with read(). Thread-safety: read-only after open; the
+// object must outlive every view, span and record taken from it.
+#pragma once
+
+#include <array>
+#include <filesystem>
+#include <memory>
+
+#include "pbdam/formats/Result.h"
+#include "pbdam/runtime/DatasetView.h"
+#include "pbdam/streaming/MappedFile.h"
+
+namespace pbdam {
+
+class MappedDataset final {
+ public:
+  /// Opens DIR: NotFound when DIR has no manifest.json (an incomplete or missing dataset),
+  /// CorruptData naming the file when a face does not match its manifest entry.
+  static Result<std::unique_ptr<MappedDataset>> open(const std::filesystem::path& directory);
+
+  const DatasetView& view() const noexcept { return view_; }
+  const MappedFile& faceFile(int face) const noexcept {
+    return files_[static_cast<std::size_t>(face)];
+  }
+  const std::filesystem::path& directory() const noexcept { return directory_; }
+  /// Total bytes of the six face files.
+  std::uint64_t bytes() const noexcept;
+
+ private:
+  MappedDataset() = default;
+  std::filesystem::path directory_;
+  std::array<MappedFile, 6> files_;
+  DatasetView view_;
+};
+
+}  // namespace pbdam

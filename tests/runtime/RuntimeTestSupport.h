@@ -1,0 +1,40 @@
+// Shared by the runtime tests that read real datasets: decoded patches cached per node, and the
+// camera-relative vertex positions a cut's patches get, computed exactly as the vertex shader
+// computes them (runtime/PatchDraw.h).
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <map>
+#include <memory>
+#include <random>
+
+#include "TestData.h"
+#include "pbdam/formats/PatchCodec.h"
+#include "pbdam/runtime/PatchDraw.h"
+#include "pbdam/runtime/Refinement.h"
+#include "pbdam/streaming/MappedDataset.h"
+
+namespace pbdam::test {
+
+/// Decodes patches on first use and keeps them.
+class PatchStore final {
+ public:
+  explicit PatchStore(const DatasetView& view) : view_(view) {}
+  const PatchMesh& mesh(const NodeKey& key) {
+    const std::uint64_t id = (key.face * 2ull + key.tree) * view_.face(0).nodesPerTree() + key.heap;
+    auto [it, inserted] = meshes_.try_emplace(id);
+    if (inserted) {
+      const NodeRecord record = view_.node(key);
+      const auto decoded = decodePatch(view_.face(key.face).patchBlob(record), it->second, "test");
+      EXPECT_TRUE(decoded.ok()) << (decoded.ok() ? "" : decoded.error().message);
+    }
+    return it->second;
+  }
+
+ private:
+  const DatasetView& view_;
+  std::map<std::uint64_t, PatchMesh> meshes_;
+};
+
+}  // namespace pbdam::test

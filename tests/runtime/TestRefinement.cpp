@@ -1,0 +1,298 @@
+// Refinement and camera-relative vertices on real datasets (MOLA and ETOPO5, built by the
+// datasets fixture): cuts are deterministic and bounded in screen error, the cut's triangles as
+// the shader computes them form a closed 2-manifold (watertight), and camera-relative positions
+// are millimetre-accurate next to the camera where absolute float positions are not.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <unordered_map>
+
+#include "RuntimeTestSupport.h"
+#include "TestData.h"
+#include "pbdam/formats/DemReader.h"
+#include "pbdam/runtime/Camera.h"
+
+namespace pbdam {
+namespace {
+
+std::unique_ptr<MappedDataset> openDataset(const std::filesystem::path& dir) {
+  auto dataset = MappedDataset::open(dir);
+  EXPECT_TRUE(dataset.ok()) << (dataset.ok() ? "" : dataset.error().message);
+  return dataset.ok() ? std::move(dataset).value() : nullptr;
+}
+
+// Welds bit-identical positions and checks that the triangles form a closed, consistently
+// oriented 2-manifold. Returns the Euler characteristic (V − E + F) or reports failures.
+struct MeshCheck {
+  std::size_t vertices = 0, edges = 0, triangles = 0;
+  std::size_t badEdges = 0, degenerate = 0;
+  long euler() const {
+    return static_cast<long>(vertices) - static_cast<long>(edges) + static_cast<long>(triangles);
+  }
+};
+
+struct PositionKey {
+  std::array<std::uint32_t, 3> bits;
+  bool operator==(const PositionKey&) const = default;
+};
+struct PositionKeyHash {
+  std::size_t operator()(const PositionKey& k) const noexcept {
+    return (std::size_t{k.bits[0]} * 0x9E3779B97F4A7C15ull) ^
+           (std::size_t{k.bits[1]} * 0xC2B2AE3D27D4EB4Full) ^ (std::size_t{k.bits[2]} << 1);
+  }
+};
+
+MeshCheck checkClosedManifold(const DatasetView& view, const Cut& cut, const glm::dvec3& eye,
+                              test::PatchStore& store) {
+  std::unordered_map<PositionKey, std::uint32_t, PositionKeyHash> ids;
+  ids.reserve(cut.vertices);
+  std::vector<std::uint64_t> directed;  // from << 32 | to
+  directed.reserve(3 * cut.triangles);
+  MeshCheck check;
+  std::vector<std::uint32_t> local;
+  for (const CutPatch& p : cut.patches) {
+    const NodeRecord record = view.node(p.node);
+    const PatchDrawRecord draw = makePatchDrawRecord(view, {p.node, record, 0}, eye);
+    const PatchMesh& mesh = store.mesh(p.node);
+    local.resize(mesh.vertices.size());
+    for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
+      const PatchVertex& pv = mesh.vertices[v];
+      const glm::vec3 pos = shaderVertexPosition(
+          draw, pv.b1, pv.b2, vertexHeightMeters(pv.heightSteps, view.manifest().heightStepMeters));
+      PositionKey key{};
+      std::memcpy(key.bits.data(), &pos, sizeof(key.bits));
+      local[v] = ids.try_emplace(key, static_cast<std::uint32_t>(ids.size())).first->second;
+    }
+    for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+      const std::array<std::uint32_t, 3> c{local[mesh.indices[t]], local[mesh.indices[t + 1]],
+                                           local[mesh.indices[t + 2]]};
+      ++check.triangles;
+      if (c[0] == c[1] || c[1] == c[2] || c[0] == c[2]) ++check.degenerate;
+      for (int e = 0; e < 3; ++e) {
+        const std::uint64_t from = c[static_cast<std::size_t>(e)];
+        const std::uint64_t to = c[static_cast<std::size_t>((e + 1) % 3)];
+        directed.push_back((from << 32) | to);
+      }
+    }
+  }
+  check.vertices = ids.size();
+  std::sort(directed.begin(), directed.end());
+  for (std::size_t k = 0; k < directed.size(); ++k) {
+    const std::uint64_t edge = directed[k];
+    const std::uint64_t reverse = (edge << 32) | (edge >> 32);
+    // Each directed edge once, and its reverse once: every edge is shared by exactly two
+    // triangles, oriented consistently (a closed, oriented 2-manifold).
+    const bool repeated =
+        (k > 0 && directed[k - 1] == edge) || (k + 1 < directed.size() && directed[k + 1] == edge);
+    if (repeated || !std::binary_search(directed.begin(), directed.end(), reverse)) {
+      ++check.badEdges;
+    }
+  }
+  check.edges = directed.size() / 2;
+  return check;
+}
+
+// A camera pose from a seeded generator: any latitude/longitude, altitude log-uniform from
+// `lowAboveGround` above the DEM surface up to 4 planet radii, any heading, pitch −90..−5.
+CameraPose randomPose(std::mt19937_64& rng, const HeightGrid& dem, double radius) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  CameraPose pose;
+  pose.latDegrees = std::asin(2.0 * unit(rng) - 1.0) * 180.0 / 3.14159265358979323846;
+  pose.lonDegrees = 360.0 * unit(rng) - 180.0;
+  const double ground =
+      std::max(0.0, dem.sampleBilinear(pose.latDegrees, pose.lonDegrees).value_or(0.0));
+  const double above = std::exp(std::log(10.0) + unit(rng) * std::log(4.0 * radius / 10.0));
+  pose.altitudeMeters = ground + above;
+  pose.headingDegrees = 360.0 * unit(rng);
+  pose.pitchDegrees = -5.0 - 85.0 * unit(rng);
+  return pose;
+}
+
+void expectWatertight(const std::filesystem::path& dir, const std::filesystem::path& demPath,
+                      int cameras, std::uint64_t seed) {
+  auto dataset = openDataset(dir);
+  ASSERT_TRUE(dataset);
+  const DatasetView& view = dataset->view();
+  auto dem = readDem(demPath);
+  ASSERT_TRUE(dem.ok()) << dem.error().message;
+  test::PatchStore store(view);
+  std::mt19937_64 rng(seed);
+  const Viewport viewport{320, 180, 60.0};
+  std::size_t totalTriangles = 0;
+  for (int c = 0; c < cameras; ++c) {
+    const CameraPose pose = randomPose(rng, *dem, view.planet().equatorialRadiusMeters());
+    SCOPED_TRACE("camera " + std::to_string(c) + ": " + std::to_string(pose.latDegrees) + "," +
+                 std::to_string(pose.lonDegrees) + "," + std::to_string(pose.altitudeMeters));
+    const Camera camera = Camera::fromPose(view.planet(), pose, viewport);
+    // The whole planet's cut for this camera's level of detail (no culling), and the culled one.
+    const Cut whole = refine(view, camera, {3.0, false, -1});
+    const Cut visible = refine(view, camera, {3.0, true, -1});
+    const MeshCheck check = checkClosedManifold(view, whole, camera.position(), store);
+    totalTriangles += check.triangles;
+    EXPECT_EQ(check.badEdges, 0u);
+    EXPECT_EQ(check.degenerate, 0u);
+    EXPECT_EQ(check.euler(), 2) << check.vertices << " V, " << check.edges << " E, "
+                                << check.triangles << " F";
+    // Culling only drops subtrees: the visible cut is a subsequence of the whole one.
+    auto it = whole.patches.begin();
+    for (const CutPatch& p : visible.patches) {
+      it = std::find_if(it, whole.patches.end(),
+                        [&](const CutPatch& q) { return q.node == p.node; });
+      ASSERT_NE(it, whole.patches.end()) << "visible patch not in the unculled cut";
+    }
+  }
+  std::printf("%d cameras, %zu triangles checked\n", cameras, totalTriangles);
+}
+
+// ≥ 200 cameras over both planets; sanitizer builds check fewer (they look for memory errors,
+// not for more camera positions).
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+constexpr int kWatertightCameras = 12;
+#else
+constexpr int kWatertightCameras = 100;
+#endif
+
+TEST(Refinement, MarsCutsAreWatertightForRandomCameras) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
+  expectWatertight(dir, dem, kWatertightCameras, 2026);
+}
+
+TEST(Refinement, EarthCutsAreWatertightForRandomCameras) {
+  PBDAM_REQUIRE_DATASET(dir, "earth");
+  PBDAM_REQUIRE_DATA(dem, PBDAM_ETOPO5_PATH);
+  expectWatertight(dir, dem, kWatertightCameras, 1123);
+}
+
+}  // namespace
+}  // namespace pbdam
+
+namespace pbdam {
+namespace {
+
+// The highest vertices of the leaves around (lat, lon), by distance from the planet centre.
+std::vector<glm::dvec3> highestVertices(const DatasetView& view, test::PatchStore& store,
+                                        double lat, double lon, std::size_t count) {
+  const Camera above =
+      Camera::fromPose(view.planet(), {lat, lon, 60e3, 0.0, -90.0, 0.0}, Viewport{1280, 720, 60.0});
+  const Cut cut = refine(view, above, {3.0, true, -1});
+  std::vector<glm::dvec3> vertices;
+  for (const CutPatch& p : cut.patches) {
+    if (p.level != view.depth()) continue;
+    const NodeRecord record = view.node(p.node);
+    for (const PatchVertex& v : store.mesh(p.node).vertices) {
+      vertices.push_back(exactVertexPosition(
+          record, v.b1, v.b2, vertexHeightMeters(v.heightSteps, view.manifest().heightStepMeters),
+          glm::dvec3(0.0)));
+    }
+  }
+  std::sort(vertices.begin(), vertices.end(), [](const glm::dvec3& a, const glm::dvec3& b) {
+    return glm::length(a) > glm::length(b);
+  });
+  vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+  if (vertices.size() > count) vertices.resize(count);
+  return vertices;
+}
+
+struct PrecisionFigures {
+  std::size_t vertices = 0;     ///< drawn vertices within 1 km of the camera
+  double cameraRelative = 0.0;  ///< largest error, runtime/PatchDraw.h
+  double cornerRelative = 0.0;  ///< largest error, Fig. 5 without reference points
+  double absoluteFloat = 0.0;   ///< largest error, absolute float positions
+};
+
+// Cameras 2 m above each of the highest vertices near (lat, lon); errors of every drawn vertex
+// within 1 km of the camera against double-precision truth.
+PrecisionFigures measurePrecision(const std::filesystem::path& dir, double lat, double lon) {
+  auto dataset = openDataset(dir);
+  PrecisionFigures f;
+  if (!dataset) return f;
+  const DatasetView& view = dataset->view();
+  test::PatchStore store(view);
+  for (const glm::dvec3& summit : highestVertices(view, store, lat, lon, 4)) {
+    const glm::dvec3 eye = summit + 2.0 * glm::normalize(summit);
+    const GeodeticPosition g = view.planet().ecefToGeodetic(eye);
+    Camera camera = Camera::fromPose(view.planet(),
+                                     {g.latDegrees, g.lonDegrees, g.heightMeters, 30.0, -20.0, 0.0},
+                                     Viewport{1280, 720, 60.0});
+    const Cut cut = refine(view, camera, {3.0, true, -1});
+    for (const CutPatch& p : cut.patches) {
+      const NodeRecord record = view.node(p.node);
+      const PatchDrawRecord draw = makePatchDrawRecord(view, {p.node, record, 0}, eye);
+      for (const PatchVertex& v : store.mesh(p.node).vertices) {
+        const float h = vertexHeightMeters(v.heightSteps, view.manifest().heightStepMeters);
+        const glm::dvec3 truth = exactVertexPosition(record, v.b1, v.b2, h, eye);
+        if (glm::length(truth) > 1000.0) continue;
+        ++f.vertices;
+        const auto err = [&](const glm::vec3& p32) { return glm::length(glm::dvec3(p32) - truth); };
+        f.cameraRelative =
+            std::max(f.cameraRelative, err(shaderVertexPosition(draw, v.b1, v.b2, h)));
+        f.cornerRelative = std::max(f.cornerRelative,
+                                    err(cornerRelativeVertexPosition(record, v.b1, v.b2, h, eye)));
+        f.absoluteFloat =
+            std::max(f.absoluteFloat, err(absoluteFloatVertexPosition(record, v.b1, v.b2, h, eye)));
+      }
+    }
+  }
+  std::printf(
+      "%zu vertices within 1 km: camera-relative %.3g m, corner-relative (Fig. 5) %.3g m, "
+      "absolute float %.3g m\n",
+      f.vertices, f.cameraRelative, f.cornerRelative, f.absoluteFloat);
+  return f;
+}
+
+TEST(CameraRelative, MillimetreAccurateTwoMetresAboveOlympusMons) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  const PrecisionFigures f = measurePrecision(dir, 18.4, -133.9);
+  ASSERT_GT(f.vertices, 0u);
+  EXPECT_LE(f.cameraRelative, 1e-3);
+  EXPECT_GT(f.absoluteFloat, 0.1);  // the test fails without the technique
+}
+
+TEST(CameraRelative, MillimetreAccurateTwoMetresAboveTheHighestEtopo5Point) {
+  PBDAM_REQUIRE_DATASET(dir, "earth");
+  const PrecisionFigures f = measurePrecision(dir, 27.98, 86.92);
+  ASSERT_GT(f.vertices, 0u);
+  EXPECT_LE(f.cameraRelative, 1e-3);
+  EXPECT_GT(f.absoluteFloat, 0.1);
+}
+
+TEST(Refinement, CutsAreDeterministicAndWithinTolerance) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  PBDAM_REQUIRE_DATA(demPath, test::dataDir() / "mars/megt90n000cb.lbl");
+  auto dataset = openDataset(dir);
+  ASSERT_TRUE(dataset);
+  const DatasetView& view = dataset->view();
+  auto dem = readDem(demPath);
+  ASSERT_TRUE(dem.ok());
+  std::mt19937_64 rng(7);
+  for (const double tolerance : {1.0, 3.0, 10.0}) {
+    for (int c = 0; c < 20; ++c) {
+      const CameraPose pose = randomPose(rng, *dem, view.planet().equatorialRadiusMeters());
+      const Camera camera = Camera::fromPose(view.planet(), pose, Viewport{1280, 720, 60.0});
+      const Cut a = refine(view, camera, {tolerance, true, -1});
+      const Cut b = refine(view, camera, {tolerance, true, -1});
+      ASSERT_EQ(a.patches.size(), b.patches.size());
+      for (std::size_t k = 0; k < a.patches.size(); ++k) {
+        ASSERT_EQ(a.patches[k].node, b.patches[k].node);
+      }
+      for (const CutPatch& p : a.patches) {
+        const NodeRecord n = view.node(p.node);
+        const double screen = camera.screenError(
+            refinementErrorMeters(view, p.level, n.errorMeters),
+            {n.sphereCenter[0], n.sphereCenter[1], n.sphereCenter[2]}, n.sphereRadiusMeters);
+        // Every drawn patch is within the tolerance or a leaf.
+        EXPECT_TRUE(p.level == view.depth() || screen <= tolerance)
+            << "level " << p.level << " screen error " << screen;
+        EXPECT_TRUE(p.tile == view.tileOf(p.node));
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace pbdam

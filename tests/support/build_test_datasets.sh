@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# CTest fixture "datasets": builds the small real-data datasets that runtime, GPU and CLI tests
+# read, once, into one directory shared by every preset (datasets are deterministic, so any
+# pbdam binary gives the same bytes; the release binary is preferred because it is the fastest).
+#   build_test_datasets.sh PBDAM DATA_DIR OUT_DIR [RELEASE_PBDAM]
+# A dataset is rebuilt when it is missing or older than the binary that would build it.
+# Missing input data: fails under CI=true, otherwise prints why and builds nothing (the tests
+# that need it then skip with the same message).
+set -euo pipefail
+pbdam=$1 data=$2 out=$3 release=${4:-}
+if [[ -n "$release" && -x "$release" ]]; then pbdam=$release; fi
+mkdir -p "$out"
+status=0
+build() {  # name, input file, build arguments...
+  local name=$1 input=$2
+  shift 2
+  if [[ ! -r "$input" ]]; then
+    echo "test dataset '$name' not built: input $input is missing (set PBDAM_DATA_DIR)"
+    [[ "${CI:-}" == "true" ]] && status=1
+    return 0
+  fi
+  if [[ -f "$out/$name/manifest.json" && "$out/$name/manifest.json" -nt "$pbdam" ]]; then
+    echo "test dataset '$name' is up to date"
+    return 0
+  fi
+  echo "building test dataset '$name' with $pbdam"
+  "$pbdam" build --dem "$input" "$@" --out "$out/$name" --force --quiet
+}
+data=${PBDAM_DATA_DIR:-$data}
+build mola "$data/mars/megt90n000cb.lbl" --planet mars
+build earth /usr/share/ferret-vis/data/etopo5.cdf --planet earth --levels 8
+exit $status
