@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 
@@ -39,7 +40,7 @@ CliRun runPbdam(const std::string& args) {
 
 TEST(Cli, HelpAndVersion) {
   for (const char* args : {"--help", "dem --help", "dem info --help", "devices --help",
-                           "build --help", "info --help", "verify --help"}) {
+                           "build --help", "info --help", "verify --help", "height --help"}) {
     const CliRun run = runPbdam(args);
     EXPECT_EQ(run.exitCode, 0) << args << "\n" << run.err;
     EXPECT_NE(run.out.find("Usage"), std::string::npos) << args << "\n" << run.out;
@@ -160,8 +161,26 @@ TEST(Cli, BadInputGivesOneLineAndExitCode2) {
   expectBadInput("build --dem x --planet mars --out y --texture-format png", "png");
   expectBadInput("info '" + (dir / "nothing").string() + "'", "no manifest");
   expectBadInput("verify '" + (dir / "nothing").string() + "'", "no manifest");
+  expectBadInput("height '" + (dir / "nothing").string() + "' --at 0,0", "nothing");
+  expectBadInput("height x --at 91,0", "--at");
+  expectBadInput("height x --at 1,2,3", "--at '1,2,3'");
+  expectBadInput("height x", "--at is required");
   PBDAM_REQUIRE_DATA(tif, test::dataDir() / "geotiff/terra_elev_luxembourg.tif");
   expectBadInput("dem info '" + tif.string() + "' --at 0,0", "outside the grid");
+}
+
+TEST(Cli, HeightOnMolaMatchesTheDemWithinTheStoredError) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  const CliRun run = runPbdam("height '" + dir.string() + "' --at 17.375,226.875 --json");
+  ASSERT_EQ(run.exitCode, 0) << run.err;
+  const auto j = nlohmann::json::parse(run.out);
+  // The MOLA summit sample is 21,134 m; the leaf's stored error bounds the difference.
+  EXPECT_LE(std::abs(j["height_m"].get<double>() - 21134.0), j["error_m"].get<double>());
+  EXPECT_EQ(j["planet"], "mars");
+  const CliRun text = runPbdam("height '" + dir.string() + "' --at 90,0");
+  EXPECT_EQ(text.exitCode, 0);
+  EXPECT_NE(text.out.find("m at 90.000000, 0.000000 (mars; leaf error"), std::string::npos)
+      << text.out;
 }
 
 }  // namespace

@@ -28,6 +28,9 @@ void addBuildCommand(CLI::App& app, CommandStatus& status);
 /// `pbdam info DIR [--json]` and `pbdam verify DIR [--dem FILE]`.
 void addDatasetCommands(CLI::App& app, CommandStatus& status);
 
+/// `pbdam height DIR --at LAT,LON [--json]`.
+void addHeightCommand(CLI::App& app, CommandStatus& status);
+
 /// Prints "pbdam: <message>" on stderr; returns the exit code for the error's kind.
 int reportError(const Error& error);
 

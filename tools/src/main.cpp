@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   pbdam::tools::addDevicesCommand(app, status);
   pbdam::tools::addBuildCommand(app, status);
   pbdam::tools::addDatasetCommands(app, status);
+  pbdam::tools::addHeightCommand(app, status);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -1,0 +1,67 @@
+// pbdam height's query on real datasets: the rendered surface height agrees with the source
+// DEM's bilinear sample within the stored error of the leaf it comes from.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "TestData.h"
+#include "pbdam/formats/DemReader.h"
+#include "pbdam/runtime/SurfaceQuery.h"
+#include "pbdam/streaming/MappedDataset.h"
+
+namespace pbdam {
+namespace {
+
+void expectHeightsWithinStoredError(const std::filesystem::path& dir,
+                                    const std::filesystem::path& demPath, std::uint64_t seed) {
+  auto dataset = MappedDataset::open(dir);
+  ASSERT_TRUE(dataset.ok()) << dataset.error().message;
+  auto dem = readDem(demPath);
+  ASSERT_TRUE(dem.ok()) << dem.error().message;
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  double worst = 0.0;
+  for (int k = 0; k < 300; ++k) {
+    // Uniform on the sphere, plus the poles and a face corner.
+    double lat = std::asin(2.0 * unit(rng) - 1.0) * 180.0 / 3.14159265358979323846;
+    double lon = 360.0 * unit(rng) - 180.0;
+    if (k == 0) lat = 90.0;
+    if (k == 1) lat = -90.0;
+    if (k == 2) lat = 35.264389682754654, lon = 45.0;  // (1, 1, 1)/√3 on a sphere
+    const auto h = surfaceHeightAt((*dataset)->view(), lat, lon);
+    ASSERT_TRUE(h.ok()) << h.error().message;
+    const auto sample = dem->sampleBilinear(lat, lon);
+    if (!sample) continue;
+    const double diff = std::abs(h->heightMeters - *sample);
+    EXPECT_LE(diff, h->leafErrorMeters) << lat << ", " << lon;
+    worst = std::max(worst, diff / h->leafErrorMeters);
+  }
+  std::printf("worst |height - DEM| at %.0f%% of the stored error\n", 100.0 * worst);
+}
+
+TEST(SurfaceQuery, MarsHeightsMatchTheDemWithinTheStoredError) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
+  expectHeightsWithinStoredError(dir, dem, 11);
+}
+
+TEST(SurfaceQuery, EarthHeightsMatchTheDemWithinTheStoredError) {
+  PBDAM_REQUIRE_DATASET(dir, "earth");
+  PBDAM_REQUIRE_DATA(dem, PBDAM_ETOPO5_PATH);
+  expectHeightsWithinStoredError(dir, dem, 12);
+}
+
+TEST(SurfaceQuery, RejectsOutOfRangePositions) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  auto dataset = MappedDataset::open(dir);
+  ASSERT_TRUE(dataset.ok());
+  for (const auto& [lat, lon] : {std::pair{91.0, 0.0}, {0.0, 400.0}, {NAN, 0.0}}) {
+    const auto h = surfaceHeightAt((*dataset)->view(), lat, lon);
+    ASSERT_FALSE(h.ok());
+    EXPECT_EQ(h.error().code, ErrorCode::InvalidArgument);
+  }
+}
+
+}  // namespace
+}  // namespace pbdam

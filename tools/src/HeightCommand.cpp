@@ -1,0 +1,70 @@
+// `pbdam height DIR --at LAT,LON [--json]`: the height of the rendered terrain at a point, from
+// the leaf patches (runtime/SurfaceQuery.h), with the stored error that bounds its distance from
+// the source DEM.
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <vector>
+
+#include "Commands.h"
+#include "pbdam/formats/NumberList.h"
+#include "pbdam/runtime/SurfaceQuery.h"
+#include "pbdam/streaming/MappedDataset.h"
+
+namespace pbdam::tools {
+namespace {
+
+struct HeightCliOptions {
+  std::string dir;
+  std::string at;
+  bool json = false;
+};
+
+int runHeight(const HeightCliOptions& o) {
+  std::vector<double> latLon;
+  if (!parseNumberList(o.at, 2, latLon) || std::abs(latLon[0]) > 90.0 ||
+      std::abs(latLon[1]) > 360.0) {
+    return reportError(
+        makeError(ErrorCode::InvalidArgument,
+                  "--at '" + o.at + "': expected LAT,LON in degrees (|LAT| <= 90, |LON| <= 360)"));
+  }
+  auto dataset = MappedDataset::open(o.dir);
+  if (!dataset) return reportError(dataset.error());
+  const DatasetView& view = (*dataset)->view();
+  auto h = surfaceHeightAt(view, latLon[0], latLon[1]);
+  if (!h) return reportError(h.error());
+  if (o.json) {
+    nlohmann::ordered_json j;
+    j["lat"] = latLon[0];
+    j["lon"] = latLon[1];
+    j["height_m"] = h->heightMeters;
+    j["error_m"] = h->leafErrorMeters;
+    j["measured_error_m"] = h->leafMeasuredErrorMeters;
+    j["planet"] = view.manifest().planetSpec;
+    j["face"] = h->leaf.face;
+    j["tree"] = h->leaf.tree;
+    j["node"] = h->leaf.heap;
+    std::cout << j.dump(2) << "\n";
+  } else {
+    std::printf("%.3f m at %.6f, %.6f (%s; leaf error <= %.1f m)\n", h->heightMeters, latLon[0],
+                latLon[1], view.manifest().planetSpec.c_str(), h->leafErrorMeters);
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+void addHeightCommand(CLI::App& app, CommandStatus& status) {
+  auto o = std::make_shared<HeightCliOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "height", "Height of the rendered terrain at a point (m above the reference surface)");
+  cmd->add_option("DIR", o->dir, "Dataset directory")->required();
+  cmd->add_option("--at", o->at, "LAT,LON in degrees (geodetic)")->required();
+  cmd->add_flag("--json", o->json, "Machine-readable JSON output");
+  cmd->callback([o, &status] { status.exitCode = runHeight(*o); });
+}
+
+}  // namespace pbdam::tools
