@@ -102,16 +102,27 @@ Result<void> MappedFile::willNeed(std::size_t offset, std::size_t length) const 
 }
 
 Result<std::size_t> MappedFile::residentPages() const noexcept {
-  if (size_ == 0) return std::size_t{0};
+  auto r = residentPages(0, size_);
+  if (!r) return std::move(r).error();
+  return r->first;
+}
+
+Result<std::pair<std::size_t, std::size_t>> MappedFile::residentPages(
+    std::size_t offset, std::size_t length) const noexcept {
+  assert(offset <= size_ && length <= size_ - offset);
+  if (length == 0) return std::pair<std::size_t, std::size_t>{0, 0};
   const std::size_t page = pageSize();
-  std::vector<unsigned char> vec((size_ + page - 1) / page);
-  if (::mincore(const_cast<std::byte*>(data_), size_, vec.data()) != 0) {  // NOLINT
+  const std::size_t begin = offset / page * page;
+  const std::size_t end = offset + length;
+  std::vector<unsigned char> vec((end - begin + page - 1) / page);
+  if (::mincore(const_cast<std::byte*>(data_) + begin, end - begin,  // NOLINT
+                vec.data()) != 0) {
     return makeError(ErrorCode::IoError,
                      path_.string() + ": mincore failed (" + std::strerror(errno) + ")");
   }
   std::size_t resident = 0;
   for (unsigned char v : vec) resident += (v & 1U);
-  return resident;
+  return std::pair<std::size_t, std::size_t>{resident, vec.size()};
 }
 
 }  // namespace pbdam

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <span>
+#include <utility>
 
 #include "pbdam/formats/Result.h"
 
@@ -43,6 +44,10 @@ class MappedFile final {
 
   /// Number of the mapping's pages currently resident in the page cache (mincore).
   Result<std::size_t> residentPages() const noexcept;
+  /// Number of pages of [offset, offset + length) resident, and the number of pages the range
+  /// touches. The range must lie inside the mapping.
+  Result<std::pair<std::size_t, std::size_t>> residentPages(std::size_t offset,
+                                                            std::size_t length) const noexcept;
 
   /// The system page size in bytes.
   static std::size_t pageSize() noexcept;

@@ -1,0 +1,88 @@
+// Speculative prefetch (design.md §5, paper 004 §4.4): a worker thread predicts the camera a
+// look-ahead ahead by linear extrapolation of the last poses, runs the renderer's refinement for
+// the predicted camera, and asks the kernel to start reading (madvise(MADV_WILLNEED)) the
+// page-aligned byte ranges of every needed patch and tile that is not resident. The render path
+// knows nothing of it: whoever drives the frames hands it the camera of each frame.
+// Thread-safety: observe() and stats() may be called from any thread while the worker runs.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <unordered_map>
+
+#include "pbdam/runtime/Camera.h"
+#include "pbdam/runtime/Refinement.h"
+#include "pbdam/streaming/MappedDataset.h"
+
+namespace pbdam {
+
+/// Linear extrapolation of a camera from its last poses: position and view axes move with the
+/// velocity of the last two observations (axes re-orthonormalised). Not thread-safe.
+class CameraPredictor final {
+ public:
+  void observe(double timeSeconds, const Camera& camera);
+  /// The camera predicted at `timeSeconds`; nullopt before the first observation. With one
+  /// observation it is that camera.
+  std::optional<Camera> predict(double timeSeconds) const;
+  std::optional<double> lastTime() const;
+
+ private:
+  struct Sample {
+    double time;
+    Camera camera;
+  };
+  std::deque<Sample> samples_;
+};
+
+struct PrefetchOptions final {
+  double lookaheadSeconds = 0.5;
+  RefinementOptions refinement;
+};
+
+/// What the prefetcher did so far.
+struct PrefetchStats final {
+  std::uint64_t predictions = 0;     ///< refinements of a predicted camera
+  std::uint64_t rangesAdvised = 0;   ///< madvise(MADV_WILLNEED) calls
+  std::uint64_t bytesAdvised = 0;    ///< bytes in those ranges
+  std::uint64_t rangesResident = 0;  ///< ranges found already resident (no call)
+};
+
+class Prefetcher final {
+ public:
+  Prefetcher(const MappedDataset& dataset, const PrefetchOptions& options);
+  ~Prefetcher();
+  Prefetcher(const Prefetcher&) = delete;
+  Prefetcher& operator=(const Prefetcher&) = delete;
+
+  /// Hands the worker the camera of a frame (cheap: a copy under a lock and a notify).
+  void observe(double timeSeconds, const Camera& camera);
+  /// Stops the worker and waits for it (also done by the destructor).
+  void stop();
+  PrefetchStats stats() const;
+
+ private:
+  void run();
+  void prefetch(const Cut& cut);
+  void adviseRange(int face, std::uint64_t offset, std::uint64_t bytes, std::uint64_t key);
+
+  const MappedDataset& dataset_;
+  PrefetchOptions options_;
+  mutable std::mutex mutex_;
+  std::condition_variable wake_;
+  std::deque<std::pair<double, Camera>> pending_;
+  bool stopping_ = false;
+  // Worker-only state.
+  CameraPredictor predictor_;
+  std::unordered_map<std::uint64_t, std::uint64_t> advisedAt_;  ///< range key → cycle
+  std::uint64_t cycle_ = 0;
+  std::atomic<std::uint64_t> predictions_{0}, rangesAdvised_{0}, bytesAdvised_{0},
+      rangesResident_{0};
+  std::thread worker_;
+};
+
+}  // namespace pbdam

@@ -1,0 +1,124 @@
+// Camera prediction and madvise prefetch (Prefetcher.h).
+#include "pbdam/streaming/Prefetcher.h"
+
+#include <glm/geometric.hpp>
+
+namespace pbdam {
+
+void CameraPredictor::observe(double timeSeconds, const Camera& camera) {
+  if (!samples_.empty() && timeSeconds <= samples_.back().time) samples_.clear();
+  samples_.push_back({timeSeconds, camera});
+  while (samples_.size() > 2) samples_.pop_front();
+}
+
+std::optional<double> CameraPredictor::lastTime() const {
+  if (samples_.empty()) return std::nullopt;
+  return samples_.back().time;
+}
+
+std::optional<Camera> CameraPredictor::predict(double timeSeconds) const {
+  if (samples_.empty()) return std::nullopt;
+  const Sample& last = samples_.back();
+  if (samples_.size() < 2) return last.camera;
+  const Sample& prev = samples_.front();
+  const double s = (timeSeconds - last.time) / (last.time - prev.time);
+  const auto extrapolate = [s](const glm::dvec3& a, const glm::dvec3& b) {
+    return b + s * (b - a);
+  };
+  const glm::dvec3 position = extrapolate(prev.camera.position(), last.camera.position());
+  glm::dvec3 forward = extrapolate(prev.camera.forward(), last.camera.forward());
+  glm::dvec3 up = extrapolate(prev.camera.up(), last.camera.up());
+  if (glm::length(forward) < 1e-9 || glm::length(glm::cross(forward, up)) < 1e-9) {
+    forward = last.camera.forward();
+    up = last.camera.up();
+  }
+  forward = glm::normalize(forward);
+  const glm::dvec3 right = glm::normalize(glm::cross(forward, up));
+  up = glm::cross(right, forward);
+  Camera predicted(position, right, up, forward, last.camera.viewport());
+  predicted.setNearMeters(last.camera.nearMeters());
+  return predicted;
+}
+
+Prefetcher::Prefetcher(const MappedDataset& dataset, const PrefetchOptions& options)
+    : dataset_(dataset), options_(options), worker_([this] { run(); }) {}
+
+Prefetcher::~Prefetcher() { stop(); }
+
+void Prefetcher::stop() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+  }
+  wake_.notify_all();
+  if (worker_.joinable()) worker_.join();
+}
+
+void Prefetcher::observe(double timeSeconds, const Camera& camera) {
+  {
+    std::lock_guard lock(mutex_);
+    pending_.emplace_back(timeSeconds, camera);
+    while (pending_.size() > 8) pending_.pop_front();
+  }
+  wake_.notify_one();
+}
+
+PrefetchStats Prefetcher::stats() const {
+  return {predictions_.load(), rangesAdvised_.load(), bytesAdvised_.load(), rangesResident_.load()};
+}
+
+void Prefetcher::run() {
+  for (;;) {
+    std::deque<std::pair<double, Camera>> batch;
+    {
+      std::unique_lock lock(mutex_);
+      wake_.wait(lock, [this] { return stopping_ || !pending_.empty(); });
+      if (stopping_) return;
+      batch.swap(pending_);
+    }
+    for (const auto& [t, camera] : batch) predictor_.observe(t, camera);
+    const auto predicted = predictor_.predict(*predictor_.lastTime() + options_.lookaheadSeconds);
+    if (!predicted) continue;
+    ++cycle_;
+    prefetch(refine(dataset_.view(), *predicted, options_.refinement));
+    predictions_.fetch_add(1, std::memory_order_relaxed);
+  }
+}
+
+void Prefetcher::prefetch(const Cut& cut) {
+  const DatasetView& view = dataset_.view();
+  for (const CutPatch& p : cut.patches) {
+    const NodeRecord n = view.node(p.node);
+    const std::uint64_t key =
+        ((p.node.face * 2ull + p.node.tree) * view.face(0).nodesPerTree() + p.node.heap) << 1;
+    adviseRange(p.node.face, n.blobOffset, n.blobBytes, key);
+  }
+  for (const TileKey& t : cut.tiles) {
+    const TextureRecord r = view.textureNode(t);
+    adviseRange(t.face, r.blobOffset, r.blobBytes, ((t.heap * 6 + t.face) << 1) | 1U);
+  }
+  // Forget ranges advised long ago: the kernel may have dropped them since.
+  if (cycle_ % 64 == 0) {
+    std::erase_if(advisedAt_, [this](const auto& kv) { return kv.second + 64 < cycle_; });
+  }
+}
+
+void Prefetcher::adviseRange(int face, std::uint64_t offset, std::uint64_t bytes,
+                             std::uint64_t key) {
+  if (bytes == 0) return;
+  auto [it, fresh] = advisedAt_.try_emplace(key, cycle_);
+  if (!fresh && it->second + 16 > cycle_) return;  // advised recently
+  it->second = cycle_;
+  const MappedFile& file = dataset_.faceFile(face);
+  const auto resident = file.residentPages(offset, bytes);
+  if (resident && resident->first == resident->second) {
+    rangesResident_.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  if (file.willNeed(offset, bytes)) {
+    rangesAdvised_.fetch_add(1, std::memory_order_relaxed);
+    bytesAdvised_.fetch_add(bytes, std::memory_order_relaxed);
+  }
+}
+
+}  // namespace pbdam
