@@ -29,7 +29,9 @@ endfunction()
 
 # pbdam_embed_shaders(TARGET SHADERS...): compiles GLSL to SPIR-V with glslc at build time and
 # makes each available as `<name>.<stage>.inc`, a C initializer list of uint32_t words
-# (glslc -mfmt=c), in the target's include path; #include it inside a braced array.
+# (glslc -mfmt=c), in the target's include path; #include it inside a braced array. Shaders may
+# `#include` files beside them or in gpu/shaders (GL_GOOGLE_include_directive); glslc's depfile
+# makes edits to included files rebuild them.
 function(pbdam_embed_shaders target)
   set(outDir ${CMAKE_CURRENT_BINARY_DIR}/shaders)
   file(MAKE_DIRECTORY ${outDir})
@@ -39,8 +41,10 @@ function(pbdam_embed_shaders target)
     set(out ${outDir}/${fname}.inc)
     add_custom_command(OUTPUT ${out}
       COMMAND Vulkan::glslc --target-env=vulkan1.2 -O -Werror -mfmt=c
+              -I ${PROJECT_SOURCE_DIR}/gpu/shaders -MD -MF ${out}.d
               -o ${out} ${CMAKE_CURRENT_SOURCE_DIR}/${src}
       DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/${src}
+      DEPFILE ${out}.d
       COMMENT "glslc ${fname}")
     list(APPEND outputs ${out})
   endforeach()

@@ -194,6 +194,12 @@ Result<GpuImage> createImage2D(const VulkanContext& context, const ImageDesc& de
                               std::to_string(static_cast<int>(desc.format)) + " with usage flags " +
                               std::to_string(desc.usage));
   }
+  if (desc.arrayLayers == 0 || desc.arrayLayers > formatProperties.maxArrayLayers) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "image " + debugName + " has " + std::to_string(desc.arrayLayers) +
+                         " layers; the device allows 1.." +
+                         std::to_string(formatProperties.maxArrayLayers));
+  }
   if (desc.widthPixels > formatProperties.maxExtent.width ||
       desc.heightPixels > formatProperties.maxExtent.height) {
     return makeError(ErrorCode::InvalidArgument,
@@ -210,7 +216,7 @@ Result<GpuImage> createImage2D(const VulkanContext& context, const ImageDesc& de
   info.format = desc.format;
   info.extent = {desc.widthPixels, desc.heightPixels, 1};
   info.mipLevels = 1;
-  info.arrayLayers = 1;
+  info.arrayLayers = desc.arrayLayers;
   info.samples = VK_SAMPLE_COUNT_1_BIT;
   info.tiling = VK_IMAGE_TILING_OPTIMAL;
   info.usage = desc.usage;
@@ -239,9 +245,9 @@ Result<GpuImage> createImage2D(const VulkanContext& context, const ImageDesc& de
   VkImageViewCreateInfo viewInfo{};
   viewInfo.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;
   viewInfo.image = rawImage;
-  viewInfo.viewType = VK_IMAGE_VIEW_TYPE_2D;
+  viewInfo.viewType = desc.arrayView ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D;
   viewInfo.format = desc.format;
-  viewInfo.subresourceRange = {desc.aspect, 0, 1, 0, 1};
+  viewInfo.subresourceRange = {desc.aspect, 0, 1, 0, desc.arrayLayers};
   VkImageView rawView = VK_NULL_HANDLE;
   if (VkResult r = vkCreateImageView(device, &viewInfo, nullptr, &rawView); r != VK_SUCCESS) {
     return vulkanError(r, "vkCreateImageView (" + debugName + ")");

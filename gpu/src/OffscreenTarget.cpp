@@ -66,8 +66,8 @@ Result<OffscreenTarget> OffscreenTarget::create(const VulkanContext& context, ui
 }
 
 void OffscreenTarget::recordBeginRendering(VkCommandBuffer cmd,
-                                           const std::array<float, 4>& clearRgba,
-                                           float clearDepth) const {
+                                           const std::array<float, 4>& clearRgba, float clearDepth,
+                                           bool keepDepth) const {
   // Old contents are discarded (UNDEFINED); the source scopes cover the previous frame's
   // attachment writes and readback copy (write-after-write / write-after-read).
   const std::array<VkImageMemoryBarrier2, 2> barriers = {
@@ -89,11 +89,42 @@ void OffscreenTarget::recordBeginRendering(VkCommandBuffer cmd,
   dependency.pImageMemoryBarriers = barriers.data();
   vkCmdPipelineBarrier2(cmd, &dependency);
 
+  beginRendering(cmd, VK_ATTACHMENT_LOAD_OP_CLEAR, clearRgba, clearDepth, keepDepth);
+}
+
+void OffscreenTarget::recordResumeRendering(VkCommandBuffer cmd, bool keepDepth) const {
+  // Same layouts: a memory dependency from the previous pass's attachment writes to this one's
+  // loads and writes.
+  const std::array<VkImageMemoryBarrier2, 2> barriers = {
+      imageBarrier(
+          color_.image(), VK_IMAGE_ASPECT_COLOR_BIT,
+          VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+          VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+          VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT,
+          VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL),
+      imageBarrier(depth_.image(), VK_IMAGE_ASPECT_DEPTH_BIT, kDepthStages,
+                   VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, kDepthStages,
+                   VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT |
+                       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT,
+                   VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
+                   VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL),
+  };
+  VkDependencyInfo dependency{};
+  dependency.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
+  dependency.imageMemoryBarrierCount = static_cast<uint32_t>(barriers.size());
+  dependency.pImageMemoryBarriers = barriers.data();
+  vkCmdPipelineBarrier2(cmd, &dependency);
+  beginRendering(cmd, VK_ATTACHMENT_LOAD_OP_LOAD, {0.0f, 0.0f, 0.0f, 0.0f}, kFarDepth, keepDepth);
+}
+
+void OffscreenTarget::beginRendering(VkCommandBuffer cmd, VkAttachmentLoadOp loadOp,
+                                     const std::array<float, 4>& clearRgba, float clearDepth,
+                                     bool keepDepth) const {
   VkRenderingAttachmentInfo colorAttachment{};
   colorAttachment.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
   colorAttachment.imageView = color_.view();
   colorAttachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-  colorAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  colorAttachment.loadOp = loadOp;
   colorAttachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
   colorAttachment.clearValue.color = {{clearRgba[0], clearRgba[1], clearRgba[2], clearRgba[3]}};
 
@@ -101,8 +132,9 @@ void OffscreenTarget::recordBeginRendering(VkCommandBuffer cmd,
   depthAttachment.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
   depthAttachment.imageView = depth_.view();
   depthAttachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  depthAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  depthAttachment.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  depthAttachment.loadOp = loadOp;
+  depthAttachment.storeOp =
+      keepDepth ? VK_ATTACHMENT_STORE_OP_STORE : VK_ATTACHMENT_STORE_OP_DONT_CARE;
   depthAttachment.clearValue.depthStencil = {clearDepth, 0};
 
   VkRenderingInfo rendering{};
@@ -126,7 +158,10 @@ void OffscreenTarget::recordBeginRendering(VkCommandBuffer cmd,
 
 void OffscreenTarget::recordEndRenderingAndReadback(VkCommandBuffer cmd) const {
   vkCmdEndRendering(cmd);
+  recordReadback(cmd);
+}
 
+void OffscreenTarget::recordReadback(VkCommandBuffer cmd) const {
   const VkImageMemoryBarrier2 toTransfer = imageBarrier(
       color_.image(), VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
       VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT,

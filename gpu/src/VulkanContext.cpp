@@ -303,6 +303,7 @@ Result<void> VulkanContext::Impl::createDevice() {
   want.features.drawIndirectFirstInstance = have.features.drawIndirectFirstInstance;
   want.features.geometryShader = have.features.geometryShader;
   want.features.fillModeNonSolid = have.features.fillModeNonSolid;
+  want.features.vertexPipelineStoresAndAtomics = have.features.vertexPipelineStoresAndAtomics;
 
   const float priority = 1.0f;
   VkDeviceQueueCreateInfo queueInfo{};
@@ -333,6 +334,7 @@ Result<void> VulkanContext::Impl::createDevice() {
   caps.drawIndirectFirstInstance = want.features.drawIndirectFirstInstance == VK_TRUE;
   caps.geometryShader = want.features.geometryShader == VK_TRUE;
   caps.fillModeNonSolid = want.features.fillModeNonSolid == VK_TRUE;
+  caps.vertexPipelineStoresAndAtomics = want.features.vertexPipelineStoresAndAtomics == VK_TRUE;
   caps.maxPushConstantsBytes = properties.limits.maxPushConstantsSize;
   caps.maxImageDimension2DPixels = properties.limits.maxImageDimension2D;
   caps.maxDrawIndexedIndexValue = properties.limits.maxDrawIndexedIndexValue;

@@ -31,6 +31,9 @@ void addDatasetCommands(CLI::App& app, CommandStatus& status);
 /// `pbdam height DIR --at LAT,LON [--json]`.
 void addHeightCommand(CLI::App& app, CommandStatus& status);
 
+/// `pbdam render DIR (--camera POSE | --path FILE) --out PATH [...]`.
+void addRenderCommand(CLI::App& app, CommandStatus& status);
+
 /// Prints "pbdam: <message>" on stderr; returns the exit code for the error's kind.
 int reportError(const Error& error);
 

@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   pbdam::tools::addBuildCommand(app, status);
   pbdam::tools::addDatasetCommands(app, status);
   pbdam::tools::addHeightCommand(app, status);
+  pbdam::tools::addRenderCommand(app, status);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -17,6 +17,8 @@ struct DeviceCaps final {
   bool drawIndirectFirstInstance = false;
   bool geometryShader = false;
   bool fillModeNonSolid = false;  ///< wireframe debug views
+  /// Storage-buffer writes from vertex shaders (the GPU tests' vertex-position capture).
+  bool vertexPipelineStoresAndAtomics = false;
 
   uint32_t maxPushConstantsBytes = 0;  ///< 128 on lavapipe (design.md §9)
   uint32_t maxImageDimension2DPixels = 0;

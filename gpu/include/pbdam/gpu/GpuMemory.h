@@ -78,13 +78,16 @@ Result<GpuBuffer> createBuffer(const VulkanContext& context, VkDeviceSize sizeBy
                                VkBufferUsageFlags usage, MemoryUse use,
                                const std::string& debugName);
 
-/// What createImage2D makes: a single-mip, single-layer, optimal-tiling 2D image.
+/// What createImage2D makes: a single-mip, optimal-tiling 2D image, or a 2D array of
+/// `arrayLayers` layers (viewed as VK_IMAGE_VIEW_TYPE_2D_ARRAY when `arrayView` is set).
 struct ImageDesc final {
   VkFormat format = VK_FORMAT_R8G8B8A8_UNORM;
   uint32_t widthPixels = 0;
   uint32_t heightPixels = 0;
   VkImageUsageFlags usage = 0;
   VkImageAspectFlags aspect = VK_IMAGE_ASPECT_COLOR_BIT;  ///< for the view
+  uint32_t arrayLayers = 1;
+  bool arrayView = false;  ///< view type 2D_ARRAY (required for sampler2DArray)
 };
 
 /// A 2D VkImage with its own device-local memory and a view of the whole image. Move-only; a
@@ -115,9 +118,9 @@ class GpuImage final {
   ImageDesc desc_;
 };
 
-/// Creates the image described by `desc` in device-local memory, and its view. Errors:
-/// InvalidArgument for a zero or too-large size, DeviceError for Vulkan failures (including a
-/// format the device cannot use this way, VK_ERROR_FORMAT_NOT_SUPPORTED).
+/// Creates the image described by `desc` in device-local memory, and its view of all layers.
+/// Errors: InvalidArgument for a zero or too-large size or layer count, DeviceError for Vulkan
+/// failures (including a format the device cannot use this way, VK_ERROR_FORMAT_NOT_SUPPORTED).
 Result<GpuImage> createImage2D(const VulkanContext& context, const ImageDesc& desc,
                                const std::string& debugName);
 

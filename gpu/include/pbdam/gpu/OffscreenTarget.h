@@ -51,13 +51,25 @@ class OffscreenTarget final {
 
   /// Records: both images to attachment layouts (previous contents discarded), begin dynamic
   /// rendering clearing colour to `clearRgba` (linear 0..1) and depth to `clearDepth`, and a
-  /// viewport and scissor covering the whole target (y down, depth range 0..1).
+  /// viewport and scissor covering the whole target (y down, depth range 0..1). With
+  /// `keepDepth` the depth image is stored at the end of the pass, so that a later
+  /// recordResumeRendering() continues with it; otherwise it is discarded.
   void recordBeginRendering(VkCommandBuffer cmd, const std::array<float, 4>& clearRgba,
-                            float clearDepth = kFarDepth) const;
+                            float clearDepth = kFarDepth, bool keepDepth = false) const;
+
+  /// Records: begin dynamic rendering again on the contents a previous pass left (colour, and
+  /// depth if that pass was begun or resumed with `keepDepth`), after a barrier ordering it
+  /// after that pass; viewport and scissor as recordBeginRendering. The previous pass must
+  /// have ended (vkCmdEndRendering), in this command buffer or an earlier submission.
+  void recordResumeRendering(VkCommandBuffer cmd, bool keepDepth) const;
 
   /// Records: end rendering, the colour image to TRANSFER_SRC, its copy into the staging
   /// buffer, and a barrier that makes the copy visible to host reads.
   void recordEndRenderingAndReadback(VkCommandBuffer cmd) const;
+
+  /// Records the readback part of recordEndRenderingAndReadback, for a pass that the caller
+  /// has already ended with vkCmdEndRendering.
+  void recordReadback(VkCommandBuffer cmd) const;
 
   /// The staging buffer's pixels. Valid once the work recorded by recordEndRenderingAndReadback
   /// has completed (its fence signalled).
@@ -69,6 +81,10 @@ class OffscreenTarget final {
                            const std::function<void(VkCommandBuffer)>& draw) const;
 
  private:
+  void beginRendering(VkCommandBuffer cmd, VkAttachmentLoadOp loadOp,
+                      const std::array<float, 4>& clearRgba, float clearDepth,
+                      bool keepDepth) const;
+
   GpuImage color_;
   GpuImage depth_;
   GpuBuffer staging_;

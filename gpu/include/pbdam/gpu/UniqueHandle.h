@@ -103,5 +103,6 @@ using UniqueDescriptorSetLayout =
     UniqueHandle<VkDescriptorSetLayout, VkDevice, &vkDestroyDescriptorSetLayout>;
 using UniqueDescriptorPool = UniqueHandle<VkDescriptorPool, VkDevice, &vkDestroyDescriptorPool>;
 using UniqueSampler = UniqueHandle<VkSampler, VkDevice, &vkDestroySampler>;
+using UniqueQueryPool = UniqueHandle<VkQueryPool, VkDevice, &vkDestroyQueryPool>;
 
 }  // namespace pbdam::gpu

@@ -33,8 +33,9 @@
 
 namespace pbdam {
 
-/// The per-draw record read by the patch vertex shader (std430, 16-byte vec4s; the layout is
-/// mirrored in gpu/shaders/patch.vert — keep them in step).
+/// The per-draw record read by the patch vertex shader (std430, 16-byte vec4s; the layout and
+/// the arithmetic are mirrored in gpu/shaders/patch_position.glsl — keep them in step). Each
+/// draw passes its record's index as a push constant.
 struct alignas(16) PatchDrawRecord final {
   std::array<float, 4> corner[3];           ///< xyz: float(P_k − cam)
   std::array<float, 4> normal[3];           ///< xyz: N_k

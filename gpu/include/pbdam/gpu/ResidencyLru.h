@@ -1,0 +1,102 @@
+// ResidencyLru: the bookkeeping of the GPU-resident patch and texture cache (design.md §5) —
+// which patches and tiles occupy which pool slot, one least-recently-used order over both kinds,
+// and a byte budget counted in slot bytes. No Vulkan here: TerrainRenderer owns the pools the
+// slot numbers index. Thread-safety: none; one thread (the render thread) uses it.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <list>
+#include <optional>
+#include <set>
+#include <unordered_map>
+#include <vector>
+
+#include "pbdam/runtime/DatasetView.h"
+
+namespace pbdam::gpu {
+
+/// What a cache entry holds.
+enum class ResidentKind : std::uint8_t {
+  Patch = 0,  ///< a patch's vertices and indices (one vertex-pool + index-pool slot)
+  Tile = 1,   ///< a texture tile (one texture-array layer)
+};
+
+/// A patch or a tile, packed into one integer: kind (1 bit), face (3 bits), tree (1 bit), heap
+/// index (up to 59 bits).
+struct ResidentKey final {
+  std::uint64_t packed = 0;
+
+  static ResidentKey patch(const NodeKey& key) noexcept {
+    return {(std::uint64_t{key.face} << 60) | (std::uint64_t{key.tree} << 59) | key.heap};
+  }
+  static ResidentKey tile(const TileKey& key) noexcept {
+    return {(std::uint64_t{1} << 63) | (std::uint64_t{key.face} << 60) | key.heap};
+  }
+  ResidentKind kind() const noexcept {
+    return (packed >> 63) != 0 ? ResidentKind::Tile : ResidentKind::Patch;
+  }
+  friend bool operator==(const ResidentKey&, const ResidentKey&) = default;
+};
+
+/// One LRU over patches and tiles together. Every entry costs its kind's slot bytes; the sum
+/// over resident entries (residentBytes) never exceeds the budget. Entries are stamped with the
+/// epoch (the renderer's pass number) that last used them; insert() evicts least-recently-used
+/// entries of earlier epochs only, so nothing the current pass draws is ever evicted.
+///
+/// Slots are numbered per kind from 0; a new entry takes the lowest free slot, so the highest
+/// slot in use stays below budget / slot bytes of its kind and pools can grow on demand.
+class ResidencyLru final {
+ public:
+  /// `slotBytes[kind]` must be > 0.
+  ResidencyLru(std::uint64_t budgetBytes, std::array<std::uint64_t, 2> slotBytes) noexcept;
+
+  std::uint64_t budgetBytes() const noexcept { return budgetBytes_; }
+  std::uint64_t residentBytes() const noexcept { return residentBytes_; }
+  std::uint64_t slotBytes(ResidentKind kind) const noexcept {
+    return slotBytes_[static_cast<std::size_t>(kind)];
+  }
+  /// The most entries of `kind` the budget allows (budget / slot bytes).
+  std::uint32_t capacity(ResidentKind kind) const noexcept;
+  std::size_t size() const noexcept { return entries_.size(); }
+  /// Entries of `kind` resident now.
+  std::uint32_t count(ResidentKind kind) const noexcept {
+    return counts_[static_cast<std::size_t>(kind)];
+  }
+
+  /// The slot of a resident entry, or nullopt.
+  std::optional<std::uint32_t> find(ResidentKey key) const;
+
+  /// Marks a resident entry as used by `epoch` (most recently used). `key` must be resident.
+  void touch(ResidentKey key, std::uint64_t epoch);
+
+  /// Makes `key` (not resident) resident for `epoch`: evicts least-recently-used entries of
+  /// earlier epochs until its slot bytes fit in the budget (appending them to `evicted`), then
+  /// returns its slot. Returns nullopt, evicting nothing, when it cannot fit without evicting an
+  /// entry of `epoch` itself.
+  std::optional<std::uint32_t> insert(ResidentKey key, std::uint64_t epoch,
+                                      std::vector<ResidentKey>& evicted);
+
+  /// Removes `key` if resident (an upload that failed); its slot becomes free.
+  void erase(ResidentKey key);
+
+ private:
+  struct Entry {
+    std::uint32_t slot = 0;
+    std::uint64_t epoch = 0;
+    std::list<std::uint64_t>::iterator order;  ///< position in order_
+  };
+  std::uint32_t takeSlot(ResidentKind kind);
+  void release(std::unordered_map<std::uint64_t, Entry>::iterator it);
+
+  std::uint64_t budgetBytes_;
+  std::array<std::uint64_t, 2> slotBytes_;
+  std::uint64_t residentBytes_ = 0;
+  std::array<std::uint32_t, 2> counts_{};
+  std::unordered_map<std::uint64_t, Entry> entries_;
+  std::list<std::uint64_t> order_;                    ///< most recently used first
+  std::array<std::set<std::uint32_t>, 2> freeSlots_;  ///< freed slots below nextSlot_
+  std::array<std::uint32_t, 2> nextSlot_{};           ///< slots ever handed out, per kind
+};
+
+}  // namespace pbdam::gpu

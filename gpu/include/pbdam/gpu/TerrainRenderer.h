@@ -1,0 +1,128 @@
+// TerrainRenderer: draws a cut (runtime/Refinement.h) of a P-BDAM dataset offscreen in exact mode
+// (design.md §4 "Modes": every patch of the cut, each with its texture tile; the same camera
+// gives the same image) and reads the frame back. Patches and tiles live in GPU-resident pools
+// under one byte budget with LRU eviction (ResidencyLru.h); misses are decoded on TBB workers and
+// uploaded through a staging buffer (design.md §5). Implements paper 004 §4.2 (camera-relative
+// vertices, patch.vert) and §4.4 (the GPU cache). Thread-safety: none — one thread renders; the
+// decoding it starts runs in parallel inside render().
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <glm/vec3.hpp>
+#include <memory>
+#include <optional>
+
+#include "pbdam/formats/Result.h"
+#include "pbdam/gpu/RgbaImage.h"
+#include "pbdam/runtime/Camera.h"
+#include "pbdam/runtime/DatasetView.h"
+#include "pbdam/runtime/Refinement.h"
+
+namespace pbdam::gpu {
+
+class VulkanContext;
+
+/// How a TerrainRenderer is set up.
+struct TerrainRendererOptions final {
+  std::uint32_t widthPixels = 1280;
+  std::uint32_t heightPixels = 720;
+  /// Budget of the GPU cache: slot bytes of resident patches and tiles together (a patch slot
+  /// holds DatasetView::maxPatchVertices vertices of 8 bytes and maxPatchTriangles triangles of
+  /// 16-bit indices; a tile slot one texture-array layer).
+  std::uint64_t gpuCacheBytes = std::uint64_t{256} << 20;
+  /// Upload BC1 tiles expanded to RGBA8 even when the device samples BC1 (tests, comparisons).
+  bool forceRgba8Textures = false;
+  /// Print a warning on stderr, once per renderer, the first time a frame's cut does not fit
+  /// the budget and is drawn in several passes.
+  bool warnWhenBudgetExceeded = true;
+};
+
+/// Per-frame settings that do not change what is resident.
+struct FrameSettings final {
+  /// Background colour (RGB, 0..255); tests use magenta to find holes.
+  std::array<std::uint8_t, 3> clearRgb{0, 0, 0};
+  /// Unit direction towards the sun in planetocentric (ECEF) axes. Unset: a light from above
+  /// and behind the camera's upper right, so that the visible side is lit (defaultSunDirection).
+  std::optional<glm::dvec3> sunDirectionEcef;
+  /// Fraction of the texel colour that faces away from the sun keep (0..1).
+  float ambient = 0.35f;
+};
+
+/// What one frame did. Times are milliseconds; uploadMs and drawMs are GPU time from timestamp
+/// queries (on lavapipe, the CPU time the driver spent on them).
+struct FrameStats final {
+  std::uint64_t patches = 0;
+  std::uint64_t triangles = 0;
+  std::uint64_t tiles = 0;
+  double decodeMs = 0.0;  ///< decoding misses into the staging buffer (TBB-parallel), wall time
+  double uploadMs = 0.0;  ///< staging → pool copies
+  double drawMs = 0.0;    ///< the render pass(es)
+  double frameMs = 0.0;   ///< all of render(), readback included, wall time
+  std::uint64_t residentBytes = 0;      ///< slot bytes resident after the frame
+  std::uint64_t peakResidentBytes = 0;  ///< the most resident at any time during the frame
+  std::uint64_t poolBytes = 0;          ///< device memory the pools hold (allocated capacity)
+  std::uint64_t hits = 0;               ///< patches + tiles found resident
+  std::uint64_t misses = 0;             ///< patches + tiles decoded and uploaded
+  std::uint64_t evictions = 0;
+  std::uint64_t bytesUploaded = 0;  ///< bytes copied to the pools (vertices, indices, texels)
+  std::uint32_t passes = 1;         ///< render passes the frame took (> 1: over budget)
+  bool budgetExceeded = false;      ///< the cut did not fit the budget (passes > 1)
+};
+
+/// A frame read back: tightly packed RGBA8, top row first.
+struct RenderedFrame final {
+  RgbaImage image;
+  FrameStats stats;
+};
+
+/// Draws cuts of one dataset. Move-only. The VulkanContext and the DatasetView (and the bytes
+/// under it) must outlive the renderer.
+///
+/// Over budget: when a frame's cut needs more slot bytes than the budget, the frame is drawn in
+/// several passes into the same attachments (depth kept): the longest prefix of the cut (in cut
+/// order) whose patches and tiles fit is made resident and drawn, then the next, and so on. The
+/// draw order is the cut order either way, so the image is identical to the one-pass image;
+/// FrameStats::budgetExceeded is set.
+class TerrainRenderer final {
+ public:
+  /// Creates pipelines, pools and the offscreen target. Errors: InvalidArgument for a zero or
+  /// too-large image size, or a budget below minimumCacheBytes (the message names both);
+  /// DeviceError for Vulkan failures.
+  static Result<TerrainRenderer> create(VulkanContext& context, const DatasetView& dataset,
+                                        const TerrainRendererOptions& options);
+
+  /// The smallest budget that can draw any frame: one patch slot plus one tile slot, for the
+  /// texel format this renderer would use on `context`'s device.
+  static std::uint64_t minimumCacheBytes(const VulkanContext& context, const DatasetView& dataset,
+                                         bool forceRgba8Textures = false);
+
+  /// The default sun: from above the camera (planet centre → camera), a little to its right
+  /// and up, so views are lit with visible relief.
+  static glm::dvec3 defaultSunDirection(const Camera& camera);
+
+  TerrainRenderer(TerrainRenderer&&) noexcept;
+  TerrainRenderer& operator=(TerrainRenderer&&) noexcept;
+  TerrainRenderer(const TerrainRenderer&) = delete;
+  TerrainRenderer& operator=(const TerrainRenderer&) = delete;
+  ~TerrainRenderer();
+
+  /// Draws `cut` (computed for `camera` from this renderer's dataset) and reads it back. The
+  /// camera's viewport must have the renderer's size (else InvalidArgument). Errors:
+  /// CorruptData when a patch or tile does not decode (the message names file and offset;
+  /// nothing of the failed upload stays resident), DeviceError for Vulkan failures.
+  Result<RenderedFrame> render(const Cut& cut, const Camera& camera,
+                               const FrameSettings& settings = {});
+
+  /// Slot bytes resident now.
+  std::uint64_t residentBytes() const noexcept;
+  /// Whether tiles are sampled as BC1 on the device (else RGBA8).
+  bool usesBc1Textures() const noexcept;
+
+ private:
+  struct Impl;
+  explicit TerrainRenderer(std::unique_ptr<Impl> impl) noexcept;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace pbdam::gpu

@@ -1,0 +1,39 @@
+// P-BDAM patch vertices (design.md §4): one indexed draw per patch, its PatchDrawRecord picked by
+// the push constant recordIndex, set before each draw. (Not gl_InstanceIndex with firstInstance:
+// lavapipe cannot prove an instance index uniform, so every record load became an 8-lane gather;
+// a push constant is uniform and made the vertex stage about twice as fast — docs/decisions.md.)
+// Vertex attributes: the barycentrics b1, b2 (R16G16_UINT) and the displacement h in metres
+// (R32_SFLOAT).
+#version 450
+#extension GL_GOOGLE_include_directive : require
+
+#include "patch_position.glsl"
+
+layout(push_constant) uniform PatchPush {
+  mat4 viewProjection;  // projection * viewRotation (camera-relative world -> clip)
+  vec4 sunAmbient;      // xyz: unit direction towards the sun (world), w: ambient term
+  uint recordIndex;     // this draw's PatchDrawRecord
+} pc;
+
+layout(location = 0) in uvec2 inBarycentric;
+layout(location = 1) in float inHeightMeters;
+
+layout(location = 0) out vec2 outTexCoord;
+layout(location = 1) flat out float outLayer;
+layout(location = 2) out vec3 outNormal;
+layout(location = 3) out vec3 outCameraRelative;
+
+void main() {
+  const uint r = pc.recordIndex;
+  precise vec3 position = patchVertexPosition(r, inBarycentric, inHeightMeters);
+  gl_Position = pc.viewProjection * vec4(position, 1.0);
+
+  const vec3 w = patchVertexWeights(inBarycentric);
+  const vec4 t01 = draws.records[r].texCoord01;
+  const vec4 t2 = draws.records[r].texCoord2Layer;
+  outTexCoord = t01.xy + w.y * (t01.zw - t01.xy) + w.z * (t2.xy - t01.xy);
+  outLayer = t2.z;
+  outNormal = w.x * draws.records[r].normal[0].xyz + w.y * draws.records[r].normal[1].xyz +
+              w.z * draws.records[r].normal[2].xyz;
+  outCameraRelative = position;
+}

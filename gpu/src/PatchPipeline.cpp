@@ -1,0 +1,193 @@
+// PatchPipeline: the patch drawing pipeline (PatchPipeline.h).
+#include "PatchPipeline.h"
+
+#include <array>
+#include <cstdint>
+
+#include "pbdam/gpu/ShaderModule.h"
+#include "pbdam/gpu/VulkanContext.h"
+#include "pbdam/gpu/VulkanError.h"
+
+namespace pbdam::gpu {
+namespace {
+
+// glslc -mfmt=c writes a braced initializer list, braces included.
+const uint32_t kPatchVert[] =
+#include "patch.vert.inc"
+    ;
+const uint32_t kPatchFrag[] =
+#include "patch.frag.inc"
+    ;
+
+Result<UniqueDescriptorSetLayout> createSetLayout(VkDevice device, VkDescriptorType type,
+                                                  VkShaderStageFlags stages, const char* what) {
+  VkDescriptorSetLayoutBinding binding{};
+  binding.binding = 0;
+  binding.descriptorType = type;
+  binding.descriptorCount = 1;
+  binding.stageFlags = stages;
+  VkDescriptorSetLayoutCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
+  info.bindingCount = 1;
+  info.pBindings = &binding;
+  VkDescriptorSetLayout raw = VK_NULL_HANDLE;
+  if (VkResult r = vkCreateDescriptorSetLayout(device, &info, nullptr, &raw); r != VK_SUCCESS) {
+    return vulkanError(r, std::string("vkCreateDescriptorSetLayout (") + what + ")");
+  }
+  return UniqueDescriptorSetLayout(device, raw);
+}
+
+}  // namespace
+
+Result<PatchPipeline> PatchPipeline::create(const VulkanContext& context, VkFormat colorFormat,
+                                            VkFormat depthFormat) {
+  const VkDevice device = context.device();
+  PatchPipeline result;
+  {
+    auto records = createSetLayout(device, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+                                   VK_SHADER_STAGE_VERTEX_BIT, "patch draw records");
+    if (!records) return std::move(records).error();
+    result.recordsSetLayout_ = std::move(*records);
+    auto tiles = createSetLayout(device, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER,
+                                 VK_SHADER_STAGE_FRAGMENT_BIT, "tile pages");
+    if (!tiles) return std::move(tiles).error();
+    result.tilesSetLayout_ = std::move(*tiles);
+  }
+
+  VkSamplerCreateInfo samplerInfo{};
+  samplerInfo.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
+  samplerInfo.magFilter = VK_FILTER_LINEAR;
+  samplerInfo.minFilter = VK_FILTER_LINEAR;
+  samplerInfo.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+  samplerInfo.addressModeU = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  samplerInfo.addressModeV = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  samplerInfo.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  samplerInfo.maxLod = 0.0f;
+  VkSampler rawSampler = VK_NULL_HANDLE;
+  if (VkResult r = vkCreateSampler(device, &samplerInfo, nullptr, &rawSampler); r != VK_SUCCESS) {
+    return vulkanError(r, "vkCreateSampler (tiles)");
+  }
+  result.sampler_ = UniqueSampler(device, rawSampler);
+
+  const std::array<VkDescriptorSetLayout, 2> setLayouts = {result.recordsSetLayout_.get(),
+                                                           result.tilesSetLayout_.get()};
+  VkPushConstantRange range{};
+  range.stageFlags = VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
+  range.offset = 0;
+  range.size = sizeof(PatchPush);
+  VkPipelineLayoutCreateInfo layoutInfo{};
+  layoutInfo.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+  layoutInfo.setLayoutCount = static_cast<uint32_t>(setLayouts.size());
+  layoutInfo.pSetLayouts = setLayouts.data();
+  layoutInfo.pushConstantRangeCount = 1;
+  layoutInfo.pPushConstantRanges = &range;
+  VkPipelineLayout rawLayout = VK_NULL_HANDLE;
+  if (VkResult r = vkCreatePipelineLayout(device, &layoutInfo, nullptr, &rawLayout);
+      r != VK_SUCCESS) {
+    return vulkanError(r, "vkCreatePipelineLayout (patch)");
+  }
+  result.layout_ = UniquePipelineLayout(device, rawLayout);
+
+  Result<UniqueShaderModule> vert = createShaderModule(device, kPatchVert, "patch.vert");
+  if (!vert) return std::move(vert).error();
+  Result<UniqueShaderModule> frag = createShaderModule(device, kPatchFrag, "patch.frag");
+  if (!frag) return std::move(frag).error();
+  std::array<VkPipelineShaderStageCreateInfo, 2> stages{};
+  stages[0].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+  stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
+  stages[0].module = vert->get();
+  stages[0].pName = "main";
+  stages[1].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+  stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
+  stages[1].module = frag->get();
+  stages[1].pName = "main";
+
+  VkVertexInputBindingDescription binding{};
+  binding.binding = 0;
+  binding.stride = sizeof(PatchGpuVertex);
+  binding.inputRate = VK_VERTEX_INPUT_RATE_VERTEX;
+  std::array<VkVertexInputAttributeDescription, 2> attributes{};
+  attributes[0].location = 0;
+  attributes[0].binding = 0;
+  attributes[0].format = VK_FORMAT_R16G16_UINT;
+  attributes[0].offset = 0;
+  attributes[1].location = 1;
+  attributes[1].binding = 0;
+  attributes[1].format = VK_FORMAT_R32_SFLOAT;
+  attributes[1].offset = 4;
+  VkPipelineVertexInputStateCreateInfo vertexInput{};
+  vertexInput.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO;
+  vertexInput.vertexBindingDescriptionCount = 1;
+  vertexInput.pVertexBindingDescriptions = &binding;
+  vertexInput.vertexAttributeDescriptionCount = static_cast<uint32_t>(attributes.size());
+  vertexInput.pVertexAttributeDescriptions = attributes.data();
+
+  VkPipelineInputAssemblyStateCreateInfo inputAssembly{};
+  inputAssembly.sType = VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO;
+  inputAssembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+  VkPipelineViewportStateCreateInfo viewport{};
+  viewport.sType = VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO;
+  viewport.viewportCount = 1;
+  viewport.scissorCount = 1;
+  VkPipelineRasterizationStateCreateInfo raster{};
+  raster.sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO;
+  raster.polygonMode = VK_POLYGON_MODE_FILL;
+  // Patch triangles wind counter-clockwise seen from outside the planet (checked on the test
+  // datasets: every triangle of every patch). The projection's y flip keeps them
+  // counter-clockwise in Vulkan's framebuffer convention.
+  raster.cullMode = VK_CULL_MODE_BACK_BIT;
+  raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+  raster.lineWidth = 1.0f;
+  VkPipelineMultisampleStateCreateInfo multisample{};
+  multisample.sType = VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO;
+  multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+  VkPipelineDepthStencilStateCreateInfo depth{};
+  depth.sType = VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO;
+  depth.depthTestEnable = VK_TRUE;
+  depth.depthWriteEnable = VK_TRUE;
+  depth.depthCompareOp = VK_COMPARE_OP_GREATER_OR_EQUAL;  // reversed-Z
+  VkPipelineColorBlendAttachmentState blendAttachment{};
+  blendAttachment.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
+                                   VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
+  VkPipelineColorBlendStateCreateInfo blend{};
+  blend.sType = VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO;
+  blend.attachmentCount = 1;
+  blend.pAttachments = &blendAttachment;
+  const std::array<VkDynamicState, 2> dynamicStates = {VK_DYNAMIC_STATE_VIEWPORT,
+                                                       VK_DYNAMIC_STATE_SCISSOR};
+  VkPipelineDynamicStateCreateInfo dynamic{};
+  dynamic.sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO;
+  dynamic.dynamicStateCount = static_cast<uint32_t>(dynamicStates.size());
+  dynamic.pDynamicStates = dynamicStates.data();
+
+  VkPipelineRenderingCreateInfo rendering{};
+  rendering.sType = VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO;
+  rendering.colorAttachmentCount = 1;
+  rendering.pColorAttachmentFormats = &colorFormat;
+  rendering.depthAttachmentFormat = depthFormat;
+
+  VkGraphicsPipelineCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO;
+  info.pNext = &rendering;
+  info.stageCount = static_cast<uint32_t>(stages.size());
+  info.pStages = stages.data();
+  info.pVertexInputState = &vertexInput;
+  info.pInputAssemblyState = &inputAssembly;
+  info.pViewportState = &viewport;
+  info.pRasterizationState = &raster;
+  info.pMultisampleState = &multisample;
+  info.pDepthStencilState = &depth;
+  info.pColorBlendState = &blend;
+  info.pDynamicState = &dynamic;
+  info.layout = result.layout_.get();
+  VkPipeline rawPipeline = VK_NULL_HANDLE;
+  if (VkResult r =
+          vkCreateGraphicsPipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &rawPipeline);
+      r != VK_SUCCESS) {
+    return vulkanError(r, "vkCreateGraphicsPipelines (patch)");
+  }
+  result.pipeline_ = UniquePipeline(device, rawPipeline);
+  return result;
+}
+
+}  // namespace pbdam::gpu

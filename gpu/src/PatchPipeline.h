@@ -1,0 +1,61 @@
+// PatchPipeline (internal to pbdam_gpu): the graphics pipeline that draws P-BDAM patches
+// (shaders/patch.vert, shaders/patch.frag), its descriptor-set layouts (set 0: the per-draw
+// records, set 1: one texture-array page) and the tile sampler. Thread-safety: immutable after
+// creation.
+#pragma once
+
+#include <vulkan/vulkan.h>
+
+#include <cstddef>
+#include <cstdint>
+
+#include "pbdam/formats/Result.h"
+#include "pbdam/gpu/UniqueHandle.h"
+
+namespace pbdam::gpu {
+
+class VulkanContext;
+
+/// Mirrors `PatchPush` in patch.vert/patch.frag (std430 push constants, 84 bytes). The frame
+/// sets it once; recordIndex is pushed again before each draw.
+struct PatchPush final {
+  float viewProjection[16];   ///< column-major projection · viewRotation
+  float sunAmbient[4];        ///< xyz: unit direction towards the sun (ECEF axes), w: ambient
+  std::uint32_t recordIndex;  ///< the draw's PatchDrawRecord in the records buffer
+};
+static_assert(sizeof(PatchPush) == 84);
+inline constexpr std::uint32_t kRecordIndexOffset = 80;
+static_assert(offsetof(PatchPush, recordIndex) == kRecordIndexOffset);
+
+/// Vertex layout of the patch pools: b1, b2 as R16G16_UINT, then h (metres) as R32_SFLOAT.
+struct PatchGpuVertex final {
+  std::uint16_t b1;
+  std::uint16_t b2;
+  float heightMeters;
+};
+static_assert(sizeof(PatchGpuVertex) == 8);
+
+class PatchPipeline final {
+ public:
+  /// Creates the layouts, the sampler (linear, clamp to edge, no mipmaps) and the pipeline for
+  /// dynamic rendering into `colorFormat` + `depthFormat`: triangle lists, back faces culled
+  /// (patches are counter-clockwise seen from outside the planet), reversed-Z depth test
+  /// GREATER_OR_EQUAL with writes, dynamic viewport and scissor.
+  static Result<PatchPipeline> create(const VulkanContext& context, VkFormat colorFormat,
+                                      VkFormat depthFormat);
+
+  VkPipeline pipeline() const noexcept { return pipeline_.get(); }
+  VkPipelineLayout layout() const noexcept { return layout_.get(); }
+  VkDescriptorSetLayout recordsSetLayout() const noexcept { return recordsSetLayout_.get(); }
+  VkDescriptorSetLayout tilesSetLayout() const noexcept { return tilesSetLayout_.get(); }
+  VkSampler sampler() const noexcept { return sampler_.get(); }
+
+ private:
+  UniqueDescriptorSetLayout recordsSetLayout_;
+  UniqueDescriptorSetLayout tilesSetLayout_;
+  UniqueSampler sampler_;
+  UniquePipelineLayout layout_;
+  UniquePipeline pipeline_;
+};
+
+}  // namespace pbdam::gpu

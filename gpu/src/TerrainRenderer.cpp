@@ -1,0 +1,766 @@
+// TerrainRenderer: exact-mode frames of a P-BDAM cut (TerrainRenderer.h; paper 004 §4.2, §4.4).
+//
+// A frame is planned as one or more passes over consecutive ranges of the cut (one pass unless
+// the cut's slot bytes exceed the budget). Per pass: patches and tiles found in the LRU are
+// touched first (hits), then misses take slots (evicting entries of earlier passes), are
+// decoded in parallel into the staging buffer, and one submission copies them into the pools
+// and draws the pass's patches in cut order, one indexed draw each.
+#include "pbdam/gpu/TerrainRenderer.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <glm/geometric.hpp>
+#include <glm/gtc/type_ptr.hpp>
+#include <glm/mat4x4.hpp>
+#include <limits>
+#include <string>
+#include <unordered_set>
+#include <vector>
+
+#include "GpuPools.h"
+#include "PatchPipeline.h"
+#include "pbdam/formats/PatchCodec.h"
+#include "pbdam/formats/TextureTile.h"
+#include "pbdam/gpu/GpuMemory.h"
+#include "pbdam/gpu/OffscreenTarget.h"
+#include "pbdam/gpu/ResidencyLru.h"
+#include "pbdam/gpu/VulkanContext.h"
+#include "pbdam/gpu/VulkanError.h"
+#include "pbdam/runtime/PatchDraw.h"
+
+namespace pbdam::gpu {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+/// Pools grow by about this much device memory at a time.
+constexpr std::uint64_t kChunkBytes = std::uint64_t{16} << 20;
+/// Staging offsets are aligned for buffer-to-image copies (4 bytes and the 8-byte BC1 block).
+constexpr std::uint64_t kStagingAlignment = 16;
+
+double millisecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+std::string mebibytes(std::uint64_t bytes) {
+  char text[64];
+  std::snprintf(text, sizeof text, "%.2f MiB", static_cast<double>(bytes) / (1024.0 * 1024.0));
+  return text;
+}
+
+std::uint64_t alignUp(std::uint64_t value, std::uint64_t alignment) {
+  return (value + alignment - 1) / alignment * alignment;
+}
+
+/// How tiles are held on the device.
+struct TextureChoice {
+  VkFormat format = VK_FORMAT_R8G8B8A8_UNORM;
+  TexelFormat texels = TexelFormat::Rgba8;
+  std::uint64_t slotBytes = 0;
+};
+
+TexelFormat datasetTexelFormat(const DatasetView& dataset) {
+  return dataset.manifest().textureFormat == "bc1" ? TexelFormat::Bc1 : TexelFormat::Rgba8;
+}
+
+bool deviceSamplesBc1(const VulkanContext& context) {
+  if (!context.caps().textureCompressionBC) return false;
+  VkFormatProperties properties{};
+  vkGetPhysicalDeviceFormatProperties(context.physicalDevice(), VK_FORMAT_BC1_RGB_UNORM_BLOCK,
+                                      &properties);
+  const VkFormatFeatureFlags needed = VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT |
+                                      VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT |
+                                      VK_FORMAT_FEATURE_TRANSFER_DST_BIT;
+  return (properties.optimalTilingFeatures & needed) == needed;
+}
+
+TextureChoice chooseTexture(const VulkanContext& context, const DatasetView& dataset,
+                            bool forceRgba8) {
+  const std::uint32_t size = dataset.manifest().textureTileTexels;
+  TextureChoice choice;
+  if (datasetTexelFormat(dataset) == TexelFormat::Bc1 && !forceRgba8 && deviceSamplesBc1(context)) {
+    choice.format = VK_FORMAT_BC1_RGB_UNORM_BLOCK;
+    choice.texels = TexelFormat::Bc1;
+  }
+  choice.slotBytes = textureTileDataBytes(size, choice.texels);
+  return choice;
+}
+
+std::uint64_t patchSlotBytes(const DatasetView& dataset) {
+  return std::uint64_t{sizeof(PatchGpuVertex)} * dataset.maxPatchVertices() +
+         std::uint64_t{6} * dataset.maxPatchTriangles();
+}
+
+bool drawable(const NodeRecord& record) {
+  return record.triangleCount > 0 && record.vertexCount > 0 && record.blobBytes > 0;
+}
+
+/// One miss to decode and upload.
+struct UploadJob {
+  ResidentKey key;
+  std::uint32_t slot = 0;
+  std::size_t patchIndex = 0;  ///< patches: index in the cut
+  TileKey tile;                ///< tiles
+  std::uint64_t stagingOffset = 0;
+  std::uint64_t bytes = 0;        ///< bytes copied: vertices + indices, or texels
+  std::uint64_t vertexBytes = 0;  ///< patches: the vertex part (indices follow)
+};
+
+std::string blobContext(const FaceView& face, std::uint64_t offset) {
+  return face.context() + "@" + std::to_string(offset);
+}
+
+Result<void> decodePatchInto(const DatasetView& dataset, const NodeKey& key,
+                             const NodeRecord& record, std::span<std::byte> out) {
+  thread_local PatchMesh mesh;
+  const FaceView& face = dataset.face(key.face);
+  const std::string context = blobContext(face, record.blobOffset);
+  if (Result<void> r = decodePatch(face.patchBlob(record), mesh, context); !r) {
+    return std::move(r).error();
+  }
+  if (mesh.vertices.size() != record.vertexCount || mesh.triangleCount() != record.triangleCount) {
+    return makeError(ErrorCode::CorruptData,
+                     context + ": patch has " + std::to_string(mesh.vertices.size()) +
+                         " vertices and " + std::to_string(mesh.triangleCount()) +
+                         " triangles, its node record says " + std::to_string(record.vertexCount) +
+                         " and " + std::to_string(record.triangleCount));
+  }
+  const double step = dataset.manifest().heightStepMeters;
+  std::byte* dst = out.data();
+  for (const PatchVertex& v : mesh.vertices) {
+    const PatchGpuVertex gpu{v.b1, v.b2, vertexHeightMeters(v.heightSteps, step)};
+    std::memcpy(dst, &gpu, sizeof gpu);
+    dst += sizeof gpu;
+  }
+  std::memcpy(dst, mesh.indices.data(), mesh.indices.size() * sizeof(std::uint16_t));
+  return {};
+}
+
+Result<void> decodeTileInto(const DatasetView& dataset, const TileKey& key, TexelFormat upload,
+                            std::span<std::byte> out) {
+  const FaceView& face = dataset.face(key.face);
+  const TextureRecord record = dataset.textureNode(key);
+  const std::string context = blobContext(face, record.blobOffset);
+  Result<TextureTileImage> tile = decodeTextureTile(face.textureBlob(record), context);
+  if (!tile) return std::move(tile).error();
+  const Manifest& m = dataset.manifest();
+  if (tile->sizeTexels != m.textureTileTexels || tile->borderTexels != m.textureBorderTexels ||
+      tile->format != datasetTexelFormat(dataset)) {
+    return makeError(ErrorCode::CorruptData,
+                     context + ": tile of " + std::to_string(tile->sizeTexels) +
+                         " texels (border " + std::to_string(tile->borderTexels) +
+                         ") does not match manifest.json (" + std::to_string(m.textureTileTexels) +
+                         ", border " + std::to_string(m.textureBorderTexels) + ", " +
+                         m.textureFormat + ")");
+  }
+  if (tile->format != upload) {
+    tile = expandToRgba8(*tile);
+    if (!tile) return makeError(ErrorCode::CorruptData, context + ": " + tile.error().message);
+  }
+  if (tile->data.size() != out.size()) {
+    return makeError(ErrorCode::Internal, context + ": tile data size differs from its slot");
+  }
+  std::memcpy(out.data(), tile->data.data(), out.size());
+  return {};
+}
+
+VkImageMemoryBarrier2 layerBarrier(VkImage image, std::uint32_t layer,
+                                   VkPipelineStageFlags2 srcStage, VkAccessFlags2 srcAccess,
+                                   VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess,
+                                   VkImageLayout oldLayout, VkImageLayout newLayout) {
+  VkImageMemoryBarrier2 b{};
+  b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2;
+  b.srcStageMask = srcStage;
+  b.srcAccessMask = srcAccess;
+  b.dstStageMask = dstStage;
+  b.dstAccessMask = dstAccess;
+  b.oldLayout = oldLayout;
+  b.newLayout = newLayout;
+  b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  b.image = image;
+  b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, layer, 1};
+  return b;
+}
+
+}  // namespace
+
+struct TerrainRenderer::Impl {
+  VulkanContext* context = nullptr;
+  const DatasetView* dataset = nullptr;
+  TerrainRendererOptions options;
+  TextureChoice texture;
+  std::uint64_t patchSlot = 0;
+  std::uint32_t maxIndices = 0;
+
+  OffscreenTarget target;
+  PatchPipeline pipeline;
+  std::optional<ResidencyLru> lru;
+  PatchPool patches;
+  TilePool tiles;
+  GpuBuffer staging;
+  GpuBuffer records;
+  UniqueDescriptorPool recordsPool;
+  VkDescriptorSet recordsSet = VK_NULL_HANDLE;
+  UniqueQueryPool queries;
+  std::uint64_t timestampMask = 0;
+  double timestampPeriodNs = 1.0;
+  std::uint64_t epoch = 0;
+  bool warned = false;
+
+  Result<void> ensureStaging(std::uint64_t bytes);
+  Result<void> ensureRecords(std::size_t count);
+  Result<void> drawPass(const Cut& cut, const std::vector<NodeRecord>& nodes, std::size_t begin,
+                        std::size_t end, bool first, bool last, const Camera& camera,
+                        const PatchPush& push, const std::array<float, 4>& clear,
+                        FrameStats& stats);
+  void recordUploads(VkCommandBuffer cmd, const std::vector<UploadJob>& jobs) const;
+};
+
+Result<void> TerrainRenderer::Impl::ensureStaging(std::uint64_t bytes) {
+  if (bytes == 0 || (staging && staging.sizeBytes() >= bytes)) return {};
+  const std::uint64_t size =
+      std::max<std::uint64_t>(bytes, staging ? 2 * staging.sizeBytes() : std::uint64_t{4} << 20);
+  staging = GpuBuffer();
+  auto buffer = createBuffer(*context, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                             MemoryUse::HostUpload, "terrain upload staging");
+  if (!buffer) return std::move(buffer).error();
+  staging = std::move(*buffer);
+  return {};
+}
+
+Result<void> TerrainRenderer::Impl::ensureRecords(std::size_t count) {
+  const std::uint64_t bytes =
+      std::uint64_t{sizeof(PatchDrawRecord)} * std::max<std::size_t>(1, count);
+  if (records && records.sizeBytes() >= bytes) return {};
+  const std::uint64_t size = std::max<std::uint64_t>(
+      bytes, records ? 2 * records.sizeBytes() : sizeof(PatchDrawRecord) * std::uint64_t{1024});
+  records = GpuBuffer();
+  auto buffer = createBuffer(*context, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                             MemoryUse::HostUpload, "patch draw records");
+  if (!buffer) return std::move(buffer).error();
+  records = std::move(*buffer);
+  VkDescriptorBufferInfo info{};
+  info.buffer = records.buffer();
+  info.offset = 0;
+  info.range = VK_WHOLE_SIZE;
+  VkWriteDescriptorSet write{};
+  write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+  write.dstSet = recordsSet;
+  write.dstBinding = 0;
+  write.descriptorCount = 1;
+  write.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  write.pBufferInfo = &info;
+  vkUpdateDescriptorSets(context->device(), 1, &write, 0, nullptr);
+  return {};
+}
+
+void TerrainRenderer::Impl::recordUploads(VkCommandBuffer cmd,
+                                          const std::vector<UploadJob>& jobs) const {
+  // Before: earlier submissions read the pool regions being overwritten (write-after-read),
+  // and tile layers go to TRANSFER_DST (their old contents are discarded).
+  VkMemoryBarrier2 before{};
+  before.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2;
+  before.srcStageMask =
+      VK_PIPELINE_STAGE_2_VERTEX_ATTRIBUTE_INPUT_BIT | VK_PIPELINE_STAGE_2_INDEX_INPUT_BIT;
+  before.dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+  before.dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  VkMemoryBarrier2 after{};
+  after.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2;
+  after.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+  after.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  after.dstStageMask =
+      VK_PIPELINE_STAGE_2_VERTEX_ATTRIBUTE_INPUT_BIT | VK_PIPELINE_STAGE_2_INDEX_INPUT_BIT;
+  after.dstAccessMask = VK_ACCESS_2_VERTEX_ATTRIBUTE_READ_BIT | VK_ACCESS_2_INDEX_READ_BIT;
+  std::vector<VkImageMemoryBarrier2> toTransfer;
+  std::vector<VkImageMemoryBarrier2> toSampled;
+  for (const UploadJob& job : jobs) {
+    if (job.key.kind() != ResidentKind::Tile) continue;
+    const PoolLocation at = tiles.locate(job.slot);
+    const VkImage image = tiles.image(at.chunk);
+    toTransfer.push_back(layerBarrier(image, at.local, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+                                      VK_ACCESS_2_NONE, VK_PIPELINE_STAGE_2_COPY_BIT,
+                                      VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                                      VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL));
+    toSampled.push_back(layerBarrier(
+        image, at.local, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+        VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL));
+  }
+  VkDependencyInfo dependency{};
+  dependency.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
+  dependency.memoryBarrierCount = 1;
+  dependency.pMemoryBarriers = &before;
+  dependency.imageMemoryBarrierCount = static_cast<uint32_t>(toTransfer.size());
+  dependency.pImageMemoryBarriers = toTransfer.data();
+  vkCmdPipelineBarrier2(cmd, &dependency);
+
+  const std::uint32_t size = tiles.sizeTexels();
+  for (const UploadJob& job : jobs) {
+    if (job.key.kind() == ResidentKind::Patch) {
+      const PoolLocation at = patches.locate(job.slot);
+      const VkBufferCopy vertices{
+          job.stagingOffset, VkDeviceSize{sizeof(PatchGpuVertex)} * patches.firstVertex(at.local),
+          job.vertexBytes};
+      vkCmdCopyBuffer(cmd, staging.buffer(), patches.vertexBuffer(at.chunk), 1, &vertices);
+      const VkBufferCopy indices{job.stagingOffset + job.vertexBytes,
+                                 VkDeviceSize{2} * patches.firstIndex(at.local),
+                                 job.bytes - job.vertexBytes};
+      vkCmdCopyBuffer(cmd, staging.buffer(), patches.indexBuffer(at.chunk), 1, &indices);
+    } else {
+      const PoolLocation at = tiles.locate(job.slot);
+      VkBufferImageCopy region{};
+      region.bufferOffset = job.stagingOffset;
+      region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, at.local, 1};
+      region.imageExtent = {size, size, 1};
+      vkCmdCopyBufferToImage(cmd, staging.buffer(), tiles.image(at.chunk),
+                             VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+    }
+  }
+
+  dependency.pMemoryBarriers = &after;
+  dependency.imageMemoryBarrierCount = static_cast<uint32_t>(toSampled.size());
+  dependency.pImageMemoryBarriers = toSampled.data();
+  vkCmdPipelineBarrier2(cmd, &dependency);
+}
+
+Result<void> TerrainRenderer::Impl::drawPass(const Cut& cut, const std::vector<NodeRecord>& nodes,
+                                             std::size_t begin, std::size_t end, bool first,
+                                             bool last, const Camera& camera, const PatchPush& push,
+                                             const std::array<float, 4>& clear, FrameStats& stats) {
+  const DatasetView& data = *dataset;
+  const std::uint64_t passEpoch = ++epoch;
+
+  // The pass's entries: its patches, then its distinct tiles in first-use order.
+  std::vector<UploadJob> entries;
+  entries.reserve(2 * (end - begin));
+  std::unordered_set<std::uint64_t> seenTiles;
+  for (std::size_t i = begin; i < end; ++i) {
+    if (!drawable(nodes[i])) continue;
+    UploadJob entry;
+    entry.key = ResidentKey::patch(cut.patches[i].node);
+    entry.patchIndex = i;
+    entries.push_back(entry);
+  }
+  for (std::size_t i = begin; i < end; ++i) {
+    const ResidentKey tile = ResidentKey::tile(cut.patches[i].tile);
+    if (!drawable(nodes[i]) || !seenTiles.insert(tile.packed).second) continue;
+    UploadJob entry;
+    entry.key = tile;
+    entry.tile = cut.patches[i].tile;
+    entries.push_back(entry);
+  }
+
+  // Hits first, so that making room for the misses never evicts them.
+  std::vector<UploadJob> jobs;
+  for (const UploadJob& entry : entries) {
+    if (lru->find(entry.key)) {
+      lru->touch(entry.key, passEpoch);
+      ++stats.hits;
+    } else {
+      jobs.push_back(entry);
+    }
+  }
+  std::size_t inserted = 0;
+  const auto rollback = [&] {
+    for (std::size_t j = 0; j < inserted; ++j) lru->erase(jobs[j].key);
+  };
+  std::vector<ResidentKey> evicted;
+  for (UploadJob& job : jobs) {
+    evicted.clear();
+    const std::optional<std::uint32_t> slot = lru->insert(job.key, passEpoch, evicted);
+    if (!slot) {
+      rollback();
+      return makeError(ErrorCode::Internal, "GPU cache: a planned pass does not fit its budget");
+    }
+    ++inserted;
+    stats.evictions += evicted.size();
+    job.slot = *slot;
+  }
+  stats.peakResidentBytes = std::max(stats.peakResidentBytes, lru->residentBytes());
+
+  // Patch and tile slots of the whole pass; pools grow to cover them.
+  std::vector<std::uint32_t> patchSlots(end - begin, 0), tileSlots(end - begin, 0);
+  std::uint32_t patchSlotCount = 0, tileSlotCount = 0;
+  for (std::size_t i = begin; i < end; ++i) {
+    if (!drawable(nodes[i])) continue;
+    patchSlots[i - begin] = *lru->find(ResidentKey::patch(cut.patches[i].node));
+    tileSlots[i - begin] = *lru->find(ResidentKey::tile(cut.patches[i].tile));
+    patchSlotCount = std::max(patchSlotCount, patchSlots[i - begin] + 1);
+    tileSlotCount = std::max(tileSlotCount, tileSlots[i - begin] + 1);
+  }
+  if (Result<void> r = patches.ensureSlots(*context, patchSlotCount); !r) {
+    rollback();
+    return r;
+  }
+  if (Result<void> r = tiles.ensureSlots(*context, tileSlotCount); !r) {
+    rollback();
+    return r;
+  }
+
+  // Staging layout, then decoding straight into it on TBB workers.
+  std::uint64_t stagingBytes = 0;
+  for (UploadJob& job : jobs) {
+    job.stagingOffset = alignUp(stagingBytes, kStagingAlignment);
+    if (job.key.kind() == ResidentKind::Patch) {
+      const NodeRecord& n = nodes[job.patchIndex];
+      job.vertexBytes = std::uint64_t{sizeof(PatchGpuVertex)} * n.vertexCount;
+      job.bytes = job.vertexBytes + std::uint64_t{6} * n.triangleCount;
+    } else {
+      job.bytes = texture.slotBytes;
+    }
+    stagingBytes = job.stagingOffset + job.bytes;
+  }
+  if (Result<void> r = ensureStaging(stagingBytes); !r) {
+    rollback();
+    return r;
+  }
+  const auto decodeStart = Clock::now();
+  std::vector<Error> errors(jobs.size());
+  std::vector<char> failed(jobs.size(), 0);
+  const std::span<std::byte> stagingBytesSpan = staging.mappedBytes();
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, jobs.size()),
+      [&](const tbb::blocked_range<std::size_t>& range) {
+        for (std::size_t j = range.begin(); j != range.end(); ++j) {
+          const UploadJob& job = jobs[j];
+          const std::span<std::byte> out = stagingBytesSpan.subspan(job.stagingOffset, job.bytes);
+          Result<void> r = job.key.kind() == ResidentKind::Patch
+                               ? decodePatchInto(data, cut.patches[job.patchIndex].node,
+                                                 nodes[job.patchIndex], out)
+                               : decodeTileInto(data, job.tile, texture.texels, out);
+          if (!r) {
+            errors[j] = std::move(r).error();
+            failed[j] = 1;
+          }
+        }
+      });
+  stats.decodeMs += millisecondsSince(decodeStart);
+  for (std::size_t j = 0; j < jobs.size(); ++j) {
+    if (failed[j] != 0) {
+      rollback();
+      return std::move(errors[j]);
+    }
+  }
+
+  // Per-draw records, with each patch's tile layer.
+  const std::span<std::byte> recordBytes = records.mappedBytes();
+  for (std::size_t i = begin; i < end; ++i) {
+    if (!drawable(nodes[i])) continue;
+    PatchDrawInput input;
+    input.node = cut.patches[i].node;
+    input.record = nodes[i];
+    input.textureLayer = tiles.locate(tileSlots[i - begin]).local;
+    const PatchDrawRecord record = makePatchDrawRecord(data, input, camera.position());
+    std::memcpy(recordBytes.data() + i * sizeof(PatchDrawRecord), &record, sizeof record);
+  }
+  if (Result<void> r = staging ? staging.flushHostWrites() : Result<void>(); !r) {
+    rollback();
+    return r;
+  }
+  if (Result<void> r = records.flushHostWrites(); !r) {
+    rollback();
+    return r;
+  }
+
+  const bool timestamps = queries.get() != VK_NULL_HANDLE;
+  Result<void> submitted = context->submitAndWait(
+      [&](VkCommandBuffer cmd) {
+        if (timestamps) {
+          vkCmdResetQueryPool(cmd, queries.get(), 0, 3);
+          vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries.get(), 0);
+        }
+        if (!jobs.empty()) recordUploads(cmd, jobs);
+        if (timestamps) {
+          vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries.get(), 1);
+        }
+        if (first) {
+          target.recordBeginRendering(cmd, clear, OffscreenTarget::kFarDepth, !last);
+        } else {
+          target.recordResumeRendering(cmd, !last);
+        }
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.pipeline());
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 0, 1,
+                                &recordsSet, 0, nullptr);
+        vkCmdPushConstants(cmd, pipeline.layout(),
+                           VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
+                           sizeof push, &push);
+        std::uint32_t boundChunk = std::numeric_limits<std::uint32_t>::max();
+        std::uint32_t boundPage = std::numeric_limits<std::uint32_t>::max();
+        for (std::size_t i = begin; i < end; ++i) {
+          if (!drawable(nodes[i])) continue;
+          const PoolLocation patch = patches.locate(patchSlots[i - begin]);
+          const PoolLocation tile = tiles.locate(tileSlots[i - begin]);
+          if (patch.chunk != boundChunk) {
+            const VkBuffer vertexBuffer = patches.vertexBuffer(patch.chunk);
+            const VkDeviceSize zero = 0;
+            vkCmdBindVertexBuffers(cmd, 0, 1, &vertexBuffer, &zero);
+            vkCmdBindIndexBuffer(cmd, patches.indexBuffer(patch.chunk), 0, VK_INDEX_TYPE_UINT16);
+            boundChunk = patch.chunk;
+          }
+          if (tile.chunk != boundPage) {
+            const VkDescriptorSet set = tiles.descriptorSet(tile.chunk);
+            vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 1, 1,
+                                    &set, 0, nullptr);
+            boundPage = tile.chunk;
+          }
+          const auto recordIndex = static_cast<std::uint32_t>(i);
+          vkCmdPushConstants(cmd, pipeline.layout(),
+                             VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT,
+                             kRecordIndexOffset, sizeof recordIndex, &recordIndex);
+          vkCmdDrawIndexed(cmd, 3 * nodes[i].triangleCount, 1, patches.firstIndex(patch.local),
+                           static_cast<std::int32_t>(patches.firstVertex(patch.local)), 0);
+        }
+        vkCmdEndRendering(cmd);
+        if (timestamps) {
+          vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries.get(), 2);
+        }
+        if (last) target.recordReadback(cmd);
+      },
+      "terrain frame");
+  if (!submitted) {
+    rollback();
+    return submitted;
+  }
+  if (timestamps) {
+    std::array<std::uint64_t, 3> ticks{};
+    if (vkGetQueryPoolResults(context->device(), queries.get(), 0, 3, sizeof ticks, ticks.data(),
+                              sizeof(std::uint64_t),
+                              VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT) == VK_SUCCESS) {
+      const auto ms = [&](std::uint64_t a, std::uint64_t b) {
+        return static_cast<double>((b - a) & timestampMask) * timestampPeriodNs * 1e-6;
+      };
+      stats.uploadMs += ms(ticks[0], ticks[1]);
+      stats.drawMs += ms(ticks[1], ticks[2]);
+    }
+  }
+  stats.misses += jobs.size();
+  for (const UploadJob& job : jobs) stats.bytesUploaded += job.bytes;
+  return {};
+}
+
+Result<TerrainRenderer> TerrainRenderer::create(VulkanContext& context, const DatasetView& dataset,
+                                                const TerrainRendererOptions& options) {
+  auto impl = std::make_unique<Impl>();
+  impl->context = &context;
+  impl->dataset = &dataset;
+  impl->options = options;
+  impl->texture = chooseTexture(context, dataset, options.forceRgba8Textures);
+  impl->patchSlot = patchSlotBytes(dataset);
+  impl->maxIndices = 3 * dataset.maxPatchTriangles();
+  const std::uint64_t minimum = impl->patchSlot + impl->texture.slotBytes;
+  if (impl->texture.slotBytes == 0 || dataset.maxPatchVertices() == 0) {
+    return makeError(ErrorCode::CorruptData,
+                     "dataset has no drawable patches or an invalid texture tile size");
+  }
+  if (options.gpuCacheBytes < minimum) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "GPU cache budget of " + std::to_string(options.gpuCacheBytes) + " bytes (" +
+                         mebibytes(options.gpuCacheBytes) + ") is below the minimum of " +
+                         std::to_string(minimum) + " bytes (" + mebibytes(minimum) +
+                         ") that one patch slot (" + std::to_string(dataset.maxPatchVertices()) +
+                         " vertices, " + std::to_string(dataset.maxPatchTriangles()) +
+                         " triangles: " + std::to_string(impl->patchSlot) +
+                         " bytes) and one texture tile (" +
+                         std::to_string(impl->texture.slotBytes) + " bytes) need");
+  }
+
+  auto target = OffscreenTarget::create(context, options.widthPixels, options.heightPixels);
+  if (!target) return std::move(target).error();
+  impl->target = std::move(*target);
+  auto pipeline =
+      PatchPipeline::create(context, OffscreenTarget::kColorFormat, OffscreenTarget::kDepthFormat);
+  if (!pipeline) return std::move(pipeline).error();
+  impl->pipeline = std::move(*pipeline);
+
+  impl->lru.emplace(options.gpuCacheBytes,
+                    std::array<std::uint64_t, 2>{impl->patchSlot, impl->texture.slotBytes});
+  const std::uint32_t patchCapacity = impl->lru->capacity(ResidentKind::Patch);
+  const std::uint32_t tileCapacity = impl->lru->capacity(ResidentKind::Tile);
+  impl->patches = PatchPool(dataset.maxPatchVertices(), impl->maxIndices, patchCapacity,
+                            static_cast<std::uint32_t>(std::clamp<std::uint64_t>(
+                                kChunkBytes / impl->patchSlot, 1, patchCapacity)));
+
+  const std::uint32_t tileTexels = dataset.manifest().textureTileTexels;
+  VkImageFormatProperties formatProperties{};
+  if (VkResult r = vkGetPhysicalDeviceImageFormatProperties(
+          context.physicalDevice(), impl->texture.format, VK_IMAGE_TYPE_2D, VK_IMAGE_TILING_OPTIMAL,
+          VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, 0, &formatProperties);
+      r != VK_SUCCESS) {
+    return vulkanError(r, "texture tiles of " + std::to_string(tileTexels) + " texels");
+  }
+  const auto layersPerPage = static_cast<std::uint32_t>(
+      std::clamp<std::uint64_t>(std::min<std::uint64_t>(kChunkBytes / impl->texture.slotBytes,
+                                                        formatProperties.maxArrayLayers),
+                                1, tileCapacity));
+  auto tiles = TilePool::create(context, impl->texture.format, tileTexels, impl->texture.slotBytes,
+                                tileCapacity, layersPerPage, impl->pipeline.tilesSetLayout(),
+                                impl->pipeline.sampler());
+  if (!tiles) return std::move(tiles).error();
+  impl->tiles = std::move(*tiles);
+
+  VkDescriptorPoolSize size{};
+  size.type = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  size.descriptorCount = 1;
+  VkDescriptorPoolCreateInfo poolInfo{};
+  poolInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+  poolInfo.maxSets = 1;
+  poolInfo.poolSizeCount = 1;
+  poolInfo.pPoolSizes = &size;
+  VkDescriptorPool rawPool = VK_NULL_HANDLE;
+  if (VkResult r = vkCreateDescriptorPool(context.device(), &poolInfo, nullptr, &rawPool);
+      r != VK_SUCCESS) {
+    return vulkanError(r, "vkCreateDescriptorPool (patch draw records)");
+  }
+  impl->recordsPool = UniqueDescriptorPool(context.device(), rawPool);
+  const VkDescriptorSetLayout recordsLayout = impl->pipeline.recordsSetLayout();
+  VkDescriptorSetAllocateInfo allocate{};
+  allocate.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+  allocate.descriptorPool = rawPool;
+  allocate.descriptorSetCount = 1;
+  allocate.pSetLayouts = &recordsLayout;
+  if (VkResult r = vkAllocateDescriptorSets(context.device(), &allocate, &impl->recordsSet);
+      r != VK_SUCCESS) {
+    return vulkanError(r, "vkAllocateDescriptorSets (patch draw records)");
+  }
+  if (Result<void> r = impl->ensureRecords(1024); !r) return std::move(r).error();
+
+  // GPU timestamps for the upload/draw split, where the queue has them.
+  std::uint32_t familyCount = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(context.physicalDevice(), &familyCount, nullptr);
+  std::vector<VkQueueFamilyProperties> families(familyCount);
+  vkGetPhysicalDeviceQueueFamilyProperties(context.physicalDevice(), &familyCount, families.data());
+  const std::uint32_t validBits = families[context.queueFamilyIndex()].timestampValidBits;
+  if (validBits > 0) {
+    VkQueryPoolCreateInfo queryInfo{};
+    queryInfo.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO;
+    queryInfo.queryType = VK_QUERY_TYPE_TIMESTAMP;
+    queryInfo.queryCount = 3;
+    VkQueryPool rawQueries = VK_NULL_HANDLE;
+    if (VkResult r = vkCreateQueryPool(context.device(), &queryInfo, nullptr, &rawQueries);
+        r != VK_SUCCESS) {
+      return vulkanError(r, "vkCreateQueryPool (frame timestamps)");
+    }
+    impl->queries = UniqueQueryPool(context.device(), rawQueries);
+    impl->timestampMask = validBits >= 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << validBits) - 1;
+    impl->timestampPeriodNs = context.caps().timestampPeriodNanoseconds;
+  }
+  return TerrainRenderer(std::move(impl));
+}
+
+std::uint64_t TerrainRenderer::minimumCacheBytes(const VulkanContext& context,
+                                                 const DatasetView& dataset,
+                                                 bool forceRgba8Textures) {
+  return patchSlotBytes(dataset) + chooseTexture(context, dataset, forceRgba8Textures).slotBytes;
+}
+
+glm::dvec3 TerrainRenderer::defaultSunDirection(const Camera& camera) {
+  const glm::dvec3 above = glm::normalize(camera.position());
+  return glm::normalize(above + 0.5 * camera.up() + 0.4 * camera.right() - 0.3 * camera.forward());
+}
+
+TerrainRenderer::TerrainRenderer(std::unique_ptr<Impl> impl) noexcept : impl_(std::move(impl)) {}
+TerrainRenderer::TerrainRenderer(TerrainRenderer&&) noexcept = default;
+TerrainRenderer& TerrainRenderer::operator=(TerrainRenderer&&) noexcept = default;
+TerrainRenderer::~TerrainRenderer() = default;
+
+std::uint64_t TerrainRenderer::residentBytes() const noexcept {
+  return impl_->lru->residentBytes();
+}
+
+bool TerrainRenderer::usesBc1Textures() const noexcept {
+  return impl_->texture.texels == TexelFormat::Bc1;
+}
+
+Result<RenderedFrame> TerrainRenderer::render(const Cut& cut, const Camera& camera,
+                                              const FrameSettings& settings) {
+  Impl& m = *impl_;
+  const auto frameStart = Clock::now();
+  if (camera.viewport().width != m.options.widthPixels ||
+      camera.viewport().height != m.options.heightPixels) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "camera viewport " + std::to_string(camera.viewport().width) + "x" +
+                         std::to_string(camera.viewport().height) +
+                         " differs from the renderer's " + std::to_string(m.options.widthPixels) +
+                         "x" + std::to_string(m.options.heightPixels));
+  }
+  FrameStats stats;
+  stats.patches = cut.patches.size();
+  stats.triangles = cut.triangles;
+  stats.tiles = cut.tiles.size();
+  stats.peakResidentBytes = m.lru->residentBytes();
+
+  std::vector<NodeRecord> nodes(cut.patches.size());
+  for (std::size_t i = 0; i < nodes.size(); ++i) nodes[i] = m.dataset->node(cut.patches[i].node);
+
+  // Passes: the longest prefixes of the cut whose slot bytes fit the budget.
+  std::vector<std::size_t> passEnds;
+  {
+    const std::uint64_t budget = m.lru->budgetBytes();
+    std::uint64_t bytes = 0;
+    std::unordered_set<std::uint64_t> passTiles;
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      if (!drawable(nodes[i])) continue;
+      const std::uint64_t tile = ResidentKey::tile(cut.patches[i].tile).packed;
+      std::uint64_t need = m.patchSlot + (passTiles.count(tile) != 0 ? 0 : m.texture.slotBytes);
+      if (bytes > 0 && bytes + need > budget) {
+        passEnds.push_back(i);
+        bytes = 0;
+        passTiles.clear();
+        need = m.patchSlot + m.texture.slotBytes;
+      }
+      bytes += need;
+      passTiles.insert(tile);
+    }
+    passEnds.push_back(nodes.size());
+  }
+  stats.passes = static_cast<std::uint32_t>(passEnds.size());
+  stats.budgetExceeded = passEnds.size() > 1;
+  if (stats.budgetExceeded && m.options.warnWhenBudgetExceeded && !m.warned) {
+    m.warned = true;
+    std::fprintf(stderr,
+                 "pbdam: warning: a frame's cut (%zu patches, %zu tiles) does not fit the GPU "
+                 "cache budget of %s; drawing it in %zu passes (same image, slower); raise the "
+                 "budget (--gpu-cache-mb) to avoid this\n",
+                 cut.patches.size(), cut.tiles.size(), mebibytes(m.lru->budgetBytes()).c_str(),
+                 passEnds.size());
+  }
+  if (Result<void> r = m.ensureRecords(cut.patches.size()); !r) return std::move(r).error();
+
+  PatchPush push{};
+  const glm::mat4 viewProjection = camera.projection() * camera.viewRotation();
+  std::memcpy(push.viewProjection, glm::value_ptr(viewProjection), sizeof push.viewProjection);
+  const glm::dvec3 sun = glm::normalize(settings.sunDirectionEcef ? *settings.sunDirectionEcef
+                                                                  : defaultSunDirection(camera));
+  push.sunAmbient[0] = static_cast<float>(sun.x);
+  push.sunAmbient[1] = static_cast<float>(sun.y);
+  push.sunAmbient[2] = static_cast<float>(sun.z);
+  push.sunAmbient[3] = std::clamp(settings.ambient, 0.0f, 1.0f);
+  const std::array<float, 4> clear = {static_cast<float>(settings.clearRgb[0]) / 255.0f,
+                                      static_cast<float>(settings.clearRgb[1]) / 255.0f,
+                                      static_cast<float>(settings.clearRgb[2]) / 255.0f, 1.0f};
+
+  std::size_t begin = 0;
+  for (std::size_t p = 0; p < passEnds.size(); ++p) {
+    if (Result<void> r = m.drawPass(cut, nodes, begin, passEnds[p], p == 0,
+                                    p + 1 == passEnds.size(), camera, push, clear, stats);
+        !r) {
+      return std::move(r).error();
+    }
+    begin = passEnds[p];
+  }
+  Result<RgbaImage> image = m.target.readPixels();
+  if (!image) return std::move(image).error();
+  stats.residentBytes = m.lru->residentBytes();
+  stats.poolBytes = m.patches.allocatedBytes() + m.tiles.allocatedBytes();
+  stats.frameMs = millisecondsSince(frameStart);
+  return RenderedFrame{std::move(*image), stats};
+}
+
+}  // namespace pbdam::gpu

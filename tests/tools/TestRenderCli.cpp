@@ -1,0 +1,228 @@
+// `pbdam render` as a user runs it: one camera to PNG and EXR with a statistics line, a camera
+// path to numbered frames (and the MP4 through ffmpeg when it is on PATH, skipped otherwise),
+// and bad input → one clear line on stderr and exit code 2.
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "TestData.h"
+
+namespace pbdam {
+namespace {
+
+struct CliRun {
+  int exitCode = -1;
+  std::string out;
+  std::string err;
+};
+
+/// Runs pbdam with `args` (a shell-quoted string) after `env` (shell assignments), capturing
+/// stdout and stderr.
+CliRun runPbdam(const std::string& args, const std::string& env = "") {
+  test::TempDir dir;
+  const std::string errFile = (dir / "stderr.txt").string();
+  const std::string command =
+      env + " '" + std::string(PBDAM_EXE) + "' " + args + " 2>'" + errFile + "'";
+  CliRun run;
+  FILE* pipe = ::popen(command.c_str(), "r");
+  if (pipe == nullptr) return run;
+  std::array<char, 4096> buf{};
+  std::size_t n = 0;
+  while ((n = std::fread(buf.data(), 1, buf.size(), pipe)) > 0) run.out.append(buf.data(), n);
+  const int status = ::pclose(pipe);
+  run.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream in(errFile);
+  run.err.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  return run;
+}
+
+std::string readFile(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+std::vector<std::string> lines(const std::string& text) {
+  std::vector<std::string> out;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) out.push_back(line);
+  return out;
+}
+
+std::string quoted(const std::filesystem::path& p) {
+  std::string q = "'";  // built step by step: GCC 12 -O3 warns (-Wrestrict) on "'" + s + "'"
+  q += p.string();
+  q += '\'';
+  return q;
+}
+
+constexpr const char* kSmall = " --width 160 --height 90";
+
+TEST(RenderCli, Help) {
+  const CliRun run = runPbdam("render --help");
+  EXPECT_EQ(run.exitCode, 0) << run.err;
+  for (const char* option :
+       {"--camera", "--path", "--out", "--width", "--height", "--fov-deg", "--tolerance-px",
+        "--gpu-cache-mb", "--device", "--stats", "--clear", "OUT_000000.png"}) {
+    EXPECT_NE(run.out.find(option), std::string::npos) << option << "\n" << run.out;
+  }
+}
+
+TEST(RenderCli, OneCameraToPngWithStats) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  test::TempDir tmp;
+  const auto png = tmp / "mars.png";
+  const auto stats = tmp / "stats.jsonl";
+  const CliRun run = runPbdam("render " + quoted(dir) + " --camera 18.65,226.2,3e6 --out " +
+                              quoted(png) + " --stats " + quoted(stats) + kSmall);
+  ASSERT_EQ(run.exitCode, 0) << run.err;
+  EXPECT_NE(run.out.find("wrote " + png.string()), std::string::npos) << run.out;
+  const std::string bytes = readFile(png);
+  ASSERT_GT(bytes.size(), 8u);
+  EXPECT_EQ(bytes.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+  const auto statLines = lines(readFile(stats));
+  ASSERT_EQ(statLines.size(), 1u);
+  const auto j = nlohmann::json::parse(statLines[0]);
+  for (const char* key : {"frame", "patches", "triangles", "tiles", "traversal_ms", "decode_ms",
+                          "upload_ms", "draw_ms", "resident_bytes", "hits", "misses", "evictions",
+                          "bytes_uploaded", "budget_exceeded"}) {
+    EXPECT_TRUE(j.contains(key)) << key << " in " << statLines[0];
+  }
+  EXPECT_EQ(j["frame"], 0);
+  EXPECT_GT(j["patches"].get<int>(), 0);
+  EXPECT_EQ(j["hits"], 0);
+  EXPECT_GT(j["misses"].get<int>(), 0);
+  EXPECT_FALSE(j["budget_exceeded"].get<bool>());
+  EXPECT_FALSE(std::filesystem::exists(tmp / "mars.partial.png"));
+}
+
+TEST(RenderCli, OneCameraToExr) {
+  PBDAM_REQUIRE_DATASET(dir, "earth");
+  test::TempDir tmp;
+  const auto exr = tmp / "earth.exr";
+  const CliRun run = runPbdam("render " + quoted(dir) + " --camera 40,-100,8e6,0,-90,0 --out " +
+                              quoted(exr) + " --quiet --clear 255,0,255" + kSmall);
+  ASSERT_EQ(run.exitCode, 0) << run.err;
+  EXPECT_TRUE(run.out.empty()) << run.out;
+  const std::string bytes = readFile(exr);
+  ASSERT_GT(bytes.size(), 4u);
+  EXPECT_EQ(bytes.substr(0, 4), std::string("\x76\x2f\x31\x01", 4));  // OpenEXR magic
+}
+
+TEST(RenderCli, CameraPathToFramesAndVideo) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  test::TempDir tmp;
+  const auto path = tmp / "path.csv";
+  {
+    std::ofstream out(path);
+    out << "t,lat,lon,alt,heading,pitch,roll\n"
+           "0,0,0,4e6,0,-90,0\n"
+           "0.25,0,0,4e6,0,-90,0\n"
+           "0.5,0,2,4e6,0,-90,0\n";
+  }
+  // A stand-in ffmpeg that records its arguments and creates the output file.
+  const auto bin = tmp / "bin";
+  std::filesystem::create_directory(bin);
+  {
+    std::ofstream script(bin / "ffmpeg");
+    script << "#!/bin/sh\necho \"$@\" > '" << (tmp / "ffmpeg-args.txt").string()
+           << "'\nfor a; do last=$a; done\n: > \"$last\"\n";
+  }
+  ::chmod((bin / "ffmpeg").c_str(), 0755);
+  const auto stats = tmp / "stats.jsonl";
+  const CliRun run = runPbdam("render " + quoted(dir) + " --path " + quoted(path) + " --out " +
+                                  quoted(tmp / "flight.png") + " --stats " + quoted(stats) + kSmall,
+                              "PATH='" + bin.string() + "':\"$PATH\"");
+  ASSERT_EQ(run.exitCode, 0) << run.err;
+  for (const char* frame : {"flight_000000.png", "flight_000001.png", "flight_000002.png"}) {
+    EXPECT_TRUE(std::filesystem::exists(tmp / frame)) << frame;
+  }
+  EXPECT_NE(run.out.find("frame 3/3"), std::string::npos) << run.out;
+  EXPECT_TRUE(std::filesystem::exists(tmp / "flight.mp4")) << run.out;
+  const std::string args = readFile(tmp / "ffmpeg-args.txt");
+  EXPECT_NE(args.find("-framerate 4 "), std::string::npos) << args;  // 2 intervals in 0.5 s
+  EXPECT_NE(args.find((tmp / "flight_%06d.png").string()), std::string::npos) << args;
+  const auto statLines = lines(readFile(stats));
+  ASSERT_EQ(statLines.size(), 3u);
+  const auto second = nlohmann::json::parse(statLines[1]);
+  EXPECT_EQ(second["frame"], 1);
+  EXPECT_EQ(second["misses"], 0);  // the same camera again: all from the GPU cache
+  EXPECT_GT(second["hits"].get<int>(), 0);
+
+  // Without ffmpeg on PATH the frames are written and the MP4 is skipped with a message.
+  const CliRun bare = runPbdam("render " + quoted(dir) + " --path " + quoted(path) + " --out " +
+                                   quoted(tmp / "bare") + kSmall,
+                               "PATH=/nonexistent");
+  ASSERT_EQ(bare.exitCode, 0) << bare.err;
+  EXPECT_TRUE(std::filesystem::exists(tmp / "bare_000002.png"));
+  EXPECT_FALSE(std::filesystem::exists(tmp / "bare.mp4"));
+  EXPECT_NE(bare.out.find("MP4 skipped"), std::string::npos) << bare.out;
+}
+
+TEST(RenderCli, ABudgetOverTheCutStillRenders) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  test::TempDir tmp;
+  const auto stats = tmp / "stats.jsonl";
+  const CliRun run =
+      runPbdam("render " + quoted(dir) + " --camera 0,0,4e6 --out " + quoted(tmp / "a.png") +
+               " --gpu-cache-mb 0.5 --stats " + quoted(stats) + kSmall);
+  ASSERT_EQ(run.exitCode, 0) << run.err;
+  EXPECT_NE(run.err.find("warning"), std::string::npos) << run.err;
+  EXPECT_TRUE(nlohmann::json::parse(readFile(stats))["budget_exceeded"].get<bool>());
+}
+
+TEST(RenderCli, BadInputIsOneLineAndExitCode2) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  test::TempDir tmp;
+  const std::string ds = quoted(dir);
+  const std::string out = " --out " + quoted(tmp / "x.png");
+  {
+    std::ofstream bad(tmp / "bad.csv");
+    bad << "t,lat,lon,alt,heading,pitch,roll\n0,0,0,1e6,0,-90,0\n0,0,0,1e6,0,-90,0\n";
+    std::ofstream far(tmp / "far.csv");
+    far << "t,lat,lon,alt,heading,pitch,roll\n0,0,0,1e6,0,-90,0\n1,95,0,1e6,0,-90,0\n";
+  }
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"render " + quoted(tmp / "missing") + " --camera 0,0,1e6" + out, "missing"},
+      {"render " + ds + out, "exactly one of --camera"},
+      {"render " + ds + " --camera 0,0,1e6 --path " + quoted(tmp / "bad.csv") + out,
+       "exactly one of --camera"},
+      {"render " + ds + " --camera 0,0" + out, "camera '0,0'"},
+      {"render " + ds + " --camera 100,0,1e6" + out, "latitude"},
+      {"render " + ds + " --camera 0,0,1e6 --width 0" + out, "image size"},
+      {"render " + ds + " --camera 0,0,1e6 --height 20000" + out, "image size"},
+      {"render " + ds + " --camera 0,0,1e6 --width -4" + out, "--width"},
+      {"render " + ds + " --camera 0,0,1e6 --fov-deg 180" + out, "field of view"},
+      {"render " + ds + " --camera 0,0,1e6 --tolerance-px 0" + out, "--tolerance-px"},
+      {"render " + ds + " --camera 0,0,1e6 --gpu-cache-mb 0" + out, "--gpu-cache-mb"},
+      {"render " + ds + " --camera 0,0,1e6 --gpu-cache-mb 0.01" + out, "minimum of"},
+      {"render " + ds + " --camera 0,0,1e6 --clear 255,0" + out, "--clear"},
+      {"render " + ds + " --camera 0,0,1e6 --clear 256,0,0" + out, "--clear"},
+      {"render " + ds + " --camera 0,0,1e6 --out " + quoted(tmp / "x.jpg"), ".png or .exr"},
+      {"render " + ds + " --camera 0,0,1e6 --out " + quoted(tmp / "no/such/dir/x.png"),
+       "does not exist"},
+      {"render " + ds + " --camera 0,0,1e6 --device 99" + out, "device index 99"},
+      {"render " + ds + " --path " + quoted(tmp / "none.csv") + out, "none.csv"},
+      {"render " + ds + " --path " + quoted(tmp / "bad.csv") + out, "bad.csv:3:"},
+      {"render " + ds + " --path " + quoted(tmp / "far.csv") + out, "row 2"},
+      {"render " + ds + " --camera 0,0,1e6", "--out"},
+  };
+  for (const auto& [args, expected] : cases) {
+    const CliRun run = runPbdam(args);
+    EXPECT_EQ(run.exitCode, 2) << args << "\n" << run.err;
+    EXPECT_EQ(lines(run.err).size(), 1u) << args << "\n" << run.err;
+    EXPECT_EQ(run.err.rfind("pbdam: ", 0), 0u) << args << "\n" << run.err;
+    EXPECT_NE(run.err.find(expected), std::string::npos) << args << "\n" << run.err;
+  }
+  EXPECT_FALSE(std::filesystem::exists(tmp / "x.png"));
+}
+
+}  // namespace
+}  // namespace pbdam

@@ -1,0 +1,21 @@
+// Writing rendered frames to image files for `pbdam render` (and later `pbdam serve`): PNG at
+// zlib level 1 (design.md §9: the default level cost ~4× the time for ~10% smaller files) or
+// half-float EXR, through OpenImageIO. Thread-safety: pure functions.
+#pragma once
+
+#include <filesystem>
+
+#include "pbdam/formats/Result.h"
+#include "pbdam/gpu/RgbaImage.h"
+
+namespace pbdam::tools {
+
+/// True when `path` ends in .exr (any case): written as EXR, else as PNG.
+bool isExrPath(const std::filesystem::path& path);
+
+/// Writes the RGB channels of `image` (top row first) to `path`: PNG (8-bit, compression level
+/// 1) or, for .exr, half-float EXR with values 0..1. Written under a temporary name and renamed,
+/// so an interrupted run never leaves a truncated frame. IoError naming the file on failure.
+Result<void> writeFrameImage(const std::filesystem::path& path, const gpu::RgbaImage& image);
+
+}  // namespace pbdam::tools

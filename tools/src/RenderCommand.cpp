@@ -1,0 +1,317 @@
+// `pbdam render`: exact-mode frames of a dataset (design.md §1, §4) from one camera or a camera
+// path, written as PNG/EXR, with per-frame statistics as JSON lines and an MP4 through ffmpeg
+// when it is installed.
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "Commands.h"
+#include "FrameImage.h"
+#include "pbdam/formats/CameraPath.h"
+#include "pbdam/formats/NumberList.h"
+#include "pbdam/gpu/TerrainRenderer.h"
+#include "pbdam/gpu/VulkanContext.h"
+#include "pbdam/runtime/Camera.h"
+#include "pbdam/runtime/Refinement.h"
+#include "pbdam/streaming/MappedDataset.h"
+
+extern char** environ;
+
+namespace pbdam::tools {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct RenderCliOptions {
+  std::string dir;
+  std::string camera;
+  std::string path;
+  std::string out;
+  std::uint32_t width = 1280;
+  std::uint32_t height = 720;
+  double fovDegrees = 60.0;
+  double tolerancePixels = 3.0;
+  double gpuCacheMiB = 256.0;
+  int device = -1;
+  std::string stats;
+  std::string clear = "0,0,0";
+  bool quiet = false;
+};
+
+int badInput(const std::string& message) {
+  std::cerr << "pbdam: " << message << "\n";
+  return kExitBadInput;
+}
+
+/// A frame to render: its pose and, for paths, its row.
+struct FrameJob {
+  CameraPose pose;
+  double tSeconds = 0.0;
+  fs::path out;
+};
+
+/// Whether an executable `name` is on PATH.
+std::optional<fs::path> findOnPath(const std::string& name) {
+  const char* path = std::getenv("PATH");
+  if (path == nullptr) return std::nullopt;
+  std::string_view rest(path);
+  while (true) {
+    const std::size_t colon = rest.find(':');
+    const std::string dir(rest.substr(0, colon));
+    const fs::path candidate = fs::path(dir.empty() ? "." : dir) / name;
+    if (::access(candidate.c_str(), X_OK) == 0 && fs::is_regular_file(candidate)) {
+      return candidate;
+    }
+    if (colon == std::string_view::npos) return std::nullopt;
+    rest.remove_prefix(colon + 1);
+  }
+}
+
+/// Runs `argv` (no shell) and returns its exit status, or -1 when it could not start.
+int runProgram(const std::vector<std::string>& argv) {
+  std::vector<char*> args;
+  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  pid_t pid = 0;
+  if (::posix_spawnp(&pid, args[0], nullptr, nullptr, args.data(), environ) != 0) return -1;
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0) {
+    if (errno != EINTR) return -1;
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string frameName(const fs::path& prefix, std::size_t index, const std::string& ext) {
+  char number[32];
+  std::snprintf(number, sizeof number, "_%06zu", index);
+  return prefix.string() + number + ext;
+}
+
+nlohmann::ordered_json statsJson(std::size_t frame, double traversalMs, const gpu::FrameStats& s) {
+  nlohmann::ordered_json j;
+  j["frame"] = frame;
+  j["patches"] = s.patches;
+  j["triangles"] = s.triangles;
+  j["tiles"] = s.tiles;
+  j["traversal_ms"] = traversalMs;
+  j["decode_ms"] = s.decodeMs;
+  j["upload_ms"] = s.uploadMs;
+  j["draw_ms"] = s.drawMs;
+  j["frame_ms"] = s.frameMs;
+  j["resident_bytes"] = s.residentBytes;
+  j["hits"] = s.hits;
+  j["misses"] = s.misses;
+  j["evictions"] = s.evictions;
+  j["bytes_uploaded"] = s.bytesUploaded;
+  j["passes"] = s.passes;
+  j["budget_exceeded"] = s.budgetExceeded;
+  return j;
+}
+
+int runRender(const RenderCliOptions& c) {
+  // Options first: nothing is opened before the command line is known to be good.
+  if (c.camera.empty() == c.path.empty()) {
+    return badInput("give exactly one of --camera LAT,LON,ALT[,HEADING,PITCH,ROLL] or --path FILE");
+  }
+  if (c.out.empty()) return badInput("--out is required");
+  Viewport viewport;
+  viewport.width = c.width;
+  viewport.height = c.height;
+  viewport.fovYDegrees = c.fovDegrees;
+  if (auto r = validateViewport(viewport); !r) return reportError(r.error());
+  if (!std::isfinite(c.tolerancePixels) || c.tolerancePixels <= 0.0) {
+    return badInput("--tolerance-px must be a positive number of pixels");
+  }
+  if (c.device < -1) return badInput("--device must be a device index (pbdam devices)");
+  if (!std::isfinite(c.gpuCacheMiB) || c.gpuCacheMiB <= 0.0 || c.gpuCacheMiB > 1048576.0) {
+    return badInput("--gpu-cache-mb must be a positive number of MiB");
+  }
+  std::vector<double> rgb;
+  if (!parseNumberList(c.clear, 3, rgb) || std::any_of(rgb.begin(), rgb.end(), [](double v) {
+        return v < 0.0 || v > 255.0 || v != std::floor(v);
+      })) {
+    return badInput("--clear '" + c.clear + "': expected R,G,B integers in 0..255");
+  }
+  gpu::FrameSettings settings;
+  for (std::size_t i = 0; i < 3; ++i) settings.clearRgb[i] = static_cast<std::uint8_t>(rgb[i]);
+
+  const fs::path out(c.out);
+  const bool exr = isExrPath(out);
+  std::string ext = out.extension().string();
+  if (!c.camera.empty() && !exr && ext != ".png" && ext != ".PNG") {
+    return badInput("--out '" + c.out + "': expected a .png or .exr file name");
+  }
+  if (!out.parent_path().empty() && !fs::is_directory(out.parent_path())) {
+    return badInput("--out '" + c.out + "': directory " + out.parent_path().string() +
+                    " does not exist");
+  }
+
+  auto dataset = MappedDataset::open(c.dir);
+  if (!dataset) return reportError(dataset.error());
+  const DatasetView& view = (*dataset)->view();
+
+  std::vector<FrameJob> jobs;
+  double fps = 30.0;
+  fs::path prefix;
+  if (!c.camera.empty()) {
+    auto pose = parseCameraPose(c.camera);
+    if (!pose) return reportError(pose.error());
+    if (auto r = validateCameraPose(*pose, view.planet()); !r) return reportError(r.error());
+    jobs.push_back({*pose, 0.0, out});
+  } else {
+    auto points = readCameraPath(c.path);
+    if (!points) return reportError(points.error());
+    // Frames OUT_000000.png ...: OUT is a prefix (a .png/.exr/.mp4 extension is dropped).
+    prefix = out;
+    if (ext == ".png" || ext == ".PNG" || exr || ext == ".mp4") prefix.replace_extension();
+    ext = exr ? ".exr" : ".png";
+    for (std::size_t i = 0; i < points->size(); ++i) {
+      const CameraPathPoint& p = (*points)[i];
+      const CameraPose pose{p.latDegrees,     p.lonDegrees,   p.altitudeMeters,
+                            p.headingDegrees, p.pitchDegrees, p.rollDegrees};
+      if (auto r = validateCameraPose(pose, view.planet()); !r) {
+        return badInput(c.path + ": row " + std::to_string(i + 1) + ": " + r.error().message);
+      }
+      jobs.push_back({pose, p.tSeconds, frameName(prefix, i, ext)});
+    }
+    if (points->size() > 1) {
+      fps = static_cast<double>(points->size() - 1) /
+            (points->back().tSeconds - points->front().tSeconds);
+    }
+  }
+
+  std::ofstream statsFile;
+  if (!c.stats.empty()) {
+    statsFile.open(c.stats, std::ios::trunc);
+    if (!statsFile) return badInput("--stats '" + c.stats + "': cannot create the file");
+  }
+
+  gpu::ContextOptions contextOptions;
+  if (c.device >= 0) contextOptions.deviceIndex = static_cast<std::uint32_t>(c.device);
+  auto context = gpu::VulkanContext::create(contextOptions);
+  if (!context) return reportError(context.error());
+  gpu::TerrainRendererOptions rendererOptions;
+  rendererOptions.widthPixels = c.width;
+  rendererOptions.heightPixels = c.height;
+  rendererOptions.gpuCacheBytes = static_cast<std::uint64_t>(c.gpuCacheMiB * 1048576.0);
+  auto renderer = gpu::TerrainRenderer::create(*context, view, rendererOptions);
+  if (!renderer) return reportError(renderer.error());
+
+  RefinementOptions refinement;
+  refinement.tolerancePixels = c.tolerancePixels;
+  for (std::size_t i = 0; i < jobs.size(); ++i) {
+    const FrameJob& job = jobs[i];
+    const Camera camera = Camera::fromPose(view.planet(), job.pose, viewport);
+    const auto traversalStart = std::chrono::steady_clock::now();
+    const Cut cut = refine(view, camera, refinement);
+    const double traversalMs =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - traversalStart)
+            .count();
+    auto frame = renderer->render(cut, camera, settings);
+    if (!frame) return reportError(frame.error());
+    if (auto r = writeFrameImage(job.out, frame->image); !r) return reportError(r.error());
+    const gpu::FrameStats& s = frame->stats;
+    if (statsFile.is_open()) {
+      statsFile << statsJson(i, traversalMs, s).dump() << "\n";
+      statsFile.flush();
+      if (!statsFile) return reportError(makeError(ErrorCode::IoError, c.stats + ": write failed"));
+    }
+    if (!c.quiet) {
+      std::printf(
+          "%s%s: %llu patches, %llu triangles, %llu tiles; traversal %.1f ms, decode %.1f "
+          "ms, upload %.1f ms, draw %.1f ms, frame %.1f ms%s\n",
+          jobs.size() > 1
+              ? ("frame " + std::to_string(i + 1) + "/" + std::to_string(jobs.size()) + " ").c_str()
+              : "wrote ",
+          job.out.string().c_str(), static_cast<unsigned long long>(s.patches),
+          static_cast<unsigned long long>(s.triangles), static_cast<unsigned long long>(s.tiles),
+          traversalMs, s.decodeMs, s.uploadMs, s.drawMs, s.frameMs,
+          s.budgetExceeded ? " (over the GPU cache budget)" : "");
+      std::fflush(stdout);
+    }
+  }
+
+  if (!c.path.empty() && !exr) {
+    const fs::path video = prefix.string() + ".mp4";
+    if (!findOnPath("ffmpeg")) {
+      std::printf("ffmpeg not found on PATH: MP4 skipped (frames are %s_NNNNNN.png)\n",
+                  prefix.string().c_str());
+      return kExitOk;
+    }
+    char rate[32];
+    std::snprintf(rate, sizeof rate, "%.6g", fps);
+    const int status =
+        runProgram({"ffmpeg", "-y", "-loglevel", "error", "-framerate", rate, "-i",
+                    prefix.string() + "_%06d.png", "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+                    "-pix_fmt", "yuv420p", video.string()});
+    if (status != 0) {
+      return reportError(makeError(ErrorCode::IoError, "ffmpeg failed to make " + video.string() +
+                                                           " (exit status " +
+                                                           std::to_string(status) + ")"));
+    }
+    if (!c.quiet) std::printf("wrote %s (%s fps)\n", video.string().c_str(), rate);
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+void addRenderCommand(CLI::App& app, CommandStatus& status) {
+  auto o = std::make_shared<RenderCliOptions>();
+  CLI::App* render = app.add_subcommand(
+      "render",
+      "Render exact-mode frames of a dataset (every patch of the cut) to PNG/EXR, from one "
+      "camera or a camera path (then numbered frames OUT_000000.png... and OUT.mp4 if ffmpeg "
+      "is installed)");
+  render->add_option("DIR", o->dir, "Dataset directory (pbdam build --out)")->required();
+  render->add_option("--camera", o->camera,
+                     "LAT,LON,ALT[,HEADING,PITCH,ROLL]: degrees, metres above the reference "
+                     "surface; pitch -90 (default) looks straight down");
+  render->add_option("--path", o->path,
+                     "Camera-path CSV (header t,lat,lon,alt,heading,pitch,roll): one frame per "
+                     "row, the MP4's frame rate from the t column");
+  render
+      ->add_option("--out", o->out,
+                   "Image file (.png or .exr) with --camera; with --path a prefix OUT: frames "
+                   "OUT_000000.png, OUT_000001.png, ... (a .png/.exr/.mp4 extension is "
+                   "dropped; .exr gives EXR frames) and OUT.mp4")
+      ->required();
+  render->add_option("--width", o->width, "Image width in pixels")->capture_default_str();
+  render->add_option("--height", o->height, "Image height in pixels")->capture_default_str();
+  render->add_option("--fov-deg", o->fovDegrees, "Vertical field of view in degrees")
+      ->capture_default_str();
+  render
+      ->add_option("--tolerance-px", o->tolerancePixels,
+                   "Screen-space error tolerance of the cut in pixels")
+      ->capture_default_str();
+  render
+      ->add_option("--gpu-cache-mb", o->gpuCacheMiB,
+                   "GPU cache budget in MiB (patch and tile slots); a cut that does not fit "
+                   "is drawn in several passes")
+      ->capture_default_str();
+  render->add_option("--device", o->device,
+                     "Vulkan device index (pbdam devices); default: lavapipe");
+  render->add_option("--stats", o->stats,
+                     "Write one JSON line of statistics per frame to this file");
+  render->add_option("--clear", o->clear, "Background colour R,G,B (0..255)")
+      ->capture_default_str();
+  render->add_flag("--quiet", o->quiet, "No per-frame lines on stdout");
+  render->callback([o, &status] { status.exitCode = runRender(*o); });
+}
+
+}  // namespace pbdam::tools
