@@ -24,6 +24,8 @@ set_target_properties(Squish::Squish PROPERTIES IMPORTED_LOCATION ${SQUISH_LIBRA
 # OpenImageIO through pkg-config: its CMake package references opencv and tool binaries that
 # libopenimageio-dev does not pull in.
 pkg_check_modules(OpenImageIO REQUIRED IMPORTED_TARGET OpenImageIO)
+# PLplot draws the benchmark report's plots (cairo PNG driver: plplot-driver-cairo).
+pkg_check_modules(PLplot REQUIRED IMPORTED_TARGET plplot)
 if(PBDAM_BUILD_TESTS)
   find_package(GTest CONFIG REQUIRED)
 endif()

@@ -86,6 +86,15 @@ Result<void> MappedFile::advise(MappingAdvice advice) const noexcept {
   return {};
 }
 
+Result<void> MappedFile::releaseResident() const noexcept {
+  if (size_ == 0) return {};
+  if (::madvise(const_cast<std::byte*>(data_), size_, MADV_DONTNEED) != 0) {  // NOLINT
+    return makeError(ErrorCode::IoError,
+                     path_.string() + ": madvise(DONTNEED) failed (" + std::strerror(errno) + ")");
+  }
+  return {};
+}
+
 Result<void> MappedFile::willNeed(std::size_t offset, std::size_t length) const noexcept {
   assert(offset <= size_ && length <= size_ - offset);
   if (length == 0) return {};

@@ -34,6 +34,12 @@ void addHeightCommand(CLI::App& app, CommandStatus& status);
 /// `pbdam render DIR (--camera POSE | --path FILE) --out PATH [...]`.
 void addRenderCommand(CLI::App& app, CommandStatus& status);
 
+/// `pbdam path great-circle|waypoints … --out FILE`.
+void addPathCommands(CLI::App& app, CommandStatus& status);
+
+/// `pbdam bench DIR --path FILE --out REPORTDIR [...]`.
+void addBenchCommand(CLI::App& app, CommandStatus& status);
+
 /// Prints "pbdam: <message>" on stderr; returns the exit code for the error's kind.
 int reportError(const Error& error);
 

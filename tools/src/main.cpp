@@ -19,8 +19,10 @@ int main(int argc, char** argv) {
   pbdam::tools::addDevicesCommand(app, status);
   pbdam::tools::addBuildCommand(app, status);
   pbdam::tools::addDatasetCommands(app, status);
-  pbdam::tools::addHeightCommand(app, status);
   pbdam::tools::addRenderCommand(app, status);
+  pbdam::tools::addHeightCommand(app, status);
+  pbdam::tools::addPathCommands(app, status);
+  pbdam::tools::addBenchCommand(app, status);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -42,6 +42,10 @@ class MappedFile final {
   /// range must lie inside the mapping.
   Result<void> willNeed(std::size_t offset, std::size_t length) const noexcept;
 
+  /// Drops the mapping's page-table entries (MADV_DONTNEED): the process's RSS no longer counts
+  /// the file's pages; they stay in the page cache, so touching them again is a minor fault.
+  Result<void> releaseResident() const noexcept;
+
   /// Number of the mapping's pages currently resident in the page cache (mincore).
   Result<std::size_t> residentPages() const noexcept;
   /// Number of pages of [offset, offset + length) resident, and the number of pages the range

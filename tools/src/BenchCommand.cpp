@@ -1,0 +1,315 @@
+// `pbdam bench DIR --path FILE --out REPORTDIR …`: replays a recorded camera path through the
+// renderer, cold or warm, with and without speculative prefetch, in paging or no-stall mode, and
+// writes frames.csv, summary.json and report.png (BenchReport.h; design.md §5, paper 004 §6.2).
+//
+// The frame loop is the render thread: refinement, decode and upload, draw and readback all run
+// on it (TBB is limited to one thread so that decoding — where missing pages fault in — happens
+// on the thread whose major faults are counted, as in the paper's single render thread). After
+// each frame the face mappings' page-table entries are dropped (MADV_DONTNEED): decoded data
+// lives in the GPU cache, so the process's RSS stays near one frame's working set while the page
+// cache keeps the bytes.
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <tbb/global_control.h>
+
+#include <bit>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <optional>
+
+#include "BenchReport.h"
+#include "Commands.h"
+#include "pbdam/formats/CameraPath.h"
+#include "pbdam/gpu/TerrainRenderer.h"
+#include "pbdam/gpu/VulkanContext.h"
+#include "pbdam/streaming/MappedDataset.h"
+#include "pbdam/streaming/PageCache.h"
+#include "pbdam/streaming/Prefetcher.h"
+
+namespace pbdam::tools {
+namespace {
+
+struct BenchCliOptions {
+  std::string dir, path, out;
+  std::uint32_t width = 640, height = 480;
+  double tolerance = 3.0;
+  bool cold = false;
+  std::string prefetch = "both";
+  double lookahead = 0.5;
+  std::string mode = "paging";
+  double gpuCacheMb = 64.0;
+  int device = -1;
+  bool quiet = false;
+};
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+std::uint64_t threadMajorFaults() {
+  rusage usage{};
+  ::getrusage(RUSAGE_THREAD, &usage);
+  return static_cast<std::uint64_t>(usage.ru_majflt);
+}
+
+std::uint64_t rssBytes() {
+  std::ifstream statm("/proc/self/statm");
+  std::uint64_t size = 0, resident = 0;
+  statm >> size >> resident;
+  return resident * static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
+}
+
+std::uint64_t residentDatasetPages(const MappedDataset& dataset) {
+  std::uint64_t pages = 0;
+  for (int f = 0; f < 6; ++f) {
+    if (auto r = dataset.faceFile(f).residentPages(); r) pages += *r;
+  }
+  return pages;
+}
+
+bool rangeResident(const MappedFile& file, std::uint64_t offset, std::uint64_t bytes) {
+  if (bytes == 0) return true;
+  const auto r = file.residentPages(offset, bytes);
+  return r && r->first == r->second;
+}
+
+// No-stall: the finest cut whose patches and tiles are all in the page cache, as a global level
+// cap (a cap applies to both triangles of every diamond, so the capped cut is conforming).
+Cut noStallCut(const MappedDataset& dataset, const Camera& camera, RefinementOptions options,
+               int& cap) {
+  const DatasetView& view = dataset.view();
+  int level = view.depth();
+  for (;;) {
+    options.maxLevel = level;
+    Cut cut = refine(view, camera, options);
+    int worst = level + 1;
+    for (const CutPatch& p : cut.patches) {
+      const NodeRecord n = view.node(p.node);
+      if (!rangeResident(dataset.faceFile(p.node.face), n.blobOffset, n.blobBytes)) {
+        worst = std::min(worst, p.level);
+      }
+    }
+    for (const TileKey& t : cut.tiles) {
+      const TextureRecord r = view.textureNode(t);
+      if (!rangeResident(dataset.faceFile(t.face), r.blobOffset, r.blobBytes)) {
+        // Tile level t is drawn with patches of levels 2t and 2t+1.
+        const int tileLevel = (static_cast<int>(std::bit_width(3 * t.heap + 1)) - 1) / 2;
+        worst = std::min(worst, 2 * tileLevel);
+      }
+    }
+    if (worst > level) {
+      cap = level;
+      return cut;
+    }
+    level = std::min(level, worst) - 1;
+    if (level < 0) {
+      cap = -1;
+      return Cut{};
+    }
+  }
+}
+
+// Brings every node table into the page cache (and out of RSS again): no-stall refinement must
+// not fault on node records.
+void preloadNodeTables(const MappedDataset& dataset) {
+  for (int f = 0; f < 6; ++f) {
+    const MappedFile& file = dataset.faceFile(f);
+    const FaceHeader& h = dataset.view().face(f).header();
+    const std::uint64_t end = h.blobsOffset;
+    (void)file.willNeed(0, end);
+    volatile std::uint8_t sink = 0;
+    const auto bytes = file.bytes();
+    for (std::uint64_t k = 0; k < end; k += 4096) sink = sink + static_cast<std::uint8_t>(bytes[k]);
+    (void)file.releaseResident();
+  }
+}
+
+Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
+                         const std::vector<CameraPathPoint>& path, bool prefetch) {
+  BenchRun run;
+  run.prefetch = prefetch ? "on" : "off";
+  run.mode = o.mode;
+  run.cold = o.cold;
+  if (o.cold) {
+    auto evicted = evictDataset(o.dir);
+    if (!evicted) return evicted.error();
+    run.residentAfterEvictPages = evicted->residentPages;
+    run.datasetPages = evicted->totalPages;
+    run.residentAfterEvictFraction = evicted->residentFraction();
+    if (evicted->residentFraction() > 0.01) {
+      std::fprintf(stderr, "pbdam: warning: %.2f%% of the dataset stayed in the page cache\n",
+                   100.0 * evicted->residentFraction());
+    }
+  }
+  auto dataset = MappedDataset::open(o.dir);
+  if (!dataset) return dataset.error();
+  const DatasetView& view = (*dataset)->view();
+  gpu::TerrainRendererOptions ro;
+  ro.widthPixels = o.width;
+  ro.heightPixels = o.height;
+  ro.gpuCacheBytes = static_cast<std::uint64_t>(o.gpuCacheMb * 1048576.0);
+  auto renderer = gpu::TerrainRenderer::create(context, view, ro);
+  if (!renderer) return renderer.error();
+  const bool noStall = o.mode == "no-stall";
+  if (noStall) preloadNodeTables(**dataset);
+  RefinementOptions refinement;
+  refinement.tolerancePixels = o.tolerance;
+  std::optional<Prefetcher> prefetcher;
+  if (prefetch || noStall) {
+    // No-stall always has a loader thread; without prefetch it fetches the current camera's cut
+    // (look-ahead 0) instead of the predicted one.
+    PrefetchOptions po;
+    po.lookaheadSeconds = prefetch ? o.lookahead : 0.0;
+    po.refinement = refinement;
+    prefetcher.emplace(**dataset, po);
+  }
+  const Viewport viewport{o.width, o.height, 60.0};
+  std::uint64_t residentBefore = residentDatasetPages(**dataset);
+  const auto page = static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    const CameraPathPoint& p = path[i];
+    const Camera camera = Camera::fromPose(view.planet(),
+                                           {p.latDegrees, p.lonDegrees, p.altitudeMeters,
+                                            p.headingDegrees, p.pitchDegrees, p.rollDegrees},
+                                           viewport);
+    if (prefetcher) prefetcher->observe(p.tSeconds, camera);
+    BenchFrame f;
+    f.frame = static_cast<std::uint32_t>(i);
+    f.pathSeconds = p.tSeconds;
+    const std::uint64_t faults0 = threadMajorFaults();
+    const auto t0 = Clock::now();
+    Cut cut = noStall ? noStallCut(**dataset, camera, refinement, f.drawnLevelCap)
+                      : refine(view, camera, refinement);
+    f.traversalMs = msSince(t0);
+    auto frame = renderer->render(cut, camera);
+    if (!frame) return frame.error();
+    for (int face = 0; face < 6; ++face) (void)(*dataset)->faceFile(face).releaseResident();
+    f.frameMs = msSince(t0);
+    f.renderThreadMajorFaults = threadMajorFaults() - faults0;
+    f.decodeMs = frame->stats.decodeMs;
+    f.uploadMs = frame->stats.uploadMs;
+    f.drawMs = frame->stats.drawMs;
+    f.triangles = frame->stats.triangles;
+    f.patches = frame->stats.patches;
+    f.tiles = frame->stats.tiles;
+    f.gpuHits = frame->stats.hits;
+    f.gpuMisses = frame->stats.misses;
+    f.gpuEvictions = frame->stats.evictions;
+    const std::uint64_t residentAfter = residentDatasetPages(**dataset);
+    f.bytesPagedIn = residentAfter > residentBefore ? (residentAfter - residentBefore) * page : 0;
+    residentBefore = residentAfter;
+    f.rssBytes = rssBytes();
+    run.frames.push_back(f);
+    if (!o.quiet) {
+      std::fprintf(stderr, "\rprefetch %s: frame %zu/%zu  %.1f ms  %llu triangles   ",
+                   run.prefetch.c_str(), i + 1, path.size(), f.frameMs,
+                   static_cast<unsigned long long>(f.triangles));
+    }
+  }
+  if (!o.quiet) std::fprintf(stderr, "\n");
+  if (prefetcher) {
+    prefetcher->stop();
+    run.prefetchRangesAdvised = prefetcher->stats().rangesAdvised;
+    run.prefetchBytesAdvised = prefetcher->stats().bytesAdvised;
+  }
+  return run;
+}
+
+int runBench(const BenchCliOptions& o) {
+  const auto bad = [](const std::string& what) {
+    return reportError(makeError(ErrorCode::InvalidArgument, what));
+  };
+  if (o.prefetch != "on" && o.prefetch != "off" && o.prefetch != "both") {
+    return bad("--prefetch '" + o.prefetch + "': expected on, off or both");
+  }
+  if (o.mode != "paging" && o.mode != "no-stall") {
+    return bad("--mode '" + o.mode + "': expected paging or no-stall");
+  }
+  if (!std::isfinite(o.lookahead) || o.lookahead < 0.0 || o.lookahead > 60.0) {
+    return bad("--lookahead-s must be in [0, 60]");
+  }
+  if (!std::isfinite(o.tolerance) || o.tolerance <= 0.0) return bad("--tolerance-px must be > 0");
+  if (!std::isfinite(o.gpuCacheMb) || o.gpuCacheMb <= 0.0 || o.gpuCacheMb > 65536.0) {
+    return bad("--gpu-cache-mb must be in (0, 65536]");
+  }
+  if (auto v = validateViewport({o.width, o.height, 60.0}); !v) return reportError(v.error());
+  auto path = readCameraPath(o.path);
+  if (!path) return reportError(path.error());
+  auto probe = MappedDataset::open(o.dir);
+  if (!probe) return reportError(probe.error());
+  for (const CameraPathPoint& p : *path) {
+    if (auto v = validateCameraPose({p.latDegrees, p.lonDegrees, p.altitudeMeters, p.headingDegrees,
+                                     p.pitchDegrees, p.rollDegrees},
+                                    (*probe)->view().planet());
+        !v) {
+      return reportError(
+          makeError(ErrorCode::InvalidArgument,
+                    o.path + " at t=" + std::to_string(p.tSeconds) + ": " + v.error().message));
+    }
+  }
+  BenchSetup setup;
+  setup.dataset = o.dir;
+  setup.path = o.path;
+  setup.width = o.width;
+  setup.height = o.height;
+  setup.tolerancePixels = o.tolerance;
+  setup.lookaheadSeconds = o.lookahead;
+  setup.gpuCacheBytes = static_cast<std::uint64_t>(o.gpuCacheMb * 1048576.0);
+  setup.datasetBytes = (*probe)->bytes();
+  probe->reset();  // unmapped, so a cold run can evict every page
+
+  gpu::ContextOptions co;
+  if (o.device >= 0) co.deviceIndex = static_cast<std::uint32_t>(o.device);
+  co.enableValidation = false;
+  auto context = gpu::VulkanContext::create(co);
+  if (!context) return reportError(context.error());
+  tbb::global_control serial(tbb::global_control::max_allowed_parallelism, 1);
+  std::vector<BenchRun> runs;
+  for (const bool prefetch : {false, true}) {
+    if ((prefetch && o.prefetch == "off") || (!prefetch && o.prefetch == "on")) continue;
+    auto run = runOnce(*context, o, *path, prefetch);
+    if (!run) return reportError(run.error());
+    runs.push_back(std::move(run).value());
+  }
+  auto text = writeBenchReport(o.out, setup, runs);
+  if (!text) return reportError(text.error());
+  std::cout << *text;
+  return kExitOk;
+}
+
+}  // namespace
+
+void addBenchCommand(CLI::App& app, CommandStatus& status) {
+  auto o = std::make_shared<BenchCliOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "bench", "Replay a camera path: frame times, faults, cache figures; CSV, JSON and plots");
+  cmd->add_option("DIR", o->dir, "Dataset directory")->required();
+  cmd->add_option("--path", o->path, "Camera path CSV (pbdam path …)")->required();
+  cmd->add_option("--out", o->out, "Report directory (frames.csv, summary.json, report.png)")
+      ->required();
+  cmd->add_option("--width", o->width, "Frame width")->capture_default_str();
+  cmd->add_option("--height", o->height, "Frame height")->capture_default_str();
+  cmd->add_option("--tolerance-px", o->tolerance, "Screen-space error tolerance")
+      ->capture_default_str();
+  cmd->add_flag("--cold", o->cold, "Evict the dataset from the page cache before each run");
+  cmd->add_option("--prefetch", o->prefetch, "on, off or both (one run each)")
+      ->capture_default_str();
+  cmd->add_option("--lookahead-s", o->lookahead, "Prefetch look-ahead in path seconds")
+      ->capture_default_str();
+  cmd->add_option("--mode", o->mode,
+                  "paging: missing pages fault in on the render thread; no-stall: draw the "
+                  "finest resident conforming cut")
+      ->capture_default_str();
+  cmd->add_option("--gpu-cache-mb", o->gpuCacheMb, "GPU cache budget")->capture_default_str();
+  cmd->add_option("--device", o->device, "Vulkan device index (default: lavapipe)");
+  cmd->add_flag("--quiet", o->quiet, "No per-frame progress");
+  cmd->callback([o, &status] { status.exitCode = runBench(*o); });
+}
+
+}  // namespace pbdam::tools

@@ -1,0 +1,217 @@
+// frames.csv, summary.json and report.png of `pbdam bench` (BenchReport.h).
+#include "BenchReport.h"
+
+#include <plplot/plplot.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <numeric>
+#include <sstream>
+
+namespace pbdam::tools {
+namespace {
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const double rank = p * static_cast<double>(v.size() - 1);
+  const auto lo = static_cast<std::size_t>(std::floor(rank));
+  const auto hi = std::min(lo + 1, v.size() - 1);
+  return v[lo] + (rank - static_cast<double>(lo)) * (v[hi] - v[lo]);
+}
+
+nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
+  std::vector<double> ms;
+  double total = 0.0, traversal = 0.0, peakTps = 0.0, triangles = 0.0;
+  std::uint64_t faults = 0, maxPatches = 0, maxTiles = 0, peakRss = 0, hits = 0, misses = 0,
+                paged = 0;
+  for (const BenchFrame& f : run.frames) {
+    ms.push_back(f.frameMs);
+    total += f.frameMs;
+    traversal += f.traversalMs;
+    triangles += static_cast<double>(f.triangles);
+    if (f.frameMs > 0.0)
+      peakTps = std::max(peakTps, static_cast<double>(f.triangles) / f.frameMs * 1e3);
+    faults += f.renderThreadMajorFaults;
+    maxPatches = std::max(maxPatches, f.patches);
+    maxTiles = std::max(maxTiles, f.tiles);
+    peakRss = std::max(peakRss, f.rssBytes);
+    hits += f.gpuHits;
+    misses += f.gpuMisses;
+    paged += f.bytesPagedIn;
+  }
+  const double median = percentile(ms, 0.5);
+  const auto stalls =
+      std::count_if(ms.begin(), ms.end(), [&](double m) { return m > 2.0 * median; });
+  const double datasetMb = static_cast<double>(setup.datasetBytes) / 1048576.0;
+  const double rssMb = static_cast<double>(peakRss) / 1048576.0;
+  nlohmann::ordered_json j;
+  j["prefetch"] = run.prefetch;
+  j["mode"] = run.mode;
+  j["cold"] = run.cold;
+  if (run.cold) {
+    j["resident_after_evict_pages"] = run.residentAfterEvictPages;
+    j["resident_after_evict_fraction"] = run.residentAfterEvictFraction;
+  }
+  j["frames"] = run.frames.size();
+  j["fps_mean"] = total > 0.0 ? 1e3 * static_cast<double>(run.frames.size()) / total : 0.0;
+  j["frame_ms_p50"] = median;
+  j["frame_ms_p95"] = percentile(ms, 0.95);
+  j["frame_ms_p99"] = percentile(ms, 0.99);
+  j["frame_ms_max"] = ms.empty() ? 0.0 : *std::max_element(ms.begin(), ms.end());
+  j["stalls"] = stalls;
+  j["triangles_per_s_mean"] = total > 0.0 ? triangles / total * 1e3 : 0.0;
+  j["triangles_per_s_peak"] = peakTps;
+  j["max_patches_per_frame"] = maxPatches;
+  j["max_tiles_per_frame"] = maxTiles;
+  j["traversal_fraction"] = total > 0.0 ? traversal / total : 0.0;
+  j["render_thread_major_faults"] = faults;
+  j["bytes_paged_in"] = paged;
+  j["prefetch_ranges_advised"] = run.prefetchRangesAdvised;
+  j["prefetch_bytes_advised"] = run.prefetchBytesAdvised;
+  j["peak_rss_mb"] = rssMb;
+  j["dataset_mb"] = datasetMb;
+  j["rss_dataset_ratio"] = datasetMb > 0.0 ? rssMb / datasetMb : 0.0;
+  j["gpu_cache_hit_rate"] =
+      hits + misses > 0 ? static_cast<double>(hits) / static_cast<double>(hits + misses) : 0.0;
+  return j;
+}
+
+// One panel: a series per run against path time.
+void panel(const std::vector<BenchRun>& runs, const char* title, const char* ylabel,
+           double (*value)(const BenchFrame&)) {
+  double xmax = 1e-3, ymax = 1e-9;
+  for (const BenchRun& r : runs) {
+    for (const BenchFrame& f : r.frames) {
+      xmax = std::max(xmax, f.pathSeconds);
+      ymax = std::max(ymax, value(f));
+    }
+  }
+  plcol0(15);
+  plenv(0.0, xmax, 0.0, ymax * 1.08, 0, 0);
+  pllab("path time (s)", ylabel, title);
+  static const int colours[] = {1, 9, 3, 8};
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    std::vector<PLFLT> x, y;
+    for (const BenchFrame& f : runs[k].frames) {
+      x.push_back(f.pathSeconds);
+      y.push_back(value(f));
+    }
+    plcol0(colours[k % 4]);
+    plwidth(1.5);
+    if (!x.empty()) plline(static_cast<PLINT>(x.size()), x.data(), y.data());
+  }
+  plwidth(1.0);
+}
+
+void plotReport(const std::filesystem::path& png, const BenchSetup& setup,
+                const std::vector<BenchRun>& runs) {
+  plsdev("pngcairo");
+  plsfnam(png.string().c_str());
+  plspage(0.0, 0.0, 1400, 1400, 0, 0);
+  plscolbg(255, 255, 255);
+  plscol0(15, 0, 0, 0);
+  plscol0(1, 220, 50, 32);  // run 0: red
+  plscol0(9, 30, 90, 200);  // run 1: blue
+  plssub(1, 4);
+  plinit();
+  std::string legend;
+  static const char* names[] = {"red", "blue", "green", "grey"};
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    legend += std::string(k ? ", " : "") + names[k % 4] + ": prefetch " + runs[k].prefetch;
+  }
+  const std::string title = "frame rate (" + legend + ", " + std::to_string(setup.width) + "x" +
+                            std::to_string(setup.height) + ")";
+  panel(runs, title.c_str(), "frames/s",
+        [](const BenchFrame& f) { return f.frameMs > 0.0 ? 1e3 / f.frameMs : 0.0; });
+  panel(runs, "triangles per frame", "triangles",
+        [](const BenchFrame& f) { return static_cast<double>(f.triangles); });
+  panel(runs, "patches per frame", "patches",
+        [](const BenchFrame& f) { return static_cast<double>(f.patches); });
+  panel(runs, "render-thread major page faults per frame", "faults",
+        [](const BenchFrame& f) { return static_cast<double>(f.renderThreadMajorFaults); });
+  plend();
+}
+
+}  // namespace
+
+Result<std::string> writeBenchReport(const std::filesystem::path& dir, const BenchSetup& setup,
+                                     const std::vector<BenchRun>& runs) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) {
+    return makeError(ErrorCode::IoError, dir.string() + ": cannot create (" + ec.message() + ")");
+  }
+  {
+    std::ofstream csv(dir / "frames.csv");
+    csv << "prefetch,mode,frame,t,frame_ms,traversal_ms,decode_ms,upload_ms,draw_ms,triangles,"
+           "patches,tiles,level_cap,render_thread_major_faults,bytes_paged_in,gpu_hits,"
+           "gpu_misses,gpu_evictions,rss_bytes\n";
+    for (const BenchRun& r : runs) {
+      for (const BenchFrame& f : r.frames) {
+        csv << r.prefetch << ',' << r.mode << ',' << f.frame << ',' << f.pathSeconds << ','
+            << f.frameMs << ',' << f.traversalMs << ',' << f.decodeMs << ',' << f.uploadMs << ','
+            << f.drawMs << ',' << f.triangles << ',' << f.patches << ',' << f.tiles << ','
+            << f.drawnLevelCap << ',' << f.renderThreadMajorFaults << ',' << f.bytesPagedIn << ','
+            << f.gpuHits << ',' << f.gpuMisses << ',' << f.gpuEvictions << ',' << f.rssBytes
+            << '\n';
+      }
+    }
+    if (!csv)
+      return makeError(ErrorCode::IoError, (dir / "frames.csv").string() + ": write failed");
+  }
+  nlohmann::ordered_json summary;
+  summary["dataset"] = setup.dataset;
+  summary["path"] = setup.path;
+  summary["width"] = setup.width;
+  summary["height"] = setup.height;
+  summary["tolerance_px"] = setup.tolerancePixels;
+  summary["lookahead_s"] = setup.lookaheadSeconds;
+  summary["gpu_cache_mb"] = static_cast<double>(setup.gpuCacheBytes) / 1048576.0;
+  summary["dataset_mb"] = static_cast<double>(setup.datasetBytes) / 1048576.0;
+  summary["runs"] = nlohmann::ordered_json::array();
+  for (const BenchRun& r : runs) summary["runs"].push_back(summarise(r, setup));
+  {
+    std::ofstream out(dir / "summary.json");
+    out << summary.dump(2) << "\n";
+    if (!out) {
+      return makeError(ErrorCode::IoError, (dir / "summary.json").string() + ": write failed");
+    }
+  }
+  plotReport(dir / "report.png", setup, runs);
+
+  std::ostringstream text;
+  char line[512];
+  for (const auto& r : summary["runs"]) {
+    std::snprintf(
+        line, sizeof line,
+        "prefetch %-3s %-8s %4zu frames  %.1f fps  frame ms p50 %.1f p95 %.1f p99 %.1f "
+        "max %.1f  stalls %lld  major faults %llu  traversal %.1f%%  peak RSS %.0f MB "
+        "(%.1f%% of %.0f MB)  GPU hit rate %.1f%%\n",
+        r["prefetch"].get<std::string>().c_str(), r["mode"].get<std::string>().c_str(),
+        r["frames"].get<std::size_t>(), r["fps_mean"].get<double>(),
+        r["frame_ms_p50"].get<double>(), r["frame_ms_p95"].get<double>(),
+        r["frame_ms_p99"].get<double>(), r["frame_ms_max"].get<double>(),
+        static_cast<long long>(r["stalls"].get<std::int64_t>()),
+        static_cast<unsigned long long>(r["render_thread_major_faults"].get<std::uint64_t>()),
+        100.0 * r["traversal_fraction"].get<double>(), r["peak_rss_mb"].get<double>(),
+        100.0 * r["rss_dataset_ratio"].get<double>(), r["dataset_mb"].get<double>(),
+        100.0 * r["gpu_cache_hit_rate"].get<double>());
+    text << line;
+    if (r["cold"].get<bool>()) {
+      std::snprintf(
+          line, sizeof line, "  cold start: %llu pages (%.2f%%) resident after eviction\n",
+          static_cast<unsigned long long>(r["resident_after_evict_pages"].get<std::uint64_t>()),
+          100.0 * r["resident_after_evict_fraction"].get<double>());
+      text << line;
+    }
+  }
+  text << "report: " << (dir / "report.png").string() << ", " << (dir / "summary.json").string()
+       << ", " << (dir / "frames.csv").string() << "\n";
+  return text.str();
+}
+
+}  // namespace pbdam::tools

@@ -1,0 +1,62 @@
+// The report of `pbdam bench`: per-frame figures (frames.csv), the summary of each run
+// (summary.json) and plots like paper 004 Fig. 8 (report.png, drawn with PLplot's cairo PNG
+// driver). Thread-safety: pure functions.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "pbdam/formats/Result.h"
+
+namespace pbdam::tools {
+
+/// One frame of one run.
+struct BenchFrame final {
+  std::uint32_t frame = 0;
+  double pathSeconds = 0.0;  ///< the camera path's t
+  double frameMs = 0.0;      ///< traversal + render (decode, upload, draw, readback)
+  double traversalMs = 0.0;
+  double decodeMs = 0.0;
+  double uploadMs = 0.0;
+  double drawMs = 0.0;
+  std::uint64_t triangles = 0;
+  std::uint64_t patches = 0;
+  std::uint64_t tiles = 0;
+  int drawnLevelCap = -1;  ///< no-stall: the level cap used (−1: none)
+  std::uint64_t renderThreadMajorFaults = 0;
+  std::uint64_t bytesPagedIn = 0;  ///< growth of the dataset's page-cache residency
+  std::uint64_t gpuHits = 0, gpuMisses = 0, gpuEvictions = 0;
+  std::uint64_t rssBytes = 0;
+};
+
+/// One replay of the path with one prefetch setting.
+struct BenchRun final {
+  std::string prefetch;  ///< "on" or "off"
+  std::string mode;      ///< "paging" or "no-stall"
+  bool cold = false;
+  double residentAfterEvictFraction = 0.0;  ///< pages left in the page cache after eviction
+  std::uint64_t residentAfterEvictPages = 0;
+  std::uint64_t datasetPages = 0;
+  std::uint64_t prefetchRangesAdvised = 0;
+  std::uint64_t prefetchBytesAdvised = 0;
+  std::vector<BenchFrame> frames;
+};
+
+struct BenchSetup final {
+  std::string dataset;
+  std::string path;
+  std::uint32_t width = 0, height = 0;
+  double tolerancePixels = 0.0;
+  double lookaheadSeconds = 0.0;
+  std::uint64_t gpuCacheBytes = 0;
+  std::uint64_t datasetBytes = 0;
+};
+
+/// Writes frames.csv, summary.json and report.png into `dir` and returns the summary text
+/// printed by the command.
+Result<std::string> writeBenchReport(const std::filesystem::path& dir, const BenchSetup& setup,
+                                     const std::vector<BenchRun>& runs);
+
+}  // namespace pbdam::tools
