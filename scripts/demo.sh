@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The main job on the built-in default data (README command 1): set up and build, inspect the
 # Debian-packaged ETOPO5 Earth model, build a P-BDAM dataset from it textured with the xplanet
-# Earth image, verify it against the DEM and print its summary.
+# Earth image, verify it against the DEM and print its summary, then fly over the Himalayas:
+# write the camera path, render it (numbered PNGs, and an MP4 when ffmpeg is installed) and
+# replay it as a cold-cache benchmark with and without prefetch.
 #   scripts/demo.sh [OUTDIR]     (default: build/demo/earth)
 # The demo lattice is 512 cells per face side (bintree depth 8); `--levels auto` builds ETOPO5
 # at its full density (2048 cells, depth 12), which takes several minutes on 2 cores.
@@ -19,3 +21,13 @@ echo
 "$pbdam" verify "$out" --dem "$etopo5" --quiet
 echo
 "$pbdam" info "$out"
+echo
+flight="$out/flight.csv"
+"$pbdam" path great-circle --from 12,80,3000e3 --to 24,86,250e3 --duration 4 --fps 6 \
+  --dataset "$out" --out "$flight"
+mkdir -p "$out/frames"
+"$pbdam" render "$out" --path "$flight" --out "$out/frames/himalaya" --width 640 --height 360 \
+  --stats "$out/frames/stats.jsonl" --quiet
+echo "frames: $out/frames/himalaya_*.png (per-frame statistics in $out/frames/stats.jsonl)"
+echo
+"$pbdam" bench "$out" --path "$flight" --out "$out/bench" --cold --width 640 --height 360 --quiet

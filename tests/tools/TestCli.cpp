@@ -4,10 +4,13 @@
 #include <sys/wait.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include "TestData.h"
 
@@ -39,8 +42,10 @@ CliRun runPbdam(const std::string& args) {
 }
 
 TEST(Cli, HelpAndVersion) {
-  for (const char* args : {"--help", "dem --help", "dem info --help", "devices --help",
-                           "build --help", "info --help", "verify --help", "height --help"}) {
+  for (const char* args :
+       {"--help", "dem --help", "dem info --help", "devices --help", "build --help", "info --help",
+        "verify --help", "height --help", "path --help", "path great-circle --help",
+        "path waypoints --help", "bench --help"}) {
     const CliRun run = runPbdam(args);
     EXPECT_EQ(run.exitCode, 0) << args << "\n" << run.err;
     EXPECT_NE(run.out.find("Usage"), std::string::npos) << args << "\n" << run.out;
@@ -165,6 +170,20 @@ TEST(Cli, BadInputGivesOneLineAndExitCode2) {
   expectBadInput("height x --at 91,0", "--at");
   expectBadInput("height x --at 1,2,3", "--at '1,2,3'");
   expectBadInput("height x", "--at is required");
+  const std::string csv = (dir / "p.csv").string();
+  expectBadInput("path great-circle --from 0,0,1e6 --to 1,1,1e3 --duration 2 --out " + csv,
+                 "needs a planet");
+  expectBadInput(
+      "path great-circle --from 0,0 --to 1,1,1e3 --duration 2 --planet mars --out " + csv,
+      "--from '0,0'");
+  expectBadInput(
+      "path great-circle --from 0,0,1e6 --to 1,1,1e3 --duration 0 --planet mars --out " + csv,
+      "duration");
+  expectBadInput("path waypoints --via 0,0,1e6 --duration 2 --planet mars --out " + csv,
+                 "two waypoints");
+  expectBadInput("bench x --path " + csv + " --out y --prefetch maybe", "--prefetch 'maybe'");
+  expectBadInput("bench x --path " + csv + " --out y --mode fast", "--mode 'fast'");
+  expectBadInput("bench x --path '" + (dir / "none.csv").string() + "' --out y", "none.csv");
   PBDAM_REQUIRE_DATA(tif, test::dataDir() / "geotiff/terra_elev_luxembourg.tif");
   expectBadInput("dem info '" + tif.string() + "' --at 0,0", "outside the grid");
 }
@@ -181,6 +200,65 @@ TEST(Cli, HeightOnMolaMatchesTheDemWithinTheStoredError) {
   EXPECT_EQ(text.exitCode, 0);
   EXPECT_NE(text.out.find("m at 90.000000, 0.000000 (mars; leaf error"), std::string::npos)
       << text.out;
+}
+
+TEST(Cli, PathThenColdBenchWithAndWithoutPrefetchOnMola) {
+  PBDAM_REQUIRE_DATASET(shared, "mola");
+  test::TempDir dir;
+  // A private copy: cold runs evict it while other tests read the shared one.
+  const std::filesystem::path dataset = dir / "mola";
+  std::filesystem::copy(shared, dataset);
+  const std::string path = (dir / "flight.csv").string();
+  const CliRun made = runPbdam(
+      "path great-circle --from 0,-60,3000e3 --to -8,-75,50e3 "
+      "--duration 1 --fps 6 --dataset '" +
+      dataset.string() + "' --out '" + path + "'");
+  ASSERT_EQ(made.exitCode, 0) << made.err;
+  EXPECT_NE(made.out.find("7 poses over 1.0 s on mars"), std::string::npos) << made.out;
+  const std::string report = (dir / "report").string();
+  const CliRun bench = runPbdam("bench '" + dataset.string() + "' --path '" + path + "' --out '" +
+                                report + "' --cold --width 320 --height 240 --quiet");
+  ASSERT_EQ(bench.exitCode, 0) << bench.err;
+  EXPECT_NE(bench.out.find("prefetch off"), std::string::npos) << bench.out;
+  EXPECT_NE(bench.out.find("prefetch on"), std::string::npos) << bench.out;
+  std::ifstream in(dir / "report" / "summary.json");
+  const auto summary = nlohmann::json::parse(in);
+  ASSERT_EQ(summary["runs"].size(), 2u);
+  for (const auto& run : summary["runs"]) {
+    EXPECT_EQ(run["frames"], 7);
+    EXPECT_LE(run["resident_after_evict_fraction"].get<double>(), 0.01);
+    EXPECT_GT(run["fps_mean"].get<double>(), 0.0);
+    EXPECT_GE(run["frame_ms_p99"].get<double>(), run["frame_ms_p50"].get<double>());
+  }
+  EXPECT_TRUE(std::filesystem::file_size(dir / "report" / "report.png") > 10000);
+  std::ifstream frames(dir / "report" / "frames.csv");
+  const auto lines =
+      std::count(std::istreambuf_iterator<char>(frames), std::istreambuf_iterator<char>(), '\n');
+  EXPECT_EQ(lines, 1 + 2 * 7);
+}
+
+TEST(Cli, NoStallBenchNeverFaultsOnTheRenderThread) {
+  PBDAM_REQUIRE_DATASET(shared, "mola");
+  test::TempDir dir;
+  // A private copy: cold runs evict it while other tests read the shared one.
+  const std::filesystem::path dataset = dir / "mola";
+  std::filesystem::copy(shared, dataset);
+  const std::string path = (dir / "flight.csv").string();
+  ASSERT_EQ(runPbdam("path waypoints --via=0,-60,3000e3 --via=-8,-75,50e3 --duration 2 --fps 5 "
+                     "--planet mars --out '" +
+                     path + "'")
+                .exitCode,
+            0);
+  const CliRun bench =
+      runPbdam("bench '" + dataset.string() + "' --path '" + path + "' --out '" +
+               (dir / "r").string() + "' --cold --mode no-stall --width 320 --height 240 --quiet");
+  ASSERT_EQ(bench.exitCode, 0) << bench.err;
+  std::ifstream in(dir / "r" / "summary.json");
+  const auto summary = nlohmann::json::parse(in);
+  for (const auto& run : summary["runs"]) {
+    EXPECT_EQ(run["mode"], "no-stall");
+    EXPECT_EQ(run["render_thread_major_faults"], 0);
+  }
 }
 
 }  // namespace

@@ -115,17 +115,33 @@ Cut noStallCut(const MappedDataset& dataset, const Camera& camera, RefinementOpt
   }
 }
 
-// Brings every node table into the page cache (and out of RSS again): no-stall refinement must
-// not fault on node records.
-void preloadNodeTables(const MappedDataset& dataset) {
+// Brings every node table, the patches of levels 0-2 and the root tiles into the page cache
+// (and out of RSS again) before the first frame: no-stall refinement must not fault on node
+// records, and with the coarsest levels resident there is always a conforming cut to draw.
+void preloadCoarseLevels(const MappedDataset& dataset) {
+  const DatasetView& view = dataset.view();
+  const auto touch = [](const MappedFile& file, std::uint64_t offset, std::uint64_t bytes) {
+    if (bytes == 0) return;
+    (void)file.willNeed(offset, bytes);
+    const auto data = file.bytes();
+    volatile std::uint8_t sink = 0;
+    for (std::uint64_t k = offset; k < offset + bytes; k += 4096) {
+      sink = sink + static_cast<std::uint8_t>(data[k]);
+    }
+    sink = sink + static_cast<std::uint8_t>(data[offset + bytes - 1]);
+  };
   for (int f = 0; f < 6; ++f) {
     const MappedFile& file = dataset.faceFile(f);
-    const FaceHeader& h = dataset.view().face(f).header();
-    const std::uint64_t end = h.blobsOffset;
-    (void)file.willNeed(0, end);
-    volatile std::uint8_t sink = 0;
-    const auto bytes = file.bytes();
-    for (std::uint64_t k = 0; k < end; k += 4096) sink = sink + static_cast<std::uint8_t>(bytes[k]);
+    const FaceHeader& h = view.face(f).header();
+    touch(file, 0, h.blobsOffset);
+    for (std::uint8_t tree = 0; tree < 2; ++tree) {
+      for (std::uint64_t heap = 0; heap < 7; ++heap) {
+        const NodeRecord n = view.node(NodeKey{static_cast<std::uint8_t>(f), tree, heap});
+        touch(file, n.blobOffset, n.blobBytes);
+      }
+    }
+    const TextureRecord root = view.textureNode(TileKey{static_cast<std::uint8_t>(f), 0});
+    touch(file, root.blobOffset, root.blobBytes);
     (void)file.releaseResident();
   }
 }
@@ -157,7 +173,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   auto renderer = gpu::TerrainRenderer::create(context, view, ro);
   if (!renderer) return renderer.error();
   const bool noStall = o.mode == "no-stall";
-  if (noStall) preloadNodeTables(**dataset);
+  if (noStall) preloadCoarseLevels(**dataset);
   RefinementOptions refinement;
   refinement.tolerancePixels = o.tolerance;
   std::optional<Prefetcher> prefetcher;
