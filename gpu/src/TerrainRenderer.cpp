@@ -4,13 +4,16 @@
 // the cut's slot bytes exceed the budget). Per pass: patches and tiles found in the LRU are
 // touched first (hits), then misses take slots (evicting entries of earlier passes), are
 // decoded in parallel into the staging buffer, and one submission copies them into the pools
-// and draws the pass's patches in cut order, one indexed draw each.
+// and draws the pass's patches in cut order, one indexed draw each. The submission holds two of
+// the renderer's own (reusable) command buffers, uploads then the render pass, so that
+// redrawLast() can submit a one-pass frame's render pass again without recording anything.
 #include "pbdam/gpu/TerrainRenderer.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cassert>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -19,6 +22,7 @@
 #include <glm/gtc/type_ptr.hpp>
 #include <glm/mat4x4.hpp>
 #include <limits>
+#include <span>
 #include <string>
 #include <unordered_set>
 #include <vector>
@@ -43,6 +47,9 @@ using Clock = std::chrono::steady_clock;
 constexpr std::uint64_t kChunkBytes = std::uint64_t{16} << 20;
 /// Staging offsets are aligned for buffer-to-image copies (4 bytes and the 8-byte BC1 block).
 constexpr std::uint64_t kStagingAlignment = 16;
+
+/// How long a submission may take before it is reported as a device error.
+constexpr std::uint64_t kSubmitTimeoutNanoseconds = 60'000'000'000ull;
 
 double millisecondsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
@@ -189,6 +196,22 @@ VkImageMemoryBarrier2 layerBarrier(VkImage image, std::uint32_t layer,
   return b;
 }
 
+/// Records `cmd` again (it was allocated from a pool that allows resetting single buffers, so
+/// beginning resets it): reusable, not one-time-submit.
+template <typename Record>
+Result<void> recordCommands(VkCommandBuffer cmd, const char* what, const Record& record) {
+  VkCommandBufferBeginInfo begin{};
+  begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+  if (VkResult r = vkBeginCommandBuffer(cmd, &begin); r != VK_SUCCESS) {
+    return vulkanError(r, std::string("vkBeginCommandBuffer (") + what + ")");
+  }
+  record(cmd);
+  if (VkResult r = vkEndCommandBuffer(cmd); r != VK_SUCCESS) {
+    return vulkanError(r, std::string("vkEndCommandBuffer (") + what + ")");
+  }
+  return {};
+}
+
 }  // namespace
 
 struct TerrainRenderer::Impl {
@@ -214,8 +237,26 @@ struct TerrainRenderer::Impl {
   std::uint64_t epoch = 0;
   bool warned = false;
 
+  /// The renderer's command buffers, re-recorded per pass: [kUploadCommands] the timestamps
+  /// and uploads, [kDrawCommands] the render pass (and the readback of a frame's last pass).
+  /// They are not one-time-submit, so that redrawLast() can submit the draw again.
+  static constexpr std::size_t kUploadCommands = 0;
+  static constexpr std::size_t kDrawCommands = 1;
+  UniqueCommandPool commandPool;
+  std::array<VkCommandBuffer, 2> commands{};
+  UniqueFence fence;
+  /// The stats of the last render() call when it succeeded (commands[kDrawCommands] then holds
+  /// its last pass); unset before the first frame and after a failed one.
+  std::optional<FrameStats> lastFrame;
+
   Result<void> ensureStaging(std::uint64_t bytes);
   Result<void> ensureRecords(std::size_t count);
+  /// Submits `buffers` (already recorded) in one batch and waits for them.
+  Result<void> submitAndWait(std::span<const VkCommandBuffer> buffers, const char* what);
+  /// Reads the draw timestamps (1, 2) and, with `withUploads`, the upload timestamps (0, 1)
+  /// of the last submission into `stats`.
+  void readTimestamps(bool withUploads, FrameStats& stats) const;
+
   Result<void> drawPass(const Cut& cut, const std::vector<NodeRecord>& nodes, std::size_t begin,
                         std::size_t end, bool first, bool last, const Camera& camera,
                         const PatchPush& push, const std::array<float, 4>& clear,
@@ -259,6 +300,52 @@ Result<void> TerrainRenderer::Impl::ensureRecords(std::size_t count) {
   write.pBufferInfo = &info;
   vkUpdateDescriptorSets(context->device(), 1, &write, 0, nullptr);
   return {};
+}
+
+Result<void> TerrainRenderer::Impl::submitAndWait(std::span<const VkCommandBuffer> buffers,
+                                                  const char* what) {
+  const VkDevice device = context->device();
+  const VkFence submitFence = fence.get();
+  if (VkResult r = vkResetFences(device, 1, &submitFence); r != VK_SUCCESS) {
+    return vulkanError(r, std::string("vkResetFences (") + what + ")");
+  }
+  std::array<VkCommandBufferSubmitInfo, 2> infos{};
+  assert(buffers.size() <= infos.size());
+  for (std::size_t i = 0; i < buffers.size(); ++i) {
+    infos[i].sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO;
+    infos[i].commandBuffer = buffers[i];
+  }
+  VkSubmitInfo2 submit{};
+  submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO_2;
+  submit.commandBufferInfoCount = static_cast<std::uint32_t>(buffers.size());
+  submit.pCommandBufferInfos = infos.data();
+  if (VkResult r = vkQueueSubmit2(context->queue(), 1, &submit, submitFence); r != VK_SUCCESS) {
+    return vulkanError(r, std::string("vkQueueSubmit2 (") + what + ")");
+  }
+  if (VkResult r = vkWaitForFences(device, 1, &submitFence, VK_TRUE, kSubmitTimeoutNanoseconds);
+      r != VK_SUCCESS) {
+    // The work may still be running: wait it out so that re-recording the buffers is legal.
+    vkDeviceWaitIdle(device);
+    return vulkanError(r, std::string("vkWaitForFences (") + what + ")");
+  }
+  return {};
+}
+
+void TerrainRenderer::Impl::readTimestamps(bool withUploads, FrameStats& stats) const {
+  if (!queries) return;
+  std::array<std::uint64_t, 3> ticks{};
+  const std::uint32_t first = withUploads ? 0 : 1;
+  if (vkGetQueryPoolResults(context->device(), queries.get(), first, 3 - first,
+                            sizeof(std::uint64_t) * (3 - first), ticks.data() + first,
+                            sizeof(std::uint64_t),
+                            VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT) != VK_SUCCESS) {
+    return;
+  }
+  const auto ms = [&](std::uint64_t a, std::uint64_t b) {
+    return static_cast<double>((b - a) & timestampMask) * timestampPeriodNs * 1e-6;
+  };
+  if (withUploads) stats.uploadMs += ms(ticks[0], ticks[1]);
+  stats.drawMs += ms(ticks[1], ticks[2]);
 }
 
 void TerrainRenderer::Impl::recordUploads(VkCommandBuffer cmd,
@@ -469,77 +556,73 @@ Result<void> TerrainRenderer::Impl::drawPass(const Cut& cut, const std::vector<N
     return r;
   }
 
+  // Timestamps: 0 before the uploads, 1 and 2 around the render pass. The draw buffer resets
+  // its own two queries, so that redrawLast() can submit it alone.
   const bool timestamps = queries.get() != VK_NULL_HANDLE;
-  Result<void> submitted = context->submitAndWait(
-      [&](VkCommandBuffer cmd) {
+  Result<void> recorded =
+      recordCommands(commands[kUploadCommands], "terrain uploads", [&](VkCommandBuffer cmd) {
         if (timestamps) {
-          vkCmdResetQueryPool(cmd, queries.get(), 0, 3);
+          vkCmdResetQueryPool(cmd, queries.get(), 0, 1);
           vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries.get(), 0);
         }
         if (!jobs.empty()) recordUploads(cmd, jobs);
-        if (timestamps) {
-          vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries.get(), 1);
+      });
+  if (recorded) {
+    recorded = recordCommands(commands[kDrawCommands], "terrain frame", [&](VkCommandBuffer cmd) {
+      if (timestamps) {
+        vkCmdResetQueryPool(cmd, queries.get(), 1, 2);
+        vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries.get(), 1);
+      }
+      if (first) {
+        target.recordBeginRendering(cmd, clear, OffscreenTarget::kFarDepth, !last);
+      } else {
+        target.recordResumeRendering(cmd, !last);
+      }
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.pipeline());
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 0, 1,
+                              &recordsSet, 0, nullptr);
+      vkCmdPushConstants(cmd, pipeline.layout(),
+                         VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof push,
+                         &push);
+      std::uint32_t boundChunk = std::numeric_limits<std::uint32_t>::max();
+      std::uint32_t boundPage = std::numeric_limits<std::uint32_t>::max();
+      for (std::size_t i = begin; i < end; ++i) {
+        if (!drawable(nodes[i])) continue;
+        const PoolLocation patch = patches.locate(patchSlots[i - begin]);
+        const PoolLocation tile = tiles.locate(tileSlots[i - begin]);
+        if (patch.chunk != boundChunk) {
+          const VkBuffer vertexBuffer = patches.vertexBuffer(patch.chunk);
+          const VkDeviceSize zero = 0;
+          vkCmdBindVertexBuffers(cmd, 0, 1, &vertexBuffer, &zero);
+          vkCmdBindIndexBuffer(cmd, patches.indexBuffer(patch.chunk), 0, VK_INDEX_TYPE_UINT16);
+          boundChunk = patch.chunk;
         }
-        if (first) {
-          target.recordBeginRendering(cmd, clear, OffscreenTarget::kFarDepth, !last);
-        } else {
-          target.recordResumeRendering(cmd, !last);
+        if (tile.chunk != boundPage) {
+          const VkDescriptorSet set = tiles.descriptorSet(tile.chunk);
+          vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 1, 1,
+                                  &set, 0, nullptr);
+          boundPage = tile.chunk;
         }
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.pipeline());
-        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 0, 1,
-                                &recordsSet, 0, nullptr);
+        const auto recordIndex = static_cast<std::uint32_t>(i);
         vkCmdPushConstants(cmd, pipeline.layout(),
-                           VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
-                           sizeof push, &push);
-        std::uint32_t boundChunk = std::numeric_limits<std::uint32_t>::max();
-        std::uint32_t boundPage = std::numeric_limits<std::uint32_t>::max();
-        for (std::size_t i = begin; i < end; ++i) {
-          if (!drawable(nodes[i])) continue;
-          const PoolLocation patch = patches.locate(patchSlots[i - begin]);
-          const PoolLocation tile = tiles.locate(tileSlots[i - begin]);
-          if (patch.chunk != boundChunk) {
-            const VkBuffer vertexBuffer = patches.vertexBuffer(patch.chunk);
-            const VkDeviceSize zero = 0;
-            vkCmdBindVertexBuffers(cmd, 0, 1, &vertexBuffer, &zero);
-            vkCmdBindIndexBuffer(cmd, patches.indexBuffer(patch.chunk), 0, VK_INDEX_TYPE_UINT16);
-            boundChunk = patch.chunk;
-          }
-          if (tile.chunk != boundPage) {
-            const VkDescriptorSet set = tiles.descriptorSet(tile.chunk);
-            vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 1, 1,
-                                    &set, 0, nullptr);
-            boundPage = tile.chunk;
-          }
-          const auto recordIndex = static_cast<std::uint32_t>(i);
-          vkCmdPushConstants(cmd, pipeline.layout(),
-                             VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT,
-                             kRecordIndexOffset, sizeof recordIndex, &recordIndex);
-          vkCmdDrawIndexed(cmd, 3 * nodes[i].triangleCount, 1, patches.firstIndex(patch.local),
-                           static_cast<std::int32_t>(patches.firstVertex(patch.local)), 0);
-        }
-        vkCmdEndRendering(cmd);
-        if (timestamps) {
-          vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries.get(), 2);
-        }
-        if (last) target.recordReadback(cmd);
-      },
-      "terrain frame");
-  if (!submitted) {
+                           VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT,
+                           kRecordIndexOffset, sizeof recordIndex, &recordIndex);
+        vkCmdDrawIndexed(cmd, 3 * nodes[i].triangleCount, 1, patches.firstIndex(patch.local),
+                         static_cast<std::int32_t>(patches.firstVertex(patch.local)), 0);
+      }
+      vkCmdEndRendering(cmd);
+      if (timestamps) {
+        vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries.get(), 2);
+      }
+      if (last) target.recordReadback(cmd);
+    });
+  }
+  if (recorded) recorded = submitAndWait(commands, "terrain frame");
+  if (!recorded) {
     rollback();
-    return submitted;
+    return recorded;
   }
-  if (timestamps) {
-    std::array<std::uint64_t, 3> ticks{};
-    if (vkGetQueryPoolResults(context->device(), queries.get(), 0, 3, sizeof ticks, ticks.data(),
-                              sizeof(std::uint64_t),
-                              VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT) == VK_SUCCESS) {
-      const auto ms = [&](std::uint64_t a, std::uint64_t b) {
-        return static_cast<double>((b - a) & timestampMask) * timestampPeriodNs * 1e-6;
-      };
-      stats.uploadMs += ms(ticks[0], ticks[1]);
-      stats.drawMs += ms(ticks[1], ticks[2]);
-    }
-  }
+  readTimestamps(true, stats);
   stats.misses += jobs.size();
   for (const UploadJob& job : jobs) stats.bytesUploaded += job.bytes;
   return {};
@@ -631,6 +714,35 @@ Result<TerrainRenderer> TerrainRenderer::create(VulkanContext& context, const Da
   }
   if (Result<void> r = impl->ensureRecords(1024); !r) return std::move(r).error();
 
+  VkCommandPoolCreateInfo commandPoolInfo{};
+  commandPoolInfo.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+  commandPoolInfo.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+  commandPoolInfo.queueFamilyIndex = context.queueFamilyIndex();
+  VkCommandPool rawCommandPool = VK_NULL_HANDLE;
+  if (VkResult r =
+          vkCreateCommandPool(context.device(), &commandPoolInfo, nullptr, &rawCommandPool);
+      r != VK_SUCCESS) {
+    return vulkanError(r, "vkCreateCommandPool (terrain frames)");
+  }
+  impl->commandPool = UniqueCommandPool(context.device(), rawCommandPool);
+  VkCommandBufferAllocateInfo commandsInfo{};
+  commandsInfo.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+  commandsInfo.commandPool = rawCommandPool;
+  commandsInfo.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  commandsInfo.commandBufferCount = static_cast<std::uint32_t>(impl->commands.size());
+  if (VkResult r = vkAllocateCommandBuffers(context.device(), &commandsInfo, impl->commands.data());
+      r != VK_SUCCESS) {
+    return vulkanError(r, "vkAllocateCommandBuffers (terrain frames)");
+  }
+  VkFenceCreateInfo fenceInfo{};
+  fenceInfo.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+  VkFence rawFence = VK_NULL_HANDLE;
+  if (VkResult r = vkCreateFence(context.device(), &fenceInfo, nullptr, &rawFence);
+      r != VK_SUCCESS) {
+    return vulkanError(r, "vkCreateFence (terrain frames)");
+  }
+  impl->fence = UniqueFence(context.device(), rawFence);
+
   // GPU timestamps for the upload/draw split, where the queue has them.
   std::uint32_t familyCount = 0;
   vkGetPhysicalDeviceQueueFamilyProperties(context.physicalDevice(), &familyCount, nullptr);
@@ -682,6 +794,7 @@ Result<RenderedFrame> TerrainRenderer::render(const Cut& cut, const Camera& came
                                               const FrameSettings& settings) {
   Impl& m = *impl_;
   const auto frameStart = Clock::now();
+  m.lastFrame.reset();
   if (camera.viewport().width != m.options.widthPixels ||
       camera.viewport().height != m.options.heightPixels) {
     return makeError(ErrorCode::InvalidArgument,
@@ -758,6 +871,43 @@ Result<RenderedFrame> TerrainRenderer::render(const Cut& cut, const Camera& came
   Result<RgbaImage> image = m.target.readPixels();
   if (!image) return std::move(image).error();
   stats.residentBytes = m.lru->residentBytes();
+  stats.poolBytes = m.patches.allocatedBytes() + m.tiles.allocatedBytes();
+  stats.frameMs = millisecondsSince(frameStart);
+  m.lastFrame = stats;
+  return RenderedFrame{std::move(*image), stats};
+}
+
+Result<RenderedFrame> TerrainRenderer::redrawLast() {
+  Impl& m = *impl_;
+  const auto frameStart = Clock::now();
+  if (!m.lastFrame) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "redrawLast: there is no previous frame (render() was not called, or its "
+                     "last call failed)");
+  }
+  const FrameStats& last = *m.lastFrame;
+  if (last.passes > 1) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "redrawLast: the previous frame was drawn in " + std::to_string(last.passes) +
+                         " passes (its cut exceeds the GPU cache budget of " +
+                         mebibytes(m.lru->budgetBytes()) +
+                         "); only one-pass frames can be redrawn");
+  }
+  FrameStats stats;
+  stats.patches = last.patches;
+  stats.triangles = last.triangles;
+  stats.tiles = last.tiles;
+  stats.hits = last.hits + last.misses;
+  const std::array<VkCommandBuffer, 1> draw = {m.commands[Impl::kDrawCommands]};
+  if (Result<void> r = m.submitAndWait(draw, "terrain redraw"); !r) {
+    m.lastFrame.reset();
+    return std::move(r).error();
+  }
+  m.readTimestamps(false, stats);
+  Result<RgbaImage> image = m.target.readPixels();
+  if (!image) return std::move(image).error();
+  stats.residentBytes = m.lru->residentBytes();
+  stats.peakResidentBytes = stats.residentBytes;
   stats.poolBytes = m.patches.allocatedBytes() + m.tiles.allocatedBytes();
   stats.frameMs = millisecondsSince(frameStart);
   return RenderedFrame{std::move(*image), stats};

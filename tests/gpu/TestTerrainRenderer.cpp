@@ -1,7 +1,8 @@
 // TerrainRenderer on lavapipe with the validation layer: crack-free frames of real datasets
 // (no background pixel inside the planet's silhouette, from orbit to low oblique views, across
 // face edges, cube corners and poles), exact-mode determinism, the over-budget multi-pass
-// fallback (same image, budget never exceeded), the LRU across frames, and errors.
+// fallback (same image, budget never exceeded), the LRU across frames, redrawing the last frame
+// from what is resident, and errors.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -334,6 +335,83 @@ TEST_F(TerrainRendererTest, Rgba8TilesLookLikeBc1Tiles) {
   }
   EXPECT_LE(maxDiff, 4);
   EXPECT_LT(sumDiff / static_cast<double>(a->image.rgba.size()), 0.5);
+}
+
+TEST_F(TerrainRendererTest, RedrawLastDrawsTheSameBytesFromWhatIsResident) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  const auto dataset = test::openDataset(dir);
+  ASSERT_NE(dataset, nullptr);
+  const DatasetView& view = dataset->view();
+  const Camera camera =
+      test::cameraAt(view, {-15.0, -68.0, 90e3, 15.0, -30.0, 0.0}, kWidth, kHeight);
+  const Cut cut = refine(view, camera, RefinementOptions{});
+  auto renderer = makeRenderer(view, std::uint64_t{256} << 20);
+  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+
+  auto before = renderer->redrawLast();
+  ASSERT_FALSE(before.ok());
+  EXPECT_EQ(before.error().code, ErrorCode::InvalidArgument);
+  EXPECT_NE(before.error().message.find("no previous frame"), std::string::npos)
+      << before.error().message;
+
+  // The background colour and sun are part of what is redrawn.
+  FrameSettings settings = magentaBackground();
+  settings.ambient = 0.2f;
+  auto frame = renderer->render(cut, camera, settings);
+  ASSERT_TRUE(frame.ok()) << frame.error().message;
+  ASSERT_EQ(frame->stats.passes, 1u);
+  const std::uint64_t entries = cut.patches.size() + cut.tiles.size();
+  for (int repeat = 0; repeat < 2; ++repeat) {
+    SCOPED_TRACE(repeat);
+    auto redrawn = renderer->redrawLast();
+    ASSERT_TRUE(redrawn.ok()) << redrawn.error().message;
+    EXPECT_TRUE(redrawn->image.rgba == frame->image.rgba)
+        << "the redrawn image differs from the rendered one";
+    EXPECT_EQ(redrawn->stats.patches, cut.patches.size());
+    EXPECT_EQ(redrawn->stats.triangles, cut.triangles);
+    EXPECT_EQ(redrawn->stats.tiles, cut.tiles.size());
+    EXPECT_EQ(redrawn->stats.hits, entries);
+    EXPECT_EQ(redrawn->stats.misses, 0u);
+    EXPECT_EQ(redrawn->stats.bytesUploaded, 0u);
+    EXPECT_EQ(redrawn->stats.decodeMs, 0.0);
+    EXPECT_EQ(redrawn->stats.uploadMs, 0.0);
+    EXPECT_GT(redrawn->stats.frameMs, 0.0);
+    EXPECT_EQ(redrawn->stats.residentBytes, renderer->residentBytes());
+  }
+  // A camera and cut the first frame did not have: redrawLast follows the latest frame.
+  const Camera other = test::cameraAt(view, {0.0, 0.0, 8e6, 0.0, -90.0, 0.0}, kWidth, kHeight);
+  auto second = renderer->render(refine(view, other, RefinementOptions{}), other);
+  ASSERT_TRUE(second.ok()) << second.error().message;
+  auto redrawnSecond = renderer->redrawLast();
+  ASSERT_TRUE(redrawnSecond.ok()) << redrawnSecond.error().message;
+  EXPECT_TRUE(redrawnSecond->image.rgba == second->image.rgba);
+  EXPECT_FALSE(redrawnSecond->image.rgba == frame->image.rgba);
+
+  // A failed render() leaves no frame to redraw.
+  const Camera wrongSize = test::cameraAt(view, {0.0, 0.0, 8e6, 0.0, -90.0, 0.0}, 320, 200);
+  ASSERT_FALSE(renderer->render(refine(view, wrongSize, RefinementOptions{}), wrongSize).ok());
+  auto afterFailure = renderer->redrawLast();
+  ASSERT_FALSE(afterFailure.ok());
+  EXPECT_EQ(afterFailure.error().code, ErrorCode::InvalidArgument);
+}
+
+TEST_F(TerrainRendererTest, RedrawLastRejectsAFrameDrawnInSeveralPasses) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  const auto dataset = test::openDataset(dir);
+  ASSERT_NE(dataset, nullptr);
+  const DatasetView& view = dataset->view();
+  const Camera camera = test::cameraAt(view, {20.0, -60.0, 4e6, 0.0, -80.0, 0.0}, kWidth, kHeight);
+  auto small = makeRenderer(view, std::uint64_t{1} << 20);
+  ASSERT_TRUE(small.ok()) << small.error().message;
+  auto frame = small->render(refine(view, camera, RefinementOptions{}), camera);
+  ASSERT_TRUE(frame.ok()) << frame.error().message;
+  ASSERT_GT(frame->stats.passes, 1u);
+  auto redrawn = small->redrawLast();
+  ASSERT_FALSE(redrawn.ok());
+  EXPECT_EQ(redrawn.error().code, ErrorCode::InvalidArgument);
+  EXPECT_NE(redrawn.error().message.find(std::to_string(frame->stats.passes) + " passes"),
+            std::string::npos)
+      << redrawn.error().message;
 }
 
 TEST_F(TerrainRendererTest, RejectsACameraOfAnotherSize) {

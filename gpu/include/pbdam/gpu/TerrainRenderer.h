@@ -114,6 +114,18 @@ class TerrainRenderer final {
   Result<RenderedFrame> render(const Cut& cut, const Camera& camera,
                                const FrameSettings& settings = {});
 
+  /// Draws the previous render() call's frame again and reads it back: the command buffer that
+  /// frame recorded for its render pass is submitted once more as it is — same per-draw records
+  /// in their buffer, same resident patches and tiles, same camera and settings — with no
+  /// refinement, record computation, decoding or upload. It is the baseline "raw draw of the
+  /// same triangles from static buffers" that bench/bench_render.cpp compares render() with;
+  /// the image is byte-identical to that frame's. Stats: the frame's patches, triangles and
+  /// tiles, every entry a hit, no decode or upload; drawMs and frameMs measured as render()
+  /// measures them. Errors: InvalidArgument when there is no previous frame (render() was never
+  /// called, or its last call failed) or when it took several passes (over budget: only its
+  /// last pass is still recorded); DeviceError for Vulkan failures.
+  Result<RenderedFrame> redrawLast();
+
   /// Slot bytes resident now.
   std::uint64_t residentBytes() const noexcept;
   /// Whether tiles are sampled as BC1 on the device (else RGBA8).
