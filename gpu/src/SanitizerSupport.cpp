@@ -4,7 +4,8 @@
 // so LSan could not even name them ("<unknown module>") and TSan aborts when a library named in
 // a called_from_lib suppression (tests/sanitizers/tsan.supp) is unloaded. Under ASan and TSan we
 // pin those libraries (RTLD_NODELETE); under ASan we also suppress leaks whose stacks pass
-// through them. Nothing of pbdam's own is suppressed: a leak or race of ours still fails.
+// through them (and through fontconfig and libltdl, which PLplot's cairo driver uses for the
+// bench report). Nothing of pbdam's own is suppressed: a leak or race of ours still fails.
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
 
 #include <dlfcn.h>
@@ -43,7 +44,11 @@ extern "C" const char* __lsan_default_suppressions() {
          "leak:libVkLayer_MESA_device_select.so\n"
          "leak:libvulkan_intel.so\n"
          "leak:libvulkan_intel_hasvk.so\n"
-         "leak:libvulkan_radeon.so\n";
+         "leak:libvulkan_radeon.so\n"
+         // PLplot's cairo driver (pbdam bench reports): fontconfig's process-lifetime font
+         // caches, and the driver module libltdl loads and never frees.
+         "leak:libfontconfig.so\n"
+         "leak:libltdl.so\n";
 }
 
 #endif  // __SANITIZE_ADDRESS__
