@@ -1,0 +1,121 @@
+// Runtime micro-benchmarks (issue 5; design.md §4–5): the stateless refinement traversal of
+// paper 004 §4.3 over the poses of a recorded flight (µs per frame), and the GPU cache's LRU
+// bookkeeping (ResidencyLru: touch, insert with eviction). Google Benchmark; the traversal reads
+// a built dataset: PBDAM_BENCH_DATASET (default build/testdata/mola, which the test suite's
+// fixture builds) and the flight PBDAM_BENCH_PATH (default bench/paths/mars_flight.csv).
+//   build/release/bench/pbdam_bench_runtime [--benchmark_filter=...]
+#include <benchmark/benchmark.h>
+
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "pbdam/formats/CameraPath.h"
+#include "pbdam/gpu/ResidencyLru.h"
+#include "pbdam/runtime/Camera.h"
+#include "pbdam/runtime/Refinement.h"
+#include "pbdam/streaming/MappedDataset.h"
+
+namespace {
+
+using namespace pbdam;
+
+std::string envOr(const char* name, const std::string& fallback) {
+  const char* v = std::getenv(name);
+  return v != nullptr && *v != '\0' ? std::string(v) : fallback;
+}
+
+struct Flight {
+  std::unique_ptr<MappedDataset> dataset;
+  std::vector<Camera> cameras;
+  std::string error;
+};
+
+const Flight& flight() {
+  static const Flight f = [] {
+    Flight out;
+    const std::string dir = envOr("PBDAM_BENCH_DATASET", PBDAM_SOURCE_DIR "/build/testdata/mola");
+    const std::string pathFile =
+        envOr("PBDAM_BENCH_PATH", PBDAM_SOURCE_DIR "/bench/paths/mars_flight.csv");
+    auto dataset = MappedDataset::open(dir);
+    if (!dataset) {
+      out.error = dataset.error().message;
+      return out;
+    }
+    auto path = readCameraPath(pathFile);
+    if (!path) {
+      out.error = path.error().message;
+      return out;
+    }
+    out.dataset = std::move(dataset).value();
+    const Viewport viewport{640, 480, 60.0};
+    for (const CameraPathPoint& p : *path) {
+      out.cameras.push_back(Camera::fromPose(out.dataset->view().planet(),
+                                             {p.latDegrees, p.lonDegrees, p.altitudeMeters,
+                                              p.headingDegrees, p.pitchDegrees, p.rollDegrees},
+                                             viewport));
+    }
+    return out;
+  }();
+  return f;
+}
+
+// One refinement per iteration, cycling through the flight's poses (640×480, 3 px).
+void BM_RefineFlightFrame(benchmark::State& state) {
+  const Flight& f = flight();
+  if (!f.error.empty()) {
+    state.SkipWithError(f.error.c_str());
+    return;
+  }
+  RefinementOptions options;
+  options.tolerancePixels = 3.0;
+  std::size_t frame = 0;
+  std::uint64_t patches = 0;
+  for (auto _ : state) {
+    const Cut cut = refine(f.dataset->view(), f.cameras[frame], options);
+    patches += cut.patches.size();
+    benchmark::DoNotOptimize(cut.patches.data());
+    frame = (frame + 1) % f.cameras.size();
+  }
+  state.counters["patches/frame"] =
+      benchmark::Counter(static_cast<double>(patches), benchmark::Counter::kAvgIterations);
+  state.SetLabel(std::to_string(f.cameras.size()) + " poses");
+}
+BENCHMARK(BM_RefineFlightFrame)->Unit(benchmark::kMicrosecond);
+
+// A frame's worth of cache traffic: `range(0)` keys per frame from a window that slides by a
+// quarter of itself each frame, under a budget of two frames' entries — so every frame touches
+// 3/4 of its keys and inserts the rest, evicting the least recently used once the cache is full.
+void BM_LruFrame(benchmark::State& state) {
+  const auto perFrame = static_cast<std::uint64_t>(state.range(0));
+  constexpr std::uint64_t kSlot = 4096;
+  gpu::ResidencyLru lru(2 * perFrame * kSlot, {kSlot, kSlot});
+  std::vector<gpu::ResidentKey> evicted;
+  std::uint64_t epoch = 0;
+  std::uint64_t first = 0;
+  std::uint64_t operations = 0;
+  for (auto _ : state) {
+    ++epoch;
+    evicted.clear();
+    for (std::uint64_t k = first; k < first + perFrame; ++k) {
+      const gpu::ResidentKey key = gpu::ResidentKey::patch(
+          NodeKey{static_cast<std::uint8_t>(k % 6), static_cast<std::uint8_t>(k / 6 % 2), k});
+      if (lru.find(key)) {
+        lru.touch(key, epoch);
+      } else {
+        benchmark::DoNotOptimize(lru.insert(key, epoch, evicted));
+      }
+    }
+    operations += perFrame;
+    first += perFrame / 4;
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(operations));
+}
+BENCHMARK(BM_LruFrame)->Arg(256)->Arg(4096);
+
+}  // namespace
+
+BENCHMARK_MAIN();
