@@ -186,6 +186,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     prefetcher.emplace(**dataset, po);
   }
   const Viewport viewport{o.width, o.height, 60.0};
+  run.baselineRssBytes = rssBytes();
   std::uint64_t residentBefore = residentDatasetPages(**dataset);
   const auto page = static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
   for (std::size_t i = 0; i < path.size(); ++i) {
@@ -221,6 +222,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     f.bytesPagedIn = residentAfter > residentBefore ? (residentAfter - residentBefore) * page : 0;
     residentBefore = residentAfter;
     f.rssBytes = rssBytes();
+    f.gpuPoolBytes = frame->stats.poolBytes;
     run.frames.push_back(f);
     if (!o.quiet) {
       std::fprintf(stderr, "\rprefetch %s: frame %zu/%zu  %.1f ms  %llu triangles   ",

@@ -29,6 +29,7 @@ struct BenchFrame final {
   std::uint64_t bytesPagedIn = 0;  ///< growth of the dataset's page-cache residency
   std::uint64_t gpuHits = 0, gpuMisses = 0, gpuEvictions = 0;
   std::uint64_t rssBytes = 0;
+  std::uint64_t gpuPoolBytes = 0;  ///< device memory of the GPU cache (host memory on lavapipe)
 };
 
 /// One replay of the path with one prefetch setting.
@@ -41,6 +42,9 @@ struct BenchRun final {
   std::uint64_t datasetPages = 0;
   std::uint64_t prefetchRangesAdvised = 0;
   std::uint64_t prefetchBytesAdvised = 0;
+  /// RSS just before the first frame: the process with the Vulkan driver (lavapipe and its LLVM
+  /// JIT), the renderer and the dataset mapping set up, nothing of the dataset paged in yet.
+  std::uint64_t baselineRssBytes = 0;
   std::vector<BenchFrame> frames;
 };
 
