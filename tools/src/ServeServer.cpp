@@ -315,7 +315,7 @@ void FrameServer::Impl::routes() {
   http.Get("/", [](const httplib::Request&, httplib::Response& res) {
     res.set_header("Cache-Control", "no-store");
     res.set_header("Content-Security-Policy",
-                   "default-src 'none'; img-src 'self' blob:; connect-src 'self'; "
+                   "default-src 'none'; img-src 'self' blob: data:; connect-src 'self'; "
                    "script-src 'unsafe-inline'; style-src 'unsafe-inline'");
     res.set_content(reinterpret_cast<const char*>(kViewerHtml), kViewerHtmlSize,
                     "text/html; charset=utf-8");
