@@ -460,6 +460,24 @@ TEST(Serve, BurstBeyondTheQueueGets503WithRetryAfter) {
   EXPECT_EQ(frame->status, 200);
 }
 
+TEST(Serve, AFrameNotDrawnBeforeItsDeadlineIs503) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  START_SERVER(server, dir, {"--workers", "1", "--deadline-s", "0.02"});
+  httplib::Client client = server.client();
+  // Far more than 20 ms of drawing on any CPU: 4096x4096 at half a pixel of tolerance.
+  auto res = client.Get("/frame?lat=0&lon=-70&alt=2e6&width=4096&height=4096&tolerance=0.5");
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 503) << res->body;
+  EXPECT_GE(std::atoi(res->get_header_value("Retry-After").c_str()), 1);
+  EXPECT_NE(res->body.find("deadline"), std::string::npos) << res->body;
+  // The context finishes that frame and goes on; the server still answers.
+  auto health = client.Get("/healthz");
+  ASSERT_TRUE(health);
+  EXPECT_EQ(health->status, 200);
+  const auto s = nlohmann::json::parse(client.Get("/stats")->body);
+  EXPECT_EQ(s["queue"]["expired"], 1);
+}
+
 TEST(Serve, SigtermFinishesInFlightFramesAndExitsZero) {
   PBDAM_REQUIRE_DATASET(dir, "mola");
   START_SERVER(server, dir, {"--workers", "1", "--queue", "4"});

@@ -25,8 +25,7 @@ struct RenderPool::Job {
   Clock::time_point enqueued;
   std::promise<FrameOutcome> promise;
   // Guarded by RenderPool::mutex_.
-  bool done = false;       ///< the worker has finished with it (promise about to be set)
-  bool abandoned = false;  ///< the requester stopped waiting (deadline)
+  bool done = false;  ///< the worker has finished with it (promise about to be set)
 };
 
 RenderPool::RenderPool(const MappedDataset& dataset, const RenderPoolOptions& options)
@@ -121,7 +120,8 @@ FrameOutcome RenderPool::render(const FrameRequest& request, Clock::time_point d
     lock.unlock();
     return result.get();
   }
-  job->abandoned = true;  // the worker counts it when it finishes
+  // Being drawn: its context finishes the frame, which nobody waits for any more.
+  ++stats_.expired;
   return {FrameRefusal::Deadline, std::nullopt};
 }
 
@@ -180,7 +180,6 @@ void RenderPool::workerLoop(std::uint32_t index) {
       const std::lock_guard<std::mutex> lock(mutex_);
       --stats_.rendering;
       job->done = true;
-      if (job->abandoned) ++stats_.expired;
       if (frame) {
         ++stats_.frames;
         stats_.renderMsTotal += millisecondsBetween(start, Clock::now());

@@ -64,7 +64,7 @@ struct RenderPoolStats final {
   std::uint64_t frames = 0;  ///< drawn successfully
   std::uint64_t renderErrors = 0;
   std::uint64_t rejectedQueueFull = 0;
-  std::uint64_t expired = 0;  ///< deadline passed before or while drawing
+  std::uint64_t expired = 0;  ///< answered 503: deadline passed while queued or drawing
   double renderMsTotal = 0.0;
   double queueMsTotal = 0.0;
   // GPU caches, summed over the contexts.
