@@ -3,9 +3,11 @@
 // threads (httplib's client, keep-alive) and reports frames/s, p50/p99 latency, errors (503s and
 // anything else) and the server's RSS: after warm-up, its maximum during the run and the end.
 // Clients that get a 503 wait the Retry-After the server sends before their next request, as a
-// polite client does. Loopback only; every phase is bounded in count and in time.
+// polite client does. The cameras loop over a closed orbit of --period views; the warm-up (one
+// loop by default) lets the GPU caches take in that working set, so RSS growth after it would
+// be a leak, not the caches filling. Loopback only; every phase is bounded in count and time.
 //   pbdam_bench_serve PBDAM_EXE DATASET [--requests 2000] [--concurrency 4,16] [--workers 4]
-//                     [--queue 8] [--width 640] [--height 480] [--warmup 200]
+//                     [--queue 8] [--width 640] [--height 480] [--period 1000] [--warmup P]
 //                     [--time-limit-s 600] [--json FILE]
 #include <httplib.h>
 #include <poll.h>
@@ -43,7 +45,8 @@ struct Options {
   int queue = 8;
   int width = 640;
   int height = 480;
-  int warmup = 200;
+  int period = 1000;
+  int warmup = -1;  ///< -1: one period
   double timeLimitSeconds = 600.0;
   std::string json;
 };
@@ -58,9 +61,10 @@ struct Phase {
   double p50Ms = 0.0;
   double p99Ms = 0.0;
   double maxMs = 0.0;
-  double rssWarmMiB = 0.0;
-  double rssMaxMiB = 0.0;
-  double rssEndMiB = 0.0;
+  double rssWarmMiB = 0.0;      ///< idle, right after the warm-up
+  double rssWarmPeakMiB = 0.0;  ///< the most during the warm-up
+  double rssMaxMiB = 0.0;       ///< the most during the run
+  double rssEndMiB = 0.0;       ///< idle, right after the run
   bool timedOut = false;
 };
 
@@ -72,15 +76,18 @@ double rssMiB(pid_t pid) {
   return 0.0;
 }
 
-/// The i-th camera: a slow orbit over the planet at 1,000–3,000 km looking down and ahead, so
-/// successive requests differ but share much of the cut (as a flight does).
+/// The i-th camera: a closed orbit of `period` views once around the planet at 1,000–3,000 km,
+/// weaving ±40° in latitude, looking down and ahead, so successive requests differ but share
+/// much of the cut (as a flight does).
 std::string frameQuery(int i, const Options& o) {
-  const double t = static_cast<double>(i);
+  const double kTwoPi = 6.283185307179586;
+  const double u = static_cast<double>(i % o.period) / static_cast<double>(o.period);  // 0..1
   char text[256];
   std::snprintf(text, sizeof text,
                 "/frame?lat=%.4f&lon=%.4f&alt=%.0f&heading=%.1f&pitch=-60&width=%d&height=%d",
-                40.0 * std::sin(t * 0.013), std::fmod(t * 0.37, 360.0) - 180.0,
-                2.0e6 + 1.0e6 * std::sin(t * 0.021), std::fmod(t * 1.7, 360.0), o.width, o.height);
+                40.0 * std::sin(3.0 * kTwoPi * u), 360.0 * u - 180.0,
+                2.0e6 + 1.0e6 * std::sin(5.0 * kTwoPi * u), std::fmod(360.0 * 7.0 * u, 360.0),
+                o.width, o.height);
   return text;
 }
 
@@ -92,8 +99,7 @@ double percentile(std::vector<double> v, double p) {
 }
 
 /// Sends `count` requests (numbered from `first`) from `concurrency` threads.
-Phase runPhase(int port, pid_t server, int first, int count, int concurrency, const Options& o,
-               bool measureRss) {
+Phase runPhase(int port, pid_t server, int first, int count, int concurrency, const Options& o) {
   Phase phase;
   phase.concurrency = concurrency;
   std::atomic<int> next{0};
@@ -105,7 +111,7 @@ Phase runPhase(int port, pid_t server, int first, int count, int concurrency, co
   std::atomic<bool> done{false};
   double rssMax = 0.0;
   std::thread sampler([&] {
-    while (measureRss && !done.load()) {
+    while (!done.load()) {
       rssMax = std::max(rssMax, rssMiB(server));
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
     }
@@ -159,7 +165,7 @@ int usage(const char* message) {
   std::fprintf(stderr,
                "pbdam_bench_serve: %s\nusage: pbdam_bench_serve PBDAM_EXE DATASET [--requests N] "
                "[--concurrency A,B,...] [--workers N] [--queue N] [--width W] [--height H] "
-               "[--warmup N] [--time-limit-s S] [--json FILE]\n",
+               "[--period N] [--warmup N] [--time-limit-s S] [--json FILE]\n",
                message);
   return 2;
 }
@@ -192,6 +198,8 @@ int main(int argc, char** argv) {
       o.width = std::atoi(value().c_str());
     } else if (a == "--height") {
       o.height = std::atoi(value().c_str());
+    } else if (a == "--period") {
+      o.period = std::atoi(value().c_str());
     } else if (a == "--warmup") {
       o.warmup = std::atoi(value().c_str());
     } else if (a == "--time-limit-s") {
@@ -205,8 +213,9 @@ int main(int argc, char** argv) {
   if (positional.size() != 2) return usage("expected PBDAM_EXE and DATASET");
   o.pbdam = positional[0];
   o.dataset = positional[1];
-  if (o.requests < 1 || o.requests > 100000 || o.warmup < 0 || o.warmup > 100000 ||
-      o.concurrency.empty() ||
+  if (o.warmup < 0) o.warmup = o.period;
+  if (o.requests < 1 || o.requests > 100000 || o.warmup < 0 || o.warmup > 100000 || o.period < 1 ||
+      o.period > 100000 || o.concurrency.empty() ||
       std::any_of(o.concurrency.begin(), o.concurrency.end(),
                   [](int c) { return c < 1 || c > 256; }) ||
       !(o.timeLimitSeconds > 0.0)) {
@@ -259,29 +268,37 @@ int main(int argc, char** argv) {
     return 1;
   }
   std::printf("%s", startLine.c_str());
-  std::printf("%d requests of %dx%d per level, warm-up %d, server --workers %d --queue %d\n",
-              o.requests, o.width, o.height, o.warmup, o.workers, o.queue);
+  std::printf(
+      "%d requests of %dx%d per level after a warm-up of %d (cameras loop over %d views), server "
+      "--workers %d --queue %d\n",
+      o.requests, o.width, o.height, o.warmup, o.period, o.workers, o.queue);
 
   std::vector<Phase> phases;
   int first = 0;
   for (const int c : o.concurrency) {
     // Warm-up at the level's concurrency: caches fill, pools and allocator arenas reach size.
-    if (o.warmup > 0) runPhase(port, server, first, o.warmup, c, o, false);
+    double warmPeak = 0.0;
+    if (o.warmup > 0) warmPeak = runPhase(port, server, first, o.warmup, c, o).rssMaxMiB;
     first += o.warmup;
     const double warmRss = rssMiB(server);
-    Phase phase = runPhase(port, server, first, o.requests, c, o, true);
+    Phase phase = runPhase(port, server, first, o.requests, c, o);
     first += o.requests;
     phase.rssWarmMiB = warmRss;
+    phase.rssWarmPeakMiB = warmPeak;
     phases.push_back(phase);
+    const auto change = [](double from, double to) {
+      return 100.0 * (to - from) / std::max(1.0, from);
+    };
     std::printf(
         "concurrency %2d: %d requests in %.1f s: %.1f frames/s, latency p50 %.1f ms p99 %.1f ms "
-        "max %.1f ms, errors %d (503 %d, other %d)%s; RSS after warm-up %.0f MiB, max %.0f MiB "
-        "(%+.1f%%), end %.0f MiB\n",
+        "max %.1f ms, errors %d (503 %d, other %d)%s\n"
+        "  RSS idle after warm-up %.0f MiB, idle after the run %.0f MiB (%+.1f%%); peak during "
+        "warm-up %.0f MiB, during the run %.0f MiB (%+.1f%%)\n",
         c, phase.sent, phase.seconds, phase.ok / phase.seconds, phase.p50Ms, phase.p99Ms,
         phase.maxMs, phase.refused + phase.failed, phase.refused, phase.failed,
-        phase.timedOut ? " (time limit reached)" : "", phase.rssWarmMiB, phase.rssMaxMiB,
-        100.0 * (phase.rssMaxMiB - phase.rssWarmMiB) / std::max(1.0, phase.rssWarmMiB),
-        phase.rssEndMiB);
+        phase.timedOut ? " (time limit reached)" : "", phase.rssWarmMiB, phase.rssEndMiB,
+        change(phase.rssWarmMiB, phase.rssEndMiB), phase.rssWarmPeakMiB, phase.rssMaxMiB,
+        change(phase.rssWarmPeakMiB, phase.rssMaxMiB));
     std::fflush(stdout);
   }
 
@@ -301,7 +318,8 @@ int main(int argc, char** argv) {
           << ", \"failed\": " << p.failed << ", \"seconds\": " << p.seconds
           << ", \"frames_per_s\": " << p.ok / p.seconds << ", \"p50_ms\": " << p.p50Ms
           << ", \"p99_ms\": " << p.p99Ms << ", \"max_ms\": " << p.maxMs
-          << ", \"rss_warm_mib\": " << p.rssWarmMiB << ", \"rss_max_mib\": " << p.rssMaxMiB
+          << ", \"rss_warm_mib\": " << p.rssWarmMiB
+          << ", \"rss_warm_peak_mib\": " << p.rssWarmPeakMiB << ", \"rss_max_mib\": " << p.rssMaxMiB
           << ", \"rss_end_mib\": " << p.rssEndMiB << "}" << (i + 1 < phases.size() ? "," : "")
           << "\n";
     }
