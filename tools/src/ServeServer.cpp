@@ -351,21 +351,30 @@ void FrameServer::Impl::routes() {
 
   // Statuses httplib sets itself (no route, unparsable request, URI too long, ...) get the
   // same JSON body as ours; responses that already have a body are left alone.
-  http.set_error_handler(httplib::Server::HandlerWithResponse([](const httplib::Request& req,
-                                                                 httplib::Response& res) {
-    if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
-    std::string message = "request refused";
-    if (res.status == 404)
-      message = "no such path (GET /, /frame, /height, /info, /stats, /healthz)";
-    if (res.status == 400) message = "malformed request";
-    if (res.status == 414) message = "request URI too long";
-    if (res.status == 413) message = "request body too large";
-    if (res.status == 405 || (res.status == 400 && !req.method.empty() && !knownPath(req.path))) {
-      message = "malformed request or unsupported method";
-    }
-    sendError(res, res.status, message);
-    return httplib::Server::HandlerResponse::Handled;
-  }));
+  http.set_error_handler(
+      httplib::Server::HandlerWithResponse([](const httplib::Request&, httplib::Response& res) {
+        if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
+        std::string message;
+        switch (res.status) {
+          case 400:
+            message = "malformed request (not HTTP/1.x, an unsupported method or bad headers)";
+            break;
+          case 404:
+            message = "no such path (GET /, /frame, /height, /info, /stats, /healthz)";
+            break;
+          case 413:
+            message = "request body too large";
+            break;
+          case 414:
+            message = "request URI too long";
+            break;
+          default:
+            message = "request refused";
+            break;
+        }
+        sendError(res, res.status, message);
+        return httplib::Server::HandlerResponse::Handled;
+      }));
   http.set_exception_handler(
       [](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
         std::string what = "internal error";
