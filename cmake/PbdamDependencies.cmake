@@ -32,3 +32,5 @@ endif()
 if(PBDAM_BUILD_BENCH)
   find_package(benchmark CONFIG REQUIRED)
 endif()
+# cpp-httplib (libcpp-httplib-dev: a shared library plus httplib.h) for `pbdam serve` and its tests.
+pkg_check_modules(HTTPLIB REQUIRED IMPORTED_TARGET cpp-httplib)

@@ -31,3 +31,21 @@ for preset in "${presets[@]}"; do
   fi
   cmake --build --preset "$preset"
 done
+
+# The browser test's driver: playwright-core from npm, pinned by tests/browser/package-lock.json
+# (node_modules is not committed). Installed when missing or older than the lock file; npm comes
+# with NodeSource's nodejs, or from Debian's npm package otherwise.
+browser=tests/browser
+if [ -f "$browser/package-lock.json" ]; then
+  if ! command -v npm >/dev/null 2>&1; then
+    echo "setup: installing npm for the browser test"
+    sudo=""
+    if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends npm >/dev/null
+  fi
+  if [ ! -f "$browser/node_modules/.package-lock.json" ] ||
+     [ "$browser/package-lock.json" -nt "$browser/node_modules/.package-lock.json" ]; then
+    echo "setup: npm ci in $browser"
+    (cd "$browser" && npm ci --no-audit --no-fund --loglevel=error)
+  fi
+fi

@@ -319,13 +319,12 @@ Result<void> TerrainRenderer::Impl::submitAndWait(std::span<const VkCommandBuffe
   submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO_2;
   submit.commandBufferInfoCount = static_cast<std::uint32_t>(buffers.size());
   submit.pCommandBufferInfos = infos.data();
-  if (VkResult r = vkQueueSubmit2(context->queue(), 1, &submit, submitFence); r != VK_SUCCESS) {
-    return vulkanError(r, std::string("vkQueueSubmit2 (") + what + ")");
-  }
+  // Through the context: its queue lock lets several renderers share it (pbdam serve).
+  if (Result<void> r = context->submit(submit, submitFence, what); !r) return r;
   if (VkResult r = vkWaitForFences(device, 1, &submitFence, VK_TRUE, kSubmitTimeoutNanoseconds);
       r != VK_SUCCESS) {
     // The work may still be running: wait it out so that re-recording the buffers is legal.
-    vkDeviceWaitIdle(device);
+    (void)context->waitIdle();
     return vulkanError(r, std::string("vkWaitForFences (") + what + ")");
   }
   return {};
@@ -876,6 +875,23 @@ Result<RenderedFrame> TerrainRenderer::render(const Cut& cut, const Camera& came
   m.lastFrame = stats;
   return RenderedFrame{std::move(*image), stats};
 }
+
+Result<void> TerrainRenderer::resize(std::uint32_t widthPixels, std::uint32_t heightPixels) {
+  Impl& m = *impl_;
+  if (widthPixels == m.options.widthPixels && heightPixels == m.options.heightPixels) return {};
+  // No submission of this renderer is in flight (render() waits for its own), so the old
+  // target can go now; the recorded draw that redrawLast() would reuse refers to it.
+  auto target = OffscreenTarget::create(*m.context, widthPixels, heightPixels);
+  if (!target) return std::move(target).error();
+  m.target = std::move(*target);
+  m.options.widthPixels = widthPixels;
+  m.options.heightPixels = heightPixels;
+  m.lastFrame.reset();
+  return {};
+}
+
+std::uint32_t TerrainRenderer::widthPixels() const noexcept { return impl_->options.widthPixels; }
+std::uint32_t TerrainRenderer::heightPixels() const noexcept { return impl_->options.heightPixels; }
 
 Result<RenderedFrame> TerrainRenderer::redrawLast() {
   Impl& m = *impl_;

@@ -7,6 +7,8 @@
 #include <array>
 #include <cassert>
 #include <cstring>
+#include <mutex>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -72,6 +74,10 @@ struct VulkanContext::Impl final {
   UniqueDevice device;
   UniqueCommandPool commandPool;
   UniqueFence submitFence;
+  /// Guards the queue (every vkQueueSubmit2 and vkDeviceWaitIdle).
+  std::mutex queueMutex;
+  /// Serialises submitAndWait(): its command pool and fence.
+  std::mutex helperMutex;
 
   VkPhysicalDevice physicalDevice = VK_NULL_HANDLE;
   VkQueue queue = VK_NULL_HANDLE;
@@ -398,6 +404,7 @@ std::shared_ptr<ValidationLog> VulkanContext::sharedValidationLog() const noexce
 Result<void> VulkanContext::submitAndWait(const std::function<void(VkCommandBuffer)>& record,
                                           std::string_view what, uint64_t timeoutNanoseconds) {
   assert(impl_ && "use of a moved-from VulkanContext");
+  const std::lock_guard<std::mutex> helperLock(impl_->helperMutex);
   const VkDevice dev = impl_->device.get();
   VkCommandBufferAllocateInfo allocInfo{};
   allocInfo.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
@@ -438,18 +445,27 @@ Result<void> VulkanContext::submitAndWait(const std::function<void(VkCommandBuff
   submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO_2;
   submit.commandBufferInfoCount = 1;
   submit.pCommandBufferInfos = &cmdInfo;
-  if (VkResult r = vkQueueSubmit2(impl_->queue, 1, &submit, fence); r != VK_SUCCESS) {
-    return vulkanError(r, "vkQueueSubmit2 (" + std::string(what) + ")");
-  }
+  if (Result<void> r = this->submit(submit, fence, what); !r) return r;
   if (VkResult r = vkWaitForFences(dev, 1, &fence, VK_TRUE, timeoutNanoseconds); r != VK_SUCCESS) {
     // The work may still be running: wait it out so freeing the command buffer is legal.
-    vkDeviceWaitIdle(dev);
+    (void)waitIdle();
     return vulkanError(r, "vkWaitForFences (" + std::string(what) + ")");
   }
   return {};
 }
 
+Result<void> VulkanContext::submit(const VkSubmitInfo2& batch, VkFence fence,
+                                   std::string_view what) {
+  assert(impl_ && "use of a moved-from VulkanContext");
+  const std::lock_guard<std::mutex> queueLock(impl_->queueMutex);
+  if (VkResult r = vkQueueSubmit2(impl_->queue, 1, &batch, fence); r != VK_SUCCESS) {
+    return vulkanError(r, "vkQueueSubmit2 (" + std::string(what) + ")");
+  }
+  return {};
+}
+
 Result<void> VulkanContext::waitIdle() {
+  const std::lock_guard<std::mutex> queueLock(impl_->queueMutex);
   if (VkResult r = vkDeviceWaitIdle(impl_->device.get()); r != VK_SUCCESS) {
     return vulkanError(r, "vkDeviceWaitIdle");
   }

@@ -40,6 +40,9 @@ void addPathCommands(CLI::App& app, CommandStatus& status);
 /// `pbdam bench DIR --path FILE --out REPORTDIR [...]`.
 void addBenchCommand(CLI::App& app, CommandStatus& status);
 
+/// `pbdam serve DIR [--bind A] [--port N] [--workers N] [--queue N] [--gpu-cache-mb N] [...]`.
+void addServeCommand(CLI::App& app, CommandStatus& status);
+
 /// Prints "pbdam: <message>" on stderr; returns the exit code for the error's kind.
 int reportError(const Error& error);
 

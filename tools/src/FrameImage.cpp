@@ -1,6 +1,7 @@
 // Frame export through OpenImageIO (FrameImage.h).
 #include "FrameImage.h"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
@@ -45,6 +46,38 @@ Result<void> writeFrameImage(const std::filesystem::path& path, const gpu::RgbaI
   std::filesystem::rename(temporary, path, ec);
   if (ec) return fail("rename failed (" + ec.message() + ")");
   return {};
+}
+
+Result<std::vector<unsigned char>> encodeFrameImage(const gpu::RgbaImage& image,
+                                                    FrameEncoding encoding, int jpegQuality) {
+  std::vector<unsigned char> bytes;
+  OIIO::Filesystem::IOVecOutput proxy(bytes);
+  // The name only picks the format; nothing touches the filesystem.
+  const char* name = encoding == FrameEncoding::Png ? "frame.png" : "frame.jpg";
+  auto out = OIIO::ImageOutput::create(name, &proxy);
+  if (!out) {
+    return makeError(ErrorCode::Internal,
+                     std::string("no ") + name + " encoder (" + OIIO::geterror() + ")");
+  }
+  OIIO::ImageSpec spec(static_cast<int>(image.widthPixels), static_cast<int>(image.heightPixels), 3,
+                       OIIO::TypeDesc::UINT8);
+  if (encoding == FrameEncoding::Png) {
+    spec.attribute("png:compressionLevel", 1);
+  } else {
+    spec.attribute("CompressionQuality", std::clamp(jpegQuality, 1, 100));
+  }
+  if (!out->open(name, spec)) {
+    return makeError(ErrorCode::Internal,
+                     std::string("cannot encode ") + name + " (" + out->geterror() + ")");
+  }
+  const bool written = out->write_image(OIIO::TypeDesc::UINT8, image.rgba.data(), 4,
+                                        OIIO::stride_t{4} * image.widthPixels);
+  const bool closed = out->close();
+  if (!written || !closed) {
+    return makeError(ErrorCode::Internal,
+                     std::string("encoding ") + name + " failed (" + out->geterror() + ")");
+  }
+  return bytes;
 }
 
 }  // namespace pbdam::tools

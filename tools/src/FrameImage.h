@@ -4,6 +4,7 @@
 #pragma once
 
 #include <filesystem>
+#include <vector>
 
 #include "pbdam/formats/Result.h"
 #include "pbdam/gpu/RgbaImage.h"
@@ -17,5 +18,14 @@ bool isExrPath(const std::filesystem::path& path);
 /// 1) or, for .exr, half-float EXR with values 0..1. Written under a temporary name and renamed,
 /// so an interrupted run never leaves a truncated frame. IoError naming the file on failure.
 Result<void> writeFrameImage(const std::filesystem::path& path, const gpu::RgbaImage& image);
+
+/// In-memory image encodings (`pbdam serve`).
+enum class FrameEncoding { Png, Jpeg };
+
+/// Encodes the RGB channels of `image` in memory: PNG with the settings writeFrameImage uses
+/// (the same bytes as the file it writes), or baseline JPEG at `jpegQuality` (1..100). Internal
+/// error when the encoder fails.
+Result<std::vector<unsigned char>> encodeFrameImage(const gpu::RgbaImage& image,
+                                                    FrameEncoding encoding, int jpegQuality = 90);
 
 }  // namespace pbdam::tools

@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
   pbdam::tools::addHeightCommand(app, status);
   pbdam::tools::addPathCommands(app, status);
   pbdam::tools::addBenchCommand(app, status);
+  pbdam::tools::addServeCommand(app, status);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

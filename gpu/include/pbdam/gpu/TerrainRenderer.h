@@ -4,7 +4,8 @@
 // under one byte budget with LRU eviction (ResidencyLru.h); misses are decoded on TBB workers and
 // uploaded through a staging buffer (design.md §5). Implements paper 004 §4.2 (camera-relative
 // vertices, patch.vert) and §4.4 (the GPU cache). Thread-safety: none — one thread renders; the
-// decoding it starts runs in parallel inside render().
+// decoding it starts runs in parallel inside render(). Several renderers, each used by one
+// thread, may share a VulkanContext (it serialises queue submissions).
 #pragma once
 
 #include <array>
@@ -125,6 +126,14 @@ class TerrainRenderer final {
   /// called, or its last call failed) or when it took several passes (over budget: only its
   /// last pass is still recorded); DeviceError for Vulkan failures.
   Result<RenderedFrame> redrawLast();
+
+  /// Changes the image size to `widthPixels` x `heightPixels`: a new offscreen target, while the
+  /// pools and every resident patch and tile stay (so a server can serve several sizes from one
+  /// cache). A no-op for the current size. Afterwards redrawLast() has no previous frame.
+  /// Errors as create() for the size; the renderer keeps its old size then.
+  Result<void> resize(std::uint32_t widthPixels, std::uint32_t heightPixels);
+  std::uint32_t widthPixels() const noexcept;
+  std::uint32_t heightPixels() const noexcept;
 
   /// Slot bytes resident now.
   std::uint64_t residentBytes() const noexcept;

@@ -53,10 +53,13 @@ struct ContextOptions final {
 /// Destruction waits for the device to be idle, then destroys the command pool, the device, the
 /// debug messenger and the instance, in that order.
 ///
-/// Thread-safety: the accessors are thread-safe. submitAndWait() and waitIdle() use the one
-/// queue and the context's command pool, which Vulkan requires to be externally synchronised:
-/// call them from one thread at a time (the render thread). Creating device objects from
-/// device() is thread-safe, as in Vulkan.
+/// Thread-safety: the accessors are thread-safe. The one queue and the context's command pool
+/// must be externally synchronised in Vulkan; the context does that itself: submit(),
+/// submitAndWait() and waitIdle() take its queue lock (submitAndWait() also serialises its own
+/// command pool), so several threads — each with its own command buffers, e.g. one
+/// TerrainRenderer per thread in `pbdam serve` — may share one context. Never call
+/// vkQueueSubmit* on queue() directly; use submit(). Creating device objects from device() is
+/// thread-safe, as in Vulkan.
 class VulkanContext final {
  public:
   /// Creates the instance (Vulkan 1.3, no window-system extensions), picks the physical device
@@ -95,12 +98,17 @@ class VulkanContext final {
 
   /// Records commands with `record` into a fresh primary command buffer, submits it to the
   /// queue and blocks until it has executed (fence wait, at most `timeoutNanoseconds`).
-  /// `what` names the work in error messages. Not thread-safe (see the class comment).
+  /// `what` names the work in error messages. Thread-safe: calls are serialised.
   Result<void> submitAndWait(const std::function<void(VkCommandBuffer)>& record,
                              std::string_view what = "submitAndWait",
                              uint64_t timeoutNanoseconds = 60'000'000'000ull);
 
-  /// vkDeviceWaitIdle. Not thread-safe (see the class comment).
+  /// vkQueueSubmit2 of one batch under the queue lock; `fence` may be VK_NULL_HANDLE. The caller
+  /// owns (and synchronises) the command buffers and the fence. `what` names the work in error
+  /// messages. Thread-safe.
+  Result<void> submit(const VkSubmitInfo2& batch, VkFence fence, std::string_view what);
+
+  /// vkDeviceWaitIdle under the queue lock. Thread-safe.
   Result<void> waitIdle();
 
   /// Creates a timeline semaphore starting at `initialValue`.

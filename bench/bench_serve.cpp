@@ -1,0 +1,332 @@
+// Load benchmark of `pbdam serve` (issue 6): starts the server on a free loopback port, then for
+// each concurrency level sends a bounded number of GET /frame requests from that many client
+// threads (httplib's client, keep-alive) and reports frames/s, p50/p99 latency, errors (503s and
+// anything else) and the server's RSS: after warm-up, its maximum during the run and the end.
+// Clients that get a 503 wait the Retry-After the server sends before their next request, as a
+// polite client does. The cameras loop over a closed orbit of --period views; the warm-up (one
+// loop by default) lets the GPU caches take in that working set, so RSS growth after it would
+// be a leak, not the caches filling. Loopback only; every phase is bounded in count and time.
+//   pbdam_bench_serve PBDAM_EXE DATASET [--requests 2000] [--concurrency 4,16] [--workers 4]
+//                     [--queue 8] [--width 640] [--height 480] [--period 1000] [--warmup P]
+//                     [--time-limit-s 600] [--json FILE]
+#include <httplib.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+extern char** environ;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct Options {
+  std::string pbdam;
+  std::string dataset;
+  int requests = 2000;
+  std::vector<int> concurrency = {4, 16};
+  int workers = 4;
+  int queue = 8;
+  int width = 640;
+  int height = 480;
+  int period = 1000;
+  int warmup = -1;  ///< -1: one period
+  double timeLimitSeconds = 600.0;
+  std::string json;
+};
+
+struct Phase {
+  int concurrency = 0;
+  int sent = 0;
+  int ok = 0;
+  int refused = 0;  ///< 503
+  int failed = 0;   ///< anything else: other statuses, connection errors
+  double seconds = 0.0;
+  double p50Ms = 0.0;
+  double p99Ms = 0.0;
+  double maxMs = 0.0;
+  double rssWarmMiB = 0.0;      ///< idle, right after the warm-up
+  double rssWarmPeakMiB = 0.0;  ///< the most during the warm-up
+  double rssMaxMiB = 0.0;       ///< the most during the run
+  double rssEndMiB = 0.0;       ///< idle, right after the run
+  bool timedOut = false;
+};
+
+double rssMiB(pid_t pid) {
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  for (std::string line; std::getline(status, line);) {
+    if (line.rfind("VmRSS:", 0) == 0) return std::atof(line.c_str() + 6) / 1024.0;  // kB
+  }
+  return 0.0;
+}
+
+/// The i-th camera: a closed orbit of `period` views once around the planet at 1,000–3,000 km,
+/// weaving ±40° in latitude, looking down and ahead, so successive requests differ but share
+/// much of the cut (as a flight does).
+std::string frameQuery(int i, const Options& o) {
+  const double kTwoPi = 6.283185307179586;
+  const double u = static_cast<double>(i % o.period) / static_cast<double>(o.period);  // 0..1
+  char text[256];
+  std::snprintf(text, sizeof text,
+                "/frame?lat=%.4f&lon=%.4f&alt=%.0f&heading=%.1f&pitch=-60&width=%d&height=%d",
+                40.0 * std::sin(3.0 * kTwoPi * u), 360.0 * u - 180.0,
+                2.0e6 + 1.0e6 * std::sin(5.0 * kTwoPi * u), std::fmod(360.0 * 7.0 * u, 360.0),
+                o.width, o.height);
+  return text;
+}
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const auto k = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size()))) - 1;
+  return v[std::min(k, v.size() - 1)];
+}
+
+/// Sends `count` requests (numbered from `first`) from `concurrency` threads.
+Phase runPhase(int port, pid_t server, int first, int count, int concurrency, const Options& o) {
+  Phase phase;
+  phase.concurrency = concurrency;
+  std::atomic<int> next{0};
+  std::mutex mutex;
+  std::vector<double> latencies;
+  const auto start = Clock::now();
+  const auto stopAt = start + std::chrono::duration_cast<Clock::duration>(
+                                  std::chrono::duration<double>(o.timeLimitSeconds));
+  std::atomic<bool> done{false};
+  double rssMax = 0.0;
+  std::thread sampler([&] {
+    while (!done.load()) {
+      rssMax = std::max(rssMax, rssMiB(server));
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+  });
+  std::vector<std::thread> clients;
+  for (int c = 0; c < concurrency; ++c) {
+    clients.emplace_back([&] {
+      httplib::Client client("127.0.0.1", port);
+      client.set_read_timeout(120, 0);
+      client.set_keep_alive(true);
+      for (int i = next++; i < count; i = next++) {
+        if (Clock::now() > stopAt) {
+          const std::lock_guard<std::mutex> lock(mutex);
+          phase.timedOut = true;
+          return;
+        }
+        const auto sent = Clock::now();
+        auto res = client.Get(frameQuery(first + i, o));
+        const double ms = std::chrono::duration<double, std::milli>(Clock::now() - sent).count();
+        int retryAfter = 0;
+        {
+          const std::lock_guard<std::mutex> lock(mutex);
+          ++phase.sent;
+          if (res && res->status == 200) {
+            ++phase.ok;
+            latencies.push_back(ms);
+          } else if (res && res->status == 503) {
+            ++phase.refused;
+            retryAfter = std::max(1, std::atoi(res->get_header_value("Retry-After").c_str()));
+          } else {
+            ++phase.failed;
+          }
+        }
+        if (retryAfter > 0) std::this_thread::sleep_for(std::chrono::seconds(retryAfter));
+      }
+    });
+  }
+  for (std::thread& t : clients) t.join();
+  done = true;
+  sampler.join();
+  phase.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  phase.p50Ms = percentile(latencies, 0.50);
+  phase.p99Ms = percentile(latencies, 0.99);
+  phase.maxMs = latencies.empty() ? 0.0 : *std::max_element(latencies.begin(), latencies.end());
+  phase.rssMaxMiB = rssMax;
+  phase.rssEndMiB = rssMiB(server);
+  return phase;
+}
+
+int usage(const char* message) {
+  std::fprintf(stderr,
+               "pbdam_bench_serve: %s\nusage: pbdam_bench_serve PBDAM_EXE DATASET [--requests N] "
+               "[--concurrency A,B,...] [--workers N] [--queue N] [--width W] [--height H] "
+               "[--period N] [--warmup N] [--time-limit-s S] [--json FILE]\n",
+               message);
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  std::vector<std::string> args(argv + 1, argv + argc);
+  std::vector<std::string> positional;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    const auto value = [&]() -> std::string {
+      if (i + 1 >= args.size()) return {};
+      return args[++i];
+    };
+    if (a == "--requests") {
+      o.requests = std::atoi(value().c_str());
+    } else if (a == "--concurrency") {
+      o.concurrency.clear();
+      std::stringstream list(value());
+      for (std::string item; std::getline(list, item, ',');) {
+        o.concurrency.push_back(std::atoi(item.c_str()));
+      }
+    } else if (a == "--workers") {
+      o.workers = std::atoi(value().c_str());
+    } else if (a == "--queue") {
+      o.queue = std::atoi(value().c_str());
+    } else if (a == "--width") {
+      o.width = std::atoi(value().c_str());
+    } else if (a == "--height") {
+      o.height = std::atoi(value().c_str());
+    } else if (a == "--period") {
+      o.period = std::atoi(value().c_str());
+    } else if (a == "--warmup") {
+      o.warmup = std::atoi(value().c_str());
+    } else if (a == "--time-limit-s") {
+      o.timeLimitSeconds = std::atof(value().c_str());
+    } else if (a == "--json") {
+      o.json = value();
+    } else {
+      positional.push_back(a);
+    }
+  }
+  if (positional.size() != 2) return usage("expected PBDAM_EXE and DATASET");
+  o.pbdam = positional[0];
+  o.dataset = positional[1];
+  if (o.warmup < 0) o.warmup = o.period;
+  if (o.requests < 1 || o.requests > 100000 || o.warmup < 0 || o.warmup > 100000 || o.period < 1 ||
+      o.period > 100000 || o.concurrency.empty() ||
+      std::any_of(o.concurrency.begin(), o.concurrency.end(),
+                  [](int c) { return c < 1 || c > 256; }) ||
+      !(o.timeLimitSeconds > 0.0)) {
+    return usage("bad option value");
+  }
+
+  // The server, on a free loopback port; its start-up line names the port.
+  std::vector<std::string> serverArgs = {o.pbdam,
+                                         "serve",
+                                         o.dataset,
+                                         "--port",
+                                         "0",
+                                         "--workers",
+                                         std::to_string(o.workers),
+                                         "--queue",
+                                         std::to_string(o.queue)};
+  std::vector<char*> cargs;
+  for (std::string& s : serverArgs) cargs.push_back(s.data());
+  cargs.push_back(nullptr);
+  int fds[2];
+  if (::pipe(fds) != 0) return 1;
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
+  posix_spawn_file_actions_addclose(&actions, fds[0]);
+  pid_t server = -1;
+  if (::posix_spawn(&server, o.pbdam.c_str(), &actions, nullptr, cargs.data(), environ) != 0) {
+    return usage("cannot start PBDAM_EXE");
+  }
+  posix_spawn_file_actions_destroy(&actions);
+  ::close(fds[1]);
+  std::string startLine;
+  int port = 0;
+  const auto until = Clock::now() + std::chrono::seconds(120);
+  while (port == 0 && Clock::now() < until) {
+    pollfd p{fds[0], POLLIN, 0};
+    if (::poll(&p, 1, 500) <= 0) continue;
+    std::array<char, 1024> buf{};
+    const ssize_t n = ::read(fds[0], buf.data(), buf.size());
+    if (n <= 0) break;
+    startLine.append(buf.data(), static_cast<std::size_t>(n));
+    const std::size_t at = startLine.find("127.0.0.1:");
+    if (at != std::string::npos && startLine.find('\n') != std::string::npos) {
+      port = std::atoi(startLine.c_str() + at + 10);
+    }
+  }
+  if (port == 0) {
+    ::kill(server, SIGKILL);
+    std::fprintf(stderr, "pbdam_bench_serve: the server did not start: %s\n", startLine.c_str());
+    return 1;
+  }
+  std::printf("%s", startLine.c_str());
+  std::printf(
+      "%d requests of %dx%d per level after a warm-up of %d (cameras loop over %d views), server "
+      "--workers %d --queue %d\n",
+      o.requests, o.width, o.height, o.warmup, o.period, o.workers, o.queue);
+
+  std::vector<Phase> phases;
+  int first = 0;
+  for (const int c : o.concurrency) {
+    // Warm-up at the level's concurrency: caches fill, pools and allocator arenas reach size.
+    double warmPeak = 0.0;
+    if (o.warmup > 0) warmPeak = runPhase(port, server, first, o.warmup, c, o).rssMaxMiB;
+    first += o.warmup;
+    const double warmRss = rssMiB(server);
+    Phase phase = runPhase(port, server, first, o.requests, c, o);
+    first += o.requests;
+    phase.rssWarmMiB = warmRss;
+    phase.rssWarmPeakMiB = warmPeak;
+    phases.push_back(phase);
+    const auto change = [](double from, double to) {
+      return 100.0 * (to - from) / std::max(1.0, from);
+    };
+    std::printf(
+        "concurrency %2d: %d requests in %.1f s: %.1f frames/s, latency p50 %.1f ms p99 %.1f ms "
+        "max %.1f ms, errors %d (503 %d, other %d)%s\n"
+        "  RSS idle after warm-up %.0f MiB, idle after the run %.0f MiB (%+.1f%%); peak during "
+        "warm-up %.0f MiB, during the run %.0f MiB (%+.1f%%)\n",
+        c, phase.sent, phase.seconds, phase.ok / phase.seconds, phase.p50Ms, phase.p99Ms,
+        phase.maxMs, phase.refused + phase.failed, phase.refused, phase.failed,
+        phase.timedOut ? " (time limit reached)" : "", phase.rssWarmMiB, phase.rssEndMiB,
+        change(phase.rssWarmMiB, phase.rssEndMiB), phase.rssWarmPeakMiB, phase.rssMaxMiB,
+        change(phase.rssWarmPeakMiB, phase.rssMaxMiB));
+    std::fflush(stdout);
+  }
+
+  ::kill(server, SIGTERM);
+  int status = 0;
+  ::waitpid(server, &status, 0);
+  const bool cleanExit = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+  std::printf("server exit after SIGTERM: %s\n", cleanExit ? "0" : "FAILED");
+
+  if (!o.json.empty()) {
+    std::ofstream out(o.json);
+    out << "[\n";
+    for (std::size_t i = 0; i < phases.size(); ++i) {
+      const Phase& p = phases[i];
+      out << "  {\"concurrency\": " << p.concurrency << ", \"requests\": " << p.sent
+          << ", \"ok\": " << p.ok << ", \"refused_503\": " << p.refused
+          << ", \"failed\": " << p.failed << ", \"seconds\": " << p.seconds
+          << ", \"frames_per_s\": " << p.ok / p.seconds << ", \"p50_ms\": " << p.p50Ms
+          << ", \"p99_ms\": " << p.p99Ms << ", \"max_ms\": " << p.maxMs
+          << ", \"rss_warm_mib\": " << p.rssWarmMiB
+          << ", \"rss_warm_peak_mib\": " << p.rssWarmPeakMiB << ", \"rss_max_mib\": " << p.rssMaxMiB
+          << ", \"rss_end_mib\": " << p.rssEndMiB << "}" << (i + 1 < phases.size() ? "," : "")
+          << "\n";
+    }
+    out << "]\n";
+  }
+  const bool errorsAtLowConcurrency = std::any_of(
+      phases.begin(), phases.end(),
+      [&](const Phase& p) { return p.concurrency <= o.workers && (p.refused + p.failed) > 0; });
+  return cleanExit && !errorsAtLowConcurrency ? 0 : 1;
+}

@@ -1,0 +1,530 @@
+// `pbdam serve` as a client sees it: the server runs as its own process on a free loopback port
+// (--port 0; the start-up line names it) and is driven with httplib's client. Frames equal
+// `pbdam render`'s PNG for the same camera byte for byte; malformed requests get a 4xx with a
+// JSON body; a burst beyond the queue gets 503 + Retry-After and the server survives; SIGTERM
+// lets in-flight frames finish and the process exits 0.
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <httplib.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "TestData.h"
+
+extern char** environ;
+
+namespace pbdam {
+namespace {
+
+using namespace std::chrono_literals;
+
+/// Sanitizer builds start lavapipe and the validation layer slowly.
+constexpr int kStartSeconds = 180;
+constexpr time_t kRequestSeconds = 120;
+
+std::string readFile(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+/// `pbdam serve DIR --port 0 ARGS...` as a child process; stdout is a pipe the start-up line is
+/// read from. The destructor stops a server still running (SIGTERM, then SIGKILL).
+class ServerProcess final {
+ public:
+  ServerProcess(const std::filesystem::path& dataset, const std::vector<std::string>& args) {
+    std::vector<std::string> argv = {PBDAM_EXE, "serve", dataset.string(), "--port", "0"};
+    argv.insert(argv.end(), args.begin(), args.end());
+    std::vector<char*> cargv;
+    for (std::string& a : argv) cargv.push_back(a.data());
+    cargv.push_back(nullptr);
+    int fds[2];
+    if (::pipe(fds) != 0) return;
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
+    posix_spawn_file_actions_addclose(&actions, fds[0]);
+    posix_spawn_file_actions_addclose(&actions, fds[1]);
+    const int spawned = ::posix_spawn(&pid_, PBDAM_EXE, &actions, nullptr, cargv.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    ::close(fds[1]);
+    out_ = fds[0];
+    if (spawned != 0) {
+      pid_ = -1;
+      return;
+    }
+    // The start-up line: "pbdam serve: http://127.0.0.1:PORT/ (...)".
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(kStartSeconds);
+    while (std::chrono::steady_clock::now() < until && output_.find('\n') == std::string::npos) {
+      if (!readSome(500)) {
+        if (exited()) break;
+      }
+    }
+    const std::string marker = "http://127.0.0.1:";
+    const std::size_t at = output_.find(marker);
+    if (at != std::string::npos) port_ = std::atoi(output_.c_str() + at + marker.size());
+  }
+  ~ServerProcess() {
+    if (pid_ > 0 && !exitStatus_) {
+      ::kill(pid_, SIGTERM);
+      if (!waitExit(60s)) {
+        ::kill(pid_, SIGKILL);
+        waitExit(10s);
+      }
+    }
+    if (out_ >= 0) ::close(out_);
+  }
+  ServerProcess(const ServerProcess&) = delete;
+  ServerProcess& operator=(const ServerProcess&) = delete;
+
+  int port() const { return port_; }
+  pid_t pid() const { return pid_; }
+  const std::string& output() const { return output_; }
+
+  httplib::Client client() const {
+    httplib::Client c("127.0.0.1", port_);
+    c.set_read_timeout(kRequestSeconds, 0);
+    c.set_connection_timeout(10, 0);
+    return c;
+  }
+
+  /// Waits for the process to exit (reading its stdout meanwhile); true when it did.
+  bool waitExit(std::chrono::seconds limit) {
+    const auto until = std::chrono::steady_clock::now() + limit;
+    while (!exited()) {
+      if (std::chrono::steady_clock::now() > until) return false;
+      readSome(100);
+    }
+    while (readSome(0)) {
+    }
+    return true;
+  }
+  /// The exit status once the process has exited.
+  std::optional<int> exitStatus() const { return exitStatus_; }
+
+ private:
+  bool exited() {
+    if (exitStatus_) return true;
+    int status = 0;
+    if (pid_ > 0 && ::waitpid(pid_, &status, WNOHANG) == pid_) exitStatus_ = status;
+    return exitStatus_.has_value();
+  }
+  bool readSome(int timeoutMs) {
+    pollfd p{out_, POLLIN, 0};
+    if (::poll(&p, 1, timeoutMs) <= 0) return false;
+    std::array<char, 4096> buf{};
+    const ssize_t n = ::read(out_, buf.data(), buf.size());
+    if (n <= 0) return false;
+    output_.append(buf.data(), static_cast<std::size_t>(n));
+    return true;
+  }
+
+  pid_t pid_ = -1;
+  int out_ = -1;
+  int port_ = 0;
+  std::string output_;
+  std::optional<int> exitStatus_;
+};
+
+#define START_SERVER(var, dataset, ...)    \
+  ServerProcess var(dataset, __VA_ARGS__); \
+  ASSERT_GT(var.port(), 0) << "server did not start; stdout: " << var.output()
+
+/// 'text' for a shell command line, built step by step: GCC 12 -O3 warns (-Wrestrict) on
+/// "'" + s + "'".
+std::string quoted(const std::string& text) {
+  std::string q = "'";
+  q += text;
+  q += '\'';
+  return q;
+}
+
+/// Runs `pbdam ARGS` and returns its exit code.
+int runPbdam(const std::string& args) {
+  const std::string command = quoted(PBDAM_EXE) + " " + args + " >/dev/null 2>&1";
+  const int status = std::system(command.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+/// Sends `raw` bytes on a fresh connection and returns what comes back until the server
+/// closes or 10 s pass.
+std::string rawExchange(int port, const std::string& raw) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<std::uint16_t>(port));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+    ::close(fd);
+    return {};
+  }
+  (void)::send(fd, raw.data(), raw.size(), MSG_NOSIGNAL);
+  std::string reply;
+  const auto until = std::chrono::steady_clock::now() + 10s;
+  while (std::chrono::steady_clock::now() < until) {
+    pollfd p{fd, POLLIN, 0};
+    if (::poll(&p, 1, 200) <= 0) continue;
+    std::array<char, 4096> buf{};
+    const ssize_t n = ::recv(fd, buf.data(), buf.size(), 0);
+    if (n <= 0) break;
+    reply.append(buf.data(), static_cast<std::size_t>(n));
+    if (reply.find("\r\n\r\n") != std::string::npos && reply.find('}') != std::string::npos) break;
+  }
+  ::close(fd);
+  return reply;
+}
+
+void expectJsonError(const httplib::Result& res, const std::string& what) {
+  ASSERT_TRUE(res) << what << ": no response (" << httplib::to_string(res.error()) << ")";
+  EXPECT_GE(res->status, 400) << what;
+  EXPECT_LT(res->status, 500) << what << ": " << res->body;
+  EXPECT_EQ(res->get_header_value("Content-Type"), "application/json") << what;
+  const auto j = nlohmann::json::parse(res->body, nullptr, false);
+  ASSERT_FALSE(j.is_discarded()) << what << ": not JSON: " << res->body;
+  EXPECT_EQ(j.value("status", 0), res->status) << what;
+  EXPECT_FALSE(j.value("message", std::string()).empty()) << what << ": " << res->body;
+}
+
+const std::string kPng("\x89PNG\r\n\x1a\n", 8);
+
+TEST(ServeCli, Help) {
+  const std::string command = quoted(PBDAM_EXE) + " serve --help";
+  FILE* pipe = ::popen(command.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  std::string out;
+  std::array<char, 4096> buf{};
+  std::size_t n = 0;
+  while ((n = std::fread(buf.data(), 1, buf.size(), pipe)) > 0) out.append(buf.data(), n);
+  const int status = ::pclose(pipe);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  for (const char* option : {"--bind", "--port", "--workers", "--queue", "--gpu-cache-mb",
+                             "--deadline-s", "/frame", "/height", "/stats", "/healthz"}) {
+    EXPECT_NE(out.find(option), std::string::npos) << option << "\n" << out;
+  }
+}
+
+TEST(ServeCli, BadOptionsExitWithCode2) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  const std::string d = quoted(dir.string());
+  EXPECT_EQ(runPbdam("serve " + d + " --port 70000"), 2);
+  EXPECT_EQ(runPbdam("serve " + d + " --workers 0"), 2);
+  EXPECT_EQ(runPbdam("serve " + d + " --gpu-cache-mb -1"), 2);
+  EXPECT_EQ(runPbdam("serve " + d + " --deadline-s 0"), 2);
+  EXPECT_EQ(runPbdam("serve /nonexistent/dataset --port 0"), 2);
+  // Two contexts cannot share 1 MiB: below the per-context minimum, named on stderr.
+  EXPECT_EQ(runPbdam("serve " + d + " --port 0 --workers 2 --gpu-cache-mb 0.001"), 2);
+}
+
+TEST(Serve, FramesEqualPbdamRenderByteForByte) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  START_SERVER(server, dir, {"--workers", "2"});
+  httplib::Client client = server.client();
+  test::TempDir tmp;
+  struct Case {
+    const char* query;
+    const char* camera;
+    const char* size;
+  };
+  // Whole planet, then an oblique close-up (heading, pitch, roll), then a different size on a
+  // context that drew another size before, then the first again (now from a warm cache).
+  const Case cases[] = {
+      {"lat=18.65&lon=226.2&alt=3e6&width=160&height=90", "18.65,226.2,3e6", "160 90"},
+      {"lat=18.4&lon=-133.9&alt=60e3&heading=30&pitch=-20&roll=5&width=200&height=120&fov=50"
+       "&tolerance=2",
+       "18.4,-133.9,60e3,30,-20,5 --fov-deg 50 --tolerance-px 2", "200 120"},
+      {"lat=-10&lon=-70&alt=2e6&pitch=-60&width=173&height=97", "-10,-70,2e6,0,-60,0", "173 97"},
+      {"lat=18.65&lon=226.2&alt=3e6&width=160&height=90", "18.65,226.2,3e6", "160 90"},
+  };
+  int index = 0;
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.query);
+    auto res = client.Get(std::string("/frame?") + c.query);
+    ASSERT_TRUE(res) << httplib::to_string(res.error());
+    ASSERT_EQ(res->status, 200) << res->body;
+    EXPECT_EQ(res->get_header_value("Content-Type"), "image/png");
+    EXPECT_GT(std::stoi(res->get_header_value("X-Pbdam-Patches")), 0);
+    const auto png = tmp / ("render" + std::to_string(index++) + ".png");
+    std::string size = c.size;
+    size.replace(size.find(' '), 1, " --height ");
+    ASSERT_EQ(runPbdam("render " + quoted(dir.string()) + " --camera " + c.camera + " --width " +
+                       size + " --out " + quoted(png.string()) + " --quiet"),
+              0);
+    const std::string expected = readFile(png);
+    ASSERT_EQ(expected.substr(0, 8), kPng);
+    EXPECT_EQ(res->body.size(), expected.size());
+    EXPECT_TRUE(res->body == expected) << "server PNG differs from pbdam render's";
+  }
+  auto jpeg = client.Get("/frame?lat=0&lon=0&alt=4e6&width=64&height=48&format=jpeg&quality=80");
+  ASSERT_TRUE(jpeg);
+  ASSERT_EQ(jpeg->status, 200) << jpeg->body;
+  EXPECT_EQ(jpeg->get_header_value("Content-Type"), "image/jpeg");
+  EXPECT_EQ(jpeg->body.substr(0, 3), std::string("\xff\xd8\xff", 3));
+}
+
+TEST(Serve, MalformedRequestsGet4xxWithJsonError) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  START_SERVER(server, dir, {"--workers", "1"});
+  httplib::Client client = server.client();
+  const std::string ok = "lat=0&lon=0&alt=4e6&width=32&height=32";
+  const std::vector<std::string> badGets = {
+      "/frame",                                                 // nothing
+      "/frame?lon=0&alt=4e6",                                   // lat missing
+      "/frame?lat=0&lon=0",                                     // alt missing
+      "/frame?lat=nan&lon=0&alt=4e6",                           // NaN
+      "/frame?lat=91&lon=0&alt=4e6",                            // out of range
+      "/frame?lat=0&lon=abc&alt=4e6",                           // not a number
+      "/frame?lat=0&lon=0&alt=inf",                             // infinite
+      "/frame?lat=0&lon=0&alt=1e400",                           // overflows a double
+      "/frame?lat=0&lon=0&alt=-3e6",                            // inside the planet
+      "/frame?lat=&lon=0&alt=4e6",                              // empty value
+      "/frame?lat=0&lon=0&alt=4e6abc",                          // trailing garbage
+      "/frame?" + ok + "&width=5000",                           // beyond 4096
+      "/frame?lat=0&lon=0&alt=4e6&width=0",                     // zero
+      "/frame?lat=0&lon=0&alt=4e6&height=-5",                   // negative
+      "/frame?lat=0&lon=0&alt=4e6&width=12.5",                  // not whole
+      "/frame?lat=0&lon=0&alt=4e6&width=99999999999999999999",  // overflows
+      "/frame?" + ok + "&fov=0",                                // fov bounds
+      "/frame?" + ok + "&fov=179",                              //
+      "/frame?" + ok + "&tolerance=0",                          // tolerance bounds
+      "/frame?" + ok + "&tolerance=-1",                         //
+      "/frame?" + ok + "&pitch=100",                            // pitch bounds
+      "/frame?" + ok + "&format=gif",                           // unknown format
+      "/frame?" + ok + "&quality=80",                           // quality without jpeg
+      "/frame?" + ok + "&format=jpeg&quality=0",                // quality bounds
+      "/frame?" + ok + "&colour=red",                           // unknown parameter
+      "/frame?" + ok + "&lat=1",                                // repeated
+      "/height",                                                // nothing
+      "/height?lat=100&lon=0",                                  // out of range
+      "/height?lat=0&lon=0&alt=5",                              // unknown parameter
+      "/info?verbose=1",                                        // takes none
+      "/stats?x",                                               //
+      "/nope",                                                  // unknown path
+      "/frame/../../etc/passwd",                                // no filesystem
+      "/index.html",                                            // only / is the viewer
+  };
+  for (const std::string& path : badGets) expectJsonError(client.Get(path), "GET " + path);
+  EXPECT_EQ(client.Get("/nope")->status, 404);
+  EXPECT_EQ(client.Get("/frame?lat=91&lon=0&alt=4e6")->status, 400);
+
+  // Other methods on our paths: 405 with Allow.
+  auto post = client.Post("/frame?" + ok, "x", "text/plain");
+  expectJsonError(post, "POST /frame");
+  EXPECT_EQ(post->status, 405);
+  EXPECT_EQ(post->get_header_value("Allow"), "GET, HEAD");
+  expectJsonError(client.Delete("/stats"), "DELETE /stats");
+  expectJsonError(client.Put("/", "x", "text/plain"), "PUT /");
+  expectJsonError(client.Options("/frame"), "OPTIONS /frame");
+  expectJsonError(client.Post("/upload", std::string(200000, 'x'), "text/plain"),
+                  "POST with a body over the limit");
+
+  // Bytes that are not HTTP, an unknown method, an over-long URI.
+  for (const std::string& raw :
+       {std::string("GARBAGE\r\n\r\n"), std::string("BREW /frame HTTP/1.1\r\nHost: x\r\n\r\n"),
+        "GET /frame?lat=" + std::string(20000, '1') + " HTTP/1.1\r\nHost: x\r\n\r\n"}) {
+    const std::string reply = rawExchange(server.port(), raw);
+    SCOPED_TRACE(raw.substr(0, 40));
+    ASSERT_EQ(reply.substr(0, 9), "HTTP/1.1 ") << reply;
+    const int status = std::atoi(reply.c_str() + 9);
+    EXPECT_GE(status, 400);
+    EXPECT_LT(status, 500);
+    EXPECT_NE(reply.find("application/json"), std::string::npos) << reply;
+    EXPECT_NE(reply.find("\"message\""), std::string::npos) << reply;
+  }
+
+  // Still serving, every refusal counted, nothing drawn.
+  auto health = client.Get("/healthz");
+  ASSERT_TRUE(health);
+  EXPECT_EQ(health->status, 200);
+  auto stats = nlohmann::json::parse(client.Get("/stats")->body);
+  EXPECT_EQ(stats["render"]["frames"], 0);
+  EXPECT_GE(stats["server"]["responses"]["400"].get<int>(), 25);
+}
+
+TEST(Serve, InfoHeightStatsHealthzAndViewer) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  START_SERVER(server, dir, {"--workers", "1"});
+  httplib::Client client = server.client();
+  auto info = client.Get("/info");
+  ASSERT_TRUE(info);
+  ASSERT_EQ(info->status, 200);
+  const auto i = nlohmann::json::parse(info->body);
+  EXPECT_EQ(i["planet"], "mars");
+  EXPECT_EQ(i["equatorial_radius_m"], 3396190.0);
+  EXPECT_GT(i["patches"].get<int>(), 0);
+  EXPECT_EQ(i["frame"]["max_side_px"], 4096);
+
+  // /height is `pbdam height --json`'s figure.
+  auto height = client.Get("/height?lat=18.4&lon=-133.9");
+  ASSERT_TRUE(height);
+  ASSERT_EQ(height->status, 200) << height->body;
+  const auto h = nlohmann::json::parse(height->body);
+  const std::string cliCommand =
+      quoted(PBDAM_EXE) + " height " + quoted(dir.string()) + " --at 18.4,-133.9 --json";
+  FILE* pipe = ::popen(cliCommand.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  std::string cliOut;
+  std::array<char, 4096> buf{};
+  std::size_t n = 0;
+  while ((n = std::fread(buf.data(), 1, buf.size(), pipe)) > 0) cliOut.append(buf.data(), n);
+  ::pclose(pipe);
+  EXPECT_EQ(h["height_m"], nlohmann::json::parse(cliOut)["height_m"]);
+  EXPECT_GT(h["height_m"].get<double>(), 15000.0);  // Olympus Mons
+
+  auto frame = client.Get("/frame?lat=0&lon=0&alt=4e6&width=64&height=48");
+  ASSERT_TRUE(frame);
+  ASSERT_EQ(frame->status, 200);
+  auto stats = client.Get("/stats");
+  ASSERT_TRUE(stats);
+  const auto s = nlohmann::json::parse(stats->body);
+  EXPECT_EQ(s["render"]["frames"], 1);
+  EXPECT_EQ(s["render"]["contexts"], 1);
+  EXPECT_GT(s["cache"]["misses"].get<int>(), 0);
+  EXPECT_GT(s["cache"]["resident_bytes"].get<std::int64_t>(), 0);
+  EXPECT_EQ(s["queue"]["capacity"], 8);
+  EXPECT_GT(s["server"]["rss_bytes"].get<std::int64_t>(), 0);
+
+  auto health = client.Get("/healthz");
+  ASSERT_TRUE(health);
+  EXPECT_EQ(health->status, 200);
+  EXPECT_EQ(nlohmann::json::parse(health->body)["status"], "ok");
+
+  auto page = client.Get("/");
+  ASSERT_TRUE(page);
+  EXPECT_EQ(page->status, 200);
+  EXPECT_EQ(page->get_header_value("Content-Type"), "text/html; charset=utf-8");
+  EXPECT_NE(page->body.find("pbdam viewer"), std::string::npos);
+  EXPECT_NE(page->body.find("/frame?"), std::string::npos);
+}
+
+TEST(Serve, BurstBeyondTheQueueGets503WithRetryAfter) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  START_SERVER(server, dir, {"--workers", "1", "--queue", "1"});
+  constexpr int kClients = 12;
+  std::vector<int> statuses(kClients, -1);
+  std::vector<std::string> retryAfter(kClients);
+  std::atomic<int> ready{0};
+  std::vector<std::thread> clients;
+  for (int c = 0; c < kClients; ++c) {
+    clients.emplace_back([&, c] {
+      httplib::Client client = server.client();
+      ++ready;
+      while (ready.load() < kClients) std::this_thread::yield();
+      // Distinct cameras, large enough that one frame outlasts the burst.
+      auto res = client.Get("/frame?lat=" + std::to_string(c) +
+                            "&lon=20&alt=3e6&width=1024&height=768&tolerance=1");
+      if (!res) return;
+      statuses[static_cast<std::size_t>(c)] = res->status;
+      retryAfter[static_cast<std::size_t>(c)] = res->get_header_value("Retry-After");
+    });
+  }
+  for (std::thread& t : clients) t.join();
+  int ok = 0, refused = 0;
+  for (int c = 0; c < kClients; ++c) {
+    const auto i = static_cast<std::size_t>(c);
+    if (statuses[i] == 200) ++ok;
+    if (statuses[i] == 503) {
+      ++refused;
+      EXPECT_GE(std::atoi(retryAfter[i].c_str()), 1) << "503 without Retry-After";
+    }
+    EXPECT_TRUE(statuses[i] == 200 || statuses[i] == 503) << "client " << c << ": " << statuses[i];
+  }
+  EXPECT_GE(ok, 1);
+  EXPECT_GE(refused, 1);
+  EXPECT_LE(ok, kClients - 1);
+
+  // The server is alive and says what happened.
+  httplib::Client client = server.client();
+  auto stats = client.Get("/stats");
+  ASSERT_TRUE(stats);
+  const auto s = nlohmann::json::parse(stats->body);
+  EXPECT_EQ(s["queue"]["rejected_full"].get<int>() + s["queue"]["expired"].get<int>(), refused);
+  EXPECT_LE(s["queue"]["peak_queued"].get<int>(), 2);  // one idle context + a queue of one
+  auto frame = client.Get("/frame?lat=0&lon=0&alt=4e6&width=32&height=32");
+  ASSERT_TRUE(frame);
+  EXPECT_EQ(frame->status, 200);
+}
+
+TEST(Serve, AFrameNotDrawnBeforeItsDeadlineIs503) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  START_SERVER(server, dir, {"--workers", "1", "--deadline-s", "0.02"});
+  httplib::Client client = server.client();
+  // Far more than 20 ms of drawing on any CPU: 4096x4096 at half a pixel of tolerance.
+  auto res = client.Get("/frame?lat=0&lon=-70&alt=2e6&width=4096&height=4096&tolerance=0.5");
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 503) << res->body;
+  EXPECT_GE(std::atoi(res->get_header_value("Retry-After").c_str()), 1);
+  EXPECT_NE(res->body.find("deadline"), std::string::npos) << res->body;
+  // The context finishes that frame and goes on; the server still answers.
+  auto health = client.Get("/healthz");
+  ASSERT_TRUE(health);
+  EXPECT_EQ(health->status, 200);
+  const auto s = nlohmann::json::parse(client.Get("/stats")->body);
+  EXPECT_EQ(s["queue"]["expired"], 1);
+}
+
+TEST(Serve, SigtermFinishesInFlightFramesAndExitsZero) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  START_SERVER(server, dir, {"--workers", "1", "--queue", "4"});
+  constexpr int kClients = 2;
+  std::vector<int> statuses(kClients, -1);
+  std::vector<std::string> bodies(kClients);
+  std::vector<std::thread> clients;
+  for (int c = 0; c < kClients; ++c) {
+    clients.emplace_back([&, c] {
+      httplib::Client client = server.client();
+      auto res = client.Get("/frame?lat=" + std::to_string(10 * c) +
+                            "&lon=-70&alt=2e6&width=1280&height=960&tolerance=1");
+      if (!res) return;
+      statuses[static_cast<std::size_t>(c)] = res->status;
+      bodies[static_cast<std::size_t>(c)] = res->body;
+    });
+  }
+  // Wait until both are admitted and at least one is still queued or drawing, then SIGTERM.
+  httplib::Client watcher = server.client();
+  bool admitted = false;
+  for (int i = 0; i < 4000 && !admitted; ++i) {
+    auto stats = watcher.Get("/stats");
+    if (stats && stats->status == 200) {
+      const auto s = nlohmann::json::parse(stats->body);
+      const int inFlight = s["queue"]["rendering"].get<int>() + s["queue"]["queued"].get<int>();
+      admitted = inFlight >= 1 && inFlight + s["render"]["frames"].get<int>() >= kClients;
+    }
+    if (!admitted) std::this_thread::sleep_for(5ms);
+  }
+  ASSERT_TRUE(admitted);
+  ASSERT_EQ(::kill(server.pid(), SIGTERM), 0);
+  for (std::thread& t : clients) t.join();
+  for (int c = 0; c < kClients; ++c) {
+    const auto i = static_cast<std::size_t>(c);
+    EXPECT_EQ(statuses[i], 200) << "client " << c;
+    EXPECT_EQ(bodies[i].substr(0, 8), kPng) << "client " << c;
+  }
+  ASSERT_TRUE(server.waitExit(120s));
+  ASSERT_TRUE(server.exitStatus().has_value());
+  EXPECT_TRUE(WIFEXITED(*server.exitStatus())) << "killed by a signal";
+  EXPECT_EQ(WEXITSTATUS(*server.exitStatus()), 0);
+  EXPECT_NE(server.output().find("stopped (SIGTERM)"), std::string::npos) << server.output();
+  // And nothing listens any more.
+  httplib::Client after = server.client();
+  after.set_connection_timeout(2, 0);
+  EXPECT_FALSE(after.Get("/healthz"));
+}
+
+}  // namespace
+}  // namespace pbdam

@@ -1,0 +1,141 @@
+// `pbdam serve DIR`: exact-mode frames over HTTP with a web viewer (design.md §1; issue 6).
+// The command line, the start-up line, and graceful shutdown: SIGTERM/SIGINT are taken by a
+// signal thread (sigtimedwait; blocked in every other thread), which stops the listener; the
+// requests already accepted are answered before the process exits with 0.
+#include <signal.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include "Commands.h"
+#include "ServeServer.h"
+
+namespace pbdam::tools {
+namespace {
+
+struct ServeCliOptions {
+  std::string dir;
+  ServeOptions server;
+  bool quiet = false;
+};
+
+int badInput(const std::string& message) {
+  std::cerr << "pbdam: " << message << "\n";
+  return kExitBadInput;
+}
+
+int runServe(const ServeCliOptions& c) {
+  const ServeOptions& o = c.server;
+  if (o.port < 0 || o.port > 65535)
+    return badInput("--port must be in 0..65535 (0: any free port)");
+  if (o.workers < 1 || o.workers > 64) return badInput("--workers must be in 1..64");
+  if (o.queueCapacity > 4096) return badInput("--queue must be in 0..4096");
+  if (!std::isfinite(o.gpuCacheMiB) || o.gpuCacheMiB <= 0.0 || o.gpuCacheMiB > 1048576.0) {
+    return badInput("--gpu-cache-mb must be a positive number of MiB");
+  }
+  if (!std::isfinite(o.deadlineSeconds) || o.deadlineSeconds <= 0.0 || o.deadlineSeconds > 3600.0) {
+    return badInput("--deadline-s must be in (0, 3600] seconds");
+  }
+  if (o.device < -1) return badInput("--device must be a device index (pbdam devices)");
+  if (o.bindAddress.empty()) return badInput("--bind must name a local address");
+
+  // Before any thread exists (TBB, lavapipe, httplib, the render contexts), so that every
+  // thread inherits the mask and only the signal thread below sees SIGTERM/SIGINT.
+  sigset_t stopSignals;
+  sigemptyset(&stopSignals);
+  sigaddset(&stopSignals, SIGTERM);
+  sigaddset(&stopSignals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &stopSignals, nullptr);
+  ::signal(SIGPIPE, SIG_IGN);  // a client that hangs up is a failed write, not a dead server
+
+  auto server = FrameServer::create(c.dir, o);
+  if (!server) return reportError(server.error());
+  auto port = (*server)->bind();
+  if (!port) return reportError(port.error());
+  if (!c.quiet) {
+    std::printf(
+        "pbdam serve: http://%s:%d/ (dataset %s; %u render contexts on %s, queue %u, GPU cache "
+        "%.0f MiB split between them, deadline %.1f s)\n",
+        o.bindAddress.find(':') != std::string::npos ? ("[" + o.bindAddress + "]").c_str()
+                                                     : o.bindAddress.c_str(),
+        *port, c.dir.c_str(), o.workers, (*server)->deviceName().c_str(), o.queueCapacity,
+        o.gpuCacheMiB, o.deadlineSeconds);
+    std::fflush(stdout);
+  }
+
+  std::atomic<bool> finished{false};
+  std::atomic<int> caught{0};
+  FrameServer* raw = server->get();
+  std::thread signals([&] {
+    const timespec poll{0, 200'000'000};
+    while (!finished.load()) {
+      const int sig = sigtimedwait(&stopSignals, nullptr, &poll);
+      if (sig == SIGTERM || sig == SIGINT) {
+        caught = sig;
+        raw->stop();
+        return;
+      }
+    }
+  });
+  Result<void> ran = (*server)->run();
+  finished = true;
+  signals.join();
+  if (!ran) return reportError(ran.error());
+  if (!c.quiet) {
+    std::printf("pbdam serve: stopped%s after %llu requests\n",
+                caught == SIGTERM  ? " (SIGTERM)"
+                : caught == SIGINT ? " (SIGINT)"
+                                   : "",
+                static_cast<unsigned long long>((*server)->requestsServed()));
+    std::fflush(stdout);
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+void addServeCommand(CLI::App& app, CommandStatus& status) {
+  auto o = std::make_shared<ServeCliOptions>();
+  CLI::App* serve = app.add_subcommand(
+      "serve",
+      "Serve exact-mode frames over HTTP: GET /frame?lat=&lon=&alt=[&heading=&pitch=&roll="
+      "&width=&height=&fov=&tolerance=&format=png|jpeg] (PNG/JPEG), /height?lat=&lon=, /info, "
+      "/stats, /healthz (JSON), and a web viewer at /. SIGTERM/SIGINT stop it after the "
+      "requests in flight");
+  serve->add_option("DIR", o->dir, "Dataset directory (pbdam build --out)")->required();
+  serve->add_option("--bind", o->server.bindAddress, "Address to listen on (loopback by default)")
+      ->capture_default_str();
+  serve->add_option("--port", o->server.port, "TCP port; 0 picks a free one (printed)")
+      ->capture_default_str();
+  serve
+      ->add_option("--workers", o->server.workers,
+                   "Render contexts: renderers drawing in parallel over one Vulkan device and "
+                   "one mapping of the dataset")
+      ->capture_default_str();
+  serve
+      ->add_option("--queue", o->server.queueCapacity,
+                   "Frame requests that may wait for a busy render context; beyond that: 503 "
+                   "with Retry-After")
+      ->capture_default_str();
+  serve
+      ->add_option("--gpu-cache-mb", o->server.gpuCacheMiB,
+                   "GPU cache budget in MiB, split evenly between the render contexts")
+      ->capture_default_str();
+  serve
+      ->add_option("--deadline-s", o->server.deadlineSeconds,
+                   "Per-request deadline for /frame (queueing and drawing): 503 when missed")
+      ->capture_default_str();
+  serve->add_option("--device", o->server.device,
+                    "Vulkan device index (pbdam devices); default: lavapipe");
+  serve->add_flag("--log", o->server.logRequests, "One line per request on stdout");
+  serve->add_flag("--quiet", o->quiet, "No start-up and shutdown lines");
+  serve->callback([o, &status] { status.exitCode = runServe(*o); });
+}
+
+}  // namespace pbdam::tools

@@ -1,0 +1,210 @@
+// Render contexts and the bounded request queue of `pbdam serve` (ServeRenderPool.h).
+#include "ServeRenderPool.h"
+
+#include <algorithm>
+#include <exception>
+#include <future>
+#include <string>
+
+#include "pbdam/runtime/Refinement.h"
+
+namespace pbdam::tools {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double millisecondsBetween(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double, std::milli>(b - a).count();
+}
+
+}  // namespace
+
+struct RenderPool::Job {
+  FrameRequest request;
+  Clock::time_point deadline;
+  Clock::time_point enqueued;
+  std::promise<FrameOutcome> promise;
+  // Guarded by RenderPool::mutex_.
+  bool done = false;  ///< the worker has finished with it (promise about to be set)
+};
+
+RenderPool::RenderPool(const MappedDataset& dataset, const RenderPoolOptions& options)
+    : dataset_(dataset), options_(options) {}
+
+Result<std::unique_ptr<RenderPool>> RenderPool::create(const MappedDataset& dataset,
+                                                       const RenderPoolOptions& options) {
+  if (options.workers == 0) return makeError(ErrorCode::InvalidArgument, "--workers must be >= 1");
+  std::unique_ptr<RenderPool> pool(new RenderPool(dataset, options));
+  gpu::ContextOptions contextOptions;
+  contextOptions.deviceIndex = options.deviceIndex;
+  auto context = gpu::VulkanContext::create(contextOptions);
+  if (!context) return std::move(context).error();
+  pool->context_.emplace(std::move(*context));
+  pool->deviceName_ = pool->context_->deviceInfo().name;
+
+  const std::uint64_t perWorker = options.gpuCacheBytes / options.workers;
+  const std::uint64_t minimum =
+      gpu::TerrainRenderer::minimumCacheBytes(*pool->context_, dataset.view());
+  if (perWorker < minimum) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "--gpu-cache-mb: " + std::to_string(options.gpuCacheBytes) + " bytes over " +
+                         std::to_string(options.workers) + " render contexts leaves " +
+                         std::to_string(perWorker) + " bytes each, below the minimum of " +
+                         std::to_string(minimum) + " bytes (one patch slot and one tile)");
+  }
+  gpu::TerrainRendererOptions rendererOptions;
+  rendererOptions.widthPixels = options.initialWidthPixels;
+  rendererOptions.heightPixels = options.initialHeightPixels;
+  rendererOptions.gpuCacheBytes = perWorker;
+  // A cut over the budget is still the exact frame (drawn in passes); /stats counts them.
+  rendererOptions.warnWhenBudgetExceeded = false;
+  for (std::uint32_t i = 0; i < options.workers; ++i) {
+    auto renderer = gpu::TerrainRenderer::create(*pool->context_, dataset.view(), rendererOptions);
+    if (!renderer) return std::move(renderer).error();
+    pool->renderers_.push_back(std::move(*renderer));
+  }
+  pool->residentPerWorker_.assign(options.workers, 0);
+  pool->stats_.workers = options.workers;
+  pool->stats_.queueCapacity = options.queueCapacity;
+  pool->stats_.cacheBudgetBytes = perWorker * options.workers;
+  pool->stats_.cacheBudgetBytesPerWorker = perWorker;
+  for (std::uint32_t i = 0; i < options.workers; ++i) {
+    pool->threads_.emplace_back([p = pool.get(), i] { p->workerLoop(i); });
+  }
+  return pool;
+}
+
+RenderPool::~RenderPool() { shutdown(); }
+
+void RenderPool::shutdown() {
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    if (joined_) return;
+    stopping_ = true;
+  }
+  wake_.notify_all();
+  for (std::thread& t : threads_) t.join();
+  const std::lock_guard<std::mutex> lock(mutex_);
+  joined_ = true;
+}
+
+FrameOutcome RenderPool::render(const FrameRequest& request, Clock::time_point deadline) {
+  auto job = std::make_shared<Job>();
+  job->request = request;
+  job->deadline = deadline;
+  job->enqueued = Clock::now();
+  std::future<FrameOutcome> result = job->promise.get_future();
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    if (stopping_) return {FrameRefusal::ShuttingDown, std::nullopt};
+    // Room for every idle context plus the queue: requests beyond that are refused at once.
+    const std::size_t idle = stats_.workers - stats_.rendering;
+    if (queue_.size() >= idle + options_.queueCapacity) {
+      ++stats_.rejectedQueueFull;
+      return {FrameRefusal::QueueFull, std::nullopt};
+    }
+    queue_.push_back(job);
+    const auto waiting = static_cast<std::uint32_t>(queue_.size());
+    stats_.peakQueued = std::max(stats_.peakQueued, waiting);
+  }
+  wake_.notify_one();
+  if (result.wait_until(deadline) == std::future_status::ready) return result.get();
+
+  std::unique_lock<std::mutex> lock(mutex_);
+  if (auto it = std::find(queue_.begin(), queue_.end(), job); it != queue_.end()) {
+    queue_.erase(it);
+    ++stats_.expired;
+    return {FrameRefusal::Deadline, std::nullopt};
+  }
+  if (job->done) {
+    lock.unlock();
+    return result.get();
+  }
+  // Being drawn: its context finishes the frame, which nobody waits for any more.
+  ++stats_.expired;
+  return {FrameRefusal::Deadline, std::nullopt};
+}
+
+void RenderPool::workerLoop(std::uint32_t index) {
+  gpu::TerrainRenderer& renderer = renderers_[index];
+  const DatasetView& view = dataset_.view();
+  for (;;) {
+    std::shared_ptr<Job> job;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      wake_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
+      if (queue_.empty()) return;  // stopping, and nothing left to draw
+      job = std::move(queue_.front());
+      queue_.pop_front();
+      if (Clock::now() >= job->deadline) {
+        ++stats_.expired;
+        job->done = true;
+        lock.unlock();
+        job->promise.set_value({FrameRefusal::Deadline, std::nullopt});
+        continue;
+      }
+      ++stats_.rendering;
+    }
+
+    const auto start = Clock::now();
+    Result<FrameResult> frame = makeError(ErrorCode::Internal, "frame not drawn");
+    try {
+      const FrameRequest& r = job->request;
+      if (Result<void> resized = renderer.resize(r.viewport.width, r.viewport.height); !resized) {
+        frame = std::move(resized).error();
+      } else {
+        const Camera camera = Camera::fromPose(view.planet(), r.pose, r.viewport);
+        RefinementOptions refinement;
+        refinement.tolerancePixels = r.tolerancePixels;
+        const Cut cut = refine(view, camera, refinement);
+        const double traversalMs = millisecondsBetween(start, Clock::now());
+        Result<gpu::RenderedFrame> drawn = renderer.render(cut, camera);
+        if (!drawn) {
+          frame = std::move(drawn).error();
+        } else {
+          FrameResult out;
+          out.image = std::move(drawn->image);
+          out.stats = drawn->stats;
+          out.queueMs = millisecondsBetween(job->enqueued, start);
+          out.traversalMs = traversalMs;
+          out.worker = index;
+          frame = std::move(out);
+        }
+      }
+    } catch (const std::exception& e) {
+      // std::bad_alloc for a huge frame, say: the request fails, the server goes on.
+      frame = makeError(ErrorCode::Internal, std::string("render failed: ") + e.what());
+    }
+
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      --stats_.rendering;
+      job->done = true;
+      if (frame) {
+        ++stats_.frames;
+        stats_.renderMsTotal += millisecondsBetween(start, Clock::now());
+        stats_.queueMsTotal += frame->queueMs;
+        stats_.hits += frame->stats.hits;
+        stats_.misses += frame->stats.misses;
+        stats_.evictions += frame->stats.evictions;
+        stats_.bytesUploaded += frame->stats.bytesUploaded;
+        if (frame->stats.budgetExceeded) ++stats_.multiPassFrames;
+      } else {
+        ++stats_.renderErrors;
+      }
+      residentPerWorker_[index] = renderer.residentBytes();
+    }
+    job->promise.set_value({FrameRefusal::None, std::move(frame)});
+  }
+}
+
+RenderPoolStats RenderPool::stats() const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  RenderPoolStats s = stats_;
+  s.queued = static_cast<std::uint32_t>(queue_.size());
+  s.residentBytes = 0;
+  for (const std::uint64_t bytes : residentPerWorker_) s.residentBytes += bytes;
+  return s;
+}
+
+}  // namespace pbdam::tools

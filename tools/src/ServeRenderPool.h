@@ -1,0 +1,136 @@
+// The render contexts of `pbdam serve`: N worker threads, each owning a TerrainRenderer with its
+// own GPU cache (the budget split N ways), all created from ONE VulkanContext (device, queue) and
+// drawing ONE shared read-only dataset mapping; a bounded FIFO of frame requests in front of them,
+// each with a deadline. docs/decisions.md "pbdam serve" says why the GPU cache is split rather
+// than shared. Thread-safety: every public member is thread-safe.
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <vector>
+
+#include "pbdam/formats/Result.h"
+#include "pbdam/gpu/RgbaImage.h"
+#include "pbdam/gpu/TerrainRenderer.h"
+#include "pbdam/gpu/VulkanContext.h"
+#include "pbdam/runtime/Camera.h"
+#include "pbdam/streaming/MappedDataset.h"
+
+namespace pbdam::tools {
+
+/// One exact-mode frame to draw.
+struct FrameRequest final {
+  CameraPose pose;
+  Viewport viewport;
+  double tolerancePixels = 3.0;
+};
+
+/// A drawn frame and what it cost.
+struct FrameResult final {
+  gpu::RgbaImage image;
+  gpu::FrameStats stats;
+  double queueMs = 0.0;      ///< waiting for a render context
+  double traversalMs = 0.0;  ///< refinement (the cut)
+  std::uint32_t worker = 0;  ///< which render context drew it
+};
+
+/// Why a frame was not drawn, when it was not (besides a render error).
+enum class FrameRefusal {
+  None,
+  QueueFull,     ///< every context busy and the queue at capacity: 503 + Retry-After
+  Deadline,      ///< not drawn before the request's deadline: 503 + Retry-After
+  ShuttingDown,  ///< the server is stopping: 503
+};
+
+/// What RenderPool::render gives back: a frame, a refusal, or the renderer's error.
+struct FrameOutcome final {
+  FrameRefusal refusal = FrameRefusal::None;
+  std::optional<Result<FrameResult>> frame;  ///< set when refusal == None
+};
+
+/// Figures for GET /stats.
+struct RenderPoolStats final {
+  std::uint32_t workers = 0;
+  std::uint32_t queueCapacity = 0;
+  std::uint32_t queued = 0;     ///< waiting now
+  std::uint32_t rendering = 0;  ///< being drawn now
+  std::uint32_t peakQueued = 0;
+  std::uint64_t frames = 0;  ///< drawn successfully
+  std::uint64_t renderErrors = 0;
+  std::uint64_t rejectedQueueFull = 0;
+  std::uint64_t expired = 0;  ///< answered 503: deadline passed while queued or drawing
+  double renderMsTotal = 0.0;
+  double queueMsTotal = 0.0;
+  // GPU caches, summed over the contexts.
+  std::uint64_t cacheBudgetBytes = 0;
+  std::uint64_t cacheBudgetBytesPerWorker = 0;
+  std::uint64_t residentBytes = 0;
+  std::uint64_t hits = 0;
+  std::uint64_t misses = 0;
+  std::uint64_t evictions = 0;
+  std::uint64_t bytesUploaded = 0;
+  std::uint64_t multiPassFrames = 0;  ///< cuts over a context's budget (drawn in passes)
+};
+
+struct RenderPoolOptions final {
+  std::uint32_t workers = 2;
+  std::uint32_t queueCapacity = 8;
+  std::uint64_t gpuCacheBytes = std::uint64_t{256} << 20;  ///< all contexts together
+  std::optional<std::uint32_t> deviceIndex;                ///< unset: lavapipe
+  std::uint32_t initialWidthPixels = 640;
+  std::uint32_t initialHeightPixels = 480;
+};
+
+class RenderPool final {
+ public:
+  /// Creates the Vulkan context and the workers' renderers; `dataset` must outlive the pool.
+  /// InvalidArgument when the per-context budget is below TerrainRenderer's minimum (the
+  /// message names both), DeviceError for Vulkan failures.
+  static Result<std::unique_ptr<RenderPool>> create(const MappedDataset& dataset,
+                                                    const RenderPoolOptions& options);
+
+  RenderPool(const RenderPool&) = delete;
+  RenderPool& operator=(const RenderPool&) = delete;
+  /// Calls shutdown().
+  ~RenderPool();
+
+  /// Queues `request` and blocks until a context has drawn it, the deadline passes, or the pool
+  /// is shut down. Never waits for room in the queue: a full queue is refused at once. The
+  /// request's viewport and pose must be valid (validateViewport, validateCameraPose).
+  FrameOutcome render(const FrameRequest& request, std::chrono::steady_clock::time_point deadline);
+
+  /// Refuses new requests, lets the workers finish what is queued and in flight, joins them.
+  /// Idempotent.
+  void shutdown();
+
+  RenderPoolStats stats() const;
+  const std::string& deviceName() const noexcept { return deviceName_; }
+
+ private:
+  struct Job;
+  RenderPool(const MappedDataset& dataset, const RenderPoolOptions& options);
+  void workerLoop(std::uint32_t index);
+
+  const MappedDataset& dataset_;
+  RenderPoolOptions options_;
+  std::string deviceName_;
+  std::optional<gpu::VulkanContext> context_;
+  std::vector<gpu::TerrainRenderer> renderers_;
+  std::vector<std::uint64_t> residentPerWorker_;
+  std::vector<std::thread> threads_;
+
+  mutable std::mutex mutex_;
+  std::condition_variable wake_;
+  std::deque<std::shared_ptr<Job>> queue_;
+  bool stopping_ = false;
+  bool joined_ = false;
+  RenderPoolStats stats_;
+};
+
+}  // namespace pbdam::tools

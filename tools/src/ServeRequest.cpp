@@ -1,0 +1,169 @@
+// Query-string validation for `pbdam serve` (ServeRequest.h).
+#include "ServeRequest.h"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <initializer_list>
+#include <optional>
+#include <string_view>
+
+namespace pbdam::tools {
+namespace {
+
+Error bad(const std::string& message) { return makeError(ErrorCode::InvalidArgument, message); }
+
+/// A short, printable echo of a client's value for error messages.
+std::string shown(std::string_view value) {
+  std::string out;
+  for (const char c : value.substr(0, 40)) {
+    out += (c >= 0x20 && c < 0x7f && c != '"' && c != '\\') ? c : '?';
+  }
+  if (value.size() > 40) out += "...";
+  return out;
+}
+
+/// Every name in `params` is one of `allowed` and appears once.
+Result<void> checkNames(const QueryParams& params,
+                        std::initializer_list<std::string_view> allowed) {
+  for (auto it = params.begin(); it != params.end(); it = params.upper_bound(it->first)) {
+    if (std::find(allowed.begin(), allowed.end(), it->first) == allowed.end()) {
+      std::string list;
+      for (const std::string_view name : allowed) {
+        if (!list.empty()) list += ", ";
+        list += name;
+      }
+      return bad("unknown parameter '" + shown(it->first) + "' (expected " + list + ")");
+    }
+    if (params.count(it->first) > 1) return bad("parameter '" + it->first + "' given twice");
+  }
+  return {};
+}
+
+std::optional<std::string> value(const QueryParams& params, const std::string& name) {
+  const auto it = params.find(name);
+  if (it == params.end()) return std::nullopt;
+  return it->second;
+}
+
+/// A finite decimal number making up the whole value.
+Result<double> number(const QueryParams& params, const std::string& name,
+                      std::optional<double> fallback) {
+  const std::optional<std::string> text = value(params, name);
+  if (!text) {
+    if (fallback) return *fallback;
+    return bad("missing parameter '" + name + "'");
+  }
+  double v = 0.0;
+  const char* begin = text->data();
+  const char* end = begin + text->size();
+  const auto [ptr, ec] = std::from_chars(begin, end, v);
+  if (text->empty() || ec != std::errc() || ptr != end) {
+    return bad("parameter '" + name + "': '" + shown(*text) + "' is not a number");
+  }
+  if (!std::isfinite(v)) return bad("parameter '" + name + "' must be finite");
+  return v;
+}
+
+/// A decimal integer in [lo, hi] making up the whole value.
+Result<std::uint32_t> integer(const QueryParams& params, const std::string& name,
+                              std::uint32_t fallback, std::uint32_t lo, std::uint32_t hi) {
+  const std::optional<std::string> text = value(params, name);
+  if (!text) return fallback;
+  std::uint64_t v = 0;
+  const char* begin = text->data();
+  const char* end = begin + text->size();
+  const auto [ptr, ec] = std::from_chars(begin, end, v);
+  if (text->empty() || ptr != end || (ec != std::errc() && ec != std::errc::result_out_of_range)) {
+    return bad("parameter '" + name + "': '" + shown(*text) + "' is not a whole number");
+  }
+  if (ec == std::errc::result_out_of_range || v < lo || v > hi) {
+    return bad("parameter '" + name + "' must be in " + std::to_string(lo) + ".." +
+               std::to_string(hi));
+  }
+  return static_cast<std::uint32_t>(v);
+}
+
+Result<double> inRange(Result<double> v, const std::string& name, double lo, double hi) {
+  if (!v) return v;
+  if (*v < lo || *v > hi) {
+    char text[128];
+    std::snprintf(text, sizeof text, "parameter '%s' must be in [%g, %g]", name.c_str(), lo, hi);
+    return bad(text);
+  }
+  return v;
+}
+
+}  // namespace
+
+Result<FrameQuery> parseFrameQuery(const QueryParams& params, const Planet& planet) {
+  if (auto r = checkNames(params, {"lat", "lon", "alt", "heading", "pitch", "roll", "width",
+                                   "height", "fov", "tolerance", "format", "quality"});
+      !r) {
+    return std::move(r).error();
+  }
+  FrameQuery q;
+  CameraPose& pose = q.request.pose;
+  auto lat = inRange(number(params, "lat", std::nullopt), "lat", -90.0, 90.0);
+  if (!lat) return std::move(lat).error();
+  auto lon = inRange(number(params, "lon", std::nullopt), "lon", -360.0, 360.0);
+  if (!lon) return std::move(lon).error();
+  auto alt = number(params, "alt", std::nullopt);
+  if (!alt) return std::move(alt).error();
+  auto heading = inRange(number(params, "heading", 0.0), "heading", -360.0, 360.0);
+  if (!heading) return std::move(heading).error();
+  auto pitch = inRange(number(params, "pitch", -90.0), "pitch", -90.0, 90.0);
+  if (!pitch) return std::move(pitch).error();
+  auto roll = inRange(number(params, "roll", 0.0), "roll", -360.0, 360.0);
+  if (!roll) return std::move(roll).error();
+  pose = {*lat, *lon, *alt, *heading, *pitch, *roll};
+  if (auto r = validateCameraPose(pose, planet); !r) {
+    return bad("parameter 'alt': " + r.error().message);  // lat, lon, angles checked above
+  }
+
+  auto width = integer(params, "width", 640, 1, kMaxFrameSidePixels);
+  if (!width) return std::move(width).error();
+  auto height = integer(params, "height", 480, 1, kMaxFrameSidePixels);
+  if (!height) return std::move(height).error();
+  auto fov = number(params, "fov", 60.0);
+  if (!fov) return std::move(fov).error();
+  if (*fov <= 0.0 || *fov >= 179.0) return bad("parameter 'fov' must be in (0, 179) degrees");
+  q.request.viewport = {*width, *height, *fov};
+  auto tolerance = inRange(number(params, "tolerance", 3.0), "tolerance", kMinTolerancePixels,
+                           kMaxTolerancePixels);
+  if (!tolerance) return std::move(tolerance).error();
+  q.request.tolerancePixels = *tolerance;
+
+  const std::string format = value(params, "format").value_or("png");
+  if (format == "png") {
+    q.encoding = FrameEncoding::Png;
+  } else if (format == "jpeg" || format == "jpg") {
+    q.encoding = FrameEncoding::Jpeg;
+  } else {
+    return bad("parameter 'format': '" + shown(format) + "' is not png or jpeg");
+  }
+  auto quality = integer(params, "quality", 90, 1, 100);
+  if (!quality) return std::move(quality).error();
+  if (q.encoding == FrameEncoding::Png && params.count("quality") != 0) {
+    return bad("parameter 'quality' applies to format=jpeg only");
+  }
+  q.jpegQuality = static_cast<int>(*quality);
+  return q;
+}
+
+Result<HeightQuery> parseHeightQuery(const QueryParams& params) {
+  if (auto r = checkNames(params, {"lat", "lon"}); !r) return std::move(r).error();
+  auto lat = inRange(number(params, "lat", std::nullopt), "lat", -90.0, 90.0);
+  if (!lat) return std::move(lat).error();
+  auto lon = inRange(number(params, "lon", std::nullopt), "lon", -360.0, 360.0);
+  if (!lon) return std::move(lon).error();
+  return HeightQuery{*lat, *lon};
+}
+
+Result<void> expectNoParams(const QueryParams& params) {
+  if (params.empty()) return {};
+  return bad("unknown parameter '" + shown(params.begin()->first) + "' (this endpoint takes none)");
+}
+
+}  // namespace pbdam::tools

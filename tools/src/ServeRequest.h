@@ -1,0 +1,53 @@
+// Query-string validation for `pbdam serve`: every parameter of GET /frame and GET /height parsed
+// strictly (whole-string numbers, finite, in range; unknown or repeated names refused), so that
+// a bad request becomes a 400 naming the parameter and never reaches the renderer.
+// Thread-safety: pure functions.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+
+#include "FrameImage.h"
+#include "ServeRenderPool.h"
+#include "pbdam/formats/Result.h"
+#include "pbdam/runtime/Planet.h"
+
+namespace pbdam::tools {
+
+/// Query parameters as httplib gives them (name → value, names may repeat).
+using QueryParams = std::multimap<std::string, std::string>;
+
+/// Limits of GET /frame.
+inline constexpr std::uint32_t kMaxFrameSidePixels = 4096;
+inline constexpr double kMinTolerancePixels = 0.5;
+inline constexpr double kMaxTolerancePixels = 1000.0;
+
+/// GET /frame, validated.
+struct FrameQuery final {
+  FrameRequest request;
+  FrameEncoding encoding = FrameEncoding::Png;
+  int jpegQuality = 90;
+};
+
+/// GET /height, validated.
+struct HeightQuery final {
+  double latDegrees = 0.0;
+  double lonDegrees = 0.0;
+};
+
+/// Parses lat, lon, alt (required), heading (0), pitch (-90), roll (0), width (640), height
+/// (480), fov (60), tolerance (3), format (png|jpeg), quality (90, JPEG only). InvalidArgument
+/// naming the parameter for anything missing, unknown, repeated, not a finite number, or out of
+/// range (width/height 1..4096, fov (0, 179), tolerance 0.5..1000, the camera as
+/// validateCameraPose on `planet`, heading/roll within ±360).
+Result<FrameQuery> parseFrameQuery(const QueryParams& params, const Planet& planet);
+
+/// Parses lat (±90) and lon (±360), both required; nothing else is accepted.
+Result<HeightQuery> parseHeightQuery(const QueryParams& params);
+
+/// InvalidArgument naming the first parameter when `params` is not empty (endpoints that take
+/// none).
+Result<void> expectNoParams(const QueryParams& params);
+
+}  // namespace pbdam::tools

@@ -1,0 +1,535 @@
+// The HTTP side of `pbdam serve` (ServeServer.h).
+#include "ServeServer.h"
+
+#include <httplib.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <deque>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "FrameImage.h"
+#include "ServeRequest.h"
+#include "ServeViewerHtml.h"
+#include "pbdam/runtime/SurfaceQuery.h"
+#include "pbdam/streaming/MappedDataset.h"
+
+namespace pbdam::tools {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using Json = nlohmann::ordered_json;
+
+/// httplib's connection pool with a bound: at most `maxPending` accepted connections wait for a
+/// thread; beyond that the accept loop blocks, so further clients wait in the kernel's listen
+/// backlog instead of in our memory. (httplib's own ThreadPool queues without limit.)
+class BoundedTaskQueue final : public httplib::TaskQueue {
+ public:
+  BoundedTaskQueue(std::size_t threads, std::size_t maxPending) : maxPending_(maxPending) {
+    for (std::size_t i = 0; i < threads; ++i) threads_.emplace_back([this] { work(); });
+  }
+  BoundedTaskQueue(const BoundedTaskQueue&) = delete;
+  BoundedTaskQueue& operator=(const BoundedTaskQueue&) = delete;
+  ~BoundedTaskQueue() override = default;
+
+  void enqueue(std::function<void()> fn) override {
+    std::unique_lock<std::mutex> lock(mutex_);
+    room_.wait(lock, [&] { return jobs_.size() < maxPending_ || shutdown_; });
+    jobs_.push_back(std::move(fn));
+    lock.unlock();
+    ready_.notify_one();
+  }
+
+  /// Runs every job already queued, then joins the threads.
+  void shutdown() override {
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      shutdown_ = true;
+    }
+    ready_.notify_all();
+    room_.notify_all();
+    for (std::thread& t : threads_) t.join();
+  }
+
+ private:
+  void work() {
+    for (;;) {
+      std::function<void()> fn;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        ready_.wait(lock, [&] { return !jobs_.empty() || shutdown_; });
+        if (jobs_.empty()) return;  // shut down and drained
+        fn = std::move(jobs_.front());
+        jobs_.pop_front();
+      }
+      room_.notify_one();
+      fn();
+    }
+  }
+
+  const std::size_t maxPending_;
+  std::mutex mutex_;
+  std::condition_variable ready_;
+  std::condition_variable room_;
+  std::deque<std::function<void()>> jobs_;
+  bool shutdown_ = false;
+  std::vector<std::thread> threads_;
+};
+
+const char* reasonPhrase(int status) {
+  switch (status) {
+    case 400:
+      return "Bad Request";
+    case 404:
+      return "Not Found";
+    case 405:
+      return "Method Not Allowed";
+    case 408:
+      return "Request Timeout";
+    case 413:
+      return "Payload Too Large";
+    case 414:
+      return "URI Too Long";
+    case 416:
+      return "Range Not Satisfiable";
+    case 500:
+      return "Internal Server Error";
+    case 503:
+      return "Service Unavailable";
+    default:
+      return status >= 500 ? "Server Error" : "Client Error";
+  }
+}
+
+void sendJson(httplib::Response& res, int status, const Json& body) {
+  res.status = status;
+  res.set_header("Cache-Control", "no-store");
+  res.set_content(body.dump() + "\n", "application/json");
+}
+
+void sendError(httplib::Response& res, int status, const std::string& message) {
+  Json j;
+  j["status"] = status;
+  j["error"] = reasonPhrase(status);
+  j["message"] = message;
+  sendJson(res, status, j);
+}
+
+/// HTTP status for a library error: the client's fault (4xx) or ours (5xx).
+int statusFor(const Error& error) {
+  switch (error.code) {
+    case ErrorCode::InvalidArgument:
+      return 400;
+    case ErrorCode::NotFound:
+      return 404;
+    default:
+      return 500;
+  }
+}
+
+std::uint64_t residentSetBytes() {
+  std::ifstream statm("/proc/self/statm");
+  std::uint64_t sizePages = 0, residentPages = 0;
+  if (!(statm >> sizePages >> residentPages)) return 0;
+  return residentPages * static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
+}
+
+constexpr const char* kKnownPaths[] = {"/", "/frame", "/height", "/info", "/stats", "/healthz"};
+
+bool knownPath(const std::string& path) {
+  for (const char* p : kKnownPaths) {
+    if (path == p) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+struct FrameServer::Impl {
+  ServeOptions options;
+  std::unique_ptr<MappedDataset> dataset;
+  std::unique_ptr<RenderPool> pool;
+  httplib::Server http;
+  Clock::time_point started = Clock::now();
+  std::uint32_t httpThreads = 0;
+  int port = 0;
+
+  std::atomic<bool> stopRequested{false};
+  std::atomic<bool> running{false};
+  std::mutex stopMutex;
+  std::condition_variable stopWake;
+
+  mutable std::mutex countersMutex;
+  std::map<int, std::uint64_t> responsesByStatus;
+  std::map<std::string, std::uint64_t> requestsByPath;
+  std::uint64_t requests = 0;
+  std::atomic<std::uint64_t> served{0};
+
+  Json info;  ///< GET /info, computed once
+
+  void routes();
+  void handleFrame(const httplib::Request& req, httplib::Response& res);
+  void handleHeight(const httplib::Request& req, httplib::Response& res) const;
+  Json statsJson() const;
+  int retryAfterSeconds() const;
+};
+
+int FrameServer::Impl::retryAfterSeconds() const {
+  // About the time the contexts need to work off a full queue, at least a second.
+  const RenderPoolStats s = pool->stats();
+  const double meanMs = s.frames > 0 ? s.renderMsTotal / static_cast<double>(s.frames) : 100.0;
+  const double backlogMs =
+      meanMs * static_cast<double>(s.queued + s.rendering) / static_cast<double>(s.workers);
+  return std::max(1, static_cast<int>(std::ceil(backlogMs / 1000.0)));
+}
+
+void FrameServer::Impl::handleFrame(const httplib::Request& req, httplib::Response& res) {
+  const auto received = Clock::now();
+  Result<FrameQuery> query = parseFrameQuery(req.params, dataset->view().planet());
+  if (!query) return sendError(res, 400, query.error().message);
+  const auto deadline = received + std::chrono::duration_cast<Clock::duration>(
+                                       std::chrono::duration<double>(options.deadlineSeconds));
+  FrameOutcome outcome = pool->render(query->request, deadline);
+  switch (outcome.refusal) {
+    case FrameRefusal::QueueFull:
+      res.set_header("Retry-After", std::to_string(retryAfterSeconds()));
+      return sendError(res, 503,
+                       "overloaded: every render context is busy and the queue of " +
+                           std::to_string(options.queueCapacity) + " requests is full");
+    case FrameRefusal::Deadline:
+      res.set_header("Retry-After", std::to_string(retryAfterSeconds()));
+      return sendError(res, 503,
+                       "deadline: the frame was not drawn within " +
+                           std::to_string(options.deadlineSeconds) + " s");
+    case FrameRefusal::ShuttingDown:
+      return sendError(res, 503, "the server is shutting down");
+    case FrameRefusal::None:
+      break;
+  }
+  Result<FrameResult>& frame = *outcome.frame;
+  if (!frame) return sendError(res, statusFor(frame.error()), frame.error().message);
+  const auto encodeStart = Clock::now();
+  auto bytes = encodeFrameImage(frame->image, query->encoding, query->jpegQuality);
+  if (!bytes) return sendError(res, 500, bytes.error().message);
+  const double encodeMs =
+      std::chrono::duration<double, std::milli>(Clock::now() - encodeStart).count();
+  const gpu::FrameStats& s = frame->stats;
+  char number[32];
+  const auto header = [&](const char* name, double v) {
+    std::snprintf(number, sizeof number, "%.3f", v);
+    res.set_header(name, number);
+  };
+  res.set_header("X-Pbdam-Patches", std::to_string(s.patches));
+  res.set_header("X-Pbdam-Triangles", std::to_string(s.triangles));
+  res.set_header("X-Pbdam-Tiles", std::to_string(s.tiles));
+  res.set_header("X-Pbdam-Context", std::to_string(frame->worker));
+  res.set_header("X-Pbdam-Cache-Hits", std::to_string(s.hits));
+  res.set_header("X-Pbdam-Cache-Misses", std::to_string(s.misses));
+  res.set_header("X-Pbdam-Passes", std::to_string(s.passes));
+  header("X-Pbdam-Queue-Ms", frame->queueMs);
+  header("X-Pbdam-Traversal-Ms", frame->traversalMs);
+  header("X-Pbdam-Frame-Ms", s.frameMs);
+  header("X-Pbdam-Encode-Ms", encodeMs);
+  res.set_header("Cache-Control", "no-store");
+  res.status = 200;
+  res.body.assign(reinterpret_cast<const char*>(bytes->data()), bytes->size());
+  res.set_header("Content-Type",
+                 query->encoding == FrameEncoding::Png ? "image/png" : "image/jpeg");
+}
+
+void FrameServer::Impl::handleHeight(const httplib::Request& req, httplib::Response& res) const {
+  Result<HeightQuery> query = parseHeightQuery(req.params);
+  if (!query) return sendError(res, 400, query.error().message);
+  const DatasetView& view = dataset->view();
+  auto h = surfaceHeightAt(view, query->latDegrees, query->lonDegrees);
+  if (!h) return sendError(res, statusFor(h.error()), h.error().message);
+  Json j;
+  j["lat"] = query->latDegrees;
+  j["lon"] = query->lonDegrees;
+  j["height_m"] = h->heightMeters;
+  j["error_m"] = h->leafErrorMeters;
+  j["measured_error_m"] = h->leafMeasuredErrorMeters;
+  j["planet"] = view.manifest().planetSpec;
+  j["face"] = h->leaf.face;
+  j["tree"] = h->leaf.tree;
+  j["node"] = h->leaf.heap;
+  sendJson(res, 200, j);
+}
+
+Json FrameServer::Impl::statsJson() const {
+  const RenderPoolStats s = pool->stats();
+  Json j;
+  j["uptime_s"] = std::chrono::duration<double>(Clock::now() - started).count();
+  {
+    const std::lock_guard<std::mutex> lock(countersMutex);
+    Json byStatus = Json::object();
+    for (const auto& [status, count] : responsesByStatus) byStatus[std::to_string(status)] = count;
+    Json byPath = Json::object();
+    for (const auto& [path, count] : requestsByPath) byPath[path] = count;
+    j["server"] = {{"requests", requests},
+                   {"responses", byStatus},
+                   {"paths", byPath},
+                   {"http_threads", httpThreads},
+                   {"rss_bytes", residentSetBytes()}};
+  }
+  j["queue"] = {{"capacity", s.queueCapacity},
+                {"queued", s.queued},
+                {"rendering", s.rendering},
+                {"peak_queued", s.peakQueued},
+                {"rejected_full", s.rejectedQueueFull},
+                {"expired", s.expired},
+                {"deadline_s", options.deadlineSeconds}};
+  const double frames = static_cast<double>(std::max<std::uint64_t>(1, s.frames));
+  j["render"] = {{"contexts", s.workers},
+                 {"device", pool->deviceName()},
+                 {"frames", s.frames},
+                 {"errors", s.renderErrors},
+                 {"mean_render_ms", s.frames > 0 ? s.renderMsTotal / frames : 0.0},
+                 {"mean_queue_ms", s.frames > 0 ? s.queueMsTotal / frames : 0.0},
+                 {"multi_pass_frames", s.multiPassFrames}};
+  const std::uint64_t lookups = s.hits + s.misses;
+  j["cache"] = {
+      {"budget_bytes", s.cacheBudgetBytes},
+      {"budget_bytes_per_context", s.cacheBudgetBytesPerWorker},
+      {"resident_bytes", s.residentBytes},
+      {"hits", s.hits},
+      {"misses", s.misses},
+      {"hit_rate", lookups > 0 ? static_cast<double>(s.hits) / static_cast<double>(lookups) : 0.0},
+      {"evictions", s.evictions},
+      {"bytes_uploaded", s.bytesUploaded}};
+  return j;
+}
+
+void FrameServer::Impl::routes() {
+  http.Get("/", [](const httplib::Request&, httplib::Response& res) {
+    res.set_header("Cache-Control", "no-store");
+    res.set_header("Content-Security-Policy",
+                   "default-src 'none'; img-src 'self' blob: data:; connect-src 'self'; "
+                   "script-src 'unsafe-inline'; style-src 'unsafe-inline'");
+    res.set_content(reinterpret_cast<const char*>(kViewerHtml), kViewerHtmlSize,
+                    "text/html; charset=utf-8");
+  });
+  http.Get("/frame",
+           [this](const httplib::Request& req, httplib::Response& res) { handleFrame(req, res); });
+  http.Get("/height",
+           [this](const httplib::Request& req, httplib::Response& res) { handleHeight(req, res); });
+  http.Get("/info", [this](const httplib::Request& req, httplib::Response& res) {
+    if (auto r = expectNoParams(req.params); !r) return sendError(res, 400, r.error().message);
+    sendJson(res, 200, info);
+  });
+  http.Get("/stats", [this](const httplib::Request& req, httplib::Response& res) {
+    if (auto r = expectNoParams(req.params); !r) return sendError(res, 400, r.error().message);
+    sendJson(res, 200, statsJson());
+  });
+  http.Get("/healthz", [this](const httplib::Request& req, httplib::Response& res) {
+    if (auto r = expectNoParams(req.params); !r) return sendError(res, 400, r.error().message);
+    if (stopRequested) return sendJson(res, 503, {{"status", "stopping"}});
+    sendJson(res, 200, {{"status", "ok"}});
+  });
+  // Every other method: 405 on our paths, 404 elsewhere.
+  const auto notAllowed = [](const httplib::Request& req, httplib::Response& res) {
+    if (!knownPath(req.path)) return sendError(res, 404, "no such path");
+    res.set_header("Allow", "GET, HEAD");
+    sendError(res, 405, "method " + req.method + " not allowed on " + req.path + " (GET only)");
+  };
+  http.Post(".*", notAllowed);
+  http.Put(".*", notAllowed);
+  http.Patch(".*", notAllowed);
+  http.Delete(".*", notAllowed);
+  http.Options(".*", notAllowed);
+
+  // Statuses httplib sets itself (no route, unparsable request, URI too long, ...) get the
+  // same JSON body as ours; responses that already have a body are left alone.
+  http.set_error_handler(
+      httplib::Server::HandlerWithResponse([](const httplib::Request&, httplib::Response& res) {
+        if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
+        std::string message;
+        switch (res.status) {
+          case 400:
+            message = "malformed request (not HTTP/1.x, an unsupported method or bad headers)";
+            break;
+          case 404:
+            message = "no such path (GET /, /frame, /height, /info, /stats, /healthz)";
+            break;
+          case 413:
+            message = "request body too large";
+            break;
+          case 414:
+            message = "request URI too long";
+            break;
+          default:
+            message = "request refused";
+            break;
+        }
+        sendError(res, res.status, message);
+        return httplib::Server::HandlerResponse::Handled;
+      }));
+  http.set_exception_handler(
+      [](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
+        std::string what = "internal error";
+        try {
+          if (ep) std::rethrow_exception(ep);
+        } catch (const std::exception& e) {
+          what = std::string("internal error: ") + e.what();
+        } catch (...) {
+        }
+        sendError(res, 500, what);
+      });
+  http.set_logger([this](const httplib::Request& req, const httplib::Response& res) {
+    {
+      const std::lock_guard<std::mutex> lock(countersMutex);
+      ++requests;
+      ++responsesByStatus[res.status];
+      ++requestsByPath[knownPath(req.path) ? req.path : std::string("other")];
+    }
+    served.fetch_add(1, std::memory_order_relaxed);
+    if (options.logRequests) {
+      std::printf("%s %s %d %zu\n", req.method.c_str(), req.path.c_str(), res.status,
+                  res.body.size());
+      std::fflush(stdout);
+    }
+  });
+}
+
+FrameServer::FrameServer(std::unique_ptr<Impl> impl) noexcept : impl_(std::move(impl)) {}
+FrameServer::~FrameServer() {
+  if (impl_ && impl_->pool) impl_->pool->shutdown();
+}
+
+Result<std::unique_ptr<FrameServer>> FrameServer::create(const std::string& directory,
+                                                         const ServeOptions& options) {
+  auto impl = std::make_unique<Impl>();
+  impl->options = options;
+  auto dataset = MappedDataset::open(directory);
+  if (!dataset) return std::move(dataset).error();
+  impl->dataset = std::move(*dataset);
+  RenderPoolOptions poolOptions;
+  poolOptions.workers = options.workers;
+  poolOptions.queueCapacity = options.queueCapacity;
+  poolOptions.gpuCacheBytes = static_cast<std::uint64_t>(options.gpuCacheMiB * 1048576.0);
+  if (options.device >= 0) poolOptions.deviceIndex = static_cast<std::uint32_t>(options.device);
+  auto pool = RenderPool::create(*impl->dataset, poolOptions);
+  if (!pool) return std::move(pool).error();
+  impl->pool = std::move(*pool);
+
+  const DatasetView& view = impl->dataset->view();
+  const Manifest& m = view.manifest();
+  std::uint64_t nodes = 0;
+  for (int f = 0; f < 6; ++f) nodes += view.face(f).header().nodeCount;
+  Json& info = impl->info;
+  info["dataset"] = impl->dataset->directory().filename().string();
+  info["planet"] = m.planetSpec;
+  info["equatorial_radius_m"] = m.equatorialRadiusMeters;
+  info["flattening"] = m.flattening;
+  info["source_dem"] = m.sourceDem;
+  info["min_height_m"] = m.minHeightMeters;
+  info["max_height_m"] = m.maxHeightMeters;
+  info["lattice_cells"] = m.latticeCells;
+  info["depth"] = m.depth;
+  info["patches"] = nodes;
+  info["texture_levels"] = m.textureLevels;
+  info["texture_format"] = m.textureFormat;
+  info["texture_source"] = m.textureSource;
+  info["bytes"] = impl->dataset->bytes();
+  info["frame"] = {{"max_side_px", kMaxFrameSidePixels},
+                   {"tolerance_px", {kMinTolerancePixels, kMaxTolerancePixels}},
+                   {"defaults",
+                    {{"heading", 0},
+                     {"pitch", -90},
+                     {"roll", 0},
+                     {"width", 640},
+                     {"height", 480},
+                     {"fov", 60},
+                     {"tolerance", 3},
+                     {"format", "png"}}}};
+  info["server"] = {{"contexts", options.workers},
+                    {"queue", options.queueCapacity},
+                    {"gpu_cache_mb", options.gpuCacheMiB},
+                    {"deadline_s", options.deadlineSeconds},
+                    {"device", impl->pool->deviceName()}};
+
+  // Enough connection threads that every admitted frame request (contexts + queue) can wait
+  // for its frame while a few more answer /stats, /healthz and the refusals.
+  impl->httpThreads = options.workers + options.queueCapacity + 8;
+  const std::size_t threads = impl->httpThreads;
+  impl->http.new_task_queue = [threads] { return new BoundedTaskQueue(threads, 4 * threads); };
+  impl->http.set_keep_alive_timeout(2);
+  impl->http.set_keep_alive_max_count(100);
+  impl->http.set_read_timeout(5, 0);
+  impl->http.set_write_timeout(5, 0);
+  impl->http.set_payload_max_length(64 * 1024);
+  impl->http.set_tcp_nodelay(true);
+  impl->routes();
+  return std::unique_ptr<FrameServer>(new FrameServer(std::move(impl)));
+}
+
+Result<int> FrameServer::bind() {
+  Impl& m = *impl_;
+  const int port =
+      m.options.port == 0
+          ? m.http.bind_to_any_port(m.options.bindAddress)
+          : (m.http.bind_to_port(m.options.bindAddress, m.options.port) ? m.options.port : -1);
+  if (port <= 0) {
+    return makeError(ErrorCode::IoError, "cannot listen on " + m.options.bindAddress + ":" +
+                                             std::to_string(m.options.port) +
+                                             " (address in use or not local?)");
+  }
+  m.port = port;
+  return port;
+}
+
+Result<void> FrameServer::run() {
+  Impl& m = *impl_;
+  // httplib's stop() only works on a running listener: a watcher calls it once the listener
+  // runs and a stop was asked for (stop() itself may come from a signal thread at any time).
+  m.running = true;
+  std::thread watcher([&m] {
+    std::unique_lock<std::mutex> lock(m.stopMutex);
+    m.stopWake.wait(lock, [&] { return m.stopRequested.load() || !m.running.load(); });
+    while (m.running.load() && !m.http.is_running()) {
+      m.stopWake.wait_for(lock, std::chrono::milliseconds(5));
+    }
+    if (m.running.load()) m.http.stop();
+  });
+  bool ok = true;
+  if (!m.stopRequested) ok = m.http.listen_after_bind();
+  {
+    const std::lock_guard<std::mutex> lock(m.stopMutex);
+    m.running = false;
+  }
+  m.stopWake.notify_all();
+  watcher.join();
+  // Every connection has been answered (httplib drains its task queue before returning); the
+  // contexts have nothing left to draw.
+  m.pool->shutdown();
+  if (!ok && !m.stopRequested) {
+    return makeError(ErrorCode::IoError,
+                     "the HTTP listener failed on port " + std::to_string(m.port));
+  }
+  return {};
+}
+
+void FrameServer::stop() {
+  {
+    const std::lock_guard<std::mutex> lock(impl_->stopMutex);
+    impl_->stopRequested = true;
+  }
+  impl_->stopWake.notify_all();
+}
+
+const std::string& FrameServer::deviceName() const noexcept { return impl_->pool->deviceName(); }
+
+std::uint64_t FrameServer::requestsServed() const noexcept { return impl_->served.load(); }
+
+}  // namespace pbdam::tools

@@ -1,0 +1,58 @@
+// The HTTP side of `pbdam serve` (design.md §1): cpp-httplib (Debian's libcpp-httplib) routes
+// GET /frame, /height, /info, /stats, /healthz and the embedded viewer page at /, turns every bad
+// request into a 4xx with a JSON body, and answers overload with 503 + Retry-After. Frames come
+// from a RenderPool over one mapping of the dataset. Thread-safety: stop() may be called from
+// any thread (the signal thread); the rest from the thread that owns the server.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "ServeRenderPool.h"
+#include "pbdam/formats/Result.h"
+
+namespace pbdam::tools {
+
+struct ServeOptions final {
+  std::string bindAddress = "127.0.0.1";
+  int port = 8080;  ///< 0: any free port (the bound one is returned by bind())
+  std::uint32_t workers = 2;
+  std::uint32_t queueCapacity = 8;
+  double gpuCacheMiB = 256.0;
+  double deadlineSeconds = 10.0;  ///< per /frame request: queueing and drawing together
+  int device = -1;                ///< Vulkan device index; -1: lavapipe
+  bool logRequests = false;       ///< one line per request on stdout
+};
+
+class FrameServer final {
+ public:
+  /// Maps the dataset at `directory` and creates the render contexts. Errors as
+  /// MappedDataset::open and RenderPool::create.
+  static Result<std::unique_ptr<FrameServer>> create(const std::string& directory,
+                                                     const ServeOptions& options);
+  ~FrameServer();
+  FrameServer(const FrameServer&) = delete;
+  FrameServer& operator=(const FrameServer&) = delete;
+
+  /// Binds the listening socket; returns the port (the chosen one for port 0). IoError naming
+  /// the address when it cannot be bound.
+  Result<int> bind();
+  /// Serves until stop(): returns once the listener is closed and every accepted connection
+  /// has been answered (in-flight frames are finished, not dropped).
+  Result<void> run();
+  /// Stops accepting connections; run() then returns after the in-flight requests. Safe from
+  /// any thread, any number of times.
+  void stop();
+  /// The render pool's device, for the start-up line.
+  const std::string& deviceName() const noexcept;
+  /// Requests answered so far.
+  std::uint64_t requestsServed() const noexcept;
+
+ private:
+  struct Impl;
+  explicit FrameServer(std::unique_ptr<Impl> impl) noexcept;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace pbdam::tools
