@@ -21,6 +21,7 @@
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <string>
 
 #include "BenchReport.h"
 #include "Commands.h"
@@ -63,6 +64,16 @@ std::uint64_t rssBytes() {
   std::uint64_t size = 0, resident = 0;
   statm >> size >> resident;
   return resident * static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
+}
+
+/// RssFile of /proc/self/status: file-backed resident bytes (mapped dataset pages, libraries).
+std::uint64_t rssFileBytes() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("RssFile:", 0) == 0) return std::stoull(line.substr(8)) * 1024;
+  }
+  return 0;
 }
 
 std::uint64_t residentDatasetPages(const MappedDataset& dataset) {
@@ -186,7 +197,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     prefetcher.emplace(**dataset, po);
   }
   const Viewport viewport{o.width, o.height, 60.0};
-  run.baselineRssBytes = rssBytes();
+  run.baselineRssFileBytes = rssFileBytes();
   std::uint64_t residentBefore = residentDatasetPages(**dataset);
   const auto page = static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
   for (std::size_t i = 0; i < path.size(); ++i) {
@@ -206,6 +217,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     f.traversalMs = msSince(t0);
     auto frame = renderer->render(cut, camera);
     if (!frame) return frame.error();
+    f.rssFileBytes = rssFileBytes();
     for (int face = 0; face < 6; ++face) (void)(*dataset)->faceFile(face).releaseResident();
     f.frameMs = msSince(t0);
     f.renderThreadMajorFaults = threadMajorFaults() - faults0;

@@ -30,6 +30,9 @@ struct BenchFrame final {
   std::uint64_t gpuHits = 0, gpuMisses = 0, gpuEvictions = 0;
   std::uint64_t rssBytes = 0;
   std::uint64_t gpuPoolBytes = 0;  ///< device memory of the GPU cache (host memory on lavapipe)
+  /// File-backed resident bytes of the process at the end of the frame, before the dataset
+  /// mappings are released: shared libraries (constant) plus the dataset pages the frame touched.
+  std::uint64_t rssFileBytes = 0;
 };
 
 /// One replay of the path with one prefetch setting.
@@ -42,9 +45,8 @@ struct BenchRun final {
   std::uint64_t datasetPages = 0;
   std::uint64_t prefetchRangesAdvised = 0;
   std::uint64_t prefetchBytesAdvised = 0;
-  /// RSS just before the first frame: the process with the Vulkan driver (lavapipe and its LLVM
-  /// JIT), the renderer and the dataset mapping set up, nothing of the dataset paged in yet.
-  std::uint64_t baselineRssBytes = 0;
+  /// File-backed RSS just before the first frame (shared libraries; no dataset page mapped yet).
+  std::uint64_t baselineRssFileBytes = 0;
   std::vector<BenchFrame> frames;
 };
 

@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# The large-data streaming benchmark (issue 5; paper 004 §6.2, Fig. 8): MOLA 4 px/deg upsampled
+# with deterministic fractal detail (bench/fractal_dem.cpp) into a P-BDAM dataset of >= 2 GB on
+# disk — far larger than any frame's working set — then the paper-like Mars flight
+# (bench/paths/mars_flight.csv, 58 s) replayed cold, in paging mode, with prefetch off and on,
+# side by side in one run; then the same flight in no-stall mode. Writes the reports under
+# OUTDIR/report-paging and OUTDIR/report-no-stall and prints their summaries.
+#   bench/large_data.sh [OUTDIR]          (default: build/large)
+# Environment: PBDAM_DATA_DIR (default ../shared/data), LARGE_WIDTH (fractal DEM columns,
+# default 16384: a 4096-cell lattice), LARGE_PATCH_VERTICES (default 800, the paper's ratio of
+# interior to leaf patch size), LARGE_THREADS (build threads, default all cores).
+# The DEM and the dataset are kept and reused when their parameters did not change.
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+"$root/scripts/setup.sh" release >/dev/null
+bin="$root/build/release"
+pbdam="$bin/tools/pbdam"
+data=${PBDAM_DATA_DIR:-"$root/../shared/data"}
+mola="$data/mars/megt90n000cb.lbl"
+[ -f "$mola" ] || { echo "large_data.sh: $mola not found (set PBDAM_DATA_DIR)" >&2; exit 2; }
+out=${1:-"$root/build/large"}
+width=${LARGE_WIDTH:-16384}
+pv=${LARGE_PATCH_VERTICES:-800}
+threads=${LARGE_THREADS:-0}
+mkdir -p "$out"
+
+dem="$out/mola_fractal_${width}.tif"
+if [ ! -f "$dem" ]; then
+  "$bin/bench/pbdam_fractal_dem" --dem "$mola" --out "$dem" --width "$width" --seed 1
+fi
+dataset="$out/mars_${width}_pv${pv}"
+if [ ! -f "$dataset/manifest.json" ]; then
+  /usr/bin/time -v "$pbdam" build --dem "$dem" --planet mars --patch-vertices "$pv" \
+    --threads "$threads" --out "$dataset" --force 2> >(tee "$out/build-time.txt" >&2)
+fi
+"$pbdam" info "$dataset"
+bytes=$(du -sb "$dataset" | cut -f1)
+echo "dataset: $dataset, $((bytes / 1048576)) MB on disk"
+if [ "$bytes" -lt 2000000000 ]; then
+  echo "large_data.sh: warning: the dataset is under 2 GB (raise LARGE_WIDTH)" >&2
+fi
+echo
+"$pbdam" bench "$dataset" --path "$root/bench/paths/mars_flight.csv" --out "$out/report-paging" \
+  --cold --prefetch both --mode paging --quiet
+echo
+"$pbdam" bench "$dataset" --path "$root/bench/paths/mars_flight.csv" \
+  --out "$out/report-no-stall" --cold --prefetch on --mode no-stall --quiet
+echo
+echo "reports: $out/report-paging/report.png, $out/report-no-stall/report.png"
