@@ -98,7 +98,9 @@ int runBuild(const BuildCliOptions& c) {
   std::unique_ptr<MpiJob> job;
   if (launchedByMpi()) {
     auto joined = joinMpiJob();
-    if (!joined) return reportError(joined.error());
+    if (!joined) {
+      return isMpiRankOtherThanZero() ? exitCodeOf(joined.error()) : reportError(joined.error());
+    }
     job = std::move(joined).value();
   }
   builder::Communicator* comm = job ? job->communicator : nullptr;

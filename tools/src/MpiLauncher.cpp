@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 
 namespace pbdam::tools {
@@ -14,6 +15,14 @@ bool launchedByMpi() noexcept {
   for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_SIZE"}) {
     const char* v = std::getenv(name);
     if (v != nullptr && *v != '\0') return true;
+  }
+  return false;
+}
+
+bool isMpiRankOtherThanZero() noexcept {
+  for (const char* name : {"OMPI_COMM_WORLD_RANK", "PMIX_RANK", "PMI_RANK"}) {
+    const char* v = std::getenv(name);
+    if (v != nullptr && *v != '\0') return std::strcmp(v, "0") != 0;
   }
   return false;
 }

@@ -14,6 +14,9 @@ namespace pbdam::tools {
 
 /// True when an MPI launcher (OpenMPI's mpirun/mpiexec, or a PMIx/PMI one) started this process.
 bool launchedByMpi() noexcept;
+/// True when an MPI launcher started this process as a rank other than 0 (which then keeps
+/// quiet about errors every rank finds alike, such as bad options).
+bool isMpiRankOtherThanZero() noexcept;
 
 /// The world communicator of the job, owned: destroying it finalises MPI. Errors: this pbdam
 /// was built without MPI (PBDAM_WITH_MPI=OFF), the module or the MPI library cannot be loaded,

@@ -321,7 +321,9 @@ class DistributedBuild {
     }
     text += " of " + std::to_string(count) + "); checkpointed: ";
     if (completeLevel_) {
-      text += "levels " + std::to_string(d_) + ".." + std::to_string(*completeLevel_);
+      text += *completeLevel_ == d_
+                  ? "level " + std::to_string(d_)
+                  : "levels " + std::to_string(d_) + ".." + std::to_string(*completeLevel_);
       if (textureComplete_) text += " and the textures";
     } else {
       text += "nothing yet";
