@@ -39,13 +39,13 @@ class MpiCommunicator final : public Communicator {
     return std::string(name, static_cast<std::size_t>(length));
   }
 
-  std::vector<std::vector<std::byte>> allGather(std::span<const std::byte> mine) override {
+  std::vector<std::vector<std::byte>> allGather(std::vector<std::byte> mine) override {
     const auto sizes = allSizes(mine.size());
     std::vector<std::vector<std::byte>> all(static_cast<std::size_t>(size_));
     for (int r = 0; r < size_; ++r) {
       auto& bytes = all[static_cast<std::size_t>(r)];
       if (r == rank_) {
-        bytes.assign(mine.begin(), mine.end());
+        bytes = std::move(mine);
       } else {
         bytes.resize(sizes[static_cast<std::size_t>(r)]);
       }
@@ -54,7 +54,7 @@ class MpiCommunicator final : public Communicator {
     return all;
   }
 
-  std::vector<std::vector<std::byte>> gatherToRoot(std::span<const std::byte> mine) override {
+  std::vector<std::vector<std::byte>> gatherToRoot(std::vector<std::byte> mine) override {
     // Sizes go to rank 0; then each rank sends its bytes in pieces.
     std::uint64_t size = mine.size();
     std::vector<std::uint64_t> sizes(rank_ == 0 ? static_cast<std::size_t>(size_) : 0);
@@ -68,7 +68,7 @@ class MpiCommunicator final : public Communicator {
       return {};
     }
     std::vector<std::vector<std::byte>> all(static_cast<std::size_t>(size_));
-    all[0].assign(mine.begin(), mine.end());
+    all[0] = std::move(mine);
     for (int r = 1; r < size_; ++r) {
       auto& bytes = all[static_cast<std::size_t>(r)];
       bytes.resize(sizes[static_cast<std::size_t>(r)]);

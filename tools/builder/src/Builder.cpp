@@ -157,7 +157,7 @@ Result<void> agree(Communicator& comm, const Result<void>& mine) {
     w.putBytes(std::as_bytes(std::span<const char>(mine.error().message)));
   }
   if (comm.size() == 1) return mine;
-  const auto all = comm.allGather(w.bytes());
+  const auto all = comm.allGather(w.take());
   for (std::size_t r = 0; r < all.size(); ++r) {
     ByteReader in(all[r]);
     if (in.get<std::uint8_t>() == 1) continue;
@@ -345,7 +345,7 @@ class DistributedBuild {
   void resample();
   Result<void> buildLevel(int level);
   Result<void> loadCarry(int level);
-  void takeCarry(int level, std::span<const std::byte> carry);
+  void takeCarry(int level, const std::vector<std::vector<std::byte>>& pieces);
   Result<void> buildTextures();
   Result<void> assemble(BuildSummary& summary);
 
@@ -456,7 +456,7 @@ void DistributedBuild::resample() {
       const auto& face = heights[row / n1];
       w.putBytes(std::as_bytes(std::span(face).subspan((row % n1) * n1, n1)));
     }
-    const auto all = comm_.allGather(w.bytes());
+    const auto all = comm_.allGather(w.take());
     noData = 0;
     for (int r = 0; r < comm_.size(); ++r) {
       ByteReader in(all[static_cast<std::size_t>(r)]);
@@ -486,30 +486,32 @@ void DistributedBuild::resample() {
   log(line);
 }
 
-void DistributedBuild::takeCarry(int level, std::span<const std::byte> carry) {
+void DistributedBuild::takeCarry(int level, const std::vector<std::vector<std::byte>>& pieces) {
   // The carry of `level`: per diamond in order, its saturated error and sphere and (when the
   // next level needs them) its two patches; a sequence of per-rank pieces.
   const auto diamonds = diamondsOfLevel(lattice_, d_, level);
   below_.clear();
   belowSaturated_.assign(diamonds.size(), Saturated{});
   belowBySpine_.clear();
-  ByteReader r(carry);
-  while (!r.atEnd() && !r.failed()) {
-    const auto first = r.get<std::uint64_t>();
-    const auto count = r.get<std::uint64_t>();
-    const auto hasPatches = r.get<std::uint8_t>();
-    for (std::uint64_t k = first; k < first + count && !r.failed(); ++k) {
-      Saturated s;
-      s.error = static_cast<double>(r.get<float>());
-      s.sphere.center.x = r.get<double>();
-      s.sphere.center.y = r.get<double>();
-      s.sphere.center.z = r.get<double>();
-      s.sphere.radius = static_cast<double>(r.get<float>());
-      if (k < belowSaturated_.size()) belowSaturated_[k] = s;
-      if (hasPatches != 0) {
-        for (std::size_t side = 0; side < 2; ++side) {
-          WorkPatch p = getPatch(r);
-          if (k < diamonds.size()) below_.emplace(diamonds[k][side], std::move(p));
+  for (const auto& piece : pieces) {
+    ByteReader r(piece);
+    while (!r.atEnd() && !r.failed()) {
+      const auto first = r.get<std::uint64_t>();
+      const auto count = r.get<std::uint64_t>();
+      const auto hasPatches = r.get<std::uint8_t>();
+      for (std::uint64_t k = first; k < first + count && !r.failed(); ++k) {
+        Saturated s;
+        s.error = static_cast<double>(r.get<float>());
+        s.sphere.center.x = r.get<double>();
+        s.sphere.center.y = r.get<double>();
+        s.sphere.center.z = r.get<double>();
+        s.sphere.radius = static_cast<double>(r.get<float>());
+        if (k < belowSaturated_.size()) belowSaturated_[k] = s;
+        if (hasPatches != 0) {
+          for (std::size_t side = 0; side < 2; ++side) {
+            WorkPatch p = getPatch(r);
+            if (k < diamonds.size()) below_.emplace(diamonds[k][side], std::move(p));
+          }
         }
       }
     }
@@ -536,7 +538,9 @@ Result<void> DistributedBuild::loadCarry(int level) {
   }
   if (auto r = agree(comm_, ok ? Result<void>{} : Result<void>{failure}); !r) return r;
   comm_.broadcast(carry);
-  takeCarry(level, carry);
+  std::vector<std::vector<std::byte>> pieces(1);
+  pieces[0] = std::move(carry);
+  takeCarry(level, pieces);
   return {};
 }
 
@@ -614,6 +618,7 @@ Result<void> DistributedBuild::buildLevel(int level) {
     }
   });
   if (failed) return fail(item, failure);
+  below_ = {};  // the children's patches have served
 
   // 2. Saturate this rank's diamonds over the diamond DAG (needs the level below's saturated
   // values, which every rank holds).
@@ -662,6 +667,7 @@ Result<void> DistributedBuild::buildLevel(int level) {
     if (!made.empty()) {
       putPatch(carry, made[k][0]);
       putPatch(carry, made[k][1]);
+      made[k] = {};
     }
   }
   made.clear();
@@ -691,13 +697,8 @@ Result<void> DistributedBuild::buildLevel(int level) {
   nodes.clear();
 
   // 4. Synchronise: every rank takes the whole level's carry; rank 0 checkpoints the level.
-  std::vector<std::byte> allCarry;
-  for (auto& piece : comm_.allGather(carry.bytes())) {
-    allCarry.insert(allCarry.end(), piece.begin(), piece.end());
-  }
-  carry = ByteWriter{};
-  auto gathered = comm_.gatherToRoot(out.bytes());
-  out = ByteWriter{};
+  const auto allCarry = comm_.allGather(carry.take());
+  auto gathered = comm_.gatherToRoot(out.take());
   takeCarry(level, allCarry);
   patchesDone_ += levelPatches;
   patchesDoneHere_ += levelPatches;
@@ -712,7 +713,9 @@ Result<void> DistributedBuild::buildLevel(int level) {
   if (auto w = checkpoint_.writeFile(Checkpoint::Kind::Nodes, level, pieces); !w) {
     return fail(writing, w.error());
   }
-  if (auto w = checkpoint_.writeFile(Checkpoint::Kind::Carry, level, {allCarry}); !w) {
+  std::vector<std::span<const std::byte>> carryPieces;
+  for (const auto& piece : allCarry) carryPieces.emplace_back(piece);
+  if (auto w = checkpoint_.writeFile(Checkpoint::Kind::Carry, level, carryPieces); !w) {
     return fail(writing, w.error());
   }
   state_.completeLevel = level;
@@ -843,7 +846,7 @@ Result<void> DistributedBuild::buildTextures() {
     out.putBytes(blobs[j]);
   }
   blobs.clear();
-  auto gathered = comm_.gatherToRoot(out.bytes());
+  auto gathered = comm_.gatherToRoot(out.take());
   if (!root()) {
     textureComplete_ = true;
     return {};

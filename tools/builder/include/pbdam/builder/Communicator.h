@@ -6,7 +6,6 @@
 #pragma once
 
 #include <cstddef>
-#include <span>
 #include <string>
 #include <vector>
 
@@ -25,11 +24,11 @@ class Communicator {
   /// The host this rank runs on (for messages).
   virtual std::string hostName() const = 0;
 
-  /// Collective: every rank's bytes, in rank order, on every rank. Any size (buffers over 2 GiB
-  /// are sent in pieces).
-  virtual std::vector<std::vector<std::byte>> allGather(std::span<const std::byte> mine) = 0;
+  /// Collective: every rank's bytes, in rank order, on every rank (this rank's own buffer is
+  /// moved into its slot, not copied). Any size (buffers over 1 GiB are sent in pieces).
+  virtual std::vector<std::vector<std::byte>> allGather(std::vector<std::byte> mine) = 0;
   /// Collective: every rank's bytes, in rank order, on rank 0; an empty vector elsewhere.
-  virtual std::vector<std::vector<std::byte>> gatherToRoot(std::span<const std::byte> mine) = 0;
+  virtual std::vector<std::vector<std::byte>> gatherToRoot(std::vector<std::byte> mine) = 0;
   /// Collective: rank 0's `bytes` replace every other rank's.
   virtual void broadcast(std::vector<std::byte>& bytes) = 0;
   /// Stops every process of the job with `exitCode`; the caller has printed why. With more
@@ -44,11 +43,13 @@ class LocalCommunicator final : public Communicator {
   int rank() const noexcept override { return 0; }
   int size() const noexcept override { return 1; }
   std::string hostName() const override;
-  std::vector<std::vector<std::byte>> allGather(std::span<const std::byte> mine) override {
-    return {std::vector<std::byte>(mine.begin(), mine.end())};
+  std::vector<std::vector<std::byte>> allGather(std::vector<std::byte> mine) override {
+    std::vector<std::vector<std::byte>> all(1);
+    all[0] = std::move(mine);
+    return all;
   }
-  std::vector<std::vector<std::byte>> gatherToRoot(std::span<const std::byte> mine) override {
-    return allGather(mine);
+  std::vector<std::vector<std::byte>> gatherToRoot(std::vector<std::byte> mine) override {
+    return allGather(std::move(mine));
   }
   void broadcast(std::vector<std::byte>&) override {}
   [[noreturn]] void abortJob(int exitCode) override;
