@@ -2,7 +2,9 @@
 # Distributed build scaling (issue 7; docs/builder.md "Distributed build"): builds one dataset
 # with several RANKSxTHREADS configurations through mpirun, side by side in one run, and reports
 # wall time, lattice and source samples/s, parallel efficiency against the 1x1 run (when
-# included), peak RSS of every rank, the dataset size with and without patch compression, and
+# included: T1 / (ranks·threads·T)), CPU seconds of all ranks together (on a shared machine the
+# honest measure of what distribution costs: work efficiency = CPU(1x1) / CPU), peak RSS of
+# every rank, the dataset size with and without patch compression, the load average, and
 # whether all outputs are byte-identical. A script, not a test: it takes minutes to hours.
 #
 #   bench/mpi_build.sh [--dem FILE] [--planet P] [--levels N] [--configs "1x1 1x2 2x1"]
@@ -43,8 +45,9 @@ mkdir -p "$work"
 [ -n "$keep" ] || trap 'rm -rf "$work"' EXIT
 
 echo "dem $dem, --planet $planet --levels $levels ${extra[*]:-}; $(nproc) cores; $(date -u +%FT%TZ)"
-printf '%-6s %9s %12s %12s %8s %s\n' config wall_s lattice_M/s source_M/s effic. "peak RSS per rank (MB)"
-declare -A wall
+printf '%-6s %8s %11s %10s %7s %7s %7s %6s  %s\n' config wall_s lattice_M/s source_M/s effic. cpu_s work_e load1 \
+  "peak RSS per rank (MB)"
+declare -A wall cpu
 first=""
 for config in $configs; do
   ranks=${config%x*}
@@ -54,25 +57,31 @@ for config in $configs; do
   start=$(date +%s.%N)
   # Each rank runs under /usr/bin/time so that its own peak RSS is recorded.
   mpirun "${asroot[@]}" --oversubscribe --bind-to none -np "$ranks" \
-    sh -c 'exec /usr/bin/time -f %M -o "$0.$OMPI_COMM_WORLD_RANK" "$@"' "$work/rss-$config" \
+    sh -c 'exec /usr/bin/time -f "%M %U %S" -o "$0.$OMPI_COMM_WORLD_RANK" "$@"' "$work/rss-$config" \
     "$pbdam" build --dem "$dem" --planet "$planet" --levels "$levels" --threads "$threads" \
     --out "$out" --quiet "${extra[@]}" >"$work/summary-$config.txt"
   end=$(date +%s.%N)
   wall[$config]=$(awk -v a="$start" -v b="$end" 'BEGIN { print b - a }')
   lattice=$(awk '/^  input/ { print $6 }' "$work/summary-$config.txt")
   source=$(awk '/^  input/ { print $2 }' "$work/summary-$config.txt")
+  load=$(cut -d' ' -f1 /proc/loadavg)
   rss=""
+  cpu[$config]=0
   for ((r = 0; r < ranks; r++)); do
     rss+="$(awk '{ printf "%.0f", $1 / 1024 }' "$work/rss-$config.$r") "
+    cpu[$config]=$(awk -v c="${cpu[$config]}" '{ print c + $2 + $3 }' "$work/rss-$config.$r")
   done
   effic="-"
+  worke="-"
   if [ -n "${wall[1x1]:-}" ]; then
     effic=$(awk -v t1="${wall[1x1]}" -v t="${wall[$config]}" -v p=$((ranks * threads)) \
       'BEGIN { printf "%.2f", t1 / (p * t) }')
+    worke=$(awk -v c1="${cpu[1x1]}" -v c="${cpu[$config]}" 'BEGIN { printf "%.2f", c1 / c }')
   fi
   awk -v c="$config" -v w="${wall[$config]}" -v l="$lattice" -v s="$source" -v e="$effic" \
-    -v r="$rss" 'BEGIN { printf "%-6s %9.1f %12.3f %12.3f %8s %s\n", c, w, l / w / 1e6,
-                         s / w / 1e6, e, r }'
+    -v u="${cpu[$config]}" -v we="$worke" -v ld="$load" -v r="$rss" \
+    'BEGIN { printf "%-6s %8.1f %11.3f %10.3f %7s %7.1f %7s %6s  %s\n", c, w, l / w / 1e6,
+             s / w / 1e6, e, u, we, ld, r }'
   if [ -z "$first" ]; then
     first=$config
   else

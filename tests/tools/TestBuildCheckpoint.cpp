@@ -240,6 +240,13 @@ TEST(DistributedBuild, ResumeRefusesOtherOptionsAndDamagedCheckpoints) {
   EXPECT_NE(damaged.error().message.find("level-03.nodes: checksum mismatch"), std::string::npos)
       << damaged.error().message;
 
+  // A missing level file is caught before any work is redone.
+  fs::remove(Checkpoint(out).file(Checkpoint::Kind::Nodes, 4));
+  auto missing = buildDataset(o);
+  ASSERT_FALSE(missing);
+  EXPECT_NE(missing.error().message.find("level-04.nodes is missing"), std::string::npos)
+      << missing.error().message;
+
   // Without --resume the checkpoint is discarded and the build starts over.
   o.resume = false;
   ASSERT_TRUE(buildDataset(o));

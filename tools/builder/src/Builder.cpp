@@ -431,6 +431,24 @@ Result<StartPoint> DistributedBuild::setUpOutput() {
       }
       start.completeLevel = (*saved)->completeLevel;
       start.textureComplete = (*saved)->textureComplete;
+      // Every file the state promises must be there before any work is redone.
+      std::vector<fs::path> needed;
+      if (start.completeLevel) {
+        for (int level = d_; level >= *start.completeLevel; --level) {
+          needed.push_back(checkpoint_.file(Checkpoint::Kind::Nodes, level));
+        }
+        if (*start.completeLevel > 0) {
+          needed.push_back(checkpoint_.file(Checkpoint::Kind::Carry, *start.completeLevel));
+        }
+      }
+      if (start.textureComplete) needed.push_back(checkpoint_.file(Checkpoint::Kind::Texture, 0));
+      for (const auto& path : needed) {
+        if (!fs::exists(path, ec)) {
+          return makeError(
+              ErrorCode::CorruptData,
+              "--resume: " + path.string() + " is missing (rerun without --resume to start over)");
+        }
+      }
       state_ = **saved;
       return start;
     }
