@@ -26,6 +26,13 @@ set_target_properties(Squish::Squish PROPERTIES IMPORTED_LOCATION ${SQUISH_LIBRA
 pkg_check_modules(OpenImageIO REQUIRED IMPORTED_TARGET OpenImageIO)
 # PLplot draws the benchmark report's plots (cairo PNG driver: plplot-driver-cairo).
 pkg_check_modules(PLplot REQUIRED IMPORTED_TARGET plplot)
+# The distributed build (`mpirun -np N pbdam build`) through Debian's OpenMPI. pbdam itself does
+# not link MPI: it loads the libpbdam_mpi.so module only when mpirun started it.
+option(PBDAM_WITH_MPI "Build the MPI module for distributed builds (OpenMPI)" ON)
+if(PBDAM_WITH_MPI)
+  find_package(MPI REQUIRED COMPONENTS C)
+  find_program(PBDAM_MPIRUN NAMES mpirun REQUIRED)
+endif()
 if(PBDAM_BUILD_TESTS)
   find_package(GTest CONFIG REQUIRED)
 endif()

@@ -1,9 +1,18 @@
-// `pbdam build`: a DEM (+ imagery) into a P-BDAM dataset (tools/builder/Builder.h).
+// `pbdam build`: a DEM (+ imagery) into a P-BDAM dataset (tools/builder/Builder.h), in one
+// process or, under `mpirun -np N`, distributed over N ranks (docs/builder.md "Distributed
+// build").
+#include <unistd.h>
+
+#include <atomic>
+#include <csignal>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <iostream>
 #include <memory>
 
 #include "Commands.h"
+#include "MpiLauncher.h"
 #include "Progress.h"
 #include "pbdam/builder/Builder.h"
 
@@ -23,14 +32,83 @@ struct BuildCliOptions {
   std::string textureQuality = "fast";
   int threads = 0;
   bool force = false;
+  bool resume = false;
   bool quiet = false;
   std::string rawSize;
   std::string rawType;
   std::string bounds;
 };
 
+/// The exit code reportError would give, without printing (ranks other than 0 stay silent).
+int exitCodeOf(const Error& error) {
+  return error.code == ErrorCode::Internal || error.code == ErrorCode::IoError ||
+                 error.code == ErrorCode::DeviceError
+             ? kExitFailure
+             : kExitBadInput;
+}
+
+// What the ranks work on in the current stage, for the SIGTERM handler: when a rank dies,
+// mpirun stops the others with SIGTERM, and rank 0 then says what every rank was doing. Two
+// buffers so that the handler never reads one being written.
+constexpr std::size_t kStageTextBytes = 4096;
+char stageText[2][kStageTextBytes];
+std::atomic<int> stageTextIndex{-1};
+
+void onTerminate(int signal) {
+  const int index = stageTextIndex.load();
+  const char* lead =
+      "\npbdam: rank 0: the job was stopped (SIGTERM: a rank failed or the job was cancelled; "
+      "mpirun names the rank above) during ";
+  ssize_t ignored = ::write(STDERR_FILENO, lead, std::strlen(lead));
+  if (index >= 0) {
+    ignored = ::write(STDERR_FILENO, stageText[index], std::strlen(stageText[index]));
+  }
+  const char* tail = ". Rerun the same command with --resume to continue.\n";
+  ignored = ::write(STDERR_FILENO, tail, std::strlen(tail));
+  (void)ignored;
+  std::signal(signal, SIG_DFL);
+  std::raise(signal);
+}
+
+void rememberStage(std::string_view text) {
+  const int next = stageTextIndex.load() == 0 ? 1 : 0;
+  const std::size_t n = std::min(text.size(), kStageTextBytes - 1);
+  std::memcpy(stageText[next], text.data(), n);
+  stageText[next][n] = '\0';
+  stageTextIndex.store(next);
+}
+
+/// PBDAM_TEST_FAIL_RANK / PBDAM_TEST_FAIL_LEVEL / PBDAM_TEST_FAIL_MODE (kill | error): the
+/// fault-injection aid of the distributed-build tests.
+builder::BuildOptions::FaultInjection faultFromEnvironment() {
+  builder::BuildOptions::FaultInjection f;
+  const char* rank = std::getenv("PBDAM_TEST_FAIL_RANK");
+  const char* level = std::getenv("PBDAM_TEST_FAIL_LEVEL");
+  if (rank != nullptr && level != nullptr) {
+    f.failRank = std::atoi(rank);
+    f.failLevel = std::atoi(level);
+    const char* mode = std::getenv("PBDAM_TEST_FAIL_MODE");
+    f.failByKill = mode == nullptr || std::strcmp(mode, "error") != 0;
+  }
+  return f;
+}
+
 int runBuild(const BuildCliOptions& c) {
+  // Under mpirun: join the job first, so that every rank reports errors the same way.
+  std::unique_ptr<MpiJob> job;
+  if (launchedByMpi()) {
+    auto joined = joinMpiJob();
+    if (!joined) {
+      return isMpiRankOtherThanZero() ? exitCodeOf(joined.error()) : reportError(joined.error());
+    }
+    job = std::move(joined).value();
+  }
+  builder::Communicator* comm = job ? job->communicator : nullptr;
+  const bool root = comm == nullptr || comm->rank() == 0;
   builder::BuildOptions o;
+  o.communicator = comm;
+  o.resume = c.resume;
+  o.fault = faultFromEnvironment();
   o.demPath = c.dem;
   o.texturePath = c.texture;
   o.planetSpec = c.planet;
@@ -47,7 +125,8 @@ int runBuild(const BuildCliOptions& c) {
       if (used != c.levels.size() || depth < 0) throw std::invalid_argument("levels");
       o.depth = static_cast<std::uint32_t>(depth);
     } catch (const std::exception&) {
-      std::cerr << "pbdam: --levels '" << c.levels << "': expected 'auto' or an even depth\n";
+      if (root)
+        std::cerr << "pbdam: --levels '" << c.levels << "': expected 'auto' or an even depth\n";
       return kExitBadInput;
     }
   }
@@ -56,24 +135,45 @@ int runBuild(const BuildCliOptions& c) {
   } else if (c.textureFormat == "rgba8") {
     o.textureFormat = TexelFormat::Rgba8;
   } else {
-    std::cerr << "pbdam: --texture-format '" << c.textureFormat << "': expected bc1 or rgba8\n";
+    if (root)
+      std::cerr << "pbdam: --texture-format '" << c.textureFormat << "': expected bc1 or rgba8\n";
     return kExitBadInput;
   }
   o.bc1Quality = c.textureQuality == "high" ? Bc1Quality::High : Bc1Quality::Fast;
   if (!c.rawSize.empty() || !c.rawType.empty() || !c.bounds.empty()) {
+    auto quietly = [&](const Error& e) { return root ? reportError(e) : exitCodeOf(e); };
     auto layout = parseRawType(c.rawType);
-    if (!layout) return reportError(layout.error());
-    if (auto r = parseRawSize(c.rawSize, *layout); !r) return reportError(r.error());
-    if (auto r = parseRawBounds(c.bounds, *layout); !r) return reportError(r.error());
+    if (!layout) return quietly(layout.error());
+    if (auto r = parseRawSize(c.rawSize, *layout); !r) return quietly(r.error());
+    if (auto r = parseRawBounds(c.bounds, *layout); !r) return quietly(r.error());
     o.rawLayout = *layout;
   }
-  Progress progress(c.quiet);
+  Progress progress(c.quiet || !root);
   o.progress = [&](std::string_view stage, double f) { progress.update(stage, f); };
+  if (!c.quiet) {
+    o.log = [&](std::string_view line) {
+      progress.finish();
+      std::fprintf(stderr, "%.*s\n", static_cast<int>(line.size()), line.data());
+    };
+  }
+  if (comm != nullptr && comm->size() > 1 && root) {
+    o.stageStarted = rememberStage;
+    std::signal(SIGTERM, onTerminate);
+  }
   auto summary = builder::buildDataset(o);
   progress.finish();
+  if (!root) return summary ? kExitOk : exitCodeOf(summary.error());
+  std::signal(SIGTERM, SIG_DFL);
   if (!summary) return reportError(summary.error());
   const auto& s = *summary;
   std::printf("built %s in %.1f s\n", c.out.c_str(), s.seconds);
+  if (s.ranks > 1) {
+    std::printf("  ranks       %d MPI ranks (rank 0 wrote the dataset)\n", s.ranks);
+  }
+  if (s.resumedAfterLevel) {
+    std::printf("  resumed     after level %d%s of the checkpoint\n", *s.resumedAfterLevel,
+                s.resumedAfterTexture ? " and the textures" : "");
+  }
   std::printf("  lattice     %u cells per face side, bintree depth %u, %u texture levels\n",
               s.latticeCells, s.depth, s.textureLevels);
   std::printf("  input       %llu source samples -> %llu lattice samples (%.2f M samples/s)\n",
@@ -134,6 +234,8 @@ void addBuildCommand(CLI::App& app, CommandStatus& status) {
       ->check(CLI::Range(0, 1024))
       ->capture_default_str();
   cmd->add_flag("--force", c->force, "Replace an existing dataset in --out");
+  cmd->add_flag("--resume", c->resume,
+                "Continue an interrupted build from its checkpoint (OUT/.build-checkpoint)");
   cmd->add_flag("--quiet", c->quiet, "No progress output");
   cmd->add_option("--raw-size", c->rawSize, "Raw DEM size W,H");
   cmd->add_option("--raw-type", c->rawType, "Raw DEM sample type (int16be, float32le, ...)");

@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "Commands.h"
+#include "MpiLauncher.h"
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -33,8 +34,10 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    // One line naming what was wrong, like every other bad-input report.
-    std::cerr << "pbdam: " << e.what() << " (run with --help for usage)\n";
+    // One line naming what was wrong, like every other bad-input report (from one MPI rank).
+    if (!pbdam::tools::isMpiRankOtherThanZero()) {
+      std::cerr << "pbdam: " << e.what() << " (run with --help for usage)\n";
+    }
     return pbdam::tools::kExitBadInput;
   }
   return status.exitCode;

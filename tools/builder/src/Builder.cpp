@@ -1,7 +1,11 @@
-// The P-BDAM build pipeline (Builder.h; docs/builder.md; paper 004 §5).
+// The P-BDAM build pipeline (Builder.h; docs/builder.md; paper 004 §5), one process or several
+// (docs/builder.md "Distributed build"): every stage's independent work — lattice rows, the
+// blocks (diamonds) of each bintree level with their error saturation, texture tiles — is split
+// into contiguous ranges per rank and run with TBB inside each rank; the ranks synchronise only
+// between levels, where the patches the next level needs are all-gathered and the finished
+// nodes are gathered to rank 0, which checkpoints them and finally writes the dataset.
 #include "pbdam/builder/Builder.h"
 
-#include <fcntl.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 #include <unistd.h>
@@ -11,12 +15,15 @@
 #include <bit>
 #include <chrono>
 #include <cmath>
+#include <csignal>
+#include <cstdio>
 #include <cstring>
-#include <fstream>
 #include <limits>
 #include <mutex>
+#include <thread>
 #include <unordered_map>
 
+#include "pbdam/builder/Checkpoint.h"
 #include "pbdam/builder/Lattice.h"
 #include "pbdam/builder/PatchBuilder.h"
 #include "pbdam/builder/SampleGrid.h"
@@ -29,9 +36,19 @@
 #include "pbdam/runtime/Planet.h"
 
 namespace pbdam::builder {
+
+std::string LocalCommunicator::hostName() const {
+  char name[256] = {};
+  if (::gethostname(name, sizeof name - 1) != 0) return "localhost";
+  return name;
+}
+
+void LocalCommunicator::abortJob(int exitCode) { std::_Exit(exitCode); }
+
 namespace {
 
 namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
 
 struct Sphere {
   glm::dvec3 center{0.0};
@@ -67,138 +84,106 @@ struct EdgeKeyHash {
   }
 };
 
-/// Everything the build keeps per node.
-struct NodeData {
+Error invalid(const std::string& what) { return makeError(ErrorCode::InvalidArgument, what); }
+
+std::string hex32(std::uint32_t v) {
+  char s[16];
+  std::snprintf(s, sizeof s, "%08x", v);
+  return s;
+}
+
+std::string exact(double v) {
+  char s[40];
+  std::snprintf(s, sizeof s, "%.17g", v);
+  return s;
+}
+
+/// A node as its level produces it: the record (saturated), its blob, and what saturation
+/// needs.
+struct NodeOut {
+  std::uint64_t id = 0;
   NodeRecord record;
   std::vector<std::byte> blob;
   double measuredError = 0.0;
-  Sphere sphere;  // of its own rendered vertices, then saturated
+  Sphere sphere;
 };
 
-class Build {
- public:
-  Build(const BuildOptions& o, const Planet& planet, const Lattice& lattice, std::uint32_t depth)
-      : o_(o),
-        planet_(planet),
-        lattice_(lattice),
-        depth_(depth),
-        nodesPerTree_(Lattice::nodesPerTree(static_cast<int>(depth))),
-        nodes_(12 * nodesPerTree_) {}
-
-  std::uint64_t nodeId(const BinTriangle& t) const noexcept {
-    return builder::nodeId(t, static_cast<int>(depth_));
-  }
-  BinTriangle triangleOf(std::uint64_t id) const noexcept {
-    return triangleOfNode(lattice_, id, static_cast<int>(depth_));
-  }
-  std::vector<Diamond> diamondsOfLevel(int level) const {
-    return builder::diamondsOfLevel(lattice_, static_cast<int>(depth_), level);
-  }
-
-  void store(std::uint64_t id, const BinTriangle& t, const WorkPatch& patch, const SampleGrid& grid,
-             std::atomic<std::uint64_t>& rawBytes) {
-    MeasuredPatch m = measurePatch(grid, t, patch, o_.heightStepMeters);
-    optimizePatchForRendering(m.mesh);
-    auto blob = encodePatch(m.mesh);
-    NodeData& n = nodes_[id];
-    if (!blob) {
-      std::lock_guard lock(failureMutex_);
-      if (!failed_) failure_ = "patch " + std::to_string(id) + ": " + blob.error().message;
-      failed_ = true;
-      return;
-    }
-    n.blob = std::move(blob).value();
-    const NodeCorners corners = nodeCorners(grid, t);
-    for (std::size_t c = 0; c < 3; ++c) {
-      for (std::size_t a = 0; a < 3; ++a) {
-        n.record.cornerPositions[c * 3 + a] = corners.positions[c][static_cast<int>(a)];
-        n.record.cornerNormals[c * 3 + a] = corners.normals[c][static_cast<int>(a)];
-      }
-    }
-    n.record.vertexCount = static_cast<std::uint32_t>(m.mesh.vertices.size());
-    n.record.triangleCount = static_cast<std::uint32_t>(m.mesh.triangleCount());
-    n.record.measuredErrorMeters = roundUpToFloat(m.errorMeters);
-    n.record.minHeightMeters = static_cast<float>(m.minHeightMeters);
-    n.record.maxHeightMeters = static_cast<float>(m.maxHeightMeters);
-    n.measuredError = m.errorMeters;
-    n.sphere = Sphere{m.sphereCenter, m.sphereRadiusMeters};
-    rawBytes += 8ULL * n.record.vertexCount + 6ULL * n.record.triangleCount;
-  }
-
-  const BuildOptions& o_;
-  Planet planet_;
-  Lattice lattice_;
-  std::uint32_t depth_;
-  std::uint64_t nodesPerTree_;
-  std::vector<NodeData> nodes_;
-  std::atomic<bool> failed_{false};
-  std::mutex failureMutex_;
-  std::string failure_;
+/// The saturated error and sphere of a diamond (both its triangles store them).
+struct Saturated {
+  double error = 0.0;  // the stored float, as double
+  Sphere sphere;       // centre, stored radius
 };
 
-Result<void> writeAll(int fd, std::span<const std::byte> bytes, const fs::path& path,
-                      std::uint32_t& crc) {
-  crc = crc32(bytes, crc);
-  std::size_t done = 0;
-  while (done < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      return makeError(ErrorCode::IoError,
-                       path.string() + ": write failed (" + std::strerror(errno) + ")");
-    }
-    done += static_cast<std::size_t>(n);
+/// Contiguous share [begin, end) of `count` items for `rank` of `ranks`.
+std::pair<std::uint64_t, std::uint64_t> shareOf(std::uint64_t count, int rank, int ranks) {
+  const auto r = static_cast<std::uint64_t>(rank);
+  const auto n = static_cast<std::uint64_t>(ranks);
+  return {count * r / n, count * (r + 1) / n};
+}
+
+void putPatch(ByteWriter& w, const WorkPatch& p) {
+  w.put(static_cast<std::uint32_t>(p.points.size()));
+  for (const LatticeXY& q : p.points) {
+    w.put(q.x);
+    w.put(q.y);
+  }
+  w.put(static_cast<std::uint32_t>(p.indices.size()));
+  w.putBytes(std::as_bytes(std::span<const std::uint32_t>(p.indices)));
+}
+
+WorkPatch getPatch(ByteReader& r) {
+  WorkPatch p;
+  const auto points = r.get<std::uint32_t>();
+  if (r.failed()) return p;
+  p.points.resize(points);
+  for (auto& q : p.points) {
+    q.x = r.get<std::int32_t>();
+    q.y = r.get<std::int32_t>();
+  }
+  const auto indices = r.get<std::uint32_t>();
+  const auto run = r.take(std::size_t{indices} * sizeof(std::uint32_t));
+  if (r.failed()) return p;
+  p.indices.resize(indices);
+  std::memcpy(p.indices.data(), run.data(), run.size());
+  return p;
+}
+
+/// Collective: the first failure of any rank (lowest rank first) on every rank.
+Result<void> agree(Communicator& comm, const Result<void>& mine) {
+  ByteWriter w;
+  w.put(static_cast<std::uint8_t>(mine ? 1 : 0));
+  if (!mine) {
+    w.put(static_cast<std::int32_t>(mine.error().code));
+    w.putBytes(std::as_bytes(std::span<const char>(mine.error().message)));
+  }
+  if (comm.size() == 1) return mine;
+  const auto all = comm.allGather(w.take());
+  for (std::size_t r = 0; r < all.size(); ++r) {
+    ByteReader in(all[r]);
+    if (in.get<std::uint8_t>() == 1) continue;
+    const auto code = static_cast<ErrorCode>(in.get<std::int32_t>());
+    const auto text = in.take(all[r].size() - in.offset());
+    std::string message(reinterpret_cast<const char*>(text.data()), text.size());
+    if (r != 0) message = "rank " + std::to_string(r) + ": " + message;
+    return makeError(code, message);
   }
   return {};
 }
 
-/// Writes `chunks` to `path` through a temporary file, fsync and rename (design.md §6).
-Result<void> writeFileAtomically(const fs::path& path,
-                                 const std::vector<std::span<const std::byte>>& chunks,
-                                 std::uint32_t& crc) {
-  std::string tmpName = ".";
-  tmpName += path.filename().string();
-  tmpName += ".tmp";
-  const fs::path tmp = path.parent_path() / tmpName;
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) {
-    return makeError(ErrorCode::IoError,
-                     tmp.string() + ": cannot create (" + std::strerror(errno) + ")");
-  }
-  crc = 0;
-  for (const auto& chunk : chunks) {
-    if (auto r = writeAll(fd, chunk, tmp, crc); !r) {
-      ::close(fd);
-      return r;
-    }
-  }
-  if (::fsync(fd) != 0 || ::close(fd) != 0) {
-    return makeError(ErrorCode::IoError, tmp.string() + ": fsync/close failed");
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec)
-    return makeError(ErrorCode::IoError, path.string() + ": rename failed (" + ec.message() + ")");
-  return {};
-}
+/// Everything every rank prepares identically before the distributed work.
+struct Inputs {
+  std::optional<Planet> planet;
+  std::optional<HeightGrid> dem;
+  std::optional<GeoImage> imagery;
+  std::uint32_t leafCells = 0;
+  std::uint32_t depth = 0;
+  std::uint32_t n = 0;
+};
 
-void syncDirectory(const fs::path& dir) {
-  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd >= 0) {
-    ::fsync(fd);
-    ::close(fd);
-  }
-}
-
-Error invalid(const std::string& what) { return makeError(ErrorCode::InvalidArgument, what); }
-
-}  // namespace
-
-Result<BuildSummary> buildDataset(const BuildOptions& o) {
-  const auto start = std::chrono::steady_clock::now();
-  // ---- Options.
-  const std::uint32_t leafCells = o.leafVertices - 1;
-  if (o.leafVertices < 3 || !std::has_single_bit(leafCells) || leafCells > 256) {
+Result<Inputs> prepare(const BuildOptions& o) {
+  Inputs in;
+  in.leafCells = o.leafVertices - 1;
+  if (o.leafVertices < 3 || !std::has_single_bit(in.leafCells) || in.leafCells > 256) {
     return invalid("--leaf-vertices " + std::to_string(o.leafVertices) +
                    ": must be 2^k + 1 between 3 and 257 (e.g. 17 or 33)");
   }
@@ -216,6 +201,7 @@ Result<BuildSummary> buildDataset(const BuildOptions& o) {
   if (!(o.heightStepMeters > 0.0) || o.threads < 0) return invalid("bad height step or threads");
   auto planet = Planet::fromSpec(o.planetSpec);
   if (!planet) return std::move(planet).error();
+  in.planet = *planet;
   std::error_code ec;
   if (fs::exists(o.outDir, ec) && !fs::is_directory(o.outDir, ec)) {
     return invalid(o.outDir.string() + ": exists and is not a directory");
@@ -224,7 +210,6 @@ Result<BuildSummary> buildDataset(const BuildOptions& o) {
     return invalid(o.outDir.string() + ": already holds a dataset (use --force to replace it)");
   }
 
-  // ---- Inputs.
   DemReadOptions readOptions;
   readOptions.raw = o.rawLayout;
   auto dem = readDem(o.demPath, readOptions);
@@ -236,353 +221,980 @@ Result<BuildSummary> buildDataset(const BuildOptions& o) {
     return invalid(o.demPath.string() + ": the DEM's CRS is on " + body + " but --planet is " +
                    spec);
   }
-  std::optional<GeoImage> imagery;
   if (!o.texturePath.empty()) {
     auto image = readImage(o.texturePath);
     if (!image) return std::move(image).error();
-    imagery = std::move(image).value();
+    in.imagery = std::move(image).value();
   }
 
-  // ---- Lattice size: at least the DEM's density across 90° of longitude.
-  std::uint32_t depth = 0;
-  std::uint32_t n = leafCells;
+  // Lattice size: at least the DEM's density across 90° of longitude.
+  in.n = in.leafCells;
   if (o.depth) {
-    depth = *o.depth;
-    n = leafCells << (depth / 2);
+    in.depth = *o.depth;
+    in.n = in.leafCells << (in.depth / 2);
   } else {
     const double across = 90.0 / dem->geometry().lonSpacingDegrees;
-    n = std::max(leafCells, std::bit_ceil(static_cast<std::uint32_t>(std::ceil(across - 1e-9))));
-    depth = 2 * static_cast<std::uint32_t>(std::countr_zero(n / leafCells));
+    in.n =
+        std::max(in.leafCells, std::bit_ceil(static_cast<std::uint32_t>(std::ceil(across - 1e-9))));
+    in.depth = 2 * static_cast<std::uint32_t>(std::countr_zero(in.n / in.leafCells));
   }
-  if (n > 16384) {
-    return invalid("the lattice would have " + std::to_string(n) +
+  if (in.n > 16384) {
+    return invalid("the lattice would have " + std::to_string(in.n) +
                    " cells per face side; at most 16384 (choose --levels or larger leaves)");
   }
-  const Lattice lattice(n);
+  in.dem = std::move(dem).value();
+  return in;
+}
 
-  fs::create_directories(o.outDir, ec);
-  if (ec) return makeError(ErrorCode::IoError, o.outDir.string() + ": " + ec.message());
+/// The options and inputs that decide the output bytes (the checkpoint's fingerprint). Thread
+/// and rank counts are not among them: they do not change the output.
+std::vector<std::pair<std::string, std::string>> fingerprintOf(const BuildOptions& o,
+                                                               const Inputs& in) {
+  const GridGeometry& g = in.dem->geometry();
+  std::vector<std::pair<std::string, std::string>> f;
+  f.emplace_back("dem", o.demPath.filename().string());
+  f.emplace_back("dem-grid", std::to_string(g.width) + "x" + std::to_string(g.height) + "@" +
+                                 exact(g.firstLatDegrees) + "," + exact(g.firstLonDegrees) + "/" +
+                                 exact(g.latSpacingDegrees) + "," + exact(g.lonSpacingDegrees) +
+                                 (g.pixelIsArea ? "/area" : "/point"));
+  f.emplace_back("dem-crc32", hex32(crc32(std::as_bytes(std::span(in.dem->heightsMeters())))));
+  std::string texture = "shaded-relief";
+  if (in.imagery) {
+    texture = o.texturePath.filename().string() +
+              "/crc32:" + hex32(crc32(std::as_bytes(std::span(in.imagery->rgba()))));
+  }
+  f.emplace_back("texture", texture);
+  f.emplace_back("planet", in.planet->name());
+  f.emplace_back("levels", std::to_string(in.depth));
+  f.emplace_back("lattice", std::to_string(in.n));
+  f.emplace_back("leaf-vertices", std::to_string(o.leafVertices));
+  f.emplace_back("patch-vertices", std::to_string(o.patchVertices));
+  f.emplace_back("texture-tile", std::to_string(o.textureTileTexels));
+  f.emplace_back("texture-format", o.textureFormat == TexelFormat::Bc1 ? "bc1" : "rgba8");
+  f.emplace_back("texture-quality", o.bc1Quality == Bc1Quality::High ? "high" : "fast");
+  f.emplace_back("height-step", exact(o.heightStepMeters));
+  return f;
+}
+
+/// What rank 0 decided about the output directory and the checkpoint, sent to every rank.
+struct StartPoint {
+  std::optional<int> completeLevel;  // resume after this level
+  bool textureComplete = false;
+};
+
+std::string rangeText(std::uint64_t begin, std::uint64_t end) {
+  char text[48];
+  std::snprintf(text, sizeof text, "[%llu, %llu)", static_cast<unsigned long long>(begin),
+                static_cast<unsigned long long>(end));
+  return text;
+}
+
+class DistributedBuild {
+ public:
+  DistributedBuild(const BuildOptions& o, Communicator& comm, Inputs& in)
+      : o_(o),
+        comm_(comm),
+        in_(in),
+        lattice_(in.n),
+        d_(static_cast<int>(in.depth)),
+        nodesPerTree_(Lattice::nodesPerTree(d_)),
+        checkpoint_(o.outDir) {}
+
+  Result<BuildSummary> run();
+
+ private:
+  bool root() const noexcept { return comm_.rank() == 0; }
+  void report(std::string_view stage, double fraction) const {
+    if (root() && o_.progress) o_.progress(stage, fraction);
+  }
+  void log(const std::string& line) const {
+    if (root() && o_.log) o_.log(line);
+  }
+  /// Tells the caller what every rank works on in the stage starting now.
+  void announce(const std::string& stage, const std::string& unit, std::uint64_t count) const {
+    if (!o_.stageStarted) return;
+    std::string text = stage + " (";
+    for (int r = 0; r < comm_.size(); ++r) {
+      const auto [b, e] = shareOf(count, r, comm_.size());
+      text +=
+          (r == 0 ? "rank " : ", rank ") + std::to_string(r) + ": " + unit + " " + rangeText(b, e);
+    }
+    text += " of " + std::to_string(count) + "); checkpointed: ";
+    if (completeLevel_) {
+      text += *completeLevel_ == d_
+                  ? "level " + std::to_string(d_)
+                  : "levels " + std::to_string(d_) + ".." + std::to_string(*completeLevel_);
+      if (textureComplete_) text += " and the textures";
+    } else {
+      text += "nothing yet";
+    }
+    o_.stageStarted(text);
+  }
+  /// A failure after the ranks started: one process returns it; several print it, naming
+  /// this rank, its host and its work item, and stop the job.
+  Error fail(const std::string& item, const Error& error) {
+    if (comm_.size() == 1) return error;
+    std::fprintf(stderr, "pbdam: rank %d of %d on %s failed while %s: %s\n", comm_.rank(),
+                 comm_.size(), comm_.hostName().c_str(), item.c_str(), error.message.c_str());
+    std::fflush(stderr);
+    comm_.abortJob(1);
+    return error;  // not reached: abortJob does not return
+  }
+
+  Result<StartPoint> setUpOutput();
+  void resample();
+  Result<void> buildLevel(int level);
+  Result<void> loadCarry(int level);
+  void takeCarry(int level, const std::vector<std::vector<std::byte>>& pieces);
+  Result<void> buildTextures();
+  Result<void> assemble(BuildSummary& summary);
+
+  NodeOut makeNode(const BinTriangle& t, const WorkPatch& patch, Error& failure,
+                   std::atomic<bool>& failed);
+
+  const BuildOptions& o_;
+  Communicator& comm_;
+  Inputs& in_;
+  Lattice lattice_;
+  int d_;
+  std::uint64_t nodesPerTree_;
+  Checkpoint checkpoint_;
+  CheckpointState state_;
+  std::optional<SampleGrid> grid_;
+  std::mutex failureMutex_;
+
+  // The level below the one being built: its patches by node id, its diamonds' saturated
+  // errors and spheres by spine.
+  std::unordered_map<std::uint64_t, WorkPatch> below_;
+  std::vector<Saturated> belowSaturated_;
+  std::unordered_map<EdgeKey, std::size_t, EdgeKeyHash> belowBySpine_;
+
+  // What the checkpoint holds (every rank keeps track, for messages).
+  std::optional<int> completeLevel_;
+  bool textureComplete_ = false;
+
+  // Progress of the simplification (rank 0).
+  Clock::time_point simplifyStart_;
+  std::uint64_t patchesDone_ = 0;
+  std::uint64_t blockPatchesDone_ = 0;  // by this run's block levels, for the ETA
+  double blockSeconds_ = 0.0;
+};
+
+NodeOut DistributedBuild::makeNode(const BinTriangle& t, const WorkPatch& patch, Error& failure,
+                                   std::atomic<bool>& failed) {
+  NodeOut n;
+  n.id = nodeId(t, d_);
+  MeasuredPatch m = measurePatch(*grid_, t, patch, o_.heightStepMeters);
+  optimizePatchForRendering(m.mesh);
+  auto blob = encodePatch(m.mesh);
+  if (!blob) {
+    std::lock_guard lock(failureMutex_);
+    if (!failed)
+      failure = makeError(ErrorCode::Internal,
+                          "patch " + std::to_string(n.id) + ": " + blob.error().message);
+    failed = true;
+    return n;
+  }
+  n.blob = std::move(blob).value();
+  const NodeCorners corners = nodeCorners(*grid_, t);
+  for (std::size_t c = 0; c < 3; ++c) {
+    for (std::size_t a = 0; a < 3; ++a) {
+      n.record.cornerPositions[c * 3 + a] = corners.positions[c][static_cast<int>(a)];
+      n.record.cornerNormals[c * 3 + a] = corners.normals[c][static_cast<int>(a)];
+    }
+  }
+  n.record.vertexCount = static_cast<std::uint32_t>(m.mesh.vertices.size());
+  n.record.triangleCount = static_cast<std::uint32_t>(m.mesh.triangleCount());
+  n.record.measuredErrorMeters = roundUpToFloat(m.errorMeters);
+  n.record.minHeightMeters = static_cast<float>(m.minHeightMeters);
+  n.record.maxHeightMeters = static_cast<float>(m.maxHeightMeters);
+  n.measuredError = m.errorMeters;
+  n.sphere = Sphere{m.sphereCenter, m.sphereRadiusMeters};
+  return n;
+}
+
+Result<StartPoint> DistributedBuild::setUpOutput() {
+  std::error_code ec;
+  fs::create_directories(o_.outDir, ec);
+  if (ec) return makeError(ErrorCode::IoError, o_.outDir.string() + ": " + ec.message());
   // A rebuild first makes the directory incomplete, so a crash never leaves a stale manifest
   // describing new face files.
-  fs::remove(o.outDir / kManifestFileName, ec);
+  fs::remove(o_.outDir / kManifestFileName, ec);
+  StartPoint start;
+  if (o_.resume) {
+    auto saved = checkpoint_.readState();
+    if (!saved) return std::move(saved).error();
+    if (*saved) {
+      if (auto differs = fingerprintMismatch((*saved)->fingerprint, state_.fingerprint)) {
+        return invalid("--resume: " + checkpoint_.directory().string() +
+                       " belongs to another build: " + *differs +
+                       " (rerun without --resume to start over)");
+      }
+      start.completeLevel = (*saved)->completeLevel;
+      start.textureComplete = (*saved)->textureComplete;
+      // Every file the state promises must be there before any work is redone.
+      std::vector<fs::path> needed;
+      if (start.completeLevel) {
+        for (int level = d_; level >= *start.completeLevel; --level) {
+          needed.push_back(checkpoint_.file(Checkpoint::Kind::Nodes, level));
+        }
+        if (*start.completeLevel > 0) {
+          needed.push_back(checkpoint_.file(Checkpoint::Kind::Carry, *start.completeLevel));
+        }
+      }
+      if (start.textureComplete) needed.push_back(checkpoint_.file(Checkpoint::Kind::Texture, 0));
+      for (const auto& path : needed) {
+        if (!fs::exists(path, ec)) {
+          return makeError(
+              ErrorCode::CorruptData,
+              "--resume: " + path.string() + " is missing (rerun without --resume to start over)");
+        }
+      }
+      state_ = **saved;
+      return start;
+    }
+    log("resume: no checkpoint in " + checkpoint_.directory().string() +
+        ", building from the start");
+  }
+  if (auto r = checkpoint_.reset(true); !r) return std::move(r).error();
+  if (auto r = checkpoint_.writeState(state_); !r) return std::move(r).error();
+  return start;
+}
 
-  BuildSummary summary;
-  summary.latticeCells = n;
-  summary.depth = depth;
-  auto report = [&](std::string_view stage, double fraction) {
-    if (o.progress) o.progress(stage, fraction);
+void DistributedBuild::resample() {
+  const std::size_t n1 = std::size_t{in_.n} + 1;
+  const auto [begin, end] = shareOf(6 * n1, comm_.rank(), comm_.size());
+  RowShare share;
+  share.beginRow = static_cast<std::size_t>(begin);
+  share.endRow = static_cast<std::size_t>(end);
+  share.exchange = [&](std::vector<std::vector<float>>& heights, std::uint64_t& noData) {
+    if (comm_.size() == 1) return;
+    ByteWriter w;
+    w.put(noData);
+    for (std::size_t row = share.beginRow; row < share.endRow; ++row) {
+      const auto& face = heights[row / n1];
+      w.putBytes(std::as_bytes(std::span(face).subspan((row % n1) * n1, n1)));
+    }
+    const auto all = comm_.allGather(w.take());
+    noData = 0;
+    for (int r = 0; r < comm_.size(); ++r) {
+      ByteReader in(all[static_cast<std::size_t>(r)]);
+      noData += in.get<std::uint64_t>();
+      const auto [b, e] = shareOf(6 * n1, r, comm_.size());
+      for (std::size_t row = b; row < e; ++row) {
+        const auto run = in.take(n1 * sizeof(float));
+        if (r != comm_.rank()) {
+          std::memcpy(heights[row / n1].data() + (row % n1) * n1, run.data(), run.size());
+        }
+      }
+    }
   };
+  announce("resampling", "lattice rows", 6 * n1);
+  const auto t0 = Clock::now();
+  grid_ = SampleGrid::build(
+      *in_.dem, *in_.planet, lattice_, SampleGrid::defaultBucketCells(lattice_),
+      [&](std::size_t done, std::size_t total) {
+        report("resample",
+               static_cast<double>(done) / static_cast<double>(std::max<std::size_t>(total, 1)));
+      },
+      &share);
+  const double s = std::chrono::duration<double>(Clock::now() - t0).count();
+  char line[160];
+  std::snprintf(line, sizeof line, "resample: %zu lattice rows over %d rank(s) in %.1f s", 6 * n1,
+                comm_.size(), s);
+  log(line);
+}
+
+void DistributedBuild::takeCarry(int level, const std::vector<std::vector<std::byte>>& pieces) {
+  // The carry of `level`: per diamond in order, its saturated error and sphere and (when the
+  // next level needs them) its two patches; a sequence of per-rank pieces.
+  const auto diamonds = diamondsOfLevel(lattice_, d_, level);
+  below_.clear();
+  belowSaturated_.assign(diamonds.size(), Saturated{});
+  belowBySpine_.clear();
+  for (const auto& piece : pieces) {
+    ByteReader r(piece);
+    while (!r.atEnd() && !r.failed()) {
+      const auto first = r.get<std::uint64_t>();
+      const auto count = r.get<std::uint64_t>();
+      const auto hasPatches = r.get<std::uint8_t>();
+      for (std::uint64_t k = first; k < first + count && !r.failed(); ++k) {
+        Saturated s;
+        s.error = static_cast<double>(r.get<float>());
+        s.sphere.center.x = r.get<double>();
+        s.sphere.center.y = r.get<double>();
+        s.sphere.center.z = r.get<double>();
+        s.sphere.radius = static_cast<double>(r.get<float>());
+        if (k < belowSaturated_.size()) belowSaturated_[k] = s;
+        if (hasPatches != 0) {
+          for (std::size_t side = 0; side < 2; ++side) {
+            WorkPatch p = getPatch(r);
+            if (k < diamonds.size()) below_.emplace(diamonds[k][side], std::move(p));
+          }
+        }
+      }
+    }
+  }
+  for (std::size_t k = 0; k < diamonds.size(); ++k) {
+    const BinTriangle t = triangleOfNode(lattice_, diamonds[k][0], d_);
+    belowBySpine_.emplace(lattice_.edgeKey(t.face, t.left, t.right), k);
+  }
+}
+
+Result<void> DistributedBuild::loadCarry(int level) {
+  std::vector<std::byte> carry;
+  Error failure;
+  bool ok = true;
+  if (root()) {
+    std::span<const std::byte> payload;
+    auto mapped = checkpoint_.openFile(Checkpoint::Kind::Carry, level, payload);
+    if (!mapped) {
+      ok = false;
+      failure = mapped.error();
+    } else {
+      carry.assign(payload.begin(), payload.end());
+    }
+  }
+  if (auto r = agree(comm_, ok ? Result<void>{} : Result<void>{failure}); !r) return r;
+  comm_.broadcast(carry);
+  std::vector<std::vector<std::byte>> pieces(1);
+  pieces[0] = std::move(carry);
+  takeCarry(level, pieces);
+  return {};
+}
+
+Result<void> DistributedBuild::buildLevel(int level) {
+  const auto diamonds = diamondsOfLevel(lattice_, d_, level);
+  const auto [begin, end] = shareOf(diamonds.size(), comm_.rank(), comm_.size());
+  const std::string item = "building level " + std::to_string(level) + " diamonds " +
+                           rangeText(begin, end) + " of " + std::to_string(diamonds.size());
+  announce("level " + std::to_string(level), "diamonds", diamonds.size());
+  if (o_.fault.failRank == comm_.rank() && o_.fault.failLevel == level) {
+    if (o_.fault.failByKill) {
+      std::fprintf(stderr, "pbdam: test: rank %d kills itself (SIGKILL) at level %d\n",
+                   comm_.rank(), level);
+      std::fflush(stderr);
+      std::raise(SIGKILL);
+    }
+    return fail(item, makeError(ErrorCode::Internal, "injected failure (PBDAM_TEST_FAIL_RANK)"));
+  }
+
+  // 1. Simplify this rank's blocks (leaves at the deepest level) with TBB.
+  const auto t0 = Clock::now();
+  const std::uint64_t mine = end - begin;
+  std::vector<std::array<NodeOut, 2>> nodes(mine);
+  std::vector<std::array<WorkPatch, 2>> made(level > 0 && level < d_ ? mine : 0);
+  std::atomic<std::uint64_t> retries{0};
+  std::atomic<std::uint64_t> unsimplified{0};
+  std::atomic<std::uint64_t> done{0};
+  std::atomic<bool> failed{false};
+  Error failure;
+  const auto caller = std::this_thread::get_id();
+  auto lastReport = Clock::now();
+  const std::uint64_t total = 12 * nodesPerTree_;
+  const std::uint64_t levelPatches = 2 * diamonds.size();
+  tbb::parallel_for(std::uint64_t{0}, mine, [&](std::uint64_t k) {
+    const Diamond& diamond = diamonds[begin + k];
+    const std::array<BinTriangle, 2> tri = {triangleOfNode(lattice_, diamond[0], d_),
+                                            triangleOfNode(lattice_, diamond[1], d_)};
+    if (level == d_) {
+      for (std::size_t s = 0; s < 2; ++s) {
+        nodes[k][s] = makeNode(tri[s], makeLeafPatch(tri[s]), failure, failed);
+      }
+    } else {
+      std::array<std::array<WorkPatch, 2>, 2> generated;
+      std::array<std::array<const WorkPatch*, 2>, 2> children{};
+      for (std::size_t s = 0; s < 2; ++s) {
+        const auto kids = Lattice::children(tri[s]);
+        for (std::size_t c = 0; c < 2; ++c) {
+          if (level + 1 == d_) {
+            generated[s][c] = makeLeafPatch(kids[c]);
+            children[s][c] = &generated[s][c];
+          } else {
+            children[s][c] = &below_.at(nodeId(kids[c], d_));
+          }
+        }
+      }
+      BlockResult block = simplifyBlock(*grid_, tri, children, o_.patchVertices);
+      retries += block.stats.simplifyRetries;
+      unsimplified += block.stats.halvesKeptUnsimplified;
+      nodes[k][0] = makeNode(tri[0], block.first, failure, failed);
+      nodes[k][1] = makeNode(tri[1], block.second, failure, failed);
+      if (!made.empty()) {
+        made[k][0] = std::move(block.first);
+        made[k][1] = std::move(block.second);
+      }
+    }
+    ++done;
+    if (std::this_thread::get_id() == caller && root() &&
+        Clock::now() - lastReport > std::chrono::milliseconds(100)) {
+      lastReport = Clock::now();
+      const double share =
+          static_cast<double>(done.load()) / static_cast<double>(std::max<std::uint64_t>(mine, 1));
+      report("simplify",
+             (static_cast<double>(patchesDone_) + share * static_cast<double>(levelPatches)) /
+                 static_cast<double>(total));
+    }
+  });
+  if (failed) return fail(item, failure);
+  below_ = {};  // the children's patches have served
+
+  // 2. Saturate this rank's diamonds over the diamond DAG (needs the level below's saturated
+  // values, which every rank holds).
+  std::vector<Saturated> saturated(mine);
+  for (std::uint64_t k = 0; k < mine; ++k) {
+    NodeOut& a = nodes[k][0];
+    NodeOut& b = nodes[k][1];
+    double e = std::max(a.measuredError, b.measuredError);
+    Sphere s = merge(a.sphere, b.sphere);
+    if (level < d_) {
+      const BinTriangle ta = triangleOfNode(lattice_, a.id, d_);
+      const BinTriangle tb = triangleOfNode(lattice_, b.id, d_);
+      // The four child diamonds are those whose spines are this diamond's legs.
+      const std::array<EdgeKey, 4> legs = {lattice_.edgeKey(ta.face, ta.apex, ta.left),
+                                           lattice_.edgeKey(ta.face, ta.apex, ta.right),
+                                           lattice_.edgeKey(tb.face, tb.apex, tb.left),
+                                           lattice_.edgeKey(tb.face, tb.apex, tb.right)};
+      for (const EdgeKey& leg : legs) {
+        const Saturated& child = belowSaturated_[belowBySpine_.at(leg)];
+        e = std::max(e, child.error);
+        s = merge(s, child.sphere);
+      }
+    }
+    const float storedError = roundUpToFloat(e);
+    const float radius = storedRadius(s.radius);
+    saturated[k] = Saturated{static_cast<double>(storedError), Sphere{s.center, radius}};
+    for (NodeOut* node : {&a, &b}) {
+      node->record.errorMeters = storedError;
+      node->record.sphereRadiusMeters = radius;
+      node->record.sphereCenter = {s.center.x, s.center.y, s.center.z};
+    }
+  }
+  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+
+  // 3. Serialise: the carry (what the next level needs) for everyone, the nodes for rank 0.
+  ByteWriter carry;
+  carry.put(begin);
+  carry.put(mine);
+  carry.put(static_cast<std::uint8_t>(made.empty() ? 0 : 1));
+  for (std::uint64_t k = 0; k < mine; ++k) {
+    carry.put(static_cast<float>(saturated[k].error));
+    carry.put(saturated[k].sphere.center.x);
+    carry.put(saturated[k].sphere.center.y);
+    carry.put(saturated[k].sphere.center.z);
+    carry.put(static_cast<float>(saturated[k].sphere.radius));
+    if (!made.empty()) {
+      putPatch(carry, made[k][0]);
+      putPatch(carry, made[k][1]);
+      made[k] = {};
+    }
+  }
+  made.clear();
+  ByteWriter out;
+  std::uint64_t rawBytes = 0;
+  out.put(begin);
+  out.put(mine);
+  out.put(retries.load());
+  out.put(unsimplified.load());
+  for (const auto& pair : nodes) {
+    for (const NodeOut& n : pair)
+      rawBytes += 8ULL * n.record.vertexCount + 6ULL * n.record.triangleCount;
+  }
+  out.put(rawBytes);
+  out.put(seconds);
+  std::array<std::byte, kNodeRecordBytes> record{};
+  for (auto& pair : nodes) {
+    for (NodeOut& n : pair) {
+      out.put(n.id);
+      encodeNodeRecord(n.record, record);
+      out.putBytes(record);
+      out.put(static_cast<std::uint32_t>(n.blob.size()));
+      out.putBytes(n.blob);
+      n.blob = {};
+    }
+  }
+  nodes.clear();
+
+  // 4. Synchronise: every rank takes the whole level's carry; rank 0 checkpoints the level.
+  const auto allCarry = comm_.allGather(carry.take());
+  auto gathered = comm_.gatherToRoot(out.take());
+  takeCarry(level, allCarry);
+  patchesDone_ += levelPatches;
+  if (!root()) {
+    completeLevel_ = level;  // as soon as rank 0 has written it
+    return {};
+  }
+
+  const std::string writing = "writing the level " + std::to_string(level) + " checkpoint";
+  std::vector<std::span<const std::byte>> pieces;
+  for (const auto& piece : gathered) pieces.emplace_back(piece);
+  if (auto w = checkpoint_.writeFile(Checkpoint::Kind::Nodes, level, pieces); !w) {
+    return fail(writing, w.error());
+  }
+  std::vector<std::span<const std::byte>> carryPieces;
+  for (const auto& piece : allCarry) carryPieces.emplace_back(piece);
+  if (auto w = checkpoint_.writeFile(Checkpoint::Kind::Carry, level, carryPieces); !w) {
+    return fail(writing, w.error());
+  }
+  state_.completeLevel = level;
+  if (auto w = checkpoint_.writeState(state_); !w) return fail(writing, w.error());
+  completeLevel_ = level;
+  checkpoint_.removeFile(Checkpoint::Kind::Carry, level + 1);
+
+  // 5. Report: per-rank throughput and the ETA of the simplification.
+  std::string line = "level " + std::to_string(level) + ": " + std::to_string(diamonds.size()) +
+                     (level == d_ ? " leaf diamonds" : " blocks");
+  char buf[200];
+  for (std::size_t r = 0; r < gathered.size(); ++r) {
+    ByteReader in(gathered[r]);
+    (void)in.get<std::uint64_t>();
+    const auto count = in.get<std::uint64_t>();
+    (void)in.get<std::uint64_t>();
+    (void)in.get<std::uint64_t>();
+    (void)in.get<std::uint64_t>();
+    const auto s = in.get<double>();
+    std::snprintf(buf, sizeof buf, "%s rank %zu %llu in %.1f s (%.0f/s)", r == 0 ? ";" : ",", r,
+                  static_cast<unsigned long long>(count), s,
+                  s > 0.0 ? static_cast<double>(count) / s : 0.0);
+    line += buf;
+  }
+  const double elapsed = std::chrono::duration<double>(Clock::now() - simplifyStart_).count();
+  const double fraction = static_cast<double>(patchesDone_) / static_cast<double>(total);
+  std::snprintf(buf, sizeof buf, "; %.0f%% of patches, %.1f s", 100.0 * fraction, elapsed);
+  line += buf;
+  // Blocks cost ~10x what leaves do: the ETA extrapolates the block levels' rate only.
+  if (level < d_) {
+    blockSeconds_ += std::chrono::duration<double>(Clock::now() - t0).count();
+    blockPatchesDone_ += levelPatches;
+    std::snprintf(buf, sizeof buf, ", ETA %.0f s",
+                  blockSeconds_ / static_cast<double>(blockPatchesDone_) *
+                      static_cast<double>(total - patchesDone_));
+    line += buf;
+  }
+  log(line);
+  report("simplify", fraction);
+  return {};
+}
+
+Result<void> DistributedBuild::buildTextures() {
+  const std::uint32_t border = 2;
+  const std::uint32_t inner = o_.textureTileTexels - 2 * border;
+  const double ratio = static_cast<double>(in_.n) / static_cast<double>(inner);
+  const auto textureLevels =
+      static_cast<std::uint32_t>(std::max(0.0, std::round(std::log2(std::max(ratio, 1.0))))) + 1;
+  const std::uint64_t tilesPerFace = ((std::uint64_t{1} << (2 * textureLevels)) - 1) / 3;
+  const std::uint64_t tiles = 6 * tilesPerFace;
+  const auto [begin, end] = shareOf(tiles, comm_.rank(), comm_.size());
+  const std::string item =
+      "building texture tiles " + rangeText(begin, end) + " of " + std::to_string(tiles);
+  announce("texture", "tiles", tiles);
+  const SampleGrid& grid = *grid_;
+  TextureSource source;
+  source.planet = *in_.planet;
+  source.heightMeters = heightFunctionFromGrid(*in_.dem, true);
+  source.ramp.hasOcean = grid.minHeightMeters() < 0.0f && in_.dem->source().body == "earth";
+  if (!source.ramp.hasOcean && in_.planet->name() == "earth") source.ramp.hasOcean = true;
+  source.ramp.minMeters = static_cast<double>(grid.minHeightMeters());
+  source.ramp.maxMeters =
+      std::max(static_cast<double>(grid.maxHeightMeters()), source.ramp.minMeters + 1.0);
+  if (in_.imagery) {
+    source.imagery = &*in_.imagery;
+    source.imageryShadingStrength = 0.35;
+  }
+  const auto t0 = Clock::now();
+  const std::uint64_t mine = end - begin;
+  std::vector<std::vector<std::byte>> blobs(mine);
+  std::vector<float> errors(mine);
+  std::atomic<std::uint64_t> done{0};
+  std::atomic<std::int64_t> failedTile{-1};
+  const auto caller = std::this_thread::get_id();
+  auto lastReport = Clock::now();
+  tbb::parallel_for(std::uint64_t{0}, mine, [&](std::uint64_t j) {
+    const std::uint64_t k = begin + j;
+    const auto face = static_cast<int>(k / tilesPerFace);
+    const std::uint64_t heap = k % tilesPerFace;
+    std::uint32_t level = 0;
+    while (((std::uint64_t{1} << (2 * (level + 1))) - 1) / 3 <= heap) ++level;
+    const std::uint64_t within = heap - ((std::uint64_t{1} << (2 * level)) - 1) / 3;
+    TextureTileRequest request;
+    request.face = face;
+    request.level = static_cast<int>(level);
+    request.qi = static_cast<std::uint32_t>(within & ((std::uint64_t{1} << level) - 1));
+    request.qj = static_cast<std::uint32_t>(within >> level);
+    request.sizeTexels = o_.textureTileTexels;
+    request.borderTexels = border;
+    auto tile = buildTextureTile(source, request);
+    if (!tile) {
+      failedTile = static_cast<std::int64_t>(k);
+      return;
+    }
+    TextureTileImage image = std::move(tile->image);
+    if (o_.textureFormat == TexelFormat::Bc1) {
+      auto bc1 = compressBc1(image, o_.bc1Quality);
+      if (!bc1) {
+        failedTile = static_cast<std::int64_t>(k);
+        return;
+      }
+      image = std::move(bc1).value();
+    }
+    auto blob = encodeTextureTile(image);
+    if (!blob) {
+      failedTile = static_cast<std::int64_t>(k);
+      return;
+    }
+    blobs[j] = std::move(blob).value();
+    errors[j] = roundUpToFloat(tile->textureErrorMeters);
+    ++done;
+    if (std::this_thread::get_id() == caller && root() &&
+        Clock::now() - lastReport > std::chrono::milliseconds(100)) {
+      lastReport = Clock::now();
+      report("texture", static_cast<double>(done.load()) /
+                            static_cast<double>(std::max<std::uint64_t>(mine, 1)));
+    }
+  });
+  if (failedTile >= 0) {
+    return fail(item,
+                makeError(ErrorCode::Internal, "texture tile " + std::to_string(failedTile.load()) +
+                                                   " could not be built"));
+  }
+  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  ByteWriter out;
+  out.put(begin);
+  out.put(mine);
+  out.put(seconds);
+  for (std::uint64_t j = 0; j < mine; ++j) {
+    out.put(errors[j]);
+    out.put(static_cast<std::uint32_t>(blobs[j].size()));
+    out.putBytes(blobs[j]);
+  }
+  blobs.clear();
+  auto gathered = comm_.gatherToRoot(out.take());
+  if (!root()) {
+    textureComplete_ = true;
+    return {};
+  }
+  report("texture", 1.0);
+  std::vector<std::span<const std::byte>> pieces;
+  for (const auto& piece : gathered) pieces.emplace_back(piece);
+  const std::string writing = "writing the texture checkpoint";
+  if (auto w = checkpoint_.writeFile(Checkpoint::Kind::Texture, 0, pieces); !w) {
+    return fail(writing, w.error());
+  }
+  state_.textureComplete = true;
+  if (auto w = checkpoint_.writeState(state_); !w) return fail(writing, w.error());
+  textureComplete_ = true;
+  std::string line = "texture: " + std::to_string(tiles) + " tiles";
+  char buf[120];
+  for (std::size_t r = 0; r < gathered.size(); ++r) {
+    ByteReader in(gathered[r]);
+    (void)in.get<std::uint64_t>();
+    const auto count = in.get<std::uint64_t>();
+    const auto s = in.get<double>();
+    std::snprintf(buf, sizeof buf, "%s rank %zu %llu in %.1f s (%.1f/s)", r == 0 ? ";" : ",", r,
+                  static_cast<unsigned long long>(count), s,
+                  s > 0.0 ? static_cast<double>(count) / s : 0.0);
+    line += buf;
+  }
+  log(line);
+  return {};
+}
+
+/// Rank 0: the face files and the manifest from the checkpointed levels and tiles, read
+/// through mappings (the blobs are never all in memory at once).
+Result<void> DistributedBuild::assemble(BuildSummary& summary) {
+  struct Located {
+    const std::byte* record = nullptr;
+    std::span<const std::byte> blob;
+  };
+  const std::uint64_t nodeCount = 12 * nodesPerTree_;
+  std::vector<Located> located(nodeCount);
+  std::vector<MappedFile> mappings;
+  for (int level = 0; level <= d_; ++level) {
+    std::span<const std::byte> payload;
+    auto mapped = checkpoint_.openFile(Checkpoint::Kind::Nodes, level, payload);
+    if (!mapped) return std::move(mapped).error();
+    ByteReader r(payload);
+    while (!r.atEnd() && !r.failed()) {
+      (void)r.get<std::uint64_t>();
+      const auto count = r.get<std::uint64_t>();
+      summary.simplifyRetries += r.get<std::uint64_t>();
+      summary.halvesKeptUnsimplified += r.get<std::uint64_t>();
+      summary.patchBytesRaw += r.get<std::uint64_t>();
+      (void)r.get<double>();
+      for (std::uint64_t k = 0; k < 2 * count && !r.failed(); ++k) {
+        const auto id = r.get<std::uint64_t>();
+        const auto record = r.take(kNodeRecordBytes);
+        const auto bytes = r.get<std::uint32_t>();
+        const auto blob = r.take(bytes);
+        if (r.failed() || id >= nodeCount) break;
+        located[id] = Located{record.data(), blob};
+        const NodeRecord rec = decodeNodeRecord(
+            std::span<const std::byte, kNodeRecordBytes>(record.data(), kNodeRecordBytes));
+        if (level == d_) {
+          summary.leafMaxErrorMeters =
+              std::max(summary.leafMaxErrorMeters, static_cast<double>(rec.errorMeters));
+        }
+        if (level == 0) {
+          summary.rootErrorMeters =
+              std::max(summary.rootErrorMeters, static_cast<double>(rec.errorMeters));
+        }
+      }
+    }
+    if (r.failed()) {
+      return makeError(ErrorCode::CorruptData,
+                       checkpoint_.file(Checkpoint::Kind::Nodes, level).string() + ": truncated");
+    }
+    mappings.push_back(std::move(mapped).value());
+  }
+  for (std::uint64_t id = 0; id < nodeCount; ++id) {
+    if (located[id].record == nullptr) {
+      return makeError(ErrorCode::CorruptData, checkpoint_.directory().string() + ": node " +
+                                                   std::to_string(id) + " is missing");
+    }
+  }
+
+  const std::uint32_t border = 2;
+  const std::uint32_t inner = o_.textureTileTexels - 2 * border;
+  const double ratio = static_cast<double>(in_.n) / static_cast<double>(inner);
+  const auto textureLevels =
+      static_cast<std::uint32_t>(std::max(0.0, std::round(std::log2(std::max(ratio, 1.0))))) + 1;
+  summary.textureLevels = textureLevels;
+  const std::uint64_t tilesPerFace = ((std::uint64_t{1} << (2 * textureLevels)) - 1) / 3;
+  std::vector<std::span<const std::byte>> tileBlobs(6 * tilesPerFace);
+  std::vector<float> tileErrors(6 * tilesPerFace);
+  {
+    std::span<const std::byte> payload;
+    auto mapped = checkpoint_.openFile(Checkpoint::Kind::Texture, 0, payload);
+    if (!mapped) return std::move(mapped).error();
+    ByteReader r(payload);
+    std::uint64_t seen = 0;
+    while (!r.atEnd() && !r.failed()) {
+      const auto first = r.get<std::uint64_t>();
+      const auto count = r.get<std::uint64_t>();
+      (void)r.get<double>();
+      for (std::uint64_t k = first; k < first + count && !r.failed(); ++k) {
+        const auto e = r.get<float>();
+        const auto bytes = r.get<std::uint32_t>();
+        const auto blob = r.take(bytes);
+        if (r.failed() || k >= tileBlobs.size()) break;
+        tileErrors[k] = e;
+        tileBlobs[k] = blob;
+        ++seen;
+      }
+    }
+    if (r.failed() || seen != tileBlobs.size()) {
+      return makeError(ErrorCode::CorruptData,
+                       checkpoint_.file(Checkpoint::Kind::Texture, 0).string() + ": incomplete");
+    }
+    mappings.push_back(std::move(mapped).value());
+  }
+  summary.textureTiles = 6 * tilesPerFace;
+
+  const SampleGrid& grid = *grid_;
+  Manifest manifest;
+  manifest.version = kDatasetFormatVersion;
+  manifest.planetSpec = in_.planet->name();
+  manifest.equatorialRadiusMeters = in_.planet->equatorialRadiusMeters();
+  manifest.flattening = in_.planet->flattening();
+  manifest.latticeCells = in_.n;
+  manifest.leafCells = in_.leafCells;
+  manifest.depth = in_.depth;
+  manifest.patchVertices = o_.patchVertices;
+  manifest.heightStepMeters = o_.heightStepMeters;
+  manifest.textureLevels = textureLevels;
+  manifest.textureTileTexels = o_.textureTileTexels;
+  manifest.textureBorderTexels = border;
+  manifest.textureFormat = o_.textureFormat == TexelFormat::Bc1 ? "bc1" : "rgba8";
+  manifest.textureSource = "shaded-relief";
+  if (in_.imagery) {
+    manifest.textureSource = "image:";
+    manifest.textureSource += o_.texturePath.filename().string();
+  }
+  manifest.sourceDem = o_.demPath.filename().string();
+  manifest.sourceFormat = in_.dem->source().format;
+  manifest.sourceSamples = summary.sourceSamples;
+  manifest.minHeightMeters = static_cast<double>(grid.minHeightMeters());
+  manifest.maxHeightMeters = static_cast<double>(grid.maxHeightMeters());
+
+  for (int face = 0; face < 6; ++face) {
+    FaceHeader h;
+    h.face = static_cast<std::uint32_t>(face);
+    h.latticeCells = in_.n;
+    h.leafCells = in_.leafCells;
+    h.depth = in_.depth;
+    h.textureLevels = textureLevels;
+    h.textureTileTexels = o_.textureTileTexels;
+    h.textureBorderTexels = border;
+    h.nodeCount = 2 * nodesPerTree_;
+    h.nodeTableOffset = kFaceHeaderBytes;
+    h.textureNodeCount = tilesPerFace;
+    h.textureTableOffset = h.nodeTableOffset + h.nodeCount * kNodeRecordBytes;
+    const std::uint64_t tablesEnd = h.textureTableOffset + tilesPerFace * kTextureRecordBytes;
+    h.blobsOffset = (tablesEnd + 4095) / 4096 * 4096;  // page-aligned blob area
+    std::uint64_t at = h.blobsOffset;
+    std::vector<std::byte> nodeTable(h.nodeCount * kNodeRecordBytes);
+    std::vector<std::span<const std::byte>> blobs;
+    const std::uint64_t firstNode = static_cast<std::uint64_t>(face) * 2 * nodesPerTree_;
+    for (std::uint64_t k = 0; k < h.nodeCount; ++k) {
+      const Located& node = located[firstNode + k];
+      NodeRecord record = decodeNodeRecord(
+          std::span<const std::byte, kNodeRecordBytes>(node.record, kNodeRecordBytes));
+      record.blobOffset = at;
+      record.blobBytes = static_cast<std::uint32_t>(node.blob.size());
+      at += node.blob.size();
+      blobs.emplace_back(node.blob);
+      encodeNodeRecord(record, std::span<std::byte, kNodeRecordBytes>(
+                                   nodeTable.data() + k * kNodeRecordBytes, kNodeRecordBytes));
+      summary.patchBytesCompressed += node.blob.size();
+      summary.totalTriangles += record.triangleCount;
+      if (k % nodesPerTree_ >= Lattice::firstIndexOfLevel(d_)) {
+        summary.leafTriangles += record.triangleCount;
+      }
+    }
+    std::vector<std::byte> textureTable(tilesPerFace * kTextureRecordBytes);
+    for (std::uint64_t k = 0; k < tilesPerFace; ++k) {
+      const auto& blob = tileBlobs[static_cast<std::size_t>(face) * tilesPerFace + k];
+      TextureRecord t{at, static_cast<std::uint32_t>(blob.size()),
+                      tileErrors[static_cast<std::size_t>(face) * tilesPerFace + k]};
+      at += blob.size();
+      blobs.emplace_back(blob);
+      encodeTextureRecord(t,
+                          std::span<std::byte, kTextureRecordBytes>(
+                              textureTable.data() + k * kTextureRecordBytes, kTextureRecordBytes));
+    }
+    h.fileBytes = at;
+    h.nodeTableCrc = crc32(nodeTable);
+    h.textureTableCrc = crc32(textureTable);
+    std::array<std::byte, kFaceHeaderBytes> header{};
+    encodeFaceHeader(h, header);
+    std::vector<std::byte> padding(h.blobsOffset - tablesEnd);
+    std::vector<std::span<const std::byte>> chunks = {header, nodeTable, textureTable, padding};
+    chunks.insert(chunks.end(), blobs.begin(), blobs.end());
+    const std::string name = "face" + std::to_string(face) + ".pbdam";
+    std::uint32_t crc = 0;
+    if (auto w = writeFileAtomically(o_.outDir / name, chunks, crc); !w) return w;
+    manifest.faces[static_cast<std::size_t>(face)] = ManifestFace{name, h.fileBytes, crc};
+    summary.datasetBytes += h.fileBytes;
+    report("write", static_cast<double>(face + 1) / 6.0);
+  }
+  syncDirectory(o_.outDir);
+  const std::string json = manifestToJson(manifest);
+  std::uint32_t crc = 0;
+  if (auto w = writeFileAtomically(o_.outDir / kManifestFileName,
+                                   {std::as_bytes(std::span<const char>(json.data(), json.size()))},
+                                   crc);
+      !w) {
+    return w;
+  }
+  syncDirectory(o_.outDir);
+  summary.datasetBytes += json.size();
+  summary.patches = nodeCount;
+  mappings.clear();
+  // The dataset is complete: its checkpoint has served.
+  if (auto r = checkpoint_.reset(false); !r) return r;
+  return {};
+}
+
+Result<BuildSummary> DistributedBuild::run() {
+  BuildSummary summary;
+  summary.latticeCells = in_.n;
+  summary.depth = in_.depth;
+  summary.ranks = comm_.size();
+  state_.fingerprint = fingerprintOf(o_, in_);
+
+  // Rank 0 prepares the output directory and the checkpoint and tells everyone where to start.
+  std::vector<std::byte> decision;
+  if (root()) {
+    auto start = setUpOutput();
+    ByteWriter w;
+    w.put(static_cast<std::uint8_t>(start ? 1 : 0));
+    if (start) {
+      w.put(static_cast<std::int32_t>(start->completeLevel.value_or(-1)));
+      w.put(static_cast<std::uint8_t>(start->textureComplete ? 1 : 0));
+    } else {
+      w.put(static_cast<std::int32_t>(start.error().code));
+      w.putBytes(std::as_bytes(std::span<const char>(start.error().message)));
+    }
+    decision = w.take();
+  }
+  comm_.broadcast(decision);
+  StartPoint start;
+  {
+    ByteReader r(decision);
+    if (r.get<std::uint8_t>() != 1) {
+      const auto code = static_cast<ErrorCode>(r.get<std::int32_t>());
+      const auto text = r.take(decision.size() - r.offset());
+      return makeError(code, std::string(reinterpret_cast<const char*>(text.data()), text.size()));
+    }
+    const auto level = r.get<std::int32_t>();
+    if (level >= 0) start.completeLevel = level;
+    start.textureComplete = r.get<std::uint8_t>() == 1;
+  }
+  completeLevel_ = start.completeLevel;
+  textureComplete_ = start.textureComplete;
+  if (start.completeLevel) {
+    summary.resumedAfterLevel = start.completeLevel;
+    summary.resumedAfterTexture = start.textureComplete;
+    log("resume: the checkpoint has levels " + std::to_string(d_) + ".." +
+        std::to_string(*start.completeLevel) + (start.textureComplete ? " and the textures" : "") +
+        "; continuing" +
+        (*start.completeLevel > 0 ? " at level " + std::to_string(*start.completeLevel - 1) : ""));
+  }
+
+  // ---- Resample (each rank a share of the lattice rows; all ranks end with the whole grid).
+  resample();
+  summary.sourceSamples = grid_->sourceSampleCount();
+  summary.latticeSamples = 6ULL * (in_.n + 1ULL) * (in_.n + 1ULL);
+  summary.noDataPoints = grid_->noDataPoints();
+
+  // ---- Levels D .. 0: leaves, then one block per diamond; saturation with each level.
+  simplifyStart_ = Clock::now();
+  int next = d_;
+  if (start.completeLevel) {
+    for (int level = d_; level >= *start.completeLevel; --level) {
+      patchesDone_ += 2 * diamondsOfLevel(lattice_, d_, level).size();
+    }
+    next = *start.completeLevel - 1;
+    if (next >= 0) {
+      if (auto r = loadCarry(*start.completeLevel); !r) return std::move(r).error();
+    }
+  }
+  for (int level = next; level >= 0; --level) {
+    if (auto r = buildLevel(level); !r) return std::move(r).error();
+  }
+  below_.clear();
+
+  // ---- Texture quadtree.
+  if (!start.textureComplete) {
+    if (auto r = buildTextures(); !r) return std::move(r).error();
+  }
+
+  // ---- Face files, then the manifest (rank 0).
+  if (root()) {
+    if (auto r = assemble(summary); !r) return fail("writing the dataset", r.error());
+  }
+  return summary;
+}
+
+}  // namespace
+
+Result<BuildSummary> buildDataset(const BuildOptions& o) {
+  const auto start = Clock::now();
+  LocalCommunicator local;
+  Communicator& comm = o.communicator ? *o.communicator : local;
+  auto inputs = prepare(o);
+  if (auto agreed = agree(comm, inputs ? Result<void>{} : Result<void>{inputs.error()}); !agreed) {
+    return std::move(agreed).error();
+  }
 
   tbb::task_arena arena(o.threads > 0 ? o.threads : tbb::task_arena::automatic);
   Result<BuildSummary> result = Error{};
   arena.execute([&] {
-    // ---- Resample.
-    SampleGrid grid = SampleGrid::build(
-        *dem, *planet, lattice, SampleGrid::defaultBucketCells(lattice),
-        [&](std::size_t done, std::size_t total) {
-          report("resample", static_cast<double>(done) / static_cast<double>(total));
-        });
-    summary.sourceSamples = grid.sourceSampleCount();
-    summary.latticeSamples = 6ULL * (n + 1ULL) * (n + 1ULL);
-    summary.noDataPoints = grid.noDataPoints();
-
-    Build build(o, *planet, lattice, depth);
-    std::atomic<std::uint64_t> rawBytes{0};
-    const auto d = static_cast<int>(depth);
-    const std::uint64_t leafCount = 12ULL << depth;
-    std::uint64_t patchesDone = 0;
-    const std::uint64_t patchesTotal = 12 * build.nodesPerTree_;
-
-    // ---- Leaves (regenerated on demand later instead of kept).
-    {
-      const std::uint64_t first = Lattice::firstIndexOfLevel(d);
-      const std::uint64_t perTree = std::uint64_t{1} << depth;
-      tbb::parallel_for(std::uint64_t{0}, leafCount, [&](std::uint64_t k) {
-        const auto g = static_cast<int>(k / perTree);
-        const BinTriangle t = lattice.triangle(g / 2, g % 2, d, first + k % perTree);
-        build.store(build.nodeId(t), t, makeLeafPatch(t), grid, rawBytes);
-      });
-      patchesDone += leafCount;
-      report("simplify", static_cast<double>(patchesDone) / static_cast<double>(patchesTotal));
-    }
-
-    // ---- Levels D−1 .. 0: one block per diamond.
-    std::vector<std::vector<Diamond>> diamonds(depth + 1);
-    diamonds[depth] = build.diamondsOfLevel(d);
-    std::unordered_map<std::uint64_t, WorkPatch> below;  // level k+1 patches by node id
-    std::atomic<std::uint64_t> retries{0};
-    std::atomic<std::uint64_t> unsimplified{0};
-    for (int level = d - 1; level >= 0; --level) {
-      diamonds[static_cast<std::size_t>(level)] = build.diamondsOfLevel(level);
-      const auto& levelDiamonds = diamonds[static_cast<std::size_t>(level)];
-      std::vector<WorkPatch> made(2 * levelDiamonds.size());
-      tbb::parallel_for(std::size_t{0}, levelDiamonds.size(), [&](std::size_t k) {
-        const std::array<BinTriangle, 2> tri = {build.triangleOf(levelDiamonds[k][0]),
-                                                build.triangleOf(levelDiamonds[k][1])};
-        std::array<std::array<WorkPatch, 2>, 2> generated;
-        std::array<std::array<const WorkPatch*, 2>, 2> children{};
-        for (std::size_t s = 0; s < 2; ++s) {
-          const auto kids = Lattice::children(tri[s]);
-          for (std::size_t c = 0; c < 2; ++c) {
-            if (level + 1 == d) {
-              generated[s][c] = makeLeafPatch(kids[c]);
-              children[s][c] = &generated[s][c];
-            } else {
-              children[s][c] = &below.at(build.nodeId(kids[c]));
-            }
-          }
-        }
-        BlockResult block = simplifyBlock(grid, tri, children, o.patchVertices);
-        retries += block.stats.simplifyRetries;
-        unsimplified += block.stats.halvesKeptUnsimplified;
-        build.store(levelDiamonds[k][0], tri[0], block.first, grid, rawBytes);
-        build.store(levelDiamonds[k][1], tri[1], block.second, grid, rawBytes);
-        made[2 * k] = std::move(block.first);
-        made[2 * k + 1] = std::move(block.second);
-      });
-      below.clear();
-      for (std::size_t k = 0; k < levelDiamonds.size(); ++k) {
-        below.emplace(levelDiamonds[k][0], std::move(made[2 * k]));
-        below.emplace(levelDiamonds[k][1], std::move(made[2 * k + 1]));
-      }
-      patchesDone += 2 * levelDiamonds.size();
-      report("simplify", static_cast<double>(patchesDone) / static_cast<double>(patchesTotal));
-    }
-    below.clear();
-    summary.simplifyRetries = retries.load();
-    summary.halvesKeptUnsimplified = unsimplified.load();
-    if (build.failed_) {
-      result = makeError(ErrorCode::Internal, "a patch could not be encoded: " + build.failure_);
-      return;
-    }
-
-    // ---- Saturate errors and spheres bottom-up over the diamond DAG (across faces).
-    std::unordered_map<EdgeKey, std::size_t, EdgeKeyHash> belowBySpine;
-    std::vector<double> belowError;
-    std::vector<Sphere> belowSphere;
-    for (int level = d; level >= 0; --level) {
-      const auto& levelDiamonds = diamonds[static_cast<std::size_t>(level)];
-      std::vector<double> error(levelDiamonds.size());
-      std::vector<Sphere> sphere(levelDiamonds.size());
-      std::unordered_map<EdgeKey, std::size_t, EdgeKeyHash> bySpine;
-      for (std::size_t k = 0; k < levelDiamonds.size(); ++k) {
-        const NodeData& a = build.nodes_[levelDiamonds[k][0]];
-        const NodeData& b = build.nodes_[levelDiamonds[k][1]];
-        double e = std::max(a.measuredError, b.measuredError);
-        Sphere s = merge(a.sphere, b.sphere);
-        const BinTriangle ta = build.triangleOf(levelDiamonds[k][0]);
-        const BinTriangle tb = build.triangleOf(levelDiamonds[k][1]);
-        if (level < d) {
-          // The four child diamonds are those whose spines are this diamond's legs.
-          const std::array<EdgeKey, 4> legs = {lattice.edgeKey(ta.face, ta.apex, ta.left),
-                                               lattice.edgeKey(ta.face, ta.apex, ta.right),
-                                               lattice.edgeKey(tb.face, tb.apex, tb.left),
-                                               lattice.edgeKey(tb.face, tb.apex, tb.right)};
-          for (const EdgeKey& leg : legs) {
-            const std::size_t child = belowBySpine.at(leg);
-            e = std::max(e, belowError[child]);
-            s = merge(s, belowSphere[child]);
-          }
-        }
-        bySpine.emplace(lattice.edgeKey(ta.face, ta.left, ta.right), k);
-        const float storedError = roundUpToFloat(e);
-        const float radius = storedRadius(s.radius);
-        error[k] = static_cast<double>(storedError);
-        sphere[k] = Sphere{s.center, static_cast<double>(radius)};
-        for (std::uint64_t id : levelDiamonds[k]) {
-          NodeRecord& r = build.nodes_[id].record;
-          r.errorMeters = storedError;
-          r.sphereRadiusMeters = radius;
-          r.sphereCenter = {s.center.x, s.center.y, s.center.z};
-        }
-      }
-      belowBySpine = std::move(bySpine);
-      belowError = std::move(error);
-      belowSphere = std::move(sphere);
-      if (level == d) {
-        for (double e : belowError)
-          summary.leafMaxErrorMeters = std::max(summary.leafMaxErrorMeters, e);
-      }
-      if (level == 0) {
-        for (double e : belowError) summary.rootErrorMeters = std::max(summary.rootErrorMeters, e);
-      }
-    }
-
-    // ---- Texture quadtree.
-    const std::uint32_t border = 2;
-    const std::uint32_t inner = o.textureTileTexels - 2 * border;
-    const double ratio = static_cast<double>(n) / static_cast<double>(inner);
-    const auto textureLevels =
-        static_cast<std::uint32_t>(std::max(0.0, std::round(std::log2(std::max(ratio, 1.0))))) + 1;
-    summary.textureLevels = textureLevels;
-    const std::uint64_t tilesPerFace = ((std::uint64_t{1} << (2 * textureLevels)) - 1) / 3;
-    std::vector<std::vector<std::byte>> tileBlobs(6 * tilesPerFace);
-    std::vector<float> tileErrors(6 * tilesPerFace);
-    TextureSource source;
-    source.planet = *planet;
-    source.heightMeters = heightFunctionFromGrid(*dem, true);
-    source.ramp.hasOcean = grid.minHeightMeters() < 0.0f && body == "earth";
-    if (!source.ramp.hasOcean && planet->name() == "earth") source.ramp.hasOcean = true;
-    source.ramp.minMeters = static_cast<double>(grid.minHeightMeters());
-    source.ramp.maxMeters =
-        std::max(static_cast<double>(grid.maxHeightMeters()), source.ramp.minMeters + 1.0);
-    if (imagery) {
-      source.imagery = &*imagery;
-      source.imageryShadingStrength = 0.35;
-    }
-    std::atomic<std::uint64_t> tilesDone{0};
-    std::atomic<bool> textureFailed{false};
-    tbb::parallel_for(std::uint64_t{0}, 6 * tilesPerFace, [&](std::uint64_t k) {
-      const auto face = static_cast<int>(k / tilesPerFace);
-      const std::uint64_t heap = k % tilesPerFace;
-      std::uint32_t level = 0;
-      while (((std::uint64_t{1} << (2 * (level + 1))) - 1) / 3 <= heap) ++level;
-      const std::uint64_t within = heap - ((std::uint64_t{1} << (2 * level)) - 1) / 3;
-      TextureTileRequest request;
-      request.face = face;
-      request.level = static_cast<int>(level);
-      request.qi = static_cast<std::uint32_t>(within & ((std::uint64_t{1} << level) - 1));
-      request.qj = static_cast<std::uint32_t>(within >> level);
-      request.sizeTexels = o.textureTileTexels;
-      request.borderTexels = border;
-      auto tile = buildTextureTile(source, request);
-      if (!tile) {
-        textureFailed = true;
-        return;
-      }
-      TextureTileImage image = std::move(tile->image);
-      if (o.textureFormat == TexelFormat::Bc1) {
-        auto bc1 = compressBc1(image, o.bc1Quality);
-        if (!bc1) {
-          textureFailed = true;
-          return;
-        }
-        image = std::move(bc1).value();
-      }
-      auto blob = encodeTextureTile(image);
-      if (!blob) {
-        textureFailed = true;
-        return;
-      }
-      tileBlobs[k] = std::move(blob).value();
-      tileErrors[k] = roundUpToFloat(tile->textureErrorMeters);
-      ++tilesDone;
-    });
-    report("texture", 1.0);
-    if (textureFailed) {
-      result = makeError(ErrorCode::Internal, "a texture tile could not be built");
-      return;
-    }
-    summary.textureTiles = 6 * tilesPerFace;
-
-    // ---- Face files, then the manifest.
-    Manifest manifest;
-    manifest.version = kDatasetFormatVersion;
-    manifest.planetSpec = planet->name();
-    manifest.equatorialRadiusMeters = planet->equatorialRadiusMeters();
-    manifest.flattening = planet->flattening();
-    manifest.latticeCells = n;
-    manifest.leafCells = leafCells;
-    manifest.depth = depth;
-    manifest.patchVertices = o.patchVertices;
-    manifest.heightStepMeters = o.heightStepMeters;
-    manifest.textureLevels = textureLevels;
-    manifest.textureTileTexels = o.textureTileTexels;
-    manifest.textureBorderTexels = border;
-    manifest.textureFormat = o.textureFormat == TexelFormat::Bc1 ? "bc1" : "rgba8";
-    manifest.textureSource = "shaded-relief";
-    if (imagery) {
-      manifest.textureSource = "image:";
-      manifest.textureSource += o.texturePath.filename().string();
-    }
-    manifest.sourceDem = o.demPath.filename().string();
-    manifest.sourceFormat = dem->source().format;
-    manifest.sourceSamples = summary.sourceSamples;
-    manifest.minHeightMeters = static_cast<double>(grid.minHeightMeters());
-    manifest.maxHeightMeters = static_cast<double>(grid.maxHeightMeters());
-
-    for (int face = 0; face < 6; ++face) {
-      FaceHeader h;
-      h.face = static_cast<std::uint32_t>(face);
-      h.latticeCells = n;
-      h.leafCells = leafCells;
-      h.depth = depth;
-      h.textureLevels = textureLevels;
-      h.textureTileTexels = o.textureTileTexels;
-      h.textureBorderTexels = border;
-      h.nodeCount = 2 * build.nodesPerTree_;
-      h.nodeTableOffset = kFaceHeaderBytes;
-      h.textureNodeCount = tilesPerFace;
-      h.textureTableOffset = h.nodeTableOffset + h.nodeCount * kNodeRecordBytes;
-      const std::uint64_t tablesEnd = h.textureTableOffset + tilesPerFace * kTextureRecordBytes;
-      h.blobsOffset = (tablesEnd + 4095) / 4096 * 4096;  // page-aligned blob area
-      std::uint64_t at = h.blobsOffset;
-      std::vector<std::byte> nodeTable(h.nodeCount * kNodeRecordBytes);
-      std::vector<std::span<const std::byte>> blobs;
-      const std::uint64_t firstNode = static_cast<std::uint64_t>(face) * 2 * build.nodesPerTree_;
-      for (std::uint64_t k = 0; k < h.nodeCount; ++k) {
-        NodeData& node = build.nodes_[firstNode + k];
-        node.record.blobOffset = at;
-        node.record.blobBytes = static_cast<std::uint32_t>(node.blob.size());
-        at += node.blob.size();
-        blobs.emplace_back(node.blob);
-        encodeNodeRecord(node.record,
-                         std::span<std::byte, kNodeRecordBytes>(
-                             nodeTable.data() + k * kNodeRecordBytes, kNodeRecordBytes));
-        summary.patchBytesCompressed += node.blob.size();
-        summary.totalTriangles += node.record.triangleCount;
-        if (k % build.nodesPerTree_ >= Lattice::firstIndexOfLevel(d)) {
-          summary.leafTriangles += node.record.triangleCount;
-        }
-      }
-      std::vector<std::byte> textureTable(tilesPerFace * kTextureRecordBytes);
-      for (std::uint64_t k = 0; k < tilesPerFace; ++k) {
-        const auto& blob = tileBlobs[static_cast<std::size_t>(face) * tilesPerFace + k];
-        TextureRecord t{at, static_cast<std::uint32_t>(blob.size()),
-                        tileErrors[static_cast<std::size_t>(face) * tilesPerFace + k]};
-        at += blob.size();
-        blobs.emplace_back(blob);
-        encodeTextureRecord(
-            t, std::span<std::byte, kTextureRecordBytes>(
-                   textureTable.data() + k * kTextureRecordBytes, kTextureRecordBytes));
-      }
-      h.fileBytes = at;
-      h.nodeTableCrc = crc32(nodeTable);
-      h.textureTableCrc = crc32(textureTable);
-      std::array<std::byte, kFaceHeaderBytes> header{};
-      encodeFaceHeader(h, header);
-      std::vector<std::byte> padding(h.blobsOffset - tablesEnd);
-      std::vector<std::span<const std::byte>> chunks = {header, nodeTable, textureTable, padding};
-      chunks.insert(chunks.end(), blobs.begin(), blobs.end());
-      const std::string name = "face" + std::to_string(face) + ".pbdam";
-      std::uint32_t crc = 0;
-      if (auto w = writeFileAtomically(o.outDir / name, chunks, crc); !w) {
-        result = std::move(w).error();
-        return;
-      }
-      manifest.faces[static_cast<std::size_t>(face)] = ManifestFace{name, h.fileBytes, crc};
-      summary.datasetBytes += h.fileBytes;
-      report("write", static_cast<double>(face + 1) / 6.0);
-    }
-    syncDirectory(o.outDir);
-    const std::string json = manifestToJson(manifest);
-    std::uint32_t crc = 0;
-    if (auto w = writeFileAtomically(
-            o.outDir / kManifestFileName,
-            {std::as_bytes(std::span<const char>(json.data(), json.size()))}, crc);
-        !w) {
-      result = std::move(w).error();
-      return;
-    }
-    syncDirectory(o.outDir);
-    summary.datasetBytes += json.size();
-    summary.patches = 12 * build.nodesPerTree_;
-    summary.patchBytesRaw = rawBytes.load();
-    result = summary;
+    DistributedBuild build(o, comm, *inputs);
+    result = build.run();
   });
   if (result) {
-    result->seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    result->seconds = std::chrono::duration<double>(Clock::now() - start).count();
   }
   return result;
 }

@@ -48,7 +48,8 @@ std::size_t SampleGrid::sourceSampleCount() const noexcept {
 
 SampleGrid SampleGrid::build(const HeightGrid& dem, const Planet& planet, const Lattice& lattice,
                              std::uint32_t bucketCells,
-                             const std::function<void(std::size_t, std::size_t)>& progress) {
+                             const std::function<void(std::size_t, std::size_t)>& progress,
+                             const RowShare* share) {
   SampleGrid grid(lattice, planet);
   const std::uint32_t n = lattice.sideCells();
   const std::size_t n1 = static_cast<std::size_t>(n) + 1;
@@ -58,10 +59,16 @@ SampleGrid SampleGrid::build(const HeightGrid& dem, const Planet& planet, const 
   // 1. Heights at lattice points. Shared edge/corner points are computed from their canonical
   // direction, so every face stores the same value.
   const std::size_t totalRows = 6 * n1;
+  const std::size_t beginRow = share ? share->beginRow : 0;
+  const std::size_t endRow = share ? share->endRow : totalRows;
   std::atomic<std::size_t> rowsDone{0};
   for (int face = 0; face < 6; ++face) {
     auto& heights = grid.heights_[static_cast<std::size_t>(face)];
-    tbb::parallel_for(std::size_t{0}, n1, [&](std::size_t j) {
+    const std::size_t faceRow = static_cast<std::size_t>(face) * n1;
+    const std::size_t j0 = std::clamp(beginRow, faceRow, faceRow + n1) - faceRow;
+    const std::size_t j1 = std::clamp(endRow, faceRow, faceRow + n1) - faceRow;
+    if (j0 >= j1) continue;
+    tbb::parallel_for(j0, j1, [&](std::size_t j) {
       std::uint64_t missing = 0;
       for (std::size_t i = 0; i < n1; ++i) {
         const glm::dvec3 d = lattice.direction(
@@ -75,9 +82,10 @@ SampleGrid SampleGrid::build(const HeightGrid& dem, const Planet& planet, const 
       noData += missing;
       ++rowsDone;
     });
-    if (progress) progress(rowsDone.load(), totalRows);
+    if (progress) progress(rowsDone.load(), endRow - beginRow);
   }
   grid.noDataPoints_ = noData.load();
+  if (share && share->exchange) share->exchange(grid.heights_, grid.noDataPoints_);
   float lo = std::numeric_limits<float>::infinity();
   float hi = -std::numeric_limits<float>::infinity();
   for (const auto& heights : grid.heights_) {

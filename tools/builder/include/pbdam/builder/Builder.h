@@ -1,9 +1,10 @@
 // `pbdam build`: a DEM (and optional imagery) into a P-BDAM dataset directory — resampling onto
 // the cube-map lattice, leaf patches, bottom-up block simplification level by level, measured and
 // saturated errors and spheres, the texture quadtree, and atomic writing of the six face files
-// and the manifest (paper 004 §3–5; docs/builder.md). Parallel with TBB; the output does not
-// depend on the thread count. Thread-safety: buildDataset may run concurrently for different
-// output directories.
+// and the manifest (paper 004 §3–5; docs/builder.md). Parallel with TBB and, given a
+// Communicator of several ranks (mpirun), distributed level by level across processes; the
+// output does not depend on the thread or rank count. Checkpointed per level (--resume).
+// Thread-safety: buildDataset may run concurrently for different output directories.
 #pragma once
 
 #include <cstdint>
@@ -13,6 +14,7 @@
 #include <string>
 #include <string_view>
 
+#include "pbdam/builder/Communicator.h"
 #include "pbdam/formats/DemReader.h"
 #include "pbdam/formats/Result.h"
 #include "pbdam/formats/TextureTile.h"
@@ -32,10 +34,30 @@ struct BuildOptions final {
   TexelFormat textureFormat = TexelFormat::Bc1;
   Bc1Quality bc1Quality = Bc1Quality::Fast;
   double heightStepMeters = 1.0 / 64.0;
-  int threads = 0;     ///< 0: all cores
-  bool force = false;  ///< replace an existing dataset
-  /// Called on the calling thread with the stage name and its fraction done (0..1).
+  int threads = 0;      ///< 0: all cores (per rank)
+  bool force = false;   ///< replace an existing dataset
+  bool resume = false;  ///< continue from OUT/.build-checkpoint after its last complete level
+  /// The ranks of a distributed build; null: this process alone. Every rank calls buildDataset
+  /// with the same options; rank 0 writes the dataset (docs/builder.md "Distributed build").
+  Communicator* communicator = nullptr;
+  /// Called on the calling thread (rank 0 only) with the stage name and its fraction done
+  /// (0..1; for a distributed stage, of rank 0's share).
   std::function<void(std::string_view stage, double fraction)> progress;
+  /// Called on the calling thread (rank 0 only) with one line per finished stage or level:
+  /// its work per rank, throughput and the build's ETA.
+  std::function<void(std::string_view line)> log;
+  /// Called on every rank, on the calling thread, when a distributed stage starts, with what
+  /// every rank works on in it and what the checkpoint holds, e.g. "level 3 (rank 0: diamonds
+  /// [0, 48), rank 1: diamonds [48, 96) of 96); checkpointed: levels 6..4" — for the message of
+  /// a job stopped because a rank died.
+  std::function<void(std::string_view workItems)> stageStarted;
+  /// Test aid (PBDAM_TEST_FAIL_RANK/LEVEL/MODE): rank `failRank` fails when it starts bintree
+  /// level `failLevel`, by SIGKILL of itself (`failByKill`) or as a reported error.
+  struct FaultInjection final {
+    int failRank = -1;
+    int failLevel = -1;
+    bool failByKill = true;
+  } fault;
 };
 
 /// What a build did, for the summary the CLI prints.
@@ -58,11 +80,18 @@ struct BuildSummary final {
   double rootErrorMeters = 0.0;
   double leafMaxErrorMeters = 0.0;
   double seconds = 0.0;
+  int ranks = 1;
+  std::optional<int> resumedAfterLevel;  ///< the checkpoint's last complete level, if resumed
+  bool resumedAfterTexture = false;
 };
 
 /// Builds the dataset. Errors: bad options (InvalidArgument), unreadable inputs (the reader's
-/// error), an existing dataset without `force`, I/O failures. An interrupted build leaves no
-/// manifest, so the directory is never taken for a complete dataset.
+/// error), an existing dataset without `force`, `resume` with a checkpoint of other options
+/// (InvalidArgument), I/O failures. An interrupted build leaves no manifest, so the directory is
+/// never taken for a complete dataset. With several ranks, errors found before the build starts
+/// are returned on every rank; a rank failing after that prints the failure (rank, host, work
+/// item) and stops the whole job through Communicator::abortJob. The summary is complete on
+/// rank 0 only.
 Result<BuildSummary> buildDataset(const BuildOptions& options);
 
 }  // namespace pbdam::builder

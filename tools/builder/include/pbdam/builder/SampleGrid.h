@@ -27,15 +27,29 @@ struct SourceSample final {
   float heightMeters = 0.0f;
 };
 
+/// A share of the resampling for a distributed build: this process resamples the lattice rows
+/// [beginRow, endRow) of the 6·(N+1) rows (face-major: row r is row r mod (N+1) of face
+/// r / (N+1)); `exchange(heights, noDataPoints)` then receives the per-face height arrays with
+/// those rows filled and this process's no-data count, and must fill in every other row and
+/// make the count the total (docs/builder.md "Distributed build").
+struct RowShare final {
+  std::size_t beginRow = 0;
+  std::size_t endRow = 0;
+  std::function<void(std::vector<std::vector<float>>& heights, std::uint64_t& noDataPoints)>
+      exchange;
+};
+
 class SampleGrid final {
  public:
   /// Resamples `dem` (bicubic, bilinear where bicubic lacks data, 0 m where the DEM has none) at
   /// every lattice point of every face, in parallel, and buckets the DEM's valid samples into
   /// `bucketCells`-sized squares of each face. `progress(done, total)` is called from the calling
-  /// thread only.
+  /// thread only. With `share`, only its rows are resampled here and the rest come from its
+  /// exchange; every value depends only on its own inputs, so the grid is the same either way.
   static SampleGrid build(const HeightGrid& dem, const Planet& planet, const Lattice& lattice,
                           std::uint32_t bucketCells,
-                          const std::function<void(std::size_t, std::size_t)>& progress = {});
+                          const std::function<void(std::size_t, std::size_t)>& progress = {},
+                          const RowShare* share = nullptr);
 
   /// The bucket size that keeps buckets about a lattice cell wide (a patch triangle then tests
   /// only the source samples near it) while bounding the bucket table to 1024² per face.

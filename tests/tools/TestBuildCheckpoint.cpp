@@ -1,0 +1,273 @@
+// The distributed build's own logic without MPI (docs/builder.md "Distributed build",
+// "Checkpoints"): ranks simulated by threads sharing in-memory collectives give the plain
+// build's bytes; an interrupted build resumes from its checkpoint to the same bytes; a
+// checkpoint of other options, or a damaged one, is refused with a clear message. These run in
+// process, so the sanitizer presets cover the serialisation and checkpoint code.
+#include <gtest/gtest.h>
+
+#include <barrier>
+#include <fstream>
+#include <thread>
+
+#include "TestData.h"
+#include "pbdam/builder/Builder.h"
+#include "pbdam/builder/Checkpoint.h"
+#include "pbdam/builder/Communicator.h"
+
+namespace pbdam::builder {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string readFile(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+BuildOptions smallMola(const fs::path& dem, const fs::path& out) {
+  BuildOptions o;
+  o.demPath = dem;
+  o.planetSpec = "mars";
+  o.outDir = out;
+  o.leafVertices = 17;
+  o.patchVertices = 128;
+  o.depth = 4;
+  o.textureTileTexels = 64;
+  o.textureFormat = TexelFormat::Rgba8;
+  o.threads = 1;
+  return o;
+}
+
+void expectSameDataset(const fs::path& a, const fs::path& b) {
+  int files = 0;
+  for (const auto& entry : fs::directory_iterator(a)) {
+    const auto name = entry.path().filename();
+    EXPECT_TRUE(readFile(a / name) == readFile(b / name)) << name << " differs";
+    ++files;
+  }
+  EXPECT_EQ(files, 7);
+  EXPECT_FALSE(fs::exists(b / Checkpoint::kDirectoryName))
+      << "a finished build keeps no checkpoint";
+}
+
+/// Ranks as threads of this process: collectives through shared slots and a barrier.
+class ThreadGroup final {
+ public:
+  explicit ThreadGroup(int ranks)
+      : ranks_(ranks), barrier_(ranks), slots_(static_cast<std::size_t>(ranks)) {}
+
+  class Rank final : public Communicator {
+   public:
+    Rank(ThreadGroup& group, int rank) : group_(group), rank_(rank) {}
+    int rank() const noexcept override { return rank_; }
+    int size() const noexcept override { return group_.ranks_; }
+    std::string hostName() const override { return "thread"; }
+    std::vector<std::vector<std::byte>> allGather(std::vector<std::byte> mine) override {
+      group_.slots_[static_cast<std::size_t>(rank_)] = std::move(mine);
+      group_.barrier_.arrive_and_wait();
+      auto all = group_.slots_;
+      group_.barrier_.arrive_and_wait();
+      return all;
+    }
+    std::vector<std::vector<std::byte>> gatherToRoot(std::vector<std::byte> mine) override {
+      auto all = allGather(std::move(mine));
+      if (rank_ != 0) all.clear();
+      return all;
+    }
+    void broadcast(std::vector<std::byte>& bytes) override {
+      if (rank_ == 0) group_.slots_[0] = bytes;
+      group_.barrier_.arrive_and_wait();
+      if (rank_ != 0) bytes = group_.slots_[0];
+      group_.barrier_.arrive_and_wait();
+    }
+    [[noreturn]] void abortJob(int) override { std::abort(); }
+
+   private:
+    ThreadGroup& group_;
+    int rank_;
+  };
+
+ private:
+  int ranks_;
+  std::barrier<> barrier_;
+  std::vector<std::vector<std::byte>> slots_;
+};
+
+/// Runs the build on `ranks` thread-ranks; rank 0's result.
+Result<BuildSummary> buildOnRanks(const BuildOptions& options, int ranks) {
+  ThreadGroup group(ranks);
+  std::vector<std::unique_ptr<ThreadGroup::Rank>> comms;
+  for (int r = 0; r < ranks; ++r) comms.push_back(std::make_unique<ThreadGroup::Rank>(group, r));
+  std::vector<std::optional<Result<BuildSummary>>> results(static_cast<std::size_t>(ranks));
+  std::vector<std::thread> threads;
+  for (int r = 0; r < ranks; ++r) {
+    threads.emplace_back([&, r] {
+      BuildOptions o = options;
+      o.communicator = comms[static_cast<std::size_t>(r)].get();
+      results[static_cast<std::size_t>(r)] = buildDataset(o);
+    });
+  }
+  for (auto& t : threads) t.join();
+  for (int r = 1; r < ranks; ++r) {
+    EXPECT_EQ(results[static_cast<std::size_t>(r)]->ok(), results[0]->ok()) << "rank " << r;
+  }
+  return std::move(*results[0]);
+}
+
+TEST(DistributedBuild, ThreadRanksGiveThePlainBuildsBytes) {
+  PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
+  test::TempDir dir;
+  auto plain = buildDataset(smallMola(dem, dir / "plain"));
+  ASSERT_TRUE(plain) << plain.error().message;
+  for (int ranks : {2, 3, 5}) {
+    const fs::path out = dir / ("r" + std::to_string(ranks));
+    std::vector<std::string> lines;
+    BuildOptions o = smallMola(dem, out);
+    o.log = [&](std::string_view line) { lines.emplace_back(line); };
+    auto summary = buildOnRanks(o, ranks);
+    ASSERT_TRUE(summary) << summary.error().message;
+    EXPECT_EQ(summary->ranks, ranks);
+    EXPECT_EQ(summary->patches, plain->patches);
+    EXPECT_EQ(summary->totalTriangles, plain->totalTriangles);
+    EXPECT_EQ(summary->rootErrorMeters, plain->rootErrorMeters);
+    EXPECT_EQ(summary->patchBytesRaw, plain->patchBytesRaw);
+    expectSameDataset(dir / "plain", out);
+    // One line per level (4..0) naming every rank's share.
+    int levelLines = 0;
+    for (const auto& line : lines) {
+      if (line.rfind("level ", 0) == 0) {
+        ++levelLines;
+        EXPECT_NE(line.find("rank " + std::to_string(ranks - 1) + " "), std::string::npos) << line;
+      }
+    }
+    EXPECT_EQ(levelLines, 5);
+  }
+}
+
+TEST(DistributedBuild, DifferentOptionsOnOneRankAreRefusedOnAll) {
+  PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
+  test::TempDir dir;
+  ThreadGroup group(2);
+  ThreadGroup::Rank r0(group, 0);
+  ThreadGroup::Rank r1(group, 1);
+  BuildOptions a = smallMola(dem, dir / "out");
+  a.communicator = &r0;
+  BuildOptions b = a;
+  b.communicator = &r1;
+  b.demPath = dir / "missing.lbl";  // rank 1 cannot read its DEM
+  std::optional<Result<BuildSummary>> ra;
+  std::optional<Result<BuildSummary>> rb;
+  std::thread t([&] { rb = buildDataset(b); });
+  ra = buildDataset(a);
+  t.join();
+  ASSERT_FALSE(*ra);
+  ASSERT_FALSE(*rb);
+  EXPECT_EQ(ra->error().message.rfind("rank 1: ", 0), 0u) << ra->error().message;
+  EXPECT_NE(ra->error().message.find("missing.lbl"), std::string::npos) << ra->error().message;
+}
+
+TEST(DistributedBuild, AnInterruptedBuildResumesToTheSameBytes) {
+  PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
+  test::TempDir dir;
+  ASSERT_TRUE(buildDataset(smallMola(dem, dir / "plain")));
+  for (int failLevel : {4, 2, 0}) {
+    const fs::path out = dir / ("cut" + std::to_string(failLevel));
+    BuildOptions o = smallMola(dem, out);
+    o.fault.failRank = 0;
+    o.fault.failLevel = failLevel;
+    o.fault.failByKill = false;
+    auto failed = buildDataset(o);
+    ASSERT_FALSE(failed);
+    EXPECT_NE(failed.error().message.find("injected failure"), std::string::npos);
+    EXPECT_FALSE(fs::exists(out / "manifest.json"));
+    auto state = Checkpoint(out).readState();
+    ASSERT_TRUE(state && *state);
+    if (failLevel == 4) {
+      EXPECT_FALSE((*state)->completeLevel);  // nothing finished yet
+    } else {
+      EXPECT_EQ((*state)->completeLevel, failLevel + 1);
+    }
+    // Resume with other thread and rank counts: they are not part of the fingerprint.
+    o.fault = {};
+    o.resume = true;
+    o.threads = 2;
+    std::vector<std::string> lines;
+    o.log = [&](std::string_view line) { lines.emplace_back(line); };
+    auto resumed = buildOnRanks(o, 2);
+    ASSERT_TRUE(resumed) << resumed.error().message;
+    if (failLevel == 4) {
+      EXPECT_FALSE(resumed->resumedAfterLevel);
+    } else {
+      EXPECT_EQ(resumed->resumedAfterLevel, failLevel + 1);
+      for (const auto& line : lines) {
+        EXPECT_NE(line.rfind("level " + std::to_string(failLevel + 1) + ":", 0), 0u)
+            << "a checkpointed level was rebuilt: " << line;
+      }
+    }
+    expectSameDataset(dir / "plain", out);
+  }
+}
+
+TEST(DistributedBuild, ResumeRefusesOtherOptionsAndDamagedCheckpoints) {
+  PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
+  test::TempDir dir;
+  const fs::path out = dir / "out";
+  BuildOptions o = smallMola(dem, out);
+  o.fault = {0, 1, false};
+  ASSERT_FALSE(buildDataset(o));
+  o.fault = {};
+  o.resume = true;
+
+  BuildOptions other = o;
+  other.textureFormat = TexelFormat::Bc1;
+  auto refused = buildDataset(other);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().code, ErrorCode::InvalidArgument);
+  EXPECT_NE(refused.error().message.find("texture-format rgba8, this build bc1"), std::string::npos)
+      << refused.error().message;
+  EXPECT_EQ(refused.error().message.find('\n'), std::string::npos);
+
+  // A flipped byte in a level file is caught by its CRC.
+  const fs::path level3 = Checkpoint(out).file(Checkpoint::Kind::Nodes, 3);
+  std::string bytes = readFile(level3);
+  ASSERT_GT(bytes.size(), 1000u);
+  bytes[bytes.size() / 2] = static_cast<char>(bytes[bytes.size() / 2] ^ 0x10);
+  std::ofstream(level3, std::ios::binary)
+      .write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  auto damaged = buildDataset(o);
+  ASSERT_FALSE(damaged);
+  EXPECT_EQ(damaged.error().code, ErrorCode::CorruptData);
+  EXPECT_NE(damaged.error().message.find("level-03.nodes: checksum mismatch"), std::string::npos)
+      << damaged.error().message;
+
+  // A missing level file is caught before any work is redone.
+  fs::remove(Checkpoint(out).file(Checkpoint::Kind::Nodes, 4));
+  auto missing = buildDataset(o);
+  ASSERT_FALSE(missing);
+  EXPECT_NE(missing.error().message.find("level-04.nodes is missing"), std::string::npos)
+      << missing.error().message;
+
+  // Without --resume the checkpoint is discarded and the build starts over.
+  o.resume = false;
+  ASSERT_TRUE(buildDataset(o));
+  ASSERT_TRUE(buildDataset(smallMola(dem, dir / "plain")));
+  expectSameDataset(dir / "plain", out);
+}
+
+TEST(DistributedBuild, ResumeWithoutACheckpointBuildsFromTheStart) {
+  PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
+  test::TempDir dir;
+  BuildOptions o = smallMola(dem, dir / "out");
+  o.depth = 2;
+  o.resume = true;
+  std::vector<std::string> lines;
+  o.log = [&](std::string_view line) { lines.emplace_back(line); };
+  auto r = buildDataset(o);
+  ASSERT_TRUE(r) << r.error().message;
+  EXPECT_FALSE(r->resumedAfterLevel);
+  ASSERT_FALSE(lines.empty());
+  EXPECT_EQ(lines[0].rfind("resume: no checkpoint in ", 0), 0u) << lines[0];
+}
+
+}  // namespace
+}  // namespace pbdam::builder
