@@ -1,7 +1,6 @@
 // `pbdam height DIR --at LAT,LON [--json]`: the height of the rendered terrain at a point, from
 // the leaf patches (runtime/SurfaceQuery.h), with the stored error that bounds its distance from
 // the source DEM.
-#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <cstdio>
@@ -10,6 +9,7 @@
 #include <vector>
 
 #include "Commands.h"
+#include "HeightJson.h"
 #include "pbdam/formats/NumberList.h"
 #include "pbdam/runtime/SurfaceQuery.h"
 #include "pbdam/streaming/MappedDataset.h"
@@ -37,17 +37,8 @@ int runHeight(const HeightCliOptions& o) {
   auto h = surfaceHeightAt(view, latLon[0], latLon[1]);
   if (!h) return reportError(h.error());
   if (o.json) {
-    nlohmann::ordered_json j;
-    j["lat"] = latLon[0];
-    j["lon"] = latLon[1];
-    j["height_m"] = h->heightMeters;
-    j["error_m"] = h->leafErrorMeters;
-    j["measured_error_m"] = h->leafMeasuredErrorMeters;
-    j["planet"] = view.manifest().planetSpec;
-    j["face"] = h->leaf.face;
-    j["tree"] = h->leaf.tree;
-    j["node"] = h->leaf.heap;
-    std::cout << j.dump(2) << "\n";
+    std::cout << surfaceHeightJson(latLon[0], latLon[1], *h, view.manifest().planetSpec).dump(2)
+              << "\n";
   } else {
     std::printf("%.3f m at %.6f, %.6f (%s; leaf error <= %.1f m)\n", h->heightMeters, latLon[0],
                 latLon[1], view.manifest().planetSpec.c_str(), h->leafErrorMeters);

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "FrameImage.h"
+#include "HeightJson.h"
 #include "ServeRequest.h"
 #include "ServeViewerHtml.h"
 #include "pbdam/runtime/SurfaceQuery.h"
@@ -254,17 +255,8 @@ void FrameServer::Impl::handleHeight(const httplib::Request& req, httplib::Respo
   const DatasetView& view = dataset->view();
   auto h = surfaceHeightAt(view, query->latDegrees, query->lonDegrees);
   if (!h) return sendError(res, statusFor(h.error()), h.error().message);
-  Json j;
-  j["lat"] = query->latDegrees;
-  j["lon"] = query->lonDegrees;
-  j["height_m"] = h->heightMeters;
-  j["error_m"] = h->leafErrorMeters;
-  j["measured_error_m"] = h->leafMeasuredErrorMeters;
-  j["planet"] = view.manifest().planetSpec;
-  j["face"] = h->leaf.face;
-  j["tree"] = h->leaf.tree;
-  j["node"] = h->leaf.heap;
-  sendJson(res, 200, j);
+  sendJson(res, 200,
+           surfaceHeightJson(query->latDegrees, query->lonDegrees, *h, view.manifest().planetSpec));
 }
 
 Json FrameServer::Impl::statsJson() const {
