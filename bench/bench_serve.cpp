@@ -5,10 +5,12 @@
 // Clients that get a 503 wait the Retry-After the server sends before their next request, as a
 // polite client does. The cameras loop over a closed orbit of --period views; the warm-up (one
 // loop by default) lets the GPU caches take in that working set, so RSS growth after it would
-// be a leak, not the caches filling. Loopback only; every phase is bounded in count and time.
+// be a leak, not the cache filling. Per level it also reads the server's GET /stats before and
+// after the measured requests: the shared GPU cache's hit rate and bytes uploaded during them.
+// Loopback only; every phase is bounded in count and time.
 //   pbdam_bench_serve PBDAM_EXE DATASET [--requests 2000] [--concurrency 4,16] [--workers 4]
-//                     [--queue 8] [--width 640] [--height 480] [--period 1000] [--warmup P]
-//                     [--time-limit-s 600] [--json FILE]
+//                     [--queue 8] [--gpu-cache-mb 256] [--width 640] [--height 480]
+//                     [--period 1000] [--warmup P] [--time-limit-s 600] [--json FILE]
 #include <httplib.h>
 #include <poll.h>
 #include <signal.h>
@@ -25,6 +27,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -43,6 +46,7 @@ struct Options {
   std::vector<int> concurrency = {4, 16};
   int workers = 4;
   int queue = 8;
+  double gpuCacheMiB = 256.0;
   int width = 640;
   int height = 480;
   int period = 1000;
@@ -66,7 +70,35 @@ struct Phase {
   double rssMaxMiB = 0.0;       ///< the most during the run
   double rssEndMiB = 0.0;       ///< idle, right after the run
   bool timedOut = false;
+  // The GPU cache during the measured requests (GET /stats differences).
+  double cacheHitRate = 0.0;
+  double cacheUploadedMiB = 0.0;
+  double cacheResidentMiB = 0.0;  ///< after the run
 };
+
+/// The GPU cache counters of GET /stats (zeros when the request fails).
+struct CacheCounters {
+  double hits = 0.0;
+  double misses = 0.0;
+  double uploadedBytes = 0.0;
+  double residentBytes = 0.0;
+};
+
+CacheCounters cacheCounters(int port) {
+  httplib::Client client("127.0.0.1", port);
+  client.set_read_timeout(std::chrono::seconds(30));
+  CacheCounters c;
+  const auto res = client.Get("/stats");
+  if (!res || res->status != 200) return c;
+  const auto j = nlohmann::json::parse(res->body, nullptr, false);
+  if (j.is_discarded() || !j.contains("cache")) return c;
+  const auto& cache = j["cache"];
+  c.hits = cache.value("hits", 0.0);
+  c.misses = cache.value("misses", 0.0);
+  c.uploadedBytes = cache.value("bytes_uploaded", 0.0);
+  c.residentBytes = cache.value("resident_bytes", 0.0);
+  return c;
+}
 
 double rssMiB(pid_t pid) {
   std::ifstream status("/proc/" + std::to_string(pid) + "/status");
@@ -164,7 +196,8 @@ Phase runPhase(int port, pid_t server, int first, int count, int concurrency, co
 int usage(const char* message) {
   std::fprintf(stderr,
                "pbdam_bench_serve: %s\nusage: pbdam_bench_serve PBDAM_EXE DATASET [--requests N] "
-               "[--concurrency A,B,...] [--workers N] [--queue N] [--width W] [--height H] "
+               "[--concurrency A,B,...] [--workers N] [--queue N] [--gpu-cache-mb M] [--width W] "
+               "[--height H] "
                "[--period N] [--warmup N] [--time-limit-s S] [--json FILE]\n",
                message);
   return 2;
@@ -194,6 +227,8 @@ int main(int argc, char** argv) {
       o.workers = std::atoi(value().c_str());
     } else if (a == "--queue") {
       o.queue = std::atoi(value().c_str());
+    } else if (a == "--gpu-cache-mb") {
+      o.gpuCacheMiB = std::atof(value().c_str());
     } else if (a == "--width") {
       o.width = std::atoi(value().c_str());
     } else if (a == "--height") {
@@ -218,7 +253,7 @@ int main(int argc, char** argv) {
       o.period > 100000 || o.concurrency.empty() ||
       std::any_of(o.concurrency.begin(), o.concurrency.end(),
                   [](int c) { return c < 1 || c > 256; }) ||
-      !(o.timeLimitSeconds > 0.0)) {
+      !(o.timeLimitSeconds > 0.0) || !(o.gpuCacheMiB > 0.0)) {
     return usage("bad option value");
   }
 
@@ -231,7 +266,9 @@ int main(int argc, char** argv) {
                                          "--workers",
                                          std::to_string(o.workers),
                                          "--queue",
-                                         std::to_string(o.queue)};
+                                         std::to_string(o.queue),
+                                         "--gpu-cache-mb",
+                                         std::to_string(o.gpuCacheMiB)};
   std::vector<char*> cargs;
   for (std::string& s : serverArgs) cargs.push_back(s.data());
   cargs.push_back(nullptr);
@@ -270,8 +307,8 @@ int main(int argc, char** argv) {
   std::printf("%s", startLine.c_str());
   std::printf(
       "%d requests of %dx%d per level after a warm-up of %d (cameras loop over %d views), server "
-      "--workers %d --queue %d\n",
-      o.requests, o.width, o.height, o.warmup, o.period, o.workers, o.queue);
+      "--workers %d --queue %d --gpu-cache-mb %.0f\n",
+      o.requests, o.width, o.height, o.warmup, o.period, o.workers, o.queue, o.gpuCacheMiB);
 
   std::vector<Phase> phases;
   int first = 0;
@@ -281,7 +318,13 @@ int main(int argc, char** argv) {
     if (o.warmup > 0) warmPeak = runPhase(port, server, first, o.warmup, c, o).rssMaxMiB;
     first += o.warmup;
     const double warmRss = rssMiB(server);
+    const CacheCounters before = cacheCounters(port);
     Phase phase = runPhase(port, server, first, o.requests, c, o);
+    const CacheCounters after = cacheCounters(port);
+    const double lookups = (after.hits - before.hits) + (after.misses - before.misses);
+    phase.cacheHitRate = lookups > 0.0 ? (after.hits - before.hits) / lookups : 0.0;
+    phase.cacheUploadedMiB = (after.uploadedBytes - before.uploadedBytes) / 1048576.0;
+    phase.cacheResidentMiB = after.residentBytes / 1048576.0;
     first += o.requests;
     phase.rssWarmMiB = warmRss;
     phase.rssWarmPeakMiB = warmPeak;
@@ -293,12 +336,15 @@ int main(int argc, char** argv) {
         "concurrency %2d: %d requests in %.1f s: %.1f frames/s, latency p50 %.1f ms p99 %.1f ms "
         "max %.1f ms, errors %d (503 %d, other %d)%s\n"
         "  RSS idle after warm-up %.0f MiB, idle after the run %.0f MiB (%+.1f%%); peak during "
-        "warm-up %.0f MiB, during the run %.0f MiB (%+.1f%%)\n",
+        "warm-up %.0f MiB, during the run %.0f MiB (%+.1f%%)\n"
+        "  GPU cache during the run: hit rate %.1f%%, %.1f MiB uploaded, %.1f MiB resident after "
+        "it\n",
         c, phase.sent, phase.seconds, phase.ok / phase.seconds, phase.p50Ms, phase.p99Ms,
         phase.maxMs, phase.refused + phase.failed, phase.refused, phase.failed,
         phase.timedOut ? " (time limit reached)" : "", phase.rssWarmMiB, phase.rssEndMiB,
         change(phase.rssWarmMiB, phase.rssEndMiB), phase.rssWarmPeakMiB, phase.rssMaxMiB,
-        change(phase.rssWarmPeakMiB, phase.rssMaxMiB));
+        change(phase.rssWarmPeakMiB, phase.rssMaxMiB), 100.0 * phase.cacheHitRate,
+        phase.cacheUploadedMiB, phase.cacheResidentMiB);
     std::fflush(stdout);
   }
 
@@ -320,8 +366,10 @@ int main(int argc, char** argv) {
           << ", \"p99_ms\": " << p.p99Ms << ", \"max_ms\": " << p.maxMs
           << ", \"rss_warm_mib\": " << p.rssWarmMiB
           << ", \"rss_warm_peak_mib\": " << p.rssWarmPeakMiB << ", \"rss_max_mib\": " << p.rssMaxMiB
-          << ", \"rss_end_mib\": " << p.rssEndMiB << "}" << (i + 1 < phases.size() ? "," : "")
-          << "\n";
+          << ", \"rss_end_mib\": " << p.rssEndMiB << ", \"cache_hit_rate\": " << p.cacheHitRate
+          << ", \"cache_uploaded_mib\": " << p.cacheUploadedMiB
+          << ", \"cache_resident_mib\": " << p.cacheResidentMiB << "}"
+          << (i + 1 < phases.size() ? "," : "") << "\n";
     }
     out << "]\n";
   }

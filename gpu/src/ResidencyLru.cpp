@@ -38,20 +38,29 @@ std::optional<std::uint32_t> ResidencyLru::insert(ResidentKey key, std::uint64_t
   const ResidentKind kind = key.kind();
   const std::uint64_t need = slotBytes(kind);
   if (need > budgetBytes_) return std::nullopt;
-  // Check first that evicting every entry of an earlier epoch would make room, so that a
-  // failed insert evicts nothing.
+  // Check first that evicting every evictable entry (earlier epoch, not pinned) would make
+  // room, so that a failed insert evicts nothing. Without pins the scan stops at the first
+  // entry of `epoch` (the rest is more recent); pinned entries may sit anywhere.
   std::uint64_t evictable = 0;
   for (auto it = order_.rbegin();
        it != order_.rend() && residentBytes_ - evictable + need > budgetBytes_; ++it) {
     const Entry& e = entries_.find(*it)->second;
-    if (e.epoch >= epoch) break;  // the rest is more recent
+    if (e.pins > 0) continue;
+    if (e.epoch >= epoch) {
+      if (pinnedBytes_ == 0) break;
+      continue;
+    }
     evictable += slotBytes(ResidentKey{*it}.kind());
   }
   if (residentBytes_ - evictable + need > budgetBytes_) return std::nullopt;
+  auto victim = order_.end();
   while (residentBytes_ + need > budgetBytes_) {
-    const std::uint64_t victim = order_.back();
-    evicted.push_back(ResidentKey{victim});
-    release(entries_.find(victim));
+    --victim;
+    const auto found = entries_.find(*victim);
+    if (found->second.pins > 0 || found->second.epoch >= epoch) continue;
+    evicted.push_back(ResidentKey{*victim});
+    victim = std::next(victim);  // release() erases the node; step back from its successor
+    release(found);
   }
   Entry entry;
   entry.slot = takeSlot(kind);
@@ -67,6 +76,18 @@ std::optional<std::uint32_t> ResidencyLru::insert(ResidentKey key, std::uint64_t
 void ResidencyLru::erase(ResidentKey key) {
   const auto it = entries_.find(key.packed);
   if (it != entries_.end()) release(it);
+}
+
+void ResidencyLru::pin(ResidentKey key) {
+  const auto it = entries_.find(key.packed);
+  assert(it != entries_.end());
+  if (it->second.pins++ == 0) pinnedBytes_ += slotBytes(key.kind());
+}
+
+void ResidencyLru::unpin(ResidentKey key) {
+  const auto it = entries_.find(key.packed);
+  assert(it != entries_.end() && it->second.pins > 0);
+  if (--it->second.pins == 0) pinnedBytes_ -= slotBytes(key.kind());
 }
 
 std::uint32_t ResidencyLru::takeSlot(ResidentKind kind) {
@@ -91,6 +112,7 @@ void ResidencyLru::release(std::unordered_map<std::uint64_t, Entry>::iterator it
     --nextSlot_[k];
   }
   residentBytes_ -= slotBytes(kind);
+  if (it->second.pins > 0) pinnedBytes_ -= slotBytes(kind);
   --counts_[k];
   entries_.erase(it);
 }

@@ -22,15 +22,16 @@
 #include <glm/gtc/type_ptr.hpp>
 #include <glm/mat4x4.hpp>
 #include <limits>
+#include <mutex>
 #include <span>
 #include <string>
 #include <unordered_set>
 #include <vector>
 
-#include "GpuPools.h"
-#include "PatchPipeline.h"
+#include "GpuCacheState.h"
 #include "pbdam/formats/PatchCodec.h"
 #include "pbdam/formats/TextureTile.h"
+#include "pbdam/gpu/GpuCache.h"
 #include "pbdam/gpu/GpuMemory.h"
 #include "pbdam/gpu/OffscreenTarget.h"
 #include "pbdam/gpu/ResidencyLru.h"
@@ -43,8 +44,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-/// Pools grow by about this much device memory at a time.
-constexpr std::uint64_t kChunkBytes = std::uint64_t{16} << 20;
 /// Staging offsets are aligned for buffer-to-image copies (4 bytes and the 8-byte BC1 block).
 constexpr std::uint64_t kStagingAlignment = 16;
 
@@ -63,45 +62,6 @@ std::string mebibytes(std::uint64_t bytes) {
 
 std::uint64_t alignUp(std::uint64_t value, std::uint64_t alignment) {
   return (value + alignment - 1) / alignment * alignment;
-}
-
-/// How tiles are held on the device.
-struct TextureChoice {
-  VkFormat format = VK_FORMAT_R8G8B8A8_UNORM;
-  TexelFormat texels = TexelFormat::Rgba8;
-  std::uint64_t slotBytes = 0;
-};
-
-TexelFormat datasetTexelFormat(const DatasetView& dataset) {
-  return dataset.manifest().textureFormat == "bc1" ? TexelFormat::Bc1 : TexelFormat::Rgba8;
-}
-
-bool deviceSamplesBc1(const VulkanContext& context) {
-  if (!context.caps().textureCompressionBC) return false;
-  VkFormatProperties properties{};
-  vkGetPhysicalDeviceFormatProperties(context.physicalDevice(), VK_FORMAT_BC1_RGB_UNORM_BLOCK,
-                                      &properties);
-  const VkFormatFeatureFlags needed = VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT |
-                                      VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT |
-                                      VK_FORMAT_FEATURE_TRANSFER_DST_BIT;
-  return (properties.optimalTilingFeatures & needed) == needed;
-}
-
-TextureChoice chooseTexture(const VulkanContext& context, const DatasetView& dataset,
-                            bool forceRgba8) {
-  const std::uint32_t size = dataset.manifest().textureTileTexels;
-  TextureChoice choice;
-  if (datasetTexelFormat(dataset) == TexelFormat::Bc1 && !forceRgba8 && deviceSamplesBc1(context)) {
-    choice.format = VK_FORMAT_BC1_RGB_UNORM_BLOCK;
-    choice.texels = TexelFormat::Bc1;
-  }
-  choice.slotBytes = textureTileDataBytes(size, choice.texels);
-  return choice;
-}
-
-std::uint64_t patchSlotBytes(const DatasetView& dataset) {
-  return std::uint64_t{sizeof(PatchGpuVertex)} * dataset.maxPatchVertices() +
-         std::uint64_t{6} * dataset.maxPatchTriangles();
 }
 
 bool drawable(const NodeRecord& record) {
@@ -218,15 +178,13 @@ struct TerrainRenderer::Impl {
   VulkanContext* context = nullptr;
   const DatasetView* dataset = nullptr;
   TerrainRendererOptions options;
-  TextureChoice texture;
-  std::uint64_t patchSlot = 0;
-  std::uint32_t maxIndices = 0;
+  /// The cache this renderer draws from: its own (privateCache) or one shared with other
+  /// renderers (GpuCache.h). `cache` keeps it alive; `shared` is its state.
+  std::shared_ptr<GpuCache> cache;
+  GpuCache::State* shared = nullptr;
+  bool privateCache = true;
 
   OffscreenTarget target;
-  PatchPipeline pipeline;
-  std::optional<ResidencyLru> lru;
-  PatchPool patches;
-  TilePool tiles;
   GpuBuffer staging;
   GpuBuffer records;
   UniqueDescriptorPool recordsPool;
@@ -234,7 +192,6 @@ struct TerrainRenderer::Impl {
   UniqueQueryPool queries;
   std::uint64_t timestampMask = 0;
   double timestampPeriodNs = 1.0;
-  std::uint64_t epoch = 0;
   bool warned = false;
 
   /// The renderer's command buffers, re-recorded per pass: [kUploadCommands] the timestamps
@@ -248,13 +205,19 @@ struct TerrainRenderer::Impl {
   /// The stats of the last render() call when it succeeded (commands[kDrawCommands] then holds
   /// its last pass); unset before the first frame and after a failed one.
   std::optional<FrameStats> lastFrame;
+  /// The entries the last pass drew and their slots: redrawLast() pins them again, and refuses
+  /// if another renderer of a shared cache has evicted one since.
+  std::vector<std::pair<ResidentKey, std::uint32_t>> lastPassEntries;
+
+  /// Timestamp queries: 0 and 3 around the uploads, 1 and 2 around the render pass.
+  static constexpr std::uint32_t kTimestampQueries = 4;
 
   Result<void> ensureStaging(std::uint64_t bytes);
   Result<void> ensureRecords(std::size_t count);
   /// Submits `buffers` (already recorded) in one batch and waits for them.
   Result<void> submitAndWait(std::span<const VkCommandBuffer> buffers, const char* what);
-  /// Reads the draw timestamps (1, 2) and, with `withUploads`, the upload timestamps (0, 1)
-  /// of the last submission into `stats`.
+  /// Reads the draw timestamps (1, 2) and, with `withUploads`, the upload timestamps (0, 3)
+  /// of the last pass into `stats`.
   void readTimestamps(bool withUploads, FrameStats& stats) const;
 
   Result<void> drawPass(const Cut& cut, const std::vector<NodeRecord>& nodes, std::size_t begin,
@@ -332,10 +295,11 @@ Result<void> TerrainRenderer::Impl::submitAndWait(std::span<const VkCommandBuffe
 
 void TerrainRenderer::Impl::readTimestamps(bool withUploads, FrameStats& stats) const {
   if (!queries) return;
-  std::array<std::uint64_t, 3> ticks{};
+  std::array<std::uint64_t, kTimestampQueries> ticks{};
   const std::uint32_t first = withUploads ? 0 : 1;
-  if (vkGetQueryPoolResults(context->device(), queries.get(), first, 3 - first,
-                            sizeof(std::uint64_t) * (3 - first), ticks.data() + first,
+  const std::uint32_t count = withUploads ? kTimestampQueries : 2;
+  if (vkGetQueryPoolResults(context->device(), queries.get(), first, count,
+                            sizeof(std::uint64_t) * count, ticks.data() + first,
                             sizeof(std::uint64_t),
                             VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT) != VK_SUCCESS) {
     return;
@@ -343,7 +307,7 @@ void TerrainRenderer::Impl::readTimestamps(bool withUploads, FrameStats& stats) 
   const auto ms = [&](std::uint64_t a, std::uint64_t b) {
     return static_cast<double>((b - a) & timestampMask) * timestampPeriodNs * 1e-6;
   };
-  if (withUploads) stats.uploadMs += ms(ticks[0], ticks[1]);
+  if (withUploads) stats.uploadMs += ms(ticks[0], ticks[3]);
   stats.drawMs += ms(ticks[1], ticks[2]);
 }
 
@@ -368,8 +332,8 @@ void TerrainRenderer::Impl::recordUploads(VkCommandBuffer cmd,
   std::vector<VkImageMemoryBarrier2> toSampled;
   for (const UploadJob& job : jobs) {
     if (job.key.kind() != ResidentKind::Tile) continue;
-    const PoolLocation at = tiles.locate(job.slot);
-    const VkImage image = tiles.image(at.chunk);
+    const PoolLocation at = shared->tiles.locate(job.slot);
+    const VkImage image = shared->tiles.image(at.chunk);
     toTransfer.push_back(layerBarrier(image, at.local, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
                                       VK_ACCESS_2_NONE, VK_PIPELINE_STAGE_2_COPY_BIT,
                                       VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
@@ -387,6 +351,8 @@ void TerrainRenderer::Impl::recordUploads(VkCommandBuffer cmd,
   dependency.pImageMemoryBarriers = toTransfer.data();
   vkCmdPipelineBarrier2(cmd, &dependency);
 
+  const PatchPool& patches = shared->patches;
+  const TilePool& tiles = shared->tiles;
   const std::uint32_t size = tiles.sizeTexels();
   for (const UploadJob& job : jobs) {
     if (job.key.kind() == ResidentKind::Patch) {
@@ -421,7 +387,7 @@ Result<void> TerrainRenderer::Impl::drawPass(const Cut& cut, const std::vector<N
                                              bool last, const Camera& camera, const PatchPush& push,
                                              const std::array<float, 4>& clear, FrameStats& stats) {
   const DatasetView& data = *dataset;
-  const std::uint64_t passEpoch = ++epoch;
+  GpuCache::State& c = *shared;
 
   // The pass's entries: its patches, then its distinct tiles in first-use order.
   std::vector<UploadJob> entries;
@@ -443,50 +409,90 @@ Result<void> TerrainRenderer::Impl::drawPass(const Cut& cut, const std::vector<N
     entries.push_back(entry);
   }
 
-  // Hits first, so that making room for the misses never evicts them.
+  // Under the cache lock from here through the uploads: nothing another renderer does can
+  // evict what this pass pins, and nobody sees an entry before its upload has completed.
+  std::unique_lock<std::mutex> lock(c.mutex);
   std::vector<UploadJob> jobs;
-  for (const UploadJob& entry : entries) {
-    if (lru->find(entry.key)) {
-      lru->touch(entry.key, passEpoch);
-      ++stats.hits;
-    } else {
-      jobs.push_back(entry);
+  std::vector<ResidentKey> hits;
+  std::uint64_t passEpoch = 0;
+  for (;;) {
+    // Hits first (touched and pinned), so that making room for the misses never evicts them.
+    passEpoch = ++c.epoch;
+    jobs.clear();
+    hits.clear();
+    std::uint64_t missBytes = 0;
+    for (const UploadJob& entry : entries) {
+      if (c.lru->find(entry.key)) {
+        c.lru->touch(entry.key, passEpoch);
+        c.lru->pin(entry.key);
+        hits.push_back(entry.key);
+      } else {
+        jobs.push_back(entry);
+        missBytes += c.lru->slotBytes(entry.key.kind());
+      }
     }
+    // Every unpinned entry is of an earlier pass, hence evictable: the misses fit if the
+    // unpinned bytes and the free bytes together cover them.
+    if (missBytes <= c.lru->budgetBytes() - c.lru->pinnedBytes()) break;
+    for (const ResidentKey key : hits) c.lru->unpin(key);
+    if (c.lru->pinnedBytes() == 0) {
+      return makeError(ErrorCode::Internal, "GPU cache: a planned pass does not fit its budget");
+    }
+    // Other renderers' passes in flight pin the rest: wait for one of them to finish.
+    ++c.waits;
+    c.unpinned.wait(lock);
   }
+  stats.hits += hits.size();
+
   std::size_t inserted = 0;
-  const auto rollback = [&] {
-    for (std::size_t j = 0; j < inserted; ++j) lru->erase(jobs[j].key);
+  // Takes back this pass's pins (and, with `dropMisses`, its entries whose upload failed);
+  // the cache lock must be held.
+  const auto releasePass = [&](bool dropMisses) {
+    for (std::size_t j = 0; j < inserted; ++j) {
+      if (dropMisses) {
+        c.lru->erase(jobs[j].key);
+      } else {
+        c.lru->unpin(jobs[j].key);
+      }
+    }
+    for (const ResidentKey key : hits) c.lru->unpin(key);
+    c.unpinned.notify_all();
   };
   std::vector<ResidentKey> evicted;
   for (UploadJob& job : jobs) {
     evicted.clear();
-    const std::optional<std::uint32_t> slot = lru->insert(job.key, passEpoch, evicted);
+    const std::optional<std::uint32_t> slot = c.lru->insert(job.key, passEpoch, evicted);
     if (!slot) {
-      rollback();
+      releasePass(true);
       return makeError(ErrorCode::Internal, "GPU cache: a planned pass does not fit its budget");
     }
+    c.lru->pin(job.key);
     ++inserted;
     stats.evictions += evicted.size();
     job.slot = *slot;
   }
-  stats.peakResidentBytes = std::max(stats.peakResidentBytes, lru->residentBytes());
+  stats.peakResidentBytes = std::max(stats.peakResidentBytes, c.lru->residentBytes());
 
   // Patch and tile slots of the whole pass; pools grow to cover them.
   std::vector<std::uint32_t> patchSlots(end - begin, 0), tileSlots(end - begin, 0);
   std::uint32_t patchSlotCount = 0, tileSlotCount = 0;
+  lastPassEntries.clear();
   for (std::size_t i = begin; i < end; ++i) {
     if (!drawable(nodes[i])) continue;
-    patchSlots[i - begin] = *lru->find(ResidentKey::patch(cut.patches[i].node));
-    tileSlots[i - begin] = *lru->find(ResidentKey::tile(cut.patches[i].tile));
+    patchSlots[i - begin] = *c.lru->find(ResidentKey::patch(cut.patches[i].node));
+    tileSlots[i - begin] = *c.lru->find(ResidentKey::tile(cut.patches[i].tile));
     patchSlotCount = std::max(patchSlotCount, patchSlots[i - begin] + 1);
     tileSlotCount = std::max(tileSlotCount, tileSlots[i - begin] + 1);
   }
-  if (Result<void> r = patches.ensureSlots(*context, patchSlotCount); !r) {
-    rollback();
+  for (const UploadJob& entry : entries) {
+    lastPassEntries.emplace_back(entry.key, *c.lru->find(entry.key));
+  }
+  if (Result<void> r = c.patches.ensureSlots(*context, patchSlotCount); !r) {
+    releasePass(true);
     return r;
   }
-  if (Result<void> r = tiles.ensureSlots(*context, tileSlotCount); !r) {
-    rollback();
+  if (Result<void> r = c.tiles.ensureSlots(*context, tileSlotCount); !r) {
+    releasePass(true);
     return r;
   }
 
@@ -499,18 +505,19 @@ Result<void> TerrainRenderer::Impl::drawPass(const Cut& cut, const std::vector<N
       job.vertexBytes = std::uint64_t{sizeof(PatchGpuVertex)} * n.vertexCount;
       job.bytes = job.vertexBytes + std::uint64_t{6} * n.triangleCount;
     } else {
-      job.bytes = texture.slotBytes;
+      job.bytes = c.texture.slotBytes;
     }
     stagingBytes = job.stagingOffset + job.bytes;
   }
   if (Result<void> r = ensureStaging(stagingBytes); !r) {
-    rollback();
+    releasePass(true);
     return r;
   }
   const auto decodeStart = Clock::now();
   std::vector<Error> errors(jobs.size());
   std::vector<char> failed(jobs.size(), 0);
   const std::span<std::byte> stagingBytesSpan = staging.mappedBytes();
+  const TexelFormat texels = c.texture.texels;
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, jobs.size()),
       [&](const tbb::blocked_range<std::size_t>& range) {
@@ -520,7 +527,7 @@ Result<void> TerrainRenderer::Impl::drawPass(const Cut& cut, const std::vector<N
           Result<void> r = job.key.kind() == ResidentKind::Patch
                                ? decodePatchInto(data, cut.patches[job.patchIndex].node,
                                                  nodes[job.patchIndex], out)
-                               : decodeTileInto(data, job.tile, texture.texels, out);
+                               : decodeTileInto(data, job.tile, texels, out);
           if (!r) {
             errors[j] = std::move(r).error();
             failed[j] = 1;
@@ -530,7 +537,7 @@ Result<void> TerrainRenderer::Impl::drawPass(const Cut& cut, const std::vector<N
   stats.decodeMs += millisecondsSince(decodeStart);
   for (std::size_t j = 0; j < jobs.size(); ++j) {
     if (failed[j] != 0) {
-      rollback();
+      releasePass(true);
       return std::move(errors[j]);
     }
   }
@@ -542,29 +549,33 @@ Result<void> TerrainRenderer::Impl::drawPass(const Cut& cut, const std::vector<N
     PatchDrawInput input;
     input.node = cut.patches[i].node;
     input.record = nodes[i];
-    input.textureLayer = tiles.locate(tileSlots[i - begin]).local;
+    input.textureLayer = c.tiles.locate(tileSlots[i - begin]).local;
     const PatchDrawRecord record = makePatchDrawRecord(data, input, camera.position());
     std::memcpy(recordBytes.data() + i * sizeof(PatchDrawRecord), &record, sizeof record);
   }
   if (Result<void> r = staging ? staging.flushHostWrites() : Result<void>(); !r) {
-    rollback();
+    releasePass(true);
     return r;
   }
   if (Result<void> r = records.flushHostWrites(); !r) {
-    rollback();
+    releasePass(true);
     return r;
   }
 
-  // Timestamps: 0 before the uploads, 1 and 2 around the render pass. The draw buffer resets
-  // its own two queries, so that redrawLast() can submit it alone.
+  // Timestamps: 0 and 3 around the uploads, 1 and 2 around the render pass. The draw buffer
+  // resets its own two queries, so that redrawLast() can submit it alone.
   const bool timestamps = queries.get() != VK_NULL_HANDLE;
   Result<void> recorded =
       recordCommands(commands[kUploadCommands], "terrain uploads", [&](VkCommandBuffer cmd) {
         if (timestamps) {
           vkCmdResetQueryPool(cmd, queries.get(), 0, 1);
+          vkCmdResetQueryPool(cmd, queries.get(), 3, 1);
           vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries.get(), 0);
         }
         if (!jobs.empty()) recordUploads(cmd, jobs);
+        if (timestamps) {
+          vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries.get(), 3);
+        }
       });
   if (recorded) {
     recorded = recordCommands(commands[kDrawCommands], "terrain frame", [&](VkCommandBuffer cmd) {
@@ -577,6 +588,7 @@ Result<void> TerrainRenderer::Impl::drawPass(const Cut& cut, const std::vector<N
       } else {
         target.recordResumeRendering(cmd, !last);
       }
+      const PatchPipeline& pipeline = c.pipeline;
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.pipeline());
       vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 0, 1,
                               &recordsSet, 0, nullptr);
@@ -587,17 +599,17 @@ Result<void> TerrainRenderer::Impl::drawPass(const Cut& cut, const std::vector<N
       std::uint32_t boundPage = std::numeric_limits<std::uint32_t>::max();
       for (std::size_t i = begin; i < end; ++i) {
         if (!drawable(nodes[i])) continue;
-        const PoolLocation patch = patches.locate(patchSlots[i - begin]);
-        const PoolLocation tile = tiles.locate(tileSlots[i - begin]);
+        const PoolLocation patch = c.patches.locate(patchSlots[i - begin]);
+        const PoolLocation tile = c.tiles.locate(tileSlots[i - begin]);
         if (patch.chunk != boundChunk) {
-          const VkBuffer vertexBuffer = patches.vertexBuffer(patch.chunk);
+          const VkBuffer vertexBuffer = c.patches.vertexBuffer(patch.chunk);
           const VkDeviceSize zero = 0;
           vkCmdBindVertexBuffers(cmd, 0, 1, &vertexBuffer, &zero);
-          vkCmdBindIndexBuffer(cmd, patches.indexBuffer(patch.chunk), 0, VK_INDEX_TYPE_UINT16);
+          vkCmdBindIndexBuffer(cmd, c.patches.indexBuffer(patch.chunk), 0, VK_INDEX_TYPE_UINT16);
           boundChunk = patch.chunk;
         }
         if (tile.chunk != boundPage) {
-          const VkDescriptorSet set = tiles.descriptorSet(tile.chunk);
+          const VkDescriptorSet set = c.tiles.descriptorSet(tile.chunk);
           vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 1, 1,
                                   &set, 0, nullptr);
           boundPage = tile.chunk;
@@ -606,8 +618,8 @@ Result<void> TerrainRenderer::Impl::drawPass(const Cut& cut, const std::vector<N
         vkCmdPushConstants(cmd, pipeline.layout(),
                            VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT,
                            kRecordIndexOffset, sizeof recordIndex, &recordIndex);
-        vkCmdDrawIndexed(cmd, 3 * nodes[i].triangleCount, 1, patches.firstIndex(patch.local),
-                         static_cast<std::int32_t>(patches.firstVertex(patch.local)), 0);
+        vkCmdDrawIndexed(cmd, 3 * nodes[i].triangleCount, 1, c.patches.firstIndex(patch.local),
+                         static_cast<std::int32_t>(c.patches.firstVertex(patch.local)), 0);
       }
       vkCmdEndRendering(cmd);
       if (timestamps) {
@@ -616,11 +628,34 @@ Result<void> TerrainRenderer::Impl::drawPass(const Cut& cut, const std::vector<N
       if (last) target.recordReadback(cmd);
     });
   }
-  if (recorded) recorded = submitAndWait(commands, "terrain frame");
   if (!recorded) {
-    rollback();
+    releasePass(true);
     return recorded;
   }
+
+  if (privateCache) {
+    // Nobody else uses the cache: uploads and draw go in one submission.
+    if (recorded = submitAndWait(commands, "terrain frame"); !recorded) {
+      releasePass(true);
+      return recorded;
+    }
+    releasePass(false);
+  } else {
+    // Uploads under the lock; once they have completed the entries are usable by every
+    // renderer of the cache, and the draw runs outside the lock with its entries pinned.
+    const std::array<VkCommandBuffer, 1> uploads = {commands[kUploadCommands]};
+    if (recorded = submitAndWait(uploads, "terrain uploads"); !recorded) {
+      releasePass(true);
+      return recorded;
+    }
+    lock.unlock();
+    const std::array<VkCommandBuffer, 1> draw = {commands[kDrawCommands]};
+    recorded = submitAndWait(draw, "terrain frame");
+    lock.lock();
+    releasePass(false);
+    if (!recorded) return recorded;
+  }
+  lock.unlock();
   readTimestamps(true, stats);
   stats.misses += jobs.size();
   for (const UploadJob& job : jobs) stats.bytesUploaded += job.bytes;
@@ -633,59 +668,29 @@ Result<TerrainRenderer> TerrainRenderer::create(VulkanContext& context, const Da
   impl->context = &context;
   impl->dataset = &dataset;
   impl->options = options;
-  impl->texture = chooseTexture(context, dataset, options.forceRgba8Textures);
-  impl->patchSlot = patchSlotBytes(dataset);
-  impl->maxIndices = 3 * dataset.maxPatchTriangles();
-  const std::uint64_t minimum = impl->patchSlot + impl->texture.slotBytes;
-  if (impl->texture.slotBytes == 0 || dataset.maxPatchVertices() == 0) {
-    return makeError(ErrorCode::CorruptData,
-                     "dataset has no drawable patches or an invalid texture tile size");
+  if (options.sharedCache) {
+    GpuCache::State& state = options.sharedCache->state();
+    if (state.context != &context || state.dataset != &dataset) {
+      return makeError(ErrorCode::InvalidArgument,
+                       "the shared GPU cache was made for another Vulkan context or dataset");
+    }
+    impl->cache = options.sharedCache;
+    impl->privateCache = false;
+  } else {
+    GpuCacheOptions cacheOptions;
+    cacheOptions.budgetBytes = options.gpuCacheBytes;
+    cacheOptions.forceRgba8Textures = options.forceRgba8Textures;
+    auto cache = GpuCache::create(context, dataset, cacheOptions);
+    if (!cache) return std::move(cache).error();
+    impl->cache = std::move(*cache);
   }
-  if (options.gpuCacheBytes < minimum) {
-    return makeError(ErrorCode::InvalidArgument,
-                     "GPU cache budget of " + std::to_string(options.gpuCacheBytes) + " bytes (" +
-                         mebibytes(options.gpuCacheBytes) + ") is below the minimum of " +
-                         std::to_string(minimum) + " bytes (" + mebibytes(minimum) +
-                         ") that one patch slot (" + std::to_string(dataset.maxPatchVertices()) +
-                         " vertices, " + std::to_string(dataset.maxPatchTriangles()) +
-                         " triangles: " + std::to_string(impl->patchSlot) +
-                         " bytes) and one texture tile (" +
-                         std::to_string(impl->texture.slotBytes) + " bytes) need");
-  }
+  impl->shared = &impl->cache->state();
+  // The renderer does not keep the cache options: the cache has them.
+  impl->options.sharedCache.reset();
 
   auto target = OffscreenTarget::create(context, options.widthPixels, options.heightPixels);
   if (!target) return std::move(target).error();
   impl->target = std::move(*target);
-  auto pipeline =
-      PatchPipeline::create(context, OffscreenTarget::kColorFormat, OffscreenTarget::kDepthFormat);
-  if (!pipeline) return std::move(pipeline).error();
-  impl->pipeline = std::move(*pipeline);
-
-  impl->lru.emplace(options.gpuCacheBytes,
-                    std::array<std::uint64_t, 2>{impl->patchSlot, impl->texture.slotBytes});
-  const std::uint32_t patchCapacity = impl->lru->capacity(ResidentKind::Patch);
-  const std::uint32_t tileCapacity = impl->lru->capacity(ResidentKind::Tile);
-  impl->patches = PatchPool(dataset.maxPatchVertices(), impl->maxIndices, patchCapacity,
-                            static_cast<std::uint32_t>(std::clamp<std::uint64_t>(
-                                kChunkBytes / impl->patchSlot, 1, patchCapacity)));
-
-  const std::uint32_t tileTexels = dataset.manifest().textureTileTexels;
-  VkImageFormatProperties formatProperties{};
-  if (VkResult r = vkGetPhysicalDeviceImageFormatProperties(
-          context.physicalDevice(), impl->texture.format, VK_IMAGE_TYPE_2D, VK_IMAGE_TILING_OPTIMAL,
-          VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, 0, &formatProperties);
-      r != VK_SUCCESS) {
-    return vulkanError(r, "texture tiles of " + std::to_string(tileTexels) + " texels");
-  }
-  const auto layersPerPage = static_cast<std::uint32_t>(
-      std::clamp<std::uint64_t>(std::min<std::uint64_t>(kChunkBytes / impl->texture.slotBytes,
-                                                        formatProperties.maxArrayLayers),
-                                1, tileCapacity));
-  auto tiles = TilePool::create(context, impl->texture.format, tileTexels, impl->texture.slotBytes,
-                                tileCapacity, layersPerPage, impl->pipeline.tilesSetLayout(),
-                                impl->pipeline.sampler());
-  if (!tiles) return std::move(tiles).error();
-  impl->tiles = std::move(*tiles);
 
   VkDescriptorPoolSize size{};
   size.type = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
@@ -701,7 +706,7 @@ Result<TerrainRenderer> TerrainRenderer::create(VulkanContext& context, const Da
     return vulkanError(r, "vkCreateDescriptorPool (patch draw records)");
   }
   impl->recordsPool = UniqueDescriptorPool(context.device(), rawPool);
-  const VkDescriptorSetLayout recordsLayout = impl->pipeline.recordsSetLayout();
+  const VkDescriptorSetLayout recordsLayout = impl->shared->pipeline.recordsSetLayout();
   VkDescriptorSetAllocateInfo allocate{};
   allocate.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
   allocate.descriptorPool = rawPool;
@@ -752,7 +757,7 @@ Result<TerrainRenderer> TerrainRenderer::create(VulkanContext& context, const Da
     VkQueryPoolCreateInfo queryInfo{};
     queryInfo.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO;
     queryInfo.queryType = VK_QUERY_TYPE_TIMESTAMP;
-    queryInfo.queryCount = 3;
+    queryInfo.queryCount = Impl::kTimestampQueries;
     VkQueryPool rawQueries = VK_NULL_HANDLE;
     if (VkResult r = vkCreateQueryPool(context.device(), &queryInfo, nullptr, &rawQueries);
         r != VK_SUCCESS) {
@@ -768,7 +773,7 @@ Result<TerrainRenderer> TerrainRenderer::create(VulkanContext& context, const Da
 std::uint64_t TerrainRenderer::minimumCacheBytes(const VulkanContext& context,
                                                  const DatasetView& dataset,
                                                  bool forceRgba8Textures) {
-  return patchSlotBytes(dataset) + chooseTexture(context, dataset, forceRgba8Textures).slotBytes;
+  return GpuCache::minimumBytes(context, dataset, forceRgba8Textures);
 }
 
 glm::dvec3 TerrainRenderer::defaultSunDirection(const Camera& camera) {
@@ -781,13 +786,14 @@ TerrainRenderer::TerrainRenderer(TerrainRenderer&&) noexcept = default;
 TerrainRenderer& TerrainRenderer::operator=(TerrainRenderer&&) noexcept = default;
 TerrainRenderer::~TerrainRenderer() = default;
 
-std::uint64_t TerrainRenderer::residentBytes() const noexcept {
-  return impl_->lru->residentBytes();
+std::uint64_t TerrainRenderer::residentBytes() const {
+  const std::lock_guard<std::mutex> lock(impl_->shared->mutex);
+  return impl_->shared->lru->residentBytes();
 }
 
-bool TerrainRenderer::usesBc1Textures() const noexcept {
-  return impl_->texture.texels == TexelFormat::Bc1;
-}
+bool TerrainRenderer::usesBc1Textures() const noexcept { return impl_->cache->usesBc1Textures(); }
+
+const std::shared_ptr<GpuCache>& TerrainRenderer::cache() const noexcept { return impl_->cache; }
 
 Result<RenderedFrame> TerrainRenderer::render(const Cut& cut, const Camera& camera,
                                               const FrameSettings& settings) {
@@ -806,7 +812,11 @@ Result<RenderedFrame> TerrainRenderer::render(const Cut& cut, const Camera& came
   stats.patches = cut.patches.size();
   stats.triangles = cut.triangles;
   stats.tiles = cut.tiles.size();
-  stats.peakResidentBytes = m.lru->residentBytes();
+  GpuCache::State& c = *m.shared;
+  {
+    const std::lock_guard<std::mutex> lock(c.mutex);
+    stats.peakResidentBytes = c.lru->residentBytes();
+  }
 
   std::vector<NodeRecord> nodes(cut.patches.size());
   for (std::size_t i = 0; i < nodes.size(); ++i) nodes[i] = m.dataset->node(cut.patches[i].node);
@@ -814,18 +824,18 @@ Result<RenderedFrame> TerrainRenderer::render(const Cut& cut, const Camera& came
   // Passes: the longest prefixes of the cut whose slot bytes fit the budget.
   std::vector<std::size_t> passEnds;
   {
-    const std::uint64_t budget = m.lru->budgetBytes();
+    const std::uint64_t budget = c.lru->budgetBytes();
     std::uint64_t bytes = 0;
     std::unordered_set<std::uint64_t> passTiles;
     for (std::size_t i = 0; i < nodes.size(); ++i) {
       if (!drawable(nodes[i])) continue;
       const std::uint64_t tile = ResidentKey::tile(cut.patches[i].tile).packed;
-      std::uint64_t need = m.patchSlot + (passTiles.count(tile) != 0 ? 0 : m.texture.slotBytes);
+      std::uint64_t need = c.patchSlot + (passTiles.count(tile) != 0 ? 0 : c.texture.slotBytes);
       if (bytes > 0 && bytes + need > budget) {
         passEnds.push_back(i);
         bytes = 0;
         passTiles.clear();
-        need = m.patchSlot + m.texture.slotBytes;
+        need = c.patchSlot + c.texture.slotBytes;
       }
       bytes += need;
       passTiles.insert(tile);
@@ -840,7 +850,7 @@ Result<RenderedFrame> TerrainRenderer::render(const Cut& cut, const Camera& came
                  "pbdam: warning: a frame's cut (%zu patches, %zu tiles) does not fit the GPU "
                  "cache budget of %s; drawing it in %zu passes (same image, slower); raise the "
                  "budget (--gpu-cache-mb) to avoid this\n",
-                 cut.patches.size(), cut.tiles.size(), mebibytes(m.lru->budgetBytes()).c_str(),
+                 cut.patches.size(), cut.tiles.size(), mebibytes(c.lru->budgetBytes()).c_str(),
                  passEnds.size());
   }
   if (Result<void> r = m.ensureRecords(cut.patches.size()); !r) return std::move(r).error();
@@ -869,8 +879,11 @@ Result<RenderedFrame> TerrainRenderer::render(const Cut& cut, const Camera& came
   }
   Result<RgbaImage> image = m.target.readPixels();
   if (!image) return std::move(image).error();
-  stats.residentBytes = m.lru->residentBytes();
-  stats.poolBytes = m.patches.allocatedBytes() + m.tiles.allocatedBytes();
+  {
+    const std::lock_guard<std::mutex> lock(c.mutex);
+    stats.residentBytes = c.lru->residentBytes();
+    stats.poolBytes = c.patches.allocatedBytes() + c.tiles.allocatedBytes();
+  }
   stats.frameMs = millisecondsSince(frameStart);
   m.lastFrame = stats;
   return RenderedFrame{std::move(*image), stats};
@@ -895,6 +908,7 @@ std::uint32_t TerrainRenderer::heightPixels() const noexcept { return impl_->opt
 
 Result<RenderedFrame> TerrainRenderer::redrawLast() {
   Impl& m = *impl_;
+  GpuCache::State& c = *m.shared;
   const auto frameStart = Clock::now();
   if (!m.lastFrame) {
     return makeError(ErrorCode::InvalidArgument,
@@ -906,25 +920,52 @@ Result<RenderedFrame> TerrainRenderer::redrawLast() {
     return makeError(ErrorCode::InvalidArgument,
                      "redrawLast: the previous frame was drawn in " + std::to_string(last.passes) +
                          " passes (its cut exceeds the GPU cache budget of " +
-                         mebibytes(m.lru->budgetBytes()) +
+                         mebibytes(c.lru->budgetBytes()) +
                          "); only one-pass frames can be redrawn");
   }
+  // The recorded draw reads the slots the frame used: they must still hold its entries.
+  {
+    const std::lock_guard<std::mutex> lock(c.mutex);
+    for (std::size_t i = 0; i < m.lastPassEntries.size(); ++i) {
+      const auto& [key, slot] = m.lastPassEntries[i];
+      const std::optional<std::uint32_t> now = c.lru->find(key);
+      if (!now || *now != slot) {
+        for (std::size_t j = 0; j < i; ++j) c.lru->unpin(m.lastPassEntries[j].first);
+        c.unpinned.notify_all();
+        m.lastFrame.reset();
+        return makeError(ErrorCode::InvalidArgument,
+                         "redrawLast: another renderer of the shared GPU cache has evicted a "
+                         "patch or tile of the previous frame since it was drawn");
+      }
+      c.lru->pin(key);
+    }
+  }
+  const auto unpinLast = [&] {
+    const std::lock_guard<std::mutex> lock(c.mutex);
+    for (const auto& entry : m.lastPassEntries) c.lru->unpin(entry.first);
+    c.unpinned.notify_all();
+  };
   FrameStats stats;
   stats.patches = last.patches;
   stats.triangles = last.triangles;
   stats.tiles = last.tiles;
   stats.hits = last.hits + last.misses;
   const std::array<VkCommandBuffer, 1> draw = {m.commands[Impl::kDrawCommands]};
-  if (Result<void> r = m.submitAndWait(draw, "terrain redraw"); !r) {
+  Result<void> submitted = m.submitAndWait(draw, "terrain redraw");
+  unpinLast();
+  if (!submitted) {
     m.lastFrame.reset();
-    return std::move(r).error();
+    return std::move(submitted).error();
   }
   m.readTimestamps(false, stats);
   Result<RgbaImage> image = m.target.readPixels();
   if (!image) return std::move(image).error();
-  stats.residentBytes = m.lru->residentBytes();
+  {
+    const std::lock_guard<std::mutex> lock(c.mutex);
+    stats.residentBytes = c.lru->residentBytes();
+    stats.poolBytes = c.patches.allocatedBytes() + c.tiles.allocatedBytes();
+  }
   stats.peakResidentBytes = stats.residentBytes;
-  stats.poolBytes = m.patches.allocatedBytes() + m.tiles.allocatedBytes();
   stats.frameMs = millisecondsSince(frameStart);
   return RenderedFrame{std::move(*image), stats};
 }

@@ -96,5 +96,36 @@ TEST(ResidencyLru, HighestSlotStaysBelowTheCapacity) {
   EXPECT_FALSE(lru.insert(tile(0), 5000, evicted).has_value());
 }
 
+TEST(ResidencyLru, APinnedEntryIsNeverEvictedWhateverItsEpoch) {
+  ResidencyLru lru(40, {10, 30});
+  std::vector<ResidentKey> evicted;
+  for (std::uint64_t i = 0; i < 4; ++i) ASSERT_TRUE(lru.insert(patch(i), 1, evicted).has_value());
+  lru.pin(patch(0));  // the least recently used, pinned twice (two passes in flight)
+  lru.pin(patch(0));
+  EXPECT_EQ(lru.pinnedBytes(), 10u);
+  // A later pass needs 30 bytes: patches 1, 2, 3 go, patch 0 stays although it is the oldest.
+  ASSERT_TRUE(lru.insert(tile(0), 2, evicted).has_value());
+  ASSERT_EQ(evicted.size(), 3u);
+  EXPECT_EQ(evicted[0], patch(1));
+  EXPECT_TRUE(lru.find(patch(0)).has_value());
+  // Everything else is pinned or of the current epoch: nothing more fits.
+  lru.pin(tile(0));
+  evicted.clear();
+  EXPECT_FALSE(lru.insert(patch(9), 3, evicted).has_value());
+  EXPECT_TRUE(evicted.empty());
+  // One pin taken back still leaves patch 0 pinned; the second releases it.
+  lru.unpin(patch(0));
+  EXPECT_FALSE(lru.insert(patch(9), 3, evicted).has_value());
+  lru.unpin(patch(0));
+  EXPECT_EQ(lru.pinnedBytes(), 30u);
+  ASSERT_TRUE(lru.insert(patch(9), 3, evicted).has_value());
+  ASSERT_EQ(evicted.size(), 1u);
+  EXPECT_EQ(evicted[0], patch(0));
+  // Erasing a pinned entry (a failed upload) takes its pinned bytes along.
+  lru.erase(tile(0));
+  EXPECT_EQ(lru.pinnedBytes(), 0u);
+  EXPECT_EQ(lru.residentBytes(), 10u);
+}
+
 }  // namespace
 }  // namespace pbdam::gpu

@@ -412,6 +412,59 @@ TEST(Serve, InfoHeightStatsHealthzAndViewer) {
   EXPECT_NE(page->body.find("/frame?"), std::string::npos);
 }
 
+TEST(Serve, RenderContextsShareOneGpuCache) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  START_SERVER(server, dir, {"--workers", "2", "--queue", "8"});
+  const std::string query = "/frame?lat=-20&lon=300&alt=2e6&pitch=-70&width=320&height=240";
+  httplib::Client warm = server.client();
+  auto first = warm.Get(query);
+  ASSERT_TRUE(first);
+  ASSERT_EQ(first->status, 200) << first->body;
+  EXPECT_GT(std::stoi(first->get_header_value("X-Pbdam-Cache-Misses")), 0);
+  const auto residentAfterFirst =
+      nlohmann::json::parse(warm.Get("/stats")->body)["cache"]["resident_bytes"]
+          .get<std::int64_t>();
+
+  // The same frame from several clients at once: both contexts draw some of them, and every
+  // one — whichever context draws it — finds everything resident.
+  constexpr int kClients = 6;
+  std::vector<std::string> misses(kClients), contexts(kClients), bodies(kClients);
+  std::vector<int> statuses(kClients, -1);
+  std::atomic<int> ready{0};
+  std::vector<std::thread> clients;
+  for (int c = 0; c < kClients; ++c) {
+    clients.emplace_back([&, c] {
+      httplib::Client client = server.client();
+      ++ready;
+      while (ready.load() < kClients) std::this_thread::yield();
+      auto res = client.Get(query);
+      if (!res) return;
+      const auto i = static_cast<std::size_t>(c);
+      statuses[i] = res->status;
+      misses[i] = res->get_header_value("X-Pbdam-Cache-Misses");
+      contexts[i] = res->get_header_value("X-Pbdam-Context");
+      bodies[i] = res->body;
+    });
+  }
+  for (std::thread& t : clients) t.join();
+  std::map<std::string, int> drawnBy;
+  for (std::size_t i = 0; i < kClients; ++i) {
+    ASSERT_EQ(statuses[i], 200) << "client " << i;
+    EXPECT_EQ(misses[i], "0") << "client " << i << ", context " << contexts[i];
+    EXPECT_TRUE(bodies[i] == first->body) << "client " << i << " got another image";
+    ++drawnBy[contexts[i]];
+  }
+  EXPECT_EQ(drawnBy.size(), 2u) << "both contexts were meant to draw";
+
+  const auto s = nlohmann::json::parse(warm.Get("/stats")->body);
+  EXPECT_EQ(s["cache"]["shared_by_contexts"], 2);
+  EXPECT_EQ(s["cache"]["resident_bytes"].get<std::int64_t>(), residentAfterFirst);
+  EXPECT_EQ(s["cache"]["pinned_bytes"], 0);
+  const int entries = std::stoi(first->get_header_value("X-Pbdam-Cache-Misses"));
+  EXPECT_EQ(s["cache"]["misses"].get<int>(), entries);
+  EXPECT_EQ(s["cache"]["hits"].get<int>(), kClients * entries);
+}
+
 TEST(Serve, BurstBeyondTheQueueGets503WithRetryAfter) {
   PBDAM_REQUIRE_DATASET(dir, "mola");
   START_SERVER(server, dir, {"--workers", "1", "--queue", "1"});

@@ -61,7 +61,7 @@ int runServe(const ServeCliOptions& c) {
   if (!c.quiet) {
     std::printf(
         "pbdam serve: http://%s:%d/ (dataset %s; %u render contexts on %s, queue %u, GPU cache "
-        "%.0f MiB split between them, deadline %.1f s)\n",
+        "%.0f MiB shared by them, deadline %.1f s)\n",
         o.bindAddress.find(':') != std::string::npos ? ("[" + o.bindAddress + "]").c_str()
                                                      : o.bindAddress.c_str(),
         *port, c.dir.c_str(), o.workers, (*server)->deviceName().c_str(), o.queueCapacity,
@@ -125,7 +125,7 @@ void addServeCommand(CLI::App& app, CommandStatus& status) {
       ->capture_default_str();
   serve
       ->add_option("--gpu-cache-mb", o->server.gpuCacheMiB,
-                   "GPU cache budget in MiB, split evenly between the render contexts")
+                   "GPU cache budget in MiB: one cache (LRU, pools) shared by every render context")
       ->capture_default_str();
   serve
       ->add_option("--deadline-s", o->server.deadlineSeconds,

@@ -42,20 +42,20 @@ Result<std::unique_ptr<RenderPool>> RenderPool::create(const MappedDataset& data
   pool->context_.emplace(std::move(*context));
   pool->deviceName_ = pool->context_->deviceInfo().name;
 
-  const std::uint64_t perWorker = options.gpuCacheBytes / options.workers;
-  const std::uint64_t minimum =
-      gpu::TerrainRenderer::minimumCacheBytes(*pool->context_, dataset.view());
-  if (perWorker < minimum) {
-    return makeError(ErrorCode::InvalidArgument,
-                     "--gpu-cache-mb: " + std::to_string(options.gpuCacheBytes) + " bytes over " +
-                         std::to_string(options.workers) + " render contexts leaves " +
-                         std::to_string(perWorker) + " bytes each, below the minimum of " +
-                         std::to_string(minimum) + " bytes (one patch slot and one tile)");
+  gpu::GpuCacheOptions cacheOptions;
+  cacheOptions.budgetBytes = options.gpuCacheBytes;
+  auto cache = gpu::GpuCache::create(*pool->context_, dataset.view(), cacheOptions);
+  if (!cache) {
+    Error error = std::move(cache).error();
+    if (error.code == ErrorCode::InvalidArgument)
+      error.message = "--gpu-cache-mb: " + error.message;
+    return error;
   }
+  pool->cache_ = std::move(*cache);
   gpu::TerrainRendererOptions rendererOptions;
   rendererOptions.widthPixels = options.initialWidthPixels;
   rendererOptions.heightPixels = options.initialHeightPixels;
-  rendererOptions.gpuCacheBytes = perWorker;
+  rendererOptions.sharedCache = pool->cache_;
   // A cut over the budget is still the exact frame (drawn in passes); /stats counts them.
   rendererOptions.warnWhenBudgetExceeded = false;
   for (std::uint32_t i = 0; i < options.workers; ++i) {
@@ -63,11 +63,8 @@ Result<std::unique_ptr<RenderPool>> RenderPool::create(const MappedDataset& data
     if (!renderer) return std::move(renderer).error();
     pool->renderers_.push_back(std::move(*renderer));
   }
-  pool->residentPerWorker_.assign(options.workers, 0);
   pool->stats_.workers = options.workers;
   pool->stats_.queueCapacity = options.queueCapacity;
-  pool->stats_.cacheBudgetBytes = perWorker * options.workers;
-  pool->stats_.cacheBudgetBytesPerWorker = perWorker;
   for (std::uint32_t i = 0; i < options.workers; ++i) {
     pool->threads_.emplace_back([p = pool.get(), i] { p->workerLoop(i); });
   }
@@ -192,7 +189,6 @@ void RenderPool::workerLoop(std::uint32_t index) {
       } else {
         ++stats_.renderErrors;
       }
-      residentPerWorker_[index] = renderer.residentBytes();
     }
     job->promise.set_value({FrameRefusal::None, std::move(frame)});
   }
@@ -202,8 +198,7 @@ RenderPoolStats RenderPool::stats() const {
   const std::lock_guard<std::mutex> lock(mutex_);
   RenderPoolStats s = stats_;
   s.queued = static_cast<std::uint32_t>(queue_.size());
-  s.residentBytes = 0;
-  for (const std::uint64_t bytes : residentPerWorker_) s.residentBytes += bytes;
+  s.cache = cache_->stats();
   return s;
 }
 

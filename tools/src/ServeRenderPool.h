@@ -1,8 +1,8 @@
-// The render contexts of `pbdam serve`: N worker threads, each owning a TerrainRenderer with its
-// own GPU cache (the budget split N ways), all created from ONE VulkanContext (device, queue) and
-// drawing ONE shared read-only dataset mapping; a bounded FIFO of frame requests in front of them,
-// each with a deadline. docs/decisions.md "pbdam serve" says why the GPU cache is split rather
-// than shared. Thread-safety: every public member is thread-safe.
+// The render contexts of `pbdam serve`: N worker threads, each owning a TerrainRenderer, all
+// created from ONE VulkanContext (device, queue), drawing ONE shared read-only dataset mapping
+// from ONE GPU cache (gpu/GpuCache.h: one budget, one LRU, one set of pools — what one context
+// uploads the others draw); a bounded FIFO of frame requests in front of them, each with a
+// deadline. Thread-safety: every public member is thread-safe.
 #pragma once
 
 #include <chrono>
@@ -67,10 +67,8 @@ struct RenderPoolStats final {
   std::uint64_t expired = 0;  ///< answered 503: deadline passed while queued or drawing
   double renderMsTotal = 0.0;
   double queueMsTotal = 0.0;
-  // GPU caches, summed over the contexts.
-  std::uint64_t cacheBudgetBytes = 0;
-  std::uint64_t cacheBudgetBytesPerWorker = 0;
-  std::uint64_t residentBytes = 0;
+  // The shared GPU cache: its state now, and lookups summed over the contexts' frames.
+  gpu::GpuCacheStats cache;
   std::uint64_t hits = 0;
   std::uint64_t misses = 0;
   std::uint64_t evictions = 0;
@@ -81,7 +79,7 @@ struct RenderPoolStats final {
 struct RenderPoolOptions final {
   std::uint32_t workers = 2;
   std::uint32_t queueCapacity = 8;
-  std::uint64_t gpuCacheBytes = std::uint64_t{256} << 20;  ///< all contexts together
+  std::uint64_t gpuCacheBytes = std::uint64_t{256} << 20;  ///< the one cache of all contexts
   std::optional<std::uint32_t> deviceIndex;                ///< unset: lavapipe
   std::uint32_t initialWidthPixels = 640;
   std::uint32_t initialHeightPixels = 480;
@@ -89,8 +87,8 @@ struct RenderPoolOptions final {
 
 class RenderPool final {
  public:
-  /// Creates the Vulkan context and the workers' renderers; `dataset` must outlive the pool.
-  /// InvalidArgument when the per-context budget is below TerrainRenderer's minimum (the
+  /// Creates the Vulkan context, the shared GPU cache and the workers' renderers; `dataset` must
+  /// outlive the pool. InvalidArgument when the budget is below the cache's minimum (the
   /// message names both), DeviceError for Vulkan failures.
   static Result<std::unique_ptr<RenderPool>> create(const MappedDataset& dataset,
                                                     const RenderPoolOptions& options);
@@ -121,8 +119,8 @@ class RenderPool final {
   RenderPoolOptions options_;
   std::string deviceName_;
   std::optional<gpu::VulkanContext> context_;
+  std::shared_ptr<gpu::GpuCache> cache_;
   std::vector<gpu::TerrainRenderer> renderers_;
-  std::vector<std::uint64_t> residentPerWorker_;
   std::vector<std::thread> threads_;
 
   mutable std::mutex mutex_;

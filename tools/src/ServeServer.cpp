@@ -292,9 +292,14 @@ Json FrameServer::Impl::statsJson() const {
                  {"multi_pass_frames", s.multiPassFrames}};
   const std::uint64_t lookups = s.hits + s.misses;
   j["cache"] = {
-      {"budget_bytes", s.cacheBudgetBytes},
-      {"budget_bytes_per_context", s.cacheBudgetBytesPerWorker},
-      {"resident_bytes", s.residentBytes},
+      {"shared_by_contexts", s.workers},
+      {"budget_bytes", s.cache.budgetBytes},
+      {"resident_bytes", s.cache.residentBytes},
+      {"pinned_bytes", s.cache.pinnedBytes},
+      {"pool_bytes", s.cache.poolBytes},
+      {"resident_patches", s.cache.residentPatches},
+      {"resident_tiles", s.cache.residentTiles},
+      {"waits_for_room", s.cache.waits},
       {"hits", s.hits},
       {"misses", s.misses},
       {"hit_rate", lookups > 0 ? static_cast<double>(s.hits) / static_cast<double>(lookups) : 0.0},

@@ -1,7 +1,8 @@
 // ResidencyLru: the bookkeeping of the GPU-resident patch and texture cache (design.md §5) —
 // which patches and tiles occupy which pool slot, one least-recently-used order over both kinds,
-// and a byte budget counted in slot bytes. No Vulkan here: TerrainRenderer owns the pools the
-// slot numbers index. Thread-safety: none; one thread (the render thread) uses it.
+// and a byte budget counted in slot bytes. No Vulkan here: GpuCache owns the pools the slot
+// numbers index. Thread-safety: none; GpuCache guards it with its lock when several render
+// threads share it.
 #pragma once
 
 #include <array>
@@ -41,8 +42,10 @@ struct ResidentKey final {
 
 /// One LRU over patches and tiles together. Every entry costs its kind's slot bytes; the sum
 /// over resident entries (residentBytes) never exceeds the budget. Entries are stamped with the
-/// epoch (the renderer's pass number) that last used them; insert() evicts least-recently-used
-/// entries of earlier epochs only, so nothing the current pass draws is ever evicted.
+/// epoch (the pass number) that last used them; insert() evicts least-recently-used entries of
+/// earlier epochs only, so nothing the current pass draws is ever evicted. Entries can also be
+/// pinned (counted): a pinned entry is never evicted whatever its epoch — that is how the
+/// passes of several renderers in flight at once keep each other's entries resident.
 ///
 /// Slots are numbered per kind from 0; a new entry takes the lowest free slot, so the highest
 /// slot in use stays below budget / slot bytes of its kind and pools can grow on demand.
@@ -77,13 +80,21 @@ class ResidencyLru final {
   std::optional<std::uint32_t> insert(ResidentKey key, std::uint64_t epoch,
                                       std::vector<ResidentKey>& evicted);
 
-  /// Removes `key` if resident (an upload that failed); its slot becomes free.
+  /// Removes `key` if resident (an upload that failed), pinned or not; its slot becomes free.
   void erase(ResidentKey key);
+
+  /// Pins a resident entry once more (pins are counted); pinned entries are never evicted.
+  void pin(ResidentKey key);
+  /// Takes back one pin of a resident, pinned entry.
+  void unpin(ResidentKey key);
+  /// Slot bytes of the entries pinned now.
+  std::uint64_t pinnedBytes() const noexcept { return pinnedBytes_; }
 
  private:
   struct Entry {
     std::uint32_t slot = 0;
     std::uint64_t epoch = 0;
+    std::uint32_t pins = 0;
     std::list<std::uint64_t>::iterator order;  ///< position in order_
   };
   std::uint32_t takeSlot(ResidentKind kind);
@@ -92,6 +103,7 @@ class ResidencyLru final {
   std::uint64_t budgetBytes_;
   std::array<std::uint64_t, 2> slotBytes_;
   std::uint64_t residentBytes_ = 0;
+  std::uint64_t pinnedBytes_ = 0;
   std::array<std::uint32_t, 2> counts_{};
   std::unordered_map<std::uint64_t, Entry> entries_;
   std::list<std::uint64_t> order_;                    ///< most recently used first

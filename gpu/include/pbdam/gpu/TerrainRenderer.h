@@ -1,11 +1,12 @@
 // TerrainRenderer: draws a cut (runtime/Refinement.h) of a P-BDAM dataset offscreen in exact mode
 // (design.md §4 "Modes": every patch of the cut, each with its texture tile; the same camera
 // gives the same image) and reads the frame back. Patches and tiles live in GPU-resident pools
-// under one byte budget with LRU eviction (ResidencyLru.h); misses are decoded on TBB workers and
-// uploaded through a staging buffer (design.md §5). Implements paper 004 §4.2 (camera-relative
-// vertices, patch.vert) and §4.4 (the GPU cache). Thread-safety: none — one thread renders; the
-// decoding it starts runs in parallel inside render(). Several renderers, each used by one
-// thread, may share a VulkanContext (it serialises queue submissions).
+// under one byte budget with LRU eviction (GpuCache.h, ResidencyLru.h); misses are decoded on TBB
+// workers and uploaded through a staging buffer (design.md §5). Implements paper 004 §4.2
+// (camera-relative vertices, patch.vert) and §4.4 (the GPU cache). Thread-safety: none — one
+// thread renders; the decoding it starts runs in parallel inside render(). Several renderers,
+// each used by one thread, may share a VulkanContext (it serialises queue submissions) and one
+// GpuCache (TerrainRendererOptions::sharedCache).
 #pragma once
 
 #include <array>
@@ -15,6 +16,7 @@
 #include <optional>
 
 #include "pbdam/formats/Result.h"
+#include "pbdam/gpu/GpuCache.h"
 #include "pbdam/gpu/RgbaImage.h"
 #include "pbdam/runtime/Camera.h"
 #include "pbdam/runtime/DatasetView.h"
@@ -28,12 +30,15 @@ class VulkanContext;
 struct TerrainRendererOptions final {
   std::uint32_t widthPixels = 1280;
   std::uint32_t heightPixels = 720;
-  /// Budget of the GPU cache: slot bytes of resident patches and tiles together (a patch slot
-  /// holds DatasetView::maxPatchVertices vertices of 8 bytes and maxPatchTriangles triangles of
-  /// 16-bit indices; a tile slot one texture-array layer).
+  /// Budget of the renderer's private GPU cache (GpuCacheOptions::budgetBytes). Unused with a
+  /// shared cache.
   std::uint64_t gpuCacheBytes = std::uint64_t{256} << 20;
   /// Upload BC1 tiles expanded to RGBA8 even when the device samples BC1 (tests, comparisons).
+  /// Unused with a shared cache (GpuCacheOptions has its own).
   bool forceRgba8Textures = false;
+  /// A cache shared with other renderers of the same context and dataset; unset: the renderer
+  /// makes a private one from the two options above.
+  std::shared_ptr<GpuCache> sharedCache;
   /// Print a warning on stderr, once per renderer, the first time a frame's cut does not fit
   /// the budget and is drawn in several passes.
   bool warnWhenBudgetExceeded = true;
@@ -60,9 +65,9 @@ struct FrameStats final {
   double uploadMs = 0.0;  ///< staging → pool copies
   double drawMs = 0.0;    ///< the render pass(es)
   double frameMs = 0.0;   ///< all of render(), readback included, wall time
-  std::uint64_t residentBytes = 0;      ///< slot bytes resident after the frame
+  std::uint64_t residentBytes = 0;      ///< slot bytes resident in the cache after the frame
   std::uint64_t peakResidentBytes = 0;  ///< the most resident at any time during the frame
-  std::uint64_t poolBytes = 0;          ///< device memory the pools hold (allocated capacity)
+  std::uint64_t poolBytes = 0;          ///< device memory the cache's pools hold (capacity)
   std::uint64_t hits = 0;               ///< patches + tiles found resident
   std::uint64_t misses = 0;             ///< patches + tiles decoded and uploaded
   std::uint64_t evictions = 0;
@@ -87,9 +92,10 @@ struct RenderedFrame final {
 /// FrameStats::budgetExceeded is set.
 class TerrainRenderer final {
  public:
-  /// Creates pipelines, pools and the offscreen target. Errors: InvalidArgument for a zero or
-  /// too-large image size, or a budget below minimumCacheBytes (the message names both);
-  /// DeviceError for Vulkan failures.
+  /// Creates the offscreen target, command buffers and (without options.sharedCache) a private
+  /// GpuCache. Errors: InvalidArgument for a zero or too-large image size, a budget below
+  /// minimumCacheBytes (the message names both), or a shared cache made for another context or
+  /// dataset; DeviceError for Vulkan failures.
   static Result<TerrainRenderer> create(VulkanContext& context, const DatasetView& dataset,
                                         const TerrainRendererOptions& options);
 
@@ -123,8 +129,9 @@ class TerrainRenderer final {
   /// the image is byte-identical to that frame's. Stats: the frame's patches, triangles and
   /// tiles, every entry a hit, no decode or upload; drawMs and frameMs measured as render()
   /// measures them. Errors: InvalidArgument when there is no previous frame (render() was never
-  /// called, or its last call failed) or when it took several passes (over budget: only its
-  /// last pass is still recorded); DeviceError for Vulkan failures.
+  /// called, or its last call failed), when it took several passes (over budget: only its last
+  /// pass is still recorded), or when another renderer of a shared cache has evicted one of its
+  /// patches or tiles since; DeviceError for Vulkan failures.
   Result<RenderedFrame> redrawLast();
 
   /// Changes the image size to `widthPixels` x `heightPixels`: a new offscreen target, while the
@@ -135,8 +142,10 @@ class TerrainRenderer final {
   std::uint32_t widthPixels() const noexcept;
   std::uint32_t heightPixels() const noexcept;
 
-  /// Slot bytes resident now.
-  std::uint64_t residentBytes() const noexcept;
+  /// Slot bytes resident now in the renderer's cache (shared or private).
+  std::uint64_t residentBytes() const;
+  /// The cache the renderer draws from.
+  const std::shared_ptr<GpuCache>& cache() const noexcept;
   /// Whether tiles are sampled as BC1 on the device (else RGBA8).
   bool usesBc1Textures() const noexcept;
 

@@ -1,0 +1,78 @@
+// GpuCache: the GPU-resident patch and texture cache of design.md §5 (paper 004 §4.4) as an
+// object of its own — one byte budget, one LRU over patches and tiles (ResidencyLru), one set of
+// device pools and the patch pipeline — so that several TerrainRenderers, each driven by its own
+// thread, can share it: what one render context uploads, every other one draws from. A
+// TerrainRenderer created without one makes a private cache. Thread-safety: every public member
+// is thread-safe; the renderers that share a cache take its lock for the bookkeeping, decoding
+// and uploads of a pass and draw outside it, with the pass's entries pinned (never evicted while
+// a draw may read them).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+
+#include "pbdam/formats/Result.h"
+#include "pbdam/runtime/DatasetView.h"
+
+namespace pbdam::gpu {
+
+class VulkanContext;
+
+/// How a GpuCache is set up.
+struct GpuCacheOptions final {
+  /// Slot bytes of resident patches and tiles together (a patch slot holds
+  /// DatasetView::maxPatchVertices vertices of 8 bytes and maxPatchTriangles triangles of 16-bit
+  /// indices; a tile slot one texture-array layer).
+  std::uint64_t budgetBytes = std::uint64_t{256} << 20;
+  /// Upload BC1 tiles expanded to RGBA8 even when the device samples BC1 (tests, comparisons).
+  bool forceRgba8Textures = false;
+};
+
+/// What a cache holds now, and how often renderers waited for room.
+struct GpuCacheStats final {
+  std::uint64_t budgetBytes = 0;
+  std::uint64_t residentBytes = 0;  ///< slot bytes resident
+  std::uint64_t pinnedBytes = 0;    ///< slot bytes pinned by passes in flight
+  std::uint64_t poolBytes = 0;      ///< device memory the pools hold (allocated capacity)
+  std::uint32_t residentPatches = 0;
+  std::uint32_t residentTiles = 0;
+  /// Passes that found the budget pinned by other renderers' passes in flight and waited for
+  /// them to finish before making room.
+  std::uint64_t waits = 0;
+};
+
+/// Created once per (VulkanContext, DatasetView); both must outlive it and every renderer that
+/// uses it. Held through shared_ptr by the renderers that use it. Non-copyable.
+class GpuCache final {
+ public:
+  /// Errors: InvalidArgument for a budget below minimumBytes (the message names both),
+  /// CorruptData for a dataset without drawable patches or with an invalid tile size,
+  /// DeviceError for Vulkan failures.
+  static Result<std::shared_ptr<GpuCache>> create(VulkanContext& context,
+                                                  const DatasetView& dataset,
+                                                  const GpuCacheOptions& options);
+
+  /// The smallest budget that can draw any frame: one patch slot plus one tile slot, for the
+  /// texel format a cache would use on `context`'s device.
+  static std::uint64_t minimumBytes(const VulkanContext& context, const DatasetView& dataset,
+                                    bool forceRgba8Textures = false);
+
+  GpuCache(const GpuCache&) = delete;
+  GpuCache& operator=(const GpuCache&) = delete;
+  ~GpuCache();
+
+  std::uint64_t budgetBytes() const noexcept;
+  /// Whether tiles are sampled as BC1 on the device (else RGBA8).
+  bool usesBc1Textures() const noexcept;
+  GpuCacheStats stats() const;
+
+  /// The state behind the cache (gpu/src/GpuCacheState.h); only pbdam_gpu's sources see inside.
+  struct State;
+  State& state() noexcept { return *state_; }
+
+ private:
+  explicit GpuCache(std::unique_ptr<State> state) noexcept;
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace pbdam::gpu

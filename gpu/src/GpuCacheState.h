@@ -1,0 +1,59 @@
+// The inside of a GpuCache (internal to pbdam_gpu): the texel format choice, slot sizes, the
+// patch pipeline every renderer of the cache draws with, and — under `mutex` — the LRU, the
+// pools and the pass epoch. TerrainRenderer.cpp holds the protocol (GpuCache.h).
+#pragma once
+
+#include <vulkan/vulkan.h>
+
+#include <condition_variable>
+#include <cstdint>
+#include <mutex>
+#include <optional>
+
+#include "GpuPools.h"
+#include "PatchPipeline.h"
+#include "pbdam/formats/TextureTile.h"
+#include "pbdam/gpu/GpuCache.h"
+#include "pbdam/gpu/ResidencyLru.h"
+
+namespace pbdam::gpu {
+
+/// How tiles are held on the device.
+struct TextureChoice final {
+  VkFormat format = VK_FORMAT_R8G8B8A8_UNORM;
+  TexelFormat texels = TexelFormat::Rgba8;
+  std::uint64_t slotBytes = 0;
+};
+
+/// The texel format a dataset's tiles are stored in.
+TexelFormat datasetTexelFormat(const DatasetView& dataset);
+/// BC1 where the dataset and the device have it (and it is not refused), RGBA8 otherwise.
+TextureChoice chooseTexture(const VulkanContext& context, const DatasetView& dataset,
+                            bool forceRgba8);
+/// Bytes of one patch slot: the dataset's largest patch, 8-byte vertices and 16-bit indices.
+std::uint64_t patchSlotBytes(const DatasetView& dataset);
+
+struct GpuCache::State {
+  VulkanContext* context = nullptr;
+  const DatasetView* dataset = nullptr;
+  TextureChoice texture;
+  std::uint64_t patchSlot = 0;
+  std::uint32_t maxIndices = 0;
+  /// Immutable after creation; command buffers of every renderer bind it at once.
+  PatchPipeline pipeline;
+
+  /// Guards everything below. Held by a renderer from planning a pass through its uploads.
+  std::mutex mutex;
+  /// Signalled whenever pins are released (a pass finished or failed).
+  std::condition_variable unpinned;
+  std::optional<ResidencyLru> lru;
+  PatchPool patches;
+  TilePool tiles;
+  /// Pass numbers, over every renderer of the cache.
+  std::uint64_t epoch = 0;
+  std::uint64_t waits = 0;
+  /// Renderers attached (TerrainRenderer::create/destroy); a private cache has at most one.
+  std::uint32_t renderers = 0;
+};
+
+}  // namespace pbdam::gpu
