@@ -22,17 +22,32 @@ std::uint64_t packXY(LatticeXY p) noexcept {
          static_cast<std::uint32_t>(p.y);
 }
 
-/// A patch under construction with a point → index lookup.
+/// A patch under construction with a point → index lookup (open addressing with linear
+/// probing; points are numbered in first-use order, so the result does not depend on the table).
 struct IndexedPatch {
   std::vector<LatticeXY> points;
   std::vector<std::uint32_t> indices;
-  std::unordered_map<std::uint64_t, std::uint32_t> lookup;
+
+  explicit IndexedPatch(std::size_t expectedPoints = 64) {
+    std::size_t capacity = 64;
+    while (capacity < 2 * expectedPoints) capacity *= 2;
+    slots_.assign(capacity, kEmpty);
+  }
 
   std::uint32_t add(LatticeXY p) {
-    const auto [it, inserted] =
-        lookup.try_emplace(packXY(p), static_cast<std::uint32_t>(points.size()));
-    if (inserted) points.push_back(p);
-    return it->second;
+    const std::uint64_t key = packXY(p);
+    const std::size_t mask = slots_.size() - 1;
+    // A multiplicative hash of the packed point (Fibonacci hashing); the top bits pick the slot.
+    std::size_t slot = static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ULL) >> 32) & mask;
+    while (slots_[slot] != kEmpty) {
+      if (packXY(points[slots_[slot]]) == key) return slots_[slot];
+      slot = (slot + 1) & mask;
+    }
+    const auto index = static_cast<std::uint32_t>(points.size());
+    points.push_back(p);
+    slots_[slot] = index;
+    if (2 * points.size() > slots_.size()) grow();
+    return index;
   }
   /// Adds a triangle, wound counter-clockwise in (u,v).
   void addTriangle(LatticeXY a, LatticeXY b, LatticeXY c) {
@@ -41,6 +56,20 @@ struct IndexedPatch {
     indices.push_back(add(b));
     indices.push_back(add(c));
   }
+
+ private:
+  static constexpr std::uint32_t kEmpty = std::numeric_limits<std::uint32_t>::max();
+  void grow() {
+    slots_.assign(slots_.size() * 2, kEmpty);
+    const std::size_t mask = slots_.size() - 1;
+    for (std::uint32_t i = 0; i < points.size(); ++i) {
+      std::size_t slot =
+          static_cast<std::size_t>((packXY(points[i]) * 0x9E3779B97F4A7C15ULL) >> 32) & mask;
+      while (slots_[slot] != kEmpty) slot = (slot + 1) & mask;
+      slots_[slot] = i;
+    }
+  }
+  std::vector<std::uint32_t> slots_;
 };
 
 void bisectToCells(const BinTriangle& t, IndexedPatch& out) {
@@ -108,8 +137,7 @@ bool canCollapse(const Half& h, std::uint32_t v, std::uint32_t w) {
 
 void collapse(Half& h, std::uint32_t v, std::uint32_t w) {
   auto& idx = h.mesh.indices;
-  std::vector<std::uint32_t> kept;
-  kept.reserve(idx.size());
+  std::size_t out = 0;
   for (std::size_t k = 0; k < idx.size(); k += 3) {
     std::array<std::uint32_t, 3> t = {idx[k], idx[k + 1], idx[k + 2]};
     const bool hasV = t[0] == v || t[1] == v || t[2] == v;
@@ -118,15 +146,18 @@ void collapse(Half& h, std::uint32_t v, std::uint32_t w) {
     for (auto& i : t) {
       if (i == v) i = w;
     }
-    kept.insert(kept.end(), t.begin(), t.end());
+    std::copy(t.begin(), t.end(), idx.begin() + static_cast<std::ptrdiff_t>(out));
+    out += 3;
   }
-  idx = std::move(kept);
+  idx.resize(out);
 }
 
 Half makeHalf(const BinTriangle& t, const std::array<const WorkPatch*, 2>& children) {
   Half h;
   h.face = t.face;
   h.triangle = t;
+  h.mesh = IndexedPatch(children[0]->points.size() + children[1]->points.size());
+  h.mesh.indices.reserve(children[0]->indices.size() + children[1]->indices.size());
   for (const WorkPatch* child : children) {
     for (std::uint32_t i : child->indices) h.mesh.indices.push_back(h.mesh.add(child->points[i]));
   }
@@ -481,9 +512,35 @@ WorkPatch simplifyHalf(const SampleGrid& grid, const Half& h, std::uint32_t targ
 }  // namespace
 
 WorkPatch makeLeafPatch(const BinTriangle& triangle) {
-  IndexedPatch mesh;
-  bisectToCells(triangle, mesh);
-  return compact(mesh.points, mesh.indices);
+  // The bisection depends only on the triangle's shape (its legs as vectors): leaves of one
+  // shape are translates of each other, so each thread builds each shape once and translates it.
+  struct Shape {
+    LatticeXY toLeft;
+    LatticeXY toRight;
+    WorkPatch relative;  // points relative to the apex
+  };
+  thread_local std::vector<Shape> shapes;
+  const LatticeXY toLeft = triangle.left - triangle.apex;
+  const LatticeXY toRight = triangle.right - triangle.apex;
+  const Shape* shape = nullptr;
+  for (const Shape& s : shapes) {
+    if (s.toLeft == toLeft && s.toRight == toRight) shape = &s;
+  }
+  if (shape == nullptr) {
+    IndexedPatch mesh;
+    bisectToCells(triangle, mesh);
+    WorkPatch patch = compact(mesh.points, mesh.indices);
+    for (LatticeXY& p : patch.points) p -= triangle.apex;
+    shapes.push_back(Shape{toLeft, toRight, std::move(patch)});
+    shape = &shapes.back();
+  }
+  WorkPatch out;
+  out.indices = shape->relative.indices;
+  out.points.resize(shape->relative.points.size());
+  for (std::size_t k = 0; k < out.points.size(); ++k) {
+    out.points[k] = shape->relative.points[k] + triangle.apex;
+  }
+  return out;
 }
 
 BlockResult simplifyBlock(const SampleGrid& grid, const std::array<BinTriangle, 2>& triangles,
