@@ -118,39 +118,84 @@ bool validTriangulation(const Half& h, const std::vector<std::uint32_t>& indices
   return area == std::abs(doubleArea(t.apex, t.left, t.right));
 }
 
-/// Whether collapsing vertex v onto w keeps every remaining triangle of the half positive.
-bool canCollapse(const Half& h, std::uint32_t v, std::uint32_t w) {
-  const auto& idx = h.mesh.indices;
-  for (std::size_t k = 0; k < idx.size(); k += 3) {
-    std::array<std::uint32_t, 3> t = {idx[k], idx[k + 1], idx[k + 2]};
-    if (t[0] != v && t[1] != v && t[2] != v) continue;
-    if (t[0] == w || t[1] == w || t[2] == w) continue;  // becomes degenerate and is removed
-    for (auto& i : t) {
-      if (i == v) i = w;
+/// Half-edge collapses along the diagonal of one half. Each diagonal vertex keeps the list of
+/// triangles around it, so a collapse looks only at those; collapsed-away triangles are marked
+/// and removed at the end (in order, so the index list is what removing them one collapse at a
+/// time would give).
+class DiagonalCollapser final {
+ public:
+  explicit DiagonalCollapser(Half& h) : h_(h), dead_(h.mesh.indices.size() / 3, false) {
+    slot_.assign(h.mesh.points.size(), kNone);
+    around_.resize(h.diagonal.size());
+    for (std::size_t k = 0; k < h.diagonal.size(); ++k) {
+      slot_[h.diagonal[k]] = static_cast<std::uint32_t>(k);
     }
-    if (doubleArea(h.mesh.points[t[0]], h.mesh.points[t[1]], h.mesh.points[t[2]]) <= 0) {
-      return false;
+    const auto& idx = h.mesh.indices;
+    for (std::size_t k = 0; k < idx.size(); ++k) {
+      if (slot_[idx[k]] != kNone)
+        around_[slot_[idx[k]]].push_back(static_cast<std::uint32_t>(k / 3));
     }
   }
-  return true;
-}
 
-void collapse(Half& h, std::uint32_t v, std::uint32_t w) {
-  auto& idx = h.mesh.indices;
-  std::size_t out = 0;
-  for (std::size_t k = 0; k < idx.size(); k += 3) {
-    std::array<std::uint32_t, 3> t = {idx[k], idx[k + 1], idx[k + 2]};
-    const bool hasV = t[0] == v || t[1] == v || t[2] == v;
-    const bool hasW = t[0] == w || t[1] == w || t[2] == w;
-    if (hasV && hasW) continue;
-    for (auto& i : t) {
-      if (i == v) i = w;
+  /// Whether collapsing diagonal vertex v onto diagonal vertex w keeps every remaining triangle
+  /// of the half positive.
+  bool canCollapse(std::uint32_t v, std::uint32_t w) const {
+    const auto& idx = h_.mesh.indices;
+    for (const std::uint32_t tri : around_[slot_[v]]) {
+      if (dead_[tri]) continue;
+      std::array<std::uint32_t, 3> t = {idx[3 * tri], idx[3 * tri + 1], idx[3 * tri + 2]};
+      if (t[0] != v && t[1] != v && t[2] != v) continue;  // v was moved off it earlier
+      if (t[0] == w || t[1] == w || t[2] == w) continue;  // becomes degenerate and is removed
+      for (auto& i : t) {
+        if (i == v) i = w;
+      }
+      if (doubleArea(h_.mesh.points[t[0]], h_.mesh.points[t[1]], h_.mesh.points[t[2]]) <= 0) {
+        return false;
+      }
     }
-    std::copy(t.begin(), t.end(), idx.begin() + static_cast<std::ptrdiff_t>(out));
-    out += 3;
+    return true;
   }
-  idx.resize(out);
-}
+
+  void collapse(std::uint32_t v, std::uint32_t w) {
+    auto& idx = h_.mesh.indices;
+    auto& onW = around_[slot_[w]];
+    for (const std::uint32_t tri : around_[slot_[v]]) {
+      if (dead_[tri]) continue;
+      std::uint32_t* t = &idx[3 * tri];
+      const bool hasV = t[0] == v || t[1] == v || t[2] == v;
+      if (!hasV) continue;
+      const bool hasW = t[0] == w || t[1] == w || t[2] == w;
+      if (hasW) {
+        dead_[tri] = true;
+        continue;
+      }
+      for (int k = 0; k < 3; ++k) {
+        if (t[k] == v) t[k] = w;
+      }
+      onW.push_back(tri);
+    }
+    around_[slot_[v]].clear();
+  }
+
+  /// Removes the collapsed-away triangles from the half's index list.
+  void finish() {
+    auto& idx = h_.mesh.indices;
+    std::size_t out = 0;
+    for (std::size_t tri = 0; tri < dead_.size(); ++tri) {
+      if (dead_[tri]) continue;
+      for (std::size_t k = 0; k < 3; ++k) idx[out + k] = idx[3 * tri + k];
+      out += 3;
+    }
+    idx.resize(out);
+  }
+
+ private:
+  static constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+  Half& h_;
+  std::vector<bool> dead_;
+  std::vector<std::uint32_t> slot_;                 // point → its diagonal position, or kNone
+  std::vector<std::vector<std::uint32_t>> around_;  // diagonal position → triangles
+};
 
 Half makeHalf(const BinTriangle& t, const std::array<const WorkPatch*, 2>& children) {
   Half h;
@@ -211,6 +256,8 @@ void simplifyDiagonal(const SampleGrid& grid, Half& a, Half& b, BlockStats& stat
   std::vector<bool> alive(n, true);
   std::vector<bool> stuck(n, false);
   std::size_t aliveCount = n;
+  DiagonalCollapser collapseA(a);
+  DiagonalCollapser collapseB(b);
   while (aliveCount > target) {
     std::size_t best = n;
     double bestError = std::numeric_limits<double>::infinity();
@@ -240,9 +287,9 @@ void simplifyDiagonal(const SampleGrid& grid, Half& a, Half& b, BlockStats& stat
       const std::uint32_t wa = a.diagonal[onto];
       const std::uint32_t vb = bIndex[best];
       const std::uint32_t wb = bIndex[onto];
-      if (canCollapse(a, va, wa) && canCollapse(b, vb, wb)) {
-        collapse(a, va, wa);
-        collapse(b, vb, wb);
+      if (collapseA.canCollapse(va, wa) && collapseB.canCollapse(vb, wb)) {
+        collapseA.collapse(va, wa);
+        collapseB.collapse(vb, wb);
         done = true;
         break;
       }
@@ -254,6 +301,8 @@ void simplifyDiagonal(const SampleGrid& grid, Half& a, Half& b, BlockStats& stat
       stuck[best] = true;
     }
   }
+  collapseA.finish();
+  collapseB.finish();
   stats.diagonalAfter = static_cast<std::uint32_t>(aliveCount);
 }
 
@@ -405,26 +454,40 @@ WorkPatch simplifyHalf(const SampleGrid& grid, const Half& h, std::uint32_t targ
   if (vertexCount <= targetVertices) return patch;
   // Boundary vertices (on edges used by one triangle) are locked; Euler for a triangulated disk
   // gives the triangle count that leaves `targetVertices` vertices: T = 2V − B − 2.
-  std::vector<std::uint64_t> edges;
-  edges.reserve(patch.indices.size());
+  // Edges grouped by their smaller vertex (a counting sort), each group sorted: an edge that
+  // appears once is a border edge.
+  std::vector<std::uint32_t> firstEdge(vertexCount + 1, 0);
   for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
-    for (int e = 0; e < 3; ++e) {
-      std::uint32_t i = patch.indices[k + static_cast<std::size_t>(e)];
-      std::uint32_t j = patch.indices[k + static_cast<std::size_t>((e + 1) % 3)];
-      if (i > j) std::swap(i, j);
-      edges.push_back((static_cast<std::uint64_t>(i) << 32) | j);
+    for (std::size_t e = 0; e < 3; ++e) {
+      ++firstEdge[std::min(patch.indices[k + e], patch.indices[k + (e + 1) % 3]) + 1];
     }
   }
-  std::sort(edges.begin(), edges.end());
-  std::vector<bool> onBorder(vertexCount, false);
-  for (std::size_t k = 0; k < edges.size();) {
-    std::size_t end = k + 1;
-    while (end < edges.size() && edges[end] == edges[k]) ++end;
-    if (end - k == 1) {  // used by one triangle: a border edge
-      onBorder[static_cast<std::size_t>(edges[k] >> 32)] = true;
-      onBorder[static_cast<std::size_t>(edges[k] & 0xffffffffU)] = true;
+  for (std::size_t v = 0; v < vertexCount; ++v) firstEdge[v + 1] += firstEdge[v];
+  std::vector<std::uint32_t> otherEnd(patch.indices.size());
+  {
+    std::vector<std::uint32_t> cursor(firstEdge.begin(), firstEdge.end() - 1);
+    for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
+      for (std::size_t e = 0; e < 3; ++e) {
+        const std::uint32_t i = patch.indices[k + e];
+        const std::uint32_t j = patch.indices[k + (e + 1) % 3];
+        otherEnd[cursor[std::min(i, j)]++] = std::max(i, j);
+      }
     }
-    k = end;
+  }
+  std::vector<bool> onBorder(vertexCount, false);
+  for (std::size_t v = 0; v < vertexCount; ++v) {
+    const auto first = otherEnd.begin() + firstEdge[v];
+    const auto last = otherEnd.begin() + firstEdge[v + 1];
+    std::sort(first, last);
+    for (auto k = first; k != last;) {
+      auto end = k + 1;
+      while (end != last && *end == *k) ++end;
+      if (end - k == 1) {  // used by one triangle: a border edge
+        onBorder[v] = true;
+        onBorder[*k] = true;
+      }
+      k = end;
+    }
   }
   const auto border = static_cast<std::int64_t>(std::count(onBorder.begin(), onBorder.end(), true));
   std::int64_t targetTriangles = 2 * static_cast<std::int64_t>(targetVertices) - border - 2;
