@@ -405,15 +405,21 @@ bool delaunayOfKept(const std::vector<LatticeXY>& points, const std::vector<std:
   std::vector<bool> used(points.size(), false);
   for (std::uint32_t i : kept) used[i] = true;
   std::unordered_map<std::uint64_t, std::uint32_t> byPoint;
-  GEOSContextHandle_t ctx = GEOS_init_r();
-  std::vector<GEOSGeometry*> geoms;
+  // The sites go to GEOS as one line string rather than a multipoint of point geometries: the
+  // triangulation takes the sorted unique coordinates of whatever geometry it is given, so the
+  // result is the same and GEOS allocates one object instead of one per point.
+  std::vector<double> xy;
+  xy.reserve(2 * kept.size());
   for (std::uint32_t i = 0; i < points.size(); ++i) {
     if (!used[i]) continue;
     byPoint.emplace(packXY(points[i]), i);
-    geoms.push_back(GEOSGeom_createPointFromXY_r(ctx, points[i].x, points[i].y));
+    xy.push_back(points[i].x);
+    xy.push_back(points[i].y);
   }
-  GEOSGeometry* multi = GEOSGeom_createCollection_r(ctx, GEOS_MULTIPOINT, geoms.data(),
-                                                    static_cast<unsigned>(geoms.size()));
+  GEOSContextHandle_t ctx = GEOS_init_r();
+  GEOSCoordSequence* sites =
+      GEOSCoordSeq_copyFromBuffer_r(ctx, xy.data(), static_cast<unsigned>(xy.size() / 2), 0, 0);
+  GEOSGeometry* multi = sites != nullptr ? GEOSGeom_createLineString_r(ctx, sites) : nullptr;
   GEOSGeometry* tris = multi != nullptr ? GEOSDelaunayTriangulation_r(ctx, multi, 0.0, 0) : nullptr;
   bool ok = tris != nullptr;
   out.clear();
