@@ -114,7 +114,8 @@ bool HeightGrid::toGrid(double latDegrees, double lonDegrees, double& row,
   col = (lonDegrees - geometry_.firstLonDegrees) / dLon;
   if (wrapsLongitude_) {
     const double period = static_cast<double>(wrapColumns_);
-    col = std::fmod(col, period);
+    // fmod is exact and returns col itself for col in [0, period): skip it there.
+    if (!(col >= 0.0 && col < period)) col = std::fmod(col, period);
     if (col < 0.0) col += period;
     return true;
   }
@@ -203,6 +204,23 @@ std::optional<double> HeightGrid::sampleBicubic(double latDegrees,
   if (ir - 1 < 0 || ir + 2 >= geometry_.height) return sampleBilinear(latDegrees, lonDegrees);
   const auto wr = catmullRom(row - r0);
   const auto wc = catmullRom(col - c0);
+  // Away from the poles' rows and the longitude seam every tap is a plain read (fetch's
+  // clamping, pole values and modulo change nothing there): same taps, same arithmetic.
+  const std::int64_t turnColumns = wrapsLongitude_ ? wrapColumns_ : geometry_.width;
+  if (ir - 1 >= 1 && ir + 2 <= geometry_.height - 2 && ic - 1 >= 0 && ic + 2 < turnColumns) {
+    const float* taps = heights_.data() + (ir - 1) * geometry_.width + (ic - 1);
+    double sum = 0.0;
+    for (std::size_t i = 0; i < 4; ++i) {
+      const float* line = taps + static_cast<std::ptrdiff_t>(i) * geometry_.width;
+      double rowSum = 0.0;
+      for (std::size_t j = 0; j < 4; ++j) {
+        if (std::isnan(line[j])) return sampleBilinear(latDegrees, lonDegrees);
+        rowSum += wc[j] * static_cast<double>(line[j]);
+      }
+      sum += wr[i] * rowSum;
+    }
+    return sum;
+  }
   double sum = 0.0;
   for (std::int64_t i = 0; i < 4; ++i) {
     double rowSum = 0.0;

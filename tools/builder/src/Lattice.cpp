@@ -25,6 +25,12 @@ BinTriangle Lattice::triangle(int face, int tree, int level, std::uint64_t index
 }
 
 PointKey Lattice::key(int face, LatticeXY p) const noexcept {
+  // A point inside the face (on no edge) has no alias on another face: its key is its own.
+  const auto n = static_cast<std::int32_t>(sideCells_);
+  if (p.x > 0 && p.x < n && p.y > 0 && p.y < n) {
+    return (static_cast<std::uint64_t>(face) << 58) | (static_cast<std::uint64_t>(p.x) << 29) |
+           static_cast<std::uint64_t>(p.y);
+  }
   return latticePointKey(sideCells_, face, p);
 }
 

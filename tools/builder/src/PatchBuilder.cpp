@@ -11,6 +11,7 @@
 #include <cassert>
 #include <cmath>
 #include <limits>
+#include <span>
 #include <unordered_map>
 
 namespace pbdam::builder {
@@ -21,17 +22,32 @@ std::uint64_t packXY(LatticeXY p) noexcept {
          static_cast<std::uint32_t>(p.y);
 }
 
-/// A patch under construction with a point → index lookup.
+/// A patch under construction with a point → index lookup (open addressing with linear
+/// probing; points are numbered in first-use order, so the result does not depend on the table).
 struct IndexedPatch {
   std::vector<LatticeXY> points;
   std::vector<std::uint32_t> indices;
-  std::unordered_map<std::uint64_t, std::uint32_t> lookup;
+
+  explicit IndexedPatch(std::size_t expectedPoints = 64) {
+    std::size_t capacity = 64;
+    while (capacity < 2 * expectedPoints) capacity *= 2;
+    slots_.assign(capacity, kEmpty);
+  }
 
   std::uint32_t add(LatticeXY p) {
-    const auto [it, inserted] =
-        lookup.try_emplace(packXY(p), static_cast<std::uint32_t>(points.size()));
-    if (inserted) points.push_back(p);
-    return it->second;
+    const std::uint64_t key = packXY(p);
+    const std::size_t mask = slots_.size() - 1;
+    // A multiplicative hash of the packed point (Fibonacci hashing); the top bits pick the slot.
+    std::size_t slot = static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ULL) >> 32) & mask;
+    while (slots_[slot] != kEmpty) {
+      if (packXY(points[slots_[slot]]) == key) return slots_[slot];
+      slot = (slot + 1) & mask;
+    }
+    const auto index = static_cast<std::uint32_t>(points.size());
+    points.push_back(p);
+    slots_[slot] = index;
+    if (2 * points.size() > slots_.size()) grow();
+    return index;
   }
   /// Adds a triangle, wound counter-clockwise in (u,v).
   void addTriangle(LatticeXY a, LatticeXY b, LatticeXY c) {
@@ -40,6 +56,20 @@ struct IndexedPatch {
     indices.push_back(add(b));
     indices.push_back(add(c));
   }
+
+ private:
+  static constexpr std::uint32_t kEmpty = std::numeric_limits<std::uint32_t>::max();
+  void grow() {
+    slots_.assign(slots_.size() * 2, kEmpty);
+    const std::size_t mask = slots_.size() - 1;
+    for (std::uint32_t i = 0; i < points.size(); ++i) {
+      std::size_t slot =
+          static_cast<std::size_t>((packXY(points[i]) * 0x9E3779B97F4A7C15ULL) >> 32) & mask;
+      while (slots_[slot] != kEmpty) slot = (slot + 1) & mask;
+      slots_[slot] = i;
+    }
+  }
+  std::vector<std::uint32_t> slots_;
 };
 
 void bisectToCells(const BinTriangle& t, IndexedPatch& out) {
@@ -88,44 +118,91 @@ bool validTriangulation(const Half& h, const std::vector<std::uint32_t>& indices
   return area == std::abs(doubleArea(t.apex, t.left, t.right));
 }
 
-/// Whether collapsing vertex v onto w keeps every remaining triangle of the half positive.
-bool canCollapse(const Half& h, std::uint32_t v, std::uint32_t w) {
-  const auto& idx = h.mesh.indices;
-  for (std::size_t k = 0; k < idx.size(); k += 3) {
-    std::array<std::uint32_t, 3> t = {idx[k], idx[k + 1], idx[k + 2]};
-    if (t[0] != v && t[1] != v && t[2] != v) continue;
-    if (t[0] == w || t[1] == w || t[2] == w) continue;  // becomes degenerate and is removed
-    for (auto& i : t) {
-      if (i == v) i = w;
+/// Half-edge collapses along the diagonal of one half. Each diagonal vertex keeps the list of
+/// triangles around it, so a collapse looks only at those; collapsed-away triangles are marked
+/// and removed at the end (in order, so the index list is what removing them one collapse at a
+/// time would give).
+class DiagonalCollapser final {
+ public:
+  explicit DiagonalCollapser(Half& h) : h_(h), dead_(h.mesh.indices.size() / 3, false) {
+    slot_.assign(h.mesh.points.size(), kNone);
+    around_.resize(h.diagonal.size());
+    for (std::size_t k = 0; k < h.diagonal.size(); ++k) {
+      slot_[h.diagonal[k]] = static_cast<std::uint32_t>(k);
     }
-    if (doubleArea(h.mesh.points[t[0]], h.mesh.points[t[1]], h.mesh.points[t[2]]) <= 0) {
-      return false;
+    const auto& idx = h.mesh.indices;
+    for (std::size_t k = 0; k < idx.size(); ++k) {
+      if (slot_[idx[k]] != kNone)
+        around_[slot_[idx[k]]].push_back(static_cast<std::uint32_t>(k / 3));
     }
   }
-  return true;
-}
 
-void collapse(Half& h, std::uint32_t v, std::uint32_t w) {
-  auto& idx = h.mesh.indices;
-  std::vector<std::uint32_t> kept;
-  kept.reserve(idx.size());
-  for (std::size_t k = 0; k < idx.size(); k += 3) {
-    std::array<std::uint32_t, 3> t = {idx[k], idx[k + 1], idx[k + 2]};
-    const bool hasV = t[0] == v || t[1] == v || t[2] == v;
-    const bool hasW = t[0] == w || t[1] == w || t[2] == w;
-    if (hasV && hasW) continue;
-    for (auto& i : t) {
-      if (i == v) i = w;
+  /// Whether collapsing diagonal vertex v onto diagonal vertex w keeps every remaining triangle
+  /// of the half positive.
+  bool canCollapse(std::uint32_t v, std::uint32_t w) const {
+    const auto& idx = h_.mesh.indices;
+    for (const std::uint32_t tri : around_[slot_[v]]) {
+      if (dead_[tri]) continue;
+      std::array<std::uint32_t, 3> t = {idx[3 * tri], idx[3 * tri + 1], idx[3 * tri + 2]};
+      if (t[0] != v && t[1] != v && t[2] != v) continue;  // v was moved off it earlier
+      if (t[0] == w || t[1] == w || t[2] == w) continue;  // becomes degenerate and is removed
+      for (auto& i : t) {
+        if (i == v) i = w;
+      }
+      if (doubleArea(h_.mesh.points[t[0]], h_.mesh.points[t[1]], h_.mesh.points[t[2]]) <= 0) {
+        return false;
+      }
     }
-    kept.insert(kept.end(), t.begin(), t.end());
+    return true;
   }
-  idx = std::move(kept);
-}
+
+  void collapse(std::uint32_t v, std::uint32_t w) {
+    auto& idx = h_.mesh.indices;
+    auto& onW = around_[slot_[w]];
+    for (const std::uint32_t tri : around_[slot_[v]]) {
+      if (dead_[tri]) continue;
+      std::uint32_t* t = &idx[3 * tri];
+      const bool hasV = t[0] == v || t[1] == v || t[2] == v;
+      if (!hasV) continue;
+      const bool hasW = t[0] == w || t[1] == w || t[2] == w;
+      if (hasW) {
+        dead_[tri] = true;
+        continue;
+      }
+      for (int k = 0; k < 3; ++k) {
+        if (t[k] == v) t[k] = w;
+      }
+      onW.push_back(tri);
+    }
+    around_[slot_[v]].clear();
+  }
+
+  /// Removes the collapsed-away triangles from the half's index list.
+  void finish() {
+    auto& idx = h_.mesh.indices;
+    std::size_t out = 0;
+    for (std::size_t tri = 0; tri < dead_.size(); ++tri) {
+      if (dead_[tri]) continue;
+      for (std::size_t k = 0; k < 3; ++k) idx[out + k] = idx[3 * tri + k];
+      out += 3;
+    }
+    idx.resize(out);
+  }
+
+ private:
+  static constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+  Half& h_;
+  std::vector<bool> dead_;
+  std::vector<std::uint32_t> slot_;                 // point → its diagonal position, or kNone
+  std::vector<std::vector<std::uint32_t>> around_;  // diagonal position → triangles
+};
 
 Half makeHalf(const BinTriangle& t, const std::array<const WorkPatch*, 2>& children) {
   Half h;
   h.face = t.face;
   h.triangle = t;
+  h.mesh = IndexedPatch(children[0]->points.size() + children[1]->points.size());
+  h.mesh.indices.reserve(children[0]->indices.size() + children[1]->indices.size());
   for (const WorkPatch* child : children) {
     for (std::uint32_t i : child->indices) h.mesh.indices.push_back(h.mesh.add(child->points[i]));
   }
@@ -179,6 +256,8 @@ void simplifyDiagonal(const SampleGrid& grid, Half& a, Half& b, BlockStats& stat
   std::vector<bool> alive(n, true);
   std::vector<bool> stuck(n, false);
   std::size_t aliveCount = n;
+  DiagonalCollapser collapseA(a);
+  DiagonalCollapser collapseB(b);
   while (aliveCount > target) {
     std::size_t best = n;
     double bestError = std::numeric_limits<double>::infinity();
@@ -208,9 +287,9 @@ void simplifyDiagonal(const SampleGrid& grid, Half& a, Half& b, BlockStats& stat
       const std::uint32_t wa = a.diagonal[onto];
       const std::uint32_t vb = bIndex[best];
       const std::uint32_t wb = bIndex[onto];
-      if (canCollapse(a, va, wa) && canCollapse(b, vb, wb)) {
-        collapse(a, va, wa);
-        collapse(b, vb, wb);
+      if (collapseA.canCollapse(va, wa) && collapseB.canCollapse(vb, wb)) {
+        collapseA.collapse(va, wa);
+        collapseB.collapse(vb, wb);
         done = true;
         break;
       }
@@ -222,6 +301,8 @@ void simplifyDiagonal(const SampleGrid& grid, Half& a, Half& b, BlockStats& stat
       stuck[best] = true;
     }
   }
+  collapseA.finish();
+  collapseB.finish();
   stats.diagonalAfter = static_cast<std::uint32_t>(aliveCount);
 }
 
@@ -231,30 +312,35 @@ void simplifyDiagonal(const SampleGrid& grid, Half& a, Half& b, BlockStats& stat
 /// (a, w, b) with w between a and b, and (a, b, x) become (a, w, x) and (w, b, x), which cover
 /// the neighbour's area exactly.
 void repairDegenerate(const std::vector<LatticeXY>& points, std::vector<std::uint32_t>& idx) {
-  auto edgeKey = [](std::uint32_t i, std::uint32_t j) {
-    if (i > j) std::swap(i, j);
-    return (static_cast<std::uint64_t>(i) << 32) | j;
+  const auto isDegenerate = [&](std::size_t t) {
+    return doubleArea(points[idx[3 * t]], points[idx[3 * t + 1]], points[idx[3 * t + 2]]) == 0;
   };
-  std::vector<std::pair<std::uint64_t, std::size_t>> byEdge;
+  const std::size_t triangles = idx.size() / 3;
+  std::vector<std::uint32_t> before;
+  std::vector<bool> touched;
+  std::vector<std::uint32_t> firstAt;
+  std::vector<std::uint32_t> around;
+  std::vector<std::uint32_t> cursor;
   for (int pass = 0; pass < 8; ++pass) {
-    bool anyDegenerate = false;
-    for (std::size_t k = 0; k < idx.size() && !anyDegenerate; k += 3) {
-      anyDegenerate = doubleArea(points[idx[k]], points[idx[k + 1]], points[idx[k + 2]]) == 0;
-    }
-    if (!anyDegenerate) return;
+    std::size_t firstDegenerate = 0;
+    while (firstDegenerate < triangles && !isDegenerate(firstDegenerate)) ++firstDegenerate;
+    if (firstDegenerate == triangles) return;
     bool changed = false;
-    // Edge → triangles, as a sorted list (one allocation, no hashing).
-    byEdge.clear();
-    for (std::size_t t = 0; t < idx.size() / 3; ++t) {
-      for (int e = 0; e < 3; ++e) {
-        byEdge.emplace_back(edgeKey(idx[3 * t + static_cast<std::size_t>(e)],
-                                    idx[3 * t + static_cast<std::size_t>((e + 1) % 3)]),
-                            t);
-      }
+    // A degenerate triangle's neighbour is looked up among the triangles as they were at the
+    // start of the pass, through the triangles around each vertex (a counting sort: sorting
+    // every edge of the half cost more than the whole repair). Triangles around a vertex are in
+    // increasing order.
+    before.assign(idx.begin(), idx.end());
+    touched.assign(triangles, false);
+    firstAt.assign(points.size() + 1, 0);
+    for (const std::uint32_t i : before) ++firstAt[i + 1];
+    for (std::size_t i = 0; i < points.size(); ++i) firstAt[i + 1] += firstAt[i];
+    around.resize(before.size());
+    cursor.assign(firstAt.begin(), firstAt.end() - 1);
+    for (std::size_t k = 0; k < before.size(); ++k) {
+      around[cursor[before[k]]++] = static_cast<std::uint32_t>(k / 3);
     }
-    std::sort(byEdge.begin(), byEdge.end());
-    std::vector<bool> touched(idx.size() / 3, false);
-    for (std::size_t t = 0; t < idx.size() / 3; ++t) {
+    for (std::size_t t = firstDegenerate; t < triangles; ++t) {
       if (touched[t]) continue;
       const std::array<std::uint32_t, 3> v = {idx[3 * t], idx[3 * t + 1], idx[3 * t + 2]};
       if (doubleArea(points[v[0]], points[v[1]], points[v[2]]) != 0) continue;
@@ -270,14 +356,21 @@ void repairDegenerate(const std::vector<LatticeXY>& points, std::vector<std::uin
         if (static_cast<std::int64_t>(da.x) * db.x + static_cast<std::int64_t>(da.y) * db.y >= 0) {
           continue;  // w is not between the other two
         }
-        const std::uint64_t key = edgeKey(prev, next);
-        auto first = std::lower_bound(byEdge.begin(), byEdge.end(),
-                                      std::pair<std::uint64_t, std::size_t>{key, 0});
+        // The last (highest-numbered) triangle that had the edge prev–next at the start of the
+        // pass and now holds it as prev→next.
         std::size_t n = idx.size();
         std::uint32_t x = 0;
-        for (auto it = first; it != byEdge.end() && it->first == key; ++it) {
-          const std::size_t u = it->second;
+        for (std::uint32_t c = firstAt[prev]; c < firstAt[prev + 1]; ++c) {
+          const std::size_t u = around[c];
           if (u == t) continue;
+          const std::uint32_t* s = &before[3 * u];
+          bool hadEdge = false;
+          for (int e = 0; e < 3; ++e) {
+            const std::uint32_t i = s[e];
+            const std::uint32_t j = s[(e + 1) % 3];
+            hadEdge = hadEdge || (i == prev && j == next) || (i == next && j == prev);
+          }
+          if (!hadEdge) continue;
           for (int q = 0; q < 3; ++q) {
             if (idx[3 * u + static_cast<std::size_t>(q)] == prev &&
                 idx[3 * u + static_cast<std::size_t>((q + 1) % 3)] == next) {
@@ -312,15 +405,21 @@ bool delaunayOfKept(const std::vector<LatticeXY>& points, const std::vector<std:
   std::vector<bool> used(points.size(), false);
   for (std::uint32_t i : kept) used[i] = true;
   std::unordered_map<std::uint64_t, std::uint32_t> byPoint;
-  GEOSContextHandle_t ctx = GEOS_init_r();
-  std::vector<GEOSGeometry*> geoms;
+  // The sites go to GEOS as one line string rather than a multipoint of point geometries: the
+  // triangulation takes the sorted unique coordinates of whatever geometry it is given, so the
+  // result is the same and GEOS allocates one object instead of one per point.
+  std::vector<double> xy;
+  xy.reserve(2 * kept.size());
   for (std::uint32_t i = 0; i < points.size(); ++i) {
     if (!used[i]) continue;
     byPoint.emplace(packXY(points[i]), i);
-    geoms.push_back(GEOSGeom_createPointFromXY_r(ctx, points[i].x, points[i].y));
+    xy.push_back(points[i].x);
+    xy.push_back(points[i].y);
   }
-  GEOSGeometry* multi = GEOSGeom_createCollection_r(ctx, GEOS_MULTIPOINT, geoms.data(),
-                                                    static_cast<unsigned>(geoms.size()));
+  GEOSContextHandle_t ctx = GEOS_init_r();
+  GEOSCoordSequence* sites =
+      GEOSCoordSeq_copyFromBuffer_r(ctx, xy.data(), static_cast<unsigned>(xy.size() / 2), 0, 0);
+  GEOSGeometry* multi = sites != nullptr ? GEOSGeom_createLineString_r(ctx, sites) : nullptr;
   GEOSGeometry* tris = multi != nullptr ? GEOSDelaunayTriangulation_r(ctx, multi, 0.0, 0) : nullptr;
   bool ok = tris != nullptr;
   out.clear();
@@ -361,26 +460,40 @@ WorkPatch simplifyHalf(const SampleGrid& grid, const Half& h, std::uint32_t targ
   if (vertexCount <= targetVertices) return patch;
   // Boundary vertices (on edges used by one triangle) are locked; Euler for a triangulated disk
   // gives the triangle count that leaves `targetVertices` vertices: T = 2V − B − 2.
-  std::vector<std::uint64_t> edges;
-  edges.reserve(patch.indices.size());
+  // Edges grouped by their smaller vertex (a counting sort), each group sorted: an edge that
+  // appears once is a border edge.
+  std::vector<std::uint32_t> firstEdge(vertexCount + 1, 0);
   for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
-    for (int e = 0; e < 3; ++e) {
-      std::uint32_t i = patch.indices[k + static_cast<std::size_t>(e)];
-      std::uint32_t j = patch.indices[k + static_cast<std::size_t>((e + 1) % 3)];
-      if (i > j) std::swap(i, j);
-      edges.push_back((static_cast<std::uint64_t>(i) << 32) | j);
+    for (std::size_t e = 0; e < 3; ++e) {
+      ++firstEdge[std::min(patch.indices[k + e], patch.indices[k + (e + 1) % 3]) + 1];
     }
   }
-  std::sort(edges.begin(), edges.end());
-  std::vector<bool> onBorder(vertexCount, false);
-  for (std::size_t k = 0; k < edges.size();) {
-    std::size_t end = k + 1;
-    while (end < edges.size() && edges[end] == edges[k]) ++end;
-    if (end - k == 1) {  // used by one triangle: a border edge
-      onBorder[static_cast<std::size_t>(edges[k] >> 32)] = true;
-      onBorder[static_cast<std::size_t>(edges[k] & 0xffffffffU)] = true;
+  for (std::size_t v = 0; v < vertexCount; ++v) firstEdge[v + 1] += firstEdge[v];
+  std::vector<std::uint32_t> otherEnd(patch.indices.size());
+  {
+    std::vector<std::uint32_t> cursor(firstEdge.begin(), firstEdge.end() - 1);
+    for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
+      for (std::size_t e = 0; e < 3; ++e) {
+        const std::uint32_t i = patch.indices[k + e];
+        const std::uint32_t j = patch.indices[k + (e + 1) % 3];
+        otherEnd[cursor[std::min(i, j)]++] = std::max(i, j);
+      }
     }
-    k = end;
+  }
+  std::vector<bool> onBorder(vertexCount, false);
+  for (std::size_t v = 0; v < vertexCount; ++v) {
+    const auto first = otherEnd.begin() + firstEdge[v];
+    const auto last = otherEnd.begin() + firstEdge[v + 1];
+    std::sort(first, last);
+    for (auto k = first; k != last;) {
+      auto end = k + 1;
+      while (end != last && *end == *k) ++end;
+      if (end - k == 1) {  // used by one triangle: a border edge
+        onBorder[v] = true;
+        onBorder[*k] = true;
+      }
+      k = end;
+    }
   }
   const auto border = static_cast<std::int64_t>(std::count(onBorder.begin(), onBorder.end(), true));
   std::int64_t targetTriangles = 2 * static_cast<std::int64_t>(targetVertices) - border - 2;
@@ -468,9 +581,35 @@ WorkPatch simplifyHalf(const SampleGrid& grid, const Half& h, std::uint32_t targ
 }  // namespace
 
 WorkPatch makeLeafPatch(const BinTriangle& triangle) {
-  IndexedPatch mesh;
-  bisectToCells(triangle, mesh);
-  return compact(mesh.points, mesh.indices);
+  // The bisection depends only on the triangle's shape (its legs as vectors): leaves of one
+  // shape are translates of each other, so each thread builds each shape once and translates it.
+  struct Shape {
+    LatticeXY toLeft;
+    LatticeXY toRight;
+    WorkPatch relative;  // points relative to the apex
+  };
+  thread_local std::vector<Shape> shapes;
+  const LatticeXY toLeft = triangle.left - triangle.apex;
+  const LatticeXY toRight = triangle.right - triangle.apex;
+  const Shape* shape = nullptr;
+  for (const Shape& s : shapes) {
+    if (s.toLeft == toLeft && s.toRight == toRight) shape = &s;
+  }
+  if (shape == nullptr) {
+    IndexedPatch mesh;
+    bisectToCells(triangle, mesh);
+    WorkPatch patch = compact(mesh.points, mesh.indices);
+    for (LatticeXY& p : patch.points) p -= triangle.apex;
+    shapes.push_back(Shape{toLeft, toRight, std::move(patch)});
+    shape = &shapes.back();
+  }
+  WorkPatch out;
+  out.indices = shape->relative.indices;
+  out.points.resize(shape->relative.points.size());
+  for (std::size_t k = 0; k < out.points.size(); ++k) {
+    out.points[k] = shape->relative.points[k] + triangle.apex;
+  }
+  return out;
 }
 
 BlockResult simplifyBlock(const SampleGrid& grid, const std::array<BinTriangle, 2>& triangles,
@@ -505,6 +644,52 @@ struct CornerData {
 
 }  // namespace
 
+namespace {
+
+std::int64_t floorDiv(std::int64_t a, std::int64_t b) noexcept {
+  const std::int64_t q = a / b;
+  return (a % b != 0 && ((a < 0) != (b < 0))) ? q - 1 : q;
+}
+
+/// Narrows [lo, hi] to the x where the edge function `coefX·x + rest` is ≥ 0 (on one row).
+void clipSpan(std::int64_t coefX, std::int64_t rest, std::int64_t& lo, std::int64_t& hi) noexcept {
+  if (coefX > 0) {
+    lo = std::max(lo, -floorDiv(rest, coefX));  // x ≥ ceil(−rest / coefX)
+  } else if (coefX < 0) {
+    hi = std::min(hi, floorDiv(rest, -coefX));  // x ≤ floor(rest / −coefX)
+  } else if (rest < 0) {
+    hi = lo - 1;
+  }
+}
+
+/// The x-extent in lattice units of the triangle (a, b, c) within the rows [y0, y1] (all of it
+/// if it lies there; empty if it misses them: lo > hi).
+void triangleSpanInRows(LatticeXY a, LatticeXY b, LatticeXY c, double y0, double y1, double& lo,
+                        double& hi) noexcept {
+  lo = std::numeric_limits<double>::infinity();
+  hi = -std::numeric_limits<double>::infinity();
+  const std::array<LatticeXY, 3> p = {a, b, c};
+  for (std::size_t e = 0; e < 3; ++e) {
+    const glm::dvec2 s(p[e]);
+    const glm::dvec2 t(p[(e + 1) % 3]);
+    const double ys = std::min(s.y, t.y);
+    const double ye = std::max(s.y, t.y);
+    if (ye < y0 || ys > y1) continue;
+    if (s.y == t.y) {
+      lo = std::min({lo, s.x, t.x});
+      hi = std::max({hi, s.x, t.x});
+      continue;
+    }
+    for (const double y : {std::max(ys, y0), std::min(ye, y1)}) {
+      const double x = s.x + (t.x - s.x) * ((y - s.y) / (t.y - s.y));
+      lo = std::min(lo, x);
+      hi = std::max(hi, x);
+    }
+  }
+}
+
+}  // namespace
+
 double maxLatticeDeviation(const SampleGrid& grid, int face, const WorkPatch& patch) {
   double worst = 0.0;
   for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
@@ -521,12 +706,19 @@ double maxLatticeDeviation(const SampleGrid& grid, int face, const WorkPatch& pa
     const int y0 = std::min({a.y, b.y, c.y});
     const int y1 = std::max({a.y, b.y, c.y});
     for (int y = y0; y <= y1; ++y) {
-      for (int x = x0; x <= x1; ++x) {
+      // The lattice points of this row inside or on the triangle: where all three edge
+      // functions doubleArea(edge, p) are ≥ 0 (each is linear in x along the row).
+      std::int64_t lo = x0;
+      std::int64_t hi = x1;
+      clipSpan(-static_cast<std::int64_t>(c.y - b.y), doubleArea(b, c, LatticeXY{0, y}), lo, hi);
+      clipSpan(-static_cast<std::int64_t>(a.y - c.y), doubleArea(c, a, LatticeXY{0, y}), lo, hi);
+      clipSpan(-static_cast<std::int64_t>(b.y - a.y), doubleArea(a, b, LatticeXY{0, y}), lo, hi);
+      for (auto x = static_cast<int>(lo); x <= hi; ++x) {
         const LatticeXY p{x, y};
         const std::int64_t w0 = doubleArea(b, c, p);
         const std::int64_t w1 = doubleArea(c, a, p);
         const std::int64_t w2 = doubleArea(a, b, p);
-        if (w0 < 0 || w1 < 0 || w2 < 0) continue;
+        assert(w0 >= 0 && w1 >= 0 && w2 >= 0);
         const double hp = (static_cast<double>(w0) * ha + static_cast<double>(w1) * hb +
                            static_cast<double>(w2) * hc) /
                           static_cast<double>(total);
@@ -651,8 +843,17 @@ MeasuredPatch measurePatch(const SampleGrid& grid, const BinTriangle& t, const W
   }
   out.chordErrorMeters = longest2 / (8.0 * rMin);
 
-  // Sample error: lattice samples, then the source DEM's own samples.
+  // Sample error: lattice samples, then the source DEM's own samples. The samples tested
+  // against a triangle are the same as SampleGrid::forEachSourceSampleIn's (with the same
+  // arithmetic), but only the buckets of each bucket row that the triangle reaches are read, as
+  // one contiguous run, rather than its whole bounding box.
   double sampleError = maxLatticeDeviation(grid, t.face, patch);
+  const double bucketCells = static_cast<double>(grid.bucketCells());
+  const double bucketScale = static_cast<double>(lattice.sideCells()) / grid.bucketCells();
+  const double lastBucket = static_cast<double>(grid.bucketsPerSide() - 1);
+  const auto bucketOf = [&](double x) {
+    return static_cast<std::uint32_t>(std::clamp(std::floor(x * bucketScale), 0.0, lastBucket));
+  };
   for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
     const LatticeXY la = patch.points[patch.indices[k]];
     const LatticeXY lb = patch.points[patch.indices[k + 1]];
@@ -660,12 +861,52 @@ MeasuredPatch measurePatch(const SampleGrid& grid, const BinTriangle& t, const W
     const double ha = static_cast<double>(grid.height(t.face, la));
     const double hb = static_cast<double>(grid.height(t.face, lb));
     const double hc = static_cast<double>(grid.height(t.face, lc));
-    grid.forEachSourceSampleIn(
-        t.face, lattice.uv(la), lattice.uv(lb), lattice.uv(lc),
-        [&](double l0, double l1, double l2, const SourceSample& s) {
-          const double hp = l0 * ha + l1 * hb + l2 * hc;
-          sampleError = std::max(sampleError, std::abs(hp - static_cast<double>(s.heightMeters)));
-        });
+    const glm::dvec2 a = lattice.uv(la);
+    const glm::dvec2 b = lattice.uv(lb);
+    const glm::dvec2 c = lattice.uv(lc);
+    const double total = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+    if (!(total > 0.0)) continue;
+    const double eps = -1e-9 * total;
+    const std::uint32_t bx0 = bucketOf(std::min({a.x, b.x, c.x}));
+    const std::uint32_t bx1 = bucketOf(std::max({a.x, b.x, c.x}));
+    const std::uint32_t by0 = bucketOf(std::min({a.y, b.y, c.y}));
+    const std::uint32_t by1 = bucketOf(std::max({a.y, b.y, c.y}));
+    for (std::uint32_t by = by0; by <= by1; ++by) {
+      // The triangle's x-extent over this bucket row (in lattice units), widened by a bucket on
+      // each side: a sample's float (u, v) may lie a rounding error outside its bucket, and the
+      // test below is what decides.
+      std::uint32_t rx0 = bx0;
+      std::uint32_t rx1 = bx1;
+      if (bx1 - bx0 > 2) {
+        double xLo = 0.0;
+        double xHi = 0.0;
+        triangleSpanInRows(la, lb, lc, (static_cast<double>(by) - 1.0) * bucketCells,
+                           (static_cast<double>(by) + 2.0) * bucketCells, xLo, xHi);
+        if (!(xLo <= xHi)) continue;
+        const double first = std::floor(xLo / bucketCells) - 1.0;
+        const double last = std::floor(xHi / bucketCells) + 1.0;
+        rx0 = static_cast<std::uint32_t>(
+            std::clamp(first, static_cast<double>(bx0), static_cast<double>(bx1)));
+        rx1 = static_cast<std::uint32_t>(
+            std::clamp(last, static_cast<double>(bx0), static_cast<double>(bx1)));
+        if (rx0 > rx1) continue;
+      }
+      // Buckets of one row are consecutive in the grid's storage.
+      const SourceSample* begin = grid.bucket(t.face, rx0, by).data();
+      const std::span<const SourceSample> lastRun = grid.bucket(t.face, rx1, by);
+      const SourceSample* end = lastRun.data() + lastRun.size();
+      for (const SourceSample* sp = begin; sp != end; ++sp) {
+        const SourceSample& s = *sp;
+        const double px = static_cast<double>(s.u);
+        const double py = static_cast<double>(s.v);
+        const double w0 = (c.x - b.x) * (py - b.y) - (c.y - b.y) * (px - b.x);
+        const double w1 = (a.x - c.x) * (py - c.y) - (a.y - c.y) * (px - c.x);
+        const double w2 = (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x);
+        if (w0 < eps || w1 < eps || w2 < eps) continue;
+        const double hp = w0 / total * ha + w1 / total * hb + w2 / total * hc;
+        sampleError = std::max(sampleError, std::abs(hp - static_cast<double>(s.heightMeters)));
+      }
+    }
   }
   out.sampleErrorMeters = sampleError;
   out.errorMeters = out.sampleErrorMeters + out.representationErrorMeters + out.chordErrorMeters;
