@@ -237,14 +237,15 @@ TEST(DistributedBuild, ResumeRefusesOtherOptionsAndDamagedCheckpoints) {
   auto damaged = buildDataset(o);
   ASSERT_FALSE(damaged);
   EXPECT_EQ(damaged.error().code, ErrorCode::CorruptData);
-  EXPECT_NE(damaged.error().message.find("level-03.nodes: checksum mismatch"), std::string::npos)
+  EXPECT_NE(damaged.error().message.find("level-03.part-0.nodes: checksum mismatch"),
+            std::string::npos)
       << damaged.error().message;
 
   // A missing level file is caught before any work is redone.
   fs::remove(Checkpoint(out).file(Checkpoint::Kind::Nodes, 4));
   auto missing = buildDataset(o);
   ASSERT_FALSE(missing);
-  EXPECT_NE(missing.error().message.find("level-04.nodes is missing"), std::string::npos)
+  EXPECT_NE(missing.error().message.find("level-04.part-0.nodes is missing"), std::string::npos)
       << missing.error().message;
 
   // Without --resume the checkpoint is discarded and the build starts over.
