@@ -69,11 +69,6 @@ class ThreadGroup final {
       group_.barrier_.arrive_and_wait();
       return all;
     }
-    std::vector<std::vector<std::byte>> gatherToRoot(std::vector<std::byte> mine) override {
-      auto all = allGather(std::move(mine));
-      if (rank_ != 0) all.clear();
-      return all;
-    }
     void broadcast(std::vector<std::byte>& bytes) override {
       if (rank_ == 0) group_.slots_[0] = bytes;
       group_.barrier_.arrive_and_wait();
