@@ -120,8 +120,31 @@ std::pair<std::uint64_t, std::uint64_t> shareOf(std::uint64_t count, int rank, i
   return {count * r / n, count * (r + 1) / n};
 }
 
+/// A working patch in the carry: u32 point count, u8 width (2 when every coordinate and index
+/// fits 16 bits — always for lattices up to 16384 cells and patches up to 65536 points — else
+/// 4), the points' (x, y), u32 index count, the indices; each value in `width` bytes. Half the
+/// bytes of plain 32-bit values: the carry of the first block level is most of the build's I/O
+/// and disk.
 void putPatch(ByteWriter& w, const WorkPatch& p) {
+  bool narrow = p.points.size() <= 65536;
+  for (const LatticeXY& q : p.points) {
+    narrow = narrow && q.x >= 0 && q.x <= 65535 && q.y >= 0 && q.y <= 65535;
+  }
   w.put(static_cast<std::uint32_t>(p.points.size()));
+  w.put(static_cast<std::uint8_t>(narrow ? 2 : 4));
+  if (narrow) {
+    std::vector<std::uint16_t> values;
+    values.reserve(2 * p.points.size());
+    for (const LatticeXY& q : p.points) {
+      values.push_back(static_cast<std::uint16_t>(q.x));
+      values.push_back(static_cast<std::uint16_t>(q.y));
+    }
+    w.putBytes(std::as_bytes(std::span<const std::uint16_t>(values)));
+    values.assign(p.indices.begin(), p.indices.end());  // < 65536: indices of the points
+    w.put(static_cast<std::uint32_t>(values.size()));
+    w.putBytes(std::as_bytes(std::span<const std::uint16_t>(values)));
+    return;
+  }
   for (const LatticeXY& q : p.points) {
     w.put(q.x);
     w.put(q.y);
@@ -133,17 +156,34 @@ void putPatch(ByteWriter& w, const WorkPatch& p) {
 WorkPatch getPatch(ByteReader& r) {
   WorkPatch p;
   const auto points = r.get<std::uint32_t>();
+  const auto width = r.get<std::uint8_t>();
+  if (r.failed() || (width != 2 && width != 4)) return p;
+  const auto coordinates = r.take(std::size_t{points} * 2 * width);
   if (r.failed()) return p;
   p.points.resize(points);
-  for (auto& q : p.points) {
-    q.x = r.get<std::int32_t>();
-    q.y = r.get<std::int32_t>();
+  for (std::size_t k = 0; k < points; ++k) {
+    if (width == 2) {
+      std::array<std::uint16_t, 2> xy{};
+      std::memcpy(xy.data(), coordinates.data() + 4 * k, 4);
+      p.points[k] = LatticeXY(static_cast<std::int32_t>(xy[0]), static_cast<std::int32_t>(xy[1]));
+    } else {
+      std::memcpy(&p.points[k].x, coordinates.data() + 8 * k, 4);
+      std::memcpy(&p.points[k].y, coordinates.data() + 8 * k + 4, 4);
+    }
   }
   const auto indices = r.get<std::uint32_t>();
-  const auto run = r.take(std::size_t{indices} * sizeof(std::uint32_t));
+  const auto run = r.take(std::size_t{indices} * width);
   if (r.failed()) return p;
   p.indices.resize(indices);
-  std::memcpy(p.indices.data(), run.data(), run.size());
+  if (width == 4) {
+    std::memcpy(p.indices.data(), run.data(), run.size());
+  } else {
+    for (std::size_t k = 0; k < indices; ++k) {
+      std::uint16_t v = 0;
+      std::memcpy(&v, run.data() + 2 * k, 2);
+      p.indices[k] = v;
+    }
+  }
   return p;
 }
 
