@@ -8,7 +8,11 @@
 #   bench/large_data.sh [OUTDIR]          (default: build/large)
 # Environment: PBDAM_DATA_DIR (default ../shared/data), LARGE_WIDTH (fractal DEM columns,
 # default 16384: a 4096-cell lattice), LARGE_PATCH_VERTICES (default 800, the paper's ratio of
-# interior to leaf patch size), LARGE_THREADS (build threads, default all cores).
+# interior to leaf patch size), LARGE_THREADS (build threads per rank, default all cores),
+# LARGE_LEVELS (bintree depth, default auto: 18 makes the paper's 16384-cell lattice from any
+# DEM), LARGE_RANKS (MPI ranks through mpirun, each under /usr/bin/time; default 1: no mpirun).
+# The build is out of core (docs/builder.md "Patches"): its peak RSS per rank is the DEM plus
+# well under a gigabyte, whatever the lattice size.
 # The DEM and the dataset are kept and reused when their parameters did not change.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -22,6 +26,8 @@ out=${1:-"$root/build/large"}
 width=${LARGE_WIDTH:-16384}
 pv=${LARGE_PATCH_VERTICES:-800}
 threads=${LARGE_THREADS:-0}
+levels=${LARGE_LEVELS:-auto}
+ranks=${LARGE_RANKS:-1}
 mkdir -p "$out"
 
 dem="$out/mola_fractal_${width}.tif"
@@ -29,9 +35,20 @@ if [ ! -f "$dem" ]; then
   "$bin/bench/pbdam_fractal_dem" --dem "$mola" --out "$dem" --width "$width" --seed 1
 fi
 dataset="$out/mars_${width}_pv${pv}"
+[ "$levels" = auto ] || dataset="${dataset}_l${levels}"
 if [ ! -f "$dataset/manifest.json" ]; then
-  /usr/bin/time -v "$pbdam" build --dem "$dem" --planet mars --patch-vertices "$pv" \
-    --threads "$threads" --out "$dataset" --force 2> >(tee "$out/build-time.txt" >&2)
+  if [ "$ranks" -gt 1 ]; then
+    asroot=()
+    [ "$(id -u)" -eq 0 ] && asroot=(--allow-run-as-root)
+    mpirun "${asroot[@]}" --oversubscribe --bind-to none -np "$ranks" \
+      sh -c 'exec /usr/bin/time -v -o "$0.$OMPI_COMM_WORLD_RANK" "$@"' "$out/build-time.txt" \
+      "$pbdam" build --dem "$dem" --planet mars --patch-vertices "$pv" --levels "$levels" \
+      --threads "$threads" --out "$dataset" --force
+  else
+    /usr/bin/time -v "$pbdam" build --dem "$dem" --planet mars --patch-vertices "$pv" \
+      --levels "$levels" --threads "$threads" --out "$dataset" --force \
+      2> >(tee "$out/build-time.txt" >&2)
+  fi
 fi
 "$pbdam" info "$dataset"
 bytes=$(du -sb "$dataset" | cut -f1)

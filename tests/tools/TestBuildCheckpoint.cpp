@@ -69,11 +69,6 @@ class ThreadGroup final {
       group_.barrier_.arrive_and_wait();
       return all;
     }
-    std::vector<std::vector<std::byte>> gatherToRoot(std::vector<std::byte> mine) override {
-      auto all = allGather(std::move(mine));
-      if (rank_ != 0) all.clear();
-      return all;
-    }
     void broadcast(std::vector<std::byte>& bytes) override {
       if (rank_ == 0) group_.slots_[0] = bytes;
       group_.barrier_.arrive_and_wait();
@@ -237,14 +232,15 @@ TEST(DistributedBuild, ResumeRefusesOtherOptionsAndDamagedCheckpoints) {
   auto damaged = buildDataset(o);
   ASSERT_FALSE(damaged);
   EXPECT_EQ(damaged.error().code, ErrorCode::CorruptData);
-  EXPECT_NE(damaged.error().message.find("level-03.nodes: checksum mismatch"), std::string::npos)
+  EXPECT_NE(damaged.error().message.find("level-03.part-0.nodes: checksum mismatch"),
+            std::string::npos)
       << damaged.error().message;
 
   // A missing level file is caught before any work is redone.
   fs::remove(Checkpoint(out).file(Checkpoint::Kind::Nodes, 4));
   auto missing = buildDataset(o);
   ASSERT_FALSE(missing);
-  EXPECT_NE(missing.error().message.find("level-04.nodes is missing"), std::string::npos)
+  EXPECT_NE(missing.error().message.find("level-04.part-0.nodes is missing"), std::string::npos)
       << missing.error().message;
 
   // Without --resume the checkpoint is discarded and the build starts over.

@@ -1,6 +1,7 @@
 // pbdam build on real data (MOLA 4 px/deg, ETOPO5) checked by verify against the source DEM,
 // determinism across thread counts, atomicity, rejection of bad options, and detection of a
-// corrupted byte in every section of a face file (paper 004 §3–5; docs/builder.md).
+// corrupted byte in every section of a face file (paper 004 §3–5; docs/builder.md); the
+// out-of-core sample grid (files written in row ranges, mapped) equals the in-memory one.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -8,6 +9,7 @@
 #include "TestData.h"
 #include "pbdam/builder/Builder.h"
 #include "pbdam/builder/Lattice.h"
+#include "pbdam/builder/SampleGrid.h"
 #include "pbdam/builder/Verify.h"
 #include "pbdam/formats/DatasetFormat.h"
 #include "pbdam/formats/Manifest.h"
@@ -265,6 +267,81 @@ TEST(Lattice, DiamondsPairEveryHypotenuseAcrossFaces) {
       EXPECT_EQ(crossFace, 0);
     }
   }
+}
+
+TEST(SampleGrid, FilesWrittenInRowRangesGiveTheInMemoryGrid) {
+  PBDAM_REQUIRE_DATA(demPath, test::dataDir() / "mars/megt90n000cb.lbl");
+  auto dem = readDem(demPath);
+  ASSERT_TRUE(dem) << dem.error().message;
+  auto planet = Planet::fromSpec("mars");
+  ASSERT_TRUE(planet);
+  const Lattice lattice(64);
+  const std::uint32_t bucketCells = 4;
+  const SampleGrid memory = SampleGrid::build(*dem, *planet, lattice, bucketCells);
+
+  // Three "ranks": uneven ranges of lattice rows and of DEM rows.
+  test::TempDir dir;
+  const fs::path heights = dir / "heights.f32";
+  const std::size_t rows = 6 * 65;
+  const auto demRows = static_cast<std::size_t>(dem->height());
+  const std::array<std::size_t, 4> rowCuts = {0, 100, 101, rows};
+  const std::array<std::size_t, 4> demCuts = {0, demRows / 3, demRows / 2, demRows};
+  HeightRowStats total;
+  total.minHeightMeters = std::numeric_limits<float>::infinity();
+  total.maxHeightMeters = -std::numeric_limits<float>::infinity();
+  std::vector<fs::path> samples;
+  for (std::size_t r = 0; r < 3; ++r) {
+    auto stats =
+        SampleGrid::writeHeightRows(*dem, *planet, lattice, heights, rowCuts[r], rowCuts[r + 1]);
+    ASSERT_TRUE(stats) << stats.error().message;
+    total.noDataPoints += stats->noDataPoints;
+    total.minHeightMeters = std::min(total.minHeightMeters, stats->minHeightMeters);
+    total.maxHeightMeters = std::max(total.maxHeightMeters, stats->maxHeightMeters);
+    samples.push_back(dir / ("samples." + std::to_string(r)));
+    ASSERT_TRUE(SampleGrid::writeSourceBuckets(*dem, *planet, lattice, bucketCells, samples.back(),
+                                               demCuts[r], demCuts[r + 1]));
+  }
+  auto mapped = SampleGrid::open(lattice, *planet, heights, samples, bucketCells, total);
+  ASSERT_TRUE(mapped) << mapped.error().message;
+  mapped->releaseResident();
+
+  EXPECT_EQ(mapped->minHeightMeters(), memory.minHeightMeters());
+  EXPECT_EQ(mapped->maxHeightMeters(), memory.maxHeightMeters());
+  EXPECT_EQ(mapped->noDataPoints(), memory.noDataPoints());
+  EXPECT_EQ(mapped->sourceSampleCount(), memory.sourceSampleCount());
+  EXPECT_EQ(mapped->sourceSampleCount(), 1440u * 720u);
+  EXPECT_EQ(mapped->bucketTables(), 3u);
+  for (int face = 0; face < 6; ++face) {
+    for (std::int32_t j = 0; j <= 64; ++j) {
+      for (std::int32_t i = 0; i <= 64; ++i) {
+        ASSERT_EQ(mapped->height(face, {i, j}), memory.height(face, {i, j}))
+            << face << " " << i << " " << j;
+      }
+    }
+    // Source samples are visited in the same order, so any reduction over them is the same.
+    std::vector<float> a;
+    std::vector<float> b;
+    const glm::dvec2 p0(0.0, 0.0);
+    const glm::dvec2 p1(1.0, 0.0);
+    const glm::dvec2 p2(1.0, 1.0);
+    memory.forEachSourceSampleIn(face, p0, p1, p2,
+                                 [&](double, double, double, const SourceSample& s) {
+                                   a.push_back(s.u);
+                                   a.push_back(s.heightMeters);
+                                 });
+    mapped->forEachSourceSampleIn(face, p0, p1, p2,
+                                  [&](double, double, double, const SourceSample& s) {
+                                    b.push_back(s.u);
+                                    b.push_back(s.heightMeters);
+                                  });
+    EXPECT_GT(a.size(), 1000u);
+    EXPECT_TRUE(a == b) << "face " << face;
+  }
+
+  // A heights file of another lattice is refused, naming the file.
+  auto other = SampleGrid::open(Lattice(32), *planet, heights, samples, bucketCells, total);
+  ASSERT_FALSE(other);
+  EXPECT_NE(other.error().message.find("heights.f32"), std::string::npos);
 }
 
 }  // namespace

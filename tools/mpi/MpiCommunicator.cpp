@@ -54,32 +54,6 @@ class MpiCommunicator final : public Communicator {
     return all;
   }
 
-  std::vector<std::vector<std::byte>> gatherToRoot(std::vector<std::byte> mine) override {
-    // Sizes go to rank 0; then each rank sends its bytes in pieces.
-    std::uint64_t size = mine.size();
-    std::vector<std::uint64_t> sizes(rank_ == 0 ? static_cast<std::size_t>(size_) : 0);
-    MPI_Gather(&size, 1, MPI_UINT64_T, sizes.data(), 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
-    if (rank_ != 0) {
-      for (std::size_t at = 0; at < mine.size(); at += kPieceBytes) {
-        // MPI_Send takes a non-const buffer in old signatures; OpenMPI 4 declares it const.
-        MPI_Send(mine.data() + at, pieceOf(mine.size() - at), MPI_BYTE, 0, kGatherTag,
-                 MPI_COMM_WORLD);
-      }
-      return {};
-    }
-    std::vector<std::vector<std::byte>> all(static_cast<std::size_t>(size_));
-    all[0] = std::move(mine);
-    for (int r = 1; r < size_; ++r) {
-      auto& bytes = all[static_cast<std::size_t>(r)];
-      bytes.resize(sizes[static_cast<std::size_t>(r)]);
-      for (std::size_t at = 0; at < bytes.size(); at += kPieceBytes) {
-        MPI_Recv(bytes.data() + at, pieceOf(bytes.size() - at), MPI_BYTE, r, kGatherTag,
-                 MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-      }
-    }
-    return all;
-  }
-
   void broadcast(std::vector<std::byte>& bytes) override {
     std::uint64_t size = bytes.size();
     MPI_Bcast(&size, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
@@ -93,8 +67,6 @@ class MpiCommunicator final : public Communicator {
   }
 
  private:
-  static constexpr int kGatherTag = 71;
-
   std::vector<std::uint64_t> allSizes(std::size_t mine) const {
     std::uint64_t size = mine;
     std::vector<std::uint64_t> sizes(static_cast<std::size_t>(size_));

@@ -1,9 +1,12 @@
 // The P-BDAM build pipeline (Builder.h; docs/builder.md; paper 004 §5), one process or several
 // (docs/builder.md "Distributed build"): every stage's independent work — lattice rows, the
 // blocks (diamonds) of each bintree level with their error saturation, texture tiles — is split
-// into contiguous ranges per rank and run with TBB inside each rank; the ranks synchronise only
-// between levels, where the patches the next level needs are all-gathered and the finished
-// nodes are gathered to rank 0, which checkpoints them and finally writes the dataset.
+// into contiguous ranges per rank and run with TBB inside each rank. Out of core: the lattice
+// heights and bucketed source samples live in files every rank maps; each rank streams its nodes
+// and its carry (what the next level needs) into its own checkpoint part files, batch by batch;
+// the next level reads the children of its diamonds from those files. The ranks synchronise only
+// between levels (a small all-gather of per-rank statistics); rank 0 records the checkpoint
+// state and finally assembles the dataset from the part files through mappings.
 #include "pbdam/builder/Builder.h"
 
 #include <tbb/parallel_for.h>
@@ -15,13 +18,15 @@
 #include <bit>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <mutex>
+#include <stop_token>
 #include <thread>
-#include <unordered_map>
 
 #include "pbdam/builder/Checkpoint.h"
 #include "pbdam/builder/Lattice.h"
@@ -78,12 +83,6 @@ float roundUpToFloat(double v) {
   return f;
 }
 
-struct EdgeKeyHash {
-  std::size_t operator()(const EdgeKey& k) const noexcept {
-    return std::hash<std::uint64_t>()(k.first * 0x9E3779B97F4A7C15ULL ^ k.second);
-  }
-};
-
 Error invalid(const std::string& what) { return makeError(ErrorCode::InvalidArgument, what); }
 
 std::string hex32(std::uint32_t v) {
@@ -121,8 +120,31 @@ std::pair<std::uint64_t, std::uint64_t> shareOf(std::uint64_t count, int rank, i
   return {count * r / n, count * (r + 1) / n};
 }
 
+/// A working patch in the carry: u32 point count, u8 width (2 when every coordinate and index
+/// fits 16 bits — always for lattices up to 16384 cells and patches up to 65536 points — else
+/// 4), the points' (x, y), u32 index count, the indices; each value in `width` bytes. Half the
+/// bytes of plain 32-bit values: the carry of the first block level is most of the build's I/O
+/// and disk.
 void putPatch(ByteWriter& w, const WorkPatch& p) {
+  bool narrow = p.points.size() <= 65536;
+  for (const LatticeXY& q : p.points) {
+    narrow = narrow && q.x >= 0 && q.x <= 65535 && q.y >= 0 && q.y <= 65535;
+  }
   w.put(static_cast<std::uint32_t>(p.points.size()));
+  w.put(static_cast<std::uint8_t>(narrow ? 2 : 4));
+  if (narrow) {
+    std::vector<std::uint16_t> values;
+    values.reserve(2 * p.points.size());
+    for (const LatticeXY& q : p.points) {
+      values.push_back(static_cast<std::uint16_t>(q.x));
+      values.push_back(static_cast<std::uint16_t>(q.y));
+    }
+    w.putBytes(std::as_bytes(std::span<const std::uint16_t>(values)));
+    values.assign(p.indices.begin(), p.indices.end());  // < 65536: indices of the points
+    w.put(static_cast<std::uint32_t>(values.size()));
+    w.putBytes(std::as_bytes(std::span<const std::uint16_t>(values)));
+    return;
+  }
   for (const LatticeXY& q : p.points) {
     w.put(q.x);
     w.put(q.y);
@@ -134,19 +156,147 @@ void putPatch(ByteWriter& w, const WorkPatch& p) {
 WorkPatch getPatch(ByteReader& r) {
   WorkPatch p;
   const auto points = r.get<std::uint32_t>();
+  const auto width = r.get<std::uint8_t>();
+  if (r.failed() || (width != 2 && width != 4)) return p;
+  const auto coordinates = r.take(std::size_t{points} * 2 * width);
   if (r.failed()) return p;
   p.points.resize(points);
-  for (auto& q : p.points) {
-    q.x = r.get<std::int32_t>();
-    q.y = r.get<std::int32_t>();
+  for (std::size_t k = 0; k < points; ++k) {
+    if (width == 2) {
+      std::array<std::uint16_t, 2> xy{};
+      std::memcpy(xy.data(), coordinates.data() + 4 * k, 4);
+      p.points[k] = LatticeXY(static_cast<std::int32_t>(xy[0]), static_cast<std::int32_t>(xy[1]));
+    } else {
+      std::memcpy(&p.points[k].x, coordinates.data() + 8 * k, 4);
+      std::memcpy(&p.points[k].y, coordinates.data() + 8 * k + 4, 4);
+    }
   }
   const auto indices = r.get<std::uint32_t>();
-  const auto run = r.take(std::size_t{indices} * sizeof(std::uint32_t));
+  const auto run = r.take(std::size_t{indices} * width);
   if (r.failed()) return p;
   p.indices.resize(indices);
-  std::memcpy(p.indices.data(), run.data(), run.size());
+  if (width == 4) {
+    std::memcpy(p.indices.data(), run.data(), run.size());
+  } else {
+    for (std::size_t k = 0; k < indices; ++k) {
+      std::uint16_t v = 0;
+      std::memcpy(&v, run.data() + 2 * k, 2);
+      p.indices[k] = v;
+    }
+  }
   return p;
 }
+
+/// One triangle's carry record: its diamond's saturated error and sphere, and its working patch
+/// when the next level needs it (docs/builder.md "Checkpoints").
+void putCarry(ByteWriter& w, const Saturated& s, const WorkPatch* patch) {
+  w.put(static_cast<float>(s.error));
+  w.put(s.sphere.center.x);
+  w.put(s.sphere.center.y);
+  w.put(s.sphere.center.z);
+  w.put(static_cast<float>(s.sphere.radius));
+  w.put(static_cast<std::uint8_t>(patch != nullptr ? 1 : 0));
+  if (patch != nullptr) putPatch(w, *patch);
+}
+
+/// The carry of a finished level as the next level reads it: the level's part files mapped
+/// read-only, each ending in an index (node id, record offset) sorted by node id, so a rank
+/// finds the children of its own diamonds without holding the level. Thread-safe lookups.
+class CarryReader final {
+ public:
+  Result<void> open(const Checkpoint& checkpoint, int level, std::uint32_t parts, bool verify) {
+    parts_.clear();
+    for (std::uint32_t part = 0; part < parts; ++part) {
+      Part p;
+      auto mapped = checkpoint.openFile(Checkpoint::Kind::Carry, level, part, p.payload, verify);
+      if (!mapped) return std::move(mapped).error();
+      const auto path = checkpoint.file(Checkpoint::Kind::Carry, level, part).string();
+      if (p.payload.size() < 8) return makeError(ErrorCode::CorruptData, path + ": no index");
+      std::memcpy(&p.count, p.payload.data() + p.payload.size() - 8, 8);
+      if (p.count > (p.payload.size() - 8) / 16) {
+        return makeError(ErrorCode::CorruptData, path + ": bad index");
+      }
+      p.index = p.payload.data() + p.payload.size() - 8 - 16 * p.count;
+      p.file = std::move(mapped).value();
+      parts_.push_back(std::move(p));
+    }
+    return {};
+  }
+  void close() { parts_.clear(); }
+  void releaseResident() const noexcept {
+    for (const Part& p : parts_) (void)p.file.releaseResident();
+  }
+  /// The saturated values of node `id`'s diamond and, with `patch`, its working patch; false
+  /// when the carry does not hold the node (or its record is damaged).
+  bool find(std::uint64_t id, Saturated& saturated, WorkPatch* patch) const {
+    for (const Part& p : parts_) {
+      std::uint64_t lo = 0;
+      std::uint64_t hi = p.count;
+      while (lo < hi) {
+        const std::uint64_t mid = lo + (hi - lo) / 2;
+        std::uint64_t key = 0;
+        std::memcpy(&key, p.index + 16 * mid, 8);
+        if (key < id) {
+          lo = mid + 1;
+        } else {
+          hi = mid;
+        }
+      }
+      if (lo == p.count) continue;
+      std::uint64_t key = 0;
+      std::uint64_t offset = 0;
+      std::memcpy(&key, p.index + 16 * lo, 8);
+      std::memcpy(&offset, p.index + 16 * lo + 8, 8);
+      if (key != id || offset >= p.payload.size()) continue;
+      ByteReader r(p.payload.subspan(static_cast<std::size_t>(offset)));
+      saturated.error = static_cast<double>(r.get<float>());
+      saturated.sphere.center.x = r.get<double>();
+      saturated.sphere.center.y = r.get<double>();
+      saturated.sphere.center.z = r.get<double>();
+      saturated.sphere.radius = static_cast<double>(r.get<float>());
+      const bool hasPatch = r.get<std::uint8_t>() != 0;
+      if (patch != nullptr) {
+        if (!hasPatch) return false;
+        *patch = getPatch(r);
+      }
+      return !r.failed();
+    }
+    return false;
+  }
+
+ private:
+  struct Part {
+    MappedFile file;
+    std::span<const std::byte> payload;
+    const std::byte* index = nullptr;
+    std::uint64_t count = 0;
+  };
+  std::vector<Part> parts_;
+};
+
+/// RSS bound: every `period` drops this process's page-table entries of the mappings `release`
+/// names (heights, source samples, carry, checkpoint files being assembled). Their pages stay in
+/// the page cache, so a later read is a minor fault; what a rank keeps resident is then what its
+/// threads touched in the last period, not the data size. Stops (and joins) on destruction.
+class ResidentTrimmer final {
+ public:
+  ResidentTrimmer(std::chrono::milliseconds period, std::function<void()> release)
+      : thread_([this, period, release = std::move(release)](std::stop_token stop) {
+          std::unique_lock lock(mutex_);
+          while (!stop.stop_requested()) {
+            wake_.wait_for(lock, stop, period, [] { return false; });
+            if (!stop.stop_requested()) release();
+          }
+        }) {}
+  ResidentTrimmer(const ResidentTrimmer&) = delete;
+  ResidentTrimmer& operator=(const ResidentTrimmer&) = delete;
+  ~ResidentTrimmer() { thread_.request_stop(); }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable_any wake_;
+  std::jthread thread_;  // last: joined first, while mutex_ and wake_ still exist
+};
 
 /// Collective: the first failure of any rank (lowest rank first) on every rank.
 Result<void> agree(Communicator& comm, const Result<void>& mine) {
@@ -278,7 +428,8 @@ std::vector<std::pair<std::string, std::string>> fingerprintOf(const BuildOption
 
 /// What rank 0 decided about the output directory and the checkpoint, sent to every rank.
 struct StartPoint {
-  std::optional<int> completeLevel;  // resume after this level
+  std::optional<int> completeLevel;      // resume after this level
+  std::uint32_t completeLevelParts = 1;  // its part files (the rank count that wrote them)
   bool textureComplete = false;
 };
 
@@ -342,11 +493,11 @@ class DistributedBuild {
   }
 
   Result<StartPoint> setUpOutput();
-  void resample();
+  Result<void> resample();
   Result<void> buildLevel(int level);
-  Result<void> loadCarry(int level);
-  void takeCarry(int level, const std::vector<std::vector<std::byte>>& pieces);
   Result<void> buildTextures();
+  /// Drops the pages of every mapping in use from this process (ResidentTrimmer).
+  void releaseResident();
   Result<void> assemble(BuildSummary& summary);
 
   NodeOut makeNode(const BinTriangle& t, const WorkPatch& patch, Error& failure,
@@ -363,11 +514,14 @@ class DistributedBuild {
   std::optional<SampleGrid> grid_;
   std::mutex failureMutex_;
 
-  // The level below the one being built: its patches by node id, its diamonds' saturated
-  // errors and spheres by spine.
-  std::unordered_map<std::uint64_t, WorkPatch> below_;
-  std::vector<Saturated> belowSaturated_;
-  std::unordered_map<EdgeKey, std::size_t, EdgeKeyHash> belowBySpine_;
+  // The carry of the level below the one being built (its diamonds' saturated errors and
+  // spheres and its working patches, by node id), read from its part files.
+  CarryReader below_;
+  std::uint32_t belowParts_ = 0;  // part files of each level's output: the rank count
+  bool verifyBelow_ = false;      // check the CRCs of a carry that a resume found
+  // Mappings ResidentTrimmer releases: the grid and carry above, and while assembling these.
+  std::mutex residentMutex_;
+  std::vector<const MappedFile*> assembling_;
 
   // What the checkpoint holds (every rank keeps track, for messages).
   std::optional<int> completeLevel_;
@@ -432,17 +586,34 @@ Result<StartPoint> DistributedBuild::setUpOutput() {
       }
       start.completeLevel = (*saved)->completeLevel;
       start.textureComplete = (*saved)->textureComplete;
+      if (start.completeLevel) {
+        const auto it = (*saved)->levelParts.find(*start.completeLevel);
+        if (it != (*saved)->levelParts.end()) start.completeLevelParts = it->second;
+      }
       // Every file the state promises must be there before any work is redone.
       std::vector<fs::path> needed;
+      const CheckpointState& st = **saved;
+      auto partsOf = [&](int level) {
+        const auto it = st.levelParts.find(level);
+        return it == st.levelParts.end() ? 1u : it->second;
+      };
       if (start.completeLevel) {
         for (int level = d_; level >= *start.completeLevel; --level) {
-          needed.push_back(checkpoint_.file(Checkpoint::Kind::Nodes, level));
+          for (std::uint32_t part = 0; part < partsOf(level); ++part) {
+            needed.push_back(checkpoint_.file(Checkpoint::Kind::Nodes, level, part));
+          }
         }
         if (*start.completeLevel > 0) {
-          needed.push_back(checkpoint_.file(Checkpoint::Kind::Carry, *start.completeLevel));
+          for (std::uint32_t part = 0; part < partsOf(*start.completeLevel); ++part) {
+            needed.push_back(checkpoint_.file(Checkpoint::Kind::Carry, *start.completeLevel, part));
+          }
         }
       }
-      if (start.textureComplete) needed.push_back(checkpoint_.file(Checkpoint::Kind::Texture, 0));
+      if (start.textureComplete) {
+        for (std::uint32_t part = 0; part < std::max(1u, st.textureParts); ++part) {
+          needed.push_back(checkpoint_.file(Checkpoint::Kind::Texture, 0, part));
+        }
+      }
       for (const auto& path : needed) {
         if (!fs::exists(path, ec)) {
           return makeError(
@@ -461,105 +632,70 @@ Result<StartPoint> DistributedBuild::setUpOutput() {
   return start;
 }
 
-void DistributedBuild::resample() {
+void DistributedBuild::releaseResident() {
+  std::lock_guard lock(residentMutex_);
+  if (grid_) grid_->releaseResident();
+  below_.releaseResident();
+  for (const MappedFile* m : assembling_) (void)m->releaseResident();
+}
+
+Result<void> DistributedBuild::resample() {
+  // Each rank resamples a share of the lattice rows into the one heights file and buckets a
+  // share of the DEM rows into its own samples file; after a barrier every rank maps them all.
   const std::size_t n1 = std::size_t{in_.n} + 1;
   const auto [begin, end] = shareOf(6 * n1, comm_.rank(), comm_.size());
-  RowShare share;
-  share.beginRow = static_cast<std::size_t>(begin);
-  share.endRow = static_cast<std::size_t>(end);
-  share.exchange = [&](std::vector<std::vector<float>>& heights, std::uint64_t& noData) {
-    if (comm_.size() == 1) return;
-    ByteWriter w;
-    w.put(noData);
-    for (std::size_t row = share.beginRow; row < share.endRow; ++row) {
-      const auto& face = heights[row / n1];
-      w.putBytes(std::as_bytes(std::span(face).subspan((row % n1) * n1, n1)));
-    }
-    const auto all = comm_.allGather(w.take());
-    noData = 0;
-    for (int r = 0; r < comm_.size(); ++r) {
-      ByteReader in(all[static_cast<std::size_t>(r)]);
-      noData += in.get<std::uint64_t>();
-      const auto [b, e] = shareOf(6 * n1, r, comm_.size());
-      for (std::size_t row = b; row < e; ++row) {
-        const auto run = in.take(n1 * sizeof(float));
-        if (r != comm_.rank()) {
-          std::memcpy(heights[row / n1].data() + (row % n1) * n1, run.data(), run.size());
-        }
-      }
-    }
-  };
+  const std::string item =
+      "resampling lattice rows " + rangeText(begin, end) + " of " + std::to_string(6 * n1);
   announce("resampling", "lattice rows", 6 * n1);
   const auto t0 = Clock::now();
-  grid_ = SampleGrid::build(
-      *in_.dem, *in_.planet, lattice_, SampleGrid::defaultBucketCells(lattice_),
-      [&](std::size_t done, std::size_t total) {
+  const std::uint32_t bucketCells = SampleGrid::defaultBucketCells(lattice_);
+  auto stats = SampleGrid::writeHeightRows(
+      *in_.dem, *in_.planet, lattice_, checkpoint_.heightsFile(), static_cast<std::size_t>(begin),
+      static_cast<std::size_t>(end), [&](std::size_t done, std::size_t total) {
         report("resample",
                static_cast<double>(done) / static_cast<double>(std::max<std::size_t>(total, 1)));
-      },
-      &share);
+      });
+  if (!stats) return fail(item, stats.error());
+  const auto demRows = static_cast<std::uint64_t>(in_.dem->height());
+  const auto [rowBegin, rowEnd] = shareOf(demRows, comm_.rank(), comm_.size());
+  const auto part = static_cast<std::uint32_t>(comm_.rank());
+  if (auto r = SampleGrid::writeSourceBuckets(
+          *in_.dem, *in_.planet, lattice_, bucketCells, checkpoint_.samplesFile(part),
+          static_cast<std::size_t>(rowBegin), static_cast<std::size_t>(rowEnd));
+      !r) {
+    return fail("bucketing DEM rows " + rangeText(rowBegin, rowEnd), r.error());
+  }
+
+  // Barrier: every rank's rows and samples are on disk; totals of the statistics.
+  ByteWriter w;
+  w.put(stats->noDataPoints);
+  w.put(stats->minHeightMeters);
+  w.put(stats->maxHeightMeters);
+  HeightRowStats total;
+  total.minHeightMeters = std::numeric_limits<float>::infinity();
+  total.maxHeightMeters = -std::numeric_limits<float>::infinity();
+  for (const auto& piece : comm_.allGather(w.take())) {
+    ByteReader r(piece);
+    total.noDataPoints += r.get<std::uint64_t>();
+    total.minHeightMeters = std::min(total.minHeightMeters, r.get<float>());
+    total.maxHeightMeters = std::max(total.maxHeightMeters, r.get<float>());
+  }
+  std::vector<fs::path> samples;
+  for (std::uint32_t k = 0; k < static_cast<std::uint32_t>(comm_.size()); ++k) {
+    samples.push_back(checkpoint_.samplesFile(k));
+  }
+  auto grid = SampleGrid::open(lattice_, *in_.planet, checkpoint_.heightsFile(), samples,
+                               bucketCells, total);
+  if (!grid) return fail(item, grid.error());
+  {
+    std::lock_guard lock(residentMutex_);
+    grid_.emplace(std::move(grid).value());
+  }
   const double s = std::chrono::duration<double>(Clock::now() - t0).count();
   char line[160];
   std::snprintf(line, sizeof line, "resample: %zu lattice rows over %d rank(s) in %.1f s", 6 * n1,
                 comm_.size(), s);
   log(line);
-}
-
-void DistributedBuild::takeCarry(int level, const std::vector<std::vector<std::byte>>& pieces) {
-  // The carry of `level`: per diamond in order, its saturated error and sphere and (when the
-  // next level needs them) its two patches; a sequence of per-rank pieces.
-  const auto diamonds = diamondsOfLevel(lattice_, d_, level);
-  below_.clear();
-  belowSaturated_.assign(diamonds.size(), Saturated{});
-  belowBySpine_.clear();
-  for (const auto& piece : pieces) {
-    ByteReader r(piece);
-    while (!r.atEnd() && !r.failed()) {
-      const auto first = r.get<std::uint64_t>();
-      const auto count = r.get<std::uint64_t>();
-      const auto hasPatches = r.get<std::uint8_t>();
-      for (std::uint64_t k = first; k < first + count && !r.failed(); ++k) {
-        Saturated s;
-        s.error = static_cast<double>(r.get<float>());
-        s.sphere.center.x = r.get<double>();
-        s.sphere.center.y = r.get<double>();
-        s.sphere.center.z = r.get<double>();
-        s.sphere.radius = static_cast<double>(r.get<float>());
-        if (k < belowSaturated_.size()) belowSaturated_[k] = s;
-        if (hasPatches != 0) {
-          for (std::size_t side = 0; side < 2; ++side) {
-            WorkPatch p = getPatch(r);
-            if (k < diamonds.size()) below_.emplace(diamonds[k][side], std::move(p));
-          }
-        }
-      }
-    }
-  }
-  for (std::size_t k = 0; k < diamonds.size(); ++k) {
-    const BinTriangle t = triangleOfNode(lattice_, diamonds[k][0], d_);
-    belowBySpine_.emplace(lattice_.edgeKey(t.face, t.left, t.right), k);
-  }
-}
-
-Result<void> DistributedBuild::loadCarry(int level) {
-  std::vector<std::byte> carry;
-  Error failure;
-  bool ok = true;
-  if (root()) {
-    std::span<const std::byte> payload;
-    auto mapped = checkpoint_.openFile(Checkpoint::Kind::Carry, level, payload);
-    if (!mapped) {
-      ok = false;
-      failure = mapped.error();
-    } else {
-      carry.assign(payload.begin(), payload.end());
-    }
-  }
-  if (auto r = agree(comm_, ok ? Result<void>{} : Result<void>{failure}); !r) return r;
-  comm_.broadcast(carry);
-  std::vector<std::vector<std::byte>> pieces(1);
-  pieces[0] = std::move(carry);
-  takeCarry(level, pieces);
   return {};
 }
 
@@ -578,170 +714,212 @@ Result<void> DistributedBuild::buildLevel(int level) {
     }
     return fail(item, makeError(ErrorCode::Internal, "injected failure (PBDAM_TEST_FAIL_RANK)"));
   }
+  // The carry of the level below: saturated values and (above the first block level) the
+  // working patches of this level's children, from the part files every rank wrote.
+  if (level < d_) {
+    std::lock_guard lock(residentMutex_);
+    if (auto r = below_.open(checkpoint_, level + 1, belowParts_, verifyBelow_); !r) {
+      return fail(item, r.error());
+    }
+    verifyBelow_ = false;
+  }
+  const auto ranks = static_cast<std::uint32_t>(comm_.size());
+  const auto part = static_cast<std::uint32_t>(comm_.rank());
+  auto nodesFile = checkpoint_.startFile(Checkpoint::Kind::Nodes, level, part, ranks);
+  if (!nodesFile) return fail(item, nodesFile.error());
+  // Level 0's carry would serve no level: it is not written.
+  std::optional<Checkpoint::PartWriter> carryFile;
+  if (level > 0) {
+    auto c = checkpoint_.startFile(Checkpoint::Kind::Carry, level, part, ranks);
+    if (!c) return fail(item, c.error());
+    carryFile = std::move(c).value();
+  }
+  const bool keepPatches = level > 0 && level < d_;  // level − 1 is a block level over them
 
-  // 1. Simplify this rank's blocks (leaves at the deepest level) with TBB.
+  // 1. Simplify, measure, saturate and serialise this rank's diamonds in batches (TBB within a
+  // batch), appending each batch to the part files in diamond order: what is in memory is one
+  // batch, whatever the level's size.
   const auto t0 = Clock::now();
   const std::uint64_t mine = end - begin;
-  std::vector<std::array<NodeOut, 2>> nodes(mine);
-  std::vector<std::array<WorkPatch, 2>> made(level > 0 && level < d_ ? mine : 0);
+  const auto threads =
+      static_cast<std::uint64_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
+  const std::uint64_t batch = 256 * threads;
+  struct DiamondBytes {
+    std::vector<std::byte> nodes;
+    std::vector<std::byte> carry;
+    std::size_t firstCarryBytes = 0;  // the carry record of the second triangle starts here
+    std::uint64_t rawBytes = 0;
+  };
+  std::vector<DiamondBytes> out;
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> carryIndex;  // node id, record offset
+  carryIndex.reserve(carryFile ? 2 * mine : 0);
   std::atomic<std::uint64_t> retries{0};
   std::atomic<std::uint64_t> unsimplified{0};
   std::atomic<std::uint64_t> done{0};
   std::atomic<bool> failed{false};
   Error failure;
+  auto failWith = [&](const std::string& why) {
+    std::lock_guard lock(failureMutex_);
+    if (!failed) failure = makeError(ErrorCode::Internal, why);
+    failed = true;
+  };
+  std::uint64_t rawBytes = 0;
   const auto caller = std::this_thread::get_id();
   auto lastReport = Clock::now();
   const std::uint64_t total = 12 * nodesPerTree_;
   const std::uint64_t levelPatches = 2 * diamonds.size();
-  tbb::parallel_for(std::uint64_t{0}, mine, [&](std::uint64_t k) {
-    const Diamond& diamond = diamonds[begin + k];
-    const std::array<BinTriangle, 2> tri = {triangleOfNode(lattice_, diamond[0], d_),
-                                            triangleOfNode(lattice_, diamond[1], d_)};
-    if (level == d_) {
-      for (std::size_t s = 0; s < 2; ++s) {
-        nodes[k][s] = makeNode(tri[s], makeLeafPatch(tri[s]), failure, failed);
-      }
-    } else {
-      std::array<std::array<WorkPatch, 2>, 2> generated;
-      std::array<std::array<const WorkPatch*, 2>, 2> children{};
-      for (std::size_t s = 0; s < 2; ++s) {
-        const auto kids = Lattice::children(tri[s]);
-        for (std::size_t c = 0; c < 2; ++c) {
-          if (level + 1 == d_) {
-            generated[s][c] = makeLeafPatch(kids[c]);
-            children[s][c] = &generated[s][c];
-          } else {
-            children[s][c] = &below_.at(nodeId(kids[c], d_));
+  for (std::uint64_t first = 0; first < mine && !failed; first += batch) {
+    const std::uint64_t count = std::min(batch, mine - first);
+    out.assign(count, DiamondBytes{});
+    tbb::parallel_for(std::uint64_t{0}, count, [&](std::uint64_t j) {
+      const Diamond& diamond = diamonds[begin + first + j];
+      const std::array<BinTriangle, 2> tri = {triangleOfNode(lattice_, diamond[0], d_),
+                                              triangleOfNode(lattice_, diamond[1], d_)};
+      std::array<NodeOut, 2> nodes;
+      std::array<WorkPatch, 2> made;
+      // The four child diamonds are those whose spines are this diamond's legs: the diamonds
+      // of the triangles' children (first child: leg apex–left, second: apex–right).
+      std::array<Saturated, 4> childSaturated;
+      if (level == d_) {
+        for (std::size_t s = 0; s < 2; ++s) {
+          nodes[s] = makeNode(tri[s], makeLeafPatch(tri[s]), failure, failed);
+        }
+      } else {
+        std::array<std::array<WorkPatch, 2>, 2> children;
+        std::array<std::array<const WorkPatch*, 2>, 2> childPointers{};
+        for (std::size_t s = 0; s < 2; ++s) {
+          const auto kids = Lattice::children(tri[s]);
+          for (std::size_t c = 0; c < 2; ++c) {
+            const std::uint64_t kid = nodeId(kids[c], d_);
+            const bool leaf = level + 1 == d_;
+            if (!below_.find(kid, childSaturated[2 * s + c], leaf ? nullptr : &children[s][c])) {
+              failWith("node " + std::to_string(kid) + " is missing from the level " +
+                       std::to_string(level + 1) + " carry");
+              return;
+            }
+            if (leaf) children[s][c] = makeLeafPatch(kids[c]);
+            childPointers[s][c] = &children[s][c];
           }
         }
+        BlockResult block = simplifyBlock(*grid_, tri, childPointers, o_.patchVertices);
+        retries += block.stats.simplifyRetries;
+        unsimplified += block.stats.halvesKeptUnsimplified;
+        nodes[0] = makeNode(tri[0], block.first, failure, failed);
+        nodes[1] = makeNode(tri[1], block.second, failure, failed);
+        made = {std::move(block.first), std::move(block.second)};
       }
-      BlockResult block = simplifyBlock(*grid_, tri, children, o_.patchVertices);
-      retries += block.stats.simplifyRetries;
-      unsimplified += block.stats.halvesKeptUnsimplified;
-      nodes[k][0] = makeNode(tri[0], block.first, failure, failed);
-      nodes[k][1] = makeNode(tri[1], block.second, failure, failed);
-      if (!made.empty()) {
-        made[k][0] = std::move(block.first);
-        made[k][1] = std::move(block.second);
-      }
-    }
-    ++done;
-    if (std::this_thread::get_id() == caller && root() &&
-        Clock::now() - lastReport > std::chrono::milliseconds(100)) {
-      lastReport = Clock::now();
-      const double share =
-          static_cast<double>(done.load()) / static_cast<double>(std::max<std::uint64_t>(mine, 1));
-      report("simplify",
-             (static_cast<double>(patchesDone_) + share * static_cast<double>(levelPatches)) /
-                 static_cast<double>(total));
-    }
-  });
-  if (failed) return fail(item, failure);
-  below_ = {};  // the children's patches have served
+      if (failed) return;
 
-  // 2. Saturate this rank's diamonds over the diamond DAG (needs the level below's saturated
-  // values, which every rank holds).
-  std::vector<Saturated> saturated(mine);
-  for (std::uint64_t k = 0; k < mine; ++k) {
-    NodeOut& a = nodes[k][0];
-    NodeOut& b = nodes[k][1];
-    double e = std::max(a.measuredError, b.measuredError);
-    Sphere s = merge(a.sphere, b.sphere);
-    if (level < d_) {
-      const BinTriangle ta = triangleOfNode(lattice_, a.id, d_);
-      const BinTriangle tb = triangleOfNode(lattice_, b.id, d_);
-      // The four child diamonds are those whose spines are this diamond's legs.
-      const std::array<EdgeKey, 4> legs = {lattice_.edgeKey(ta.face, ta.apex, ta.left),
-                                           lattice_.edgeKey(ta.face, ta.apex, ta.right),
-                                           lattice_.edgeKey(tb.face, tb.apex, tb.left),
-                                           lattice_.edgeKey(tb.face, tb.apex, tb.right)};
-      for (const EdgeKey& leg : legs) {
-        const Saturated& child = belowSaturated_[belowBySpine_.at(leg)];
-        e = std::max(e, child.error);
-        s = merge(s, child.sphere);
+      // Saturate over the diamond DAG.
+      NodeOut& a = nodes[0];
+      NodeOut& b = nodes[1];
+      double e = std::max(a.measuredError, b.measuredError);
+      Sphere sphere = merge(a.sphere, b.sphere);
+      if (level < d_) {
+        for (const Saturated& child : childSaturated) {
+          e = std::max(e, child.error);
+          sphere = merge(sphere, child.sphere);
+        }
       }
-    }
-    const float storedError = roundUpToFloat(e);
-    const float radius = storedRadius(s.radius);
-    saturated[k] = Saturated{static_cast<double>(storedError), Sphere{s.center, radius}};
-    for (NodeOut* node : {&a, &b}) {
-      node->record.errorMeters = storedError;
-      node->record.sphereRadiusMeters = radius;
-      node->record.sphereCenter = {s.center.x, s.center.y, s.center.z};
+      const float storedError = roundUpToFloat(e);
+      const float radius = storedRadius(sphere.radius);
+      const Saturated saturated{static_cast<double>(storedError), Sphere{sphere.center, radius}};
+
+      DiamondBytes& bytes = out[j];
+      ByteWriter w;
+      std::array<std::byte, kNodeRecordBytes> record{};
+      for (NodeOut* node : {&a, &b}) {
+        node->record.errorMeters = storedError;
+        node->record.sphereRadiusMeters = radius;
+        node->record.sphereCenter = {sphere.center.x, sphere.center.y, sphere.center.z};
+        bytes.rawBytes += 8ULL * node->record.vertexCount + 6ULL * node->record.triangleCount;
+        w.put(node->id);
+        encodeNodeRecord(node->record, record);
+        w.putBytes(record);
+        w.put(static_cast<std::uint32_t>(node->blob.size()));
+        w.putBytes(node->blob);
+      }
+      bytes.nodes = w.take();
+      if (carryFile) {
+        ByteWriter c;
+        putCarry(c, saturated, keepPatches ? &made[0] : nullptr);
+        bytes.firstCarryBytes = c.bytes().size();
+        putCarry(c, saturated, keepPatches ? &made[1] : nullptr);
+        bytes.carry = c.take();
+      }
+      ++done;
+      if (std::this_thread::get_id() == caller && root() &&
+          Clock::now() - lastReport > std::chrono::milliseconds(100)) {
+        lastReport = Clock::now();
+        const double share = static_cast<double>(done.load()) /
+                             static_cast<double>(std::max<std::uint64_t>(mine, 1));
+        report("simplify",
+               (static_cast<double>(patchesDone_) + share * static_cast<double>(levelPatches)) /
+                   static_cast<double>(total));
+      }
+    });
+    if (failed) break;
+    for (std::uint64_t j = 0; j < count; ++j) {
+      DiamondBytes& bytes = out[j];
+      rawBytes += bytes.rawBytes;
+      if (auto r = nodesFile->append(bytes.nodes); !r) return fail(item, r.error());
+      if (carryFile) {
+        const Diamond& diamond = diamonds[begin + first + j];
+        carryIndex.emplace_back(diamond[0], carryFile->size());
+        carryIndex.emplace_back(diamond[1], carryFile->size() + bytes.firstCarryBytes);
+        if (auto r = carryFile->append(bytes.carry); !r) return fail(item, r.error());
+      }
     }
   }
+  out.clear();
+  if (failed) return fail(item, failure);
   const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
 
-  // 3. Serialise: the carry (what the next level needs) for everyone, the nodes for rank 0.
-  ByteWriter carry;
-  carry.put(begin);
-  carry.put(mine);
-  carry.put(static_cast<std::uint8_t>(made.empty() ? 0 : 1));
-  for (std::uint64_t k = 0; k < mine; ++k) {
-    carry.put(static_cast<float>(saturated[k].error));
-    carry.put(saturated[k].sphere.center.x);
-    carry.put(saturated[k].sphere.center.y);
-    carry.put(saturated[k].sphere.center.z);
-    carry.put(static_cast<float>(saturated[k].sphere.radius));
-    if (!made.empty()) {
-      putPatch(carry, made[k][0]);
-      putPatch(carry, made[k][1]);
-      made[k] = {};
+  // 2. Finish the part files: the nodes' footer (what the level reports), the carry's index.
+  ByteWriter footer;
+  footer.put(begin);
+  footer.put(mine);
+  footer.put(retries.load());
+  footer.put(unsimplified.load());
+  footer.put(rawBytes);
+  footer.put(seconds);
+  const std::vector<std::byte> summary = footer.bytes();
+  if (auto r = nodesFile->append(summary); !r) return fail(item, r.error());
+  if (auto r = nodesFile->finish(); !r) return fail(item, r.error());
+  if (carryFile) {
+    std::sort(carryIndex.begin(), carryIndex.end());
+    ByteWriter index;
+    for (const auto& [id, offset] : carryIndex) {
+      index.put(id);
+      index.put(offset);
     }
+    index.put(static_cast<std::uint64_t>(carryIndex.size()));
+    carryIndex = {};
+    if (auto r = carryFile->append(index.bytes()); !r) return fail(item, r.error());
+    if (auto r = carryFile->finish(); !r) return fail(item, r.error());
   }
-  made.clear();
-  ByteWriter out;
-  std::uint64_t rawBytes = 0;
-  out.put(begin);
-  out.put(mine);
-  out.put(retries.load());
-  out.put(unsimplified.load());
-  for (const auto& pair : nodes) {
-    for (const NodeOut& n : pair)
-      rawBytes += 8ULL * n.record.vertexCount + 6ULL * n.record.triangleCount;
+  {
+    std::lock_guard lock(residentMutex_);
+    below_.close();  // the children have served
   }
-  out.put(rawBytes);
-  out.put(seconds);
-  std::array<std::byte, kNodeRecordBytes> record{};
-  for (auto& pair : nodes) {
-    for (NodeOut& n : pair) {
-      out.put(n.id);
-      encodeNodeRecord(n.record, record);
-      out.putBytes(record);
-      out.put(static_cast<std::uint32_t>(n.blob.size()));
-      out.putBytes(n.blob);
-      n.blob = {};
-    }
-  }
-  nodes.clear();
 
-  // 4. Synchronise: every rank takes the whole level's carry; rank 0 checkpoints the level.
-  const auto allCarry = comm_.allGather(carry.take());
-  auto gathered = comm_.gatherToRoot(out.take());
-  takeCarry(level, allCarry);
+  // 3. Synchronise: every rank's part files are complete; rank 0 records the level.
+  auto gathered = comm_.allGather(summary);
   patchesDone_ += levelPatches;
+  const std::uint32_t previousParts = belowParts_;
+  belowParts_ = ranks;
   if (!root()) {
     completeLevel_ = level;  // as soon as rank 0 has written it
     return {};
   }
-
   const std::string writing = "writing the level " + std::to_string(level) + " checkpoint";
-  std::vector<std::span<const std::byte>> pieces;
-  for (const auto& piece : gathered) pieces.emplace_back(piece);
-  if (auto w = checkpoint_.writeFile(Checkpoint::Kind::Nodes, level, pieces); !w) {
-    return fail(writing, w.error());
-  }
-  std::vector<std::span<const std::byte>> carryPieces;
-  for (const auto& piece : allCarry) carryPieces.emplace_back(piece);
-  if (auto w = checkpoint_.writeFile(Checkpoint::Kind::Carry, level, carryPieces); !w) {
-    return fail(writing, w.error());
-  }
   state_.completeLevel = level;
+  state_.levelParts[level] = ranks;
   if (auto w = checkpoint_.writeState(state_); !w) return fail(writing, w.error());
   completeLevel_ = level;
-  checkpoint_.removeFile(Checkpoint::Kind::Carry, level + 1);
+  if (level < d_) checkpoint_.removeFile(Checkpoint::Kind::Carry, level + 1, previousParts);
 
-  // 5. Report: per-rank throughput and the ETA of the simplification.
+  // 4. Report: per-rank throughput and the ETA of the simplification.
   std::string line = "level " + std::to_string(level) + ": " + std::to_string(diamonds.size()) +
                      (level == d_ ? " leaf diamonds" : " blocks");
   char buf[200];
@@ -803,84 +981,98 @@ Result<void> DistributedBuild::buildTextures() {
   }
   const auto t0 = Clock::now();
   const std::uint64_t mine = end - begin;
-  std::vector<std::vector<std::byte>> blobs(mine);
-  std::vector<float> errors(mine);
+  const auto ranks = static_cast<std::uint32_t>(comm_.size());
+  auto file = checkpoint_.startFile(Checkpoint::Kind::Texture, 0,
+                                    static_cast<std::uint32_t>(comm_.rank()), ranks);
+  if (!file) return fail(item, file.error());
+  const auto threads =
+      static_cast<std::uint64_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
+  const std::uint64_t batch = 16 * threads;  // tiles in memory at once
+  std::vector<std::vector<std::byte>> blobs;
+  std::vector<float> errors;
   std::atomic<std::uint64_t> done{0};
   std::atomic<std::int64_t> failedTile{-1};
   const auto caller = std::this_thread::get_id();
   auto lastReport = Clock::now();
-  tbb::parallel_for(std::uint64_t{0}, mine, [&](std::uint64_t j) {
-    const std::uint64_t k = begin + j;
-    const auto face = static_cast<int>(k / tilesPerFace);
-    const std::uint64_t heap = k % tilesPerFace;
-    std::uint32_t level = 0;
-    while (((std::uint64_t{1} << (2 * (level + 1))) - 1) / 3 <= heap) ++level;
-    const std::uint64_t within = heap - ((std::uint64_t{1} << (2 * level)) - 1) / 3;
-    TextureTileRequest request;
-    request.face = face;
-    request.level = static_cast<int>(level);
-    request.qi = static_cast<std::uint32_t>(within & ((std::uint64_t{1} << level) - 1));
-    request.qj = static_cast<std::uint32_t>(within >> level);
-    request.sizeTexels = o_.textureTileTexels;
-    request.borderTexels = border;
-    auto tile = buildTextureTile(source, request);
-    if (!tile) {
-      failedTile = static_cast<std::int64_t>(k);
-      return;
-    }
-    TextureTileImage image = std::move(tile->image);
-    if (o_.textureFormat == TexelFormat::Bc1) {
-      auto bc1 = compressBc1(image, o_.bc1Quality);
-      if (!bc1) {
+  for (std::uint64_t first = 0; first < mine && failedTile < 0; first += batch) {
+    const std::uint64_t count = std::min(batch, mine - first);
+    blobs.assign(count, {});
+    errors.assign(count, 0.0f);
+    tbb::parallel_for(std::uint64_t{0}, count, [&](std::uint64_t j) {
+      const std::uint64_t k = begin + first + j;
+      const auto face = static_cast<int>(k / tilesPerFace);
+      const std::uint64_t heap = k % tilesPerFace;
+      std::uint32_t level = 0;
+      while (((std::uint64_t{1} << (2 * (level + 1))) - 1) / 3 <= heap) ++level;
+      const std::uint64_t within = heap - ((std::uint64_t{1} << (2 * level)) - 1) / 3;
+      TextureTileRequest request;
+      request.face = face;
+      request.level = static_cast<int>(level);
+      request.qi = static_cast<std::uint32_t>(within & ((std::uint64_t{1} << level) - 1));
+      request.qj = static_cast<std::uint32_t>(within >> level);
+      request.sizeTexels = o_.textureTileTexels;
+      request.borderTexels = border;
+      auto tile = buildTextureTile(source, request);
+      if (!tile) {
         failedTile = static_cast<std::int64_t>(k);
         return;
       }
-      image = std::move(bc1).value();
+      TextureTileImage image = std::move(tile->image);
+      if (o_.textureFormat == TexelFormat::Bc1) {
+        auto bc1 = compressBc1(image, o_.bc1Quality);
+        if (!bc1) {
+          failedTile = static_cast<std::int64_t>(k);
+          return;
+        }
+        image = std::move(bc1).value();
+      }
+      auto blob = encodeTextureTile(image);
+      if (!blob) {
+        failedTile = static_cast<std::int64_t>(k);
+        return;
+      }
+      blobs[j] = std::move(blob).value();
+      errors[j] = roundUpToFloat(tile->textureErrorMeters);
+      ++done;
+      if (std::this_thread::get_id() == caller && root() &&
+          Clock::now() - lastReport > std::chrono::milliseconds(100)) {
+        lastReport = Clock::now();
+        report("texture", static_cast<double>(done.load()) /
+                              static_cast<double>(std::max<std::uint64_t>(mine, 1)));
+      }
+    });
+    if (failedTile >= 0) break;
+    ByteWriter w;
+    for (std::uint64_t j = 0; j < count; ++j) {
+      w.put(errors[j]);
+      w.put(static_cast<std::uint32_t>(blobs[j].size()));
+      w.putBytes(blobs[j]);
     }
-    auto blob = encodeTextureTile(image);
-    if (!blob) {
-      failedTile = static_cast<std::int64_t>(k);
-      return;
-    }
-    blobs[j] = std::move(blob).value();
-    errors[j] = roundUpToFloat(tile->textureErrorMeters);
-    ++done;
-    if (std::this_thread::get_id() == caller && root() &&
-        Clock::now() - lastReport > std::chrono::milliseconds(100)) {
-      lastReport = Clock::now();
-      report("texture", static_cast<double>(done.load()) /
-                            static_cast<double>(std::max<std::uint64_t>(mine, 1)));
-    }
-  });
+    if (auto r = file->append(w.bytes()); !r) return fail(item, r.error());
+  }
+  blobs.clear();
   if (failedTile >= 0) {
     return fail(item,
                 makeError(ErrorCode::Internal, "texture tile " + std::to_string(failedTile.load()) +
                                                    " could not be built"));
   }
   const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-  ByteWriter out;
-  out.put(begin);
-  out.put(mine);
-  out.put(seconds);
-  for (std::uint64_t j = 0; j < mine; ++j) {
-    out.put(errors[j]);
-    out.put(static_cast<std::uint32_t>(blobs[j].size()));
-    out.putBytes(blobs[j]);
-  }
-  blobs.clear();
-  auto gathered = comm_.gatherToRoot(out.take());
+  ByteWriter footer;
+  footer.put(begin);
+  footer.put(mine);
+  footer.put(seconds);
+  const std::vector<std::byte> summary = footer.bytes();
+  if (auto r = file->append(summary); !r) return fail(item, r.error());
+  if (auto r = file->finish(); !r) return fail(item, r.error());
+  auto gathered = comm_.allGather(summary);
   if (!root()) {
     textureComplete_ = true;
     return {};
   }
   report("texture", 1.0);
-  std::vector<std::span<const std::byte>> pieces;
-  for (const auto& piece : gathered) pieces.emplace_back(piece);
   const std::string writing = "writing the texture checkpoint";
-  if (auto w = checkpoint_.writeFile(Checkpoint::Kind::Texture, 0, pieces); !w) {
-    return fail(writing, w.error());
-  }
   state_.textureComplete = true;
+  state_.textureParts = ranks;
   if (auto w = checkpoint_.writeState(state_); !w) return fail(writing, w.error());
   textureComplete_ = true;
   std::string line = "texture: " + std::to_string(tiles) + " tiles";
@@ -908,19 +1100,41 @@ Result<void> DistributedBuild::assemble(BuildSummary& summary) {
   };
   const std::uint64_t nodeCount = 12 * nodesPerTree_;
   std::vector<Located> located(nodeCount);
-  std::vector<MappedFile> mappings;
+  // Mappings of every part file; ResidentTrimmer drops their pages as the faces are written.
+  std::vector<std::unique_ptr<MappedFile>> mappings;
+  auto keep = [&](MappedFile mapped) {
+    mappings.push_back(std::make_unique<MappedFile>(std::move(mapped)));
+    std::lock_guard lock(residentMutex_);
+    assembling_.push_back(mappings.back().get());
+  };
+  struct Unregister {  // before `mappings` go, on every return
+    DistributedBuild& build;
+    ~Unregister() {
+      std::lock_guard lock(build.residentMutex_);
+      build.assembling_.clear();
+    }
+  } unregister{*this};
+  auto partsOf = [&](int level) {
+    const auto it = state_.levelParts.find(level);
+    return it == state_.levelParts.end() ? 1u : it->second;
+  };
+  constexpr std::size_t kNodesFooterBytes = 6 * 8;
   for (int level = 0; level <= d_; ++level) {
-    std::span<const std::byte> payload;
-    auto mapped = checkpoint_.openFile(Checkpoint::Kind::Nodes, level, payload);
-    if (!mapped) return std::move(mapped).error();
-    ByteReader r(payload);
-    while (!r.atEnd() && !r.failed()) {
-      (void)r.get<std::uint64_t>();
-      const auto count = r.get<std::uint64_t>();
-      summary.simplifyRetries += r.get<std::uint64_t>();
-      summary.halvesKeptUnsimplified += r.get<std::uint64_t>();
-      summary.patchBytesRaw += r.get<std::uint64_t>();
-      (void)r.get<double>();
+    for (std::uint32_t part = 0; part < partsOf(level); ++part) {
+      const std::string path = checkpoint_.file(Checkpoint::Kind::Nodes, level, part).string();
+      std::span<const std::byte> payload;
+      auto mapped = checkpoint_.openFile(Checkpoint::Kind::Nodes, level, part, payload);
+      if (!mapped) return std::move(mapped).error();
+      if (payload.size() < kNodesFooterBytes) {
+        return makeError(ErrorCode::CorruptData, path + ": truncated");
+      }
+      ByteReader f(payload.last(kNodesFooterBytes));
+      (void)f.get<std::uint64_t>();
+      const auto count = f.get<std::uint64_t>();
+      summary.simplifyRetries += f.get<std::uint64_t>();
+      summary.halvesKeptUnsimplified += f.get<std::uint64_t>();
+      summary.patchBytesRaw += f.get<std::uint64_t>();
+      ByteReader r(payload.first(payload.size() - kNodesFooterBytes));
       for (std::uint64_t k = 0; k < 2 * count && !r.failed(); ++k) {
         const auto id = r.get<std::uint64_t>();
         const auto record = r.take(kNodeRecordBytes);
@@ -939,12 +1153,9 @@ Result<void> DistributedBuild::assemble(BuildSummary& summary) {
               std::max(summary.rootErrorMeters, static_cast<double>(rec.errorMeters));
         }
       }
+      if (r.failed() || !r.atEnd()) return makeError(ErrorCode::CorruptData, path + ": truncated");
+      keep(std::move(mapped).value());
     }
-    if (r.failed()) {
-      return makeError(ErrorCode::CorruptData,
-                       checkpoint_.file(Checkpoint::Kind::Nodes, level).string() + ": truncated");
-    }
-    mappings.push_back(std::move(mapped).value());
   }
   for (std::uint64_t id = 0; id < nodeCount; ++id) {
     if (located[id].record == nullptr) {
@@ -963,15 +1174,20 @@ Result<void> DistributedBuild::assemble(BuildSummary& summary) {
   std::vector<std::span<const std::byte>> tileBlobs(6 * tilesPerFace);
   std::vector<float> tileErrors(6 * tilesPerFace);
   {
-    std::span<const std::byte> payload;
-    auto mapped = checkpoint_.openFile(Checkpoint::Kind::Texture, 0, payload);
-    if (!mapped) return std::move(mapped).error();
-    ByteReader r(payload);
+    constexpr std::size_t kTilesFooterBytes = 3 * 8;
     std::uint64_t seen = 0;
-    while (!r.atEnd() && !r.failed()) {
-      const auto first = r.get<std::uint64_t>();
-      const auto count = r.get<std::uint64_t>();
-      (void)r.get<double>();
+    for (std::uint32_t part = 0; part < std::max(1u, state_.textureParts); ++part) {
+      const std::string path = checkpoint_.file(Checkpoint::Kind::Texture, 0, part).string();
+      std::span<const std::byte> payload;
+      auto mapped = checkpoint_.openFile(Checkpoint::Kind::Texture, 0, part, payload);
+      if (!mapped) return std::move(mapped).error();
+      if (payload.size() < kTilesFooterBytes) {
+        return makeError(ErrorCode::CorruptData, path + ": incomplete");
+      }
+      ByteReader f(payload.last(kTilesFooterBytes));
+      const auto first = f.get<std::uint64_t>();
+      const auto count = f.get<std::uint64_t>();
+      ByteReader r(payload.first(payload.size() - kTilesFooterBytes));
       for (std::uint64_t k = first; k < first + count && !r.failed(); ++k) {
         const auto e = r.get<float>();
         const auto bytes = r.get<std::uint32_t>();
@@ -981,12 +1197,13 @@ Result<void> DistributedBuild::assemble(BuildSummary& summary) {
         tileBlobs[k] = blob;
         ++seen;
       }
+      if (r.failed() || !r.atEnd()) return makeError(ErrorCode::CorruptData, path + ": incomplete");
+      keep(std::move(mapped).value());
     }
-    if (r.failed() || seen != tileBlobs.size()) {
+    if (seen != tileBlobs.size()) {
       return makeError(ErrorCode::CorruptData,
                        checkpoint_.file(Checkpoint::Kind::Texture, 0).string() + ": incomplete");
     }
-    mappings.push_back(std::move(mapped).value());
   }
   summary.textureTiles = 6 * tilesPerFace;
 
@@ -1068,11 +1285,18 @@ Result<void> DistributedBuild::assemble(BuildSummary& summary) {
     std::array<std::byte, kFaceHeaderBytes> header{};
     encodeFaceHeader(h, header);
     std::vector<std::byte> padding(h.blobsOffset - tablesEnd);
-    std::vector<std::span<const std::byte>> chunks = {header, nodeTable, textureTable, padding};
-    chunks.insert(chunks.end(), blobs.begin(), blobs.end());
     const std::string name = "face" + std::to_string(face) + ".pbdam";
-    std::uint32_t crc = 0;
-    if (auto w = writeFileAtomically(o_.outDir / name, chunks, crc); !w) return w;
+    auto file = AtomicFileWriter::create(o_.outDir / name);
+    if (!file) return std::move(file).error();
+    for (std::span<const std::byte> chunk : std::initializer_list<std::span<const std::byte>>{
+             header, nodeTable, textureTable, padding}) {
+      if (auto w = file->append(chunk); !w) return w;
+    }
+    for (const auto& blob : blobs) {
+      if (auto w = file->append(blob); !w) return w;
+    }
+    const std::uint32_t crc = file->crc();
+    if (auto w = file->finish(); !w) return w;
     manifest.faces[static_cast<std::size_t>(face)] = ManifestFace{name, h.fileBytes, crc};
     summary.datasetBytes += h.fileBytes;
     report("write", static_cast<double>(face + 1) / 6.0);
@@ -1089,7 +1313,6 @@ Result<void> DistributedBuild::assemble(BuildSummary& summary) {
   syncDirectory(o_.outDir);
   summary.datasetBytes += json.size();
   summary.patches = nodeCount;
-  mappings.clear();
   // The dataset is complete: its checkpoint has served.
   if (auto r = checkpoint_.reset(false); !r) return r;
   return {};
@@ -1110,6 +1333,7 @@ Result<BuildSummary> DistributedBuild::run() {
     w.put(static_cast<std::uint8_t>(start ? 1 : 0));
     if (start) {
       w.put(static_cast<std::int32_t>(start->completeLevel.value_or(-1)));
+      w.put(start->completeLevelParts);
       w.put(static_cast<std::uint8_t>(start->textureComplete ? 1 : 0));
     } else {
       w.put(static_cast<std::int32_t>(start.error().code));
@@ -1128,6 +1352,7 @@ Result<BuildSummary> DistributedBuild::run() {
     }
     const auto level = r.get<std::int32_t>();
     if (level >= 0) start.completeLevel = level;
+    start.completeLevelParts = r.get<std::uint32_t>();
     start.textureComplete = r.get<std::uint8_t>() == 1;
   }
   completeLevel_ = start.completeLevel;
@@ -1141,8 +1366,13 @@ Result<BuildSummary> DistributedBuild::run() {
         (*start.completeLevel > 0 ? " at level " + std::to_string(*start.completeLevel - 1) : ""));
   }
 
-  // ---- Resample (each rank a share of the lattice rows; all ranks end with the whole grid).
-  resample();
+  // RSS bound: mapped data (heights, samples, carry, checkpoint files) stays in the page cache,
+  // not in this process, beyond what its threads touched in the last quarter second.
+  ResidentTrimmer trimmer(std::chrono::milliseconds(250), [this] { releaseResident(); });
+
+  // ---- Resample (each rank a share of the lattice rows and of the DEM rows, into files that
+  // every rank then maps).
+  if (auto r = resample(); !r) return std::move(r).error();
   summary.sourceSamples = grid_->sourceSampleCount();
   summary.latticeSamples = 6ULL * (in_.n + 1ULL) * (in_.n + 1ULL);
   summary.noDataPoints = grid_->noDataPoints();
@@ -1155,14 +1385,12 @@ Result<BuildSummary> DistributedBuild::run() {
       patchesDone_ += 2 * diamondsOfLevel(lattice_, d_, level).size();
     }
     next = *start.completeLevel - 1;
-    if (next >= 0) {
-      if (auto r = loadCarry(*start.completeLevel); !r) return std::move(r).error();
-    }
+    belowParts_ = start.completeLevelParts;
+    verifyBelow_ = true;
   }
   for (int level = next; level >= 0; --level) {
     if (auto r = buildLevel(level); !r) return std::move(r).error();
   }
-  below_.clear();
 
   // ---- Texture quadtree.
   if (!start.textureComplete) {

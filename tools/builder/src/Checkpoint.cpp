@@ -3,13 +3,16 @@
 #include "pbdam/builder/Checkpoint.h"
 
 #include <fcntl.h>
+#include <sys/mman.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
+#include <utility>
 
 #include "pbdam/formats/Checksum.h"
 
@@ -19,10 +22,13 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr std::array<char, 8> kMagic = {'P', 'B', 'D', 'A', 'M', 'C', 'K', 'P'};
-constexpr std::uint32_t kFileVersion = 1;
-constexpr std::size_t kHeaderBytes = 8 + 4 + 4 + 4 + 4 + 8;
+constexpr std::uint32_t kFileVersion = 2;
+// Trailer: magic, version, kind, level, part, parts, 0, payload bytes; then the CRC-32 of the
+// payload and the trailer.
+constexpr std::size_t kTrailerBytes = 8 + 4 + 4 + 4 + 4 + 4 + 4 + 8;
+constexpr std::size_t kWriteBufferBytes = std::size_t{1} << 20;
 constexpr const char* kStateName = "state";
-constexpr const char* kStateFormat = "pbdam-build-checkpoint 1";
+constexpr const char* kStateFormat = "pbdam-build-checkpoint 2";
 
 Result<void> writeAll(int fd, std::span<const std::byte> bytes, const fs::path& path,
                       std::uint32_t& crc) {
@@ -42,33 +48,98 @@ Result<void> writeAll(int fd, std::span<const std::byte> bytes, const fs::path& 
 
 }  // namespace
 
-Result<void> writeFileAtomically(const fs::path& path,
-                                 const std::vector<std::span<const std::byte>>& chunks,
-                                 std::uint32_t& crc) {
+Result<AtomicFileWriter> AtomicFileWriter::create(const fs::path& path) {
+  AtomicFileWriter w;
+  w.path_ = path;
   std::string tmpName = ".";
   tmpName += path.filename().string();
   tmpName += ".tmp";
-  const fs::path tmp = path.parent_path() / tmpName;
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) {
+  w.tmp_ = path.parent_path() / tmpName;
+  w.fd_ = ::open(w.tmp_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (w.fd_ < 0) {
     return makeError(ErrorCode::IoError,
-                     tmp.string() + ": cannot create (" + std::strerror(errno) + ")");
+                     w.tmp_.string() + ": cannot create (" + std::strerror(errno) + ")");
   }
-  crc = 0;
-  for (const auto& chunk : chunks) {
-    if (auto r = writeAll(fd, chunk, tmp, crc); !r) {
-      ::close(fd);
-      return r;
-    }
+  w.buffer_.reserve(kWriteBufferBytes);
+  return w;
+}
+
+AtomicFileWriter::AtomicFileWriter(AtomicFileWriter&& other) noexcept
+    : path_(std::move(other.path_)),
+      tmp_(std::move(other.tmp_)),
+      fd_(std::exchange(other.fd_, -1)),
+      buffer_(std::move(other.buffer_)),
+      size_(other.size_),
+      crc_(other.crc_) {}
+
+AtomicFileWriter& AtomicFileWriter::operator=(AtomicFileWriter&& other) noexcept {
+  if (this != &other) {
+    abandon();
+    path_ = std::move(other.path_);
+    tmp_ = std::move(other.tmp_);
+    fd_ = std::exchange(other.fd_, -1);
+    buffer_ = std::move(other.buffer_);
+    size_ = other.size_;
+    crc_ = other.crc_;
   }
+  return *this;
+}
+
+AtomicFileWriter::~AtomicFileWriter() { abandon(); }
+
+void AtomicFileWriter::abandon() noexcept {
+  if (fd_ < 0) return;
+  ::close(fd_);
+  fd_ = -1;
+  std::error_code ec;
+  fs::remove(tmp_, ec);
+}
+
+Result<void> AtomicFileWriter::append(std::span<const std::byte> bytes) {
+  crc_ = crc32(bytes, crc_);
+  size_ += bytes.size();
+  if (buffer_.size() + bytes.size() > kWriteBufferBytes) {
+    if (auto r = flush(); !r) return r;
+  }
+  if (bytes.size() >= kWriteBufferBytes) {
+    std::uint32_t ignored = 0;
+    return writeAll(fd_, bytes, tmp_, ignored);
+  }
+  buffer_.insert(buffer_.end(), bytes.begin(), bytes.end());
+  return {};
+}
+
+Result<void> AtomicFileWriter::flush() {
+  std::uint32_t ignored = 0;
+  auto r = writeAll(fd_, buffer_, tmp_, ignored);
+  buffer_.clear();
+  return r;
+}
+
+Result<void> AtomicFileWriter::finish() {
+  if (auto r = flush(); !r) return r;
+  const int fd = std::exchange(fd_, -1);
   if (::fsync(fd) != 0 || ::close(fd) != 0) {
-    return makeError(ErrorCode::IoError, tmp.string() + ": fsync/close failed");
+    return makeError(ErrorCode::IoError, tmp_.string() + ": fsync/close failed");
   }
   std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec)
-    return makeError(ErrorCode::IoError, path.string() + ": rename failed (" + ec.message() + ")");
+  fs::rename(tmp_, path_, ec);
+  if (ec) {
+    return makeError(ErrorCode::IoError, path_.string() + ": rename failed (" + ec.message() + ")");
+  }
   return {};
+}
+
+Result<void> writeFileAtomically(const fs::path& path,
+                                 const std::vector<std::span<const std::byte>>& chunks,
+                                 std::uint32_t& crc) {
+  auto w = AtomicFileWriter::create(path);
+  if (!w) return std::move(w).error();
+  for (const auto& chunk : chunks) {
+    if (auto r = w->append(chunk); !r) return r;
+  }
+  crc = w->crc();
+  return w->finish();
 }
 
 void syncDirectory(const fs::path& dir) {
@@ -112,6 +183,18 @@ Result<std::optional<CheckpointState>> Checkpoint::readState() const {
       }
     } else if (key == "texture-complete") {
       state.textureComplete = value == "yes";
+    } else if (key == "level-parts" || key == "texture-parts") {
+      try {
+        std::size_t used = 0;
+        const int first = std::stoi(value, &used);
+        if (key == "texture-parts") {
+          state.textureParts = static_cast<std::uint32_t>(first);
+        } else {
+          state.levelParts[first] = static_cast<std::uint32_t>(std::stoul(value.substr(used)));
+        }
+      } catch (const std::exception&) {
+        return damaged("bad " + key + " '" + value + "'");
+      }
     } else if (key == "option") {
       const auto eq = value.find('=');
       if (eq == std::string::npos) return damaged("bad option line '" + line + "'");
@@ -130,7 +213,10 @@ Result<void> Checkpoint::writeState(const CheckpointState& state) const {
   for (const auto& [key, value] : state.fingerprint)
     out << "option " << key << '=' << value << '\n';
   if (state.completeLevel) out << "complete-level " << *state.completeLevel << '\n';
+  for (const auto& [level, parts] : state.levelParts)
+    out << "level-parts " << level << ' ' << parts << '\n';
   out << "texture-complete " << (state.textureComplete ? "yes" : "no") << '\n';
+  if (state.textureComplete) out << "texture-parts " << state.textureParts << '\n';
   out << "end\n";
   const std::string text = out.str();
   std::uint32_t crc = 0;
@@ -155,79 +241,107 @@ Result<void> Checkpoint::reset(bool recreate) const {
   return {};
 }
 
-fs::path Checkpoint::file(Kind kind, int level) const {
-  char name[32];
+fs::path Checkpoint::file(Kind kind, int level, std::uint32_t part) const {
+  char name[48];
   switch (kind) {
     case Kind::Nodes:
-      std::snprintf(name, sizeof name, "level-%02d.nodes", level);
+      std::snprintf(name, sizeof name, "level-%02d.part-%u.nodes", level, part);
       break;
     case Kind::Carry:
-      std::snprintf(name, sizeof name, "level-%02d.carry", level);
+      std::snprintf(name, sizeof name, "level-%02d.part-%u.carry", level, part);
       break;
     case Kind::Texture:
-      std::snprintf(name, sizeof name, "texture.tiles");
+      std::snprintf(name, sizeof name, "texture.part-%u.tiles", part);
       break;
   }
   return dir_ / name;
 }
 
-Result<void> Checkpoint::writeFile(Kind kind, int level,
-                                   const std::vector<std::span<const std::byte>>& payload) const {
-  std::uint64_t payloadBytes = 0;
-  for (const auto& piece : payload) payloadBytes += piece.size();
-  ByteWriter header;
-  for (char c : kMagic) header.put(c);
-  header.put(kFileVersion);
-  header.put(static_cast<std::uint32_t>(kind));
-  header.put(static_cast<std::int32_t>(level));
-  header.put(std::uint32_t{0});
-  header.put(payloadBytes);
-  std::uint32_t crc = crc32(header.bytes());
-  for (const auto& piece : payload) crc = crc32(piece, crc);
-  std::vector<std::span<const std::byte>> chunks;
-  chunks.reserve(payload.size() + 2);
-  chunks.emplace_back(header.bytes());
-  chunks.insert(chunks.end(), payload.begin(), payload.end());
-  const auto trailer = std::bit_cast<std::array<std::byte, 4>>(crc);
-  chunks.emplace_back(trailer);
-  std::uint32_t fileCrc = 0;
-  return writeFileAtomically(file(kind, level), chunks, fileCrc);
+fs::path Checkpoint::samplesFile(std::uint32_t part) const {
+  char name[48];
+  std::snprintf(name, sizeof name, "samples.part-%u.bin", part);
+  return dir_ / name;
 }
 
-Result<MappedFile> Checkpoint::openFile(Kind kind, int level,
-                                        std::span<const std::byte>& payload) const {
-  const fs::path path = file(kind, level);
+Result<Checkpoint::PartWriter> Checkpoint::startFile(Kind kind, int level, std::uint32_t part,
+                                                     std::uint32_t parts) const {
+  auto file = AtomicFileWriter::create(this->file(kind, level, part));
+  if (!file) return std::move(file).error();
+  PartWriter w;
+  w.file_ = std::move(file).value();
+  w.kind_ = kind;
+  w.level_ = level;
+  w.part_ = part;
+  w.parts_ = parts;
+  return w;
+}
+
+Result<void> Checkpoint::PartWriter::finish() {
+  ByteWriter trailer;
+  const std::uint64_t payloadBytes = file_.size();
+  for (char c : kMagic) trailer.put(c);
+  trailer.put(kFileVersion);
+  trailer.put(static_cast<std::uint32_t>(kind_));
+  trailer.put(static_cast<std::int32_t>(level_));
+  trailer.put(part_);
+  trailer.put(parts_);
+  trailer.put(std::uint32_t{0});
+  trailer.put(payloadBytes);
+  if (auto r = file_.append(trailer.bytes()); !r) return r;
+  const auto crc = std::bit_cast<std::array<std::byte, 4>>(file_.crc());
+  if (auto r = file_.append(crc); !r) return r;
+  return file_.finish();
+}
+
+Result<MappedFile> Checkpoint::openFile(Kind kind, int level, std::uint32_t part,
+                                        std::span<const std::byte>& payload, bool verify) const {
+  const fs::path path = file(kind, level, part);
   auto mapped = MappedFile::open(path);
   if (!mapped) return std::move(mapped).error();
   const auto bytes = mapped->bytes();
   auto damaged = [&](const std::string& what) {
     return makeError(ErrorCode::CorruptData, path.string() + ": " + what);
   };
-  if (bytes.size() < kHeaderBytes + 4) return damaged("truncated checkpoint file");
-  ByteReader r(bytes);
+  if (bytes.size() < kTrailerBytes + 4) return damaged("truncated checkpoint file");
+  const std::size_t payloadEnd = bytes.size() - kTrailerBytes - 4;
+  ByteReader r(bytes.subspan(payloadEnd));
   std::array<char, 8> magic{};
   for (char& c : magic) c = r.get<char>();
   const auto version = r.get<std::uint32_t>();
   const auto fileKind = r.get<std::uint32_t>();
   const auto fileLevel = r.get<std::int32_t>();
+  const auto filePart = r.get<std::uint32_t>();
+  (void)r.get<std::uint32_t>();
   (void)r.get<std::uint32_t>();
   const auto payloadBytes = r.get<std::uint64_t>();
   if (magic != kMagic || version != kFileVersion) return damaged("not a checkpoint file");
   if (fileKind != static_cast<std::uint32_t>(kind) ||
-      (kind != Kind::Texture && fileLevel != level)) {
-    return damaged("holds another kind or level");
+      (kind != Kind::Texture && fileLevel != level) || filePart != part) {
+    return damaged("holds another kind, level or part");
   }
-  if (payloadBytes != bytes.size() - kHeaderBytes - 4) return damaged("size mismatch");
-  std::uint32_t stored = 0;
-  std::memcpy(&stored, bytes.data() + bytes.size() - 4, 4);
-  if (crc32(bytes.first(bytes.size() - 4)) != stored) return damaged("checksum mismatch");
-  payload = bytes.subspan(kHeaderBytes, static_cast<std::size_t>(payloadBytes));
+  if (payloadBytes != payloadEnd) return damaged("size mismatch");
+  if (verify) {
+    std::uint32_t stored = 0;
+    std::memcpy(&stored, bytes.data() + bytes.size() - 4, 4);
+    // RSS bound: the check reads every page; release them every 64 MB (chunk starts stay
+    // page-aligned), not only at the end, or a leaf level's file would be resident whole.
+    constexpr std::size_t kChunk = std::size_t{64} << 20;
+    const auto checked = bytes.first(bytes.size() - 4);
+    std::uint32_t crc = 0;
+    for (std::size_t at = 0; at < checked.size(); at += kChunk) {
+      const std::size_t n = std::min(kChunk, checked.size() - at);
+      crc = crc32(checked.subspan(at, n), crc);
+      ::madvise(const_cast<std::byte*>(checked.data() + at), n, MADV_DONTNEED);  // NOLINT
+    }
+    if (crc != stored) return damaged("checksum mismatch");
+  }
+  payload = bytes.first(payloadEnd);
   return mapped;
 }
 
-void Checkpoint::removeFile(Kind kind, int level) const {
+void Checkpoint::removeFile(Kind kind, int level, std::uint32_t parts) const {
   std::error_code ec;
-  fs::remove(file(kind, level), ec);
+  for (std::uint32_t part = 0; part < parts; ++part) fs::remove(file(kind, level, part), ec);
 }
 
 std::optional<std::string> fingerprintMismatch(

@@ -1,16 +1,124 @@
 // Resampling of the DEM onto the cube-map lattice and bucketing of the source samples
-// (SampleGrid.h). Parallel over rows with TBB; every value depends only on its own inputs, so
-// the result is the same for any thread count.
+// (SampleGrid.h), in memory or into files read back through mappings. Parallel over rows with
+// TBB; every value depends only on its own inputs, so the result is the same for any thread or
+// process count.
 #include "pbdam/builder/SampleGrid.h"
 
+#include <fcntl.h>
+#include <sys/mman.h>
 #include <tbb/parallel_for.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <mutex>
 
 namespace pbdam::builder {
+
+static_assert(sizeof(SourceSample) == 12, "bucket files store SourceSample as three floats");
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr std::array<char, 8> kSamplesMagic = {'P', 'B', 'D', 'A', 'M', 'S', 'M', 'P'};
+constexpr std::uint32_t kSamplesVersion = 1;
+constexpr std::size_t kSamplesHeaderBytes = 32;  // magic, version, buckets per side, count
+
+Error ioError(const fs::path& path, const std::string& what) {
+  return makeError(ErrorCode::IoError,
+                   path.string() + ": " + what + " (" + std::strerror(errno) + ")");
+}
+
+/// Resamples lattice row j of `face` into `out` ((N+1) heights); returns its no-data count.
+std::uint64_t resampleRow(const HeightGrid& dem, const Planet& planet, const Lattice& lattice,
+                          int face, std::size_t j, float* out) {
+  const std::size_t n1 = std::size_t{lattice.sideCells()} + 1;
+  std::uint64_t missing = 0;
+  for (std::size_t i = 0; i < n1; ++i) {
+    // Shared edge/corner points are computed from their canonical direction, so every face
+    // stores the same value.
+    const glm::dvec3 d = lattice.direction(
+        face, LatticeXY{static_cast<std::int32_t>(i), static_cast<std::int32_t>(j)});
+    const GeodeticPosition g = planet.directionToGeodetic(d);
+    auto h = dem.sampleBicubic(g.latDegrees, g.lonDegrees);
+    if (!h) h = dem.sampleBilinear(g.latDegrees, g.lonDegrees);
+    if (!h) ++missing;
+    out[i] = h ? static_cast<float>(*h) : 0.0f;
+  }
+  return missing;
+}
+
+/// Where a valid DEM sample goes: its face, its bucket (face-major global index) and itself.
+struct Placed {
+  std::uint32_t bucket = 0;  // UINT32_MAX: not a valid sample
+  SourceSample sample;
+};
+
+/// Places DEM sample (row, col) (see Placed).
+Placed place(const HeightGrid& dem, const Planet& planet, double n, std::uint32_t bucketCells,
+             std::uint32_t bucketsPerSide, std::size_t row, std::size_t col) {
+  Placed p;
+  p.bucket = std::numeric_limits<std::uint32_t>::max();
+  const double lat = dem.latOfRowDegrees(static_cast<std::int64_t>(row));
+  const float value = dem.at(static_cast<std::int64_t>(row), static_cast<std::int64_t>(col));
+  if (std::isnan(value) || lat < -90.0 || lat > 90.0) return p;
+  const double lon = dem.lonOfColumnDegrees(static_cast<std::int64_t>(col));
+  const glm::dvec3 d = planet.geodeticToDirection(lat, lon);
+  const FaceUv fuv = CubeMap::directionToFaceUv(d);
+  const double last = static_cast<double>(bucketsPerSide - 1);
+  const double bx = std::clamp(std::floor(fuv.uv.x * n / bucketCells), 0.0, last);
+  const double by = std::clamp(std::floor(fuv.uv.y * n / bucketCells), 0.0, last);
+  const auto face = static_cast<std::uint32_t>(cubeFaceIndex(fuv.face));
+  p.bucket = (face * bucketsPerSide + static_cast<std::uint32_t>(by)) * bucketsPerSide +
+             static_cast<std::uint32_t>(bx);
+  p.sample = SourceSample{static_cast<float>(fuv.uv.x), static_cast<float>(fuv.uv.y), value};
+  return p;
+}
+
+std::uint32_t bucketsPerSideOf(const Lattice& lattice, std::uint32_t bucketCells) {
+  const std::uint32_t cells =
+      std::max<std::uint32_t>(1, std::min(bucketCells, lattice.sideCells()));
+  return lattice.sideCells() / cells;
+}
+
+/// A writable shared mapping of a file, unmapped on destruction.
+class WritableMapping final {
+ public:
+  WritableMapping() = default;
+  WritableMapping(const WritableMapping&) = delete;
+  WritableMapping& operator=(const WritableMapping&) = delete;
+  ~WritableMapping() {
+    if (data_ != nullptr) ::munmap(data_, size_);
+  }
+  Result<void> open(int fd, std::size_t size, const fs::path& path) {
+    void* p = ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+    if (p == MAP_FAILED) return ioError(path, "cannot map for writing");
+    data_ = static_cast<std::byte*>(p);
+    size_ = size;
+    return {};
+  }
+  std::byte* data() const noexcept { return data_; }
+  /// Drops the page-table entries; the written pages stay (dirty) in the page cache.
+  void releaseResident() const noexcept {
+    if (data_ != nullptr) ::madvise(data_, size_, MADV_DONTNEED);
+  }
+  Result<void> sync(const fs::path& path) const {
+    if (data_ != nullptr && ::msync(data_, size_, MS_SYNC) != 0)
+      return ioError(path, "msync failed");
+    return {};
+  }
+
+ private:
+  std::byte* data_ = nullptr;
+  std::size_t size_ = 0;
+};
+
+}  // namespace
 
 glm::dvec3 SampleGrid::terrainPoint(const glm::dvec3& direction,
                                     double heightMeters) const noexcept {
@@ -32,119 +140,271 @@ glm::dvec3 SampleGrid::surfaceNormal(int face, LatticeXY p) const noexcept {
   return planet_.surfaceNormal(g.latDegrees, g.lonDegrees);
 }
 
-std::span<const SourceSample> SampleGrid::bucket(int face, std::uint32_t bx,
-                                                 std::uint32_t by) const noexcept {
-  const auto& start = bucketStart_[static_cast<std::size_t>(face)];
-  const std::size_t b = static_cast<std::size_t>(by) * bucketsPerSide_ + bx;
-  const auto& s = samples_[static_cast<std::size_t>(face)];
-  return {s.data() + start[b], s.data() + start[b + 1]};
+std::size_t SampleGrid::sourceSampleCount() const noexcept {
+  const std::size_t buckets = 6 * std::size_t{bucketsPerSide_} * bucketsPerSide_;
+  std::size_t n = 0;
+  for (const BucketTable& t : tables_) n += static_cast<std::size_t>(t.start[buckets]);
+  return n;
 }
 
-std::size_t SampleGrid::sourceSampleCount() const noexcept {
-  std::size_t n = 0;
-  for (const auto& s : samples_) n += s.size();
-  return n;
+void SampleGrid::releaseResident() const noexcept {
+  (void)heightsMapping_.releaseResident();
+  for (const MappedFile& m : samplesMappings_) (void)m.releaseResident();
 }
 
 SampleGrid SampleGrid::build(const HeightGrid& dem, const Planet& planet, const Lattice& lattice,
                              std::uint32_t bucketCells,
-                             const std::function<void(std::size_t, std::size_t)>& progress,
-                             const RowShare* share) {
+                             const std::function<void(std::size_t, std::size_t)>& progress) {
   SampleGrid grid(lattice, planet);
   const std::uint32_t n = lattice.sideCells();
   const std::size_t n1 = static_cast<std::size_t>(n) + 1;
-  grid.heights_.assign(6, std::vector<float>(n1 * n1, 0.0f));
+  grid.heights_.assign(6 * n1 * n1, 0.0f);
+  for (std::size_t face = 0; face < 6; ++face) {
+    grid.faceHeights_[face] = grid.heights_.data() + face * n1 * n1;
+  }
   std::atomic<std::uint64_t> noData{0};
 
-  // 1. Heights at lattice points. Shared edge/corner points are computed from their canonical
-  // direction, so every face stores the same value.
-  const std::size_t totalRows = 6 * n1;
-  const std::size_t beginRow = share ? share->beginRow : 0;
-  const std::size_t endRow = share ? share->endRow : totalRows;
+  // 1. Heights at lattice points.
   std::atomic<std::size_t> rowsDone{0};
   for (int face = 0; face < 6; ++face) {
-    auto& heights = grid.heights_[static_cast<std::size_t>(face)];
-    const std::size_t faceRow = static_cast<std::size_t>(face) * n1;
-    const std::size_t j0 = std::clamp(beginRow, faceRow, faceRow + n1) - faceRow;
-    const std::size_t j1 = std::clamp(endRow, faceRow, faceRow + n1) - faceRow;
-    if (j0 >= j1) continue;
-    tbb::parallel_for(j0, j1, [&](std::size_t j) {
-      std::uint64_t missing = 0;
-      for (std::size_t i = 0; i < n1; ++i) {
-        const glm::dvec3 d = lattice.direction(
-            face, LatticeXY{static_cast<std::int32_t>(i), static_cast<std::int32_t>(j)});
-        const GeodeticPosition g = planet.directionToGeodetic(d);
-        auto h = dem.sampleBicubic(g.latDegrees, g.lonDegrees);
-        if (!h) h = dem.sampleBilinear(g.latDegrees, g.lonDegrees);
-        if (!h) ++missing;
-        heights[j * n1 + i] = h ? static_cast<float>(*h) : 0.0f;
-      }
-      noData += missing;
+    float* heights = grid.heights_.data() + static_cast<std::size_t>(face) * n1 * n1;
+    tbb::parallel_for(std::size_t{0}, n1, [&](std::size_t j) {
+      noData += resampleRow(dem, planet, lattice, face, j, heights + j * n1);
       ++rowsDone;
     });
-    if (progress) progress(rowsDone.load(), endRow - beginRow);
+    if (progress) progress(rowsDone.load(), 6 * n1);
   }
   grid.noDataPoints_ = noData.load();
-  if (share && share->exchange) share->exchange(grid.heights_, grid.noDataPoints_);
-  float lo = std::numeric_limits<float>::infinity();
-  float hi = -std::numeric_limits<float>::infinity();
-  for (const auto& heights : grid.heights_) {
-    const auto [mn, mx] = std::minmax_element(heights.begin(), heights.end());
-    lo = std::min(lo, *mn);
-    hi = std::max(hi, *mx);
-  }
-  grid.minHeight_ = lo;
-  grid.maxHeight_ = hi;
+  const auto [mn, mx] = std::minmax_element(grid.heights_.begin(), grid.heights_.end());
+  grid.minHeight_ = *mn;
+  grid.maxHeight_ = *mx;
 
-  // 2. Source samples bucketed per face (counting sort: deterministic order within buckets).
+  // 2. Source samples bucketed (counting sort: deterministic order within buckets).
   grid.bucketCells_ = std::max<std::uint32_t>(1, std::min(bucketCells, n));
-  grid.bucketsPerSide_ = n / grid.bucketCells_;
-  const std::size_t buckets = static_cast<std::size_t>(grid.bucketsPerSide_) * grid.bucketsPerSide_;
+  grid.bucketsPerSide_ = bucketsPerSideOf(lattice, bucketCells);
+  const std::size_t buckets =
+      6 * static_cast<std::size_t>(grid.bucketsPerSide_) * grid.bucketsPerSide_;
   const auto w = static_cast<std::size_t>(dem.width());
   const auto h = static_cast<std::size_t>(dem.height());
-  struct Placed {
-    std::uint8_t face;
-    std::uint32_t bucket;
-    SourceSample sample;
-  };
   std::vector<Placed> placed(w * h);
-  std::vector<std::uint8_t> valid(w * h, 0);
-  const double nd = static_cast<double>(n);
-  const double bpsMinus1 = static_cast<double>(grid.bucketsPerSide_ - 1);
   tbb::parallel_for(std::size_t{0}, h, [&](std::size_t row) {
-    const double lat = dem.latOfRowDegrees(static_cast<std::int64_t>(row));
     for (std::size_t col = 0; col < w; ++col) {
-      const float value = dem.at(static_cast<std::int64_t>(row), static_cast<std::int64_t>(col));
-      if (std::isnan(value) || lat < -90.0 || lat > 90.0) continue;
-      const double lon = dem.lonOfColumnDegrees(static_cast<std::int64_t>(col));
-      const glm::dvec3 d = planet.geodeticToDirection(lat, lon);
-      const FaceUv fuv = CubeMap::directionToFaceUv(d);
-      const double bx = std::clamp(std::floor(fuv.uv.x * nd / grid.bucketCells_), 0.0, bpsMinus1);
-      const double by = std::clamp(std::floor(fuv.uv.y * nd / grid.bucketCells_), 0.0, bpsMinus1);
-      Placed& p = placed[row * w + col];
-      p.face = static_cast<std::uint8_t>(cubeFaceIndex(fuv.face));
-      p.bucket =
-          static_cast<std::uint32_t>(by) * grid.bucketsPerSide_ + static_cast<std::uint32_t>(bx);
-      p.sample = SourceSample{static_cast<float>(fuv.uv.x), static_cast<float>(fuv.uv.y), value};
-      valid[row * w + col] = 1;
+      placed[row * w + col] = place(dem, planet, static_cast<double>(n), grid.bucketCells_,
+                                    grid.bucketsPerSide_, row, col);
     }
   });
-  grid.bucketStart_.assign(6, std::vector<std::uint32_t>(buckets + 1, 0));
-  grid.samples_.assign(6, {});
-  for (std::size_t k = 0; k < placed.size(); ++k) {
-    if (valid[k] == 0) continue;
-    ++grid.bucketStart_[placed[k].face][placed[k].bucket + 1];
+  constexpr auto kInvalid = std::numeric_limits<std::uint32_t>::max();
+  grid.bucketStart_.assign(buckets + 1, 0);
+  for (const Placed& p : placed) {
+    if (p.bucket != kInvalid) ++grid.bucketStart_[p.bucket + 1];
   }
-  for (int face = 0; face < 6; ++face) {
-    auto& start = grid.bucketStart_[static_cast<std::size_t>(face)];
-    for (std::size_t b = 0; b < buckets; ++b) start[b + 1] += start[b];
-    grid.samples_[static_cast<std::size_t>(face)].resize(start[buckets]);
+  for (std::size_t b = 0; b < buckets; ++b) grid.bucketStart_[b + 1] += grid.bucketStart_[b];
+  grid.samples_.resize(static_cast<std::size_t>(grid.bucketStart_[buckets]));
+  std::vector<std::uint64_t> cursor(grid.bucketStart_.begin(), grid.bucketStart_.end() - 1);
+  for (const Placed& p : placed) {
+    if (p.bucket != kInvalid) grid.samples_[cursor[p.bucket]++] = p.sample;
   }
-  std::vector<std::vector<std::uint32_t>> cursor = grid.bucketStart_;
-  for (std::size_t k = 0; k < placed.size(); ++k) {
-    if (valid[k] == 0) continue;
-    const Placed& p = placed[k];
-    grid.samples_[p.face][cursor[p.face][p.bucket]++] = p.sample;
+  grid.tables_.push_back(BucketTable{grid.bucketStart_.data(), grid.samples_.data()});
+  return grid;
+}
+
+Result<HeightRowStats> SampleGrid::writeHeightRows(
+    const HeightGrid& dem, const Planet& planet, const Lattice& lattice,
+    const fs::path& heightsFile, std::size_t beginRow, std::size_t endRow,
+    const std::function<void(std::size_t, std::size_t)>& progress) {
+  const std::size_t n1 = std::size_t{lattice.sideCells()} + 1;
+  const int fd = ::open(heightsFile.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) return ioError(heightsFile, "cannot open for writing");
+  std::atomic<std::uint64_t> noData{0};
+  std::atomic<std::size_t> rowsDone{0};
+  std::atomic<int> writeErrno{0};
+  std::mutex statsMutex;
+  HeightRowStats stats;
+  stats.minHeightMeters = std::numeric_limits<float>::infinity();
+  stats.maxHeightMeters = -std::numeric_limits<float>::infinity();
+  // Chunks of rows, so that progress is reported from the calling thread as they finish.
+  const std::size_t chunk = 256;
+  for (std::size_t first = beginRow; first < endRow; first += chunk) {
+    const std::size_t last = std::min(endRow, first + chunk);
+    tbb::parallel_for(first, last, [&](std::size_t row) {
+      std::vector<float> heights(n1);
+      const auto face = static_cast<int>(row / n1);
+      noData += resampleRow(dem, planet, lattice, face, row % n1, heights.data());
+      const auto [mn, mx] = std::minmax_element(heights.begin(), heights.end());
+      {
+        std::lock_guard lock(statsMutex);
+        stats.minHeightMeters = std::min(stats.minHeightMeters, *mn);
+        stats.maxHeightMeters = std::max(stats.maxHeightMeters, *mx);
+      }
+      const auto* bytes = reinterpret_cast<const char*>(heights.data());
+      std::size_t done = 0;
+      const std::size_t size = n1 * sizeof(float);
+      const auto offset = static_cast<off_t>(row * size);
+      while (done < size) {
+        const ssize_t k =
+            ::pwrite(fd, bytes + done, size - done, offset + static_cast<off_t>(done));
+        if (k < 0 && errno == EINTR) continue;
+        if (k <= 0) {
+          writeErrno = errno == 0 ? EIO : errno;
+          break;
+        }
+        done += static_cast<std::size_t>(k);
+      }
+      ++rowsDone;
+    });
+    if (writeErrno != 0) break;
+    if (progress) progress(rowsDone.load(), endRow - beginRow);
+  }
+  if (writeErrno != 0) {
+    ::close(fd);
+    errno = writeErrno;
+    return ioError(heightsFile, "write failed");
+  }
+  if (::fsync(fd) != 0) {
+    ::close(fd);
+    return ioError(heightsFile, "fsync failed");
+  }
+  if (::close(fd) != 0) return ioError(heightsFile, "close failed");
+  stats.noDataPoints = noData.load();
+  return stats;
+}
+
+Result<void> SampleGrid::writeSourceBuckets(const HeightGrid& dem, const Planet& planet,
+                                            const Lattice& lattice, std::uint32_t bucketCells,
+                                            const fs::path& samplesFile, std::size_t beginRow,
+                                            std::size_t endRow) {
+  const std::uint32_t cells =
+      std::max<std::uint32_t>(1, std::min(bucketCells, lattice.sideCells()));
+  const std::uint32_t perSide = bucketsPerSideOf(lattice, bucketCells);
+  const std::size_t buckets = 6 * static_cast<std::size_t>(perSide) * perSide;
+  const double n = static_cast<double>(lattice.sideCells());
+  const auto w = static_cast<std::size_t>(dem.width());
+  constexpr auto kInvalid = std::numeric_limits<std::uint32_t>::max();
+  // Rows per chunk: about 4 M samples (64 MB of placements) at a time.
+  const std::size_t chunkRows =
+      std::max<std::size_t>(1, (std::size_t{1} << 22) / std::max<std::size_t>(w, 1));
+
+  // Pass 1: count per bucket.
+  std::vector<std::atomic<std::uint64_t>> counts(buckets);
+  tbb::parallel_for(beginRow, endRow, [&](std::size_t row) {
+    for (std::size_t col = 0; col < w; ++col) {
+      const Placed p = place(dem, planet, n, cells, perSide, row, col);
+      if (p.bucket != kInvalid) counts[p.bucket].fetch_add(1, std::memory_order_relaxed);
+    }
+  });
+  std::vector<std::uint64_t> start(buckets + 1, 0);
+  for (std::size_t b = 0; b < buckets; ++b) start[b + 1] = start[b] + counts[b].load();
+  std::vector<std::atomic<std::uint64_t>>().swap(counts);
+  const std::uint64_t total = start[buckets];
+
+  // The file: header, CSR offsets, samples; written through a temporary name.
+  const std::size_t startBytes = (buckets + 1) * sizeof(std::uint64_t);
+  const std::size_t fileBytes =
+      kSamplesHeaderBytes + startBytes + static_cast<std::size_t>(total) * sizeof(SourceSample);
+  std::string tmpName = ".";
+  tmpName += samplesFile.filename().string();
+  tmpName += ".tmp";
+  const fs::path tmp = samplesFile.parent_path() / tmpName;
+  const int fd = ::open(tmp.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return ioError(tmp, "cannot create");
+  if (::ftruncate(fd, static_cast<off_t>(fileBytes)) != 0) {
+    ::close(fd);
+    return ioError(tmp, "cannot size");
+  }
+  WritableMapping map;
+  if (auto r = map.open(fd, fileBytes, tmp); !r) {
+    ::close(fd);
+    return r;
+  }
+  std::byte* at = map.data();
+  std::memcpy(at, kSamplesMagic.data(), 8);
+  std::memcpy(at + 8, &kSamplesVersion, 4);
+  std::memcpy(at + 12, &perSide, 4);
+  std::memcpy(at + 16, &total, 8);
+  std::memcpy(at + kSamplesHeaderBytes, start.data(), startBytes);
+  auto* samples = reinterpret_cast<SourceSample*>(at + kSamplesHeaderBytes + startBytes);
+
+  // Pass 2: place chunk by chunk (in parallel), scatter in row order (stable).
+  std::vector<std::uint64_t> cursor(start.begin(), start.end() - 1);
+  start = {};
+  std::vector<Placed> placed;
+  for (std::size_t first = beginRow; first < endRow; first += chunkRows) {
+    const std::size_t last = std::min(endRow, first + chunkRows);
+    placed.resize((last - first) * w);
+    tbb::parallel_for(first, last, [&](std::size_t row) {
+      for (std::size_t col = 0; col < w; ++col) {
+        placed[(row - first) * w + col] = place(dem, planet, n, cells, perSide, row, col);
+      }
+    });
+    for (const Placed& p : placed) {
+      if (p.bucket != kInvalid) samples[cursor[p.bucket]++] = p.sample;
+    }
+    map.releaseResident();  // RSS bound: the written pages live on in the page cache
+  }
+  auto synced = map.sync(tmp);
+  if (::close(fd) != 0 && synced) synced = ioError(tmp, "close failed");
+  if (!synced) return synced;
+  std::error_code ec;
+  fs::rename(tmp, samplesFile, ec);
+  if (ec) {
+    return makeError(ErrorCode::IoError,
+                     samplesFile.string() + ": rename failed (" + ec.message() + ")");
+  }
+  return {};
+}
+
+Result<SampleGrid> SampleGrid::open(const Lattice& lattice, const Planet& planet,
+                                    const fs::path& heightsFile,
+                                    const std::vector<fs::path>& samplesFiles,
+                                    std::uint32_t bucketCells, const HeightRowStats& stats) {
+  SampleGrid grid(lattice, planet);
+  const std::size_t n1 = std::size_t{lattice.sideCells()} + 1;
+  auto heights = MappedFile::open(heightsFile);
+  if (!heights) return std::move(heights).error();
+  if (heights->size() != 6 * n1 * n1 * sizeof(float)) {
+    return makeError(ErrorCode::CorruptData,
+                     heightsFile.string() + ": " + std::to_string(heights->size()) +
+                         " bytes, expected " + std::to_string(6 * n1 * n1 * sizeof(float)));
+  }
+  grid.heightsMapping_ = std::move(heights).value();
+  const auto* base = reinterpret_cast<const float*>(grid.heightsMapping_.bytes().data());
+  for (std::size_t face = 0; face < 6; ++face) grid.faceHeights_[face] = base + face * n1 * n1;
+  grid.noDataPoints_ = stats.noDataPoints;
+  grid.minHeight_ = stats.minHeightMeters;
+  grid.maxHeight_ = stats.maxHeightMeters;
+
+  grid.bucketCells_ = std::max<std::uint32_t>(1, std::min(bucketCells, lattice.sideCells()));
+  grid.bucketsPerSide_ = bucketsPerSideOf(lattice, bucketCells);
+  const std::size_t buckets =
+      6 * static_cast<std::size_t>(grid.bucketsPerSide_) * grid.bucketsPerSide_;
+  const std::size_t startBytes = (buckets + 1) * sizeof(std::uint64_t);
+  for (const fs::path& path : samplesFiles) {
+    auto mapped = MappedFile::open(path);
+    if (!mapped) return std::move(mapped).error();
+    const auto bytes = mapped->bytes();
+    auto damaged = [&](const std::string& what) {
+      return makeError(ErrorCode::CorruptData, path.string() + ": " + what);
+    };
+    if (bytes.size() < kSamplesHeaderBytes + startBytes) return damaged("truncated bucket file");
+    std::uint32_t version = 0;
+    std::uint32_t perSide = 0;
+    std::uint64_t total = 0;
+    std::memcpy(&version, bytes.data() + 8, 4);
+    std::memcpy(&perSide, bytes.data() + 12, 4);
+    std::memcpy(&total, bytes.data() + 16, 8);
+    if (std::memcmp(bytes.data(), kSamplesMagic.data(), 8) != 0 || version != kSamplesVersion ||
+        perSide != grid.bucketsPerSide_) {
+      return damaged("not a bucket file of this lattice");
+    }
+    if (bytes.size() != kSamplesHeaderBytes + startBytes + total * sizeof(SourceSample)) {
+      return damaged("size mismatch");
+    }
+    BucketTable table;
+    table.start = reinterpret_cast<const std::uint64_t*>(bytes.data() + kSamplesHeaderBytes);
+    table.samples =
+        reinterpret_cast<const SourceSample*>(bytes.data() + kSamplesHeaderBytes + startBytes);
+    grid.tables_.push_back(table);
+    grid.samplesMappings_.push_back(std::move(mapped).value());
   }
   return grid;
 }

@@ -1,15 +1,17 @@
 // Build checkpoints (docs/builder.md "Checkpoints"): after each completed bintree level the build
 // keeps that level's node records and patch blobs and the state the next level needs in
-// OUT/.build-checkpoint/, so that `pbdam build --resume` restarts after the last completed level
-// and still writes identical bytes. Also the exact byte serialisation used both for these files
-// and for the MPI exchanges between levels. Thread-safety: plain values and functions; a
-// Checkpoint is used by rank 0's build thread only.
+// OUT/.build-checkpoint/ — one part file per rank, streamed while the rank works — so that
+// `pbdam build --resume` restarts after the last completed level and still writes identical
+// bytes. The same files are how the ranks hand a level's patches to the next level and how the
+// build keeps them out of memory. Also the exact byte serialisation used in these files and in
+// the MPI exchanges. Thread-safety: plain values and functions; a writer belongs to one thread.
 #pragma once
 
 #include <bit>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <span>
 #include <string>
@@ -81,6 +83,37 @@ class ByteReader final {
   bool failed_ = false;
 };
 
+/// Writes one file through a temporary name in the same directory (design.md §6): bytes are
+/// appended (buffered), finish() fsyncs and renames. Destroyed unfinished, it removes the
+/// temporary. Keeps the CRC-32 of everything appended.
+class AtomicFileWriter final {
+ public:
+  static Result<AtomicFileWriter> create(const std::filesystem::path& path);
+  AtomicFileWriter() = default;
+  AtomicFileWriter(AtomicFileWriter&& other) noexcept;
+  AtomicFileWriter& operator=(AtomicFileWriter&& other) noexcept;
+  AtomicFileWriter(const AtomicFileWriter&) = delete;
+  AtomicFileWriter& operator=(const AtomicFileWriter&) = delete;
+  ~AtomicFileWriter();
+
+  Result<void> append(std::span<const std::byte> bytes);
+  /// Bytes appended so far.
+  std::uint64_t size() const noexcept { return size_; }
+  std::uint32_t crc() const noexcept { return crc_; }
+  /// Flushes, fsyncs, closes and renames the temporary to the path.
+  Result<void> finish();
+
+ private:
+  Result<void> flush();
+  void abandon() noexcept;
+  std::filesystem::path path_;
+  std::filesystem::path tmp_;
+  int fd_ = -1;
+  std::vector<std::byte> buffer_;
+  std::uint64_t size_ = 0;
+  std::uint32_t crc_ = 0;
+};
+
 /// Writes `chunks` to `path` through a temporary file in the same directory, fsync and rename
 /// (design.md §6); `crc` receives the CRC-32 of the whole file.
 Result<void> writeFileAtomically(const std::filesystem::path& path,
@@ -97,6 +130,10 @@ struct CheckpointState final {
   /// complete from the leaves (depth) towards the roots (0).
   std::optional<int> completeLevel;
   bool textureComplete = false;
+  /// The number of part files (the rank count that wrote them) of each complete level and of
+  /// the textures.
+  std::map<int, std::uint32_t> levelParts;
+  std::uint32_t textureParts = 0;
 };
 
 /// The checkpoint directory OUT/.build-checkpoint and its files.
@@ -116,17 +153,40 @@ class Checkpoint final {
   /// Removes the directory and everything in it, then (with `recreate`) makes it empty.
   Result<void> reset(bool recreate) const;
 
-  /// Path of the file of `kind` for `level` (level is ignored for Texture).
-  std::filesystem::path file(Kind kind, int level) const;
-  /// Writes a checkpoint file atomically: header (magic, kind, level, payload size), the
-  /// payload pieces, CRC-32 trailer.
-  Result<void> writeFile(Kind kind, int level,
-                         const std::vector<std::span<const std::byte>>& payload) const;
-  /// Maps a checkpoint file and checks its header and CRC; `payload` is its payload inside
-  /// the returned mapping.
-  Result<MappedFile> openFile(Kind kind, int level, std::span<const std::byte>& payload) const;
-  /// Removes one file (missing is fine).
-  void removeFile(Kind kind, int level) const;
+  /// Path of part `part` of the file of `kind` for `level` (level is ignored for Texture),
+  /// e.g. level-03.part-1.nodes.
+  std::filesystem::path file(Kind kind, int level, std::uint32_t part = 0) const;
+  /// The resampled lattice heights (SampleGrid::writeHeightRows) and the bucketed source samples
+  /// of DEM row range `part` (SampleGrid::writeSourceBuckets).
+  std::filesystem::path heightsFile() const { return dir_ / "heights.f32"; }
+  std::filesystem::path samplesFile(std::uint32_t part) const;
+
+  /// Streams part `part` of `parts` of a checkpoint file: payload appended in pieces, then a
+  /// trailer (magic, kind, level, part, parts, payload size) and the CRC-32 of all of it.
+  class PartWriter final {
+   public:
+    PartWriter() = default;
+    Result<void> append(std::span<const std::byte> bytes) { return file_.append(bytes); }
+    /// Payload bytes so far (the offset of the next append).
+    std::uint64_t size() const noexcept { return file_.size(); }
+    Result<void> finish();
+
+   private:
+    friend class Checkpoint;
+    AtomicFileWriter file_;
+    Kind kind_ = Kind::Nodes;
+    int level_ = 0;
+    std::uint32_t part_ = 0;
+    std::uint32_t parts_ = 1;
+  };
+  Result<PartWriter> startFile(Kind kind, int level, std::uint32_t part, std::uint32_t parts) const;
+  /// Maps a part file and checks its trailer (and, with `verify`, its CRC: a read of the whole
+  /// file, after which its pages are released from this process); `payload` is its payload
+  /// inside the returned mapping.
+  Result<MappedFile> openFile(Kind kind, int level, std::uint32_t part,
+                              std::span<const std::byte>& payload, bool verify = true) const;
+  /// Removes every part of one file (missing is fine).
+  void removeFile(Kind kind, int level, std::uint32_t parts) const;
 
  private:
   std::filesystem::path dir_;

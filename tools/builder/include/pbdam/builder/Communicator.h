@@ -1,8 +1,9 @@
 // The processes of a build and the few collective operations the distributed build needs
 // (paper 004 §5 "independent simplify" between per-level synchronisations; docs/builder.md
 // "Distributed build"). One process is the LocalCommunicator; `mpirun -np N pbdam build` gets an
-// MPI implementation (tools/mpi). The builder only ever exchanges opaque byte buffers, so it
-// does not depend on MPI. Thread-safety: call from the thread that runs the build only.
+// MPI implementation (tools/mpi). The builder only ever exchanges small opaque byte buffers
+// (outcomes, per-level statistics; the bulk data goes through shared files), so it does not
+// depend on MPI. Thread-safety: call from the thread that runs the build only.
 #pragma once
 
 #include <cstddef>
@@ -27,8 +28,6 @@ class Communicator {
   /// Collective: every rank's bytes, in rank order, on every rank (this rank's own buffer is
   /// moved into its slot, not copied). Any size (buffers over 1 GiB are sent in pieces).
   virtual std::vector<std::vector<std::byte>> allGather(std::vector<std::byte> mine) = 0;
-  /// Collective: every rank's bytes, in rank order, on rank 0; an empty vector elsewhere.
-  virtual std::vector<std::vector<std::byte>> gatherToRoot(std::vector<std::byte> mine) = 0;
   /// Collective: rank 0's `bytes` replace every other rank's.
   virtual void broadcast(std::vector<std::byte>& bytes) = 0;
   /// Stops every process of the job with `exitCode`; the caller has printed why. With more
@@ -47,9 +46,6 @@ class LocalCommunicator final : public Communicator {
     std::vector<std::vector<std::byte>> all(1);
     all[0] = std::move(mine);
     return all;
-  }
-  std::vector<std::vector<std::byte>> gatherToRoot(std::vector<std::byte> mine) override {
-    return allGather(std::move(mine));
   }
   void broadcast(std::vector<std::byte>&) override {}
   [[noreturn]] void abortJob(int exitCode) override;

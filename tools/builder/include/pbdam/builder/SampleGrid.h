@@ -1,13 +1,18 @@
 // The DEM resampled onto the cube-map lattice (paper 004 §5 "Data preparation and resampling"):
 // one height per lattice point of every face, terrain positions and normals derived from them,
 // and the source DEM's own samples bucketed by face cell so that patch errors can be measured
-// against the original data. Thread-safety: immutable after build(); const members are safe from
-// any thread.
+// against the original data. In memory (build()) for small users, or out of core for the builder:
+// the heights in one file written row range by row range (writeHeightRows), the bucketed
+// samples in one file per DEM row range (writeSourceBuckets), both read through read-only
+// mappings (open()), so that the page cache holds them once per machine. Thread-safety:
+// immutable after build()/open(); const members are safe from any thread.
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
@@ -16,7 +21,9 @@
 
 #include "pbdam/builder/Lattice.h"
 #include "pbdam/formats/HeightGrid.h"
+#include "pbdam/formats/Result.h"
 #include "pbdam/runtime/Planet.h"
+#include "pbdam/streaming/MappedFile.h"
 
 namespace pbdam::builder {
 
@@ -27,29 +34,55 @@ struct SourceSample final {
   float heightMeters = 0.0f;
 };
 
-/// A share of the resampling for a distributed build: this process resamples the lattice rows
-/// [beginRow, endRow) of the 6·(N+1) rows (face-major: row r is row r mod (N+1) of face
-/// r / (N+1)); `exchange(heights, noDataPoints)` then receives the per-face height arrays with
-/// those rows filled and this process's no-data count, and must fill in every other row and
-/// make the count the total (docs/builder.md "Distributed build").
-struct RowShare final {
-  std::size_t beginRow = 0;
-  std::size_t endRow = 0;
-  std::function<void(std::vector<std::vector<float>>& heights, std::uint64_t& noDataPoints)>
-      exchange;
+/// What writeHeightRows found in its rows.
+struct HeightRowStats final {
+  std::uint64_t noDataPoints = 0;
+  float minHeightMeters = 0.0f;  ///< +inf / -inf when the range was empty
+  float maxHeightMeters = 0.0f;
 };
 
 class SampleGrid final {
  public:
   /// Resamples `dem` (bicubic, bilinear where bicubic lacks data, 0 m where the DEM has none) at
   /// every lattice point of every face, in parallel, and buckets the DEM's valid samples into
-  /// `bucketCells`-sized squares of each face. `progress(done, total)` is called from the calling
-  /// thread only. With `share`, only its rows are resampled here and the rest come from its
-  /// exchange; every value depends only on its own inputs, so the grid is the same either way.
+  /// `bucketCells`-sized squares of each face, all in memory. `progress(done, total)` is called
+  /// from the calling thread only.
   static SampleGrid build(const HeightGrid& dem, const Planet& planet, const Lattice& lattice,
                           std::uint32_t bucketCells,
-                          const std::function<void(std::size_t, std::size_t)>& progress = {},
-                          const RowShare* share = nullptr);
+                          const std::function<void(std::size_t, std::size_t)>& progress = {});
+
+  /// Out of core, step 1: resamples the lattice rows [beginRow, endRow) of the 6·(N+1) rows
+  /// (face-major: row r is row r mod (N+1) of face r / (N+1)) as build() does and writes them
+  /// into `heightsFile` (raw little-endian floats, face-major, rows by j, (N+1) per row; created
+  /// if missing, other rows untouched), one pwrite per row, then fsyncs. Several processes may
+  /// write disjoint row ranges of one file. Errors: I/O, naming the file.
+  static Result<HeightRowStats> writeHeightRows(
+      const HeightGrid& dem, const Planet& planet, const Lattice& lattice,
+      const std::filesystem::path& heightsFile, std::size_t beginRow, std::size_t endRow,
+      const std::function<void(std::size_t, std::size_t)>& progress = {});
+
+  /// Out of core, step 2: the valid DEM samples of the DEM rows [beginRow, endRow), bucketed
+  /// into `bucketCells`-sized squares of each face (counting sort: within a bucket in DEM row
+  /// order), written to `samplesFile` (a new file, through a temporary name). The DEM is read
+  /// twice (count, then place) in chunks, so memory stays at the bucket table plus one chunk.
+  /// Files of consecutive row ranges, read in order, visit each bucket's samples in the same
+  /// order as build()'s single table.
+  static Result<void> writeSourceBuckets(const HeightGrid& dem, const Planet& planet,
+                                         const Lattice& lattice, std::uint32_t bucketCells,
+                                         const std::filesystem::path& samplesFile,
+                                         std::size_t beginRow, std::size_t endRow);
+
+  /// Out of core, step 3: maps the complete heights file and the bucket files (in row order)
+  /// read-only. `stats` are the totals over all rows. Errors: missing, short or damaged files.
+  static Result<SampleGrid> open(const Lattice& lattice, const Planet& planet,
+                                 const std::filesystem::path& heightsFile,
+                                 const std::vector<std::filesystem::path>& samplesFiles,
+                                 std::uint32_t bucketCells, const HeightRowStats& stats);
+
+  /// Out of core: drops this process's page-table entries of the mappings (the pages stay in the
+  /// page cache; the next read is a minor fault), so that RSS counts only what was touched
+  /// since. Safe while other threads read. No-op for an in-memory grid.
+  void releaseResident() const noexcept;
 
   /// The bucket size that keeps buckets about a lattice cell wide (a patch triangle then tests
   /// only the source samples near it) while bounding the bucket table to 1024² per face.
@@ -63,8 +96,8 @@ class SampleGrid final {
   /// Height of lattice point p of `face` (equal on every face sharing the point).
   float height(int face, LatticeXY p) const noexcept {
     const auto n1 = static_cast<std::size_t>(lattice_.sideCells()) + 1;
-    return heights_[static_cast<std::size_t>(face)]
-                   [static_cast<std::size_t>(p.y) * n1 + static_cast<std::size_t>(p.x)];
+    return faceHeights_[static_cast<std::size_t>(face)]
+                       [static_cast<std::size_t>(p.y) * n1 + static_cast<std::size_t>(p.x)];
   }
   /// The terrain point (planetocentric, metres) of lattice point p: the surface point of its
   /// direction raised by its height along the surface normal. Bit-identical on every face.
@@ -74,10 +107,18 @@ class SampleGrid final {
   /// The planet's unit surface normal at lattice point p. Bit-identical on every face.
   glm::dvec3 surfaceNormal(int face, LatticeXY p) const noexcept;
 
-  /// Source samples of `face` in bucket (bx, by), bx, by in [0, bucketsPerSide()).
+  /// Source samples of `face` in bucket (bx, by), bx, by in [0, bucketsPerSide()): one span
+  /// per bucket table (one in memory; one per bucket file out of core), visited in order.
   std::uint32_t bucketsPerSide() const noexcept { return bucketsPerSide_; }
   std::uint32_t bucketCells() const noexcept { return bucketCells_; }
-  std::span<const SourceSample> bucket(int face, std::uint32_t bx, std::uint32_t by) const noexcept;
+  std::size_t bucketTables() const noexcept { return tables_.size(); }
+  std::span<const SourceSample> bucket(std::size_t table, int face, std::uint32_t bx,
+                                       std::uint32_t by) const noexcept {
+    const BucketTable& t = tables_[table];
+    const std::size_t b =
+        (static_cast<std::size_t>(face) * bucketsPerSide_ + by) * bucketsPerSide_ + bx;
+    return {t.samples + t.start[b], t.samples + t.start[b + 1]};
+  }
   std::size_t sourceSampleCount() const noexcept;
 
   /// Calls fn(l0, l1, l2, sample) for every source sample inside or on the counter-clockwise
@@ -99,14 +140,16 @@ class SampleGrid final {
     const std::uint32_t by1 = bucketOf(std::max({a.y, b.y, c.y}));
     for (std::uint32_t by = by0; by <= by1; ++by) {
       for (std::uint32_t bx = bx0; bx <= bx1; ++bx) {
-        for (const SourceSample& s : bucket(face, bx, by)) {
-          const double px = static_cast<double>(s.u);
-          const double py = static_cast<double>(s.v);
-          const double w0 = (c.x - b.x) * (py - b.y) - (c.y - b.y) * (px - b.x);
-          const double w1 = (a.x - c.x) * (py - c.y) - (a.y - c.y) * (px - c.x);
-          const double w2 = (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x);
-          if (w0 < eps || w1 < eps || w2 < eps) continue;
-          fn(w0 / total, w1 / total, w2 / total, s);
+        for (std::size_t table = 0; table < tables_.size(); ++table) {
+          for (const SourceSample& s : bucket(table, face, bx, by)) {
+            const double px = static_cast<double>(s.u);
+            const double py = static_cast<double>(s.v);
+            const double w0 = (c.x - b.x) * (py - b.y) - (c.y - b.y) * (px - b.x);
+            const double w1 = (a.x - c.x) * (py - c.y) - (a.y - c.y) * (px - c.x);
+            const double w2 = (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x);
+            if (w0 < eps || w1 < eps || w2 < eps) continue;
+            fn(w0 / total, w1 / total, w2 / total, s);
+          }
         }
       }
     }
@@ -118,14 +161,26 @@ class SampleGrid final {
   float maxHeightMeters() const noexcept { return maxHeight_; }
 
  private:
+  /// One bucket-sorted sample table: CSR offsets over the 6·bucketsPerSide² buckets (face-major,
+  /// then by, bx) into its samples.
+  struct BucketTable final {
+    const std::uint64_t* start = nullptr;  // 6·B² + 1 entries
+    const SourceSample* samples = nullptr;
+  };
   SampleGrid(const Lattice& lattice, const Planet& planet) : lattice_(lattice), planet_(planet) {}
   Lattice lattice_;
   Planet planet_;
-  std::vector<std::vector<float>> heights_;  // per face, (N+1)² row-major by j
+  std::array<const float*, 6> faceHeights_{};  // per face, (N+1)² row-major by j
   std::uint32_t bucketCells_ = 1;
   std::uint32_t bucketsPerSide_ = 1;
-  std::vector<std::vector<std::uint32_t>> bucketStart_;  // per face, CSR offsets
-  std::vector<std::vector<SourceSample>> samples_;       // per face, grouped by bucket
+  std::vector<BucketTable> tables_;
+  // Storage: in memory (build()) or mapped files (open()). Moving keeps the pointers valid
+  // (vector buffers and mappings do not move).
+  std::vector<float> heights_;
+  std::vector<std::uint64_t> bucketStart_;
+  std::vector<SourceSample> samples_;
+  MappedFile heightsMapping_;
+  std::vector<MappedFile> samplesMappings_;
   std::uint64_t noDataPoints_ = 0;
   float minHeight_ = 0.0f;
   float maxHeight_ = 0.0f;
