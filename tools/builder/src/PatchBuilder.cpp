@@ -891,20 +891,23 @@ MeasuredPatch measurePatch(const SampleGrid& grid, const BinTriangle& t, const W
             std::clamp(last, static_cast<double>(bx0), static_cast<double>(bx1)));
         if (rx0 > rx1) continue;
       }
-      // Buckets of one row are consecutive in the grid's storage.
-      const SourceSample* begin = grid.bucket(t.face, rx0, by).data();
-      const std::span<const SourceSample> lastRun = grid.bucket(t.face, rx1, by);
-      const SourceSample* end = lastRun.data() + lastRun.size();
-      for (const SourceSample* sp = begin; sp != end; ++sp) {
-        const SourceSample& s = *sp;
-        const double px = static_cast<double>(s.u);
-        const double py = static_cast<double>(s.v);
-        const double w0 = (c.x - b.x) * (py - b.y) - (c.y - b.y) * (px - b.x);
-        const double w1 = (a.x - c.x) * (py - c.y) - (a.y - c.y) * (px - c.x);
-        const double w2 = (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x);
-        if (w0 < eps || w1 < eps || w2 < eps) continue;
-        const double hp = w0 / total * ha + w1 / total * hb + w2 / total * hc;
-        sampleError = std::max(sampleError, std::abs(hp - static_cast<double>(s.heightMeters)));
+      // Buckets of one row are consecutive in each bucket table (one in memory, one per bucket
+      // file out of core); the maximum does not depend on the order the tables are visited in.
+      for (std::size_t table = 0; table < grid.bucketTables(); ++table) {
+        const SourceSample* begin = grid.bucket(table, t.face, rx0, by).data();
+        const std::span<const SourceSample> lastRun = grid.bucket(table, t.face, rx1, by);
+        const SourceSample* end = lastRun.data() + lastRun.size();
+        for (const SourceSample* sp = begin; sp != end; ++sp) {
+          const SourceSample& s = *sp;
+          const double px = static_cast<double>(s.u);
+          const double py = static_cast<double>(s.v);
+          const double w0 = (c.x - b.x) * (py - b.y) - (c.y - b.y) * (px - b.x);
+          const double w1 = (a.x - c.x) * (py - c.y) - (a.y - c.y) * (px - c.x);
+          const double w2 = (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x);
+          if (w0 < eps || w1 < eps || w2 < eps) continue;
+          const double hp = w0 / total * ha + w1 / total * hb + w2 / total * hc;
+          sampleError = std::max(sampleError, std::abs(hp - static_cast<double>(s.heightMeters)));
+        }
       }
     }
   }
