@@ -18,7 +18,10 @@
 #   bench/paper_scale.sh [OUTDIR]                  (default build/paper)
 # Environment: PBDAM_DATA_DIR (default ../shared/data), PAPER_WIDTH (fractal DEM columns,
 # default 32768: 537 M source samples), PAPER_LEVELS (default 18: 16384 cells with 33-vertex
-# leaves), PAPER_CONFIGS (default "1x2 2x1"), PAPER_VERIFY (default 1).
+# leaves), PAPER_CONFIGS (default "1x2 2x1"), PAPER_VERIFY (default 1), PAPER_MIN_FREE_GB
+# (default 75: the free disk a configuration needs at assembly — heights and samples ~8 GB, node
+# parts ~32 GB, face files ~32 GB; the script refuses to start a build with less, and deletes a
+# failed build's files when it left the disk nearly full).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 "$root/scripts/setup.sh" release >/dev/null
@@ -33,13 +36,19 @@ width=${PAPER_WIDTH:-32768}
 levels=${PAPER_LEVELS:-18}
 configs=${PAPER_CONFIGS:-"1x2 2x1"}
 verify=${PAPER_VERIFY:-1}
+minFreeGb=${PAPER_MIN_FREE_GB:-75}
 asroot=()
 [ "$(id -u)" -eq 0 ] && asroot=(--allow-run-as-root)
 mkdir -p "$out"
 log="$out/paper_scale.log"
 say() { echo "$*" | tee -a "$log"; }
 
+freeGb() { df -P -B1G "$out" | awk 'NR == 2 { print $4 }'; }
 dem="$out/mola_fractal_${width}.tif"
+# bench/large_data.sh makes the same DEM (same arguments, same bytes): reuse it.
+if [ ! -f "$dem" ] && [ -f "$root/build/large/mola_fractal_${width}.tif" ]; then
+  ln -s "$root/build/large/mola_fractal_${width}.tif" "$dem"
+fi
 if [ ! -f "$dem" ]; then
   say "fractal DEM: $dem ($(date -u +%FT%TZ))"
   "$bin/bench/pbdam_fractal_dem" --dem "$mola" --out "$dem.tmp.tif" --width "$width" --seed 1
@@ -66,13 +75,25 @@ for config in $configs; do
     rm -rf "$dir"
     : >"$times"
   fi
+  if [ ${#resume[@]} -eq 0 ] && [ "$(freeGb)" -lt "$minFreeGb" ]; then
+    say "$config: only $(freeGb) GB free on $out, the build needs about $minFreeGb GB (PAPER_MIN_FREE_GB); not started"
+    exit 1
+  fi
   say "$config: $ranks rank(s) x $threads thread(s), started $(date -u +%FT%TZ), load $(cut -d' ' -f1-3 /proc/loadavg)"
   start=$(date +%s.%N)
   # Each rank under /usr/bin/time for its own peak RSS and CPU seconds; progress to the log.
   mpirun "${asroot[@]}" --oversubscribe --bind-to none -np "$ranks" \
     sh -c 'exec /usr/bin/time -f "%M %U %S" -o "$0.$OMPI_COMM_WORLD_RANK" "$@"' "$out/rss-$config" \
     "$pbdam" build --dem "$dem" --planet mars --levels "$levels" --threads "$threads" \
-    --out "$dir" "${resume[@]}" >"$out/summary-$config.txt" 2>>"$log"
+    --out "$dir" "${resume[@]}" >"$out/summary-$config.txt" 2>>"$log" || {
+    status=$?
+    say "$config: pbdam build failed (exit $status, $(date -u +%FT%TZ)); see $log"
+    if [ "$(freeGb)" -lt 2 ]; then
+      rm -rf "$dir"
+      say "$config: the disk was nearly full; removed $dir (its checkpoint too)"
+    fi
+    exit "$status"
+  }
   end=$(date +%s.%N)
   {
     awk -v a="$start" -v b="$end" 'BEGIN { printf "%.1f", b - a }'
