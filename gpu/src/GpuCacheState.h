@@ -52,8 +52,6 @@ struct GpuCache::State {
   /// Pass numbers, over every renderer of the cache.
   std::uint64_t epoch = 0;
   std::uint64_t waits = 0;
-  /// Renderers attached (TerrainRenderer::create/destroy); a private cache has at most one.
-  std::uint32_t renderers = 0;
 };
 
 }  // namespace pbdam::gpu
