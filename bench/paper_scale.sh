@@ -21,12 +21,13 @@
 # leaves), PAPER_CONFIGS (default "1x2 2x1"), PAPER_VERIFY (default 1), PAPER_MIN_FREE_GB
 # (default 75: the free disk a configuration needs at assembly — heights and samples ~8 GB, node
 # parts ~32 GB, face files ~32 GB; the script refuses to start a build with less, and deletes a
-# failed build's files when it left the disk nearly full).
+# failed build's files when it left the disk nearly full), PAPER_PBDAM (the pbdam binary to run,
+# default the release build's: a copy keeps a long run independent of rebuilds meanwhile).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 "$root/scripts/setup.sh" release >/dev/null
 bin="$root/build/release"
-pbdam="$bin/tools/pbdam"
+pbdam=${PAPER_PBDAM:-"$bin/tools/pbdam"}
 data=${PBDAM_DATA_DIR:-"$root/../shared/data"}
 mola="$data/mars/megt90n000cb.lbl"
 [ -f "$mola" ] || { echo "paper_scale.sh: $mola not found (set PBDAM_DATA_DIR)" >&2; exit 2; }
