@@ -157,10 +157,33 @@ struct ReliefSample final {
   double relief = 1.0;            // lit fraction relative to flat ground: 0 .. 1/sin(elevation)
 };
 
+// Heights and geodetic positions of every centre of a texel grid, each looked up once: a
+// texel's relief reads its four grid neighbours (Horn-style central differences over the
+// 3×3 neighbourhood's cross), so the DEM is sampled once per texel, not five times.
+struct TexelHeights final {
+  std::vector<GeodeticPosition> positions;
+  std::vector<std::optional<double>> heights;  // empty without a height function
+};
+
+TexelHeights sampleTexelHeights(const TextureSource& source, const TexelGrid& grid,
+                                bool withHeights) {
+  TexelHeights out;
+  out.positions.resize(grid.directions.size());
+  if (withHeights) out.heights.resize(grid.directions.size());
+  for (std::size_t k = 0; k < grid.directions.size(); ++k) {
+    out.positions[k] = source.planet.directionToGeodetic(grid.directions[k]);
+    if (withHeights) {
+      out.heights[k] = source.heightMeters(out.positions[k].latDegrees, out.positions[k].lonDegrees);
+    }
+  }
+  return out;
+}
+
 class ReliefSampler final {
  public:
-  explicit ReliefSampler(const TextureSource& source)
-      : source_(source),
+  ReliefSampler(const TextureSource& source, const TexelGrid& grid, const TexelHeights& heights)
+      : grid_(grid),
+        heights_(heights),
         exaggeration_(source.shading.verticalExaggeration),
         sinElevation_(std::sin(source.shading.lightElevationDegrees * kDegrees)) {
     const double azimuth = source.shading.lightAzimuthDegrees * kDegrees;
@@ -169,31 +192,21 @@ class ReliefSampler final {
                         sinElevation_);
   }
 
-  std::optional<double> heightAt(const glm::dvec3& point) const {
-    const GeodeticPosition position = source_.planet.directionToGeodetic(point);
-    return source_.heightMeters(position.latDegrees, position.lonDegrees);
-  }
-
-  // Relief of the texel centred on `surface` (geodetic lat/lon given) of ground size `spacing`.
-  ReliefSample sample(const glm::dvec3& surface, double latDegrees, double lonDegrees,
-                      double spacingMeters) const {
+  // Relief of texel (x, y) (not on the grid's outer ring) from its grid neighbours.
+  ReliefSample sample(int x, int y) const {
     ReliefSample result;
-    const std::optional<double> centre = source_.heightMeters(latDegrees, lonDegrees);
-    const LocalAxes axes = localAxes(latDegrees, lonDegrees);
-    const double half = 0.5 * spacingMeters;
-    const std::optional<double> east = heightAt(surface + half * axes.east);
-    const std::optional<double> west = heightAt(surface - half * axes.east);
-    const std::optional<double> north = heightAt(surface + half * axes.north);
-    const std::optional<double> south = heightAt(surface - half * axes.north);
-
+    const std::size_t at = grid_.index(x, y);
+    const std::optional<double>& centre = heights_.heights[at];
+    const std::array<std::size_t, 4> around = {grid_.index(x + 1, y), grid_.index(x - 1, y),
+                                               grid_.index(x, y + 1), grid_.index(x, y - 1)};
     double weightSum = 0.0;
     double weighted = 0.0;
     if (centre) {
       weighted += 0.5 * *centre;
       weightSum += 0.5;
     }
-    for (const std::optional<double>& h : {east, west, north, south}) {
-      if (h) {
+    for (const std::size_t k : around) {
+      if (const std::optional<double>& h = heights_.heights[k]) {
         weighted += 0.125 * *h;
         weightSum += 0.125;
       }
@@ -202,25 +215,67 @@ class ReliefSampler final {
     result.valid = true;
     result.tintHeightMeters = weighted / weightSum;
 
-    // Slopes over one texel; where one side has no data, the one-sided difference to the centre.
-    const auto slope = [&](const std::optional<double>& plus, const std::optional<double>& minus) {
-      if (plus && minus) return (*plus - *minus) / spacingMeters;
-      if (plus && centre) return (*plus - *centre) / half;
-      if (minus && centre) return (*centre - *minus) / half;
-      return 0.0;
+    // The height difference along each grid axis (central where both neighbours have data,
+    // else one-sided to the centre) and the ground step it spans, in the texel's east/north
+    // plane; the slope is the gradient that explains both.
+    const GeodeticPosition& position = heights_.positions[at];
+    const LocalAxes axes = localAxes(position.latDegrees, position.lonDegrees);
+    struct Difference {
+      bool valid = false;
+      glm::dvec2 step{0.0};  // east, north metres
+      double dh = 0.0;
     };
-    const double slopeEast = exaggeration_ * slope(east, west);
-    const double slopeNorth = exaggeration_ * slope(north, south);
-    const glm::dvec3 normal = glm::normalize(glm::dvec3(-slopeEast, -slopeNorth, 1.0));
+    const auto difference = [&](std::size_t plus, std::size_t minus) {
+      Difference d;
+      const std::optional<double>& hp = heights_.heights[plus];
+      const std::optional<double>& hm = heights_.heights[minus];
+      glm::dvec3 from;
+      glm::dvec3 to;
+      if (hp && hm) {
+        to = grid_.surface[plus];
+        from = grid_.surface[minus];
+        d.dh = *hp - *hm;
+      } else if (hp && centre) {
+        to = grid_.surface[plus];
+        from = grid_.surface[at];
+        d.dh = *hp - *centre;
+      } else if (hm && centre) {
+        to = grid_.surface[at];
+        from = grid_.surface[minus];
+        d.dh = *centre - *hm;
+      } else {
+        return d;
+      }
+      const glm::dvec3 step = to - from;
+      d.step = glm::dvec2(glm::dot(step, axes.east), glm::dot(step, axes.north));
+      d.valid = glm::dot(d.step, d.step) > 0.0;
+      return d;
+    };
+    const Difference du = difference(around[0], around[1]);
+    const Difference dv = difference(around[2], around[3]);
+    glm::dvec2 gradient(0.0);  // metres of height per metre east, north
+    const double det = du.step.x * dv.step.y - du.step.y * dv.step.x;
+    if (du.valid && dv.valid && det != 0.0) {
+      gradient = glm::dvec2(du.dh * dv.step.y - dv.dh * du.step.y,
+                            du.step.x * dv.dh - dv.step.x * du.dh) /
+                 det;
+    } else if (du.valid) {
+      gradient = du.step * (du.dh / glm::dot(du.step, du.step));
+    } else if (dv.valid) {
+      gradient = dv.step * (dv.dh / glm::dot(dv.step, dv.step));
+    }
+    const glm::dvec2 slope = exaggeration_ * gradient;
+    const glm::dvec3 normal = glm::normalize(glm::dvec3(-slope.x, -slope.y, 1.0));
     result.relief = std::max(0.0, glm::dot(normal, light_)) / sinElevation_;
     return result;
   }
 
  private:
-  const TextureSource& source_;
+  const TexelGrid& grid_;
+  const TexelHeights& heights_;
   double exaggeration_;
   double sinElevation_;
-  glm::dvec3 light_{0.0};
+  glm::dvec3 light_;
 };
 
 // Applies hillshading to a colour: relief 1 (flat) keeps it, darker relief scales it down,
@@ -355,29 +410,27 @@ Result<TextureTileResult> buildTextureTile(const TextureSource& source,
   result.image.borderTexels = request.borderTexels;
   result.image.data.resize(textureTileDataBytes(request.sizeTexels, TexelFormat::Rgba8));
 
-  const ReliefSampler relief(source);
-  const double reliefStrength = std::clamp(source.shading.strength, 0.0, 1.0);
   const double imageryStrength = std::clamp(source.imageryShadingStrength, 0.0, 1.0);
+  const bool wantRelief = haveHeights && (source.imagery == nullptr || imageryStrength > 0.0);
+  const TexelHeights texelHeights = sampleTexelHeights(source, grid, haveHeights);
+  const ReliefSampler relief(source, grid, texelHeights);
+  const double reliefStrength = std::clamp(source.shading.strength, 0.0, 1.0);
   const ImagePixelSize pixel =
       source.imagery != nullptr ? imagePixelSize(*source.imagery, source.planet) : ImagePixelSize{};
 
   for (int y = 0; y < size; ++y) {
     for (int x = 0; x < size; ++x) {
       const std::size_t at = grid.index(x, y);
-      const glm::dvec3& surface = grid.surface[at];
       const double spacingU = 0.5 * glm::distance(grid.surface[grid.index(x + 1, y)],
                                                   grid.surface[grid.index(x - 1, y)]);
       const double spacingV = 0.5 * glm::distance(grid.surface[grid.index(x, y + 1)],
                                                   grid.surface[grid.index(x, y - 1)]);
       const double spacing = std::max(spacingU, spacingV);
-      const GeodeticPosition position = source.planet.directionToGeodetic(grid.directions[at]);
+      const GeodeticPosition& position = texelHeights.positions[at];
 
       // Relief is needed for the tint and for shaded imagery.
       ReliefSample reliefSample;
-      const bool wantRelief = haveHeights && (source.imagery == nullptr || imageryStrength > 0.0);
-      if (wantRelief) {
-        reliefSample = relief.sample(surface, position.latDegrees, position.lonDegrees, spacing);
-      }
+      if (wantRelief) reliefSample = relief.sample(x, y);
 
       std::optional<std::array<double, 3>> colour;
       double strength = reliefStrength;
@@ -412,7 +465,7 @@ Result<TextureTileResult> buildTextureTile(const TextureSource& source,
           }
         } else if (haveHeights && !wantRelief) {
           // Outside the image: fall back to the shaded relief.
-          reliefSample = relief.sample(surface, position.latDegrees, position.lonDegrees, spacing);
+          reliefSample = relief.sample(x, y);
         }
       }
       if (!colour && reliefSample.valid) {
