@@ -284,18 +284,17 @@ Result<void> SampleGrid::writeSourceBuckets(const HeightGrid& dem, const Planet&
   const std::size_t chunkRows =
       std::max<std::size_t>(1, (std::size_t{1} << 22) / std::max<std::size_t>(w, 1));
 
-  // Pass 1: count per bucket.
-  std::vector<std::atomic<std::uint64_t>> counts(buckets);
+  // Pass 1: count per bucket (32 bits: a bucket is a few lattice cells; the table is up to
+  // 6·4096² entries, so it is kept as small as it can be; the offsets go straight to the file).
+  std::vector<std::atomic<std::uint32_t>> counts(buckets);
   tbb::parallel_for(beginRow, endRow, [&](std::size_t row) {
     for (std::size_t col = 0; col < w; ++col) {
       const Placed p = place(dem, planet, n, cells, perSide, row, col);
       if (p.bucket != kInvalid) counts[p.bucket].fetch_add(1, std::memory_order_relaxed);
     }
   });
-  std::vector<std::uint64_t> start(buckets + 1, 0);
-  for (std::size_t b = 0; b < buckets; ++b) start[b + 1] = start[b] + counts[b].load();
-  std::vector<std::atomic<std::uint64_t>>().swap(counts);
-  const std::uint64_t total = start[buckets];
+  std::uint64_t total = 0;
+  for (std::size_t b = 0; b < buckets; ++b) total += counts[b].load(std::memory_order_relaxed);
 
   // The file: header, CSR offsets, samples; written through a temporary name.
   const std::size_t startBytes = (buckets + 1) * sizeof(std::uint64_t);
@@ -321,12 +320,15 @@ Result<void> SampleGrid::writeSourceBuckets(const HeightGrid& dem, const Planet&
   std::memcpy(at + 8, &kSamplesVersion, 4);
   std::memcpy(at + 12, &perSide, 4);
   std::memcpy(at + 16, &total, 8);
-  std::memcpy(at + kSamplesHeaderBytes, start.data(), startBytes);
+  auto* start = reinterpret_cast<std::uint64_t*>(at + kSamplesHeaderBytes);
+  start[0] = 0;
+  for (std::size_t b = 0; b < buckets; ++b) {
+    start[b + 1] = start[b] + counts[b].load(std::memory_order_relaxed);
+    counts[b].store(0, std::memory_order_relaxed);  // from here on: samples placed so far
+  }
   auto* samples = reinterpret_cast<SourceSample*>(at + kSamplesHeaderBytes + startBytes);
 
   // Pass 2: place chunk by chunk (in parallel), scatter in row order (stable).
-  std::vector<std::uint64_t> cursor(start.begin(), start.end() - 1);
-  start = {};
   std::vector<Placed> placed;
   for (std::size_t first = beginRow; first < endRow; first += chunkRows) {
     const std::size_t last = std::min(endRow, first + chunkRows);
@@ -337,7 +339,12 @@ Result<void> SampleGrid::writeSourceBuckets(const HeightGrid& dem, const Planet&
       }
     });
     for (const Placed& p : placed) {
-      if (p.bucket != kInvalid) samples[cursor[p.bucket]++] = p.sample;
+      if (p.bucket != kInvalid) {
+        std::atomic<std::uint32_t>& placedSoFar = counts[p.bucket];
+        const std::uint32_t k = placedSoFar.load(std::memory_order_relaxed);
+        placedSoFar.store(k + 1, std::memory_order_relaxed);
+        samples[start[p.bucket] + k] = p.sample;
+      }
     }
     map.releaseResident();  // RSS bound: the written pages live on in the page cache
   }
