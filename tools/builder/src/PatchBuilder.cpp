@@ -547,11 +547,10 @@ WorkPatch simplifyHalf(const SampleGrid& grid, const Half& h, std::uint32_t targ
   check.triangle = h.triangle;
   check.mesh.points = patch.points;
   {
-    const std::size_t count =
-        meshopt_simplify(result.data(), current.data(), current.size(), positions.data(),
-                         vertexCount, sizeof(float) * 3,
-                         static_cast<std::size_t>(targetTriangles) * 3, 1.0f,
-                         meshopt_SimplifyLockBorder, nullptr);
+    const std::size_t count = meshopt_simplify(result.data(), current.data(), current.size(),
+                                               positions.data(), vertexCount, sizeof(float) * 3,
+                                               static_cast<std::size_t>(targetTriangles) * 3, 1.0f,
+                                               meshopt_SimplifyLockBorder, nullptr);
     if (count > 0 && count < current.size()) {
       std::vector<std::uint32_t> whole(result.begin(),
                                        result.begin() + static_cast<std::ptrdiff_t>(count));
@@ -680,32 +679,6 @@ void clipSpan(std::int64_t coefX, std::int64_t rest, std::int64_t& lo, std::int6
     hi = std::min(hi, floorDiv(rest, -coefX));  // x ≤ floor(rest / −coefX)
   } else if (rest < 0) {
     hi = lo - 1;
-  }
-}
-
-/// The x-extent in lattice units of the triangle (a, b, c) within the rows [y0, y1] (all of it
-/// if it lies there; empty if it misses them: lo > hi).
-void triangleSpanInRows(LatticeXY a, LatticeXY b, LatticeXY c, double y0, double y1, double& lo,
-                        double& hi) noexcept {
-  lo = std::numeric_limits<double>::infinity();
-  hi = -std::numeric_limits<double>::infinity();
-  const std::array<LatticeXY, 3> p = {a, b, c};
-  for (std::size_t e = 0; e < 3; ++e) {
-    const glm::dvec2 s(p[e]);
-    const glm::dvec2 t(p[(e + 1) % 3]);
-    const double ys = std::min(s.y, t.y);
-    const double ye = std::max(s.y, t.y);
-    if (ye < y0 || ys > y1) continue;
-    if (s.y == t.y) {
-      lo = std::min({lo, s.x, t.x});
-      hi = std::max({hi, s.x, t.x});
-      continue;
-    }
-    for (const double y : {std::max(ys, y0), std::min(ye, y1)}) {
-      const double x = s.x + (t.x - s.x) * ((y - s.y) / (t.y - s.y));
-      lo = std::min(lo, x);
-      hi = std::max(hi, x);
-    }
   }
 }
 
@@ -864,17 +837,8 @@ MeasuredPatch measurePatch(const SampleGrid& grid, const BinTriangle& t, const W
   }
   out.chordErrorMeters = longest2 / (8.0 * rMin);
 
-  // Sample error: lattice samples, then the source DEM's own samples. The samples tested
-  // against a triangle are the same as SampleGrid::forEachSourceSampleIn's (with the same
-  // arithmetic), but only the buckets of each bucket row that the triangle reaches are read, as
-  // one contiguous run, rather than its whole bounding box.
+  // Sample error: lattice samples, then the source DEM's own samples.
   double sampleError = maxLatticeDeviation(grid, t.face, patch);
-  const double bucketCells = static_cast<double>(grid.bucketCells());
-  const double bucketScale = static_cast<double>(lattice.sideCells()) / grid.bucketCells();
-  const double lastBucket = static_cast<double>(grid.bucketsPerSide() - 1);
-  const auto bucketOf = [&](double x) {
-    return static_cast<std::uint32_t>(std::clamp(std::floor(x * bucketScale), 0.0, lastBucket));
-  };
   for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
     const LatticeXY la = patch.points[patch.indices[k]];
     const LatticeXY lb = patch.points[patch.indices[k + 1]];
@@ -882,55 +846,11 @@ MeasuredPatch measurePatch(const SampleGrid& grid, const BinTriangle& t, const W
     const double ha = static_cast<double>(grid.height(t.face, la));
     const double hb = static_cast<double>(grid.height(t.face, lb));
     const double hc = static_cast<double>(grid.height(t.face, lc));
-    const glm::dvec2 a = lattice.uv(la);
-    const glm::dvec2 b = lattice.uv(lb);
-    const glm::dvec2 c = lattice.uv(lc);
-    const double total = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
-    if (!(total > 0.0)) continue;
-    const double eps = -1e-9 * total;
-    const std::uint32_t bx0 = bucketOf(std::min({a.x, b.x, c.x}));
-    const std::uint32_t bx1 = bucketOf(std::max({a.x, b.x, c.x}));
-    const std::uint32_t by0 = bucketOf(std::min({a.y, b.y, c.y}));
-    const std::uint32_t by1 = bucketOf(std::max({a.y, b.y, c.y}));
-    for (std::uint32_t by = by0; by <= by1; ++by) {
-      // The triangle's x-extent over this bucket row (in lattice units), widened by a bucket on
-      // each side: a sample's float (u, v) may lie a rounding error outside its bucket, and the
-      // test below is what decides.
-      std::uint32_t rx0 = bx0;
-      std::uint32_t rx1 = bx1;
-      if (bx1 - bx0 > 2) {
-        double xLo = 0.0;
-        double xHi = 0.0;
-        triangleSpanInRows(la, lb, lc, (static_cast<double>(by) - 1.0) * bucketCells,
-                           (static_cast<double>(by) + 2.0) * bucketCells, xLo, xHi);
-        if (!(xLo <= xHi)) continue;
-        const double first = std::floor(xLo / bucketCells) - 1.0;
-        const double last = std::floor(xHi / bucketCells) + 1.0;
-        rx0 = static_cast<std::uint32_t>(
-            std::clamp(first, static_cast<double>(bx0), static_cast<double>(bx1)));
-        rx1 = static_cast<std::uint32_t>(
-            std::clamp(last, static_cast<double>(bx0), static_cast<double>(bx1)));
-        if (rx0 > rx1) continue;
-      }
-      // Buckets of one row are consecutive in each bucket table (one in memory, one per bucket
-      // file out of core); the maximum does not depend on the order the tables are visited in.
-      for (std::size_t table = 0; table < grid.bucketTables(); ++table) {
-        const SourceSample* begin = grid.bucket(table, t.face, rx0, by).data();
-        const std::span<const SourceSample> lastRun = grid.bucket(table, t.face, rx1, by);
-        const SourceSample* end = lastRun.data() + lastRun.size();
-        for (const SourceSample* sp = begin; sp != end; ++sp) {
-          const SourceSample& s = *sp;
-          const double px = static_cast<double>(s.u);
-          const double py = static_cast<double>(s.v);
-          const double w0 = (c.x - b.x) * (py - b.y) - (c.y - b.y) * (px - b.x);
-          const double w1 = (a.x - c.x) * (py - c.y) - (a.y - c.y) * (px - c.x);
-          const double w2 = (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x);
-          if (w0 < eps || w1 < eps || w2 < eps) continue;
-          const double hp = w0 / total * ha + w1 / total * hb + w2 / total * hc;
+    grid.forEachSourceSampleIn(
+        t.face, la, lb, lc, [&](double l0, double l1, double l2, const SourceSample& s) {
+          const double hp = l0 * ha + l1 * hb + l2 * hc;
           sampleError = std::max(sampleError, std::abs(hp - static_cast<double>(s.heightMeters)));
-        }
-      }
-    }
+        });
   }
   out.sampleErrorMeters = sampleError;
   out.errorMeters = out.sampleErrorMeters + out.representationErrorMeters + out.chordErrorMeters;

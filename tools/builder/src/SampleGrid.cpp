@@ -360,6 +360,30 @@ Result<void> SampleGrid::writeSourceBuckets(const HeightGrid& dem, const Planet&
   return {};
 }
 
+void SampleGrid::triangleSpanInRows(LatticeXY a, LatticeXY b, LatticeXY c, double y0, double y1,
+                                    double& lo, double& hi) noexcept {
+  lo = std::numeric_limits<double>::infinity();
+  hi = -std::numeric_limits<double>::infinity();
+  const std::array<LatticeXY, 3> p = {a, b, c};
+  for (std::size_t e = 0; e < 3; ++e) {
+    const glm::dvec2 s(p[e]);
+    const glm::dvec2 t(p[(e + 1) % 3]);
+    const double ys = std::min(s.y, t.y);
+    const double ye = std::max(s.y, t.y);
+    if (ye < y0 || ys > y1) continue;
+    if (s.y == t.y) {
+      lo = std::min({lo, s.x, t.x});
+      hi = std::max({hi, s.x, t.x});
+      continue;
+    }
+    for (const double y : {std::max(ys, y0), std::min(ye, y1)}) {
+      const double x = s.x + (t.x - s.x) * ((y - s.y) / (t.y - s.y));
+      lo = std::min(lo, x);
+      hi = std::max(hi, x);
+    }
+  }
+}
+
 Result<SampleGrid> SampleGrid::open(const Lattice& lattice, const Planet& planet,
                                     const fs::path& heightsFile,
                                     const std::vector<fs::path>& samplesFiles,

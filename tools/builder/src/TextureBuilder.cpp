@@ -173,7 +173,8 @@ TexelHeights sampleTexelHeights(const TextureSource& source, const TexelGrid& gr
   for (std::size_t k = 0; k < grid.directions.size(); ++k) {
     out.positions[k] = source.planet.directionToGeodetic(grid.directions[k]);
     if (withHeights) {
-      out.heights[k] = source.heightMeters(out.positions[k].latDegrees, out.positions[k].lonDegrees);
+      out.heights[k] =
+          source.heightMeters(out.positions[k].latDegrees, out.positions[k].lonDegrees);
     }
   }
   return out;
@@ -256,9 +257,9 @@ class ReliefSampler final {
     glm::dvec2 gradient(0.0);  // metres of height per metre east, north
     const double det = du.step.x * dv.step.y - du.step.y * dv.step.x;
     if (du.valid && dv.valid && det != 0.0) {
-      gradient = glm::dvec2(du.dh * dv.step.y - dv.dh * du.step.y,
-                            du.step.x * dv.dh - dv.step.x * du.dh) /
-                 det;
+      gradient =
+          glm::dvec2(du.dh * dv.step.y - dv.dh * du.step.y, du.step.x * dv.dh - dv.step.x * du.dh) /
+          det;
     } else if (du.valid) {
       gradient = du.step * (du.dh / glm::dot(du.step, du.step));
     } else if (dv.valid) {

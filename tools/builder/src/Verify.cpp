@@ -240,8 +240,7 @@ Result<VerifyReport> verifyDataset(const VerifyOptions& o) {
         const std::array<std::uint16_t, 3> tri = {mesh.indices[k], mesh.indices[k + 1],
                                                   mesh.indices[k + 2]};
         grid->forEachSourceSampleIn(
-            t.face, lattice.uv(points[tri[0]]), lattice.uv(points[tri[1]]),
-            lattice.uv(points[tri[2]]),
+            t.face, points[tri[0]], points[tri[1]], points[tri[2]],
             [&](double l0, double l1, double l2, const SourceSample& s) {
               const double hp = l0 * heights[tri[0]] + l1 * heights[tri[1]] + l2 * heights[tri[2]];
               worst = std::max(worst, std::abs(hp - static_cast<double>(s.heightMeters)));

@@ -158,6 +158,70 @@ class SampleGrid final {
     }
   }
 
+  /// The same samples as forEachSourceSampleIn of the triangle's (u,v) corners, with the same
+  /// arithmetic, for a triangle with lattice-point corners — but of each bucket row only the
+  /// buckets the triangle reaches (widened by one: a sample's float (u, v) may lie a rounding
+  /// error outside its bucket, and the inside test decides) are read, as one contiguous run per
+  /// bucket table, rather than its whole bounding box. The order of the visits may differ.
+  template <typename Fn>
+  void forEachSourceSampleIn(int face, LatticeXY la, LatticeXY lb, LatticeXY lc, Fn&& fn) const {
+    const glm::dvec2 a = lattice_.uv(la);
+    const glm::dvec2 b = lattice_.uv(lb);
+    const glm::dvec2 c = lattice_.uv(lc);
+    const double total = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+    if (!(total > 0.0)) return;
+    const double eps = -1e-9 * total;
+    const double cells = static_cast<double>(bucketCells_);
+    const double scale = static_cast<double>(lattice_.sideCells()) / bucketCells_;
+    const double last = static_cast<double>(bucketsPerSide_ - 1);
+    auto bucketOf = [&](double x) {
+      return static_cast<std::uint32_t>(std::clamp(std::floor(x * scale), 0.0, last));
+    };
+    const std::uint32_t bx0 = bucketOf(std::min({a.x, b.x, c.x}));
+    const std::uint32_t bx1 = bucketOf(std::max({a.x, b.x, c.x}));
+    const std::uint32_t by0 = bucketOf(std::min({a.y, b.y, c.y}));
+    const std::uint32_t by1 = bucketOf(std::max({a.y, b.y, c.y}));
+    for (std::uint32_t by = by0; by <= by1; ++by) {
+      std::uint32_t rx0 = bx0;
+      std::uint32_t rx1 = bx1;
+      if (bx1 - bx0 > 2) {
+        double xLo = 0.0;
+        double xHi = 0.0;
+        triangleSpanInRows(la, lb, lc, (static_cast<double>(by) - 1.0) * cells,
+                           (static_cast<double>(by) + 2.0) * cells, xLo, xHi);
+        if (!(xLo <= xHi)) continue;
+        const double first = std::floor(xLo / cells) - 1.0;
+        const double lastRun = std::floor(xHi / cells) + 1.0;
+        rx0 = static_cast<std::uint32_t>(
+            std::clamp(first, static_cast<double>(bx0), static_cast<double>(bx1)));
+        rx1 = static_cast<std::uint32_t>(
+            std::clamp(lastRun, static_cast<double>(bx0), static_cast<double>(bx1)));
+        if (rx0 > rx1) continue;
+      }
+      // Buckets of one row are consecutive in each bucket table.
+      for (std::size_t table = 0; table < tables_.size(); ++table) {
+        const SourceSample* begin = bucket(table, face, rx0, by).data();
+        const std::span<const SourceSample> lastBucket = bucket(table, face, rx1, by);
+        const SourceSample* end = lastBucket.data() + lastBucket.size();
+        for (const SourceSample* sp = begin; sp != end; ++sp) {
+          const SourceSample& s = *sp;
+          const double px = static_cast<double>(s.u);
+          const double py = static_cast<double>(s.v);
+          const double w0 = (c.x - b.x) * (py - b.y) - (c.y - b.y) * (px - b.x);
+          const double w1 = (a.x - c.x) * (py - c.y) - (a.y - c.y) * (px - c.x);
+          const double w2 = (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x);
+          if (w0 < eps || w1 < eps || w2 < eps) continue;
+          fn(w0 / total, w1 / total, w2 / total, s);
+        }
+      }
+    }
+  }
+
+  /// The x-extent in lattice units of the triangle (a, b, c) within the rows [y0, y1] (all of
+  /// it if it lies there; empty if it misses them: lo > hi).
+  static void triangleSpanInRows(LatticeXY a, LatticeXY b, LatticeXY c, double y0, double y1,
+                                 double& lo, double& hi) noexcept;
+
   /// Lattice points where the DEM had no data (given height 0).
   std::uint64_t noDataPoints() const noexcept { return noDataPoints_; }
   float minHeightMeters() const noexcept { return minHeight_; }
