@@ -323,7 +323,8 @@ Result<void> agree(Communicator& comm, const Result<void>& mine) {
 /// Everything every rank prepares identically before the distributed work.
 struct Inputs {
   std::optional<Planet> planet;
-  std::optional<HeightGrid> dem;
+  std::optional<HeightGrid> dem;  // released between resampling and the textures
+  GridSource demSource;
   std::optional<GeoImage> imagery;
   std::uint32_t leafCells = 0;
   std::uint32_t depth = 0;
@@ -393,6 +394,7 @@ Result<Inputs> prepare(const BuildOptions& o) {
                    " cells per face side; at most 16384 (choose --levels or larger leaves)");
   }
   in.dem = std::move(dem).value();
+  in.demSource = in.dem->source();
   return in;
 }
 
@@ -498,6 +500,8 @@ class DistributedBuild {
   Result<void> buildTextures();
   /// Drops the pages of every mapping in use from this process (ResidentTrimmer).
   void releaseResident();
+  /// Reads the DEM again (for the textures) and checks it is the one the build started with.
+  Result<void> rereadDem();
   Result<void> assemble(BuildSummary& summary);
 
   NodeOut makeNode(const BinTriangle& t, const WorkPatch& patch, Error& failure,
@@ -903,20 +907,23 @@ Result<void> DistributedBuild::buildLevel(int level) {
     below_.close();  // the children have served
   }
 
-  // 3. Synchronise: every rank's part files are complete; rank 0 records the level.
+  // 3. Synchronise: every rank's part files are complete; rank 0 records the level, and no
+  // rank goes on before it has (otherwise a rank failing early in the next level could stop the
+  // job while rank 0 writes, and a level every rank completed would be built again on resume).
   auto gathered = comm_.allGather(summary);
   patchesDone_ += levelPatches;
   const std::uint32_t previousParts = belowParts_;
   belowParts_ = ranks;
-  if (!root()) {
-    completeLevel_ = level;  // as soon as rank 0 has written it
-    return {};
+  if (root()) {
+    const std::string writing = "writing the level " + std::to_string(level) + " checkpoint";
+    state_.completeLevel = level;
+    state_.levelParts[level] = ranks;
+    if (auto w = checkpoint_.writeState(state_); !w) return fail(writing, w.error());
   }
-  const std::string writing = "writing the level " + std::to_string(level) + " checkpoint";
-  state_.completeLevel = level;
-  state_.levelParts[level] = ranks;
-  if (auto w = checkpoint_.writeState(state_); !w) return fail(writing, w.error());
+  std::vector<std::byte> recorded(1);
+  comm_.broadcast(recorded);
   completeLevel_ = level;
+  if (!root()) return {};
   if (level < d_) checkpoint_.removeFile(Checkpoint::Kind::Carry, level + 1, previousParts);
 
   // 4. Report: per-rank throughput and the ETA of the simplification.
@@ -954,6 +961,28 @@ Result<void> DistributedBuild::buildLevel(int level) {
   return {};
 }
 
+Result<void> DistributedBuild::rereadDem() {
+  const auto t0 = Clock::now();
+  DemReadOptions readOptions;
+  readOptions.raw = o_.rawLayout;
+  auto dem = readDem(o_.demPath, readOptions);
+  if (!dem) return std::move(dem).error();
+  const std::string crc = hex32(crc32(std::as_bytes(std::span(dem->heightsMeters()))));
+  for (const auto& [key, value] : state_.fingerprint) {
+    if (key == "dem-crc32" && value != crc) {
+      return makeError(ErrorCode::InvalidArgument,
+                       o_.demPath.string() + ": changed during the build (CRC-32 " + crc +
+                           ", was " + value + " when the build started)");
+    }
+  }
+  in_.dem = std::move(dem).value();
+  char line[120];
+  std::snprintf(line, sizeof line, "texture: DEM read again in %.1f s",
+                std::chrono::duration<double>(Clock::now() - t0).count());
+  log(line);
+  return {};
+}
+
 Result<void> DistributedBuild::buildTextures() {
   const std::uint32_t border = 2;
   const std::uint32_t inner = o_.textureTileTexels - 2 * border;
@@ -966,11 +995,14 @@ Result<void> DistributedBuild::buildTextures() {
   const std::string item =
       "building texture tiles " + rangeText(begin, end) + " of " + std::to_string(tiles);
   announce("texture", "tiles", tiles);
+  if (!in_.dem) {
+    if (auto r = rereadDem(); !r) return fail(item, r.error());
+  }
   const SampleGrid& grid = *grid_;
   TextureSource source;
   source.planet = *in_.planet;
   source.heightMeters = heightFunctionFromGrid(*in_.dem, true);
-  source.ramp.hasOcean = grid.minHeightMeters() < 0.0f && in_.dem->source().body == "earth";
+  source.ramp.hasOcean = grid.minHeightMeters() < 0.0f && in_.demSource.body == "earth";
   if (!source.ramp.hasOcean && in_.planet->name() == "earth") source.ramp.hasOcean = true;
   source.ramp.minMeters = static_cast<double>(grid.minHeightMeters());
   source.ramp.maxMeters =
@@ -1228,7 +1260,7 @@ Result<void> DistributedBuild::assemble(BuildSummary& summary) {
     manifest.textureSource += o_.texturePath.filename().string();
   }
   manifest.sourceDem = o_.demPath.filename().string();
-  manifest.sourceFormat = in_.dem->source().format;
+  manifest.sourceFormat = in_.demSource.format;
   manifest.sourceSamples = summary.sourceSamples;
   manifest.minHeightMeters = static_cast<double>(grid.minHeightMeters());
   manifest.maxHeightMeters = static_cast<double>(grid.maxHeightMeters());
@@ -1376,6 +1408,11 @@ Result<BuildSummary> DistributedBuild::run() {
   summary.sourceSamples = grid_->sourceSampleCount();
   summary.latticeSamples = 6ULL * (in_.n + 1ULL) * (in_.n + 1ULL);
   summary.noDataPoints = grid_->noDataPoints();
+
+  // RSS bound: the levels read the lattice and the bucketed samples only, so the DEM (the
+  // largest thing in memory: 2.1 GB of floats for the paper-scale 32768×16384 input) is released
+  // until the textures read it again.
+  in_.dem.reset();
 
   // ---- Levels D .. 0: leaves, then one block per diamond; saturation with each level.
   simplifyStart_ = Clock::now();
