@@ -1151,12 +1151,19 @@ Result<void> DistributedBuild::assemble(BuildSummary& summary) {
     return it == state_.levelParts.end() ? 1u : it->second;
   };
   constexpr std::size_t kNodesFooterBytes = 6 * 8;
+  constexpr std::size_t kReleaseEvery = std::size_t{64} << 20;
   for (int level = 0; level <= d_; ++level) {
     for (std::uint32_t part = 0; part < partsOf(level); ++part) {
       const std::string path = checkpoint_.file(Checkpoint::Kind::Nodes, level, part).string();
       std::span<const std::byte> payload;
       auto mapped = checkpoint_.openFile(Checkpoint::Kind::Nodes, level, part, payload);
       if (!mapped) return std::move(mapped).error();
+      // RSS bound: the walk below reads a record header on nearly every page (blobs average a
+      // few KB), so the mapping is handed to the trimmer first and released every 64 MB —
+      // registered only afterwards, a paper-scale leaf level's 11 GB file became resident whole.
+      keep(std::move(mapped).value());
+      const MappedFile& nodesFile = *mappings.back();
+      std::size_t releasedUpTo = 0;
       if (payload.size() < kNodesFooterBytes) {
         return makeError(ErrorCode::CorruptData, path + ": truncated");
       }
@@ -1173,6 +1180,10 @@ Result<void> DistributedBuild::assemble(BuildSummary& summary) {
         const auto bytes = r.get<std::uint32_t>();
         const auto blob = r.take(bytes);
         if (r.failed() || id >= nodeCount) break;
+        if (r.offset() - releasedUpTo >= kReleaseEvery) {
+          (void)nodesFile.releaseResident();
+          releasedUpTo = r.offset();
+        }
         located[id] = Located{record.data(), blob};
         const NodeRecord rec = decodeNodeRecord(
             std::span<const std::byte, kNodeRecordBytes>(record.data(), kNodeRecordBytes));
@@ -1186,7 +1197,7 @@ Result<void> DistributedBuild::assemble(BuildSummary& summary) {
         }
       }
       if (r.failed() || !r.atEnd()) return makeError(ErrorCode::CorruptData, path + ": truncated");
-      keep(std::move(mapped).value());
+      (void)nodesFile.releaseResident();
     }
   }
   for (std::uint64_t id = 0; id < nodeCount; ++id) {
