@@ -5,7 +5,10 @@
 
 #include <tbb/parallel_for.h>
 
+#include <stdlib.h>  // mkdtemp
+
 #include <algorithm>
+#include <filesystem>
 #include <map>
 #include <mutex>
 #include <unordered_map>
@@ -135,8 +138,43 @@ Result<VerifyReport> verifyDataset(const VerifyOptions& o) {
     auto dem = readDem(o.demPath, readOptions);
     if (!dem) return std::move(dem).error();
     progress("read dem", 1.0);
-    grid.emplace(
-        SampleGrid::build(*dem, *planet, lattice, SampleGrid::defaultBucketCells(lattice)));
+    // Out of core, as the builder does it: the lattice heights and the bucketed samples go to
+    // files in a scratch directory (TMPDIR) and are mapped read-only. In memory they are 12 B
+    // per source sample plus 4 B per lattice point, and the paper-scale check (537 M samples,
+    // 1.61 G lattice points) was killed for memory at 23 GB. The files are unlinked as soon as
+    // they are mapped, so nothing is left behind, whatever happens later.
+    std::string pattern = (fs::temp_directory_path() / "pbdam-verify-XXXXXX").string();
+    if (::mkdtemp(pattern.data()) == nullptr) {
+      return makeError(ErrorCode::IoError, "verify --dem: cannot create a scratch directory in " +
+                                               fs::temp_directory_path().string() + " (TMPDIR)");
+    }
+    const fs::path scratch = pattern;
+    struct RemoveScratch {
+      fs::path dir;
+      ~RemoveScratch() {
+        std::error_code ec;
+        fs::remove_all(dir, ec);
+      }
+    } removeScratch{scratch};
+    const std::uint32_t bucketCells = SampleGrid::defaultBucketCells(lattice);
+    const std::size_t latticeRows = 6 * (std::size_t{lattice.sideCells()} + 1);
+    auto stats = SampleGrid::writeHeightRows(
+        *dem, *planet, lattice, scratch / "heights.f32", 0, latticeRows,
+        [&](std::size_t doneRows, std::size_t total) {
+          progress("resample", static_cast<double>(doneRows) /
+                                   static_cast<double>(std::max<std::size_t>(total, 1)));
+        });
+    if (!stats) return std::move(stats).error();
+    if (auto r = SampleGrid::writeSourceBuckets(*dem, *planet, lattice, bucketCells,
+                                                scratch / "samples.bin", 0,
+                                                static_cast<std::size_t>(dem->height()));
+        !r) {
+      return std::move(r).error();
+    }
+    auto opened = SampleGrid::open(lattice, *planet, scratch / "heights.f32",
+                                   {scratch / "samples.bin"}, bucketCells, *stats);
+    if (!opened) return std::move(opened).error();
+    grid.emplace(std::move(opened).value());
   }
 
   // ---- Every node: decode, coverage, orientation, sphere, edges, error against the DEM.
