@@ -144,15 +144,7 @@ class SampleGrid final {
     for (std::uint32_t by = by0; by <= by1; ++by) {
       for (std::uint32_t bx = bx0; bx <= bx1; ++bx) {
         for (std::size_t table = 0; table < tables_.size(); ++table) {
-          for (const SourceSample& s : bucket(table, face, bx, by)) {
-            const double px = static_cast<double>(s.u);
-            const double py = static_cast<double>(s.v);
-            const double w0 = (c.x - b.x) * (py - b.y) - (c.y - b.y) * (px - b.x);
-            const double w1 = (a.x - c.x) * (py - c.y) - (a.y - c.y) * (px - c.x);
-            const double w2 = (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x);
-            if (w0 < eps || w1 < eps || w2 < eps) continue;
-            fn(w0 / total, w1 / total, w2 / total, s);
-          }
+          visitInside(bucket(table, face, bx, by), a, b, c, total, eps, fn);
         }
       }
     }
@@ -203,16 +195,7 @@ class SampleGrid final {
         const SourceSample* begin = bucket(table, face, rx0, by).data();
         const std::span<const SourceSample> lastBucket = bucket(table, face, rx1, by);
         const SourceSample* end = lastBucket.data() + lastBucket.size();
-        for (const SourceSample* sp = begin; sp != end; ++sp) {
-          const SourceSample& s = *sp;
-          const double px = static_cast<double>(s.u);
-          const double py = static_cast<double>(s.v);
-          const double w0 = (c.x - b.x) * (py - b.y) - (c.y - b.y) * (px - b.x);
-          const double w1 = (a.x - c.x) * (py - c.y) - (a.y - c.y) * (px - c.x);
-          const double w2 = (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x);
-          if (w0 < eps || w1 < eps || w2 < eps) continue;
-          fn(w0 / total, w1 / total, w2 / total, s);
-        }
+        visitInside(std::span<const SourceSample>(begin, end), a, b, c, total, eps, fn);
       }
     }
   }
@@ -228,6 +211,22 @@ class SampleGrid final {
   float maxHeightMeters() const noexcept { return maxHeight_; }
 
  private:
+  /// The inside test of forEachSourceSampleIn over one run of samples: fn(l0, l1, l2, sample)
+  /// for those inside or on (a, b, c) up to `eps` of the doubled area `total`.
+  template <typename Fn>
+  static void visitInside(std::span<const SourceSample> run, glm::dvec2 a, glm::dvec2 b,
+                          glm::dvec2 c, double total, double eps, Fn& fn) {
+    for (const SourceSample& s : run) {
+      const double px = static_cast<double>(s.u);
+      const double py = static_cast<double>(s.v);
+      const double w0 = (c.x - b.x) * (py - b.y) - (c.y - b.y) * (px - b.x);
+      const double w1 = (a.x - c.x) * (py - c.y) - (a.y - c.y) * (px - c.x);
+      const double w2 = (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x);
+      if (w0 < eps || w1 < eps || w2 < eps) continue;
+      fn(w0 / total, w1 / total, w2 / total, s);
+    }
+  }
+
   /// One bucket-sorted sample table: CSR offsets over the 6·bucketsPerSide² buckets (face-major,
   /// then by, bx) into its samples.
   struct BucketTable final {
