@@ -16,6 +16,7 @@
 #include <functional>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -129,22 +130,12 @@ class SampleGrid final {
   /// 1). Degenerate or clockwise triangles visit nothing.
   template <typename Fn>
   void forEachSourceSampleIn(int face, glm::dvec2 a, glm::dvec2 b, glm::dvec2 c, Fn&& fn) const {
-    const double total = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
-    if (!(total > 0.0)) return;
-    const double eps = -1e-9 * total;
-    const double scale = static_cast<double>(lattice_.sideCells()) / bucketCells_;
-    const double last = static_cast<double>(bucketsPerSide_ - 1);
-    auto bucketOf = [&](double x) {
-      return static_cast<std::uint32_t>(std::clamp(std::floor(x * scale), 0.0, last));
-    };
-    const std::uint32_t bx0 = bucketOf(std::min({a.x, b.x, c.x}));
-    const std::uint32_t bx1 = bucketOf(std::max({a.x, b.x, c.x}));
-    const std::uint32_t by0 = bucketOf(std::min({a.y, b.y, c.y}));
-    const std::uint32_t by1 = bucketOf(std::max({a.y, b.y, c.y}));
-    for (std::uint32_t by = by0; by <= by1; ++by) {
-      for (std::uint32_t bx = bx0; bx <= bx1; ++bx) {
+    const std::optional<TriangleBuckets> box = bucketsOf(a, b, c);
+    if (!box) return;
+    for (std::uint32_t by = box->by0; by <= box->by1; ++by) {
+      for (std::uint32_t bx = box->bx0; bx <= box->bx1; ++bx) {
         for (std::size_t table = 0; table < tables_.size(); ++table) {
-          visitInside(bucket(table, face, bx, by), a, b, c, total, eps, fn);
+          visitInside(bucket(table, face, bx, by), a, b, c, *box, fn);
         }
       }
     }
@@ -160,20 +151,12 @@ class SampleGrid final {
     const glm::dvec2 a = lattice_.uv(la);
     const glm::dvec2 b = lattice_.uv(lb);
     const glm::dvec2 c = lattice_.uv(lc);
-    const double total = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
-    if (!(total > 0.0)) return;
-    const double eps = -1e-9 * total;
+    const std::optional<TriangleBuckets> box = bucketsOf(a, b, c);
+    if (!box) return;
     const double cells = static_cast<double>(bucketCells_);
-    const double scale = static_cast<double>(lattice_.sideCells()) / bucketCells_;
-    const double last = static_cast<double>(bucketsPerSide_ - 1);
-    auto bucketOf = [&](double x) {
-      return static_cast<std::uint32_t>(std::clamp(std::floor(x * scale), 0.0, last));
-    };
-    const std::uint32_t bx0 = bucketOf(std::min({a.x, b.x, c.x}));
-    const std::uint32_t bx1 = bucketOf(std::max({a.x, b.x, c.x}));
-    const std::uint32_t by0 = bucketOf(std::min({a.y, b.y, c.y}));
-    const std::uint32_t by1 = bucketOf(std::max({a.y, b.y, c.y}));
-    for (std::uint32_t by = by0; by <= by1; ++by) {
+    const std::uint32_t bx0 = box->bx0;
+    const std::uint32_t bx1 = box->bx1;
+    for (std::uint32_t by = box->by0; by <= box->by1; ++by) {
       std::uint32_t rx0 = bx0;
       std::uint32_t rx1 = bx1;
       if (bx1 - bx0 > 2) {
@@ -195,7 +178,7 @@ class SampleGrid final {
         const SourceSample* begin = bucket(table, face, rx0, by).data();
         const std::span<const SourceSample> lastBucket = bucket(table, face, rx1, by);
         const SourceSample* end = lastBucket.data() + lastBucket.size();
-        visitInside(std::span<const SourceSample>(begin, end), a, b, c, total, eps, fn);
+        visitInside(std::span<const SourceSample>(begin, end), a, b, c, *box, fn);
       }
     }
   }
@@ -211,11 +194,38 @@ class SampleGrid final {
   float maxHeightMeters() const noexcept { return maxHeight_; }
 
  private:
+  /// A (u,v) triangle's doubled area, inside tolerance and box of buckets.
+  struct TriangleBuckets final {
+    double total = 0.0;
+    double eps = 0.0;
+    std::uint32_t bx0 = 0, bx1 = 0, by0 = 0, by1 = 0;
+  };
+  /// Nothing for a degenerate or clockwise triangle.
+  std::optional<TriangleBuckets> bucketsOf(glm::dvec2 a, glm::dvec2 b,
+                                           glm::dvec2 c) const noexcept {
+    TriangleBuckets box;
+    box.total = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+    if (!(box.total > 0.0)) return std::nullopt;
+    box.eps = -1e-9 * box.total;
+    const double scale = static_cast<double>(lattice_.sideCells()) / bucketCells_;
+    const double last = static_cast<double>(bucketsPerSide_ - 1);
+    auto bucketOf = [&](double x) {
+      return static_cast<std::uint32_t>(std::clamp(std::floor(x * scale), 0.0, last));
+    };
+    box.bx0 = bucketOf(std::min({a.x, b.x, c.x}));
+    box.bx1 = bucketOf(std::max({a.x, b.x, c.x}));
+    box.by0 = bucketOf(std::min({a.y, b.y, c.y}));
+    box.by1 = bucketOf(std::max({a.y, b.y, c.y}));
+    return box;
+  }
+
   /// The inside test of forEachSourceSampleIn over one run of samples: fn(l0, l1, l2, sample)
   /// for those inside or on (a, b, c) up to `eps` of the doubled area `total`.
   template <typename Fn>
   static void visitInside(std::span<const SourceSample> run, glm::dvec2 a, glm::dvec2 b,
-                          glm::dvec2 c, double total, double eps, Fn& fn) {
+                          glm::dvec2 c, const TriangleBuckets& box, Fn& fn) {
+    const double total = box.total;
+    const double eps = box.eps;
     for (const SourceSample& s : run) {
       const double px = static_cast<double>(s.u);
       const double py = static_cast<double>(s.v);
