@@ -398,6 +398,11 @@ Result<Inputs> prepare(const BuildOptions& o) {
   return in;
 }
 
+/// The DEM's identity in the fingerprint: the CRC-32 of its heights, in hex.
+std::string demCrc32(const HeightGrid& dem) {
+  return hex32(crc32(std::as_bytes(std::span(dem.heightsMeters()))));
+}
+
 /// The options and inputs that decide the output bytes (the checkpoint's fingerprint). Thread
 /// and rank counts are not among them: they do not change the output.
 std::vector<std::pair<std::string, std::string>> fingerprintOf(const BuildOptions& o,
@@ -409,7 +414,7 @@ std::vector<std::pair<std::string, std::string>> fingerprintOf(const BuildOption
                                  exact(g.firstLatDegrees) + "," + exact(g.firstLonDegrees) + "/" +
                                  exact(g.latSpacingDegrees) + "," + exact(g.lonSpacingDegrees) +
                                  (g.pixelIsArea ? "/area" : "/point"));
-  f.emplace_back("dem-crc32", hex32(crc32(std::as_bytes(std::span(in.dem->heightsMeters())))));
+  f.emplace_back("dem-crc32", demCrc32(*in.dem));
   std::string texture = "shaded-relief";
   if (in.imagery) {
     texture = o.texturePath.filename().string() +
@@ -967,7 +972,7 @@ Result<void> DistributedBuild::rereadDem() {
   readOptions.raw = o_.rawLayout;
   auto dem = readDem(o_.demPath, readOptions);
   if (!dem) return std::move(dem).error();
-  const std::string crc = hex32(crc32(std::as_bytes(std::span(dem->heightsMeters()))));
+  const std::string crc = demCrc32(*dem);
   for (const auto& [key, value] : state_.fingerprint) {
     if (key == "dem-crc32" && value != crc) {
       return makeError(ErrorCode::InvalidArgument,

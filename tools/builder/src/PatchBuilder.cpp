@@ -537,7 +537,7 @@ WorkPatch simplifyHalf(const SampleGrid& grid, const Half& h, std::uint32_t targ
   // so two collapses of one pass can still fold a triangle between them. The half is first
   // simplified in one call to the target: that result is kept if it has no folded or degenerate
   // triangle in (u,v) — about three halves in four — and its quadrics have seen every collapse,
-  // so it is also the better mesh (ETOPO5 uniform cuts 4–18% fewer triangles at equal vertical
+  // so it is also the better mesh (ETOPO5 uniform cuts 3–18% fewer triangles at equal vertical
   // error than stepping; docs/builder.md). Otherwise the half is simplified from the start in
   // steps of at most 15%, each kept only without a fold; a folding step is retried smaller, and
   // the simplification stops where even a 3% step folds.
@@ -555,10 +555,7 @@ WorkPatch simplifyHalf(const SampleGrid& grid, const Half& h, std::uint32_t targ
       std::vector<std::uint32_t> whole(result.begin(),
                                        result.begin() + static_cast<std::ptrdiff_t>(count));
       repairDegenerate(patch.points, whole);
-      if (validTriangulation(check, whole)) {
-        ++stats.simplifiedInOneCall;
-        return compact(patch.points, whole);
-      }
+      if (validTriangulation(check, whole)) return compact(patch.points, whole);
       ++stats.simplifyRetries;
     }
   }

@@ -34,8 +34,7 @@ struct BlockStats final {
   std::uint32_t diagonalAfter = 0;    ///< and after its polyline simplification
   std::uint32_t simplifyRetries = 0;  ///< meshopt results rejected for a (u,v) flip
   std::uint32_t halvesKeptUnsimplified = 0;
-  std::uint32_t delaunayFallbacks = 0;    ///< folded meshopt steps retriangulated (GEOS Delaunay)
-  std::uint32_t simplifiedInOneCall = 0;  ///< halves whose first, whole-target call was kept
+  std::uint32_t delaunayFallbacks = 0;  ///< folded meshopt steps retriangulated (GEOS Delaunay)
 };
 
 /// The two patches of a diamond, built from its block.
