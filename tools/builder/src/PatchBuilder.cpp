@@ -11,6 +11,7 @@
 #include <cassert>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <span>
 #include <unordered_map>
 
@@ -681,17 +682,21 @@ void clipSpan(std::int64_t coefX, std::int64_t rest, std::int64_t& lo, std::int6
 
 }  // namespace
 
-double maxLatticeDeviation(const SampleGrid& grid, int face, const WorkPatch& patch) {
-  double worst = 0.0;
+namespace {
+
+/// Calls f(a, b, c, w0, w1, w2, total) for every lattice point inside or on a triangle (a, b, c)
+/// of `patch` (vertex indices), with its integer barycentric weights (w0 + w1 + w2 = total).
+template <class F>
+void forEachLatticePointIn(const WorkPatch& patch, F&& f) {
   for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
-    const LatticeXY a = patch.points[patch.indices[k]];
-    const LatticeXY b = patch.points[patch.indices[k + 1]];
-    const LatticeXY c = patch.points[patch.indices[k + 2]];
+    const std::uint32_t ia = patch.indices[k];
+    const std::uint32_t ib = patch.indices[k + 1];
+    const std::uint32_t ic = patch.indices[k + 2];
+    const LatticeXY a = patch.points[ia];
+    const LatticeXY b = patch.points[ib];
+    const LatticeXY c = patch.points[ic];
     const std::int64_t total = doubleArea(a, b, c);
     if (total <= 0) continue;
-    const double ha = static_cast<double>(grid.height(face, a));
-    const double hb = static_cast<double>(grid.height(face, b));
-    const double hc = static_cast<double>(grid.height(face, c));
     const int x0 = std::min({a.x, b.x, c.x});
     const int x1 = std::max({a.x, b.x, c.x});
     const int y0 = std::min({a.y, b.y, c.y});
@@ -710,13 +715,42 @@ double maxLatticeDeviation(const SampleGrid& grid, int face, const WorkPatch& pa
         const std::int64_t w1 = doubleArea(c, a, p);
         const std::int64_t w2 = doubleArea(a, b, p);
         assert(w0 >= 0 && w1 >= 0 && w2 >= 0);
-        const double hp = (static_cast<double>(w0) * ha + static_cast<double>(w1) * hb +
-                           static_cast<double>(w2) * hc) /
-                          static_cast<double>(total);
-        worst = std::max(worst, std::abs(hp - static_cast<double>(grid.height(face, p))));
+        f(ia, ib, ic, p, static_cast<double>(w0), static_cast<double>(w1),
+          static_cast<double>(w2), static_cast<double>(total));
       }
     }
   }
+}
+
+/// The lattice heights of `face` interpolated bilinearly at (x, y) in cells, clamped to the face.
+double latticeHeightAt(const SampleGrid& grid, int face, glm::dvec2 xy) noexcept {
+  const auto n = static_cast<std::int32_t>(grid.lattice().sideCells());
+  xy = glm::clamp(xy, glm::dvec2(0.0), glm::dvec2(static_cast<double>(n)));
+  const double fx = std::floor(xy.x);
+  const double fy = std::floor(xy.y);
+  const auto x0 = std::min(static_cast<std::int32_t>(fx), n - 1);
+  const auto y0 = std::min(static_cast<std::int32_t>(fy), n - 1);
+  const double tx = xy.x - static_cast<double>(x0);
+  const double ty = xy.y - static_cast<double>(y0);
+  const double h00 = static_cast<double>(grid.height(face, LatticeXY{x0, y0}));
+  const double h10 = static_cast<double>(grid.height(face, LatticeXY{x0 + 1, y0}));
+  const double h01 = static_cast<double>(grid.height(face, LatticeXY{x0, y0 + 1}));
+  const double h11 = static_cast<double>(grid.height(face, LatticeXY{x0 + 1, y0 + 1}));
+  return (1.0 - ty) * ((1.0 - tx) * h00 + tx * h10) + ty * ((1.0 - tx) * h01 + tx * h11);
+}
+
+}  // namespace
+
+double maxLatticeDeviation(const SampleGrid& grid, int face, const WorkPatch& patch) {
+  double worst = 0.0;
+  forEachLatticePointIn(patch, [&](std::uint32_t ia, std::uint32_t ib, std::uint32_t ic,
+                                   LatticeXY p, double w0, double w1, double w2, double total) {
+    const double ha = static_cast<double>(grid.height(face, patch.points[ia]));
+    const double hb = static_cast<double>(grid.height(face, patch.points[ib]));
+    const double hc = static_cast<double>(grid.height(face, patch.points[ic]));
+    const double hp = (w0 * ha + w1 * hb + w2 * hc) / total;
+    worst = std::max(worst, std::abs(hp - static_cast<double>(grid.height(face, p))));
+  });
   return worst;
 }
 
@@ -792,8 +826,6 @@ MeasuredPatch measurePatch(const SampleGrid& grid, const BinTriangle& t, const W
     const double steps = std::round(h / heightStepMeters);
     const auto stepsInt = static_cast<std::int32_t>(std::clamp(steps, -2147483647.0, 2147483647.0));
     rendered[v] = pflat + (static_cast<double>(stepsInt) * heightStepMeters) * nb;
-    out.representationErrorMeters =
-        std::max(out.representationErrorMeters, glm::length(rendered[v] - terrain));
     out.mesh.vertices[v] = PatchVertex{static_cast<std::uint16_t>(n1 * one / len2),
                                        static_cast<std::uint16_t>(n2 * one / len2), stepsInt};
     const double height = static_cast<double>(grid.height(t.face, p));
@@ -833,6 +865,51 @@ MeasuredPatch measurePatch(const SampleGrid& grid, const BinTriangle& t, const W
     }
   }
   out.chordErrorMeters = longest2 / (8.0 * rMin);
+
+  // Representation error (docs/builder.md "Errors"). A vertex is drawn at its lattice
+  // barycentrics on the flat corner triangle, displaced along the interpolated normal: on the
+  // tangent-adjusted cube map that lands beside its lattice point, by a shift δ that is smooth
+  // over the patch (kilometres on coarse patches, zero at the corners). Textures are looked up
+  // by the drawn point's own direction (patch.vert), so the shift is seen only through heights:
+  // above lattice point q + δ(q) the surface has the patch's height for q, and the terrain
+  // H(q + δ). The term is max |H(q + δ(q)) − H(q)| over every lattice point the patch covers (δ
+  // exact at the vertices, interpolated in between), plus each vertex's own height difference
+  // (displacement quantisation and the tilt of the interpolated normal).
+  {
+    const double n = static_cast<double>(lattice.sideCells());
+    const CubeFace face = cubeFaceFromIndex(t.face);
+    std::vector<glm::dvec2> shift(patch.points.size());
+    double vertexError = 0.0;
+    for (std::size_t v = 0; v < patch.points.size(); ++v) {
+      double drawnHeight = 0.0;
+      glm::dvec3 direction;
+      if (planet.isSphere()) {
+        const double r = glm::length(rendered[v]);
+        drawnHeight = r - planet.equatorialRadiusMeters();
+        direction = rendered[v] / r;
+      } else {
+        const GeodeticPosition g = planet.ecefToGeodetic(rendered[v]);
+        drawnHeight = g.heightMeters;
+        direction = planet.geodeticToDirection(g.latDegrees, g.lonDegrees);
+      }
+      const LatticeXY q = patch.points[v];
+      const glm::dvec2 qd(static_cast<double>(q.x), static_cast<double>(q.y));
+      const std::optional<glm::dvec2> uv = CubeMap::directionToUvOnFace(face, direction);
+      shift[v] = uv ? *uv * n - qd : glm::dvec2(0.0);
+      vertexError = std::max(
+          vertexError, std::abs(drawnHeight - static_cast<double>(grid.height(t.face, q))));
+    }
+    double shiftError = 0.0;
+    forEachLatticePointIn(patch, [&](std::uint32_t ia, std::uint32_t ib, std::uint32_t ic,
+                                     LatticeXY q, double w0, double w1, double w2,
+                                     double total) {
+      const glm::dvec2 d = (w0 * shift[ia] + w1 * shift[ib] + w2 * shift[ic]) / total;
+      const glm::dvec2 qd(static_cast<double>(q.x), static_cast<double>(q.y));
+      shiftError = std::max(shiftError, std::abs(latticeHeightAt(grid, t.face, qd + d) -
+                                                 static_cast<double>(grid.height(t.face, q))));
+    });
+    out.representationErrorMeters = vertexError + shiftError;
+  }
 
   // Sample error: lattice samples, then the source DEM's own samples.
   double sampleError = maxLatticeDeviation(grid, t.face, patch);
