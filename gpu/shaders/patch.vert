@@ -3,11 +3,13 @@
 // lavapipe cannot prove an instance index uniform, so every record load became an 8-lane gather;
 // a push constant is uniform and made the vertex stage about twice as fast — docs/decisions.md.)
 // Vertex attributes: the barycentrics b1, b2 (R16G16_UINT) and the displacement h in metres
-// (R32_SFLOAT).
+// (R32_SFLOAT). Texture coordinates come from the vertex's position (patch_texcoord.glsl), not
+// from w; the normal is still interpolated in w.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 
 #include "patch_position.glsl"
+#include "patch_texcoord.glsl"
 
 layout(push_constant) uniform PatchPush {
   mat4 viewProjection;  // projection * viewRotation (camera-relative world -> clip)
@@ -29,10 +31,8 @@ void main() {
   gl_Position = pc.viewProjection * vec4(position, 1.0);
 
   const vec3 w = patchVertexWeights(inBarycentric);
-  const vec4 t01 = draws.records[r].texCoord01;
-  const vec4 t2 = draws.records[r].texCoord2Layer;
-  outTexCoord = t01.xy + w.y * (t01.zw - t01.xy) + w.z * (t2.xy - t01.xy);
-  outLayer = t2.z;
+  outTexCoord = patchVertexTexCoord(r, position);
+  outLayer = draws.records[r].corner[0].w;
   outNormal = w.x * draws.records[r].normal[0].xyz + w.y * draws.records[r].normal[1].xyz +
               w.z * draws.records[r].normal[2].xyz;
   outCameraRelative = position;

@@ -9,9 +9,10 @@
 // bit-identical positions there, and the CPU mirror reproduces them (tests/gpu/
 // TestPatchShader.cpp). Keep this file, PatchDraw.cpp and PatchDrawRecord (PatchDraw.h) in step.
 
-// std430: 25 vec4, 400 bytes (static_assert in PatchDraw.h).
+// std430: 25 vec4, 400 bytes (static_assert in PatchDraw.h). The texture fields are read by
+// patch_texcoord.glsl; the position code below never reads them nor the w of corner[].
 struct PatchDrawRecord {
-  vec4 corner[3];           // xyz: float(P_k - camera)
+  vec4 corner[3];           // xyz: float(P_k - camera), w: 0 layer, 1 equatorial, 2 polar radius
   vec4 normal[3];           // xyz: N_k
   vec4 edgeOrigin[3];       // xyz: Re, w: tr
   vec4 edgeVector[3];       // xyz: Ee = P_b - P_a, w: hre
@@ -22,8 +23,8 @@ struct PatchDrawRecord {
   vec4 axis2;               // xyz: E2, w: hr
   vec4 normalDelta1;        // xyz: dN1
   vec4 normalDelta2;        // xyz: dN2
-  vec4 texCoord01;          // T0.xy, T1.xy
-  vec4 texCoord2Layer;      // T2.xy, z: texture array layer
+  vec4 texCenter;           // xyz: float(Q - camera), w: k = d(tc)/d(face u)
+  vec4 texPlane;            // x, y: Q's plane coordinates on the face, z: Q . n_face, w: face
 };
 
 layout(std430, set = 0, binding = 0) readonly buffer PatchDrawRecords {

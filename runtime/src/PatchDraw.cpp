@@ -5,11 +5,14 @@
 #include <algorithm>
 #include <cmath>
 #include <glm/geometric.hpp>
+#include <glm/trigonometric.hpp>
+#include <numbers>
 
 namespace pbdam {
 namespace {
 
 constexpr double kBaryUnit = 1.0 / static_cast<double>(kPatchBarycentricOne);
+constexpr float kTwoOverPi = static_cast<float>(2.0 / std::numbers::pi);
 
 glm::dvec3 position(const NodeRecord& n, int k) {
   const auto i = static_cast<std::size_t>(3 * k);
@@ -113,25 +116,78 @@ PatchDrawRecord makePatchDrawRecord(const DatasetView& dataset, const PatchDrawI
   d.normalDelta1 = vec4(nf[1] - nf[0], 0.0f);
   d.normalDelta2 = vec4(nf[2] - nf[0], 0.0f);
 
-  // Texture coordinates of the corners in the patch's tile.
+  // The patch's texture tile: the quadtree node at its texture level that contains it.
   const std::uint32_t tl = dataset.textureLevelOf(tri.level);
-  const double side = static_cast<double>(dataset.latticeCells() >> tl);
   const std::int32_t sideCells = static_cast<std::int32_t>(dataset.latticeCells() >> tl);
   const std::int32_t qi = std::min({tri.apex.x, tri.left.x, tri.right.x}) / sideCells;
   const std::int32_t qj = std::min({tri.apex.y, tri.left.y, tri.right.y}) / sideCells;
-  const double size = dataset.manifest().textureTileTexels;
-  const double border = dataset.manifest().textureBorderTexels;
-  const double inner = size - 2.0 * border;
-  std::array<float, 6> tc{};
-  for (std::size_t k = 0; k < 3; ++k) {
-    const double x = (static_cast<double>(lattice[k].x) - qi * side) / side;
-    const double y = (static_cast<double>(lattice[k].y) - qj * side) / side;
-    tc[2 * k] = static_cast<float>((border + x * inner) / size);
-    tc[2 * k + 1] = static_cast<float>((border + y * inner) / size);
-  }
-  d.texCoord01 = {tc[0], tc[1], tc[2], tc[3]};
-  d.texCoord2Layer = {tc[4], tc[5], static_cast<float>(input.textureLayer), 0.0f};
+  const Manifest& m = dataset.manifest();
+  setPatchTexture(d, dataset.planet(),
+                  patchTextureTile(cubeFaceFromIndex(input.node.face), dataset.latticeCells(), tl,
+                                   static_cast<std::uint32_t>(qi), static_cast<std::uint32_t>(qj),
+                                   m.textureTileTexels, m.textureBorderTexels, input.textureLayer),
+                  cam);
   return d;
+}
+
+PatchTextureTile patchTextureTile(CubeFace face, std::uint32_t latticeCells,
+                                  std::uint32_t textureLevel, std::uint32_t qi, std::uint32_t qj,
+                                  std::uint32_t tileTexels, std::uint32_t borderTexels,
+                                  std::uint32_t textureLayer) noexcept {
+  const double cells = static_cast<double>(latticeCells);
+  const double side = static_cast<double>(latticeCells >> textureLevel);
+  const double size = static_cast<double>(tileTexels);
+  const double inner = size - 2.0 * static_cast<double>(borderTexels);
+  PatchTextureTile tile;
+  tile.face = face;
+  tile.centerFaceUv = {(static_cast<double>(qi) + 0.5) * side / cells,
+                       (static_cast<double>(qj) + 0.5) * side / cells};
+  tile.texCoordPerFaceUv = (cells / side) * (inner / size);
+  tile.textureLayer = textureLayer;
+  return tile;
+}
+
+void setPatchTexture(PatchDrawRecord& d, const Planet& planet, const PatchTextureTile& tile,
+                     const glm::dvec3& cam) noexcept {
+  // Q: the surface point (height 0) in the direction of the tile's centre.
+  const double a = planet.equatorialRadiusMeters(), b = planet.polarRadiusMeters();
+  const glm::dvec3 dir = CubeMap::faceUvToDirection(tile.face, tile.centerFaceUv);
+  const glm::dvec3 q = dir / glm::length(glm::dvec3(dir.x / a, dir.y / a, dir.z / b));
+  const CubeFaceFrame frame = CubeMap::faceFrame(tile.face);
+  const double qn = glm::dot(q, frame.normal);
+  d.texCenter = vec4(glm::vec3(q - cam), static_cast<float>(tile.texCoordPerFaceUv));
+  d.texPlane = {static_cast<float>(glm::dot(q, frame.uAxis) / qn),
+                static_cast<float>(glm::dot(q, frame.vAxis) / qn), static_cast<float>(qn),
+                static_cast<float>(cubeFaceIndex(tile.face))};
+  d.corner[0][3] = static_cast<float>(tile.textureLayer);
+  d.corner[1][3] = static_cast<float>(a);
+  d.corner[2][3] = static_cast<float>(b);
+}
+
+glm::vec2 shaderTexCoord(const PatchDrawRecord& d, const glm::vec3& cameraRelative) noexcept {
+  // Mirrors patch_texcoord.glsl (not bit for bit: atan and inversesqrt differ between devices).
+  const CubeFaceFrame frame =
+      CubeMap::faceFrame(cubeFaceFromIndex(static_cast<int>(d.texPlane[3])));
+  const glm::vec3 en(frame.normal), eu(frame.uAxis), ev(frame.vAxis);
+  const glm::vec2 plane0(d.texPlane[0], d.texPlane[1]);
+  const float qn = d.texPlane[2];
+  // T − Q, and T itself (absolute, only to find the ellipsoid normal and the height).
+  const glm::vec3 delta = cameraRelative - xyz(d.texCenter);
+  const glm::vec3 t = qn * ((en + plane0.x * eu) + plane0.y * ev) + delta;
+  // One fixed-point step: S0 = k·T on the ellipsoid, n0 its normal, H ≈ (T − S0)·n0; D = T − H·n0.
+  const float a = d.corner[1][3], b = d.corner[2][3];
+  const glm::vec3 e(t.x / a, t.y / a, t.z / b);
+  const float k = 1.0f / std::sqrt(glm::dot(e, e));
+  const glm::vec3 n0 = glm::normalize(glm::vec3(e.x / a, e.y / a, e.z / b));
+  const float h = (1.0f - k) * glm::dot(t, n0);
+  const glm::vec3 dq = delta - h * n0;  // D − Q
+  // Plane coordinates of D relative to Q's, then atan(p) − atan(p0) = atan((p − p0)/(1 + p·p0)).
+  const float dn = glm::dot(dq, en);
+  const glm::vec2 dPlane =
+      (glm::vec2(glm::dot(dq, eu), glm::dot(dq, ev)) - plane0 * dn) / (qn + dn);
+  const glm::vec2 plane = plane0 + dPlane;
+  const glm::vec2 dUv = kTwoOverPi * glm::atan(dPlane / (1.0f + plane0 * plane));
+  return 0.5f + d.texCenter[3] * dUv;
 }
 
 glm::vec3 shaderVertexPosition(const PatchDrawRecord& d, std::uint16_t b1, std::uint16_t b2,

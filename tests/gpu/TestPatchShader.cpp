@@ -3,11 +3,16 @@
 // corners) is run through the shader's position code (patch_position.glsl, captured by
 // shaders/patch_capture.vert) and compared with pbdam::shaderVertexPosition, and vertices that
 // several patches share (the same lattice point) must get identical floats from every patch —
-// the property that makes the drawn surface crack-free (design.md §4 "Precision").
+// the property that makes the drawn surface crack-free (design.md §4 "Precision"). The same run
+// captures each vertex's tile texture coordinates (patch_texcoord.glsl) and compares them with
+// pbdam::shaderTexCoord, the CPU copy of that formula (not bit-exact: atan and inversesqrt are
+// the device's), within 1e-3 texel.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <bit>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <unordered_map>
@@ -135,9 +140,17 @@ struct CapturedCut {
   std::vector<PatchDrawRecord> records;
   std::vector<std::uint32_t> firstVertex;  ///< per patch, into vertices
   std::vector<PatchVertex> vertices;
-  std::vector<float> heights;             ///< vertexHeightMeters of each vertex
-  std::vector<std::array<float, 4>> gpu;  ///< captured positions
+  std::vector<float> heights;                      ///< vertexHeightMeters of each vertex
+  std::vector<std::array<float, 4>> gpu;           ///< captured positions
+  std::vector<std::array<float, 2>> gpuTexCoords;  ///< captured texture coordinates
 };
+
+/// One captured vertex, as patch_capture.vert writes it (std430).
+struct CapturedVertex {
+  std::array<float, 4> position;
+  std::array<float, 4> texCoord;
+};
+static_assert(sizeof(CapturedVertex) == 32);
 
 class PatchShader : public test::GpuTest {
  protected:
@@ -177,7 +190,7 @@ class PatchShader : public test::GpuTest {
                                      MemoryUse::HostUpload, "capture records");
     ASSERT_TRUE(recordBuffer.ok());
     std::memcpy(recordBuffer->mappedBytes().data(), out.records.data(), recordBytes);
-    const VkDeviceSize capturedBytes = 16 * out.vertices.size();
+    const VkDeviceSize capturedBytes = sizeof(CapturedVertex) * out.vertices.size();
     auto captured = createBuffer(context(), capturedBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                                  MemoryUse::HostReadback, "captured positions");
     ASSERT_TRUE(captured.ok());
@@ -246,8 +259,12 @@ class PatchShader : public test::GpuTest {
         "capture patch positions");
     ASSERT_TRUE(done.ok()) << done.error().message;
     ASSERT_TRUE(captured->invalidateForHostRead().ok());
-    out.gpu.resize(out.vertices.size());
-    std::memcpy(out.gpu.data(), captured->mappedBytes().data(), capturedBytes);
+    std::vector<CapturedVertex> vertices(out.vertices.size());
+    std::memcpy(vertices.data(), captured->mappedBytes().data(), capturedBytes);
+    for (const CapturedVertex& v : vertices) {
+      out.gpu.push_back(v.position);
+      out.gpuTexCoords.push_back({v.texCoord[0], v.texCoord[1]});
+    }
   }
 
   void checkCameras(const std::filesystem::path& dir, const std::vector<CameraPose>& poses) {
@@ -269,6 +286,9 @@ class PatchShader : public test::GpuTest {
       if (HasFatalFailure()) return;
 
       std::uint64_t mismatches = 0;
+      std::uint64_t texCoordMismatches = 0;
+      double worstTexels = 0.0;
+      const double tileTexels = view.manifest().textureTileTexels;
       std::uint64_t shared = 0;
       std::uint64_t sharedMismatches = 0;
       // Lattice point → the first GPU position seen there.
@@ -291,6 +311,19 @@ class PatchShader : public test::GpuTest {
                             << "): GPU " << gpu[0] << "," << gpu[1] << "," << gpu[2] << " CPU "
                             << cpu.x << "," << cpu.y << "," << cpu.z;
             }
+          }
+          // Texture coordinates: the CPU mirror of the same formula, from the same position.
+          const glm::vec2 tc =
+              shaderTexCoord(captured.records[p], glm::vec3(gpu[0], gpu[1], gpu[2]));
+          const std::array<float, 2>& gpuTc = captured.gpuTexCoords[i];
+          const double texels = std::max(std::fabs(double{tc.x} - double{gpuTc[0]}),
+                                         std::fabs(double{tc.y} - double{gpuTc[1]})) *
+                                tileTexels;
+          worstTexels = std::max(worstTexels, texels);
+          if (!(texels <= 1e-3) && texCoordMismatches++ < 5) {
+            ADD_FAILURE() << "patch heap " << captured.nodes[p].heap << " vertex (" << v.b1 << ","
+                          << v.b2 << "): GPU texture coordinates " << gpuTc[0] << "," << gpuTc[1]
+                          << " CPU " << tc.x << "," << tc.y << " (" << texels << " texels)";
           }
           // The vertex's lattice point: exact, every patch vertex is one.
           const std::int64_t one = kPatchBarycentricOne;
@@ -317,6 +350,15 @@ class PatchShader : public test::GpuTest {
         }
       }
       EXPECT_EQ(mismatches, 0u) << "of " << captured.vertices.size() << " vertices";
+      EXPECT_EQ(texCoordMismatches, 0u)
+          << "of " << captured.vertices.size() << " vertices; worst " << worstTexels << " texels";
+      // Every texture coordinate lies in its tile's inner square (plus a rounding margin).
+      for (const std::array<float, 2>& tc : captured.gpuTexCoords) {
+        const float border = static_cast<float>(view.manifest().textureBorderTexels) /
+                             static_cast<float>(tileTexels);
+        ASSERT_GE(std::min(tc[0], tc[1]), border - 1e-4f);
+        ASSERT_LE(std::max(tc[0], tc[1]), 1.0f - border + 1e-4f);
+      }
       EXPECT_EQ(sharedMismatches, 0u) << "of " << shared << " shared vertices";
       EXPECT_GT(shared, captured.records.size()) << "patches share edge vertices";
     }

@@ -20,24 +20,43 @@
 //   corner k: (P_k − cam rounded) + h·N_k.
 // The float operations are fixed in order and never contracted into FMAs (GLSL `precise`; this
 // file's .cpp is built with -ffp-contract=off), so shaderVertexPosition reproduces the GPU
-// bit for bit on IEEE hardware. Thread-safety: pure functions.
+// bit for bit on IEEE hardware.
+//
+// Texture coordinates come from where the vertex is, not from w (the builder may solve w so that
+// the displaced point is the terrain point, and then w is not the lattice position). The tile's
+// texture coordinate is affine in the face coordinates (u, v) of the vertex's terrain direction,
+// tc = 0.5 + k·(u − uc, v − vc) with (uc, vc) the tile's centre. The shader finds the direction by
+// inverting the builder's T = surface(d) + H·n(d) (exact on a sphere; on an ellipsoid one
+// fixed-point step, which leaves 0.06 m at 8.8 km on WGS84 and 0.8 m at 21 km on the Mars IAU
+// 2000 ellipsoid) on the record's own face, and forms u − uc as (2/π)·atan of a plane-coordinate
+// difference computed from the vertex's offset to the tile centre's surface point Q, so no absolute
+// float position is ever rounded (design.md §4): its error scales with the tile, not the planet.
+// Not bit-exact across GPUs (atan, inversesqrt); shaderTexCoord is its float mirror. Thread-safety:
+// pure functions.
 #pragma once
 
 #include <array>
 #include <cstdint>
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
 #include "pbdam/formats/DatasetFormat.h"
 #include "pbdam/formats/PatchCodec.h"
+#include "pbdam/runtime/CubeMap.h"
 #include "pbdam/runtime/DatasetView.h"
+#include "pbdam/runtime/Planet.h"
 
 namespace pbdam {
 
 /// The per-draw record read by the patch vertex shader (std430, 16-byte vec4s; the layout and
 /// the arithmetic are mirrored in gpu/shaders/patch_position.glsl — keep them in step). Each
-/// draw passes its record's index as a push constant.
+/// draw passes its record's index as a push constant. The texture fields: Q is the surface point
+/// (height 0) in the direction of the tile's centre, (ac, bc) its plane coordinates
+/// tan(π/4·(2uc − 1)), tan(π/4·(2vc − 1)) on the record's face, Qn = Q · n_face.
 struct alignas(16) PatchDrawRecord final {
-  std::array<float, 4> corner[3];           ///< xyz: float(P_k − cam)
+  std::array<float, 4> corner[3];           ///< xyz: float(P_k − cam), w: see below
+                                            ///< (w of corner 0: texture array layer,
+                                            ///< 1: equatorial radius, 2: polar radius, metres)
   std::array<float, 4> normal[3];           ///< xyz: N_k
   std::array<float, 4> edgeOrigin[3];       ///< xyz: Re, w: tr
   std::array<float, 4> edgeVector[3];       ///< xyz: Ee = P_b − P_a, w: hre
@@ -48,10 +67,36 @@ struct alignas(16) PatchDrawRecord final {
   std::array<float, 4> axis2;               ///< xyz: E2, w: hr
   std::array<float, 4> normalDelta1;        ///< xyz: ΔN1
   std::array<float, 4> normalDelta2;        ///< xyz: ΔN2
-  std::array<float, 4> texCoord01;          ///< T0.xy, T1.xy (tile texture coordinates)
-  std::array<float, 4> texCoord2Layer;      ///< T2.xy, z: texture array layer, w: unused
+  std::array<float, 4> texCenter;           ///< xyz: float(Q − cam), w: k = d(tc)/d(u)
+  std::array<float, 4> texPlane;            ///< x: ac, y: bc, z: Qn (metres), w: face index
 };
 static_assert(sizeof(PatchDrawRecord) == 25 * 16);
+
+/// Where a patch's texture tile lies on its cube face.
+struct PatchTextureTile final {
+  CubeFace face = CubeFace::PosX;
+  glm::dvec2 centerFaceUv{0.5};    ///< the tile's centre (texture coordinate 0.5, 0.5)
+  double texCoordPerFaceUv = 1.0;  ///< k: d(tc.x)/du = d(tc.y)/dv
+  std::uint32_t textureLayer = 0;
+};
+
+/// The tile of a texture quadtree node (level, column qi, row qj) on a face of a lattice with
+/// `latticeCells` cells per side, tiles of `tileTexels` texels with `borderTexels` of filtering
+/// border: its inner texels span the node's square exactly, so a lattice point x has
+/// tc = (border + ((x − qi·side)/side)·inner)/size, side = latticeCells >> level.
+PatchTextureTile patchTextureTile(CubeFace face, std::uint32_t latticeCells,
+                                  std::uint32_t textureLevel, std::uint32_t qi, std::uint32_t qj,
+                                  std::uint32_t tileTexels, std::uint32_t borderTexels,
+                                  std::uint32_t textureLayer) noexcept;
+
+/// Fills the record's texture fields (texCenter, texPlane and the w of corner[]) for `tile` on
+/// `planet`, seen from `cameraEcef`. makePatchDrawRecord calls it; tests call it directly.
+void setPatchTexture(PatchDrawRecord& draw, const Planet& planet, const PatchTextureTile& tile,
+                     const glm::dvec3& cameraEcef) noexcept;
+
+/// The vertex shader's float computation of a vertex's tile texture coordinates from its
+/// camera-relative position (patch_texcoord.glsl), on the CPU: the same formula, not bit-exact.
+glm::vec2 shaderTexCoord(const PatchDrawRecord& draw, const glm::vec3& cameraRelative) noexcept;
 
 /// What a draw needs besides the node record.
 struct PatchDrawInput final {
