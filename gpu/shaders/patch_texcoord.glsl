@@ -5,7 +5,7 @@
 // The builder puts a vertex of face coordinates (u, v) at T = surface(d) + H n(d), d the
 // tangent-adjusted direction of (u, v) (CubeMap.h). This inverts that on the record's own face
 // (never the face of the major axis: a vertex on a face edge belongs to its patch's face), with
-// one fixed-point step on an ellipsoid, and returns the tile's texture coordinate
+// two fixed-point steps on an ellipsoid, and returns the tile's texture coordinate
 // tc = 0.5 + k (u - uc, v - vc), affine in (u, v), (uc, vc) the tile's centre. Everything is
 // relative to the tile centre's surface point Q: the plane coordinates p = tan(pi/4 (2u - 1)) are
 // formed as differences p - pc from the vertex's offset T - Q, and
@@ -41,8 +41,16 @@ vec2 patchVertexTexCoord(uint r, vec3 cameraRelative) {
   const vec3 e = vec3(t.xy / a, t.z / b);
   const float k = inversesqrt(dot(e, e));
   const vec3 n0 = normalize(vec3(e.xy / a, e.z / b));
-  const float h = (1.0 - k) * dot(t, n0);
-  const vec3 dq = delta - h * n0;  // D - Q
+  const float h0 = (1.0 - k) * dot(t, n0);
+  // A second step from D0 = T - h0 n0: S1 = k1 D0 on the ellipsoid, n1 its normal,
+  // H = (T - S1) . n1 = (1 - k1) T . n1 + k1 h0 n0 . n1 (no cancellation). One step leaves up to
+  // 0.8 m at 21 km height on Mars' ellipsoid, two leave millimetres.
+  const vec3 d0 = t - h0 * n0;
+  const vec3 e1 = vec3(d0.xy / a, d0.z / b);
+  const float k1 = inversesqrt(dot(e1, e1));
+  const vec3 n1 = normalize(vec3(e1.xy / a, e1.z / b));
+  const float h = (1.0 - k1) * dot(t, n1) + k1 * h0 * dot(n0, n1);
+  const vec3 dq = delta - h * n1;  // D - Q
   // D's plane coordinates relative to Q's, then u - uc, v - vc.
   const float dn = dot(dq, en);
   const vec2 dPlane = (vec2(dot(dq, eu), dot(dq, ev)) - plane0 * dn) / (qn + dn);

@@ -179,8 +179,14 @@ glm::vec2 shaderTexCoord(const PatchDrawRecord& d, const glm::vec3& cameraRelati
   const glm::vec3 e(t.x / a, t.y / a, t.z / b);
   const float k = 1.0f / std::sqrt(glm::dot(e, e));
   const glm::vec3 n0 = glm::normalize(glm::vec3(e.x / a, e.y / a, e.z / b));
-  const float h = (1.0f - k) * glm::dot(t, n0);
-  const glm::vec3 dq = delta - h * n0;  // D − Q
+  const float h0 = (1.0f - k) * glm::dot(t, n0);
+  // Second step from D0 = T − h0·n0: H = (1 − k1)·T·n1 + k1·h0·n0·n1.
+  const glm::vec3 d0 = t - h0 * n0;
+  const glm::vec3 e1(d0.x / a, d0.y / a, d0.z / b);
+  const float k1 = 1.0f / std::sqrt(glm::dot(e1, e1));
+  const glm::vec3 n1 = glm::normalize(glm::vec3(e1.x / a, e1.y / a, e1.z / b));
+  const float h = (1.0f - k1) * glm::dot(t, n1) + k1 * h0 * glm::dot(n0, n1);
+  const glm::vec3 dq = delta - h * n1;  // D − Q
   // Plane coordinates of D relative to Q's, then atan(p) − atan(p0) = atan((p − p0)/(1 + p·p0)).
   const float dn = glm::dot(dq, en);
   const glm::vec2 dPlane =

@@ -715,8 +715,8 @@ void forEachLatticePointIn(const WorkPatch& patch, F&& f) {
         const std::int64_t w1 = doubleArea(c, a, p);
         const std::int64_t w2 = doubleArea(a, b, p);
         assert(w0 >= 0 && w1 >= 0 && w2 >= 0);
-        f(ia, ib, ic, p, static_cast<double>(w0), static_cast<double>(w1),
-          static_cast<double>(w2), static_cast<double>(total));
+        f(ia, ib, ic, p, static_cast<double>(w0), static_cast<double>(w1), static_cast<double>(w2),
+          static_cast<double>(total));
       }
     }
   }
@@ -896,13 +896,12 @@ MeasuredPatch measurePatch(const SampleGrid& grid, const BinTriangle& t, const W
       const glm::dvec2 qd(static_cast<double>(q.x), static_cast<double>(q.y));
       const std::optional<glm::dvec2> uv = CubeMap::directionToUvOnFace(face, direction);
       shift[v] = uv ? *uv * n - qd : glm::dvec2(0.0);
-      vertexError = std::max(
-          vertexError, std::abs(drawnHeight - static_cast<double>(grid.height(t.face, q))));
+      vertexError = std::max(vertexError,
+                             std::abs(drawnHeight - static_cast<double>(grid.height(t.face, q))));
     }
     double shiftError = 0.0;
     forEachLatticePointIn(patch, [&](std::uint32_t ia, std::uint32_t ib, std::uint32_t ic,
-                                     LatticeXY q, double w0, double w1, double w2,
-                                     double total) {
+                                     LatticeXY q, double w0, double w1, double w2, double total) {
       const glm::dvec2 d = (w0 * shift[ia] + w1 * shift[ib] + w2 * shift[ic]) / total;
       const glm::dvec2 qd(static_cast<double>(q.x), static_cast<double>(q.y));
       shiftError = std::max(shiftError, std::abs(latticeHeightAt(grid, t.face, qd + d) -

@@ -22,13 +22,15 @@
 // file's .cpp is built with -ffp-contract=off), so shaderVertexPosition reproduces the GPU
 // bit for bit on IEEE hardware.
 //
-// Texture coordinates come from where the vertex is, not from w (the builder may solve w so that
-// the displaced point is the terrain point, and then w is not the lattice position). The tile's
-// texture coordinate is affine in the face coordinates (u, v) of the vertex's terrain direction,
+// Texture coordinates come from where the vertex is drawn, not from w: a vertex drawn at its
+// lattice barycentrics lands beside its lattice point (kilometres on coarse patches), and with
+// the texture looked up at the drawn point that shift is seen only through heights, which the
+// builder's representation error bounds (docs/builder.md "Errors"). The tile's texture
+// coordinate is affine in the face coordinates (u, v) of the vertex's terrain direction,
 // tc = 0.5 + k·(u − uc, v − vc) with (uc, vc) the tile's centre. The shader finds the direction by
-// inverting the builder's T = surface(d) + H·n(d) (exact on a sphere; on an ellipsoid one
-// fixed-point step, which leaves 0.06 m at 8.8 km on WGS84 and 0.8 m at 21 km on the Mars IAU
-// 2000 ellipsoid) on the record's own face, and forms u − uc as (2/π)·atan of a plane-coordinate
+// inverting the builder's T = surface(d) + H·n(d) (exact on a sphere; on an ellipsoid two
+// fixed-point steps, which leave millimetres) on the record's own face, and forms u − uc as
+// (2/π)·atan of a plane-coordinate
 // difference computed from the vertex's offset to the tile centre's surface point Q, so no absolute
 // float position is ever rounded (design.md §4): its error scales with the tile, not the planet.
 // Not bit-exact across GPUs (atan, inversesqrt); shaderTexCoord is its float mirror. Thread-safety:
