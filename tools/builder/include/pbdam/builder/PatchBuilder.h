@@ -65,10 +65,12 @@ NodeCorners nodeCorners(const SampleGrid& grid, const BinTriangle& triangle);
 struct MeasuredPatch final {
   PatchMesh mesh;                  ///< exact barycentrics and quantised displacements
   double sampleErrorMeters = 0.0;  ///< max |patch − sample| over lattice and source samples
-  double representationErrorMeters = 0.0;  ///< max |rendered vertex − terrain point|
-  double chordErrorMeters = 0.0;           ///< e²/(8·R_min) for its longest triangle edge
-  double errorMeters = 0.0;                ///< the sum of the three
-  glm::dvec3 sphereCenter{0.0};            ///< bounding sphere of the rendered vertices
+  /// max |H(q + δ(q)) − H(q)| over the covered lattice points, δ the drawn shift, plus the
+  /// vertices' own height error (docs/builder.md "Errors")
+  double representationErrorMeters = 0.0;
+  double chordErrorMeters = 0.0;  ///< e²/(8·R_min) for its longest triangle edge
+  double errorMeters = 0.0;       ///< the sum of the three
+  glm::dvec3 sphereCenter{0.0};   ///< bounding sphere of the rendered vertices
   double sphereRadiusMeters = 0.0;
   double minHeightMeters = 0.0;  ///< over its vertices
   double maxHeightMeters = 0.0;
