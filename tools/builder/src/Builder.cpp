@@ -31,6 +31,7 @@
 #include "pbdam/builder/Checkpoint.h"
 #include "pbdam/builder/Lattice.h"
 #include "pbdam/builder/PatchBuilder.h"
+#include "pbdam/builder/ResidentTrimmer.h"
 #include "pbdam/builder/SampleGrid.h"
 #include "pbdam/builder/TextureBuilder.h"
 #include "pbdam/formats/Checksum.h"
@@ -272,30 +273,6 @@ class CarryReader final {
     std::uint64_t count = 0;
   };
   std::vector<Part> parts_;
-};
-
-/// RSS bound: every `period` drops this process's page-table entries of the mappings `release`
-/// names (heights, source samples, carry, checkpoint files being assembled). Their pages stay in
-/// the page cache, so a later read is a minor fault; what a rank keeps resident is then what its
-/// threads touched in the last period, not the data size. Stops (and joins) on destruction.
-class ResidentTrimmer final {
- public:
-  ResidentTrimmer(std::chrono::milliseconds period, std::function<void()> release)
-      : thread_([this, period, release = std::move(release)](std::stop_token stop) {
-          std::unique_lock lock(mutex_);
-          while (!stop.stop_requested()) {
-            wake_.wait_for(lock, stop, period, [] { return false; });
-            if (!stop.stop_requested()) release();
-          }
-        }) {}
-  ResidentTrimmer(const ResidentTrimmer&) = delete;
-  ResidentTrimmer& operator=(const ResidentTrimmer&) = delete;
-  ~ResidentTrimmer() { thread_.request_stop(); }
-
- private:
-  std::mutex mutex_;
-  std::condition_variable_any wake_;
-  std::jthread thread_;  // last: joined first, while mutex_ and wake_ still exist
 };
 
 /// Collective: the first failure of any rank (lowest rank first) on every rank.

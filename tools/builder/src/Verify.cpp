@@ -11,9 +11,12 @@
 #include <filesystem>
 #include <map>
 #include <mutex>
+#include <optional>
+#include <span>
 #include <unordered_map>
 
 #include "pbdam/builder/Lattice.h"
+#include "pbdam/builder/ResidentTrimmer.h"
 #include "pbdam/builder/SampleGrid.h"
 #include "pbdam/formats/Checksum.h"
 #include "pbdam/formats/DatasetFormat.h"
@@ -61,9 +64,34 @@ std::string nodeName(const BinTriangle& t) {
 /// The vertices one patch has on one of its edges: (canonical key, displacement) sorted.
 using EdgeVertices = std::vector<std::pair<PointKey, std::int32_t>>;
 
+/// A 64-bit digest of an edge's vertex list (splitmix64 over its count and entries): verify keeps
+/// three per node instead of the lists (at the paper scale the lists took ~20 GB). Two lists
+/// that differ collide with probability ~2^-64.
+std::uint64_t edgeDigest(const EdgeVertices& list) noexcept {
+  auto mix = [](std::uint64_t x) {
+    x += 0x9E3779B97F4A7C15ULL;
+    x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ULL;
+    x = (x ^ (x >> 27)) * 0x94D049BB133111EBULL;
+    return x ^ (x >> 31);
+  };
+  std::uint64_t h = mix(list.size());
+  for (const auto& [key, steps] : list) {
+    h = mix(h ^ static_cast<std::uint64_t>(key));
+    h = mix(h ^ static_cast<std::uint32_t>(steps));
+  }
+  return h;
+}
+
+struct EdgeKeyHash {
+  std::size_t operator()(const EdgeKey& k) const noexcept {
+    return static_cast<std::size_t>(static_cast<std::uint64_t>(k.first) * 0x9E3779B97F4A7C15ULL ^
+                                    static_cast<std::uint64_t>(k.second));
+  }
+};
+
 struct DecodedNode {
   NodeRecord record;
-  std::array<EdgeVertices, 3> edges;  // apex–left, apex–right, left–right
+  std::array<std::uint64_t, 3> edges{};  // digests: apex–left, apex–right, left–right
   bool valid = false;
 };
 
@@ -107,7 +135,15 @@ Result<VerifyReport> verifyDataset(const VerifyOptions& o) {
       violations.add(path.string() + ": " + std::to_string(files[f].size()) +
                      " bytes, the manifest says " + std::to_string(manifest->faces[f].bytes));
     }
-    if (crc32(files[f].bytes()) != manifest->faces[f].crc32) {
+    // In 64 MB pieces, dropping the mapping's pages from this process after each: the file's
+    // pages stay in the page cache but not in verify's RSS.
+    std::uint32_t crc = 0;
+    const std::span<const std::byte> all = files[f].bytes();
+    for (std::size_t at = 0; at < all.size(); at += std::size_t{64} << 20) {
+      crc = crc32(all.subspan(at, std::min(all.size() - at, std::size_t{64} << 20)), crc);
+      (void)files[f].releaseResident();
+    }
+    if (crc != manifest->faces[f].crc32) {
       violations.add(path.string() + ": file checksum differs from the manifest");
     }
     auto view = FaceView::open(files[f].bytes(), path.string());
@@ -184,6 +220,13 @@ Result<VerifyReport> verifyDataset(const VerifyOptions& o) {
   std::mutex ratioMutex;
   double worstRatio = 0.0;
   std::atomic<std::uint64_t> done{0};
+  // RSS bound: the face files' and the scratch grid's pages are dropped from this process every
+  // 250 ms while the nodes are checked (they stay in the page cache), as the builder does.
+  std::optional<ResidentTrimmer> trimmer;
+  trimmer.emplace(std::chrono::milliseconds(250), [&files, &grid] {
+    for (const MappedFile& f : files) (void)f.releaseResident();
+    if (grid) grid->releaseResident();
+  });
   tbb::parallel_for(std::uint64_t{0}, totalNodes, [&](std::uint64_t id) {
     const BinTriangle t = triangleOfNode(lattice, id, depth);
     const FaceView& view = *views[static_cast<std::size_t>(t.face)];
@@ -260,14 +303,17 @@ Result<VerifyReport> verifyDataset(const VerifyOptions& o) {
     // Vertices on the three edges.
     const std::array<std::array<LatticeXY, 2>, 3> edgeEnds = {
         {{t.apex, t.left}, {t.apex, t.right}, {t.left, t.right}}};
+    EdgeVertices edge;
     for (std::size_t e = 0; e < 3; ++e) {
+      edge.clear();
       for (std::size_t v = 0; v < points.size(); ++v) {
         const LatticeXY a = edgeEnds[e][0];
         const LatticeXY b = edgeEnds[e][1];
         if (doubleArea(a, b, points[v]) != 0) continue;
-        node.edges[e].emplace_back(lattice.key(t.face, points[v]), mesh.vertices[v].heightSteps);
+        edge.emplace_back(lattice.key(t.face, points[v]), mesh.vertices[v].heightSteps);
       }
-      std::sort(node.edges[e].begin(), node.edges[e].end());
+      std::sort(edge.begin(), edge.end());
+      node.edges[e] = edgeDigest(edge);
     }
     node.valid = true;
     // The stored error bounds the deviation from every source sample the patch covers.
@@ -298,6 +344,7 @@ Result<VerifyReport> verifyDataset(const VerifyOptions& o) {
     if (done % 4096 == 0)
       progress("patches", static_cast<double>(done) / static_cast<double>(totalNodes));
   });
+  trimmer.reset();
   report.patchesDecoded = done.load();
   report.nodesChecked = totalNodes;
   report.demSamplesChecked = demSamples.load();
@@ -306,7 +353,8 @@ Result<VerifyReport> verifyDataset(const VerifyOptions& o) {
   // ---- Shared edges: every patch bordering an edge has the same vertices there (and the same
   // displacements), so every conforming cut is crack-free.
   {
-    std::map<EdgeKey, std::pair<std::uint64_t, const EdgeVertices*>> firstSeen;
+    std::unordered_map<EdgeKey, std::pair<std::uint64_t, std::uint64_t>, EdgeKeyHash> firstSeen;
+    firstSeen.reserve(static_cast<std::size_t>(totalNodes));
     for (std::uint64_t id = 0; id < totalNodes; ++id) {
       const DecodedNode& node = nodes[id];
       if (!node.valid) continue;
@@ -315,10 +363,10 @@ Result<VerifyReport> verifyDataset(const VerifyOptions& o) {
                                            lattice.edgeKey(t.face, t.apex, t.right),
                                            lattice.edgeKey(t.face, t.left, t.right)};
       for (std::size_t e = 0; e < 3; ++e) {
-        const auto [it, inserted] = firstSeen.try_emplace(keys[e], id, &node.edges[e]);
+        const auto [it, inserted] = firstSeen.try_emplace(keys[e], id, node.edges[e]);
         if (inserted) continue;
         ++report.edgesCompared;
-        if (*it->second.second != node.edges[e]) {
+        if (it->second.second != node.edges[e]) {
           violations.add(nodeName(t) + " and " +
                          nodeName(triangleOfNode(lattice, it->second.first, depth)) +
                          " disagree on the vertices of a shared edge");
