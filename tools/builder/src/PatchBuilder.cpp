@@ -851,20 +851,29 @@ MeasuredPatch measurePatch(const SampleGrid& grid, const BinTriangle& t, const W
     out.sphereRadiusMeters = std::max(out.sphereRadiusMeters, glm::length(r - out.sphereCenter));
   }
 
-  // Chord bound: the flat triangles between rendered vertices sag below a curved surface by at
-  // most e²/(8R) for an edge e.
+  // Chord bound: a flat triangle between three points of a sphere of radius R sags below it by
+  // (rc² − ρ²)/(2R) at distance ρ from its circumcentre (rc the circumradius): at most rc²/(2R)
+  // where the circumcentre is inside (acute triangles), else c²/(8R) at the midpoint of the
+  // longest edge c. (The longest-edge bound alone is 3/4 of the truth for an equilateral
+  // triangle.) Below, `worst` is 4rc² or c², so the bound is worst/(8R).
   const Planet& planet = grid.planet();
   const double rMin =
       std::max(1.0, planet.polarRadiusMeters() + static_cast<double>(grid.minHeightMeters()));
-  double longest2 = 0.0;
+  double worst = 0.0;
   for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
-    for (int e = 0; e < 3; ++e) {
-      const glm::dvec3 d = rendered[patch.indices[k + static_cast<std::size_t>(e)]] -
-                           rendered[patch.indices[k + static_cast<std::size_t>((e + 1) % 3)]];
-      longest2 = std::max(longest2, glm::dot(d, d));
-    }
+    const glm::dvec3& a = rendered[patch.indices[k]];
+    const glm::dvec3& b = rendered[patch.indices[k + 1]];
+    const glm::dvec3& c = rendered[patch.indices[k + 2]];
+    std::array<double, 3> sq = {glm::dot(b - a, b - a), glm::dot(c - b, c - b),
+                                glm::dot(a - c, a - c)};
+    std::sort(sq.begin(), sq.end());
+    // 16·area² by Heron's formula in squared sides.
+    const double area16 = 2.0 * (sq[0] * sq[1] + sq[1] * sq[2] + sq[2] * sq[0]) -
+                          (sq[0] * sq[0] + sq[1] * sq[1] + sq[2] * sq[2]);
+    const bool acute = sq[0] + sq[1] > sq[2] && area16 > 0.0;
+    worst = std::max(worst, acute ? 4.0 * sq[0] * sq[1] * sq[2] / area16 : sq[2]);
   }
-  out.chordErrorMeters = longest2 / (8.0 * rMin);
+  out.chordErrorMeters = worst / (8.0 * rMin);
 
   // Representation error (docs/builder.md "Errors"). A vertex is drawn at its lattice
   // barycentrics on the flat corner triangle, displaced along the interpolated normal: on the

@@ -68,7 +68,7 @@ struct MeasuredPatch final {
   /// max |H(q + δ(q)) − H(q)| over the covered lattice points, δ the drawn shift, plus the
   /// vertices' own height error (docs/builder.md "Errors")
   double representationErrorMeters = 0.0;
-  double chordErrorMeters = 0.0;  ///< e²/(8·R_min) for its longest triangle edge
+  double chordErrorMeters = 0.0;  ///< max sag of its flat triangles below the planet (R_min)
   double errorMeters = 0.0;       ///< the sum of the three
   glm::dvec3 sphereCenter{0.0};   ///< bounding sphere of the rendered vertices
   double sphereRadiusMeters = 0.0;
