@@ -8,20 +8,27 @@
 
 #include <cpl_conv.h>
 #include <cpl_error.h>
+#include <fcntl.h>
 #include <gdal.h>
 #include <gdal_priv.h>
 #include <gdal_utils.h>
 #include <gdalwarper.h>
 #include <ogr_spatialref.h>
+#include <sys/mman.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <array>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <mutex>
+#include <optional>
+#include <span>
 #include <sstream>
 #include <vector>
 
@@ -29,6 +36,40 @@ namespace pbdam {
 namespace {
 
 namespace fs = std::filesystem;
+
+/// An unnamed file of `bytes` in `directory` (O_TMPFILE, else a named one unlinked at once),
+/// its blocks allocated so that writing through the mapping cannot hit a full disk, mapped
+/// shared and writable; the mapping is unmapped (and the file's space freed) with the last
+/// owner. Nullopt when any step fails.
+std::optional<std::shared_ptr<float>> mapScratch(const fs::path& directory, std::uint64_t bytes) {
+  int fd = ::open(directory.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
+  if (fd < 0) {
+    std::string name = (directory / ".pbdam-dem-XXXXXX").string();
+    fd = ::mkostemp(name.data(), O_CLOEXEC);
+    if (fd < 0) return std::nullopt;
+    ::unlink(name.c_str());
+  }
+  const auto length = static_cast<off_t>(bytes);
+  if (::posix_fallocate(fd, 0, length) != 0) {
+    ::close(fd);
+    return std::nullopt;
+  }
+  void* address = ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+  ::close(fd);
+  if (address == MAP_FAILED) return std::nullopt;
+  return std::shared_ptr<float>(static_cast<float*>(address),
+                                [bytes](float* p) { ::munmap(p, bytes); });
+}
+
+/// Drops the process's page-table entries of the whole pages in [data, data + bytes) of a
+/// shared file mapping.
+void dropPages(void* data, std::size_t bytes) noexcept {
+  const auto page = static_cast<std::uintptr_t>(::sysconf(_SC_PAGESIZE));
+  const auto first = reinterpret_cast<std::uintptr_t>(data) / page * page;
+  const auto last = reinterpret_cast<std::uintptr_t>(data) + bytes;
+  // NOLINTNEXTLINE(performance-no-int-to-ptr): the mapping's own pages
+  (void)::madvise(reinterpret_cast<void*>(first), last - first, MADV_DONTNEED);
+}
 
 void registerGdalOnce() {
   // A function-local static rather than std::call_once: GDAL takes its own mutex inside, which
@@ -621,14 +662,6 @@ Result<HeightGrid> readDem(const fs::path& path, const DemReadOptions& options) 
   }
 
   GDALRasterBandH band = GDALGetRasterBand(dataset.get(), 1);
-  std::vector<float> heights(static_cast<std::size_t>(width * height));
-  if (GDALRasterIO(band, GF_Read, 0, 0, static_cast<int>(width), static_cast<int>(height),
-                   heights.data(), static_cast<int>(width), static_cast<int>(height), GDT_Float32,
-                   0, 0) != CE_None ||
-      capture.hasFailures()) {
-    return fail(ErrorCode::CorruptData, path, withGdal("cannot read the samples", capture));
-  }
-
   int hasNoData = 0;
   const double noData = GDALGetRasterNoDataValue(band, &hasNoData);
   if (hasNoData != 0) source.noDataValue = noData;
@@ -646,16 +679,52 @@ Result<HeightGrid> readDem(const fs::path& path, const DemReadOptions& options) 
   const auto noDataFloat = static_cast<float>(noData);
   const double factor = (hasScale != 0 ? scale : 1.0) * *perUnit;
   const double shift = (hasOffset != 0 ? offset : 0.0) * *perUnit;
-  for (float& v : heights) {
-    // Huge fill values (ETOPO's −1e34) may differ in their last bits between attribute and data.
-    const bool isNoData =
-        hasNoData != 0 && (v == noDataFloat || (std::abs(noData) > 1e30 && std::abs(v) > 1e30f));
-    if (!std::isfinite(v) || isNoData) {
-      v = std::numeric_limits<float>::quiet_NaN();
-    } else if (factor != 1.0 || shift != 0.0) {
-      v = static_cast<float>(static_cast<double>(v) * factor + shift);
+  // Reads rows [row, row + rows) into `out` as metres with nodata as NaN.
+  const auto readRows = [&](std::int64_t row, std::int64_t rows, float* out) -> Result<void> {
+    if (GDALRasterIO(band, GF_Read, 0, static_cast<int>(row), static_cast<int>(width),
+                     static_cast<int>(rows), out, static_cast<int>(width), static_cast<int>(rows),
+                     GDT_Float32, 0, 0) != CE_None ||
+        capture.hasFailures()) {
+      return fail(ErrorCode::CorruptData, path, withGdal("cannot read the samples", capture));
     }
+    for (float& v : std::span(out, static_cast<std::size_t>(rows * width))) {
+      // Huge fill values (ETOPO's −1e34) may differ in their last bits between attribute and
+      // data.
+      const bool isNoData =
+          hasNoData != 0 && (v == noDataFloat || (std::abs(noData) > 1e30 && std::abs(v) > 1e30f));
+      if (!std::isfinite(v) || isNoData) {
+        v = std::numeric_limits<float>::quiet_NaN();
+      } else if (factor != 1.0 || shift != 0.0) {
+        v = static_cast<float>(static_cast<double>(v) * factor + shift);
+      }
+    }
+    return {};
+  };
+
+  const auto bytes = static_cast<std::uint64_t>(width * height) * sizeof(float);
+  if (!options.scratchDirectory.empty() && bytes >= options.mapAtBytes) {
+    // Out of core: rows in blocks of about 16 MB straight into the scratch mapping, each block's
+    // pages dropped from the process once written (they stay in the page cache).
+    if (auto mapping = mapScratch(options.scratchDirectory, bytes)) {
+      float* heights = mapping->get();
+      const std::int64_t blockRows =
+          std::max<std::int64_t>(1, (std::int64_t{16} << 20) / (width * 4));
+      for (std::int64_t row = 0; row < height; row += blockRows) {
+        const std::int64_t rows = std::min(blockRows, height - row);
+        float* block = heights + row * width;
+        if (auto r = readRows(row, rows, block); !r) return r.error();
+        dropPages(block, static_cast<std::size_t>(rows * width) * sizeof(float));
+        // GDAL's block cache (5% of RAM by default) would otherwise keep what was read.
+        GDALFlushRasterCache(band);
+      }
+      ::mprotect(heights, bytes, PROT_READ);
+      return HeightGrid(geometry, std::shared_ptr<const float>(std::move(*mapping)), true,
+                        std::move(source));
+    }
+    // No scratch file (a full disk, a filesystem without unnamed files): read into memory.
   }
+  std::vector<float> heights(static_cast<std::size_t>(width * height));
+  if (auto r = readRows(0, height, heights.data()); !r) return r.error();
   return HeightGrid(geometry, std::move(heights), std::move(source));
 }
 

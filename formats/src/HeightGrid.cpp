@@ -3,9 +3,13 @@
 // the outermost row, so samples are continuous across the seam and single-valued at the poles.
 #include "pbdam/formats/HeightGrid.h"
 
+#include <sys/mman.h>
+#include <unistd.h>
+
 #include <array>
 #include <cassert>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 
 namespace pbdam {
@@ -29,7 +33,33 @@ std::int64_t positiveModulo(std::int64_t value, std::int64_t period) noexcept {
 }  // namespace
 
 HeightGrid::HeightGrid(GridGeometry geometry, std::vector<float> heightsMeters, GridSource source)
-    : geometry_(geometry), heights_(std::move(heightsMeters)), source_(std::move(source)) {
+    : geometry_(geometry), source_(std::move(source)) {
+  auto owned = std::make_shared<const std::vector<float>>(std::move(heightsMeters));
+  heights_ = std::span<const float>(*owned);
+  storage_ = std::shared_ptr<const float>(owned, owned->data());
+  init();
+}
+
+HeightGrid::HeightGrid(GridGeometry geometry, std::shared_ptr<const float> heightsMeters,
+                       bool fileBacked, GridSource source)
+    : geometry_(geometry),
+      storage_(std::move(heightsMeters)),
+      heights_(storage_.get(), static_cast<std::size_t>(geometry.width * geometry.height)),
+      fileBacked_(fileBacked),
+      source_(std::move(source)) {
+  init();
+}
+
+void HeightGrid::releaseResident() const noexcept {
+  if (!fileBacked_ || heights_.empty()) return;
+  const auto page = static_cast<std::uintptr_t>(::sysconf(_SC_PAGESIZE));
+  const auto first = reinterpret_cast<std::uintptr_t>(heights_.data()) / page * page;
+  const auto last = reinterpret_cast<std::uintptr_t>(heights_.data() + heights_.size());
+  // NOLINTNEXTLINE(performance-no-int-to-ptr): the mapping's own pages
+  (void)::madvise(reinterpret_cast<void*>(first), last - first, MADV_DONTNEED);
+}
+
+void HeightGrid::init() {
   assert(geometry_.width > 0 && geometry_.height > 0);
   assert(geometry_.latSpacingDegrees > 0.0 && geometry_.lonSpacingDegrees > 0.0);
   assert(heights_.size() == static_cast<std::size_t>(geometry_.width * geometry_.height));

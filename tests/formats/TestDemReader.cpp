@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <ogr_srs_api.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <functional>
@@ -89,6 +90,44 @@ TEST(DemReader, MolaMegdrIsGeoreferencedLikeItsLabel) {
     }
   }
   EXPECT_GT(arsia, 16000.0);
+}
+
+TEST(DemReader, ALargeGridMappedFromAScratchFileHoldsTheSameHeights) {
+  PBDAM_REQUIRE_DATA(label, test::dataDir() / kMolaLabel);
+  auto inMemory = readDem(label);
+  ASSERT_TRUE(inMemory) << inMemory.error().message;
+  EXPECT_FALSE(inMemory->fileBacked());
+
+  test::TempDir dir;
+  DemReadOptions mapped;
+  mapped.scratchDirectory = dir.path();
+  mapped.mapAtBytes = 0;  // MOLA's 4 MB counts as large here
+  auto grid = readDem(label, mapped);
+  ASSERT_TRUE(grid) << grid.error().message;
+  EXPECT_TRUE(grid->fileBacked());
+  // The scratch file has no name: nothing is left in the directory.
+  EXPECT_TRUE(fs::is_empty(dir.path()));
+  const auto a = inMemory->heightsMeters();
+  const auto b = grid->heightsMeters();
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_TRUE(std::equal(a.begin(), a.end(), b.begin()));
+  // Dropping the pages from the process keeps the heights (they come back from the file).
+  grid->releaseResident();
+  EXPECT_TRUE(std::equal(a.begin(), a.end(), b.begin()));
+  EXPECT_DOUBLE_EQ(*grid->sampleBicubic(17.375, 226.875),
+                   *inMemory->sampleBicubic(17.375, 226.875));
+  // Copies share the mapping and keep it alive.
+  const HeightGrid copy = *grid;
+  grid = readDem(label);
+  EXPECT_EQ(copy.at(0, 0), inMemory->at(0, 0));
+  EXPECT_EQ(copy.at(719, 1439), inMemory->at(719, 1439));
+
+  // Where no scratch file can be made, the grid is read into memory.
+  mapped.scratchDirectory = dir / "missing";
+  auto fallback = readDem(label, mapped);
+  ASSERT_TRUE(fallback) << fallback.error().message;
+  EXPECT_FALSE(fallback->fileBacked());
+  EXPECT_EQ(fallback->at(100, 100), inMemory->at(100, 100));
 }
 
 TEST(DemReader, MolaRadiusAsRawGridGivesThePlausibleAreoid) {

@@ -308,6 +308,22 @@ struct Inputs {
   std::uint32_t n = 0;
 };
 
+/// How the builder reads the DEM: a large one goes to an unnamed scratch file on the output's
+/// filesystem (the nearest existing directory of --out) and is mapped, so it is not held in
+/// memory (DemReader.h; the ResidentTrimmer drops its pages).
+DemReadOptions demReadOptions(const BuildOptions& o) {
+  DemReadOptions r;
+  r.raw = o.rawLayout;
+  r.mapAtBytes = o.demMapAtBytes;
+  std::error_code ec;
+  fs::path dir = fs::absolute(o.outDir, ec);
+  if (ec) return r;
+  // is_directory reports a missing path through `ec` too: that only means "go up".
+  while (!fs::is_directory(dir, ec) && dir.has_relative_path()) dir = dir.parent_path();
+  if (fs::is_directory(dir, ec)) r.scratchDirectory = dir;
+  return r;
+}
+
 Result<Inputs> prepare(const BuildOptions& o) {
   Inputs in;
   in.leafCells = o.leafVertices - 1;
@@ -338,9 +354,7 @@ Result<Inputs> prepare(const BuildOptions& o) {
     return invalid(o.outDir.string() + ": already holds a dataset (use --force to replace it)");
   }
 
-  DemReadOptions readOptions;
-  readOptions.raw = o.rawLayout;
-  auto dem = readDem(o.demPath, readOptions);
+  auto dem = readDem(o.demPath, demReadOptions(o));
   if (!dem) return std::move(dem).error();
   const std::string& body = dem->source().body;
   const std::string spec = planet->name();
@@ -377,7 +391,16 @@ Result<Inputs> prepare(const BuildOptions& o) {
 
 /// The DEM's identity in the fingerprint: the CRC-32 of its heights, in hex.
 std::string demCrc32(const HeightGrid& dem) {
-  return hex32(crc32(std::as_bytes(std::span(dem.heightsMeters()))));
+  // In 64 MB pieces, dropping a mapped DEM's pages after each: one pass over a 2 GB DEM would
+  // otherwise bring all of it into the process's RSS.
+  const auto bytes = std::as_bytes(dem.heightsMeters());
+  constexpr std::size_t kPiece = std::size_t{64} << 20;
+  std::uint32_t crc = 0;
+  for (std::size_t at = 0; at < bytes.size(); at += kPiece) {
+    crc = crc32(bytes.subspan(at, std::min(kPiece, bytes.size() - at)), crc);
+    dem.releaseResident();
+  }
+  return hex32(crc);
 }
 
 /// The options and inputs that decide the output bytes (the checkpoint's fingerprint). Thread
@@ -482,6 +505,11 @@ class DistributedBuild {
   Result<void> buildTextures();
   /// Drops the pages of every mapping in use from this process (ResidentTrimmer).
   void releaseResident();
+  /// Lets the DEM go (memory, or its scratch mapping), under the trimmer's lock.
+  void releaseDem() {
+    std::lock_guard lock(residentMutex_);
+    in_.dem.reset();
+  }
   /// Reads the DEM again (for the textures) and checks it is the one the build started with.
   Result<void> rereadDem();
   Result<void> assemble(BuildSummary& summary);
@@ -620,6 +648,7 @@ Result<StartPoint> DistributedBuild::setUpOutput() {
 
 void DistributedBuild::releaseResident() {
   std::lock_guard lock(residentMutex_);
+  if (in_.dem) in_.dem->releaseResident();
   if (grid_) grid_->releaseResident();
   below_.releaseResident();
   for (const MappedFile* m : assembling_) (void)m->releaseResident();
@@ -945,9 +974,7 @@ Result<void> DistributedBuild::buildLevel(int level) {
 
 Result<void> DistributedBuild::rereadDem() {
   const auto t0 = Clock::now();
-  DemReadOptions readOptions;
-  readOptions.raw = o_.rawLayout;
-  auto dem = readDem(o_.demPath, readOptions);
+  auto dem = readDem(o_.demPath, demReadOptions(o_));
   if (!dem) return std::move(dem).error();
   const std::string crc = demCrc32(*dem);
   for (const auto& [key, value] : state_.fingerprint) {
@@ -957,7 +984,10 @@ Result<void> DistributedBuild::rereadDem() {
                            ", was " + value + " when the build started)");
     }
   }
-  in_.dem = std::move(dem).value();
+  {
+    std::lock_guard lock(residentMutex_);  // the trimmer releases the DEM's pages too
+    in_.dem = std::move(dem).value();
+  }
   char line[120];
   std::snprintf(line, sizeof line, "texture: DEM read again in %.1f s",
                 std::chrono::duration<double>(Clock::now() - t0).count());
@@ -1405,7 +1435,7 @@ Result<BuildSummary> DistributedBuild::run() {
   // RSS bound: the levels read the lattice and the bucketed samples only, so the DEM (the
   // largest thing in memory: 2.1 GB of floats for the paper-scale 32768×16384 input) is released
   // until the textures read it again.
-  in_.dem.reset();
+  releaseDem();
 
   // ---- Levels D .. 0: leaves, then one block per diamond; saturation with each level.
   simplifyStart_ = Clock::now();
@@ -1430,7 +1460,7 @@ Result<BuildSummary> DistributedBuild::run() {
   // RSS bound: the assembly reads checkpoint files only, so the DEM the textures read again
   // (2.17 GB at the paper scale) goes before it. The paper-scale 2 × 1 run without this peaked
   // at 5,115 MB on rank 0 (which assembles) against 3,465 MB on rank 1.
-  in_.dem.reset();
+  releaseDem();
 
   // ---- Face files, then the manifest (rank 0).
   if (root()) {

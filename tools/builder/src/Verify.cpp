@@ -171,8 +171,13 @@ Result<VerifyReport> verifyDataset(const VerifyOptions& o) {
   if (!o.demPath.empty()) {
     DemReadOptions readOptions;
     readOptions.raw = o.rawLayout;
+    // A large DEM is mapped from an unnamed file in TMPDIR rather than held in memory, and its
+    // pages are dropped from this process every 250 ms while it is resampled and bucketed.
+    readOptions.scratchDirectory = fs::temp_directory_path();
     auto dem = readDem(o.demPath, readOptions);
     if (!dem) return std::move(dem).error();
+    const ResidentTrimmer demTrimmer(std::chrono::milliseconds(250),
+                                     [&dem] { dem->releaseResident(); });
     progress("read dem", 1.0);
     // Out of core, as the builder does it: the lattice heights and the bucketed samples go to
     // files in a scratch directory (TMPDIR) and are mapped read-only. In memory they are 12 B

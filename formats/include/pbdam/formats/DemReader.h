@@ -43,6 +43,13 @@ struct DemReadOptions final {
   std::optional<RawLayout> raw;
   /// Refuse grids with more samples than this (they must be read tile by tile).
   std::int64_t maxSamples = std::int64_t{1} << 31;
+  /// Large grids out of core: when not empty and the heights take at least `mapAtBytes`, they
+  /// are read in row blocks into an unnamed scratch file in this directory (on its filesystem;
+  /// its space is freed when the last copy of the grid goes) and mapped, so the process holds
+  /// only the pages it touches (HeightGrid::releaseResident drops those). Where no such file
+  /// can be made (a full disk, no unnamed-file support), the grid is read into memory instead.
+  std::filesystem::path scratchDirectory;
+  std::uint64_t mapAtBytes = std::uint64_t{256} << 20;
 };
 
 /// Reads the first band of an elevation raster into a geographic HeightGrid in metres.

@@ -1,14 +1,17 @@
 // HeightGrid: a regular latitude/longitude grid of heights in metres, the one in-memory form of
 // every elevation input (MOLA PDS3, ETOPO NetCDF, SRTM .hgt, GeoTIFF, raw), with its georeference,
 // nodata handling and bilinear/bicubic sampling that is correct across the longitude seam and the
-// poles. Thread-safety: immutable after construction; all const members may be called from any
-// number of threads.
+// poles. The heights are held in memory or, for large grids, in a mapped scratch file
+// (DemReader.h). Thread-safety: immutable after construction; all const members may be called
+// from any number of threads; copies share the heights.
 #pragma once
 
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -68,6 +71,11 @@ class HeightGrid final {
   /// Takes `heightsMeters` in row-major order (row 0 north). `geometry` must have positive
   /// size and spacing and heightsMeters.size() must equal width·height.
   HeightGrid(GridGeometry geometry, std::vector<float> heightsMeters, GridSource source);
+  /// The same over heights held elsewhere: `heightsMeters` points at width·height floats that
+  /// stay valid as long as `owner` lives. With `fileBacked`, they are a shared file mapping
+  /// whose pages releaseResident may drop from the process (they stay in the page cache).
+  HeightGrid(GridGeometry geometry, std::shared_ptr<const float> heightsMeters, bool fileBacked,
+             GridSource source);
 
   const GridGeometry& geometry() const noexcept { return geometry_; }
   const GridSource& source() const noexcept { return source_; }
@@ -76,7 +84,14 @@ class HeightGrid final {
 
   /// The stored height of (row, col) in metres, NaN for nodata. Indices must be in range.
   float at(std::int64_t row, std::int64_t col) const noexcept;
-  const std::vector<float>& heightsMeters() const noexcept { return heights_; }
+  std::span<const float> heightsMeters() const noexcept { return heights_; }
+
+  /// True when the heights are a mapped file rather than process memory.
+  bool fileBacked() const noexcept { return fileBacked_; }
+  /// Drops this process's page-table entries of file-backed heights (their pages stay in the
+  /// page cache; a later read is a minor fault), so that reading a large grid once does not
+  /// leave it in the process's RSS. No effect on heights held in memory. Thread-safe.
+  void releaseResident() const noexcept;
 
   double latOfRowDegrees(std::int64_t row) const noexcept;
   double lonOfColumnDegrees(std::int64_t col) const noexcept;
@@ -120,8 +135,13 @@ class HeightGrid final {
   /// Fractional (row, col) of (lat, lon); nullopt outside the grid.
   bool toGrid(double latDegrees, double lonDegrees, double& row, double& col) const noexcept;
 
+  /// Pole means and seam facts from the geometry and the heights (both constructors).
+  void init();
+
   GridGeometry geometry_;
-  std::vector<float> heights_;
+  std::shared_ptr<const float> storage_;  ///< keeps heights_ alive
+  std::span<const float> heights_;
+  bool fileBacked_ = false;
   GridSource source_;
   std::int64_t wrapColumns_ = 0;  ///< columns in one turn of longitude, 0 if regional
   bool wrapsLongitude_ = false;
