@@ -4,6 +4,7 @@
 // in some drivers), and maps nodata to NaN.
 #include "pbdam/formats/DemReader.h"
 
+#include "pbdam/formats/MappedPages.h"
 #include "pbdam/formats/NumberList.h"
 
 #include <cpl_conv.h>
@@ -40,35 +41,22 @@ namespace fs = std::filesystem;
 /// An unnamed file of `bytes` in `directory` (O_TMPFILE, else a named one unlinked at once),
 /// its blocks allocated so that writing through the mapping cannot hit a full disk, mapped
 /// shared and writable; the mapping is unmapped (and the file's space freed) with the last
-/// owner. Nullopt when any step fails.
-std::optional<std::shared_ptr<float>> mapScratch(const fs::path& directory, std::uint64_t bytes) {
+/// owner. Null when any step fails.
+std::shared_ptr<float> mapScratch(const fs::path& directory, std::uint64_t bytes) {
   int fd = ::open(directory.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
   if (fd < 0) {
     std::string name = (directory / ".pbdam-dem-XXXXXX").string();
     fd = ::mkostemp(name.data(), O_CLOEXEC);
-    if (fd < 0) return std::nullopt;
+    if (fd < 0) return nullptr;
     ::unlink(name.c_str());
   }
-  const auto length = static_cast<off_t>(bytes);
-  if (::posix_fallocate(fd, 0, length) != 0) {
-    ::close(fd);
-    return std::nullopt;
-  }
-  void* address = ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+  const bool reserved = ::posix_fallocate(fd, 0, static_cast<off_t>(bytes)) == 0;
+  void* address =
+      reserved ? ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0) : MAP_FAILED;
   ::close(fd);
-  if (address == MAP_FAILED) return std::nullopt;
+  if (address == MAP_FAILED) return nullptr;
   return std::shared_ptr<float>(static_cast<float*>(address),
                                 [bytes](float* p) { ::munmap(p, bytes); });
-}
-
-/// Drops the process's page-table entries of the whole pages in [data, data + bytes) of a
-/// shared file mapping.
-void dropPages(void* data, std::size_t bytes) noexcept {
-  const auto page = static_cast<std::uintptr_t>(::sysconf(_SC_PAGESIZE));
-  const auto first = reinterpret_cast<std::uintptr_t>(data) / page * page;
-  const auto last = reinterpret_cast<std::uintptr_t>(data) + bytes;
-  // NOLINTNEXTLINE(performance-no-int-to-ptr): the mapping's own pages
-  (void)::madvise(reinterpret_cast<void*>(first), last - first, MADV_DONTNEED);
 }
 
 void registerGdalOnce() {
@@ -706,20 +694,19 @@ Result<HeightGrid> readDem(const fs::path& path, const DemReadOptions& options) 
     // Out of core: rows in blocks of about 16 MB straight into the scratch mapping, each block's
     // pages dropped from the process once written (they stay in the page cache).
     if (auto mapping = mapScratch(options.scratchDirectory, bytes)) {
-      float* heights = mapping->get();
+      float* heights = mapping.get();
       const std::int64_t blockRows =
           std::max<std::int64_t>(1, (std::int64_t{16} << 20) / (width * 4));
       for (std::int64_t row = 0; row < height; row += blockRows) {
         const std::int64_t rows = std::min(blockRows, height - row);
         float* block = heights + row * width;
         if (auto r = readRows(row, rows, block); !r) return r.error();
-        dropPages(block, static_cast<std::size_t>(rows * width) * sizeof(float));
+        dropMappedPages(block, static_cast<std::size_t>(rows * width) * sizeof(float));
         // GDAL's block cache (5% of RAM by default) would otherwise keep what was read.
         GDALFlushRasterCache(band);
       }
       ::mprotect(heights, bytes, PROT_READ);
-      return HeightGrid(geometry, std::shared_ptr<const float>(std::move(*mapping)), true,
-                        std::move(source));
+      return HeightGrid(geometry, std::move(mapping), true, std::move(source));
     }
     // No scratch file (a full disk, a filesystem without unnamed files): read into memory.
   }

@@ -3,6 +3,8 @@
 // the outermost row, so samples are continuous across the seam and single-valued at the poles.
 #include "pbdam/formats/HeightGrid.h"
 
+#include "pbdam/formats/MappedPages.h"
+
 #include <sys/mman.h>
 #include <unistd.h>
 
@@ -50,13 +52,17 @@ HeightGrid::HeightGrid(GridGeometry geometry, std::shared_ptr<const float> heigh
   init();
 }
 
-void HeightGrid::releaseResident() const noexcept {
-  if (!fileBacked_ || heights_.empty()) return;
+void dropMappedPages(const void* data, std::size_t bytes) noexcept {
+  if (bytes == 0) return;
   const auto page = static_cast<std::uintptr_t>(::sysconf(_SC_PAGESIZE));
-  const auto first = reinterpret_cast<std::uintptr_t>(heights_.data()) / page * page;
-  const auto last = reinterpret_cast<std::uintptr_t>(heights_.data() + heights_.size());
+  const auto first = reinterpret_cast<std::uintptr_t>(data) / page * page;
+  const auto last = reinterpret_cast<std::uintptr_t>(data) + bytes;
   // NOLINTNEXTLINE(performance-no-int-to-ptr): the mapping's own pages
   (void)::madvise(reinterpret_cast<void*>(first), last - first, MADV_DONTNEED);
+}
+
+void HeightGrid::releaseResident() const noexcept {
+  if (fileBacked_) dropMappedPages(heights_.data(), heights_.size_bytes());
 }
 
 void HeightGrid::init() {

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <iterator>
 
 #include "TestData.h"
 #include "pbdam/builder/Builder.h"
@@ -125,12 +126,8 @@ TEST(Builder, SameInputsGiveIdenticalBytesForAnyThreadCountAndDemStorage) {
   ASSERT_TRUE(buildDataset(a));
   ASSERT_TRUE(buildDataset(b));
   expectSameFiles(dir / "a", dir / "b");
-  std::size_t entries = 0;
-  for (const auto& entry : fs::directory_iterator(dir.path())) {
-    (void)entry;
-    ++entries;
-  }
-  EXPECT_EQ(entries, 2u) << "a scratch file was left in " << dir.path();
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator{}), 2)
+      << "a scratch file was left in " << dir.path();
   // Rebuilding over the same directory needs --force and reproduces the same bytes.
   const std::string before = readFile(dir / "a" / "face3.pbdam");
   auto again = buildDataset(a);

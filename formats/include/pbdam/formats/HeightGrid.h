@@ -71,9 +71,9 @@ class HeightGrid final {
   /// Takes `heightsMeters` in row-major order (row 0 north). `geometry` must have positive
   /// size and spacing and heightsMeters.size() must equal width·height.
   HeightGrid(GridGeometry geometry, std::vector<float> heightsMeters, GridSource source);
-  /// The same over heights held elsewhere: `heightsMeters` points at width·height floats that
-  /// stay valid as long as `owner` lives. With `fileBacked`, they are a shared file mapping
-  /// whose pages releaseResident may drop from the process (they stay in the page cache).
+  /// The same over heights held elsewhere: `heightsMeters` points at width·height floats and
+  /// owns them (its deleter frees them when the last copy of the grid goes). With `fileBacked`,
+  /// they are a shared file mapping whose pages releaseResident may drop from the process.
   HeightGrid(GridGeometry geometry, std::shared_ptr<const float> heightsMeters, bool fileBacked,
              GridSource source);
 
