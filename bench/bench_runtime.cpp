@@ -1,4 +1,4 @@
-// Runtime micro-benchmarks (issue 5; design.md §4–5): the stateless refinement traversal of
+// Runtime micro-benchmarks (design.md §4–5): the stateless refinement traversal of
 // paper 004 §4.3 over the poses of a recorded flight (µs per frame), and the GPU cache's LRU
 // bookkeeping (ResidencyLru: touch, insert with eviction). Google Benchmark; the traversal reads
 // a built dataset: PBDAM_BENCH_DATASET (default build/testdata/mola, which the test suite's

@@ -1,4 +1,4 @@
-// Load benchmark of `pbdam serve` (issue 6): starts the server on a free loopback port, then for
+// Load benchmark of `pbdam serve`: starts the server on a free loopback port, then for
 // each concurrency level sends a bounded number of GET /frame requests from that many client
 // threads (httplib's client, keep-alive) and reports frames/s, p50/p99 latency, errors (503s and
 // anything else) and the server's RSS: after warm-up, its maximum during the run and the end.

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Distributed build scaling (issue 7; docs/builder.md "Distributed build"): builds one dataset
+# Distributed build scaling (docs/builder.md "Distributed build"): builds one dataset
 # with several RANKSxTHREADS configurations through mpirun, side by side in one run, and reports
 # wall time, lattice and source samples/s, parallel efficiency against the 1x1 run (when
 # included: T1 / (ranks·threads·T)), CPU seconds of all ranks together (on a shared machine the

@@ -1,4 +1,4 @@
-// The distributed build as a user runs it (issue 7; docs/builder.md "Distributed build"):
+// The distributed build as a user runs it (docs/builder.md "Distributed build"):
 // `mpirun -np N pbdam build` on MOLA gives the plain build's bytes for N = 1, 2, 3; a rank that
 // dies (SIGKILL, by the fault-injection hook or by a real `kill -9` from outside) or reports an
 // error stops the job promptly with a message naming the rank and its work item; `--resume`
