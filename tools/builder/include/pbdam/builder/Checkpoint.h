@@ -18,6 +18,10 @@
 #include <utility>
 #include <vector>
 
+#include <glm/vec3.hpp>
+
+#include "pbdam/builder/PatchBuilder.h"
+#include "pbdam/formats/DatasetFormat.h"
 #include "pbdam/formats/Result.h"
 #include "pbdam/streaming/MappedFile.h"
 
@@ -190,6 +194,169 @@ class Checkpoint final {
 
  private:
   std::filesystem::path dir_;
+};
+
+// ---- The payloads of the part files (docs/builder.md "Checkpoints"). Every byte of them is
+// written and read here and nowhere else; a reader never trusts a count or offset it has not
+// checked against the payload.
+
+/// The footer of a level's nodes part file: what the rank's share of the level did. The same
+/// bytes are what the ranks all-gather after the level for the log.
+struct LevelPartFooter final {
+  static constexpr std::size_t kBytes = 6 * 8;
+  std::uint64_t firstDiamond = 0;  ///< the rank's first diamond of the level
+  std::uint64_t diamonds = 0;      ///< how many it built (two nodes each)
+  std::uint64_t simplifyRetries = 0;
+  std::uint64_t halvesKeptUnsimplified = 0;
+  std::uint64_t patchBytesRaw = 0;  ///< 8 bytes a vertex and 6 a triangle, uncompressed
+  double seconds = 0.0;
+};
+/// Exactly LevelPartFooter::kBytes bytes.
+std::vector<std::byte> encodeLevelPartFooter(const LevelPartFooter& footer);
+/// Decodes what encodeLevelPartFooter wrote; `bytes` must be exactly kBytes long, else the
+/// error names `where` and "truncated".
+Result<LevelPartFooter> decodeLevelPartFooter(std::span<const std::byte> bytes,
+                                              const std::string& where);
+
+/// One node as a nodes part file holds it: id, the saturated record (without blob offset) and
+/// the encoded patch.
+struct NodeEntry final {
+  std::uint64_t id = 0;
+  std::span<const std::byte, kNodeRecordBytes> record;
+  std::span<const std::byte> blob;
+};
+/// Appends one node entry: u64 id, the record, u32 blob size, the blob.
+void putNodeEntry(ByteWriter& w, std::uint64_t id,
+                  std::span<const std::byte, kNodeRecordBytes> record,
+                  std::span<const std::byte> blob);
+
+/// A nodes part file's payload: node entries, then the footer.
+class LevelPartView final {
+ public:
+  /// Splits `payload` (from Checkpoint::openFile); `where` names the file in errors.
+  static Result<LevelPartView> parse(std::span<const std::byte> payload, std::string where);
+  const LevelPartFooter& footer() const noexcept { return footer_; }
+  /// Calls `visit(entry, bytesReadSoFar)` for each of the footer's 2 × diamonds entries, in
+  /// file order, stopping early when `visit` returns false. Errors: the entries do not fill
+  /// the payload exactly ("truncated").
+  template <typename Visit>
+  Result<void> forEachNode(Visit&& visit) const {
+    ByteReader r(entries_);
+    for (std::uint64_t k = 0; k < 2 * footer_.diamonds; ++k) {
+      const std::optional<NodeEntry> entry = nextEntry(r);
+      if (!entry) break;
+      if (!visit(*entry, r.offset())) break;
+    }
+    if (r.failed() || !r.atEnd()) return truncated();
+    return {};
+  }
+
+ private:
+  static std::optional<NodeEntry> nextEntry(ByteReader& r) noexcept;
+  Error truncated() const;
+  std::span<const std::byte> entries_;
+  LevelPartFooter footer_;
+  std::string where_;
+};
+
+/// The footer of a texture part file (and what the ranks all-gather after the textures).
+struct TexturePartFooter final {
+  static constexpr std::size_t kBytes = 3 * 8;
+  std::uint64_t firstTile = 0;
+  std::uint64_t tiles = 0;
+  double seconds = 0.0;
+};
+std::vector<std::byte> encodeTexturePartFooter(const TexturePartFooter& footer);
+/// Decodes exactly TexturePartFooter::kBytes bytes; the error names `where` and "incomplete".
+Result<TexturePartFooter> decodeTexturePartFooter(std::span<const std::byte> bytes,
+                                                  const std::string& where);
+/// Appends one tile entry: f32 texture error, u32 blob size, the blob.
+void putTileEntry(ByteWriter& w, float textureErrorMeters, std::span<const std::byte> blob);
+/// A texture part file's payload: tile entries, then the footer.
+class TexturePartView final {
+ public:
+  static Result<TexturePartView> parse(std::span<const std::byte> payload, std::string where);
+  const TexturePartFooter& footer() const noexcept { return footer_; }
+  /// Calls `visit(tileIndex, textureErrorMeters, blob)` for the footer's tiles in order,
+  /// stopping early when `visit` returns false. Errors: the entries do not fill the payload
+  /// exactly ("incomplete").
+  template <typename Visit>
+  Result<void> forEachTile(Visit&& visit) const {
+    ByteReader r(entries_);
+    for (std::uint64_t k = footer_.firstTile; k < footer_.firstTile + footer_.tiles; ++k) {
+      const auto error = r.get<float>();
+      const auto bytes = r.get<std::uint32_t>();
+      const auto blob = r.take(bytes);
+      if (r.failed() || !visit(k, error, blob)) break;
+    }
+    if (r.failed() || !r.atEnd()) return incomplete();
+    return {};
+  }
+
+ private:
+  Error incomplete() const;
+  std::span<const std::byte> entries_;
+  TexturePartFooter footer_;
+  std::string where_;
+};
+
+/// What a level hands the next one for each of its nodes: the diamond's saturated error and
+/// bounding sphere as stored (floats where the record stores floats).
+struct CarrySaturation final {
+  float errorMeters = 0.0f;
+  glm::dvec3 sphereCenter{0.0};
+  float sphereRadiusMeters = 0.0f;
+};
+/// Appends one carry record: the saturation, a u8 flag, and with `patch` the working patch —
+/// u32 point count, u8 width (2 when every coordinate and index fits 16 bits — always for
+/// lattices up to 16384 cells and patches up to 65536 points — else 4), the points' (x, y), u32
+/// index count, the indices; each value in `width` bytes. Half the bytes of plain 32-bit
+/// values: the carry of the first block level is most of the build's I/O and disk.
+void putCarryRecord(ByteWriter& w, const CarrySaturation& saturation, const WorkPatch* patch);
+/// Reads one carry record; with `patch` the record must hold a patch. False when it is damaged
+/// (or has no patch that was asked for).
+bool getCarryRecord(ByteReader& r, CarrySaturation& saturation, WorkPatch* patch);
+/// The index that ends a carry part file: (node id, record offset) sorted by node id, then
+/// their u64 count. `entries` is sorted here.
+std::vector<std::byte> encodeCarryIndex(
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> entries);
+
+/// One carry part file's payload: records, then the index. Thread-safe lookups.
+class CarryPartView final {
+ public:
+  /// Checks the index against `payload`; `where` names the file in errors.
+  static Result<CarryPartView> parse(std::span<const std::byte> payload, const std::string& where);
+  /// The offset of node `id`'s record, or nullopt when the part does not hold it.
+  std::optional<std::uint64_t> offsetOf(std::uint64_t id) const noexcept;
+  /// The record at `offset` (from offsetOf), as getCarryRecord.
+  bool read(std::uint64_t offset, CarrySaturation& saturation, WorkPatch* patch) const;
+
+ private:
+  std::span<const std::byte> payload_;
+  const std::byte* index_ = nullptr;
+  std::uint64_t count_ = 0;
+};
+
+/// The carry of a finished level as the next level reads it: the level's part files mapped
+/// read-only, so a rank finds the children of its own diamonds without holding the level.
+/// Thread-safe lookups; open/close by one thread while no lookup runs.
+class CarryReader final {
+ public:
+  /// Maps the `parts` carry part files of `level` (checking CRCs with `verify`).
+  Result<void> open(const Checkpoint& checkpoint, int level, std::uint32_t parts, bool verify);
+  void close() { parts_.clear(); }
+  /// Drops the mappings' pages from this process.
+  void releaseResident() const noexcept;
+  /// Node `id`'s saturation and, with `patch`, its working patch, from the first part that
+  /// holds the node. Returns false when no part holds it, and when its record is damaged.
+  bool find(std::uint64_t id, CarrySaturation& saturation, WorkPatch* patch) const;
+
+ private:
+  struct Part {
+    MappedFile file;
+    CarryPartView view;
+  };
+  std::vector<Part> parts_;
 };
 
 /// "name" of the first fingerprint entry that differs between `saved` and `now` with both

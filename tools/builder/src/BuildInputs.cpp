@@ -1,0 +1,156 @@
+// Options checked, inputs read, lattice sized, fingerprint made (BuildInputs.h;
+// docs/builder.md "Checkpoints" for the fingerprint).
+#include "BuildInputs.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <span>
+
+#include "pbdam/formats/Checksum.h"
+#include "pbdam/formats/Manifest.h"
+#include "pbdam/formats/PatchCodec.h"
+
+namespace pbdam::builder {
+namespace {
+
+namespace fs = std::filesystem;
+
+Error invalid(const std::string& what) { return makeError(ErrorCode::InvalidArgument, what); }
+
+std::string hex32(std::uint32_t v) {
+  char s[16];
+  std::snprintf(s, sizeof s, "%08x", v);
+  return s;
+}
+
+std::string exact(double v) {
+  char s[40];
+  std::snprintf(s, sizeof s, "%.17g", v);
+  return s;
+}
+
+}  // namespace
+
+DemReadOptions demReadOptions(const BuildOptions& o) {
+  DemReadOptions r;
+  r.raw = o.rawLayout;
+  r.mapAtBytes = o.demMapAtBytes;
+  std::error_code ec;
+  fs::path dir = fs::absolute(o.outDir, ec);
+  if (ec) return r;
+  // is_directory reports a missing path through `ec` too: that only means "go up".
+  while (!fs::is_directory(dir, ec) && dir.has_relative_path()) dir = dir.parent_path();
+  if (fs::is_directory(dir, ec)) r.scratchDirectory = dir;
+  return r;
+}
+
+Result<BuildInputs> prepareInputs(const BuildOptions& o) {
+  BuildInputs in;
+  in.leafCells = o.leafVertices - 1;
+  if (o.leafVertices < 3 || !std::has_single_bit(in.leafCells) || in.leafCells > 256) {
+    return invalid("--leaf-vertices " + std::to_string(o.leafVertices) +
+                   ": must be 2^k + 1 between 3 and 257 (e.g. 17 or 33)");
+  }
+  if (o.patchVertices < 16 || o.patchVertices > kPatchMaxVertices) {
+    return invalid("--patch-vertices " + std::to_string(o.patchVertices) +
+                   ": must be between 16 and 65535");
+  }
+  if (o.textureTileTexels < 16 || o.textureTileTexels > 4096 || o.textureTileTexels % 4 != 0) {
+    return invalid("--texture-tile " + std::to_string(o.textureTileTexels) +
+                   ": must be a multiple of 4 between 16 and 4096");
+  }
+  if (o.depth && (*o.depth % 2 != 0 || *o.depth > 28)) {
+    return invalid("--levels " + std::to_string(*o.depth) + ": must be an even depth up to 28");
+  }
+  if (!(o.heightStepMeters > 0.0) || o.threads < 0) return invalid("bad height step or threads");
+  auto planet = Planet::fromSpec(o.planetSpec);
+  if (!planet) return std::move(planet).error();
+  in.planet = *planet;
+  std::error_code ec;
+  if (fs::exists(o.outDir, ec) && !fs::is_directory(o.outDir, ec)) {
+    return invalid(o.outDir.string() + ": exists and is not a directory");
+  }
+  if (fs::exists(o.outDir / kManifestFileName, ec) && !o.force) {
+    return invalid(o.outDir.string() + ": already holds a dataset (use --force to replace it)");
+  }
+
+  auto dem = readDem(o.demPath, demReadOptions(o));
+  if (!dem) return std::move(dem).error();
+  const std::string& body = dem->source().body;
+  const std::string spec = planet->name();
+  if (!body.empty() && spec.rfind(body, 0) != 0 && spec.rfind("sphere", 0) != 0 &&
+      spec.rfind("ellipsoid", 0) != 0) {
+    return invalid(o.demPath.string() + ": the DEM's CRS is on " + body + " but --planet is " +
+                   spec);
+  }
+  if (!o.texturePath.empty()) {
+    auto image = readImage(o.texturePath);
+    if (!image) return std::move(image).error();
+    in.imagery = std::move(image).value();
+  }
+
+  // Lattice size: at least the DEM's density across 90° of longitude.
+  in.n = in.leafCells;
+  if (o.depth) {
+    in.depth = *o.depth;
+    in.n = in.leafCells << (in.depth / 2);
+  } else {
+    const double across = 90.0 / dem->geometry().lonSpacingDegrees;
+    in.n =
+        std::max(in.leafCells, std::bit_ceil(static_cast<std::uint32_t>(std::ceil(across - 1e-9))));
+    in.depth = 2 * static_cast<std::uint32_t>(std::countr_zero(in.n / in.leafCells));
+  }
+  if (in.n > 16384) {
+    return invalid("the lattice would have " + std::to_string(in.n) +
+                   " cells per face side; at most 16384 (choose --levels or larger leaves)");
+  }
+  in.dem = std::move(dem).value();
+  in.demSource = in.dem->source();
+  return in;
+}
+
+std::string demCrc32(const HeightGrid& dem) {
+  // In 64 MB pieces, dropping a mapped DEM's pages after each: one pass over a 2 GB DEM would
+  // otherwise bring all of it into the process's RSS.
+  const auto bytes = std::as_bytes(dem.heightsMeters());
+  constexpr std::size_t kPiece = std::size_t{64} << 20;
+  std::uint32_t crc = 0;
+  for (std::size_t at = 0; at < bytes.size(); at += kPiece) {
+    crc = crc32(bytes.subspan(at, std::min(kPiece, bytes.size() - at)), crc);
+    dem.releaseResident();
+  }
+  return hex32(crc);
+}
+
+std::vector<std::pair<std::string, std::string>> fingerprintOf(const BuildOptions& o,
+                                                               const BuildInputs& in) {
+  const GridGeometry& g = in.dem->geometry();
+  std::vector<std::pair<std::string, std::string>> f;
+  f.emplace_back("dem", o.demPath.filename().string());
+  f.emplace_back("dem-grid", std::to_string(g.width) + "x" + std::to_string(g.height) + "@" +
+                                 exact(g.firstLatDegrees) + "," + exact(g.firstLonDegrees) + "/" +
+                                 exact(g.latSpacingDegrees) + "," + exact(g.lonSpacingDegrees) +
+                                 (g.pixelIsArea ? "/area" : "/point"));
+  f.emplace_back("dem-crc32", demCrc32(*in.dem));
+  std::string texture = "shaded-relief";
+  if (in.imagery) {
+    texture = o.texturePath.filename().string() +
+              "/crc32:" + hex32(crc32(std::as_bytes(std::span(in.imagery->rgba()))));
+  }
+  f.emplace_back("texture", texture);
+  f.emplace_back("planet", in.planet->name());
+  f.emplace_back("levels", std::to_string(in.depth));
+  f.emplace_back("lattice", std::to_string(in.n));
+  f.emplace_back("leaf-vertices", std::to_string(o.leafVertices));
+  f.emplace_back("patch-vertices", std::to_string(o.patchVertices));
+  f.emplace_back("texture-tile", std::to_string(o.textureTileTexels));
+  f.emplace_back("texture-format", o.textureFormat == TexelFormat::Bc1 ? "bc1" : "rgba8");
+  f.emplace_back("texture-quality", o.bc1Quality == Bc1Quality::High ? "high" : "fast");
+  f.emplace_back("height-step", exact(o.heightStepMeters));
+  return f;
+}
+
+}  // namespace pbdam::builder

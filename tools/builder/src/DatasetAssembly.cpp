@@ -1,0 +1,302 @@
+// Face files and manifest from the checkpoint's part files (DatasetAssembly.h; docs/builder.md
+// "Distributed build", docs/format.md for the face file layout).
+#include "DatasetAssembly.h"
+
+#include <algorithm>
+#include <cmath>
+#include <initializer_list>
+#include <memory>
+
+#include "pbdam/builder/Lattice.h"
+#include "pbdam/formats/Checksum.h"
+#include "pbdam/formats/DatasetFormat.h"
+#include "pbdam/formats/Manifest.h"
+
+namespace pbdam::builder {
+
+std::uint32_t textureLevelCount(std::uint32_t latticeCells, std::uint32_t tileTexels,
+                                std::uint32_t borderTexels) {
+  const std::uint32_t inner = tileTexels - 2 * borderTexels;
+  const double ratio = static_cast<double>(latticeCells) / static_cast<double>(inner);
+  return static_cast<std::uint32_t>(std::max(0.0, std::round(std::log2(std::max(ratio, 1.0))))) + 1;
+}
+
+namespace {
+
+/// Where one node's record and blob are inside the mapped part files.
+struct Located {
+  const std::byte* record = nullptr;
+  std::span<const std::byte> blob;
+};
+
+/// Every texture tile's blob and error, by tile index (face-major, then heap order).
+struct Tiles {
+  std::vector<std::span<const std::byte>> blobs;
+  std::vector<float> errors;
+  std::uint64_t perFace = 0;
+};
+
+/// The assembly of one dataset: the mappings it keeps and what it has located in them.
+class Assembly final {
+ public:
+  Assembly(const AssemblyInputs& in, BuildSummary& summary)
+      : in_(in),
+        summary_(summary),
+        d_(static_cast<int>(in.depth)),
+        nodesPerTree_(Lattice::nodesPerTree(d_)),
+        textureLevels_(textureLevelCount(in.latticeCells, in.options.textureTileTexels,
+                                         kTextureBorderTexels)) {}
+  Assembly(const Assembly&) = delete;
+  Assembly& operator=(const Assembly&) = delete;
+  ~Assembly() { in_.mappings.clear(); }  // before the mappings go, on every return
+
+  Result<void> run();
+
+ private:
+  /// Keeps a mapping for the rest of the assembly and lets the trimmer release its pages.
+  const MappedFile& keep(MappedFile mapped) {
+    mappings_.push_back(std::make_unique<MappedFile>(std::move(mapped)));
+    in_.mappings.add(mappings_.back().get());
+    return *mappings_.back();
+  }
+  std::uint32_t levelParts(int level) const {
+    const auto it = in_.state.levelParts.find(level);
+    return it == in_.state.levelParts.end() ? 1u : it->second;
+  }
+  Result<void> locateNodes();
+  Result<void> locateLevelPart(int level, std::uint32_t part);
+  Result<void> locateTiles();
+  Manifest makeManifest() const;
+  Result<ManifestFace> writeFace(int face);
+
+  const AssemblyInputs& in_;
+  BuildSummary& summary_;
+  int d_;
+  std::uint64_t nodesPerTree_;
+  std::uint32_t textureLevels_;
+  std::vector<std::unique_ptr<MappedFile>> mappings_;
+  std::vector<Located> located_;
+  Tiles tiles_;
+};
+
+Result<void> Assembly::locateNodes() {
+  located_.assign(12 * nodesPerTree_, Located{});
+  for (int level = 0; level <= d_; ++level) {
+    for (std::uint32_t part = 0; part < levelParts(level); ++part) {
+      if (auto r = locateLevelPart(level, part); !r) return r;
+    }
+  }
+  for (std::uint64_t id = 0; id < located_.size(); ++id) {
+    if (located_[id].record == nullptr) {
+      return makeError(ErrorCode::CorruptData, in_.checkpoint.directory().string() + ": node " +
+                                                   std::to_string(id) + " is missing");
+    }
+  }
+  return {};
+}
+
+Result<void> Assembly::locateLevelPart(int level, std::uint32_t part) {
+  constexpr std::size_t kReleaseEvery = std::size_t{64} << 20;
+  const Checkpoint& checkpoint = in_.checkpoint;
+  std::span<const std::byte> payload;
+  auto mapped = checkpoint.openFile(Checkpoint::Kind::Nodes, level, part, payload);
+  if (!mapped) return std::move(mapped).error();
+  // RSS bound: the walk below reads a record header on nearly every page (blobs average a
+  // few KB), so the mapping is handed to the trimmer first and released every 64 MB —
+  // registered only afterwards, a paper-scale leaf level's 11 GB file became resident whole.
+  const MappedFile& nodesFile = keep(std::move(mapped).value());
+  auto view =
+      LevelPartView::parse(payload, checkpoint.file(Checkpoint::Kind::Nodes, level, part).string());
+  if (!view) return std::move(view).error();
+  summary_.simplifyRetries += view->footer().simplifyRetries;
+  summary_.halvesKeptUnsimplified += view->footer().halvesKeptUnsimplified;
+  summary_.patchBytesRaw += view->footer().patchBytesRaw;
+  std::size_t releasedUpTo = 0;
+  auto walked = view->forEachNode([&](const NodeEntry& node, std::size_t readBytes) {
+    if (node.id >= located_.size()) return false;
+    if (readBytes - releasedUpTo >= kReleaseEvery) {
+      (void)nodesFile.releaseResident();
+      releasedUpTo = readBytes;
+    }
+    located_[node.id] = Located{node.record.data(), node.blob};
+    const NodeRecord rec = decodeNodeRecord(node.record);
+    if (level == d_) {
+      summary_.leafMaxErrorMeters =
+          std::max(summary_.leafMaxErrorMeters, static_cast<double>(rec.errorMeters));
+    }
+    if (level == 0) {
+      summary_.rootErrorMeters =
+          std::max(summary_.rootErrorMeters, static_cast<double>(rec.errorMeters));
+    }
+    return true;
+  });
+  if (!walked) return walked;
+  (void)nodesFile.releaseResident();
+  return {};
+}
+
+Result<void> Assembly::locateTiles() {
+  tiles_.perFace = ((std::uint64_t{1} << (2 * textureLevels_)) - 1) / 3;
+  tiles_.blobs.assign(6 * tiles_.perFace, {});
+  tiles_.errors.assign(6 * tiles_.perFace, 0.0f);
+  std::uint64_t seen = 0;
+  const Checkpoint& checkpoint = in_.checkpoint;
+  for (std::uint32_t part = 0; part < std::max(1u, in_.state.textureParts); ++part) {
+    std::span<const std::byte> payload;
+    auto mapped = checkpoint.openFile(Checkpoint::Kind::Texture, 0, part, payload);
+    if (!mapped) return std::move(mapped).error();
+    auto view = TexturePartView::parse(
+        payload, checkpoint.file(Checkpoint::Kind::Texture, 0, part).string());
+    if (!view) return std::move(view).error();
+    auto walked = view->forEachTile(
+        [&](std::uint64_t k, float textureErrorMeters, std::span<const std::byte> blob) {
+          if (k >= tiles_.blobs.size()) return false;
+          tiles_.errors[k] = textureErrorMeters;
+          tiles_.blobs[k] = blob;
+          ++seen;
+          return true;
+        });
+    if (!walked) return walked;
+    keep(std::move(mapped).value());
+  }
+  if (seen != tiles_.blobs.size()) {
+    return makeError(ErrorCode::CorruptData,
+                     checkpoint.file(Checkpoint::Kind::Texture, 0).string() + ": incomplete");
+  }
+  return {};
+}
+
+Manifest Assembly::makeManifest() const {
+  const BuildOptions& o = in_.options;
+  Manifest manifest;
+  manifest.version = kDatasetFormatVersion;
+  manifest.planetSpec = in_.planet.name();
+  manifest.equatorialRadiusMeters = in_.planet.equatorialRadiusMeters();
+  manifest.flattening = in_.planet.flattening();
+  manifest.latticeCells = in_.latticeCells;
+  manifest.leafCells = in_.leafCells;
+  manifest.depth = in_.depth;
+  manifest.patchVertices = o.patchVertices;
+  manifest.heightStepMeters = o.heightStepMeters;
+  manifest.textureLevels = textureLevels_;
+  manifest.textureTileTexels = o.textureTileTexels;
+  manifest.textureBorderTexels = kTextureBorderTexels;
+  manifest.textureFormat = o.textureFormat == TexelFormat::Bc1 ? "bc1" : "rgba8";
+  manifest.textureSource = "shaded-relief";
+  if (in_.hasImagery) {
+    manifest.textureSource = "image:";
+    manifest.textureSource += o.texturePath.filename().string();
+  }
+  manifest.sourceDem = o.demPath.filename().string();
+  manifest.sourceFormat = in_.sourceFormat;
+  manifest.sourceSamples = summary_.sourceSamples;
+  manifest.minHeightMeters = in_.minHeightMeters;
+  manifest.maxHeightMeters = in_.maxHeightMeters;
+  return manifest;
+}
+
+Result<ManifestFace> Assembly::writeFace(int face) {
+  FaceHeader h;
+  h.face = static_cast<std::uint32_t>(face);
+  h.latticeCells = in_.latticeCells;
+  h.leafCells = in_.leafCells;
+  h.depth = in_.depth;
+  h.textureLevels = textureLevels_;
+  h.textureTileTexels = in_.options.textureTileTexels;
+  h.textureBorderTexels = kTextureBorderTexels;
+  h.nodeCount = 2 * nodesPerTree_;
+  h.nodeTableOffset = kFaceHeaderBytes;
+  h.textureNodeCount = tiles_.perFace;
+  h.textureTableOffset = h.nodeTableOffset + h.nodeCount * kNodeRecordBytes;
+  const std::uint64_t tablesEnd = h.textureTableOffset + tiles_.perFace * kTextureRecordBytes;
+  h.blobsOffset = (tablesEnd + 4095) / 4096 * 4096;  // page-aligned blob area
+  std::uint64_t at = h.blobsOffset;
+  std::vector<std::byte> nodeTable(h.nodeCount * kNodeRecordBytes);
+  std::vector<std::span<const std::byte>> blobs;
+  const std::uint64_t firstNode = static_cast<std::uint64_t>(face) * 2 * nodesPerTree_;
+  for (std::uint64_t k = 0; k < h.nodeCount; ++k) {
+    const Located& node = located_[firstNode + k];
+    NodeRecord record = decodeNodeRecord(
+        std::span<const std::byte, kNodeRecordBytes>(node.record, kNodeRecordBytes));
+    record.blobOffset = at;
+    record.blobBytes = static_cast<std::uint32_t>(node.blob.size());
+    at += node.blob.size();
+    blobs.emplace_back(node.blob);
+    encodeNodeRecord(record, std::span<std::byte, kNodeRecordBytes>(
+                                 nodeTable.data() + k * kNodeRecordBytes, kNodeRecordBytes));
+    summary_.patchBytesCompressed += node.blob.size();
+    summary_.totalTriangles += record.triangleCount;
+    if (k % nodesPerTree_ >= Lattice::firstIndexOfLevel(d_)) {
+      summary_.leafTriangles += record.triangleCount;
+    }
+  }
+  std::vector<std::byte> textureTable(tiles_.perFace * kTextureRecordBytes);
+  for (std::uint64_t k = 0; k < tiles_.perFace; ++k) {
+    const std::size_t tile = static_cast<std::size_t>(face) * tiles_.perFace + k;
+    const auto& blob = tiles_.blobs[tile];
+    TextureRecord t{at, static_cast<std::uint32_t>(blob.size()), tiles_.errors[tile]};
+    at += blob.size();
+    blobs.emplace_back(blob);
+    encodeTextureRecord(t, std::span<std::byte, kTextureRecordBytes>(
+                               textureTable.data() + k * kTextureRecordBytes, kTextureRecordBytes));
+  }
+  h.fileBytes = at;
+  h.nodeTableCrc = crc32(nodeTable);
+  h.textureTableCrc = crc32(textureTable);
+  std::array<std::byte, kFaceHeaderBytes> header{};
+  encodeFaceHeader(h, header);
+  std::vector<std::byte> padding(h.blobsOffset - tablesEnd);
+  const std::string name = "face" + std::to_string(face) + ".pbdam";
+  auto file = AtomicFileWriter::create(in_.options.outDir / name);
+  if (!file) return std::move(file).error();
+  for (std::span<const std::byte> chunk : std::initializer_list<std::span<const std::byte>>{
+           header, nodeTable, textureTable, padding}) {
+    if (auto w = file->append(chunk); !w) return std::move(w).error();
+  }
+  for (const auto& blob : blobs) {
+    if (auto w = file->append(blob); !w) return std::move(w).error();
+  }
+  const std::uint32_t crc = file->crc();
+  if (auto w = file->finish(); !w) return std::move(w).error();
+  return ManifestFace{name, h.fileBytes, crc};
+}
+
+Result<void> Assembly::run() {
+  if (auto r = locateNodes(); !r) return r;
+  summary_.textureLevels = textureLevels_;
+  if (auto r = locateTiles(); !r) return r;
+  summary_.textureTiles = 6 * tiles_.perFace;
+
+  Manifest manifest = makeManifest();
+  for (int face = 0; face < 6; ++face) {
+    auto written = writeFace(face);
+    if (!written) return std::move(written).error();
+    manifest.faces[static_cast<std::size_t>(face)] = *written;
+    summary_.datasetBytes += written->bytes;
+    if (in_.progress) in_.progress(static_cast<double>(face + 1) / 6.0);
+  }
+  const std::filesystem::path& outDir = in_.options.outDir;
+  syncDirectory(outDir);
+  const std::string json = manifestToJson(manifest);
+  std::uint32_t crc = 0;
+  if (auto w = writeFileAtomically(outDir / kManifestFileName,
+                                   {std::as_bytes(std::span<const char>(json.data(), json.size()))},
+                                   crc);
+      !w) {
+    return w;
+  }
+  syncDirectory(outDir);
+  summary_.datasetBytes += json.size();
+  summary_.patches = located_.size();
+  // The dataset is complete: its checkpoint has served.
+  return in_.checkpoint.reset(false);
+}
+
+}  // namespace
+
+Result<void> assembleDataset(const AssemblyInputs& inputs, BuildSummary& summary) {
+  Assembly assembly(inputs, summary);
+  return assembly.run();
+}
+
+}  // namespace pbdam::builder

@@ -1,0 +1,197 @@
+// One diamond of a bintree level: patches, measurement, saturation and its part-file bytes
+// (DiamondBuilder.h; paper 004 §5; docs/builder.md "Saturation").
+#include "DiamondBuilder.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "pbdam/builder/PatchBuilder.h"
+#include "pbdam/formats/DatasetFormat.h"
+#include "pbdam/formats/PatchCodec.h"
+
+namespace pbdam::builder {
+namespace {
+
+struct Sphere {
+  glm::dvec3 center{0.0};
+  double radius = 0.0;
+};
+
+/// The smallest sphere enclosing two spheres.
+Sphere merge(const Sphere& a, const Sphere& b) {
+  const double d = glm::length(b.center - a.center);
+  if (d + b.radius <= a.radius) return a;
+  if (d + a.radius <= b.radius) return b;
+  const double r = 0.5 * (d + a.radius + b.radius);
+  return Sphere{a.center + (b.center - a.center) * ((r - a.radius) / d), r};
+}
+
+/// Rounds a radius up to a float that still encloses (with a millimetre-scale margin).
+float storedRadius(double r) {
+  const double padded = r * (1.0 + 1e-6) + 1e-3;
+  float f = static_cast<float>(padded);
+  if (static_cast<double>(f) < padded) f = std::nextafter(f, std::numeric_limits<float>::max());
+  return f;
+}
+
+}  // namespace
+
+float roundUpToFloat(double v) {
+  float f = static_cast<float>(v);
+  if (static_cast<double>(f) < v) f = std::nextafter(f, std::numeric_limits<float>::max());
+  return f;
+}
+
+/// A node as its level produces it: the record (saturated), its blob, and what saturation
+/// needs.
+struct DiamondBuilder::Node {
+  std::uint64_t id = 0;
+  NodeRecord record;
+  std::vector<std::byte> blob;
+  double measuredError = 0.0;
+  Sphere sphere;
+};
+
+/// The saturated error and sphere of a diamond (both its triangles store them).
+struct DiamondBuilder::Saturated {
+  double error = 0.0;  // the stored float, as double
+  Sphere sphere;       // centre, stored radius
+};
+
+void DiamondBuilder::noteFailure(Error error) {
+  std::lock_guard lock(failureMutex_);
+  if (!failed_) failure_ = std::move(error);
+  failed_ = true;
+}
+
+bool DiamondBuilder::makeNode(const BinTriangle& t, const WorkPatch& patch, Node& n) {
+  const SampleGrid& grid = level_.grid;
+  n.id = nodeId(t, level_.depth);
+  MeasuredPatch m = measurePatch(grid, t, patch, level_.heightStepMeters);
+  optimizePatchForRendering(m.mesh);
+  auto blob = encodePatch(m.mesh);
+  if (!blob) {
+    noteFailure(makeError(ErrorCode::Internal,
+                          "patch " + std::to_string(n.id) + ": " + blob.error().message));
+    return false;
+  }
+  n.blob = std::move(blob).value();
+  const NodeCorners corners = nodeCorners(grid, t);
+  for (std::size_t c = 0; c < 3; ++c) {
+    for (std::size_t a = 0; a < 3; ++a) {
+      n.record.cornerPositions[c * 3 + a] = corners.positions[c][static_cast<int>(a)];
+      n.record.cornerNormals[c * 3 + a] = corners.normals[c][static_cast<int>(a)];
+    }
+  }
+  n.record.vertexCount = static_cast<std::uint32_t>(m.mesh.vertices.size());
+  n.record.triangleCount = static_cast<std::uint32_t>(m.mesh.triangleCount());
+  n.record.measuredErrorMeters = roundUpToFloat(m.errorMeters);
+  n.record.minHeightMeters = static_cast<float>(m.minHeightMeters);
+  n.record.maxHeightMeters = static_cast<float>(m.maxHeightMeters);
+  n.measuredError = m.errorMeters;
+  n.sphere = Sphere{m.sphereCenter, m.sphereRadiusMeters};
+  return true;
+}
+
+bool DiamondBuilder::readChildren(const std::array<BinTriangle, 2>& tri,
+                                  std::array<Saturated, 4>& saturated,
+                                  std::array<std::array<WorkPatch, 2>, 2>& children) {
+  // The four child diamonds are those whose spines are this diamond's legs: the diamonds of
+  // the triangles' children (first child: leg apex–left, second: apex–right).
+  const bool leaf = level_.level + 1 == level_.depth;
+  for (std::size_t s = 0; s < 2; ++s) {
+    const auto kids = Lattice::children(tri[s]);
+    for (std::size_t c = 0; c < 2; ++c) {
+      const std::uint64_t kid = nodeId(kids[c], level_.depth);
+      CarrySaturation carried;
+      if (!level_.below->find(kid, carried, leaf ? nullptr : &children[s][c])) {
+        noteFailure(makeError(ErrorCode::Internal,
+                              "node " + std::to_string(kid) + " is missing from the level " +
+                                  std::to_string(level_.level + 1) + " carry"));
+        return false;
+      }
+      saturated[2 * s + c] =
+          Saturated{static_cast<double>(carried.errorMeters),
+                    Sphere{carried.sphereCenter, static_cast<double>(carried.sphereRadiusMeters)}};
+      if (leaf) children[s][c] = makeLeafPatch(kids[c]);
+    }
+  }
+  return true;
+}
+
+bool DiamondBuilder::makeNodes(const std::array<BinTriangle, 2>& tri, std::array<Node, 2>& nodes,
+                               std::array<WorkPatch, 2>& made,
+                               std::array<Saturated, 4>& childSaturated) {
+  if (level_.level == level_.depth) {
+    bool ok = true;
+    for (std::size_t s = 0; s < 2; ++s)
+      ok = makeNode(tri[s], makeLeafPatch(tri[s]), nodes[s]) && ok;
+    return ok;
+  }
+  std::array<std::array<WorkPatch, 2>, 2> children;
+  if (!readChildren(tri, childSaturated, children)) return false;
+  const std::array<std::array<const WorkPatch*, 2>, 2> childPointers = {
+      {{&children[0][0], &children[0][1]}, {&children[1][0], &children[1][1]}}};
+  BlockResult block = simplifyBlock(level_.grid, tri, childPointers, level_.patchVertices);
+  retries_ += block.stats.simplifyRetries;
+  unsimplified_ += block.stats.halvesKeptUnsimplified;
+  bool ok = makeNode(tri[0], block.first, nodes[0]);
+  ok = makeNode(tri[1], block.second, nodes[1]) && ok;
+  made = {std::move(block.first), std::move(block.second)};
+  return ok;
+}
+
+DiamondBuilder::Saturated DiamondBuilder::saturate(
+    const std::array<Node, 2>& nodes, const std::array<Saturated, 4>& childSaturated) const {
+  // Saturate over the diamond DAG.
+  double e = std::max(nodes[0].measuredError, nodes[1].measuredError);
+  Sphere sphere = merge(nodes[0].sphere, nodes[1].sphere);
+  if (level_.level < level_.depth) {
+    for (const Saturated& child : childSaturated) {
+      e = std::max(e, child.error);
+      sphere = merge(sphere, child.sphere);
+    }
+  }
+  const float storedError = roundUpToFloat(e);
+  const float radius = storedRadius(sphere.radius);
+  return Saturated{static_cast<double>(storedError), Sphere{sphere.center, radius}};
+}
+
+void DiamondBuilder::serialise(std::array<Node, 2>& nodes, const Saturated& saturated,
+                               const std::array<WorkPatch, 2>& made, DiamondBytes& out) const {
+  ByteWriter w;
+  std::array<std::byte, kNodeRecordBytes> record{};
+  for (Node& node : nodes) {
+    node.record.errorMeters = static_cast<float>(saturated.error);
+    node.record.sphereRadiusMeters = static_cast<float>(saturated.sphere.radius);
+    node.record.sphereCenter = {saturated.sphere.center.x, saturated.sphere.center.y,
+                                saturated.sphere.center.z};
+    out.rawBytes += 8ULL * node.record.vertexCount + 6ULL * node.record.triangleCount;
+    encodeNodeRecord(node.record, record);
+    putNodeEntry(w, node.id, record, node.blob);
+  }
+  out.nodes = w.take();
+  if (!level_.writeCarry) return;
+  const CarrySaturation carried{static_cast<float>(saturated.error), saturated.sphere.center,
+                                static_cast<float>(saturated.sphere.radius)};
+  ByteWriter c;
+  putCarryRecord(c, carried, level_.keepPatches ? &made[0] : nullptr);
+  out.firstCarryBytes = c.bytes().size();
+  putCarryRecord(c, carried, level_.keepPatches ? &made[1] : nullptr);
+  out.carry = c.take();
+}
+
+bool DiamondBuilder::build(const Diamond& diamond, DiamondBytes& out) {
+  const std::array<BinTriangle, 2> tri = {triangleOfNode(level_.lattice, diamond[0], level_.depth),
+                                          triangleOfNode(level_.lattice, diamond[1], level_.depth)};
+  std::array<Node, 2> nodes;
+  std::array<WorkPatch, 2> made;
+  std::array<Saturated, 4> childSaturated;
+  if (!makeNodes(tri, nodes, made, childSaturated) || failed_) return false;
+  serialise(nodes, saturate(nodes, childSaturated), made, out);
+  return true;
+}
+
+}  // namespace pbdam::builder

@@ -1,0 +1,83 @@
+// The per-diamond work of one bintree level of the build (docs/builder.md "Saturation",
+// "Checkpoints"; paper 004 §5): the diamond's two patches — regular at the leaves, else
+// simplified from the block of its four children read from the carry of the level below —
+// measured and encoded, their error and bounding sphere saturated over the diamond DAG, and
+// the bytes that go to the level's nodes and carry part files. Private to the builder.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <mutex>
+#include <vector>
+
+#include "pbdam/builder/Checkpoint.h"
+#include "pbdam/builder/Lattice.h"
+#include "pbdam/builder/SampleGrid.h"
+#include "pbdam/formats/Result.h"
+
+namespace pbdam::builder {
+
+/// `v` rounded up to the nearest float (so a stored error never understates the measured one).
+float roundUpToFloat(double v);
+
+/// What one diamond contributes to its level's part files.
+struct DiamondBytes final {
+  std::vector<std::byte> nodes;     ///< its two node entries (putNodeEntry)
+  std::vector<std::byte> carry;     ///< its two carry records, when the level writes a carry
+  std::size_t firstCarryBytes = 0;  ///< the second triangle's carry record starts here
+  std::uint64_t rawBytes = 0;       ///< the two patches uncompressed (8 B a vertex, 6 a triangle)
+};
+
+/// What the diamonds of one level are built with.
+struct DiamondLevel final {
+  const SampleGrid& grid;
+  const Lattice& lattice;
+  int depth = 0;  ///< the bintree depth (the leaf level)
+  int level = 0;
+  /// The carry of level + 1 (nothing at the leaf level).
+  const CarryReader* below = nullptr;
+  std::uint32_t patchVertices = 0;
+  double heightStepMeters = 0.0;
+  bool writeCarry = false;   ///< the level writes a carry (every level but 0)
+  bool keepPatches = false;  ///< its carry holds the working patches (level − 1 is a block level)
+};
+
+/// Builds the diamonds of one level. Thread-safe: build() runs concurrently on different
+/// diamonds; the first failure is kept and stops nothing by itself (callers check failed()).
+class DiamondBuilder final {
+ public:
+  explicit DiamondBuilder(const DiamondLevel& level) : level_(level) {}
+
+  /// Builds `diamond` into `out`. False on failure (then `out` is incomplete and failure()
+  /// says why, for the first failure of any thread).
+  bool build(const Diamond& diamond, DiamondBytes& out);
+
+  bool failed() const noexcept { return failed_; }
+  /// The first failure; only meaningful once failed() and no build() runs.
+  const Error& failure() const noexcept { return failure_; }
+  std::uint64_t simplifyRetries() const noexcept { return retries_; }
+  std::uint64_t halvesKeptUnsimplified() const noexcept { return unsimplified_; }
+
+ private:
+  struct Node;
+  struct Saturated;
+  void noteFailure(Error error);
+  bool makeNode(const BinTriangle& t, const WorkPatch& patch, Node& node);
+  bool readChildren(const std::array<BinTriangle, 2>& tri, std::array<Saturated, 4>& saturated,
+                    std::array<std::array<WorkPatch, 2>, 2>& children);
+  bool makeNodes(const std::array<BinTriangle, 2>& tri, std::array<Node, 2>& nodes,
+                 std::array<WorkPatch, 2>& made, std::array<Saturated, 4>& childSaturated);
+  Saturated saturate(const std::array<Node, 2>& nodes,
+                     const std::array<Saturated, 4>& childSaturated) const;
+  void serialise(std::array<Node, 2>& nodes, const Saturated& saturated,
+                 const std::array<WorkPatch, 2>& made, DiamondBytes& out) const;
+
+  DiamondLevel level_;
+  std::mutex failureMutex_;
+  std::atomic<bool> failed_{false};
+  Error failure_;
+  std::atomic<std::uint64_t> retries_{0};
+  std::atomic<std::uint64_t> unsimplified_{0};
+};
+
+}  // namespace pbdam::builder
