@@ -662,7 +662,10 @@ Result<void> DistributedBuild::buildTextures() {
       textureLevelCount(in_.n, o_.textureTileTexels, kTextureBorderTexels);
   const std::uint64_t tilesPerFace = ((std::uint64_t{1} << (2 * textureLevels)) - 1) / 3;
   const std::uint64_t tiles = 6 * tilesPerFace;
-  const auto [begin, end] = shareOf(tiles, comm_.rank(), comm_.size());
+  // Named copies, not a structured binding: the tile lambda below captures `begin`.
+  const auto share = shareOf(tiles, comm_.rank(), comm_.size());
+  const std::uint64_t begin = share.first;
+  const std::uint64_t end = share.second;
   const std::string item =
       "building texture tiles " + rangeText(begin, end) + " of " + std::to_string(tiles);
   announce("texture", "tiles", tiles);

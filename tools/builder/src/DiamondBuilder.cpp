@@ -156,7 +156,8 @@ DiamondBuilder::Saturated DiamondBuilder::saturate(
   }
   const float storedError = roundUpToFloat(e);
   const float radius = storedRadius(sphere.radius);
-  return Saturated{static_cast<double>(storedError), Sphere{sphere.center, radius}};
+  return Saturated{static_cast<double>(storedError),
+                   Sphere{sphere.center, static_cast<double>(radius)}};
 }
 
 void DiamondBuilder::serialise(std::array<Node, 2>& nodes, const Saturated& saturated,

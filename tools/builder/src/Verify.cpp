@@ -95,342 +95,397 @@ struct DecodedNode {
   bool valid = false;
 };
 
-}  // namespace
+/// One run of verifyDataset: the dataset's files and what the checks have found so far.
+class DatasetVerifier final {
+ public:
+  DatasetVerifier(const VerifyOptions& o, const Manifest& manifest, const Planet& planet)
+      : o_(o),
+        manifest_(manifest),
+        planet_(planet),
+        lattice_(manifest.latticeCells),
+        depth_(static_cast<int>(manifest.depth)),
+        perTree_(Lattice::nodesPerTree(depth_)),
+        violations_(o.maxViolations) {}
 
-Result<VerifyReport> verifyDataset(const VerifyOptions& o) {
-  VerifyReport report;
-  Violations violations(o.maxViolations);
-  auto manifest = readManifest(o.datasetDir);
-  if (!manifest) {
-    if (manifest.error().code == ErrorCode::NotFound) return std::move(manifest).error();
-    report.violations.push_back(manifest.error().message);
-    report.violationCount = 1;
-    return report;
-  }
-  auto planet = Planet::fromSpec(manifest->planetSpec);
-  if (!planet) {
-    report.violations.push_back("manifest planet: " + planet.error().message);
-    report.violationCount = 1;
-    return report;
-  }
-  const Lattice lattice(manifest->latticeCells);
-  const int depth = static_cast<int>(manifest->depth);
-  const std::uint64_t perTree = Lattice::nodesPerTree(depth);
-  auto progress = [&](std::string_view stage, double f) {
-    if (o.progress) o.progress(stage, f);
-  };
+  Result<VerifyReport> run();
 
-  // ---- Files: sizes, checksums, headers, tables.
-  std::array<MappedFile, 6> files;
-  std::array<std::optional<FaceView>, 6> views;
+ private:
+  void progress(std::string_view stage, double f) const {
+    if (o_.progress) o_.progress(stage, f);
+  }
+  /// Sizes, checksums, headers, tables of the six face files.
+  void openFaces();
+  /// The source DEM, resampled and bucketed like the builder does.
+  Result<void> openDemGrid();
+  void checkNodes();
+  void checkNode(std::uint64_t id);
+  /// The node's vertices as lattice points, or nothing (a violation) when one is not on it.
+  std::optional<std::vector<LatticeXY>> latticePoints(const BinTriangle& t, const PatchMesh& mesh,
+                                                      const std::string& where);
+  /// Coverage without flips: positive triangles whose areas add up to the node's.
+  bool checkCoverage(const BinTriangle& t, const PatchMesh& mesh,
+                     const std::vector<LatticeXY>& points, const std::string& where);
+  /// Rendered positions inside the node's sphere; the rendered vertices' heights.
+  std::vector<double> checkSphere(const NodeRecord& record, const PatchMesh& mesh,
+                                  const std::string& where);
+  void digestEdges(const BinTriangle& t, const PatchMesh& mesh,
+                   const std::vector<LatticeXY>& points, DecodedNode& node) const;
+  /// The stored error bounds the deviation from every source sample the patch covers.
+  void checkAgainstDem(const BinTriangle& t, const NodeRecord& record, const PatchMesh& mesh,
+                       const std::vector<LatticeXY>& points, const std::vector<double>& heights,
+                       const std::string& where);
+  void checkSharedEdges();
+  void checkDiamondDag();
+  void checkDiamondLevel(int level);
+  void checkTextures();
+
+  const VerifyOptions& o_;
+  const Manifest& manifest_;
+  const Planet& planet_;
+  const Lattice lattice_;
+  const int depth_;
+  const std::uint64_t perTree_;
+  VerifyReport report_;
+  Violations violations_;
+  std::array<MappedFile, 6> files_;
+  std::array<std::optional<FaceView>, 6> views_;
+  std::optional<SampleGrid> grid_;
+  std::vector<DecodedNode> nodes_;
+  std::atomic<std::uint64_t> demSamples_{0};
+  std::mutex ratioMutex_;
+  double worstRatio_ = 0.0;
+  std::atomic<std::uint64_t> done_{0};
+};
+
+void DatasetVerifier::openFaces() {
   for (std::size_t f = 0; f < 6; ++f) {
-    const fs::path path = o.datasetDir / manifest->faces[f].file;
+    const fs::path path = o_.datasetDir / manifest_.faces[f].file;
     auto mapped = MappedFile::open(path);
     if (!mapped) {
-      violations.add(mapped.error().message);
+      violations_.add(mapped.error().message);
       continue;
     }
-    files[f] = std::move(mapped).value();
-    if (files[f].size() != manifest->faces[f].bytes) {
-      violations.add(path.string() + ": " + std::to_string(files[f].size()) +
-                     " bytes, the manifest says " + std::to_string(manifest->faces[f].bytes));
+    files_[f] = std::move(mapped).value();
+    if (files_[f].size() != manifest_.faces[f].bytes) {
+      violations_.add(path.string() + ": " + std::to_string(files_[f].size()) +
+                      " bytes, the manifest says " + std::to_string(manifest_.faces[f].bytes));
     }
     // In 64 MB pieces, dropping the mapping's pages from this process after each: the file's
     // pages stay in the page cache but not in verify's RSS.
     std::uint32_t crc = 0;
-    const std::span<const std::byte> all = files[f].bytes();
+    const std::span<const std::byte> all = files_[f].bytes();
     for (std::size_t at = 0; at < all.size(); at += std::size_t{64} << 20) {
       crc = crc32(all.subspan(at, std::min(all.size() - at, std::size_t{64} << 20)), crc);
-      (void)files[f].releaseResident();
+      (void)files_[f].releaseResident();
     }
-    if (crc != manifest->faces[f].crc32) {
-      violations.add(path.string() + ": file checksum differs from the manifest");
+    if (crc != manifest_.faces[f].crc32) {
+      violations_.add(path.string() + ": file checksum differs from the manifest");
     }
-    auto view = FaceView::open(files[f].bytes(), path.string());
+    auto view = FaceView::open(files_[f].bytes(), path.string());
     if (!view) {
-      violations.add(view.error().message);
+      violations_.add(view.error().message);
       continue;
     }
     const FaceHeader& h = view->header();
-    if (h.face != f || h.latticeCells != manifest->latticeCells ||
-        h.leafCells != manifest->leafCells || h.depth != manifest->depth ||
-        h.textureLevels != manifest->textureLevels) {
-      violations.add(path.string() + ": header disagrees with the manifest");
+    if (h.face != f || h.latticeCells != manifest_.latticeCells ||
+        h.leafCells != manifest_.leafCells || h.depth != manifest_.depth ||
+        h.textureLevels != manifest_.textureLevels) {
+      violations_.add(path.string() + ": header disagrees with the manifest");
       continue;
     }
-    views[f] = std::move(view).value();
+    views_[f] = std::move(view).value();
   }
-  if (violations.count() > 0) {
-    report.violationCount = violations.count();
-    report.violations = violations.take();
-    return report;
-  }
+}
 
-  // ---- Optional source DEM, bucketed like the builder does.
-  std::optional<SampleGrid> grid;
-  if (!o.demPath.empty()) {
-    DemReadOptions readOptions;
-    readOptions.raw = o.rawLayout;
-    // A large DEM is mapped from an unnamed file in TMPDIR rather than held in memory, and its
-    // pages are dropped from this process every 250 ms while it is resampled and bucketed.
-    readOptions.scratchDirectory = fs::temp_directory_path();
-    auto dem = readDem(o.demPath, readOptions);
-    if (!dem) return std::move(dem).error();
-    const ResidentTrimmer demTrimmer(std::chrono::milliseconds(250),
-                                     [&dem] { dem->releaseResident(); });
-    progress("read dem", 1.0);
-    // Out of core, as the builder does it: the lattice heights and the bucketed samples go to
-    // files in a scratch directory (TMPDIR) and are mapped read-only. In memory they are 12 B
-    // per source sample plus 4 B per lattice point, and the paper-scale check (537 M samples,
-    // 1.61 G lattice points) was killed for memory at 23 GB. The files are unlinked as soon as
-    // they are mapped, so nothing is left behind, whatever happens later.
-    std::string pattern = (fs::temp_directory_path() / "pbdam-verify-XXXXXX").string();
-    if (::mkdtemp(pattern.data()) == nullptr) {
-      return makeError(ErrorCode::IoError, "verify --dem: cannot create a scratch directory in " +
-                                               fs::temp_directory_path().string() + " (TMPDIR)");
+Result<void> DatasetVerifier::openDemGrid() {
+  DemReadOptions readOptions;
+  readOptions.raw = o_.rawLayout;
+  // A large DEM is mapped from an unnamed file in TMPDIR rather than held in memory, and its
+  // pages are dropped from this process every 250 ms while it is resampled and bucketed.
+  readOptions.scratchDirectory = fs::temp_directory_path();
+  auto dem = readDem(o_.demPath, readOptions);
+  if (!dem) return std::move(dem).error();
+  const ResidentTrimmer demTrimmer(std::chrono::milliseconds(250),
+                                   [&dem] { dem->releaseResident(); });
+  progress("read dem", 1.0);
+  // Out of core, as the builder does it: the lattice heights and the bucketed samples go to
+  // files in a scratch directory (TMPDIR) and are mapped read-only. In memory they are 12 B
+  // per source sample plus 4 B per lattice point, and the paper-scale check (537 M samples,
+  // 1.61 G lattice points) was killed for memory at 23 GB. The files are unlinked as soon as
+  // they are mapped, so nothing is left behind, whatever happens later.
+  std::string pattern = (fs::temp_directory_path() / "pbdam-verify-XXXXXX").string();
+  if (::mkdtemp(pattern.data()) == nullptr) {
+    return makeError(ErrorCode::IoError, "verify --dem: cannot create a scratch directory in " +
+                                             fs::temp_directory_path().string() + " (TMPDIR)");
+  }
+  const fs::path scratch = pattern;
+  struct RemoveScratch {
+    fs::path dir;
+    ~RemoveScratch() {
+      std::error_code ec;
+      fs::remove_all(dir, ec);
     }
-    const fs::path scratch = pattern;
-    struct RemoveScratch {
-      fs::path dir;
-      ~RemoveScratch() {
-        std::error_code ec;
-        fs::remove_all(dir, ec);
-      }
-    } removeScratch{scratch};
-    const std::uint32_t bucketCells = SampleGrid::defaultBucketCells(lattice);
-    const std::size_t latticeRows = 6 * (std::size_t{lattice.sideCells()} + 1);
-    auto stats = SampleGrid::writeHeightRows(
-        *dem, *planet, lattice, scratch / "heights.f32", 0, latticeRows,
-        [&](std::size_t doneRows, std::size_t total) {
-          progress("resample", static_cast<double>(doneRows) /
-                                   static_cast<double>(std::max<std::size_t>(total, 1)));
+  } removeScratch{scratch};
+  const std::uint32_t bucketCells = SampleGrid::defaultBucketCells(lattice_);
+  const std::size_t latticeRows = 6 * (std::size_t{lattice_.sideCells()} + 1);
+  auto stats = SampleGrid::writeHeightRows(
+      *dem, planet_, lattice_, scratch / "heights.f32", 0, latticeRows,
+      [&](std::size_t doneRows, std::size_t total) {
+        progress("resample", static_cast<double>(doneRows) /
+                                 static_cast<double>(std::max<std::size_t>(total, 1)));
+      });
+  if (!stats) return std::move(stats).error();
+  if (auto r = SampleGrid::writeSourceBuckets(*dem, planet_, lattice_, bucketCells,
+                                              scratch / "samples.bin", 0,
+                                              static_cast<std::size_t>(dem->height()));
+      !r) {
+    return std::move(r).error();
+  }
+  auto opened = SampleGrid::open(lattice_, planet_, scratch / "heights.f32",
+                                 {scratch / "samples.bin"}, bucketCells, *stats);
+  if (!opened) return std::move(opened).error();
+  grid_.emplace(std::move(opened).value());
+  return {};
+}
+
+std::optional<std::vector<LatticeXY>> DatasetVerifier::latticePoints(const BinTriangle& t,
+                                                                     const PatchMesh& mesh,
+                                                                     const std::string& where) {
+  // Vertices as lattice points: apex + (b1·(left−apex) + b2·(right−apex)) / 2^15, exactly.
+  const LatticeXY e1 = t.left - t.apex;
+  const LatticeXY e2 = t.right - t.apex;
+  std::vector<LatticeXY> points(mesh.vertices.size());
+  bool exact = true;
+  for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
+    const std::int64_t b1 = mesh.vertices[v].b1;
+    const std::int64_t b2 = mesh.vertices[v].b2;
+    const std::int64_t x = b1 * e1.x + b2 * e2.x;
+    const std::int64_t y = b1 * e1.y + b2 * e2.y;
+    if (x % kPatchBarycentricOne != 0 || y % kPatchBarycentricOne != 0) exact = false;
+    points[v] = t.apex + LatticeXY{static_cast<std::int32_t>(x / kPatchBarycentricOne),
+                                   static_cast<std::int32_t>(y / kPatchBarycentricOne)};
+  }
+  if (!exact) {
+    violations_.add(where + ": a vertex is not on the lattice");
+    return std::nullopt;
+  }
+  return points;
+}
+
+bool DatasetVerifier::checkCoverage(const BinTriangle& t, const PatchMesh& mesh,
+                                    const std::vector<LatticeXY>& points,
+                                    const std::string& where) {
+  std::int64_t area = 0;
+  for (std::size_t k = 0; k < mesh.indices.size(); k += 3) {
+    const std::int64_t a = doubleArea(points[mesh.indices[k]], points[mesh.indices[k + 1]],
+                                      points[mesh.indices[k + 2]]);
+    if (a <= 0) {
+      violations_.add(where + ": triangle " + std::to_string(k / 3) + " is flipped or degenerate");
+      return false;
+    }
+    area += a;
+  }
+  if (area != std::abs(doubleArea(t.apex, t.left, t.right))) {
+    violations_.add(where + ": triangles cover " + std::to_string(area) + "/2 cells, the node " +
+                    std::to_string(std::abs(doubleArea(t.apex, t.left, t.right))) +
+                    "/2 (a hole or an overlap)");
+  }
+  return true;
+}
+
+std::vector<double> DatasetVerifier::checkSphere(const NodeRecord& record, const PatchMesh& mesh,
+                                                 const std::string& where) {
+  const auto& P = record.cornerPositions;
+  const auto& N = record.cornerNormals;
+  const glm::dvec3 p0{P[0], P[1], P[2]}, p1{P[3], P[4], P[5]}, p2{P[6], P[7], P[8]};
+  const glm::dvec3 n0{N[0], N[1], N[2]}, n1{N[3], N[4], N[5]}, n2{N[6], N[7], N[8]};
+  const glm::dvec3 c{record.sphereCenter[0], record.sphereCenter[1], record.sphereCenter[2]};
+  std::vector<double> heights(mesh.vertices.size());
+  for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
+    const double b1 = mesh.vertices[v].b1 / double{kPatchBarycentricOne};
+    const double b2 = mesh.vertices[v].b2 / double{kPatchBarycentricOne};
+    const glm::dvec3 nb = n0 + b1 * (n1 - n0) + b2 * (n2 - n0);
+    const glm::dvec3 p = p0 + b1 * (p1 - p0) + b2 * (p2 - p0) +
+                         (mesh.vertices[v].heightSteps * manifest_.heightStepMeters) * nb;
+    if (glm::length(p - c) > static_cast<double>(record.sphereRadiusMeters) + 1e-3) {
+      violations_.add(where + ": vertex " + std::to_string(v) + " lies outside its sphere");
+      break;
+    }
+    heights[v] = planet_.ecefToGeodetic(p).heightMeters;
+  }
+  return heights;
+}
+
+void DatasetVerifier::digestEdges(const BinTriangle& t, const PatchMesh& mesh,
+                                  const std::vector<LatticeXY>& points, DecodedNode& node) const {
+  const std::array<std::array<LatticeXY, 2>, 3> edgeEnds = {
+      {{t.apex, t.left}, {t.apex, t.right}, {t.left, t.right}}};
+  EdgeVertices edge;
+  for (std::size_t e = 0; e < 3; ++e) {
+    edge.clear();
+    for (std::size_t v = 0; v < points.size(); ++v) {
+      const LatticeXY a = edgeEnds[e][0];
+      const LatticeXY b = edgeEnds[e][1];
+      if (doubleArea(a, b, points[v]) != 0) continue;
+      edge.emplace_back(lattice_.key(t.face, points[v]), mesh.vertices[v].heightSteps);
+    }
+    std::sort(edge.begin(), edge.end());
+    node.edges[e] = edgeDigest(edge);
+  }
+}
+
+void DatasetVerifier::checkAgainstDem(const BinTriangle& t, const NodeRecord& record,
+                                      const PatchMesh& mesh, const std::vector<LatticeXY>& points,
+                                      const std::vector<double>& heights,
+                                      const std::string& where) {
+  double worst = 0.0;
+  std::uint64_t checked = 0;
+  for (std::size_t k = 0; k < mesh.indices.size(); k += 3) {
+    const std::array<std::uint16_t, 3> tri = {mesh.indices[k], mesh.indices[k + 1],
+                                              mesh.indices[k + 2]};
+    grid_->forEachSourceSampleIn(
+        t.face, points[tri[0]], points[tri[1]], points[tri[2]],
+        [&](double l0, double l1, double l2, const SourceSample& s) {
+          const double hp = l0 * heights[tri[0]] + l1 * heights[tri[1]] + l2 * heights[tri[2]];
+          worst = std::max(worst, std::abs(hp - static_cast<double>(s.heightMeters)));
+          ++checked;
         });
-    if (!stats) return std::move(stats).error();
-    if (auto r = SampleGrid::writeSourceBuckets(*dem, *planet, lattice, bucketCells,
-                                                scratch / "samples.bin", 0,
-                                                static_cast<std::size_t>(dem->height()));
-        !r) {
-      return std::move(r).error();
-    }
-    auto opened = SampleGrid::open(lattice, *planet, scratch / "heights.f32",
-                                   {scratch / "samples.bin"}, bucketCells, *stats);
-    if (!opened) return std::move(opened).error();
-    grid.emplace(std::move(opened).value());
   }
+  demSamples_ += checked;
+  const double stored = static_cast<double>(record.errorMeters);
+  if (worst > stored * (1.0 + 1e-6) + 1e-3) {
+    violations_.add(where + ": deviates " + std::to_string(worst) +
+                    " m from the source DEM, more than its stored error " + std::to_string(stored) +
+                    " m");
+  }
+  std::lock_guard lock(ratioMutex_);
+  if (stored > 0.0) worstRatio_ = std::max(worstRatio_, worst / stored);
+}
 
-  // ---- Every node: decode, coverage, orientation, sphere, edges, error against the DEM.
-  const std::uint64_t totalNodes = 12 * perTree;
-  std::vector<DecodedNode> nodes(totalNodes);
-  std::atomic<std::uint64_t> demSamples{0};
-  std::mutex ratioMutex;
-  double worstRatio = 0.0;
-  std::atomic<std::uint64_t> done{0};
+void DatasetVerifier::checkNode(std::uint64_t id) {
+  const BinTriangle t = triangleOfNode(lattice_, id, depth_);
+  const FaceView& view = *views_[static_cast<std::size_t>(t.face)];
+  const std::uint64_t tableIndex = static_cast<std::uint64_t>(t.tree) * perTree_ + t.index;
+  DecodedNode& node = nodes_[id];
+  node.record = view.nodeAt(tableIndex);
+  const std::string where = view.context() + " " + nodeName(t);
+  PatchMesh mesh;
+  const std::string context = view.context() + " offset " + std::to_string(node.record.blobOffset);
+  if (auto r = decodePatch(view.patchBlob(node.record), mesh, context); !r) {
+    violations_.add(r.error().message + " (" + nodeName(t) + ")");
+    return;
+  }
+  ++done_;
+  if (mesh.vertices.size() != node.record.vertexCount ||
+      mesh.triangleCount() != node.record.triangleCount) {
+    violations_.add(where + ": vertex/triangle counts differ from its node record");
+  }
+  const auto points = latticePoints(t, mesh, where);
+  if (!points || !checkCoverage(t, mesh, *points, where)) return;
+  const std::vector<double> heights = checkSphere(node.record, mesh, where);
+  digestEdges(t, mesh, *points, node);
+  node.valid = true;
+  if (grid_) checkAgainstDem(t, node.record, mesh, *points, heights, where);
+  if (done_ % 4096 == 0) {
+    progress("patches", static_cast<double>(done_) / static_cast<double>(nodes_.size()));
+  }
+}
+
+void DatasetVerifier::checkNodes() {
+  const std::uint64_t totalNodes = 12 * perTree_;
+  nodes_.assign(totalNodes, DecodedNode{});
   // RSS bound: the face files' and the scratch grid's pages are dropped from this process every
   // 250 ms while the nodes are checked (they stay in the page cache), as the builder does.
   std::optional<ResidentTrimmer> trimmer;
-  trimmer.emplace(std::chrono::milliseconds(250), [&files, &grid] {
-    for (const MappedFile& f : files) (void)f.releaseResident();
-    if (grid) grid->releaseResident();
+  trimmer.emplace(std::chrono::milliseconds(250), [this] {
+    for (const MappedFile& f : files_) (void)f.releaseResident();
+    if (grid_) grid_->releaseResident();
   });
-  tbb::parallel_for(std::uint64_t{0}, totalNodes, [&](std::uint64_t id) {
-    const BinTriangle t = triangleOfNode(lattice, id, depth);
-    const FaceView& view = *views[static_cast<std::size_t>(t.face)];
-    const std::uint64_t tableIndex = static_cast<std::uint64_t>(t.tree) * perTree + t.index;
-    DecodedNode& node = nodes[id];
-    node.record = view.nodeAt(tableIndex);
-    const std::string where = view.context() + " " + nodeName(t);
-    PatchMesh mesh;
-    const std::string context =
-        view.context() + " offset " + std::to_string(node.record.blobOffset);
-    if (auto r = decodePatch(view.patchBlob(node.record), mesh, context); !r) {
-      violations.add(r.error().message + " (" + nodeName(t) + ")");
-      return;
-    }
-    ++done;
-    if (mesh.vertices.size() != node.record.vertexCount ||
-        mesh.triangleCount() != node.record.triangleCount) {
-      violations.add(where + ": vertex/triangle counts differ from its node record");
-    }
-    // Vertices as lattice points: apex + (b1·(left−apex) + b2·(right−apex)) / 2^15, exactly.
-    const LatticeXY e1 = t.left - t.apex;
-    const LatticeXY e2 = t.right - t.apex;
-    std::vector<LatticeXY> points(mesh.vertices.size());
-    bool exact = true;
-    for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
-      const std::int64_t b1 = mesh.vertices[v].b1;
-      const std::int64_t b2 = mesh.vertices[v].b2;
-      const std::int64_t x = b1 * e1.x + b2 * e2.x;
-      const std::int64_t y = b1 * e1.y + b2 * e2.y;
-      if (x % kPatchBarycentricOne != 0 || y % kPatchBarycentricOne != 0) exact = false;
-      points[v] = t.apex + LatticeXY{static_cast<std::int32_t>(x / kPatchBarycentricOne),
-                                     static_cast<std::int32_t>(y / kPatchBarycentricOne)};
-    }
-    if (!exact) {
-      violations.add(where + ": a vertex is not on the lattice");
-      return;
-    }
-    // Coverage without flips: positive triangles whose areas add up to the node's.
-    std::int64_t area = 0;
-    for (std::size_t k = 0; k < mesh.indices.size(); k += 3) {
-      const std::int64_t a = doubleArea(points[mesh.indices[k]], points[mesh.indices[k + 1]],
-                                        points[mesh.indices[k + 2]]);
-      if (a <= 0) {
-        violations.add(where + ": triangle " + std::to_string(k / 3) + " is flipped or degenerate");
-        return;
-      }
-      area += a;
-    }
-    if (area != std::abs(doubleArea(t.apex, t.left, t.right))) {
-      violations.add(where + ": triangles cover " + std::to_string(area) + "/2 cells, the node " +
-                     std::to_string(std::abs(doubleArea(t.apex, t.left, t.right))) +
-                     "/2 (a hole or an overlap)");
-    }
-    // Rendered positions inside the node's sphere.
-    const auto& P = node.record.cornerPositions;
-    const auto& N = node.record.cornerNormals;
-    const glm::dvec3 p0{P[0], P[1], P[2]}, p1{P[3], P[4], P[5]}, p2{P[6], P[7], P[8]};
-    const glm::dvec3 n0{N[0], N[1], N[2]}, n1{N[3], N[4], N[5]}, n2{N[6], N[7], N[8]};
-    const glm::dvec3 c{node.record.sphereCenter[0], node.record.sphereCenter[1],
-                       node.record.sphereCenter[2]};
-    std::vector<double> heights(mesh.vertices.size());
-    for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
-      const double b1 = mesh.vertices[v].b1 / double{kPatchBarycentricOne};
-      const double b2 = mesh.vertices[v].b2 / double{kPatchBarycentricOne};
-      const glm::dvec3 nb = n0 + b1 * (n1 - n0) + b2 * (n2 - n0);
-      const glm::dvec3 p = p0 + b1 * (p1 - p0) + b2 * (p2 - p0) +
-                           (mesh.vertices[v].heightSteps * manifest->heightStepMeters) * nb;
-      if (glm::length(p - c) > static_cast<double>(node.record.sphereRadiusMeters) + 1e-3) {
-        violations.add(where + ": vertex " + std::to_string(v) + " lies outside its sphere");
-        break;
-      }
-      heights[v] = planet->ecefToGeodetic(p).heightMeters;
-    }
-    // Vertices on the three edges.
-    const std::array<std::array<LatticeXY, 2>, 3> edgeEnds = {
-        {{t.apex, t.left}, {t.apex, t.right}, {t.left, t.right}}};
-    EdgeVertices edge;
-    for (std::size_t e = 0; e < 3; ++e) {
-      edge.clear();
-      for (std::size_t v = 0; v < points.size(); ++v) {
-        const LatticeXY a = edgeEnds[e][0];
-        const LatticeXY b = edgeEnds[e][1];
-        if (doubleArea(a, b, points[v]) != 0) continue;
-        edge.emplace_back(lattice.key(t.face, points[v]), mesh.vertices[v].heightSteps);
-      }
-      std::sort(edge.begin(), edge.end());
-      node.edges[e] = edgeDigest(edge);
-    }
-    node.valid = true;
-    // The stored error bounds the deviation from every source sample the patch covers.
-    if (grid) {
-      double worst = 0.0;
-      std::uint64_t checked = 0;
-      for (std::size_t k = 0; k < mesh.indices.size(); k += 3) {
-        const std::array<std::uint16_t, 3> tri = {mesh.indices[k], mesh.indices[k + 1],
-                                                  mesh.indices[k + 2]};
-        grid->forEachSourceSampleIn(
-            t.face, points[tri[0]], points[tri[1]], points[tri[2]],
-            [&](double l0, double l1, double l2, const SourceSample& s) {
-              const double hp = l0 * heights[tri[0]] + l1 * heights[tri[1]] + l2 * heights[tri[2]];
-              worst = std::max(worst, std::abs(hp - static_cast<double>(s.heightMeters)));
-              ++checked;
-            });
-      }
-      demSamples += checked;
-      const double stored = static_cast<double>(node.record.errorMeters);
-      if (worst > stored * (1.0 + 1e-6) + 1e-3) {
-        violations.add(where + ": deviates " + std::to_string(worst) +
-                       " m from the source DEM, more than its stored error " +
-                       std::to_string(stored) + " m");
-      }
-      std::lock_guard lock(ratioMutex);
-      if (stored > 0.0) worstRatio = std::max(worstRatio, worst / stored);
-    }
-    if (done % 4096 == 0)
-      progress("patches", static_cast<double>(done) / static_cast<double>(totalNodes));
-  });
+  tbb::parallel_for(std::uint64_t{0}, totalNodes, [&](std::uint64_t id) { checkNode(id); });
   trimmer.reset();
-  report.patchesDecoded = done.load();
-  report.nodesChecked = totalNodes;
-  report.demSamplesChecked = demSamples.load();
-  report.worstErrorRatio = worstRatio;
+  report_.patchesDecoded = done_.load();
+  report_.nodesChecked = totalNodes;
+  report_.demSamplesChecked = demSamples_.load();
+  report_.worstErrorRatio = worstRatio_;
+}
 
-  // ---- Shared edges: every patch bordering an edge has the same vertices there (and the same
-  // displacements), so every conforming cut is crack-free.
-  {
-    std::unordered_map<EdgeKey, std::pair<std::uint64_t, std::uint64_t>, EdgeKeyHash> firstSeen;
-    firstSeen.reserve(static_cast<std::size_t>(totalNodes));
-    for (std::uint64_t id = 0; id < totalNodes; ++id) {
-      const DecodedNode& node = nodes[id];
-      if (!node.valid) continue;
-      const BinTriangle t = triangleOfNode(lattice, id, depth);
-      const std::array<EdgeKey, 3> keys = {lattice.edgeKey(t.face, t.apex, t.left),
-                                           lattice.edgeKey(t.face, t.apex, t.right),
-                                           lattice.edgeKey(t.face, t.left, t.right)};
-      for (std::size_t e = 0; e < 3; ++e) {
-        const auto [it, inserted] = firstSeen.try_emplace(keys[e], id, node.edges[e]);
-        if (inserted) continue;
-        ++report.edgesCompared;
-        if (it->second.second != node.edges[e]) {
-          violations.add(nodeName(t) + " and " +
-                         nodeName(triangleOfNode(lattice, it->second.first, depth)) +
-                         " disagree on the vertices of a shared edge");
-        }
+void DatasetVerifier::checkSharedEdges() {
+  std::unordered_map<EdgeKey, std::pair<std::uint64_t, std::uint64_t>, EdgeKeyHash> firstSeen;
+  firstSeen.reserve(nodes_.size());
+  for (std::uint64_t id = 0; id < nodes_.size(); ++id) {
+    const DecodedNode& node = nodes_[id];
+    if (!node.valid) continue;
+    const BinTriangle t = triangleOfNode(lattice_, id, depth_);
+    const std::array<EdgeKey, 3> keys = {lattice_.edgeKey(t.face, t.apex, t.left),
+                                         lattice_.edgeKey(t.face, t.apex, t.right),
+                                         lattice_.edgeKey(t.face, t.left, t.right)};
+    for (std::size_t e = 0; e < 3; ++e) {
+      const auto [it, inserted] = firstSeen.try_emplace(keys[e], id, node.edges[e]);
+      if (inserted) continue;
+      ++report_.edgesCompared;
+      if (it->second.second != node.edges[e]) {
+        violations_.add(nodeName(t) + " and " +
+                        nodeName(triangleOfNode(lattice_, it->second.first, depth_)) +
+                        " disagree on the vertices of a shared edge");
       }
     }
   }
+}
 
-  // ---- The diamond DAG: partners share error and sphere; parents bound children.
-  for (int level = depth; level >= 0; --level) {
-    const auto diamonds = diamondsOfLevel(lattice, depth, level);
-    std::map<EdgeKey, Diamond> childBySpine;
-    if (level < depth) {
-      for (const Diamond& dm : diamondsOfLevel(lattice, depth, level + 1)) {
-        const BinTriangle t = triangleOfNode(lattice, dm[0], depth);
-        childBySpine.emplace(lattice.edgeKey(t.face, t.left, t.right), dm);
-      }
+void DatasetVerifier::checkDiamondLevel(int level) {
+  const auto diamonds = diamondsOfLevel(lattice_, depth_, level);
+  std::map<EdgeKey, Diamond> childBySpine;
+  if (level < depth_) {
+    for (const Diamond& dm : diamondsOfLevel(lattice_, depth_, level + 1)) {
+      const BinTriangle t = triangleOfNode(lattice_, dm[0], depth_);
+      childBySpine.emplace(lattice_.edgeKey(t.face, t.left, t.right), dm);
     }
-    for (const Diamond& dm : diamonds) {
-      const NodeRecord& a = nodes[dm[0]].record;
-      const NodeRecord& b = nodes[dm[1]].record;
-      const BinTriangle ta = triangleOfNode(lattice, dm[0], depth);
-      if (a.errorMeters != b.errorMeters || a.sphereCenter != b.sphereCenter ||
-          a.sphereRadiusMeters != b.sphereRadiusMeters) {
-        violations.add(nodeName(ta) + ": diamond partners differ in error or sphere");
+  }
+  for (const Diamond& dm : diamonds) {
+    const NodeRecord& a = nodes_[dm[0]].record;
+    const NodeRecord& b = nodes_[dm[1]].record;
+    const BinTriangle ta = triangleOfNode(lattice_, dm[0], depth_);
+    if (a.errorMeters != b.errorMeters || a.sphereCenter != b.sphereCenter ||
+        a.sphereRadiusMeters != b.sphereRadiusMeters) {
+      violations_.add(nodeName(ta) + ": diamond partners differ in error or sphere");
+    }
+    if (a.errorMeters < a.measuredErrorMeters || b.errorMeters < b.measuredErrorMeters) {
+      violations_.add(nodeName(ta) + ": saturated error below its own measured error");
+    }
+    if (level == depth_) continue;
+    const BinTriangle tb = triangleOfNode(lattice_, dm[1], depth_);
+    const std::array<EdgeKey, 4> legs = {
+        lattice_.edgeKey(ta.face, ta.apex, ta.left), lattice_.edgeKey(ta.face, ta.apex, ta.right),
+        lattice_.edgeKey(tb.face, tb.apex, tb.left), lattice_.edgeKey(tb.face, tb.apex, tb.right)};
+    const glm::dvec3 pc{a.sphereCenter[0], a.sphereCenter[1], a.sphereCenter[2]};
+    for (const EdgeKey& leg : legs) {
+      const auto it = childBySpine.find(leg);
+      if (it == childBySpine.end()) {
+        violations_.add(nodeName(ta) + ": a child diamond is missing");
+        continue;
       }
-      if (a.errorMeters < a.measuredErrorMeters || b.errorMeters < b.measuredErrorMeters) {
-        violations.add(nodeName(ta) + ": saturated error below its own measured error");
+      const NodeRecord& child = nodes_[it->second[0]].record;
+      if (child.errorMeters > a.errorMeters) {
+        violations_.add(nodeName(ta) + ": error " + std::to_string(a.errorMeters) +
+                        " m is below a child diamond's " + std::to_string(child.errorMeters) +
+                        " m (nesting)");
       }
-      if (level == depth) continue;
-      const BinTriangle tb = triangleOfNode(lattice, dm[1], depth);
-      const std::array<EdgeKey, 4> legs = {
-          lattice.edgeKey(ta.face, ta.apex, ta.left), lattice.edgeKey(ta.face, ta.apex, ta.right),
-          lattice.edgeKey(tb.face, tb.apex, tb.left), lattice.edgeKey(tb.face, tb.apex, tb.right)};
-      const glm::dvec3 pc{a.sphereCenter[0], a.sphereCenter[1], a.sphereCenter[2]};
-      for (const EdgeKey& leg : legs) {
-        const auto it = childBySpine.find(leg);
-        if (it == childBySpine.end()) {
-          violations.add(nodeName(ta) + ": a child diamond is missing");
-          continue;
-        }
-        const NodeRecord& child = nodes[it->second[0]].record;
-        if (child.errorMeters > a.errorMeters) {
-          violations.add(nodeName(ta) + ": error " + std::to_string(a.errorMeters) +
-                         " m is below a child diamond's " + std::to_string(child.errorMeters) +
-                         " m (nesting)");
-        }
-        const glm::dvec3 cc{child.sphereCenter[0], child.sphereCenter[1], child.sphereCenter[2]};
-        if (glm::length(cc - pc) + static_cast<double>(child.sphereRadiusMeters) >
-            static_cast<double>(a.sphereRadiusMeters) * (1.0 + 1e-7) + 1e-3) {
-          violations.add(nodeName(ta) + ": sphere does not contain a child diamond's sphere");
-        }
+      const glm::dvec3 cc{child.sphereCenter[0], child.sphereCenter[1], child.sphereCenter[2]};
+      if (glm::length(cc - pc) + static_cast<double>(child.sphereRadiusMeters) >
+          static_cast<double>(a.sphereRadiusMeters) * (1.0 + 1e-7) + 1e-3) {
+        violations_.add(nodeName(ta) + ": sphere does not contain a child diamond's sphere");
       }
     }
   }
+}
 
-  // ---- Texture tiles: decodable, errors nested.
+void DatasetVerifier::checkDiamondDag() {
+  for (int level = depth_; level >= 0; --level) checkDiamondLevel(level);
+}
+
+void DatasetVerifier::checkTextures() {
   for (std::size_t f = 0; f < 6; ++f) {
-    const FaceView& view = *views[f];
+    const FaceView& view = *views_[f];
     const std::uint32_t levels = view.header().textureLevels;
     for (std::uint32_t level = 0; level < levels; ++level) {
       for (std::uint32_t qj = 0; qj < (1U << level); ++qj) {
@@ -439,28 +494,73 @@ Result<VerifyReport> verifyDataset(const VerifyOptions& o) {
           auto tile = decodeTextureTile(view.textureBlob(r),
                                         view.context() + " offset " + std::to_string(r.blobOffset));
           if (!tile) {
-            violations.add(tile.error().message);
+            violations_.add(tile.error().message);
             continue;
           }
-          ++report.tilesDecoded;
+          ++report_.tilesDecoded;
           if (tile->sizeTexels != view.header().textureTileTexels) {
-            violations.add(view.context() + ": texture tile of the wrong size");
+            violations_.add(view.context() + ": texture tile of the wrong size");
           }
           if (level > 0) {
             const TextureRecord parent =
                 view.textureNode(textureHeapIndex(level - 1, qi / 2, qj / 2));
             if (parent.errorMeters < r.errorMeters) {
-              violations.add(view.context() + ": texture error not nested at level " +
-                             std::to_string(level));
+              violations_.add(view.context() + ": texture error not nested at level " +
+                              std::to_string(level));
             }
           }
         }
       }
     }
   }
-  report.violationCount = violations.count();
-  report.violations = violations.take();
-  return report;
+}
+
+Result<VerifyReport> DatasetVerifier::run() {
+  // ---- Files: sizes, checksums, headers, tables.
+  openFaces();
+  if (violations_.count() > 0) {
+    report_.violationCount = violations_.count();
+    report_.violations = violations_.take();
+    return std::move(report_);
+  }
+  // ---- Optional source DEM, bucketed like the builder does.
+  if (!o_.demPath.empty()) {
+    if (auto r = openDemGrid(); !r) return std::move(r).error();
+  }
+  // ---- Every node: decode, coverage, orientation, sphere, edges, error against the DEM.
+  checkNodes();
+  // ---- Shared edges: every patch bordering an edge has the same vertices there (and the same
+  // displacements), so every conforming cut is crack-free.
+  checkSharedEdges();
+  // ---- The diamond DAG: partners share error and sphere; parents bound children.
+  checkDiamondDag();
+  // ---- Texture tiles: decodable, errors nested.
+  checkTextures();
+  report_.violationCount = violations_.count();
+  report_.violations = violations_.take();
+  return std::move(report_);
+}
+
+}  // namespace
+
+Result<VerifyReport> verifyDataset(const VerifyOptions& o) {
+  auto manifest = readManifest(o.datasetDir);
+  if (!manifest) {
+    if (manifest.error().code == ErrorCode::NotFound) return std::move(manifest).error();
+    VerifyReport report;
+    report.violations.push_back(manifest.error().message);
+    report.violationCount = 1;
+    return report;
+  }
+  auto planet = Planet::fromSpec(manifest->planetSpec);
+  if (!planet) {
+    VerifyReport report;
+    report.violations.push_back("manifest planet: " + planet.error().message);
+    report.violationCount = 1;
+    return report;
+  }
+  DatasetVerifier verifier(o, *manifest, *planet);
+  return verifier.run();
 }
 
 }  // namespace pbdam::builder
