@@ -6,7 +6,9 @@
 // and its carry (what the next level needs) into its own checkpoint part files, batch by batch;
 // the next level reads the children of its diamonds from those files. The ranks synchronise only
 // between levels (a small all-gather of per-rank statistics); rank 0 records the checkpoint
-// state and finally assembles the dataset from the part files through mappings.
+// state and finally assembles the dataset from the part files through mappings. The inputs are
+// prepared in BuildInputs.cpp, each diamond is built by DiamondBuilder, the part files' bytes are
+// Checkpoint's, and the assembly is DatasetAssembly.cpp.
 #include "pbdam/builder/Builder.h"
 
 #include <tbb/parallel_for.h>
