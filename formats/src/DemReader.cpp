@@ -533,7 +533,9 @@ Result<void> openNamedOrLabelled(OpenDem& dem, const fs::path& path, GdalErrorCa
   const std::optional<fs::path> label = labelBeside(path);
   if (!label) {
     return fail(ErrorCode::UnsupportedFormat, path,
-                withGdal("not a raster format GDAL can read, or a corrupt one", capture));
+                withGdal("not a raster format GDAL can read, or a corrupt one (a headerless grid "
+                         "needs --raw-size, --raw-type and --bounds)",
+                         capture));
   }
   if (!labelNamesImage(*label, path)) {
     return fail(ErrorCode::UnsupportedFormat, path,
