@@ -4,19 +4,16 @@
 // in some drivers), and maps nodata to NaN.
 #include "pbdam/formats/DemReader.h"
 
-#include "pbdam/formats/MappedPages.h"
+#include "pbdam/formats/MemoryMapping.h"
 #include "pbdam/formats/NumberList.h"
 
 #include <cpl_conv.h>
 #include <cpl_error.h>
-#include <fcntl.h>
 #include <gdal.h>
 #include <gdal_priv.h>
 #include <gdal_utils.h>
 #include <gdalwarper.h>
 #include <ogr_spatialref.h>
-#include <sys/mman.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <array>
@@ -37,27 +34,6 @@ namespace pbdam {
 namespace {
 
 namespace fs = std::filesystem;
-
-/// An unnamed file of `bytes` in `directory` (O_TMPFILE, else a named one unlinked at once),
-/// its blocks allocated so that writing through the mapping cannot hit a full disk, mapped
-/// shared and writable; the mapping is unmapped (and the file's space freed) with the last
-/// owner. Null when any step fails.
-std::shared_ptr<float> mapScratch(const fs::path& directory, std::uint64_t bytes) {
-  int fd = ::open(directory.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
-  if (fd < 0) {
-    std::string name = (directory / ".pbdam-dem-XXXXXX").string();
-    fd = ::mkostemp(name.data(), O_CLOEXEC);
-    if (fd < 0) return nullptr;
-    ::unlink(name.c_str());
-  }
-  const bool reserved = ::posix_fallocate(fd, 0, static_cast<off_t>(bytes)) == 0;
-  void* address =
-      reserved ? ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0) : MAP_FAILED;
-  ::close(fd);
-  if (address == MAP_FAILED) return nullptr;
-  return std::shared_ptr<float>(static_cast<float*>(address),
-                                [bytes](float* p) { ::munmap(p, bytes); });
-}
 
 void registerGdalOnce() {
   // A function-local static rather than std::call_once: GDAL takes its own mutex inside, which
@@ -83,6 +59,8 @@ class GdalErrorCapture final {
     return joined;
   }
   bool hasFailures() const noexcept { return !failures_.empty(); }
+  /// Forgets the failures collected so far (of an attempt that the caller recovered from).
+  void clear() noexcept { failures_.clear(); }
 
  private:
   static void CPL_STDCALL handler(CPLErr level, CPLErrorNum, const char* message) {
@@ -482,123 +460,203 @@ Result<void> parseRawBounds(std::string_view text, RawLayout& layout) {
   return {};
 }
 
-Result<HeightGrid> readDem(const fs::path& path, const DemReadOptions& options) {
-  std::error_code ec;
-  if (!fs::exists(path, ec)) return fail(ErrorCode::NotFound, path, "no such file");
-  if (!fs::is_regular_file(path, ec)) return fail(ErrorCode::InvalidArgument, path, "not a file");
-  registerGdalOnce();
-  GdalErrorCapture capture;
-  // Never write .aux.xml side files next to the input.
-  ScopedConfig noPam("GDAL_PAM_ENABLED", "NO");
-  // PDS3 *_PROJECTION_OFFSET counts from 1 at the first pixel's centre (the MEGDR convention);
-  // GDAL's default places such grids one pixel off.
-  ScopedConfig pdsSample("PDS_SampleProjOffset_Shift", "-0.5");
-  ScopedConfig pdsLine("PDS_LineProjOffset_Shift", "-0.5");
+namespace {
 
+/// An open elevation raster: the GDAL dataset (its geographic warp once georeference has run on
+/// a projected grid), the driver's short name, the file GDAL opened (a detached label for an
+/// image named without it) and what is known of the source so far.
+struct OpenDem final {
   DatasetPtr dataset;
-  if (options.raw) {
-    const RawLayout& raw = *options.raw;
-    if (raw.width < 1 || raw.height < 1) {
-      return fail(ErrorCode::InvalidArgument, path, "raw grid needs --raw-size W,H");
-    }
-    const std::int64_t needed = raw.headerBytes + raw.width * raw.height * rawTypeBytes(raw.type);
-    const auto size = static_cast<std::int64_t>(fs::file_size(path, ec));
-    if (ec) return fail(ErrorCode::IoError, path, "cannot stat");
-    if (size != needed) {
-      return fail(ErrorCode::CorruptData, path,
-                  "raw size mismatch: " + std::to_string(raw.width) + "x" +
-                      std::to_string(raw.height) + " " + rawTypeGdalName(raw.type) +
-                      " samples need " + std::to_string(needed) + " bytes, the file has " +
-                      std::to_string(size));
-    }
-    const std::string xml = rawVrtXml(path, raw);
-    dataset.reset(
-        GDALOpenEx(xml.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr));
-  } else {
-    dataset.reset(
-        GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr));
-  }
-  if (!dataset) {
-    return fail(ErrorCode::UnsupportedFormat, path,
-                withGdal("not a raster format GDAL can read, or a corrupt one", capture));
-  }
-
+  std::string driverName;
+  fs::path openedPath;
   GridSource source;
-  source.path = path.string();
-  GDALDriverH driver = GDALGetDatasetDriver(dataset.get());
-  source.format = options.raw ? std::string("raw (GDAL VRT raw band)")
-                              : std::string(GDALGetDriverShortName(driver)) + " (" +
-                                    GDALGetDriverLongName(driver) + ")";
-  const std::string driverName = options.raw ? "VRT" : GDALGetDriverShortName(driver);
-  if (GDALGetRasterCount(dataset.get()) < 1) {
+};
+
+DatasetPtr openRaster(const char* pathOrXml) {
+  return DatasetPtr(
+      GDALOpenEx(pathOrXml, GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr));
+}
+
+/// Opens a headerless grid through a VRT raw band after checking its size against the layout.
+Result<DatasetPtr> openRaw(const fs::path& path, const RawLayout& raw) {
+  if (raw.width < 1 || raw.height < 1) {
+    return fail(ErrorCode::InvalidArgument, path, "raw grid needs --raw-size W,H");
+  }
+  const std::int64_t needed = raw.headerBytes + raw.width * raw.height * rawTypeBytes(raw.type);
+  std::error_code ec;
+  const auto size = static_cast<std::int64_t>(fs::file_size(path, ec));
+  if (ec) return fail(ErrorCode::IoError, path, "cannot stat");
+  if (size != needed) {
+    return fail(ErrorCode::CorruptData, path,
+                "raw size mismatch: " + std::to_string(raw.width) + "x" +
+                    std::to_string(raw.height) + " " + rawTypeGdalName(raw.type) +
+                    " samples need " + std::to_string(needed) + " bytes, the file has " +
+                    std::to_string(size));
+  }
+  return openRaster(rawVrtXml(path, raw).c_str());
+}
+
+/// A PDS3 label beside `image` (same stem, .lbl or .LBL), if there is one.
+std::optional<fs::path> labelBeside(const fs::path& image) {
+  for (const char* extension : {".lbl", ".LBL"}) {
+    fs::path label = image;
+    label.replace_extension(extension);
+    std::error_code ec;
+    if (label != image && fs::is_regular_file(label, ec)) return label;
+  }
+  return std::nullopt;
+}
+
+std::string upperCase(std::string text) {
+  std::transform(text.begin(), text.end(), text.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::toupper(c)); });
+  return text;
+}
+
+/// Whether `label` is a PDS3 label whose data pointers name `image` (PDS names files in upper
+/// case; the file on disk may be in either).
+bool labelNamesImage(const fs::path& label, const fs::path& image) {
+  std::ifstream in(label, std::ios::binary);
+  std::string text(std::size_t{64} << 10, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  text.resize(static_cast<std::size_t>(in.gcount()));
+  text = upperCase(std::move(text));
+  return text.find("PDS_VERSION_ID") != std::string::npos &&
+         text.find("\"" + upperCase(image.filename().string()) + "\"") != std::string::npos;
+}
+
+/// Opens `path` with GDAL as the caller named it, or through the detached PDS label that names
+/// it when GDAL does not recognise the image alone.
+Result<void> openNamedOrLabelled(OpenDem& dem, const fs::path& path, GdalErrorCapture& capture) {
+  dem.dataset = openRaster(path.c_str());
+  if (dem.dataset) return {};
+  const std::optional<fs::path> label = labelBeside(path);
+  if (!label) {
+    return fail(ErrorCode::UnsupportedFormat, path,
+                withGdal("not a raster format GDAL can read, or a corrupt one (a headerless grid "
+                         "needs --raw-size, --raw-type and --bounds)",
+                         capture));
+  }
+  if (!labelNamesImage(*label, path)) {
+    return fail(ErrorCode::UnsupportedFormat, path,
+                "not a raster format GDAL can read, and the label beside it, " + label->string() +
+                    ", does not name it: pass the PDS label that describes this image");
+  }
+  capture.clear();  // the image's own open failed as expected: its data is the label's
+  dem.dataset = openRaster(label->c_str());
+  if (!dem.dataset) {
+    return fail(ErrorCode::UnsupportedFormat, *label,
+                withGdal("the PDS label beside " + path.filename().string() +
+                             " is not one GDAL can read, or a corrupt one",
+                         capture));
+  }
+  dem.openedPath = *label;
+  dem.source.labelPath = label->string();
+  return {};
+}
+
+/// Opens the raster (raw through a VRT, named, or through its label) and checks it has a band.
+Result<OpenDem> openDem(const fs::path& path, const DemReadOptions& options,
+                        GdalErrorCapture& capture) {
+  OpenDem dem;
+  dem.openedPath = path;
+  dem.source.path = path.string();
+  if (options.raw) {
+    auto raw = openRaw(path, *options.raw);
+    if (!raw) return std::move(raw).error();
+    dem.dataset = std::move(raw).value();
+    if (!dem.dataset) {
+      return fail(ErrorCode::UnsupportedFormat, path,
+                  withGdal("not a raster format GDAL can read, or a corrupt one", capture));
+    }
+  } else if (auto opened = openNamedOrLabelled(dem, path, capture); !opened) {
+    return opened.error();
+  }
+  GDALDriverH driver = GDALGetDatasetDriver(dem.dataset.get());
+  dem.source.format = options.raw ? std::string("raw (GDAL VRT raw band)")
+                                  : std::string(GDALGetDriverShortName(driver)) + " (" +
+                                        GDALGetDriverLongName(driver) + ")";
+  dem.driverName = options.raw ? "VRT" : GDALGetDriverShortName(driver);
+  if (GDALGetRasterCount(dem.dataset.get()) < 1) {
     return fail(ErrorCode::UnsupportedFormat, path, "has no raster band");
   }
+  return dem;
+}
 
-  // Projected or rotated grids: convert exactly if equirectangular, otherwise warp.
+/// Records the CRS's name, ellipsoid and body in `source`.
+void describeCrs(const OGRSpatialReference* crs, GridSource& source) {
+  if (crs == nullptr) {
+    source.crs = "none";
+    return;
+  }
+  const char* name = crs->GetName();
+  source.crs = name != nullptr ? name : "unnamed";
+  OGRErr err = OGRERR_NONE;
+  source.semiMajorMeters = crs->GetSemiMajor(&err);
+  const double inverseFlattening = crs->GetInvFlattening(&err);
+  source.flattening = inverseFlattening > 0.0 ? 1.0 / inverseFlattening : 0.0;
+  source.body = bodyForSemiMajor(source.semiMajorMeters);
+}
+
+/// The grid's corner-based geographic georeference: exact for geographic and equirectangular
+/// grids; other projected or rotated grids are warped first (dem.dataset becomes the warp).
+Result<GeoRef> georeference(OpenDem& dem, const fs::path& path, const GdalErrorCapture& capture) {
   OGRSpatialReference crs;
   bool hasCrs = false;
-  if (const OGRSpatialReferenceH h = GDALGetSpatialRef(dataset.get()); h != nullptr) {
+  if (const OGRSpatialReferenceH h = GDALGetSpatialRef(dem.dataset.get()); h != nullptr) {
     crs = *OGRSpatialReference::FromHandle(h);
     crs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
     hasCrs = true;
   }
   std::array<double, 6> gt{};
-  if (GDALGetGeoTransform(dataset.get(), gt.data()) != CE_None) {
+  if (GDALGetGeoTransform(dem.dataset.get(), gt.data()) != CE_None) {
     return fail(ErrorCode::UnsupportedFormat, path,
                 "has no georeferencing (for a headerless grid use --raw-size, --raw-type and "
                 "--bounds)");
   }
-  GeoRef geo;
-  bool haveGeo = false;
   const bool rotated = gt[2] != 0.0 || gt[4] != 0.0;
+  std::optional<GeoRef> geo;
   if (hasCrs && crs.IsProjected() && !rotated) {
-    if (auto linear = linearGeographic(crs, gt, GDALGetRasterXSize(dataset.get()),
-                                       GDALGetRasterYSize(dataset.get()))) {
-      geo = *linear;
-      haveGeo = true;
-    }
+    geo = linearGeographic(crs, gt, GDALGetRasterXSize(dem.dataset.get()),
+                           GDALGetRasterYSize(dem.dataset.get()));
   }
-  if (!haveGeo && ((hasCrs && crs.IsProjected()) || rotated)) {
+  if (!geo && ((hasCrs && crs.IsProjected()) || rotated)) {
     if (!hasCrs) return fail(ErrorCode::UnsupportedFormat, path, "rotated grid without a CRS");
     std::string why;
-    DatasetPtr warped = warpToGeographic(dataset.get(), crs, why);
+    DatasetPtr warped = warpToGeographic(dem.dataset.get(), crs, why);
     if (!warped) return fail(ErrorCode::UnsupportedFormat, path, withGdal(why, capture));
-    dataset = std::move(warped);
-    source.warped = true;
-    if (GDALGetGeoTransform(dataset.get(), gt.data()) != CE_None) {
+    dem.dataset = std::move(warped);
+    dem.source.warped = true;
+    if (GDALGetGeoTransform(dem.dataset.get(), gt.data()) != CE_None) {
       return fail(ErrorCode::Internal, path, "warped grid has no georeferencing");
     }
   }
-  if (!haveGeo) {
+  if (!geo) {
     if (hasCrs && !crs.IsGeographic() && !crs.IsProjected()) {
       return fail(ErrorCode::UnsupportedFormat, path, "CRS is neither geographic nor projected");
     }
     geo = GeoRef{gt[0], gt[3], gt[1], -gt[5]};
   }
-  if (!(geo.lonSpacingDegrees > 0.0) || !(geo.latSpacingDegrees > 0.0)) {
+  if (!(geo->lonSpacingDegrees > 0.0) || !(geo->latSpacingDegrees > 0.0)) {
     return fail(ErrorCode::UnsupportedFormat, path,
                 "georeferencing is not north-up with positive spacing");
   }
-  if (hasCrs) {
-    const char* name = crs.GetName();
-    source.crs = name != nullptr ? name : "unnamed";
-    OGRErr err = OGRERR_NONE;
-    source.semiMajorMeters = crs.GetSemiMajor(&err);
-    const double inverseFlattening = crs.GetInvFlattening(&err);
-    source.flattening = inverseFlattening > 0.0 ? 1.0 / inverseFlattening : 0.0;
-    source.body = bodyForSemiMajor(source.semiMajorMeters);
-  } else {
-    source.crs = "none";
-  }
+  describeCrs(hasCrs ? &crs : nullptr, dem.source);
+  return *geo;
+}
 
-  const std::int64_t width = GDALGetRasterXSize(dataset.get());
-  const std::int64_t height = GDALGetRasterYSize(dataset.get());
-  if (width * height > options.maxSamples) {
+/// Sample-centre geometry of the grid: spacing and origin snapped to round values, the cell
+/// convention (pixel-is-point for grids whose outer rows sit on the poles), checked against the
+/// poles and a 360° longitude span.
+Result<GridGeometry> gridGeometry(GDALDatasetH ds, const GeoRef& geo, const fs::path& path,
+                                  std::int64_t maxSamples) {
+  const std::int64_t width = GDALGetRasterXSize(ds);
+  const std::int64_t height = GDALGetRasterYSize(ds);
+  if (width * height > maxSamples) {
     return fail(ErrorCode::InvalidArgument, path,
                 std::to_string(width) + "x" + std::to_string(height) +
-                    " samples exceed the in-memory limit of " + std::to_string(options.maxSamples));
+                    " samples exceed the in-memory limit of " + std::to_string(maxSamples));
   }
-
   GridGeometry geometry;
   geometry.width = width;
   geometry.height = height;
@@ -608,7 +666,7 @@ Result<HeightGrid> readDem(const fs::path& path, const DemReadOptions& options) 
   const double north = snapOrigin(geo.northDegrees, geometry.latSpacingDegrees);
   geometry.firstLonDegrees = west + 0.5 * geometry.lonSpacingDegrees;
   geometry.firstLatDegrees = north - 0.5 * geometry.latSpacingDegrees;
-  const char* areaOrPoint = GDALGetMetadataItem(dataset.get(), "AREA_OR_POINT", nullptr);
+  const char* areaOrPoint = GDALGetMetadataItem(ds, "AREA_OR_POINT", nullptr);
   geometry.pixelIsArea = areaOrPoint == nullptr || !EQUAL(areaOrPoint, "Point");
   const double lastLat =
       geometry.firstLatDegrees - static_cast<double>(height - 1) * geometry.latSpacingDegrees;
@@ -633,86 +691,173 @@ Result<HeightGrid> readDem(const fs::path& path, const DemReadOptions& options) 
       360.0 + 1.5 * geometry.lonSpacingDegrees) {
     return fail(ErrorCode::CorruptData, path, "georeferencing spans more than 360° of longitude");
   }
+  return geometry;
+}
 
-  // Truncation checks that GDAL does not always make.
-  if (!options.raw && !source.warped) {
-    const bool detachedLabel = driverName == "PDS" || driverName == "ISIS3" ||
-                               driverName == "EHdr" || driverName == "ENVI";
-    if (auto r = checkRawExtent(dataset.get(), path, detachedLabel); !r) return r.error();
-    if (driverName == "netCDF") {
-      GDALRasterBandH band = GDALGetRasterBand(dataset.get(), 1);
-      if (auto r = checkNetcdfClassicSize(path, width * height,
-                                          GDALGetDataTypeSizeBytes(GDALGetRasterDataType(band)));
-          !r) {
-        return r.error();
-      }
+/// Truncation checks that GDAL does not always make, for files read as they are (not raw
+/// layouts, which openRaw checks, nor warps).
+Result<void> checkTruncation(const OpenDem& dem, std::int64_t samples) {
+  const std::string& driver = dem.driverName;
+  const bool detachedLabel =
+      driver == "PDS" || driver == "ISIS3" || driver == "EHdr" || driver == "ENVI";
+  if (auto r = checkRawExtent(dem.dataset.get(), dem.openedPath, detachedLabel); !r) return r;
+  if (driver == "netCDF") {
+    GDALRasterBandH band = GDALGetRasterBand(dem.dataset.get(), 1);
+    return checkNetcdfClassicSize(dem.openedPath, samples,
+                                  GDALGetDataTypeSizeBytes(GDALGetRasterDataType(band)));
+  }
+  return {};
+}
+
+/// Reads a band's rows as metres, nodata as NaN (scale, offset and length unit applied).
+class HeightDecoder final {
+ public:
+  /// Reads the band's nodata value, scale, offset and unit (recorded in `source`).
+  static Result<HeightDecoder> make(GDALRasterBandH band, std::int64_t width, const fs::path& path,
+                                    GridSource& source) {
+    HeightDecoder d;
+    d.band_ = band;
+    d.width_ = width;
+    int hasNoData = 0;
+    d.noData_ = GDALGetRasterNoDataValue(band, &hasNoData);
+    d.hasNoData_ = hasNoData != 0;
+    if (d.hasNoData_) source.noDataValue = d.noData_;
+    int hasScale = 0;
+    int hasOffset = 0;
+    const double scale = GDALGetRasterScale(band, &hasScale);
+    const double offset = GDALGetRasterOffset(band, &hasOffset);
+    const char* unitType = GDALGetRasterUnitType(band);
+    source.units = unitType != nullptr && *unitType != '\0' ? unitType : "m";
+    const auto perUnit = metresPerUnit(unitType != nullptr ? unitType : "");
+    if (!perUnit) {
+      return fail(ErrorCode::UnsupportedFormat, path,
+                  "height unit '" + source.units + "' is not a length unit pbdam knows");
     }
+    d.factor_ = (hasScale != 0 ? scale : 1.0) * *perUnit;
+    d.shift_ = (hasOffset != 0 ? offset : 0.0) * *perUnit;
+    return d;
   }
 
-  GDALRasterBandH band = GDALGetRasterBand(dataset.get(), 1);
-  int hasNoData = 0;
-  const double noData = GDALGetRasterNoDataValue(band, &hasNoData);
-  if (hasNoData != 0) source.noDataValue = noData;
-  int hasScale = 0;
-  int hasOffset = 0;
-  const double scale = GDALGetRasterScale(band, &hasScale);
-  const double offset = GDALGetRasterOffset(band, &hasOffset);
-  const char* unitType = GDALGetRasterUnitType(band);
-  source.units = unitType != nullptr && *unitType != '\0' ? unitType : "m";
-  const auto perUnit = metresPerUnit(unitType != nullptr ? unitType : "");
-  if (!perUnit) {
-    return fail(ErrorCode::UnsupportedFormat, path,
-                "height unit '" + source.units + "' is not a length unit pbdam knows");
-  }
-  const auto noDataFloat = static_cast<float>(noData);
-  const double factor = (hasScale != 0 ? scale : 1.0) * *perUnit;
-  const double shift = (hasOffset != 0 ? offset : 0.0) * *perUnit;
-  // Reads rows [row, row + rows) into `out` as metres with nodata as NaN.
-  const auto readRows = [&](std::int64_t row, std::int64_t rows, float* out) -> Result<void> {
-    if (GDALRasterIO(band, GF_Read, 0, static_cast<int>(row), static_cast<int>(width),
-                     static_cast<int>(rows), out, static_cast<int>(width), static_cast<int>(rows),
+  /// Reads rows [row, row + rows) into `out` (rows × width floats).
+  Result<void> readRows(std::int64_t row, std::int64_t rows, float* out, const fs::path& path,
+                        const GdalErrorCapture& capture) const {
+    if (GDALRasterIO(band_, GF_Read, 0, static_cast<int>(row), static_cast<int>(width_),
+                     static_cast<int>(rows), out, static_cast<int>(width_), static_cast<int>(rows),
                      GDT_Float32, 0, 0) != CE_None ||
         capture.hasFailures()) {
       return fail(ErrorCode::CorruptData, path, withGdal("cannot read the samples", capture));
     }
-    for (float& v : std::span(out, static_cast<std::size_t>(rows * width))) {
+    const auto noDataFloat = static_cast<float>(noData_);
+    for (float& v : std::span(out, static_cast<std::size_t>(rows * width_))) {
       // Huge fill values (ETOPO's −1e34) may differ in their last bits between attribute and
       // data.
       const bool isNoData =
-          hasNoData != 0 && (v == noDataFloat || (std::abs(noData) > 1e30 && std::abs(v) > 1e30f));
+          hasNoData_ && (v == noDataFloat || (std::abs(noData_) > 1e30 && std::abs(v) > 1e30f));
       if (!std::isfinite(v) || isNoData) {
         v = std::numeric_limits<float>::quiet_NaN();
-      } else if (factor != 1.0 || shift != 0.0) {
-        v = static_cast<float>(static_cast<double>(v) * factor + shift);
+      } else if (factor_ != 1.0 || shift_ != 0.0) {
+        v = static_cast<float>(static_cast<double>(v) * factor_ + shift_);
       }
     }
     return {};
-  };
-
-  const auto bytes = static_cast<std::uint64_t>(width * height) * sizeof(float);
-  if (!options.scratchDirectory.empty() && bytes >= options.mapAtBytes) {
-    // Out of core: rows in blocks of about 16 MB straight into the scratch mapping, each block's
-    // pages dropped from the process once written (they stay in the page cache).
-    if (auto mapping = mapScratch(options.scratchDirectory, bytes)) {
-      float* heights = mapping.get();
-      const std::int64_t blockRows =
-          std::max<std::int64_t>(1, (std::int64_t{16} << 20) / (width * 4));
-      for (std::int64_t row = 0; row < height; row += blockRows) {
-        const std::int64_t rows = std::min(blockRows, height - row);
-        float* block = heights + row * width;
-        if (auto r = readRows(row, rows, block); !r) return r.error();
-        dropMappedPages(block, static_cast<std::size_t>(rows * width) * sizeof(float));
-        // GDAL's block cache (5% of RAM by default) would otherwise keep what was read.
-        GDALFlushRasterCache(band);
-      }
-      ::mprotect(heights, bytes, PROT_READ);
-      return HeightGrid(geometry, std::move(mapping), true, std::move(source));
-    }
-    // No scratch file (a full disk, a filesystem without unnamed files): read into memory.
   }
-  std::vector<float> heights(static_cast<std::size_t>(width * height));
-  if (auto r = readRows(0, height, heights.data()); !r) return r.error();
-  return HeightGrid(geometry, std::move(heights), std::move(source));
+
+  /// Drops what GDAL's block cache (5% of RAM by default) keeps of the rows read so far.
+  void flushCache() const { GDALFlushRasterCache(band_); }
+
+ private:
+  GDALRasterBandH band_ = nullptr;
+  std::int64_t width_ = 0;
+  double noData_ = 0.0;
+  bool hasNoData_ = false;
+  double factor_ = 1.0;
+  double shift_ = 0.0;
+};
+
+/// Out of core: rows in blocks of about 16 MB straight into the scratch mapping, each block's
+/// pages dropped from the process once written (they stay in the page cache).
+Result<HeightGrid> readIntoScratch(MemoryMapping scratch, const HeightDecoder& decoder,
+                                   const GridGeometry& geometry, GridSource source,
+                                   const fs::path& path, const GdalErrorCapture& capture) {
+  auto owner = std::make_shared<MemoryMapping>(std::move(scratch));
+  auto* heights = reinterpret_cast<float*>(owner->writableBytes().data());
+  const std::int64_t width = geometry.width;
+  const std::int64_t blockRows = std::max<std::int64_t>(1, (std::int64_t{16} << 20) / (width * 4));
+  for (std::int64_t row = 0; row < geometry.height; row += blockRows) {
+    const std::int64_t rows = std::min(blockRows, geometry.height - row);
+    if (auto r = decoder.readRows(row, rows, heights + row * width, path, capture); !r) {
+      return r.error();
+    }
+    (void)owner->releaseResident(static_cast<std::size_t>(row * width) * sizeof(float),
+                                 static_cast<std::size_t>(rows * width) * sizeof(float));
+    decoder.flushCache();
+  }
+  (void)owner->protectReadOnly();
+  const float* first = heights;
+  return HeightGrid(geometry, std::shared_ptr<const float>(std::move(owner), first), true,
+                    std::move(source));
+}
+
+/// Reads the first band's heights: into a scratch mapping when the options ask for one and the
+/// grid is large enough, into memory otherwise (also when no scratch file can be made: a full
+/// disk, a filesystem without unnamed files).
+Result<HeightGrid> readHeights(OpenDem& dem, const GridGeometry& geometry, const fs::path& path,
+                               const DemReadOptions& options, const GdalErrorCapture& capture) {
+  GDALRasterBandH band = GDALGetRasterBand(dem.dataset.get(), 1);
+  auto decoder = HeightDecoder::make(band, geometry.width, path, dem.source);
+  if (!decoder) return std::move(decoder).error();
+  const auto bytes = static_cast<std::uint64_t>(geometry.width * geometry.height) * sizeof(float);
+  if (!options.scratchDirectory.empty() && bytes >= options.mapAtBytes) {
+    if (auto scratch = MemoryMapping::createScratch(options.scratchDirectory, bytes)) {
+      return readIntoScratch(std::move(scratch).value(), *decoder, geometry, std::move(dem.source),
+                             path, capture);
+    }
+  }
+  std::vector<float> heights(static_cast<std::size_t>(geometry.width * geometry.height));
+  if (auto r = decoder->readRows(0, geometry.height, heights.data(), path, capture); !r) {
+    return r.error();
+  }
+  return HeightGrid(geometry, std::move(heights), std::move(dem.source));
+}
+
+}  // namespace
+
+std::optional<fs::path> pdsLabelFor(const fs::path& image) {
+  std::error_code ec;
+  if (!fs::is_regular_file(image, ec)) return std::nullopt;
+  const std::optional<fs::path> label = labelBeside(image);
+  if (!label || !labelNamesImage(*label, image)) return std::nullopt;
+  registerGdalOnce();
+  GdalErrorCapture capture;  // identification failures are the expected answer here
+  if (GDALIdentifyDriverEx(image.c_str(), GDAL_OF_RASTER, nullptr, nullptr) != nullptr) {
+    return std::nullopt;  // GDAL reads the image as it is
+  }
+  return label;
+}
+
+Result<HeightGrid> readDem(const fs::path& path, const DemReadOptions& options) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) return fail(ErrorCode::NotFound, path, "no such file");
+  if (!fs::is_regular_file(path, ec)) return fail(ErrorCode::InvalidArgument, path, "not a file");
+  registerGdalOnce();
+  GdalErrorCapture capture;
+  // Never write .aux.xml side files next to the input.
+  ScopedConfig noPam("GDAL_PAM_ENABLED", "NO");
+  // PDS3 *_PROJECTION_OFFSET counts from 1 at the first pixel's centre (the MEGDR convention);
+  // GDAL's default places such grids one pixel off.
+  ScopedConfig pdsSample("PDS_SampleProjOffset_Shift", "-0.5");
+  ScopedConfig pdsLine("PDS_LineProjOffset_Shift", "-0.5");
+
+  auto dem = openDem(path, options, capture);
+  if (!dem) return std::move(dem).error();
+  auto geo = georeference(*dem, path, capture);
+  if (!geo) return std::move(geo).error();
+  auto geometry = gridGeometry(dem->dataset.get(), *geo, path, options.maxSamples);
+  if (!geometry) return std::move(geometry).error();
+  if (!options.raw && !dem->source.warped) {
+    if (auto r = checkTruncation(*dem, geometry->width * geometry->height); !r) return r.error();
+  }
+  return readHeights(*dem, *geometry, path, options, capture);
 }
 
 }  // namespace pbdam

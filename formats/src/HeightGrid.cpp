@@ -3,10 +3,7 @@
 // the outermost row, so samples are continuous across the seam and single-valued at the poles.
 #include "pbdam/formats/HeightGrid.h"
 
-#include "pbdam/formats/MappedPages.h"
-
-#include <sys/mman.h>
-#include <unistd.h>
+#include "pbdam/formats/MemoryMapping.h"
 
 #include <array>
 #include <cassert>
@@ -50,15 +47,6 @@ HeightGrid::HeightGrid(GridGeometry geometry, std::shared_ptr<const float> heigh
       fileBacked_(fileBacked),
       source_(std::move(source)) {
   init();
-}
-
-void dropMappedPages(const void* data, std::size_t bytes) noexcept {
-  if (bytes == 0) return;
-  const auto page = static_cast<std::uintptr_t>(::sysconf(_SC_PAGESIZE));
-  const auto first = reinterpret_cast<std::uintptr_t>(data) / page * page;
-  const auto last = reinterpret_cast<std::uintptr_t>(data) + bytes;
-  // NOLINTNEXTLINE(performance-no-int-to-ptr): the mapping's own pages
-  (void)::madvise(reinterpret_cast<void*>(first), last - first, MADV_DONTNEED);
 }
 
 void HeightGrid::releaseResident() const noexcept {

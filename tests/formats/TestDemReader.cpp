@@ -52,6 +52,13 @@ fs::path copyMola(const fs::path& dir, std::int64_t imageBytes,
   return dir / "megt90n000cb.lbl";
 }
 
+void expectRejected(const Result<HeightGrid>& r, const fs::path& named, const std::string& what) {
+  ASSERT_FALSE(r) << "accepted " << named;
+  EXPECT_NE(r.error().message.find(named.filename().string()), std::string::npos)
+      << r.error().message;
+  EXPECT_NE(r.error().message.find(what), std::string::npos) << r.error().message;
+}
+
 TEST(DemReader, MolaMegdrIsGeoreferencedLikeItsLabel) {
   PBDAM_REQUIRE_DATA(label, test::dataDir() / kMolaLabel);
   auto grid = readDem(label);
@@ -90,6 +97,51 @@ TEST(DemReader, MolaMegdrIsGeoreferencedLikeItsLabel) {
     }
   }
   EXPECT_GT(arsia, 16000.0);
+}
+
+TEST(DemReader, MolaImageNamedAloneIsReadThroughTheLabelBesideIt) {
+  PBDAM_REQUIRE_DATA(label, test::dataDir() / kMolaLabel);
+  PBDAM_REQUIRE_DATA(image, test::dataDir() / kMolaImage);
+  auto throughLabel = readDem(label);
+  ASSERT_TRUE(throughLabel) << throughLabel.error().message;
+  EXPECT_TRUE(throughLabel->source().labelPath.empty());
+  EXPECT_FALSE(pdsLabelFor(label));  // GDAL reads a label as it is
+
+  ASSERT_EQ(pdsLabelFor(image), label);
+  auto grid = readDem(image);
+  ASSERT_TRUE(grid) << grid.error().message;
+  EXPECT_EQ(grid->source().path, image.string());
+  EXPECT_EQ(grid->source().labelPath, label.string());
+  EXPECT_EQ(grid->source().body, "mars");
+  EXPECT_EQ(grid->geometry().width, throughLabel->geometry().width);
+  EXPECT_DOUBLE_EQ(grid->bounds().westDegrees, throughLabel->bounds().westDegrees);
+  const auto a = throughLabel->heightsMeters();
+  const auto b = grid->heightsMeters();
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_TRUE(std::equal(a.begin(), a.end(), b.begin()));
+
+  // An upper-case label beside a lower-case image, as PDS archives ship them.
+  test::TempDir dir;
+  copyMola(dir.path(), -1);
+  fs::rename(dir / "megt90n000cb.lbl", dir / "megt90n000cb.LBL");
+  ASSERT_EQ(pdsLabelFor(dir / "megt90n000cb.img"), dir / "megt90n000cb.LBL");
+  EXPECT_TRUE(readDem(dir / "megt90n000cb.img"));
+
+  // The label's size checks still hold when the image is named.
+  test::TempDir cut;
+  copyMola(cut.path(), 1000);
+  expectRejected(readDem(cut / "megt90n000cb.img"), cut / "megt90n000cb.lbl", "truncated");
+}
+
+TEST(DemReader, ImageBesideALabelOfAnotherFileSaysWhichFileToPass) {
+  PBDAM_REQUIRE_DATA(label, test::dataDir() / kMolaLabel);
+  test::TempDir dir;
+  copyMola(dir.path(), -1);
+  fs::rename(dir / "megt90n000cb.img", dir / "megt90n000cb-copy.img");
+  writeBytes(dir / "megt90n000cb-copy.lbl", readText(dir / "megt90n000cb.lbl"));
+  EXPECT_FALSE(pdsLabelFor(dir / "megt90n000cb-copy.img"));
+  expectRejected(readDem(dir / "megt90n000cb-copy.img"), dir / "megt90n000cb-copy.img",
+                 "does not name it: pass the PDS label that describes this image");
 }
 
 TEST(DemReader, ALargeGridMappedFromAScratchFileHoldsTheSameHeights) {
@@ -317,13 +369,6 @@ TEST(DemReader, ProjectedUtmGeoTiffIsWarpedToItsLatLonBounds) {
   EXPECT_EQ(stats.minMeters, 700.0);
   EXPECT_EQ(stats.maxMeters, 700.0);
   EXPECT_GT(stats.noDataCount, 0);
-}
-
-void expectRejected(const Result<HeightGrid>& r, const fs::path& named, const std::string& what) {
-  ASSERT_FALSE(r) << "accepted " << named;
-  EXPECT_NE(r.error().message.find(named.filename().string()), std::string::npos)
-      << r.error().message;
-  EXPECT_NE(r.error().message.find(what), std::string::npos) << r.error().message;
 }
 
 TEST(DemReader, RejectsTruncatedMolaImage) {

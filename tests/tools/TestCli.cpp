@@ -1,5 +1,6 @@
 // The `pbdam` command line as a user runs it: --help everywhere, --version, `dem info` output
-// in text and JSON on real data, and bad input → one clear line on stderr and exit code 2.
+// in text and JSON on real data, DEM inputs (an image beside its label, raw grids) for dem info,
+// build and verify, and bad input → one clear line on stderr and exit code 2.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <nlohmann/json.hpp>
@@ -11,6 +12,9 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "TestData.h"
 
@@ -186,6 +190,97 @@ TEST(Cli, BadInputGivesOneLineAndExitCode2) {
   expectBadInput("bench x --path '" + (dir / "none.csv").string() + "' --out y", "none.csv");
   PBDAM_REQUIRE_DATA(tif, test::dataDir() / "geotiff/terra_elev_luxembourg.tif");
   expectBadInput("dem info '" + tif.string() + "' --at 0,0", "outside the grid");
+}
+
+/// The files of dataset `dir` other than its manifest (which names the DEM file it was built from).
+std::vector<std::pair<std::string, std::string>> faceFiles(const std::filesystem::path& dir) {
+  std::vector<std::pair<std::string, std::string>> files;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+    if (entry.path().extension() != ".pbdam") continue;
+    std::ifstream in(entry.path(), std::ios::binary);
+    files.emplace_back(entry.path().filename().string(),
+                       std::string(std::istreambuf_iterator<char>(in), {}));
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+TEST(Cli, MolaImageNamedAloneIsReadThroughItsLabel) {
+#if defined(__SANITIZE_THREAD__)
+  GTEST_SKIP() << "TBB-parallel commands are not checked under ThreadSanitizer";
+#endif
+  PBDAM_REQUIRE_DATA(label, test::dataDir() / "mars/megt90n000cb.lbl");
+  PBDAM_REQUIRE_DATA(image, test::dataDir() / "mars/megt90n000cb.img");
+  const CliRun info = runPbdam("dem info '" + image.string() + "' --json");
+  ASSERT_EQ(info.exitCode, 0) << info.err;
+  const auto j = nlohmann::json::parse(info.out);
+  EXPECT_EQ(j["file"], image.string());
+  EXPECT_EQ(j["label"], label.string());
+  EXPECT_EQ(j["width"], 1440);
+  EXPECT_EQ(j["max"]["height_m"], 21134.0);
+  EXPECT_NE(info.err.find("note: "), std::string::npos) << info.err;
+  EXPECT_NE(info.err.find(label.string()), std::string::npos) << info.err;
+
+  test::TempDir dir;
+  const std::string args = " --planet mars --levels 2 --leaf-vertices 17 --texture-tile 32 --quiet";
+  const CliRun fromImage = runPbdam("build --dem '" + image.string() + "' --out '" +
+                                    (dir / "img").string() + "'" + args);
+  ASSERT_EQ(fromImage.exitCode, 0) << fromImage.err;
+  EXPECT_NE(fromImage.err.find(label.string()), std::string::npos) << fromImage.err;
+  const CliRun fromLabel = runPbdam("build --dem '" + label.string() + "' --out '" +
+                                    (dir / "lbl").string() + "'" + args);
+  ASSERT_EQ(fromLabel.exitCode, 0) << fromLabel.err;
+  EXPECT_EQ(fromLabel.err.find("note: "), std::string::npos) << fromLabel.err;
+  EXPECT_EQ(faceFiles(dir / "img"), faceFiles(dir / "lbl"));
+  const CliRun verify =
+      runPbdam("verify '" + (dir / "img").string() + "' --dem '" + image.string() + "' --json");
+  ASSERT_EQ(verify.exitCode, 0) << verify.err << verify.out;
+  EXPECT_TRUE(nlohmann::json::parse(verify.out)["ok"].get<bool>());
+  EXPECT_GT(nlohmann::json::parse(verify.out)["dem_samples_checked"].get<int>(), 0);
+}
+
+TEST(Cli, BuildAndVerifyTakeTheRawGridOptionsOfDemInfo) {
+#if defined(__SANITIZE_THREAD__)
+  GTEST_SKIP() << "TBB-parallel commands are not checked under ThreadSanitizer";
+#endif
+  // MOLA's radius grid has no label: 1440x720 big-endian int16 metres, the whole planet.
+  PBDAM_REQUIRE_DATA(radius, test::dataDir() / "mars/megr90n000cb.img");
+  const std::string raw =
+      " --raw-size 1440,720 --raw-type int16be --bounds -90,0,90,360 --raw-header 0";
+  const CliRun info = runPbdam("dem info '" + radius.string() + "'" + raw + " --json");
+  ASSERT_EQ(info.exitCode, 0) << info.err;
+  const auto j = nlohmann::json::parse(info.out);
+  EXPECT_EQ(j["width"], 1440);
+  // Radii minus 3,396 km: Olympus Mons stands highest, as in the topography.
+  EXPECT_EQ(j["max"]["height_m"], 21241.0);
+  EXPECT_EQ(j["max"]["lat_deg"], 17.375);
+
+  test::TempDir dir;
+  const std::string out = (dir / "radius").string();
+  const CliRun build =
+      runPbdam("build --dem '" + radius.string() + "'" + raw + " --planet sphere:3396000 --out '" +
+               out + "' --levels 2 --leaf-vertices 17 --texture-tile 32 --quiet");
+  ASSERT_EQ(build.exitCode, 0) << build.err;
+  const CliRun verify =
+      runPbdam("verify '" + out + "' --dem '" + radius.string() + "'" + raw + " --json");
+  ASSERT_EQ(verify.exitCode, 0) << verify.err << verify.out;
+  EXPECT_TRUE(nlohmann::json::parse(verify.out)["ok"].get<bool>());
+  EXPECT_GT(nlohmann::json::parse(verify.out)["dem_samples_checked"].get<int>(), 0);
+
+  // The same checks and messages as `dem info`.
+  expectBadInput("build --dem '" + radius.string() + "' --planet mars --out '" + out +
+                     "x' --raw-size 1440,720",
+                 "needs all of");
+  expectBadInput("build --dem '" + radius.string() + "' --planet mars --out '" + out +
+                     "x' --raw-size 1440,720 --raw-type int17 --bounds -90,0,90,360",
+                 "int17");
+  expectBadInput("build --dem x --planet mars --out y --raw-header -5", "raw-header");
+  expectBadInput("verify '" + out + "' --dem '" + radius.string() + "' --raw-size 1440,721" +
+                     " --raw-type int16be --bounds -90,0,90,360",
+                 "raw size mismatch");
+  expectBadInput("verify '" + out + "'" + raw, "pass --dem FILE");
+  expectBadInput("verify '" + out + "' --dem '" + radius.string() + "' --quiet",
+                 "not a raster format");
 }
 
 TEST(Cli, HeightOnMolaMatchesTheDemWithinTheStoredError) {

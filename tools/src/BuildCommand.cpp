@@ -12,6 +12,7 @@
 #include <memory>
 
 #include "Commands.h"
+#include "DemInputOptions.h"
 #include "MpiLauncher.h"
 #include "Progress.h"
 #include "pbdam/builder/Builder.h"
@@ -34,9 +35,7 @@ struct BuildCliOptions {
   bool force = false;
   bool resume = false;
   bool quiet = false;
-  std::string rawSize;
-  std::string rawType;
-  std::string bounds;
+  RawGridOptions raw;
 };
 
 /// The exit code reportError would give, without printing (ranks other than 0 stay silent).
@@ -140,14 +139,10 @@ int runBuild(const BuildCliOptions& c) {
     return kExitBadInput;
   }
   o.bc1Quality = c.textureQuality == "high" ? Bc1Quality::High : Bc1Quality::Fast;
-  if (!c.rawSize.empty() || !c.rawType.empty() || !c.bounds.empty()) {
-    auto quietly = [&](const Error& e) { return root ? reportError(e) : exitCodeOf(e); };
-    auto layout = parseRawType(c.rawType);
-    if (!layout) return quietly(layout.error());
-    if (auto r = parseRawSize(c.rawSize, *layout); !r) return quietly(r.error());
-    if (auto r = parseRawBounds(c.bounds, *layout); !r) return quietly(r.error());
-    o.rawLayout = *layout;
-  }
+  auto raw = rawLayoutOf(c.raw);
+  if (!raw) return root ? reportError(raw.error()) : exitCodeOf(raw.error());
+  o.rawLayout = *raw;
+  if (root && !o.rawLayout) noteDemLabel(o.demPath);
   Progress progress(c.quiet || !root);
   o.progress = [&](std::string_view stage, double f) { progress.update(stage, f); };
   if (!c.quiet) {
@@ -237,9 +232,7 @@ void addBuildCommand(CLI::App& app, CommandStatus& status) {
   cmd->add_flag("--resume", c->resume,
                 "Continue an interrupted build from its checkpoint (OUT/.build-checkpoint)");
   cmd->add_flag("--quiet", c->quiet, "No progress output");
-  cmd->add_option("--raw-size", c->rawSize, "Raw DEM size W,H");
-  cmd->add_option("--raw-type", c->rawType, "Raw DEM sample type (int16be, float32le, ...)");
-  cmd->add_option("--bounds", c->bounds, "Raw DEM area bounds S,W,N,E (degrees)");
+  addRawGridOptions(*cmd, c->raw);
   cmd->callback([c, &status] { status.exitCode = runBuild(*c); });
 }
 

@@ -10,6 +10,7 @@
 #include <memory>
 
 #include "Commands.h"
+#include "DemInputOptions.h"
 #include "Progress.h"
 #include "pbdam/builder/Verify.h"
 #include "pbdam/formats/DatasetFormat.h"
@@ -146,12 +147,22 @@ struct VerifyCliOptions {
   std::string dem;
   bool json = false;
   bool quiet = false;
+  RawGridOptions raw;
 };
 
 int runVerify(const VerifyCliOptions& c) {
   builder::VerifyOptions o;
   o.datasetDir = c.dir;
   o.demPath = c.dem;
+  auto raw = rawLayoutOf(c.raw);
+  if (!raw) return reportError(raw.error());
+  if (*raw && c.dem.empty()) {
+    return reportError(makeError(ErrorCode::InvalidArgument,
+                                 "--raw-size, --raw-type, --bounds and --raw-header describe the "
+                                 "--dem file: pass --dem FILE too"));
+  }
+  o.rawLayout = *raw;
+  if (!c.dem.empty() && !o.rawLayout) noteDemLabel(c.dem);
   Progress progress(c.quiet || c.json);
   o.progress = [&](std::string_view stage, double f) { progress.update(stage, f); };
   auto report = builder::verifyDataset(o);
@@ -207,6 +218,7 @@ void addDatasetCommands(CLI::App& app, CommandStatus& status) {
       "verify", "Check a dataset's checksums and every P-BDAM invariant (exit 2 on violations)");
   verify->add_option("DIR", v->dir, "Dataset directory")->required();
   verify->add_option("--dem", v->dem, "Also check stored errors against this source DEM");
+  addRawGridOptions(*verify, v->raw);
   verify->add_flag("--json", v->json, "Machine-readable JSON report");
   verify->add_flag("--quiet", v->quiet, "No progress output");
   verify->callback([v, &status] { status.exitCode = runVerify(*v); });

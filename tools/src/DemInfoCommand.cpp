@@ -10,6 +10,7 @@
 #include <string>
 
 #include "Commands.h"
+#include "DemInputOptions.h"
 #include "pbdam/formats/DemReader.h"
 #include "pbdam/formats/NumberList.h"
 
@@ -20,10 +21,7 @@ struct DemInfoOptions {
   std::string file;
   std::string at;
   bool json = false;
-  std::string rawSize;
-  std::string rawType;
-  std::string bounds;
-  std::int64_t rawHeaderBytes = 0;
+  RawGridOptions raw;
 };
 
 std::string latLonText(double latDegrees, double lonDegrees) {
@@ -47,19 +45,9 @@ Result<std::pair<double, double>> parseLatLon(const std::string& text) {
 
 int runDemInfo(const DemInfoOptions& o) {
   DemReadOptions readOptions;
-  const bool anyRaw = !o.rawSize.empty() || !o.rawType.empty() || !o.bounds.empty();
-  if (anyRaw) {
-    if (o.rawSize.empty() || o.rawType.empty() || o.bounds.empty()) {
-      return reportError(makeError(ErrorCode::InvalidArgument,
-                                   "a raw grid needs all of --raw-size, --raw-type and --bounds"));
-    }
-    auto layout = parseRawType(o.rawType);
-    if (!layout) return reportError(layout.error());
-    if (auto r = parseRawSize(o.rawSize, *layout); !r) return reportError(r.error());
-    if (auto r = parseRawBounds(o.bounds, *layout); !r) return reportError(r.error());
-    layout->headerBytes = o.rawHeaderBytes;
-    readOptions.raw = *layout;
-  }
+  auto raw = rawLayoutOf(o.raw);
+  if (!raw) return reportError(raw.error());
+  readOptions.raw = *raw;
   std::optional<std::pair<double, double>> point;
   if (!o.at.empty()) {
     auto parsed = parseLatLon(o.at);
@@ -67,6 +55,7 @@ int runDemInfo(const DemInfoOptions& o) {
     point = *parsed;
   }
 
+  if (!readOptions.raw) noteDemLabel(o.file);
   auto grid = readDem(o.file, readOptions);
   if (!grid) return reportError(grid.error());
   const GridGeometry& g = grid->geometry();
@@ -88,6 +77,7 @@ int runDemInfo(const DemInfoOptions& o) {
   if (o.json) {
     nlohmann::ordered_json j;
     j["file"] = s.path;
+    if (!s.labelPath.empty()) j["label"] = s.labelPath;
     j["format"] = s.format;
     j["crs"] = s.crs;
     j["body"] = s.body.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(s.body);
@@ -133,6 +123,7 @@ int runDemInfo(const DemInfoOptions& o) {
   }
 
   std::printf("file:     %s\n", s.path.c_str());
+  if (!s.labelPath.empty()) std::printf("label:    %s\n", s.labelPath.c_str());
   std::printf("format:   %s\n", s.format.c_str());
   std::printf("crs:      %s%s\n", s.crs.c_str(), s.warped ? " (warped to geographic)" : "");
   if (s.semiMajorMeters > 0.0) {
@@ -195,12 +186,7 @@ void addDemCommands(CLI::App& app, CommandStatus& status) {
       ->required();
   info->add_option("--at", options->at, "Also sample the height at LAT,LON (degrees)");
   info->add_flag("--json", options->json, "Machine-readable JSON output");
-  info->add_option("--raw-size", options->rawSize, "Raw grid size W,H");
-  info->add_option("--raw-type", options->rawType,
-                   "Raw sample type: int16be, int16le, uint16be, float32le, ...");
-  info->add_option("--bounds", options->bounds, "Raw grid area bounds S,W,N,E (degrees)");
-  info->add_option("--raw-header", options->rawHeaderBytes, "Raw grid header bytes to skip")
-      ->check(CLI::NonNegativeNumber);
+  addRawGridOptions(*info, options->raw);
   info->callback([options, &status] { status.exitCode = runDemInfo(*options); });
 }
 

@@ -3,7 +3,6 @@
 #include "pbdam/builder/Checkpoint.h"
 
 #include <fcntl.h>
-#include <sys/mman.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -331,7 +330,7 @@ Result<MappedFile> Checkpoint::openFile(Kind kind, int level, std::uint32_t part
     for (std::size_t at = 0; at < checked.size(); at += kChunk) {
       const std::size_t n = std::min(kChunk, checked.size() - at);
       crc = crc32(checked.subspan(at, n), crc);
-      ::madvise(const_cast<std::byte*>(checked.data() + at), n, MADV_DONTNEED);  // NOLINT
+      (void)mapped->releaseResident(at, n);
     }
     if (crc != stored) return damaged("checksum mismatch");
   }

@@ -4,8 +4,9 @@
 // process count.
 #include "pbdam/builder/SampleGrid.h"
 
+#include "pbdam/formats/MemoryMapping.h"
+
 #include <fcntl.h>
-#include <sys/mman.h>
 #include <tbb/parallel_for.h>
 #include <unistd.h>
 
@@ -85,38 +86,6 @@ std::uint32_t bucketsPerSideOf(const Lattice& lattice, std::uint32_t bucketCells
       std::max<std::uint32_t>(1, std::min(bucketCells, lattice.sideCells()));
   return lattice.sideCells() / cells;
 }
-
-/// A writable shared mapping of a file, unmapped on destruction.
-class WritableMapping final {
- public:
-  WritableMapping() = default;
-  WritableMapping(const WritableMapping&) = delete;
-  WritableMapping& operator=(const WritableMapping&) = delete;
-  ~WritableMapping() {
-    if (data_ != nullptr) ::munmap(data_, size_);
-  }
-  Result<void> open(int fd, std::size_t size, const fs::path& path) {
-    void* p = ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
-    if (p == MAP_FAILED) return ioError(path, "cannot map for writing");
-    data_ = static_cast<std::byte*>(p);
-    size_ = size;
-    return {};
-  }
-  std::byte* data() const noexcept { return data_; }
-  /// Drops the page-table entries; the written pages stay (dirty) in the page cache.
-  void releaseResident() const noexcept {
-    if (data_ != nullptr) ::madvise(data_, size_, MADV_DONTNEED);
-  }
-  Result<void> sync(const fs::path& path) const {
-    if (data_ != nullptr && ::msync(data_, size_, MS_SYNC) != 0)
-      return ioError(path, "msync failed");
-    return {};
-  }
-
- private:
-  std::byte* data_ = nullptr;
-  std::size_t size_ = 0;
-};
 
 }  // namespace
 
@@ -304,18 +273,9 @@ Result<void> SampleGrid::writeSourceBuckets(const HeightGrid& dem, const Planet&
   tmpName += samplesFile.filename().string();
   tmpName += ".tmp";
   const fs::path tmp = samplesFile.parent_path() / tmpName;
-  const int fd = ::open(tmp.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return ioError(tmp, "cannot create");
-  if (::ftruncate(fd, static_cast<off_t>(fileBytes)) != 0) {
-    ::close(fd);
-    return ioError(tmp, "cannot size");
-  }
-  WritableMapping map;
-  if (auto r = map.open(fd, fileBytes, tmp); !r) {
-    ::close(fd);
-    return r;
-  }
-  std::byte* at = map.data();
+  auto map = MemoryMapping::create(tmp, fileBytes);
+  if (!map) return std::move(map).error();
+  std::byte* at = map->writableBytes().data();
   std::memcpy(at, kSamplesMagic.data(), 8);
   std::memcpy(at + 8, &kSamplesVersion, 4);
   std::memcpy(at + 12, &perSide, 4);
@@ -346,11 +306,9 @@ Result<void> SampleGrid::writeSourceBuckets(const HeightGrid& dem, const Planet&
         samples[start[p.bucket] + k] = p.sample;
       }
     }
-    map.releaseResident();  // RSS bound: the written pages live on in the page cache
+    (void)map->releaseResident();  // RSS bound: the written pages live on in the page cache
   }
-  auto synced = map.sync(tmp);
-  if (::close(fd) != 0 && synced) synced = ioError(tmp, "close failed");
-  if (!synced) return synced;
+  if (auto synced = map->sync(); !synced) return synced;
   std::error_code ec;
   fs::rename(tmp, samplesFile, ec);
   if (ec) {

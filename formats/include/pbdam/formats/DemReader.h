@@ -1,5 +1,6 @@
 // Elevation ingest through GDAL: any raster GDAL reads (PDS3 MOLA MEGDR, NetCDF ETOPO, SRTM .hgt,
-// GeoTIFF, ...) and raw grids described on the command line, turned into a geographic HeightGrid.
+// GeoTIFF, ...; a headerless image through the PDS label beside it) and raw grids described on
+// the command line, turned into a geographic HeightGrid.
 // Projected CRSs are converted exactly when the projection is a linear lat/lon scaling
 // (equirectangular) and warped to geographic at native resolution otherwise.
 // Thread-safety: readDem may be called from several threads at once (GDAL handles are per call).
@@ -52,7 +53,13 @@ struct DemReadOptions final {
   std::uint64_t mapAtBytes = std::uint64_t{256} << 20;
 };
 
-/// Reads the first band of an elevation raster into a geographic HeightGrid in metres.
+/// The detached PDS3 label to read for `image` when GDAL does not recognise `image` alone (a
+/// headerless .img) but a label with the same stem (.lbl or .LBL) sits beside it and names it;
+/// nullopt otherwise. readDem reads such an image through its label (GridSource::labelPath).
+std::optional<std::filesystem::path> pdsLabelFor(const std::filesystem::path& image);
+
+/// Reads the first band of an elevation raster into a geographic HeightGrid in metres. An image
+/// without a header is read through the PDS label beside it that names it (pdsLabelFor).
 /// Returns an error naming the file and the problem for a missing, unrecognised, truncated or
 /// inconsistent file, a CRS that cannot be made geographic, or georeferencing beyond the poles.
 Result<HeightGrid> readDem(const std::filesystem::path& path, const DemReadOptions& options = {});

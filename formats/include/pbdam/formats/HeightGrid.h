@@ -40,10 +40,11 @@ struct LatLonBounds final {
 
 /// Descriptive facts about where a grid came from.
 struct GridSource final {
-  std::string path;              ///< the file that was read
-  std::string format;            ///< GDAL driver short name and long name, e.g. "PDS (NASA ...)"
-  std::string crs;               ///< CRS name as the file states it, or "none"
-  std::string body;              ///< "mars", "earth", "moon", or "" when the CRS does not say
+  std::string path;       ///< the file that was read, as the caller named it
+  std::string labelPath;  ///< the detached PDS label read for an image named alone, else empty
+  std::string format;     ///< GDAL driver short name and long name, e.g. "PDS (NASA ...)"
+  std::string crs;        ///< CRS name as the file states it, or "none"
+  std::string body;       ///< "mars", "earth", "moon", or "" when the CRS does not say
   double semiMajorMeters = 0.0;  ///< of the CRS's ellipsoid; 0 when there is no CRS
   double flattening = 0.0;       ///< of the CRS's ellipsoid
   std::string units = "m";       ///< heights are converted to metres; this is what the file said

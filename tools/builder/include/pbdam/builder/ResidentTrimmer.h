@@ -1,7 +1,7 @@
 // ResidentTrimmer: a thread that drops this process's page-table entries of memory mappings
 // every period (docs/builder.md "Distributed build", "Out of core"), used by the builder and by
 // verify. Thread-safety: the release function runs on the trimmer's thread; it must only call
-// thread-safe releases (madvise(MADV_DONTNEED) on read-only file mappings is).
+// thread-safe releases (MemoryMapping::releaseResident and dropMappedPages are).
 #pragma once
 
 #include <chrono>
