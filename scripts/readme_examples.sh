@@ -42,6 +42,7 @@ fi
 
 work=$(mktemp -d "${TMPDIR:-/tmp}/pbdam-readme.XXXXXX")
 server=""
+# shellcheck disable=SC2317  # called by the EXIT trap
 cleanup() {
   if [ -n "$server" ]; then kill "$server" 2>/dev/null || true; fi
   rm -rf "$work"
