@@ -1,7 +1,7 @@
 // MappedFile: a read-only memory mapping of a whole file, owned (unmapped on destruction), with
 // page-aligned madvise hints for prefetch. Face files are read only through mappings on the
-// render path (design.md §5). Thread-safety: const members may be called from any thread; the
-// mapping lives until the owner is destroyed or moved from.
+// render path (docs/architecture.md "Streaming"). Thread-safety: const members may be called from
+// any thread; the mapping lives until the owner is destroyed or moved from.
 #pragma once
 
 #include <cstddef>
