@@ -1,8 +1,9 @@
-// Runtime micro-benchmarks (design.md §4–5): the stateless refinement traversal of
-// paper 004 §4.3 over the poses of a recorded flight (µs per frame), and the GPU cache's LRU
-// bookkeeping (ResidencyLru: touch, insert with eviction). Google Benchmark; the traversal reads
-// a built dataset: PBDAM_BENCH_DATASET (default build/testdata/mola, which the test suite's
-// fixture builds) and the flight PBDAM_BENCH_PATH (default bench/paths/mars_flight.csv).
+// Runtime micro-benchmarks (docs/architecture.md "Refinement and drawing", "Streaming"): the
+// stateless refinement traversal of paper 004 §4.3 over the poses of a recorded flight (µs per
+// frame), and the GPU cache's LRU bookkeeping (ResidencyLru: touch, insert with eviction). Google
+// Benchmark; the traversal reads a built dataset: PBDAM_BENCH_DATASET (default build/testdata/mola,
+// which the test suite's fixture builds) and the flight PBDAM_BENCH_PATH (default
+// bench/paths/mars_flight.csv).
 //   build/release/bench/pbdam_bench_runtime [--benchmark_filter=...]
 #include <benchmark/benchmark.h>
 

@@ -2,8 +2,9 @@
 # The main job on the built-in default data (README command 1): set up and build, inspect the
 # Debian-packaged ETOPO5 Earth model, build a P-BDAM dataset from it textured with the xplanet
 # Earth image, verify it against the DEM and print its summary, then fly over the Himalayas:
-# write the camera path, render it (numbered PNGs, and an MP4 when ffmpeg is installed) and
-# replay it as a cold-cache benchmark with and without prefetch.
+# write the camera path, replay it as a cold-cache benchmark with and without prefetch, and
+# render it to numbered PNGs and an H.264 MP4 (Debian's ffmpeg, which scripts/setup.sh installs).
+# It needs only what scripts/setup.sh installs from Debian: no npm, no network beyond apt.
 #   scripts/demo.sh [OUTDIR]     (default: build/demo/earth)
 # The demo lattice is 512 cells per face side (bintree depth 8); `--levels auto` builds ETOPO5
 # at its full density (2048 cells, depth 12), which takes several minutes on 2 cores.
@@ -23,11 +24,17 @@ echo
 "$pbdam" info "$out"
 echo
 flight="$out/flight.csv"
-"$pbdam" path great-circle --from 12,80,3000e3 --to 24,86,250e3 --duration 4 --fps 6 \
+"$pbdam" path great-circle --from 12,80,3000e3 --to 24,86,250e3 --duration 4 --fps 12 \
   --dataset "$out" --out "$flight"
+"$pbdam" bench "$out" --path "$flight" --out "$out/bench" --cold --width 640 --height 360 --quiet
+echo
 mkdir -p "$out/frames"
 "$pbdam" render "$out" --path "$flight" --out "$out/frames/himalaya" --width 640 --height 360 \
   --stats "$out/frames/stats.jsonl" --quiet
 echo "frames: $out/frames/himalaya_*.png (per-frame statistics in $out/frames/stats.jsonl)"
-echo
-"$pbdam" bench "$out" --path "$flight" --out "$out/bench" --cold --width 640 --height 360 --quiet
+video="$out/frames/himalaya.mp4"
+if [ ! -s "$video" ]; then
+  echo "demo: $video was not written (is ffmpeg installed? scripts/setup.sh installs it)" >&2
+  exit 1
+fi
+echo "video:  $video"

@@ -10,6 +10,8 @@ cd "$root"
 presets=${PBDAM_TEST_PRESETS:-"release asan tsan"}
 jobs=$(nproc)
 
+# The test-only extras first, so that configuring sees them.
+scripts/setup_test.sh
 # shellcheck disable=SC2086
 scripts/setup.sh $presets
 

@@ -1,4 +1,4 @@
-// P-BDAM patch vertices (design.md §4): one indexed draw per patch, its PatchDrawRecord picked by
+// P-BDAM patch vertices (docs/architecture.md "Refinement and drawing"): one indexed draw per patch, its PatchDrawRecord picked by
 // the push constant recordIndex, set before each draw. (Not gl_InstanceIndex with firstInstance:
 // lavapipe cannot prove an instance index uniform, so every record load became an 8-lane gather;
 // a push constant is uniform and made the vertex stage about twice as fast — docs/decisions.md.)

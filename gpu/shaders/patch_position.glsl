@@ -1,5 +1,5 @@
 // The per-draw record of a patch and the camera-relative vertex position computed from it
-// (runtime/PatchDraw.h; design.md §4 "Precision", paper 004 §4.2). Included by patch.vert and by
+// (runtime/PatchDraw.h; docs/architecture.md "Precision", paper 004 §4.2). Included by patch.vert and by
 // the GPU tests' position-capture shader, so both run exactly this code.
 //
 // patchVertexPosition computes exactly the floats of pbdam::shaderVertexPosition

@@ -1,5 +1,6 @@
 // GpuCache: pools, LRU and pipeline shared by the renderers of one dataset (GpuCache.h;
-// design.md §5, paper 004 §4.4). The per-pass protocol lives in TerrainRenderer.cpp.
+// docs/architecture.md "Streaming", paper 004 §4.4). The per-pass protocol lives in
+// TerrainRenderer.cpp.
 #include "pbdam/gpu/GpuCache.h"
 
 #include <algorithm>

@@ -1,5 +1,5 @@
 // VulkanContext: headless instance + device creation, device selection (lavapipe by default)
-// and the Khronos validation layer wiring (design.md §1, §2).
+// and the Khronos validation layer wiring (docs/architecture.md "What pbdam is", "Modules").
 #include "pbdam/gpu/VulkanContext.h"
 
 #include "pbdam/gpu/VulkanError.h"

@@ -1,6 +1,6 @@
-// CubeMap: tangent-adjusted cube map (design.md §3; P-BDAM paper Sec. 3, the cube-map partition).
-// Face frames and the edge table are documented in CubeMap.h; the tests check the table against
-// the geometry.
+// CubeMap: tangent-adjusted cube map (docs/architecture.md "Geometry"; P-BDAM paper Sec. 3, the
+// cube-map partition). Face frames and the edge table are documented in CubeMap.h; the tests check
+// the table against the geometry.
 #include "pbdam/runtime/CubeMap.h"
 
 #include <algorithm>

@@ -1,5 +1,6 @@
 // Planet: reference sphere/ellipsoid through GeographicLib (Geocentric for ECEF, Geodesic or
-// GeodesicExact for geodesics), built once per planet and shared by copies (design.md §7).
+// GeodesicExact for geodesics), built once per planet and shared by copies (docs/architecture.md
+// "Planet models").
 #include "pbdam/runtime/Planet.h"
 
 #include <GeographicLib/Geocentric.hpp>

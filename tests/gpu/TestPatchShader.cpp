@@ -3,8 +3,8 @@
 // corners) is run through the shader's position code (patch_position.glsl, captured by
 // shaders/patch_capture.vert) and compared with pbdam::shaderVertexPosition, and vertices that
 // several patches share (the same lattice point) must get identical floats from every patch —
-// the property that makes the drawn surface crack-free (design.md §4 "Precision"). The same run
-// captures each vertex's tile texture coordinates (patch_texcoord.glsl) and compares them with
+// the property that makes the drawn surface crack-free (docs/architecture.md "Precision"). The same
+// run captures each vertex's tile texture coordinates (patch_texcoord.glsl) and compares them with
 // pbdam::shaderTexCoord, the CPU copy of that formula (not bit-exact: atan and inversesqrt are
 // the device's), within 1e-3 texel.
 #include <gtest/gtest.h>

@@ -54,7 +54,8 @@ TEST_F(VulkanContextTest, CreatesHeadlessLavapipeDeviceWithValidation) {
 }
 
 TEST_F(VulkanContextTest, RecordsLavapipeCapabilities) {
-  // design.md §9: lavapipe (Mesa 22.3) has all of these; the renderer relies on the limits.
+  // docs/architecture.md "Measured facts": lavapipe (Mesa 22.3) has all of these; the renderer
+  // relies on the limits.
   const DeviceCaps& caps = context().caps();
   EXPECT_TRUE(caps.shaderFloat64);
   EXPECT_TRUE(caps.storageBuffer16BitAccess);

@@ -1,6 +1,6 @@
 // Writing rendered frames to image files for `pbdam render` (and later `pbdam serve`): PNG at
-// zlib level 1 (design.md §9: the default level cost ~4× the time for ~10% smaller files) or
-// half-float EXR, through OpenImageIO. Thread-safety: pure functions.
+// zlib level 1 (docs/architecture.md "Measured facts": the default level cost ~4× the time for ~10%
+// smaller files) or half-float EXR, through OpenImageIO. Thread-safety: pure functions.
 #pragma once
 
 #include <filesystem>

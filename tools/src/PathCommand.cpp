@@ -1,4 +1,5 @@
-// `pbdam path great-circle|waypoints …`: camera-path CSV files (design.md §6) for `pbdam render
+// `pbdam path great-circle|waypoints …`: camera-path CSV files (docs/architecture.md "Formats") for
+// `pbdam render
 // --path` and `pbdam bench`, flown along geodesics (runtime/FlightPath.h).
 #include <cstdio>
 #include <memory>

@@ -1,6 +1,6 @@
-// `pbdam render`: exact-mode frames of a dataset (design.md §1, §4) from one camera or a camera
-// path, written as PNG/EXR, with per-frame statistics as JSON lines and an MP4 through ffmpeg
-// when it is installed.
+// `pbdam render`: exact-mode frames of a dataset (docs/architecture.md "What pbdam is", "Refinement
+// and drawing") from one camera or a camera path, written as PNG/EXR, with per-frame statistics as
+// JSON lines and an MP4 through ffmpeg when it is installed.
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>

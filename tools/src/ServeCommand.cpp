@@ -1,6 +1,6 @@
-// `pbdam serve DIR`: exact-mode frames over HTTP with a web viewer (design.md §1).
-// The command line, the start-up line, and graceful shutdown: SIGTERM/SIGINT are taken by a
-// signal thread (sigtimedwait; blocked in every other thread), which stops the listener; the
+// `pbdam serve DIR`: exact-mode frames over HTTP with a web viewer (docs/architecture.md "What
+// pbdam is"). The command line, the start-up line, and graceful shutdown: SIGTERM/SIGINT are taken
+// by a signal thread (sigtimedwait; blocked in every other thread), which stops the listener; the
 // requests already accepted are answered before the process exits with 0.
 #include <signal.h>
 

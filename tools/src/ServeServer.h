@@ -1,8 +1,8 @@
-// The HTTP side of `pbdam serve` (design.md §1): cpp-httplib (Debian's libcpp-httplib) routes
-// GET /frame, /height, /info, /stats, /healthz and the embedded viewer page at /, turns every bad
-// request into a 4xx with a JSON body, and answers overload with 503 + Retry-After. Frames come
-// from a RenderPool over one mapping of the dataset. Thread-safety: stop() may be called from
-// any thread (the signal thread); the rest from the thread that owns the server.
+// The HTTP side of `pbdam serve` (docs/architecture.md "What pbdam is"): cpp-httplib (Debian's
+// libcpp-httplib) routes GET /frame, /height, /info, /stats, /healthz and the embedded viewer page
+// at /, turns every bad request into a 4xx with a JSON body, and answers overload with 503 +
+// Retry-After. Frames come from a RenderPool over one mapping of the dataset. Thread-safety: stop()
+// may be called from any thread (the signal thread); the rest from the thread that owns the server.
 #pragma once
 
 #include <cstdint>

@@ -1,8 +1,8 @@
-// Camera-path files (design.md §6): CSV with the header `t,lat,lon,alt,heading,pitch,roll` and
-// one pose per row — seconds, degrees, metres above the reference surface, degrees — as `pbdam
-// render --path` and the benchmarks replay them. Reading is strict and safe for untrusted files;
-// the poses' ranges are checked where they are used (runtime/Camera.h validateCameraPose).
-// Thread-safety: pure functions.
+// Camera-path files (docs/architecture.md "Formats"): CSV with the header
+// `t,lat,lon,alt,heading,pitch,roll` and one pose per row — seconds, degrees, metres above the
+// reference surface, degrees — as `pbdam render --path` and the benchmarks replay them. Reading is
+// strict and safe for untrusted files; the poses' ranges are checked where they are used
+// (runtime/Camera.h validateCameraPose). Thread-safety: pure functions.
 #pragma once
 
 #include <filesystem>

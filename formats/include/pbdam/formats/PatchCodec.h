@@ -36,7 +36,7 @@ struct PatchMesh final {
 
 /// Barycentric 1.0 in PatchVertex units (2^15).
 inline constexpr std::uint32_t kPatchBarycentricOne = 1U << 15;
-/// Most vertices a patch may have (16-bit indices, design.md §9).
+/// Most vertices a patch may have (16-bit indices, docs/architecture.md "Measured facts").
 inline constexpr std::uint32_t kPatchMaxVertices = 65535;
 /// Most triangles a patch blob may declare (a decode-side sanity limit).
 inline constexpr std::uint32_t kPatchMaxTriangles = 131072;

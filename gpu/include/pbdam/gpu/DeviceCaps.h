@@ -20,7 +20,7 @@ struct DeviceCaps final {
   /// Storage-buffer writes from vertex shaders (the GPU tests' vertex-position capture).
   bool vertexPipelineStoresAndAtomics = false;
 
-  uint32_t maxPushConstantsBytes = 0;  ///< 128 on lavapipe (design.md §9)
+  uint32_t maxPushConstantsBytes = 0;  ///< 128 on lavapipe (docs/architecture.md "Measured facts")
   uint32_t maxImageDimension2DPixels = 0;
   uint32_t maxDrawIndexedIndexValue = 0;
   float timestampPeriodNanoseconds = 0.0f;

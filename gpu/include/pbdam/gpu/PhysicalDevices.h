@@ -1,5 +1,5 @@
 // Enumerating and describing Vulkan physical devices (for `pbdam devices` and for choosing the
-// device a VulkanContext runs on; lavapipe by default, design.md §1).
+// device a VulkanContext runs on; lavapipe by default, docs/architecture.md "What pbdam is").
 #pragma once
 
 #include "pbdam/formats/Result.h"

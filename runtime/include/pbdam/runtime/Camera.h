@@ -1,8 +1,9 @@
-// The double-precision camera (design.md §4): position in planetocentric metres, orientation from
-// heading/pitch/roll in the local east-north-up frame, a symmetric perspective with an infinite
-// reversed-Z projection, frustum planes for culling and the screen-space error scale. Nothing here
-// is float except the projection handed to the GPU: positions are made camera-relative in double
-// before they are rounded (runtime/PatchDraw.h). Thread-safety: plain values.
+// The double-precision camera (docs/architecture.md "Refinement and drawing"): position in
+// planetocentric metres, orientation from heading/pitch/roll in the local east-north-up frame, a
+// symmetric perspective with an infinite reversed-Z projection, frustum planes for culling and the
+// screen-space error scale. Nothing here is float except the projection handed to the GPU:
+// positions are made camera-relative in double before they are rounded (runtime/PatchDraw.h).
+// Thread-safety: plain values.
 #pragma once
 
 #include <array>
@@ -67,7 +68,8 @@ class Camera final {
   double pixelsPerRadian() const noexcept { return pixelScale_; }
 
   /// Screen-space size in pixels of an object-space `errorMeters` at the nearest point of the
-  /// sphere (design.md §4); infinite when the camera is inside the sphere.
+  /// sphere (docs/architecture.md "Refinement and drawing"); infinite when the camera is inside the
+  /// sphere.
   double screenError(double errorMeters, const glm::dvec3& centre, double radius) const noexcept;
 
   /// False when the sphere lies wholly outside one of the frustum's side or near planes.

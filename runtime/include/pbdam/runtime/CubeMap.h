@@ -1,6 +1,7 @@
-// CubeMap: the tangent-adjusted cube map that partitions the planet into 6 faces (design.md §3,
-// P-BDAM paper Sec. 3): face + (u,v) <-> geocentric unit direction <-> lat/lon, face-edge
-// neighbours, and canonical keys for lattice points shared by 2 or 3 faces.
+// CubeMap: the tangent-adjusted cube map that partitions the planet into 6 faces
+// (docs/architecture.md "Geometry", P-BDAM paper Sec. 3): face + (u,v) <-> geocentric unit
+// direction <-> lat/lon, face-edge neighbours, and canonical keys for lattice points shared by 2 or
+// 3 faces.
 //
 // Face frames. Every face has an outward axis n and in-plane axes U, V with U x V = n, so (u,v)
 // is counter-clockwise seen from outside on every face (a triangle wound counter-clockwise in

@@ -1,7 +1,7 @@
-// Camera paths for flythroughs and benchmarks (design.md §6): flights along geodesics
-// (GeographicLib) through waypoints, with a smooth altitude profile (log-altitude eased between
-// waypoints, so an approach from orbit slows down as it nears the ground), heading along the
-// track and a pitch that looks down from orbit and ahead near the ground. Thread-safety: pure.
+// Camera paths for flythroughs and benchmarks (docs/architecture.md "Formats"): flights along
+// geodesics (GeographicLib) through waypoints, with a smooth altitude profile (log-altitude eased
+// between waypoints, so an approach from orbit slows down as it nears the ground), heading along
+// the track and a pitch that looks down from orbit and ahead near the ground. Thread-safety: pure.
 #pragma once
 
 #include <optional>

@@ -1,6 +1,6 @@
-// Camera-relative patch vertices (design.md §4 "Precision", paper 004 §4.2 and Fig. 5): what the
-// host computes per draw in double, what the vertex shader then computes per vertex in float, and
-// a CPU copy of the shader's float arithmetic for tests.
+// Camera-relative patch vertices (docs/architecture.md "Precision", paper 004 §4.2 and Fig. 5):
+// what the host computes per draw in double, what the vertex shader then computes per vertex in
+// float, and a CPU copy of the shader's float arithmetic for tests.
 //
 // A vertex with barycentrics (w0, w1, w2) (exact: 15-bit dyadics) and displacement h is at
 //   P(w, h) = w0·P0 + w1·P1 + w2·P2 + h·N(w),   N(w) = w0·N0 + w1·N1 + w2·N2 (not normalised).
@@ -32,9 +32,9 @@
 // fixed-point steps, which leave millimetres) on the record's own face, and forms u − uc as
 // (2/π)·atan of a plane-coordinate
 // difference computed from the vertex's offset to the tile centre's surface point Q, so no absolute
-// float position is ever rounded (design.md §4): its error scales with the tile, not the planet.
-// Not bit-exact across GPUs (atan, inversesqrt); shaderTexCoord is its float mirror. Thread-safety:
-// pure functions.
+// float position is ever rounded (docs/architecture.md "Refinement and drawing"): its error scales
+// with the tile, not the planet. Not bit-exact across GPUs (atan, inversesqrt); shaderTexCoord is
+// its float mirror. Thread-safety: pure functions.
 #pragma once
 
 #include <array>

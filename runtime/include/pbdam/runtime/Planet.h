@@ -1,6 +1,7 @@
 // Planet: the reference surface (sphere or oblate ellipsoid) every position in pbdam is measured
 // against — geodetic <-> ECEF, east-north-up frames and geodesics, through GeographicLib
-// (design.md §7). Heights are metres above the reference surface (radial on a sphere).
+// (docs/architecture.md "Planet models"). Heights are metres above the reference surface (radial on
+// a sphere).
 #pragma once
 
 #include <glm/mat3x3.hpp>

@@ -1,8 +1,8 @@
 // A dataset directory mapped read-only: manifest.json read and checked, the six face files
-// mmapped (MADV_RANDOM, so a fault reads its page and not megabytes around it: design.md §9),
-// and a validated DatasetView over the mappings. Everything on the render path reads the face
-// files through these mappings, never with read(). Thread-safety: read-only after open; the
-// object must outlive every view, span and record taken from it.
+// mmapped (MADV_RANDOM, so a fault reads its page and not megabytes around it: docs/architecture.md
+// "Measured facts"), and a validated DatasetView over the mappings. Everything on the render path
+// reads the face files through these mappings, never with read(). Thread-safety: read-only after
+// open; the object must outlive every view, span and record taken from it.
 #pragma once
 
 #include <array>

@@ -1,7 +1,7 @@
-// Page-cache control for cold-cache benchmarks (design.md §5, §9): evicting a file with
-// posix_fadvise(POSIX_FADV_DONTNEED) and counting its resident pages with mincore. Eviction
-// only drops pages no process has mapped, so evict before mapping a dataset (or after unmapping
-// it). Thread-safety: free functions, no shared state.
+// Page-cache control for cold-cache benchmarks (docs/architecture.md "Streaming", "Measured
+// facts"): evicting a file with posix_fadvise(POSIX_FADV_DONTNEED) and counting its resident pages
+// with mincore. Eviction only drops pages no process has mapped, so evict before mapping a dataset
+// (or after unmapping it). Thread-safety: free functions, no shared state.
 #pragma once
 
 #include <cstddef>

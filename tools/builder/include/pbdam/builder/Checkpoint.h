@@ -87,8 +87,8 @@ class ByteReader final {
   bool failed_ = false;
 };
 
-/// Writes one file through a temporary name in the same directory (design.md §6): bytes are
-/// appended (buffered), finish() fsyncs and renames. Destroyed unfinished, it removes the
+/// Writes one file through a temporary name in the same directory (docs/architecture.md "Formats"):
+/// bytes are appended (buffered), finish() fsyncs and renames. Destroyed unfinished, it removes the
 /// temporary. Keeps the CRC-32 of everything appended.
 class AtomicFileWriter final {
  public:
@@ -119,7 +119,7 @@ class AtomicFileWriter final {
 };
 
 /// Writes `chunks` to `path` through a temporary file in the same directory, fsync and rename
-/// (design.md §6); `crc` receives the CRC-32 of the whole file.
+/// (docs/architecture.md "Formats"); `crc` receives the CRC-32 of the whole file.
 Result<void> writeFileAtomically(const std::filesystem::path& path,
                                  const std::vector<std::span<const std::byte>>& chunks,
                                  std::uint32_t& crc);
