@@ -11,10 +11,10 @@ namespace {
 
 const char* kEtopo5 = "/usr/share/ferret-vis/data/etopo5.cdf";
 
-const pbdam::HeightGrid& etopo5() {
-  static const pbdam::HeightGrid grid = [] {
-    auto r = pbdam::readDem(kEtopo5);
-    return r ? std::move(r).value() : pbdam::HeightGrid();
+const pbdam::formats::HeightGrid& etopo5() {
+  static const pbdam::formats::HeightGrid grid = [] {
+    auto r = pbdam::formats::readDem(kEtopo5);
+    return r ? std::move(r).value() : pbdam::formats::HeightGrid();
   }();
   return grid;
 }
@@ -30,7 +30,7 @@ std::vector<std::pair<double, double>> randomPoints(std::size_t n) {
 
 void BM_ReadEtopo5(benchmark::State& state) {
   for (auto _ : state) {
-    auto grid = pbdam::readDem(kEtopo5);
+    auto grid = pbdam::formats::readDem(kEtopo5);
     if (!grid) {
       state.SkipWithError(grid.error().message.c_str());
       return;

@@ -12,17 +12,19 @@
 #include "SyntheticPatches.h"
 #include "pbdam/formats/PatchCodec.h"
 
+using namespace pbdam::formats;
+
 namespace {
 
-using pbdam::PatchCompression;
-using pbdam::PatchMesh;
-using pbdam::PatchVertex;
+using pbdam::formats::PatchCompression;
+using pbdam::formats::PatchMesh;
+using pbdam::formats::PatchVertex;
 
 // ---- realistic patches (tests/support/SyntheticPatches.h, shared with the codec tests) -------
 
 PatchMesh optimizedGrid(unsigned cells, unsigned seed) {
   PatchMesh mesh = pbdam::test::gridPatch(cells, seed);
-  pbdam::optimizePatchForRendering(mesh);
+  pbdam::formats::optimizePatchForRendering(mesh);
   return mesh;
 }
 
@@ -55,10 +57,10 @@ void setCounters(benchmark::State& state, const PatchMesh& mesh, std::size_t blo
 void BM_DecodePatch(benchmark::State& state) {
   const PatchMesh& mesh = patches()[static_cast<std::size_t>(state.range(0))];
   const auto compression = static_cast<PatchCompression>(state.range(1));
-  const std::vector<std::byte> blob = pbdam::encodePatch(mesh, compression).value();
+  const std::vector<std::byte> blob = pbdam::formats::encodePatch(mesh, compression).value();
   PatchMesh out;
   for (auto _ : state) {
-    const pbdam::Result<void> r = pbdam::decodePatch(blob, out, "bench");
+    const pbdam::formats::Result<void> r = pbdam::formats::decodePatch(blob, out, "bench");
     benchmark::DoNotOptimize(r.ok());
     benchmark::DoNotOptimize(out.indices.data());
     benchmark::ClobberMemory();
@@ -76,7 +78,7 @@ void BM_EncodePatch(benchmark::State& state) {
   const auto compression = static_cast<PatchCompression>(state.range(1));
   std::size_t blobBytes = 0;
   for (auto _ : state) {
-    auto blob = pbdam::encodePatch(mesh, compression);
+    auto blob = pbdam::formats::encodePatch(mesh, compression);
     blobBytes = blob->size();
     benchmark::DoNotOptimize(blob->data());
   }
@@ -102,7 +104,7 @@ void BM_OptimizePatchForRendering(benchmark::State& state) {
   const PatchMesh& mesh = patches()[static_cast<std::size_t>(state.range(0))];
   for (auto _ : state) {
     PatchMesh copy = mesh;
-    pbdam::optimizePatchForRendering(copy);
+    pbdam::formats::optimizePatchForRendering(copy);
     benchmark::DoNotOptimize(copy.indices.data());
   }
   state.SetLabel(patchName(state.range(0)));

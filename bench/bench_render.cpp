@@ -24,17 +24,20 @@
 #include "pbdam/runtime/Refinement.h"
 #include "pbdam/streaming/MappedDataset.h"
 
+using namespace pbdam::runtime;
+using namespace pbdam::streaming;
+
 namespace {
 
-using pbdam::Camera;
-using pbdam::CameraPose;
-using pbdam::Cut;
-using pbdam::MappedDataset;
-using pbdam::RefinementOptions;
 using pbdam::gpu::RenderedFrame;
 using pbdam::gpu::TerrainRenderer;
 using pbdam::gpu::TerrainRendererOptions;
 using pbdam::gpu::VulkanContext;
+using pbdam::runtime::Camera;
+using pbdam::runtime::CameraPose;
+using pbdam::runtime::Cut;
+using pbdam::runtime::RefinementOptions;
+using pbdam::streaming::MappedDataset;
 using Clock = std::chrono::steady_clock;
 
 double millisecondsBetween(Clock::time_point start, Clock::time_point end) {
@@ -126,15 +129,15 @@ bool parseUnsigned(std::string_view text, std::uint32_t minimum, std::uint32_t m
 }
 
 /// Renders one view: the cold frame, then `frames` alternating rounds.
-pbdam::Result<ViewResult> benchView(VulkanContext& context, const MappedDataset& dataset,
-                                    const View& view, const Options& options) {
-  const pbdam::DatasetView& data = dataset.view();
+pbdam::formats::Result<ViewResult> benchView(VulkanContext& context, const MappedDataset& dataset,
+                                             const View& view, const Options& options) {
+  const pbdam::runtime::DatasetView& data = dataset.view();
   TerrainRendererOptions rendererOptions;
   rendererOptions.widthPixels = options.width;
   rendererOptions.heightPixels = options.height;
   auto renderer = TerrainRenderer::create(context, data, rendererOptions);
   if (!renderer) return std::move(renderer).error();
-  pbdam::Viewport viewport;
+  pbdam::runtime::Viewport viewport;
   viewport.width = options.width;
   viewport.height = options.height;
   const Camera camera = Camera::fromPose(data.planet(), view.pose, viewport);
@@ -144,15 +147,16 @@ pbdam::Result<ViewResult> benchView(VulkanContext& context, const MappedDataset&
   result.view = &view;
   {
     const auto start = Clock::now();
-    const Cut cut = pbdam::refine(data, camera, refinement);
+    const Cut cut = pbdam::runtime::refine(data, camera, refinement);
     auto frame = renderer->render(cut, camera);
     const auto end = Clock::now();
     if (!frame) return std::move(frame).error();
     if (frame->stats.passes != 1) {
-      return pbdam::makeError(pbdam::ErrorCode::InvalidArgument,
-                              std::string(view.name) + ": the cut does not fit the GPU cache " +
-                                  "budget (" + std::to_string(frame->stats.passes) +
-                                  " passes); there is no raw draw to compare with");
+      return pbdam::formats::makeError(pbdam::formats::ErrorCode::InvalidArgument,
+                                       std::string(view.name) +
+                                           ": the cut does not fit the GPU cache " + "budget (" +
+                                           std::to_string(frame->stats.passes) +
+                                           " passes); there is no raw draw to compare with");
     }
     result.firstMs = millisecondsBetween(start, end);
     result.patches = frame->stats.patches;
@@ -171,7 +175,7 @@ pbdam::Result<ViewResult> benchView(VulkanContext& context, const MappedDataset&
     for (int step = 0; step < 2; ++step) {
       if ((step == 0) == (round % 2 == 0)) {
         const auto start = Clock::now();
-        const Cut cut = pbdam::refine(data, camera, refinement);
+        const Cut cut = pbdam::runtime::refine(data, camera, refinement);
         const auto refined = Clock::now();
         auto frame = renderer->render(cut, camera);
         const auto end = Clock::now();

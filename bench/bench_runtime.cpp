@@ -20,6 +20,10 @@
 #include "pbdam/runtime/Refinement.h"
 #include "pbdam/streaming/MappedDataset.h"
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+using namespace pbdam::streaming;
+
 namespace {
 
 using namespace pbdam;

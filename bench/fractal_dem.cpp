@@ -97,7 +97,7 @@ Options parse(int argc, char** argv) {
 
 int main(int argc, char** argv) {
   const Options o = parse(argc, argv);
-  auto dem = pbdam::readDem(o.dem);
+  auto dem = pbdam::formats::readDem(o.dem);
   if (!dem) {
     std::fprintf(stderr, "pbdam_fractal_dem: %s\n", dem.error().message.c_str());
     return 2;

@@ -28,6 +28,10 @@
 using namespace pbdam;
 using namespace pbdam::builder;
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+using namespace pbdam::streaming;
+
 namespace {
 
 /// Saturates per-node errors (dataset node ids of `lattice` at `depth`) over the diamond DAG:

@@ -14,7 +14,7 @@
 #include <string>
 #include <system_error>
 
-namespace pbdam {
+namespace pbdam::formats {
 namespace {
 
 constexpr std::array<std::string_view, 7> kColumns = {"t",       "lat",   "lon", "alt",
@@ -178,4 +178,4 @@ Result<void> writeCameraPath(const std::filesystem::path& path,
   return {};
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

@@ -5,7 +5,7 @@
 
 #include <algorithm>
 
-namespace pbdam {
+namespace pbdam::formats {
 
 std::uint32_t crc32(std::span<const std::byte> bytes, std::uint32_t crc) noexcept {
   uLong value = crc;
@@ -20,4 +20,4 @@ std::uint32_t crc32(std::span<const std::byte> bytes, std::uint32_t crc) noexcep
   return static_cast<std::uint32_t>(value);
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

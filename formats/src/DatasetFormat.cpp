@@ -6,7 +6,7 @@
 
 #include "pbdam/formats/Checksum.h"
 
-namespace pbdam {
+namespace pbdam::formats {
 namespace {
 
 static_assert(std::endian::native == std::endian::little,
@@ -252,4 +252,4 @@ std::span<const std::byte> FaceView::textureBlob(const TextureRecord& t) const n
   return file_.subspan(t.blobOffset, t.blobBytes);
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

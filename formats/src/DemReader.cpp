@@ -30,7 +30,7 @@
 #include <sstream>
 #include <vector>
 
-namespace pbdam {
+namespace pbdam::formats {
 namespace {
 
 namespace fs = std::filesystem;
@@ -860,4 +860,4 @@ Result<HeightGrid> readDem(const fs::path& path, const DemReadOptions& options) 
   return readHeights(*dem, *geometry, path, options, capture);
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

@@ -11,7 +11,7 @@
 #include <cstdint>
 #include <limits>
 
-namespace pbdam {
+namespace pbdam::formats {
 namespace {
 
 constexpr double kEpsilonDegrees = 1e-9;
@@ -294,4 +294,4 @@ GridStats HeightGrid::computeStats() const noexcept {
   return stats;
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

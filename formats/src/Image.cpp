@@ -10,7 +10,7 @@
 #include <cmath>
 #include <mutex>
 
-namespace pbdam {
+namespace pbdam::formats {
 
 GeoImage::GeoImage(std::int64_t width, std::int64_t height, std::vector<std::uint8_t> rgba,
                    LatLonBounds bounds, bool georeferenced)
@@ -144,4 +144,4 @@ Result<GeoImage> readImage(const std::filesystem::path& path) {
                   geo.value_or(LatLonBounds{-90.0, -180.0, 90.0, 180.0}), geo.has_value());
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

@@ -9,7 +9,7 @@
 #include "pbdam/formats/Checksum.h"
 #include "pbdam/formats/DatasetFormat.h"
 
-namespace pbdam {
+namespace pbdam::formats {
 
 std::string manifestToJson(const Manifest& m) {
   nlohmann::ordered_json j;
@@ -121,4 +121,4 @@ Result<Manifest> readManifest(const std::filesystem::path& dir) {
   return parseManifest(text.str(), path.string());
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

@@ -13,7 +13,7 @@
 #include <utility>
 #include <vector>
 
-namespace pbdam {
+namespace pbdam::formats {
 namespace {
 
 namespace fs = std::filesystem;
@@ -208,4 +208,4 @@ void dropMappedPages(const void* data, std::size_t bytes) noexcept {
   (void)::madvise(reinterpret_cast<void*>(first), last - first, MADV_DONTNEED);
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

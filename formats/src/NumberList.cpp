@@ -5,7 +5,7 @@
 #include <cstdlib>
 #include <string>
 
-namespace pbdam {
+namespace pbdam::formats {
 
 bool parseNumberList(std::string_view text, std::size_t count, std::vector<double>& out) {
   out.clear();
@@ -27,4 +27,4 @@ bool parseNumberList(std::string_view text, std::size_t count, std::vector<doubl
   return out.size() == count;
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

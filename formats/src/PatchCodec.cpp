@@ -15,7 +15,7 @@
 
 #include "pbdam/formats/Checksum.h"
 
-namespace pbdam {
+namespace pbdam::formats {
 namespace {
 
 constexpr std::array<std::byte, 4> kMagic = {std::byte{'P'}, std::byte{'B'}, std::byte{'P'},
@@ -409,4 +409,4 @@ Result<void> decodePatch(std::span<const std::byte> blob, PatchMesh& out,
   return {};
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

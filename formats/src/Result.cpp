@@ -1,7 +1,7 @@
 // Names of error codes (Result.h).
 #include "pbdam/formats/Result.h"
 
-namespace pbdam {
+namespace pbdam::formats {
 
 const char* errorCodeName(ErrorCode code) noexcept {
   switch (code) {
@@ -23,4 +23,4 @@ const char* errorCodeName(ErrorCode code) noexcept {
   return "unknown";
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

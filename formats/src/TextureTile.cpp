@@ -13,7 +13,7 @@
 
 #include "pbdam/formats/Checksum.h"
 
-namespace pbdam {
+namespace pbdam::formats {
 namespace {
 
 constexpr std::array<std::uint8_t, 4> kMagic{'P', 'B', 'T', 'X'};
@@ -282,4 +282,4 @@ Result<TextureTileImage> expandToRgba8(const TextureTileImage& tile) {
   return out;
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

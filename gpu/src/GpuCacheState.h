@@ -21,21 +21,21 @@ namespace pbdam::gpu {
 /// How tiles are held on the device.
 struct TextureChoice final {
   VkFormat format = VK_FORMAT_R8G8B8A8_UNORM;
-  TexelFormat texels = TexelFormat::Rgba8;
+  formats::TexelFormat texels = formats::TexelFormat::Rgba8;
   std::uint64_t slotBytes = 0;
 };
 
 /// The texel format a dataset's tiles are stored in.
-TexelFormat datasetTexelFormat(const DatasetView& dataset);
+formats::TexelFormat datasetTexelFormat(const runtime::DatasetView& dataset);
 /// BC1 where the dataset and the device have it (and it is not refused), RGBA8 otherwise.
-TextureChoice chooseTexture(const VulkanContext& context, const DatasetView& dataset,
+TextureChoice chooseTexture(const VulkanContext& context, const runtime::DatasetView& dataset,
                             bool forceRgba8);
 /// Bytes of one patch slot: the dataset's largest patch, 8-byte vertices and 16-bit indices.
-std::uint64_t patchSlotBytes(const DatasetView& dataset);
+std::uint64_t patchSlotBytes(const runtime::DatasetView& dataset);
 
 struct GpuCache::State {
   VulkanContext* context = nullptr;
-  const DatasetView* dataset = nullptr;
+  const runtime::DatasetView* dataset = nullptr;
   TextureChoice texture;
   std::uint64_t patchSlot = 0;
   std::uint32_t maxIndices = 0;

@@ -6,6 +6,8 @@
 
 #include <utility>
 
+using namespace pbdam::formats;
+
 namespace pbdam::gpu {
 namespace {
 

@@ -32,7 +32,7 @@ class PatchPool final {
             std::uint32_t slotsPerChunk) noexcept;
 
   /// Allocates chunks until slots [0, slotCount) exist; slotCount must be ≤ the capacity.
-  Result<void> ensureSlots(const VulkanContext& context, std::uint32_t slotCount);
+  formats::Result<void> ensureSlots(const VulkanContext& context, std::uint32_t slotCount);
 
   PoolLocation locate(std::uint32_t slot) const noexcept {
     return {slot / slotsPerChunk_, slot % slotsPerChunk_};
@@ -68,14 +68,14 @@ class TilePool final {
   TilePool() = default;
 
   /// Creates the descriptor pool for every page the capacity can need.
-  static Result<TilePool> create(const VulkanContext& context, VkFormat format,
-                                 std::uint32_t sizeTexels, std::uint64_t slotBytes,
-                                 std::uint32_t capacitySlots, std::uint32_t layersPerPage,
-                                 VkDescriptorSetLayout setLayout, VkSampler sampler);
+  static formats::Result<TilePool> create(const VulkanContext& context, VkFormat format,
+                                          std::uint32_t sizeTexels, std::uint64_t slotBytes,
+                                          std::uint32_t capacitySlots, std::uint32_t layersPerPage,
+                                          VkDescriptorSetLayout setLayout, VkSampler sampler);
 
   /// Allocates pages until slots [0, slotCount) exist (slotCount ≤ capacity); new pages are
   /// moved to SHADER_READ_ONLY_OPTIMAL by a submission of their own.
-  Result<void> ensureSlots(VulkanContext& context, std::uint32_t slotCount);
+  formats::Result<void> ensureSlots(VulkanContext& context, std::uint32_t slotCount);
 
   PoolLocation locate(std::uint32_t slot) const noexcept {
     return {slot / layersPerPage_, slot % layersPerPage_};

@@ -7,6 +7,8 @@
 #include <cstring>
 #include <string>
 
+using namespace pbdam::formats;
+
 namespace pbdam::gpu {
 namespace {
 

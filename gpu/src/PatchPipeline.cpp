@@ -8,6 +8,8 @@
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/gpu/VulkanError.h"
 
+using namespace pbdam::formats;
+
 namespace pbdam::gpu {
 namespace {
 

@@ -41,8 +41,8 @@ class PatchPipeline final {
   /// dynamic rendering into `colorFormat` + `depthFormat`: triangle lists, back faces culled
   /// (patches are counter-clockwise seen from outside the planet), reversed-Z depth test
   /// GREATER_OR_EQUAL with writes, dynamic viewport and scissor.
-  static Result<PatchPipeline> create(const VulkanContext& context, VkFormat colorFormat,
-                                      VkFormat depthFormat);
+  static formats::Result<PatchPipeline> create(const VulkanContext& context, VkFormat colorFormat,
+                                               VkFormat depthFormat);
 
   VkPipeline pipeline() const noexcept { return pipeline_.get(); }
   VkPipelineLayout layout() const noexcept { return layout_.get(); }

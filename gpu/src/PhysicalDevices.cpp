@@ -6,6 +6,8 @@
 
 #include <cstring>
 
+using namespace pbdam::formats;
+
 namespace pbdam::gpu {
 
 bool PhysicalDeviceInfo::isLavapipe() const noexcept {

@@ -5,6 +5,8 @@
 
 #include <string>
 
+using namespace pbdam::formats;
+
 namespace pbdam::gpu {
 
 Result<UniqueShaderModule> createShaderModule(VkDevice device, std::span<const uint32_t> spirvWords,

@@ -39,6 +39,9 @@
 #include "pbdam/gpu/VulkanError.h"
 #include "pbdam/runtime/PatchDraw.h"
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
 namespace pbdam::gpu {
 namespace {
 

@@ -7,6 +7,8 @@
 
 #include <cstdint>
 
+using namespace pbdam::formats;
+
 namespace pbdam::gpu {
 namespace {
 

@@ -3,6 +3,8 @@
 
 #include <string>
 
+using namespace pbdam::formats;
+
 namespace pbdam::gpu {
 
 const char* vkResultName(VkResult result) noexcept {

@@ -3,7 +3,7 @@
 
 #include <cassert>
 
-namespace pbdam {
+namespace pbdam::runtime {
 
 BinTriangle bintreeRoot(std::uint32_t sideCells, int face, int tree) noexcept {
   const auto n = static_cast<std::int32_t>(sideCells);
@@ -59,4 +59,4 @@ PointKey latticePointKey(std::uint32_t sideCells, int face, LatticeXY p) noexcep
          (static_cast<std::uint64_t>(c.i) << 29) | static_cast<std::uint64_t>(c.j);
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::runtime

@@ -9,7 +9,9 @@
 
 #include "pbdam/formats/NumberList.h"
 
-namespace pbdam {
+using namespace pbdam::formats;
+
+namespace pbdam::runtime {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -148,4 +150,4 @@ glm::mat4 Camera::projection() const noexcept {
   return glm::mat4(m);
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::runtime

@@ -9,7 +9,7 @@
 #include <glm/common.hpp>
 #include <numbers>
 
-namespace pbdam {
+namespace pbdam::runtime {
 namespace {
 
 constexpr double kQuarterPi = std::numbers::pi / 4.0;
@@ -263,4 +263,4 @@ LatLonDegrees CubeMap::faceUvToLatLon(CubeFace face, const glm::dvec2& uv) noexc
   return directionToPlanetocentric(faceUvToDirection(face, uv));
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::runtime

@@ -3,7 +3,9 @@
 
 #include <algorithm>
 
-namespace pbdam {
+using namespace pbdam::formats;
+
+namespace pbdam::runtime {
 namespace {
 
 Error mismatch(const std::string& context, const std::string& what) {
@@ -81,4 +83,4 @@ TileKey DatasetView::tileOf(const NodeKey& key) const noexcept {
                                             static_cast<std::uint32_t>(minY / side))};
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::runtime

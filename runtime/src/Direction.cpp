@@ -5,7 +5,7 @@
 #include <GeographicLib/Math.hpp>
 #include <cmath>
 
-namespace pbdam {
+namespace pbdam::runtime {
 
 glm::dvec3 planetocentricToDirection(double latDegrees, double lonDegrees) noexcept {
   double sinLat = 0.0;
@@ -30,4 +30,4 @@ LatLonDegrees directionToPlanetocentric(const glm::dvec3& direction) noexcept {
   return result;
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::runtime

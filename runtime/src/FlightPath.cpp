@@ -6,7 +6,9 @@
 #include <glm/geometric.hpp>
 #include <string>
 
-namespace pbdam {
+using namespace pbdam::formats;
+
+namespace pbdam::runtime {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -108,4 +110,4 @@ double meanSpeedMetersPerSecond(const Planet& planet, const std::vector<CameraPa
   return distance / (path.back().tSeconds - path.front().tSeconds);
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::runtime

@@ -8,7 +8,9 @@
 #include <glm/trigonometric.hpp>
 #include <numbers>
 
-namespace pbdam {
+using namespace pbdam::formats;
+
+namespace pbdam::runtime {
 namespace {
 
 constexpr double kBaryUnit = 1.0 / static_cast<double>(kPatchBarycentricOne);
@@ -254,4 +256,4 @@ glm::vec3 cornerRelativeVertexPosition(const NodeRecord& n, std::uint16_t b1, st
   return p0 + w1 * (p1 - p0) + w2 * (p2 - p0) + h * (n0 + w1 * (n1 - n0) + w2 * (n2 - n0));
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::runtime

@@ -18,7 +18,9 @@
 #include <system_error>
 #include <utility>
 
-namespace pbdam {
+using namespace pbdam::formats;
+
+namespace pbdam::runtime {
 namespace {
 
 constexpr double kMarsRadiusMeters = 3396190.0;
@@ -326,4 +328,4 @@ GeodesicDirect Planet::geodesicDirect(double latDegrees, double lonDegrees, doub
   return result;
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::runtime

@@ -4,7 +4,9 @@
 #include <algorithm>
 #include <unordered_set>
 
-namespace pbdam {
+using namespace pbdam::formats;
+
+namespace pbdam::runtime {
 namespace {
 
 struct TileKeyHash {
@@ -77,4 +79,4 @@ Cut refine(const DatasetView& dataset, const Camera& camera, const RefinementOpt
   return refiner.take();
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::runtime

@@ -11,7 +11,9 @@
 #include "pbdam/formats/PatchCodec.h"
 #include "pbdam/runtime/PatchDraw.h"
 
-namespace pbdam {
+using namespace pbdam::formats;
+
+namespace pbdam::runtime {
 namespace {
 
 // Twice the signed area of (a, b, p) in lattice coordinates.
@@ -113,4 +115,4 @@ Result<SurfaceHeight> surfaceHeightAt(const DatasetView& view, double lat, doubl
   return *best;
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::runtime

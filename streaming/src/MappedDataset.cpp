@@ -1,7 +1,10 @@
 // Mapping a dataset directory (MappedDataset.h).
 #include "pbdam/streaming/MappedDataset.h"
 
-namespace pbdam {
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
+namespace pbdam::streaming {
 
 Result<std::unique_ptr<MappedDataset>> MappedDataset::open(const std::filesystem::path& directory) {
   std::error_code ec;
@@ -34,4 +37,4 @@ std::uint64_t MappedDataset::bytes() const noexcept {
   return total;
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::streaming

@@ -10,7 +10,9 @@
 #include "pbdam/formats/Manifest.h"
 #include "pbdam/streaming/MappedFile.h"
 
-namespace pbdam {
+using namespace pbdam::formats;
+
+namespace pbdam::streaming {
 
 Result<void> evictFromPageCache(const std::filesystem::path& path) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
@@ -62,4 +64,4 @@ Result<PageResidency> evictDataset(const std::filesystem::path& directory) {
   return total;
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::streaming

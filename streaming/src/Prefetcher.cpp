@@ -3,7 +3,10 @@
 
 #include <glm/geometric.hpp>
 
-namespace pbdam {
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
+namespace pbdam::streaming {
 
 void CameraPredictor::observe(double timeSeconds, const Camera& camera) {
   if (!samples_.empty() && timeSeconds <= samples_.back().time) samples_.clear();
@@ -121,4 +124,4 @@ void Prefetcher::adviseRange(int face, std::uint64_t offset, std::uint64_t bytes
   }
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::streaming

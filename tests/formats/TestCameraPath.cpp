@@ -9,7 +9,9 @@
 #include "TestData.h"
 #include "pbdam/formats/CameraPath.h"
 
-namespace pbdam {
+using namespace pbdam::formats;
+
+namespace pbdam::formats {
 namespace {
 
 constexpr const char* kHeader = "t,lat,lon,alt,heading,pitch,roll\n";
@@ -109,4 +111,4 @@ TEST(CameraPath, FileErrorsNameThePath) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::formats

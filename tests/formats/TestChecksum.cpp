@@ -5,7 +5,9 @@
 
 #include "pbdam/formats/Checksum.h"
 
-namespace pbdam {
+using namespace pbdam::formats;
+
+namespace pbdam::formats {
 namespace {
 
 std::span<const std::byte> bytesOf(std::string_view s) {
@@ -20,4 +22,4 @@ TEST(Checksum, MatchesTheStandardCheckValue) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::formats

@@ -12,7 +12,9 @@
 #include "TestData.h"
 #include "pbdam/formats/DemReader.h"
 
-namespace pbdam {
+using namespace pbdam::formats;
+
+namespace pbdam::formats {
 namespace {
 
 namespace fs = std::filesystem;
@@ -472,4 +474,4 @@ TEST(DemReader, RawOptionParsingRejectsNonsense) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::formats

@@ -6,7 +6,9 @@
 
 #include "pbdam/formats/HeightGrid.h"
 
-namespace pbdam {
+using namespace pbdam::formats;
+
+namespace pbdam::formats {
 namespace {
 
 /// A global pixel-is-area grid of w×h cells whose values are f(row, col).
@@ -129,4 +131,4 @@ TEST(HeightGrid, RegionalGridRejectsPointsOutside) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::formats

@@ -6,7 +6,9 @@
 #include "TestData.h"
 #include "pbdam/formats/Image.h"
 
-namespace pbdam {
+using namespace pbdam::formats;
+
+namespace pbdam::formats {
 namespace {
 
 const std::filesystem::path kEarthImage = "/usr/share/xplanet/images/earth.jpg";
@@ -51,4 +53,4 @@ TEST(Image, RejectsTruncatedAndNonImageFiles) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::formats

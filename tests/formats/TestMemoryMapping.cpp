@@ -13,7 +13,9 @@
 #include "TestData.h"
 #include "pbdam/formats/MemoryMapping.h"
 
-namespace pbdam {
+using namespace pbdam::formats;
+
+namespace pbdam::formats {
 namespace {
 
 TEST(MemoryMapping, MapsTheFileContents) {
@@ -161,4 +163,4 @@ TEST(MemoryMapping, MoveAssignmentReleasesTheOldMapping) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::formats

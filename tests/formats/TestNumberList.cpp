@@ -3,7 +3,9 @@
 
 #include "pbdam/formats/NumberList.h"
 
-namespace pbdam {
+using namespace pbdam::formats;
+
+namespace pbdam::formats {
 namespace {
 
 TEST(NumberList, ParsesExactlyTheExpectedCount) {
@@ -24,4 +26,4 @@ TEST(NumberList, RejectsMalformedText) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::formats

@@ -18,7 +18,9 @@
 #include "pbdam/formats/Checksum.h"
 #include "pbdam/formats/PatchCodec.h"
 
-namespace pbdam {
+using namespace pbdam::formats;
+
+namespace pbdam::formats {
 namespace {
 
 using test::gridPatch;
@@ -384,4 +386,4 @@ TEST(PatchCodec, OptimizeKeepsTrianglesAndImprovesVertexCache) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::formats

@@ -10,7 +10,9 @@
 #include "pbdam/formats/Checksum.h"
 #include "pbdam/formats/TextureTile.h"
 
-namespace pbdam {
+using namespace pbdam::formats;
+
+namespace pbdam::formats {
 namespace {
 
 // A smooth, opaque test image: gradients and a low-frequency wave.
@@ -265,4 +267,4 @@ TEST(TextureTile, MatchesGoldenBytes) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::formats

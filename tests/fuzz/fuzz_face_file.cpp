@@ -11,14 +11,14 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const auto bytes = std::as_bytes(std::span<const std::uint8_t>(data, size));
-  auto view = pbdam::FaceView::open(bytes, "fuzz");
+  auto view = pbdam::formats::FaceView::open(bytes, "fuzz");
   if (!view) return 0;
-  pbdam::PatchMesh mesh;
+  pbdam::formats::PatchMesh mesh;
   for (std::uint64_t k = 0; k < view->header().nodeCount; ++k) {
-    const pbdam::NodeRecord node = view->nodeAt(k);
+    const pbdam::formats::NodeRecord node = view->nodeAt(k);
     const auto blob = view->patchBlob(node);
     if (blob.size() != node.blobBytes) __builtin_trap();
-    (void)pbdam::decodePatch(blob, mesh, "fuzz");
+    (void)pbdam::formats::decodePatch(blob, mesh, "fuzz");
   }
   for (std::uint64_t k = 0; k < view->header().textureNodeCount; ++k) {
     const auto record = view->textureNode(k);

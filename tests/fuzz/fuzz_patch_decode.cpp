@@ -19,20 +19,21 @@ void check(bool condition) {
 }
 
 void decodeAndVerify(std::span<const std::byte> blob) {
-  static pbdam::PatchMesh mesh;  // reused across inputs, as the streaming decoder does
-  const pbdam::Result<pbdam::PatchBlobInfo> info = pbdam::inspectPatchBlob(blob, "fuzz");
-  const pbdam::Result<void> decoded = pbdam::decodePatch(blob, mesh, "fuzz");
+  static pbdam::formats::PatchMesh mesh;  // reused across inputs, as the streaming decoder does
+  const pbdam::formats::Result<pbdam::formats::PatchBlobInfo> info =
+      pbdam::formats::inspectPatchBlob(blob, "fuzz");
+  const pbdam::formats::Result<void> decoded = pbdam::formats::decodePatch(blob, mesh, "fuzz");
   if (!decoded.ok()) {
-    check(decoded.error().code == pbdam::ErrorCode::CorruptData);
+    check(decoded.error().code == pbdam::formats::ErrorCode::CorruptData);
     return;
   }
   check(info.ok());
   check(mesh.vertices.size() == info->vertexCount);
   check(mesh.triangleCount() == info->triangleCount);
-  auto again = pbdam::encodePatch(mesh);
+  auto again = pbdam::formats::encodePatch(mesh);
   check(again.ok());
-  pbdam::PatchMesh roundTrip;
-  check(pbdam::decodePatch(*again, roundTrip, "fuzz re-encoded").ok());
+  pbdam::formats::PatchMesh roundTrip;
+  check(pbdam::formats::decodePatch(*again, roundTrip, "fuzz re-encoded").ok());
   check(roundTrip == mesh);
 }
 
@@ -42,16 +43,18 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const auto* bytes = reinterpret_cast<const std::byte*>(data);
   decodeAndVerify(std::span(bytes, size));
 
-  if (size >= pbdam::kPatchBlobHeaderBytes) {
+  if (size >= pbdam::formats::kPatchBlobHeaderBytes) {
     std::vector<std::byte> fixed(bytes, bytes + size);
     const auto put32 = [&](std::size_t offset, std::uint32_t value) {
       for (std::size_t i = 0; i < 4; ++i) {
         fixed[offset + i] = static_cast<std::byte>((value >> (8 * i)) & 0xFFU);
       }
     };
-    put32(24, static_cast<std::uint32_t>(size - pbdam::kPatchBlobHeaderBytes));  // LZO size
+    put32(24,
+          static_cast<std::uint32_t>(size - pbdam::formats::kPatchBlobHeaderBytes));  // LZO size
     const std::span<const std::byte> all(fixed);
-    put32(28, pbdam::crc32(all.subspan(32), pbdam::crc32(all.first(28))));  // CRC-32
+    put32(28,
+          pbdam::formats::crc32(all.subspan(32), pbdam::formats::crc32(all.first(28))));  // CRC-32
     decodeAndVerify(fixed);
   }
   return 0;

@@ -26,7 +26,7 @@ inline ContextOptions lavapipeWithValidation(std::shared_ptr<ValidationLog> log)
 class GpuTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    Result<VulkanContext> created = VulkanContext::create(lavapipeWithValidation(log_));
+    formats::Result<VulkanContext> created = VulkanContext::create(lavapipeWithValidation(log_));
     ASSERT_TRUE(created.ok()) << "could not create a lavapipe Vulkan context with validation: "
                               << created.error().message;
     ASSERT_TRUE(created->deviceInfo().isLavapipe()) << describe(created->deviceInfo());

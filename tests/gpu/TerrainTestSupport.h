@@ -21,22 +21,23 @@ namespace pbdam::gpu::test {
 inline constexpr std::array<std::uint8_t, 3> kMagentaRgb = {255, 0, 255};
 
 /// Opens a test dataset directory; fails the test (returning null) when it does not open.
-inline std::unique_ptr<MappedDataset> openDataset(const std::filesystem::path& dir) {
-  auto opened = MappedDataset::open(dir);
+inline std::unique_ptr<streaming::MappedDataset> openDataset(const std::filesystem::path& dir) {
+  auto opened = streaming::MappedDataset::open(dir);
   EXPECT_TRUE(opened.ok()) << (opened.ok() ? "" : opened.error().message);
   return opened.ok() ? std::move(opened).value() : nullptr;
 }
 
-inline Camera cameraAt(const DatasetView& view, const CameraPose& pose, std::uint32_t width,
-                       std::uint32_t height, double fovDegrees = 60.0) {
-  Viewport viewport;
+inline runtime::Camera cameraAt(const runtime::DatasetView& view, const runtime::CameraPose& pose,
+                                std::uint32_t width, std::uint32_t height,
+                                double fovDegrees = 60.0) {
+  runtime::Viewport viewport;
   viewport.width = width;
   viewport.height = height;
   viewport.fovYDegrees = fovDegrees;
-  return Camera::fromPose(view.planet(), pose, viewport);
+  return runtime::Camera::fromPose(view.planet(), pose, viewport);
 }
 
-inline std::string describe(const CameraPose& p) {
+inline std::string describe(const runtime::CameraPose& p) {
   char text[160];
   std::snprintf(text, sizeof text, "camera %.4f,%.4f,%.0f,%.1f,%.1f,%.1f", p.latDegrees,
                 p.lonDegrees, p.altitudeMeters, p.headingDegrees, p.pitchDegrees, p.rollDegrees);
@@ -44,8 +45,8 @@ inline std::string describe(const CameraPose& p) {
 }
 
 /// The world-space ray through the centre of pixel (x, y) (y = 0 at the top).
-inline glm::dvec3 pixelRay(const Camera& camera, std::uint32_t x, std::uint32_t y) {
-  const Viewport& v = camera.viewport();
+inline glm::dvec3 pixelRay(const runtime::Camera& camera, std::uint32_t x, std::uint32_t y) {
+  const runtime::Viewport& v = camera.viewport();
   const double sx = (static_cast<double>(x) + 0.5 - 0.5 * static_cast<double>(v.width)) /
                     camera.pixelsPerRadian();
   const double sy = (static_cast<double>(y) + 0.5 - 0.5 * static_cast<double>(v.height)) /
@@ -72,7 +73,7 @@ struct SilhouetteCheck {
   std::uint32_t firstHoleY = 0;
 };
 
-inline SilhouetteCheck holesInsideSphere(const RgbaImage& image, const Camera& camera,
+inline SilhouetteCheck holesInsideSphere(const RgbaImage& image, const runtime::Camera& camera,
                                          double radius, std::array<std::uint8_t, 3> clear) {
   SilhouetteCheck check;
   for (std::uint32_t y = 0; y < image.heightPixels; ++y) {

@@ -18,6 +18,9 @@
 #include "pbdam/formats/Image.h"
 #include "pbdam/gpu/TerrainRenderer.h"
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
 namespace pbdam::gpu {
 namespace {
 

@@ -13,6 +13,8 @@
 #include <cstdint>
 #include <vector>
 
+using namespace pbdam::formats;
+
 namespace pbdam::gpu {
 namespace {
 

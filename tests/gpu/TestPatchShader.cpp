@@ -1,12 +1,12 @@
 // The patch vertex shader's arithmetic on lavapipe, checked bit for bit: every vertex of every
 // patch of real cuts (MOLA, ETOPO5; cameras from orbit down to 100 m, across face edges and
 // corners) is run through the shader's position code (patch_position.glsl, captured by
-// shaders/patch_capture.vert) and compared with pbdam::shaderVertexPosition, and vertices that
-// several patches share (the same lattice point) must get identical floats from every patch —
+// shaders/patch_capture.vert) and compared with pbdam::runtime::shaderVertexPosition, and vertices
+// that several patches share (the same lattice point) must get identical floats from every patch —
 // the property that makes the drawn surface crack-free (docs/architecture.md "Precision"). The same
 // run captures each vertex's tile texture coordinates (patch_texcoord.glsl) and compares them with
-// pbdam::shaderTexCoord, the CPU copy of that formula (not bit-exact: atan and inversesqrt are
-// the device's), within 1e-3 texel.
+// pbdam::runtime::shaderTexCoord, the CPU copy of that formula (not bit-exact: atan and inversesqrt
+// are the device's), within 1e-3 texel.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -28,6 +28,9 @@
 #include "pbdam/gpu/VulkanError.h"
 #include "pbdam/runtime/Bintree.h"
 #include "pbdam/runtime/PatchDraw.h"
+
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
 
 namespace pbdam::gpu {
 namespace {

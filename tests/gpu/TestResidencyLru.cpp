@@ -6,6 +6,8 @@
 
 #include "pbdam/gpu/ResidencyLru.h"
 
+using namespace pbdam::runtime;
+
 namespace pbdam::gpu {
 namespace {
 

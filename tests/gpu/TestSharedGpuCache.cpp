@@ -16,6 +16,9 @@
 #include "pbdam/gpu/GpuCache.h"
 #include "pbdam/gpu/TerrainRenderer.h"
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
 namespace pbdam::gpu {
 namespace {
 

@@ -21,6 +21,9 @@
 #include "pbdam/formats/Manifest.h"
 #include "pbdam/gpu/TerrainRenderer.h"
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
 namespace pbdam::gpu {
 namespace {
 

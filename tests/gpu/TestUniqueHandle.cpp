@@ -11,6 +11,8 @@
 #include <utility>
 #include <vector>
 
+using namespace pbdam::formats;
+
 namespace pbdam::gpu {
 namespace {
 

@@ -16,6 +16,8 @@
 #include <optional>
 #include <string>
 
+using namespace pbdam::formats;
+
 namespace pbdam::gpu {
 namespace {
 

@@ -20,21 +20,22 @@ namespace pbdam::test {
 /// Decodes patches on first use and keeps them.
 class PatchStore final {
  public:
-  explicit PatchStore(const DatasetView& view) : view_(view) {}
-  const PatchMesh& mesh(const NodeKey& key) {
+  explicit PatchStore(const runtime::DatasetView& view) : view_(view) {}
+  const formats::PatchMesh& mesh(const runtime::NodeKey& key) {
     const std::uint64_t id = (key.face * 2ull + key.tree) * view_.face(0).nodesPerTree() + key.heap;
     auto [it, inserted] = meshes_.try_emplace(id);
     if (inserted) {
-      const NodeRecord record = view_.node(key);
-      const auto decoded = decodePatch(view_.face(key.face).patchBlob(record), it->second, "test");
+      const formats::NodeRecord record = view_.node(key);
+      const auto decoded =
+          formats::decodePatch(view_.face(key.face).patchBlob(record), it->second, "test");
       EXPECT_TRUE(decoded.ok()) << (decoded.ok() ? "" : decoded.error().message);
     }
     return it->second;
   }
 
  private:
-  const DatasetView& view_;
-  std::map<std::uint64_t, PatchMesh> meshes_;
+  const runtime::DatasetView& view_;
+  std::map<std::uint64_t, formats::PatchMesh> meshes_;
 };
 
 }  // namespace pbdam::test

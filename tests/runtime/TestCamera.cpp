@@ -5,7 +5,9 @@
 
 #include "pbdam/runtime/Camera.h"
 
-namespace pbdam {
+using namespace pbdam::runtime;
+
+namespace pbdam::runtime {
 namespace {
 
 TEST(Camera, DefaultPoseLooksStraightDownWithNorthUp) {
@@ -67,4 +69,4 @@ TEST(Camera, ParsesAndValidatesPoses) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::runtime

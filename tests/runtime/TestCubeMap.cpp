@@ -12,7 +12,9 @@
 
 #include "pbdam/runtime/CubeMap.h"
 
-namespace pbdam {
+using namespace pbdam::runtime;
+
+namespace pbdam::runtime {
 namespace {
 
 constexpr std::array<CubeFace, 6> kFaces{CubeFace::PosX, CubeFace::PosY, CubeFace::NegX,
@@ -275,4 +277,4 @@ TEST(CubeMap, TangentAdjustmentGivesNearUniformCellAreas) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::runtime

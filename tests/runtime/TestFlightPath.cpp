@@ -7,7 +7,9 @@
 
 #include "pbdam/runtime/FlightPath.h"
 
-namespace pbdam {
+using namespace pbdam::runtime;
+
+namespace pbdam::runtime {
 namespace {
 
 TEST(FlightPath, GreatCircleHitsBothEndsAndFollowsTheGeodesic) {
@@ -58,4 +60,4 @@ TEST(FlightPath, RejectsBadParameters) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::runtime

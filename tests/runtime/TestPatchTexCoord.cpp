@@ -23,7 +23,9 @@
 #include "pbdam/runtime/PatchDraw.h"
 #include "pbdam/runtime/Planet.h"
 
-namespace pbdam {
+using namespace pbdam::runtime;
+
+namespace pbdam::runtime {
 namespace {
 
 // A paper-scale lattice (2^16 cells per face side) with 256-texel tiles: at level 8 a texel is
@@ -189,4 +191,4 @@ TEST(PatchTexCoord, TileCentreIsHalfAndScaleIsTheLatticeFormulaSlope) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::runtime

@@ -12,7 +12,10 @@
 
 #include "pbdam/runtime/Planet.h"
 
-namespace pbdam {
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
+namespace pbdam::runtime {
 namespace {
 
 constexpr double kWgs84A = 6378137.0;
@@ -303,4 +306,4 @@ TEST(Planet, StronglyFlattenedEllipsoidGeodesics) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::runtime

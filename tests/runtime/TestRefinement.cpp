@@ -16,7 +16,11 @@
 #include "pbdam/formats/DemReader.h"
 #include "pbdam/runtime/Camera.h"
 
-namespace pbdam {
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+using namespace pbdam::streaming;
+
+namespace pbdam::runtime {
 namespace {
 
 std::unique_ptr<MappedDataset> openDataset(const std::filesystem::path& dir) {
@@ -176,9 +180,9 @@ TEST(Refinement, EarthCutsAreWatertightForRandomCameras) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::runtime
 
-namespace pbdam {
+namespace pbdam::runtime {
 namespace {
 
 // The highest vertices of the leaves around (lat, lon), by distance from the planet centre.
@@ -302,4 +306,4 @@ TEST(Refinement, CutsAreDeterministicAndWithinTolerance) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::runtime

@@ -10,7 +10,11 @@
 #include "pbdam/runtime/SurfaceQuery.h"
 #include "pbdam/streaming/MappedDataset.h"
 
-namespace pbdam {
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+using namespace pbdam::streaming;
+
+namespace pbdam::runtime {
 namespace {
 
 void expectHeightsWithinStoredError(const std::filesystem::path& dir,
@@ -64,4 +68,4 @@ TEST(SurfaceQuery, RejectsOutOfRangePositions) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::runtime

@@ -10,7 +10,11 @@
 #include "pbdam/streaming/PageCache.h"
 #include "pbdam/streaming/Prefetcher.h"
 
-namespace pbdam {
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+using namespace pbdam::streaming;
+
+namespace pbdam::streaming {
 namespace {
 
 TEST(CameraPredictor, ExtrapolatesLinearMotion) {
@@ -110,4 +114,4 @@ TEST(Prefetcher, ConcurrentCameraUpdatesAndStop) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::streaming

@@ -33,18 +33,19 @@ inline double terrainMeters(double x, double y, unsigned seed) {
 
 // A leaf patch: the regular right-triangulated grid with legs of `cells` cells (a power of two),
 // (L+1)(L+2)/2 vertices and L^2 CCW triangles, heights in 1/64 m steps with DEM-like noise.
-inline PatchMesh gridPatch(unsigned cells, unsigned seed, double noiseMeters = 1.0) {
+inline formats::PatchMesh gridPatch(unsigned cells, unsigned seed, double noiseMeters = 1.0) {
   std::mt19937 rng(seed * 7 + 1);
   std::uniform_real_distribution<double> noise(-noiseMeters, noiseMeters);
-  PatchMesh mesh;
+  formats::PatchMesh mesh;
   std::vector<unsigned> id((cells + 1) * (cells + 1));
   for (unsigned j = 0; j <= cells; ++j) {
     for (unsigned i = 0; i + j <= cells; ++i) {
       id[j * (cells + 1) + i] = static_cast<unsigned>(mesh.vertices.size());
       const double h = terrainMeters(i / double(cells), j / double(cells), seed) + noise(rng);
-      mesh.vertices.push_back(PatchVertex{static_cast<std::uint16_t>(i * 32768U / cells),
-                                          static_cast<std::uint16_t>(j * 32768U / cells),
-                                          static_cast<std::int32_t>(std::lround(h * 64.0))});
+      mesh.vertices.push_back(
+          formats::PatchVertex{static_cast<std::uint16_t>(i * 32768U / cells),
+                               static_cast<std::uint16_t>(j * 32768U / cells),
+                               static_cast<std::int32_t>(std::lround(h * 64.0))});
     }
   }
   auto at = [&](unsigned i, unsigned j) {
@@ -63,8 +64,9 @@ inline PatchMesh gridPatch(unsigned cells, unsigned seed, double noiseMeters = 1
 
 // An upper-level-looking patch: a fine grid simplified by meshopt_simplify (quadric error) to
 // about `triangles` triangles, then optimised for rendering (~500 vertices for 1000 triangles).
-inline PatchMesh simplifiedPatch(unsigned fineCells, std::size_t triangles, unsigned seed) {
-  const PatchMesh fine = gridPatch(fineCells, seed, 0.5);
+inline formats::PatchMesh simplifiedPatch(unsigned fineCells, std::size_t triangles,
+                                          unsigned seed) {
+  const formats::PatchMesh fine = gridPatch(fineCells, seed, 0.5);
   std::vector<float> positions(fine.vertices.size() * 3);
   const double cellMeters = 400.0;
   for (std::size_t i = 0; i < fine.vertices.size(); ++i) {
@@ -77,10 +79,10 @@ inline PatchMesh simplifiedPatch(unsigned fineCells, std::size_t triangles, unsi
   const std::size_t count = meshopt_simplify(
       simplified.data(), fine.indices.data(), fine.indices.size(), positions.data(),
       fine.vertices.size(), 3 * sizeof(float), triangles * 3, 1.0f, 0, nullptr);
-  PatchMesh mesh;
+  formats::PatchMesh mesh;
   mesh.vertices = fine.vertices;
   mesh.indices.assign(simplified.begin(), simplified.begin() + static_cast<std::ptrdiff_t>(count));
-  optimizePatchForRendering(mesh);
+  formats::optimizePatchForRendering(mesh);
   return mesh;
 }
 

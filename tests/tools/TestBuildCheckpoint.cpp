@@ -14,6 +14,8 @@
 #include "pbdam/builder/Checkpoint.h"
 #include "pbdam/builder/Communicator.h"
 
+using namespace pbdam::formats;
+
 namespace pbdam::builder {
 namespace {
 

@@ -17,6 +17,9 @@
 #include "pbdam/formats/PatchCodec.h"
 #include "pbdam/formats/TextureTile.h"
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
 namespace pbdam::builder {
 namespace {
 

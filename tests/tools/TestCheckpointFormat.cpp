@@ -10,6 +10,9 @@
 
 #include "pbdam/builder/Checkpoint.h"
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
 namespace pbdam::builder {
 namespace {
 

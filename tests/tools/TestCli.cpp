@@ -18,7 +18,7 @@
 
 #include "TestData.h"
 
-namespace pbdam {
+namespace pbdam::tools {
 namespace {
 
 struct CliRun {
@@ -357,4 +357,4 @@ TEST(Cli, NoStallBenchNeverFaultsOnTheRenderThread) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::tools

@@ -22,7 +22,7 @@
 
 #include "TestData.h"
 
-namespace pbdam {
+namespace pbdam::tools {
 namespace {
 
 namespace fs = std::filesystem;
@@ -270,4 +270,4 @@ TEST(MpiBuild, ResumeRefusesACheckpointOfOtherOptions) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::tools

@@ -13,6 +13,9 @@
 #include "pbdam/builder/SampleGrid.h"
 #include "pbdam/runtime/Bintree.h"
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
 namespace pbdam::builder {
 namespace {
 

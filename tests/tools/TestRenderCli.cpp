@@ -15,7 +15,7 @@
 
 #include "TestData.h"
 
-namespace pbdam {
+namespace pbdam::tools {
 namespace {
 
 struct CliRun {
@@ -225,4 +225,4 @@ TEST(RenderCli, BadInputIsOneLineAndExitCode2) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::tools

@@ -30,7 +30,7 @@
 
 extern char** environ;
 
-namespace pbdam {
+namespace pbdam::tools {
 namespace {
 
 using namespace std::chrono_literals;
@@ -582,4 +582,4 @@ TEST(Serve, SigtermFinishesInFlightFramesAndExitsZero) {
 }
 
 }  // namespace
-}  // namespace pbdam
+}  // namespace pbdam::tools

@@ -16,6 +16,9 @@
 #include "pbdam/formats/DemReader.h"
 #include "pbdam/runtime/CubeMap.h"
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
 namespace pbdam::builder {
 namespace {
 

@@ -33,6 +33,10 @@
 #include "pbdam/streaming/PageCache.h"
 #include "pbdam/streaming/Prefetcher.h"
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+using namespace pbdam::streaming;
+
 namespace pbdam::tools {
 namespace {
 

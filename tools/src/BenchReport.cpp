@@ -11,6 +11,8 @@
 #include <numeric>
 #include <sstream>
 
+using namespace pbdam::formats;
+
 namespace pbdam::tools {
 namespace {
 

@@ -62,7 +62,8 @@ struct BenchSetup final {
 
 /// Writes frames.csv, summary.json and report.png into `dir` and returns the summary text
 /// printed by the command.
-Result<std::string> writeBenchReport(const std::filesystem::path& dir, const BenchSetup& setup,
-                                     const std::vector<BenchRun>& runs);
+formats::Result<std::string> writeBenchReport(const std::filesystem::path& dir,
+                                              const BenchSetup& setup,
+                                              const std::vector<BenchRun>& runs);
 
 }  // namespace pbdam::tools

@@ -17,6 +17,8 @@
 #include "Progress.h"
 #include "pbdam/builder/Builder.h"
 
+using namespace pbdam::formats;
+
 namespace pbdam::tools {
 namespace {
 

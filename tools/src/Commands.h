@@ -44,6 +44,6 @@ void addBenchCommand(CLI::App& app, CommandStatus& status);
 void addServeCommand(CLI::App& app, CommandStatus& status);
 
 /// Prints "pbdam: <message>" on stderr; returns the exit code for the error's kind.
-int reportError(const Error& error);
+int reportError(const formats::Error& error);
 
 }  // namespace pbdam::tools

@@ -17,6 +17,9 @@
 #include "pbdam/formats/Manifest.h"
 #include "pbdam/streaming/MappedFile.h"
 
+using namespace pbdam::formats;
+using namespace pbdam::streaming;
+
 namespace pbdam::tools {
 namespace {
 

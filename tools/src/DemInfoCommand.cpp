@@ -14,6 +14,8 @@
 #include "pbdam/formats/DemReader.h"
 #include "pbdam/formats/NumberList.h"
 
+using namespace pbdam::formats;
+
 namespace pbdam::tools {
 namespace {
 

@@ -4,6 +4,8 @@
 
 #include <cstdio>
 
+using namespace pbdam::formats;
+
 namespace pbdam::tools {
 
 void addRawGridOptions(CLI::App& command, RawGridOptions& options) {

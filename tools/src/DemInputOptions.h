@@ -35,7 +35,7 @@ void addRawGridOptions(CLI::App& command, RawGridOptions& options);
 
 /// The layout the options describe: nullopt when none was given; an error when only some of
 /// --raw-size, --raw-type and --bounds were given or one of them does not parse.
-Result<std::optional<RawLayout>> rawLayoutOf(const RawGridOptions& options);
+formats::Result<std::optional<formats::RawLayout>> rawLayoutOf(const RawGridOptions& options);
 
 /// Prints a note on stderr when `demPath` names an image that will be read through the PDS
 /// label beside it (pdsLabelFor), naming the label.

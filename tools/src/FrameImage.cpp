@@ -9,6 +9,8 @@
 #include <string>
 #include <system_error>
 
+using namespace pbdam::formats;
+
 namespace pbdam::tools {
 
 bool isExrPath(const std::filesystem::path& path) {

@@ -17,7 +17,8 @@ bool isExrPath(const std::filesystem::path& path);
 /// Writes the RGB channels of `image` (top row first) to `path`: PNG (8-bit, compression level
 /// 1) or, for .exr, half-float EXR with values 0..1. Written under a temporary name and renamed,
 /// so an interrupted run never leaves a truncated frame. IoError naming the file on failure.
-Result<void> writeFrameImage(const std::filesystem::path& path, const gpu::RgbaImage& image);
+formats::Result<void> writeFrameImage(const std::filesystem::path& path,
+                                      const gpu::RgbaImage& image);
 
 /// In-memory image encodings (`pbdam serve`).
 enum class FrameEncoding { Png, Jpeg };
@@ -25,7 +26,8 @@ enum class FrameEncoding { Png, Jpeg };
 /// Encodes the RGB channels of `image` in memory: PNG with the settings writeFrameImage uses
 /// (the same bytes as the file it writes), or baseline JPEG at `jpegQuality` (1..100). Internal
 /// error when the encoder fails.
-Result<std::vector<unsigned char>> encodeFrameImage(const gpu::RgbaImage& image,
-                                                    FrameEncoding encoding, int jpegQuality = 90);
+formats::Result<std::vector<unsigned char>> encodeFrameImage(const gpu::RgbaImage& image,
+                                                             FrameEncoding encoding,
+                                                             int jpegQuality = 90);
 
 }  // namespace pbdam::tools

@@ -14,6 +14,10 @@
 #include "pbdam/runtime/SurfaceQuery.h"
 #include "pbdam/streaming/MappedDataset.h"
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+using namespace pbdam::streaming;
+
 namespace pbdam::tools {
 namespace {
 

@@ -11,7 +11,7 @@ namespace pbdam::tools {
 
 /// {lat, lon, height_m, error_m, measured_error_m, planet, face, tree, node}.
 inline nlohmann::ordered_json surfaceHeightJson(double latDegrees, double lonDegrees,
-                                                const SurfaceHeight& h,
+                                                const runtime::SurfaceHeight& h,
                                                 const std::string& planetSpec) {
   nlohmann::ordered_json j;
   j["lat"] = latDegrees;

@@ -9,6 +9,8 @@
 #include <cstring>
 #include <filesystem>
 
+using namespace pbdam::formats;
+
 namespace pbdam::tools {
 
 bool launchedByMpi() noexcept {

@@ -31,6 +31,6 @@ struct MpiJob final {
     if (communicator != nullptr && disconnect != nullptr) disconnect(communicator);
   }
 };
-Result<std::unique_ptr<MpiJob>> joinMpiJob();
+formats::Result<std::unique_ptr<MpiJob>> joinMpiJob();
 
 }  // namespace pbdam::tools

@@ -10,6 +10,9 @@
 #include "pbdam/formats/NumberList.h"
 #include "pbdam/runtime/FlightPath.h"
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
 namespace pbdam::tools {
 namespace {
 

@@ -32,6 +32,10 @@
 
 extern char** environ;
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+using namespace pbdam::streaming;
+
 namespace pbdam::tools {
 namespace {
 

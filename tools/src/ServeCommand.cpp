@@ -16,6 +16,8 @@
 #include "Commands.h"
 #include "ServeServer.h"
 
+using namespace pbdam::formats;
+
 namespace pbdam::tools {
 namespace {
 

@@ -8,6 +8,10 @@
 
 #include "pbdam/runtime/Refinement.h"
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+using namespace pbdam::streaming;
+
 namespace pbdam::tools {
 namespace {
 

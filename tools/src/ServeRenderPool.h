@@ -26,8 +26,8 @@ namespace pbdam::tools {
 
 /// One exact-mode frame to draw.
 struct FrameRequest final {
-  CameraPose pose;
-  Viewport viewport;
+  runtime::CameraPose pose;
+  runtime::Viewport viewport;
   double tolerancePixels = 3.0;
 };
 
@@ -51,7 +51,7 @@ enum class FrameRefusal {
 /// What RenderPool::render gives back: a frame, a refusal, or the renderer's error.
 struct FrameOutcome final {
   FrameRefusal refusal = FrameRefusal::None;
-  std::optional<Result<FrameResult>> frame;  ///< set when refusal == None
+  std::optional<formats::Result<FrameResult>> frame;  ///< set when refusal == None
 };
 
 /// Figures for GET /stats.
@@ -90,8 +90,8 @@ class RenderPool final {
   /// Creates the Vulkan context, the shared GPU cache and the workers' renderers; `dataset` must
   /// outlive the pool. InvalidArgument when the budget is below the cache's minimum (the
   /// message names both), DeviceError for Vulkan failures.
-  static Result<std::unique_ptr<RenderPool>> create(const MappedDataset& dataset,
-                                                    const RenderPoolOptions& options);
+  static formats::Result<std::unique_ptr<RenderPool>> create(
+      const streaming::MappedDataset& dataset, const RenderPoolOptions& options);
 
   RenderPool(const RenderPool&) = delete;
   RenderPool& operator=(const RenderPool&) = delete;
@@ -112,10 +112,10 @@ class RenderPool final {
 
  private:
   struct Job;
-  RenderPool(const MappedDataset& dataset, const RenderPoolOptions& options);
+  RenderPool(const streaming::MappedDataset& dataset, const RenderPoolOptions& options);
   void workerLoop(std::uint32_t index);
 
-  const MappedDataset& dataset_;
+  const streaming::MappedDataset& dataset_;
   RenderPoolOptions options_;
   std::string deviceName_;
   std::optional<gpu::VulkanContext> context_;

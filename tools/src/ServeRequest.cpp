@@ -9,6 +9,9 @@
 #include <optional>
 #include <string_view>
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
 namespace pbdam::tools {
 namespace {
 

@@ -41,13 +41,14 @@ struct HeightQuery final {
 /// naming the parameter for anything missing, unknown, repeated, not a finite number, or out of
 /// range (width/height 1..4096, fov (0, 179), tolerance 0.5..1000, the camera as
 /// validateCameraPose on `planet`, heading/roll within ±360).
-Result<FrameQuery> parseFrameQuery(const QueryParams& params, const Planet& planet);
+formats::Result<FrameQuery> parseFrameQuery(const QueryParams& params,
+                                            const runtime::Planet& planet);
 
 /// Parses lat (±90) and lon (±360), both required; nothing else is accepted.
-Result<HeightQuery> parseHeightQuery(const QueryParams& params);
+formats::Result<HeightQuery> parseHeightQuery(const QueryParams& params);
 
 /// InvalidArgument naming the first parameter when `params` is not empty (endpoints that take
 /// none).
-Result<void> expectNoParams(const QueryParams& params);
+formats::Result<void> expectNoParams(const QueryParams& params);
 
 }  // namespace pbdam::tools

@@ -29,18 +29,18 @@ class FrameServer final {
  public:
   /// Maps the dataset at `directory` and creates the render contexts. Errors as
   /// MappedDataset::open and RenderPool::create.
-  static Result<std::unique_ptr<FrameServer>> create(const std::string& directory,
-                                                     const ServeOptions& options);
+  static formats::Result<std::unique_ptr<FrameServer>> create(const std::string& directory,
+                                                              const ServeOptions& options);
   ~FrameServer();
   FrameServer(const FrameServer&) = delete;
   FrameServer& operator=(const FrameServer&) = delete;
 
   /// Binds the listening socket; returns the port (the chosen one for port 0). IoError naming
   /// the address when it cannot be bound.
-  Result<int> bind();
+  formats::Result<int> bind();
   /// Serves until stop(): returns once the listener is closed and every accepted connection
   /// has been answered (in-flight frames are finished, not dropped).
-  Result<void> run();
+  formats::Result<void> run();
   /// Stops accepting connections; run() then returns after the in-flight requests. Safe from
   /// any thread, any number of times.
   void stop();

@@ -13,6 +13,9 @@
 #include "pbdam/formats/Manifest.h"
 #include "pbdam/formats/PatchCodec.h"
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
 namespace pbdam::builder {
 namespace {
 

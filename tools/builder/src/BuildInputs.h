@@ -20,10 +20,10 @@ namespace pbdam::builder {
 
 /// Everything every rank prepares identically before the distributed work.
 struct BuildInputs final {
-  std::optional<Planet> planet;
-  std::optional<HeightGrid> dem;  ///< released between resampling and the textures
-  GridSource demSource;
-  std::optional<GeoImage> imagery;
+  std::optional<runtime::Planet> planet;
+  std::optional<formats::HeightGrid> dem;  ///< released between resampling and the textures
+  formats::GridSource demSource;
+  std::optional<formats::GeoImage> imagery;
   std::uint32_t leafCells = 0;
   std::uint32_t depth = 0;
   std::uint32_t n = 0;  ///< lattice cells per face side
@@ -32,14 +32,14 @@ struct BuildInputs final {
 /// How the builder reads the DEM: a large one goes to an unnamed scratch file on the output's
 /// filesystem (the nearest existing directory of --out) and is mapped, so it is not held in
 /// memory (DemReader.h; the ResidentTrimmer drops its pages).
-DemReadOptions demReadOptions(const BuildOptions& o);
+formats::DemReadOptions demReadOptions(const BuildOptions& o);
 
 /// Checks the options, reads the DEM (and imagery) and sizes the lattice. Errors: bad options
 /// (naming the option), unreadable inputs, an output directory that holds a dataset.
-Result<BuildInputs> prepareInputs(const BuildOptions& o);
+formats::Result<BuildInputs> prepareInputs(const BuildOptions& o);
 
 /// The DEM's identity in the fingerprint: the CRC-32 of its heights, in hex.
-std::string demCrc32(const HeightGrid& dem);
+std::string demCrc32(const formats::HeightGrid& dem);
 
 /// The options and inputs that decide the output bytes (the checkpoint's fingerprint). Thread
 /// and rank counts are not among them: they do not change the output.

@@ -46,6 +46,8 @@
 #include "pbdam/formats/PatchCodec.h"
 #include "pbdam/runtime/Planet.h"
 
+using namespace pbdam::formats;
+
 namespace pbdam::builder {
 
 std::string LocalCommunicator::hostName() const {

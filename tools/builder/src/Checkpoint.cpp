@@ -15,6 +15,10 @@
 
 #include "pbdam/formats/Checksum.h"
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+using namespace pbdam::streaming;
+
 namespace pbdam::builder {
 namespace {
 

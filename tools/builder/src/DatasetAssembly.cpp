@@ -12,6 +12,9 @@
 #include "pbdam/formats/DatasetFormat.h"
 #include "pbdam/formats/Manifest.h"
 
+using namespace pbdam::formats;
+using namespace pbdam::streaming;
+
 namespace pbdam::builder {
 
 std::uint32_t textureLevelCount(std::uint32_t latticeCells, std::uint32_t tileTexels,

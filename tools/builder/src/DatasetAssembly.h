@@ -28,7 +28,7 @@ inline constexpr std::uint32_t kTextureBorderTexels = 2;
 /// Mappings that the ResidentTrimmer releases while the assembly walks them. Thread-safe.
 class AssemblyMappings final {
  public:
-  void add(const MappedFile* mapping) {
+  void add(const streaming::MappedFile* mapping) {
     std::lock_guard lock(mutex_);
     mappings_.push_back(mapping);
   }
@@ -38,12 +38,12 @@ class AssemblyMappings final {
   }
   void releaseResident() const {
     std::lock_guard lock(mutex_);
-    for (const MappedFile* m : mappings_) (void)m->releaseResident();
+    for (const streaming::MappedFile* m : mappings_) (void)m->releaseResident();
   }
 
  private:
   mutable std::mutex mutex_;
-  std::vector<const MappedFile*> mappings_;
+  std::vector<const streaming::MappedFile*> mappings_;
 };
 
 /// What the assembly needs from the build.
@@ -51,7 +51,7 @@ struct AssemblyInputs final {
   const BuildOptions& options;
   const Checkpoint& checkpoint;
   const CheckpointState& state;  ///< the part counts of the levels and the textures
-  const Planet& planet;
+  const runtime::Planet& planet;
   std::uint32_t latticeCells = 0;
   std::uint32_t leafCells = 0;
   std::uint32_t depth = 0;
@@ -68,6 +68,6 @@ struct AssemblyInputs final {
 /// Writes the face files and the manifest from the checkpoint, fills the dataset's figures in
 /// `summary` (its sourceSamples must be set), and removes the checkpoint. Errors: a damaged or
 /// incomplete checkpoint, a failed write.
-Result<void> assembleDataset(const AssemblyInputs& inputs, BuildSummary& summary);
+formats::Result<void> assembleDataset(const AssemblyInputs& inputs, BuildSummary& summary);
 
 }  // namespace pbdam::builder

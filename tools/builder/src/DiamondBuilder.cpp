@@ -11,6 +11,9 @@
 #include "pbdam/formats/DatasetFormat.h"
 #include "pbdam/formats/PatchCodec.h"
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
 namespace pbdam::builder {
 namespace {
 

@@ -54,18 +54,19 @@ class DiamondBuilder final {
 
   bool failed() const noexcept { return failed_; }
   /// The first failure; only meaningful once failed() and no build() runs.
-  const Error& failure() const noexcept { return failure_; }
+  const formats::Error& failure() const noexcept { return failure_; }
   std::uint64_t simplifyRetries() const noexcept { return retries_; }
   std::uint64_t halvesKeptUnsimplified() const noexcept { return unsimplified_; }
 
  private:
   struct Node;
   struct Saturated;
-  void noteFailure(Error error);
-  bool makeNode(const BinTriangle& t, const WorkPatch& patch, Node& node);
-  bool readChildren(const std::array<BinTriangle, 2>& tri, std::array<Saturated, 4>& saturated,
+  void noteFailure(formats::Error error);
+  bool makeNode(const runtime::BinTriangle& t, const WorkPatch& patch, Node& node);
+  bool readChildren(const std::array<runtime::BinTriangle, 2>& tri,
+                    std::array<Saturated, 4>& saturated,
                     std::array<std::array<WorkPatch, 2>, 2>& children);
-  bool makeNodes(const std::array<BinTriangle, 2>& tri, std::array<Node, 2>& nodes,
+  bool makeNodes(const std::array<runtime::BinTriangle, 2>& tri, std::array<Node, 2>& nodes,
                  std::array<WorkPatch, 2>& made, std::array<Saturated, 4>& childSaturated);
   Saturated saturate(const std::array<Node, 2>& nodes,
                      const std::array<Saturated, 4>& childSaturated) const;
@@ -75,7 +76,7 @@ class DiamondBuilder final {
   DiamondLevel level_;
   std::mutex failureMutex_;
   std::atomic<bool> failed_{false};
-  Error failure_;
+  formats::Error failure_;
   std::atomic<std::uint64_t> retries_{0};
   std::atomic<std::uint64_t> unsimplified_{0};
 };

@@ -11,7 +11,7 @@
 
 namespace pbdam::builder {
 
-inline std::uint64_t packXY(LatticeXY p) noexcept {
+inline std::uint64_t packXY(runtime::LatticeXY p) noexcept {
   return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(p.x)) << 32) |
          static_cast<std::uint32_t>(p.y);
 }
@@ -19,7 +19,7 @@ inline std::uint64_t packXY(LatticeXY p) noexcept {
 /// A patch under construction with a point → index lookup (open addressing with linear
 /// probing; points are numbered in first-use order, so the result does not depend on the table).
 struct IndexedPatch final {
-  std::vector<LatticeXY> points;
+  std::vector<runtime::LatticeXY> points;
   std::vector<std::uint32_t> indices;
 
   explicit IndexedPatch(std::size_t expectedPoints = 64) {
@@ -28,7 +28,7 @@ struct IndexedPatch final {
     slots_.assign(capacity, kEmpty);
   }
 
-  std::uint32_t add(LatticeXY p) {
+  std::uint32_t add(runtime::LatticeXY p) {
     const std::uint64_t key = packXY(p);
     const std::size_t mask = slots_.size() - 1;
     // A multiplicative hash of the packed point (Fibonacci hashing); the top bits pick the slot.
@@ -44,7 +44,7 @@ struct IndexedPatch final {
     return index;
   }
   /// Adds a triangle, wound counter-clockwise in (u,v).
-  void addTriangle(LatticeXY a, LatticeXY b, LatticeXY c) {
+  void addTriangle(runtime::LatticeXY a, runtime::LatticeXY b, runtime::LatticeXY c) {
     if (doubleArea(a, b, c) < 0) std::swap(b, c);
     indices.push_back(add(a));
     indices.push_back(add(b));
@@ -67,6 +67,7 @@ struct IndexedPatch final {
 };
 
 /// Drops unreferenced points and renumbers (first-use order keeps it deterministic).
-WorkPatch compact(const std::vector<LatticeXY>& points, const std::vector<std::uint32_t>& indices);
+WorkPatch compact(const std::vector<runtime::LatticeXY>& points,
+                  const std::vector<std::uint32_t>& indices);
 
 }  // namespace pbdam::builder

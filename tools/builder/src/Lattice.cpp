@@ -7,6 +7,8 @@
 #include <bit>
 #include <cassert>
 
+using namespace pbdam::runtime;
+
 namespace pbdam::builder {
 
 BinTriangle Lattice::root(int face, int tree) const noexcept {

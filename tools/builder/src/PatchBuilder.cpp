@@ -7,6 +7,8 @@
 
 #include "IndexedPatch.h"
 
+using namespace pbdam::runtime;
+
 namespace pbdam::builder {
 
 WorkPatch compact(const std::vector<LatticeXY>& points, const std::vector<std::uint32_t>& indices) {

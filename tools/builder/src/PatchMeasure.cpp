@@ -12,6 +12,9 @@
 #include "pbdam/builder/PatchBuilder.h"
 #include "pbdam/runtime/CubeMap.h"
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
 namespace pbdam::builder {
 
 namespace {

@@ -15,6 +15,8 @@
 #include "IndexedPatch.h"
 #include "pbdam/builder/PatchBuilder.h"
 
+using namespace pbdam::runtime;
+
 namespace pbdam::builder {
 namespace {
 

@@ -18,6 +18,10 @@
 #include <limits>
 #include <mutex>
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+using namespace pbdam::streaming;
+
 namespace pbdam::builder {
 
 static_assert(sizeof(SourceSample) == 12, "bucket files store SourceSample as three floats");

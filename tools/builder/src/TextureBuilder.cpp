@@ -15,6 +15,9 @@
 
 #include "pbdam/runtime/CubeMap.h"
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
 namespace pbdam::builder {
 namespace {
 

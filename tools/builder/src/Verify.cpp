@@ -26,6 +26,10 @@
 #include "pbdam/runtime/Planet.h"
 #include "pbdam/streaming/MappedFile.h"
 
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+using namespace pbdam::streaming;
+
 namespace pbdam::builder {
 namespace {
 

@@ -12,7 +12,7 @@
 
 #include "pbdam/formats/Result.h"
 
-namespace pbdam {
+namespace pbdam::formats {
 
 /// One row of a camera path.
 struct CameraPathPoint final {
@@ -49,4 +49,4 @@ std::string formatCameraPath(const std::vector<CameraPathPoint>& points);
 Result<void> writeCameraPath(const std::filesystem::path& path,
                              const std::vector<CameraPathPoint>& points);
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

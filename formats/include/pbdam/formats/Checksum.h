@@ -6,9 +6,9 @@
 #include <cstdint>
 #include <span>
 
-namespace pbdam {
+namespace pbdam::formats {
 
 /// CRC-32 of `bytes`, continuing from `crc` (0 to start).
 std::uint32_t crc32(std::span<const std::byte> bytes, std::uint32_t crc = 0) noexcept;
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

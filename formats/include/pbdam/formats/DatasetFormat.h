@@ -16,7 +16,7 @@
 
 #include "pbdam/formats/Result.h"
 
-namespace pbdam {
+namespace pbdam::formats {
 
 inline constexpr std::uint32_t kDatasetFormatVersion = 1;
 inline constexpr std::size_t kFaceHeaderBytes = 128;
@@ -118,4 +118,4 @@ inline std::uint64_t textureHeapIndex(std::uint32_t level, std::uint32_t qi,
          qi;
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

@@ -15,7 +15,7 @@
 #include "pbdam/formats/HeightGrid.h"
 #include "pbdam/formats/Result.h"
 
-namespace pbdam {
+namespace pbdam::formats {
 
 /// Sample types of raw grids.
 enum class RawSampleType { UInt8, Int16, UInt16, Int32, UInt32, Float32, Float64 };
@@ -64,4 +64,4 @@ std::optional<std::filesystem::path> pdsLabelFor(const std::filesystem::path& im
 /// inconsistent file, a CRS that cannot be made geographic, or georeferencing beyond the poles.
 Result<HeightGrid> readDem(const std::filesystem::path& path, const DemReadOptions& options = {});
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

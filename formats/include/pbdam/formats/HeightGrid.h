@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-namespace pbdam {
+namespace pbdam::formats {
 
 /// Where the samples of a grid sit. Row 0 is the northernmost row; rows go south, columns east.
 /// Sample (row, col) has its centre at (firstLatDegrees − row·latSpacingDegrees,
@@ -152,4 +152,4 @@ class HeightGrid final {
   std::optional<float> poleSouthMeters_;
 };
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

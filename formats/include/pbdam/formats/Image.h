@@ -14,7 +14,7 @@
 #include "pbdam/formats/HeightGrid.h"
 #include "pbdam/formats/Result.h"
 
-namespace pbdam {
+namespace pbdam::formats {
 
 /// An RGBA8 image covering `bounds` in equirectangular projection, row 0 at the north edge.
 class GeoImage final {
@@ -50,4 +50,4 @@ class GeoImage final {
 /// expanded, alpha defaults to 255. Errors name the file: missing, unreadable, truncated.
 Result<GeoImage> readImage(const std::filesystem::path& path);
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

@@ -11,7 +11,7 @@
 
 #include "pbdam/formats/Result.h"
 
-namespace pbdam {
+namespace pbdam::formats {
 
 inline constexpr std::string_view kManifestFileName = "manifest.json";
 inline constexpr std::string_view kManifestFormatName = "pbdam-dataset";
@@ -58,4 +58,4 @@ Result<Manifest> parseManifest(std::string_view json, std::string_view context);
 /// Reads DIR/manifest.json; NotFound when the directory has none (an incomplete dataset).
 Result<Manifest> readManifest(const std::filesystem::path& datasetDir);
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

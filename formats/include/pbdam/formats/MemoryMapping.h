@@ -13,7 +13,7 @@
 
 #include "pbdam/formats/Result.h"
 
-namespace pbdam {
+namespace pbdam::formats {
 
 /// The access pattern the kernel should assume for a mapping.
 enum class MappingAdvice { Normal, Random, Sequential };
@@ -102,4 +102,4 @@ class MemoryMapping final {
 /// would be zeroed). Safe to call from any thread.
 void dropMappedPages(const void* data, std::size_t bytes) noexcept;
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

@@ -6,10 +6,10 @@
 #include <string_view>
 #include <vector>
 
-namespace pbdam {
+namespace pbdam::formats {
 
 /// Parses `text` as exactly `count` comma-separated finite decimal numbers (no spaces, no
 /// trailing characters). Returns false and leaves `out` unspecified on any deviation.
 bool parseNumberList(std::string_view text, std::size_t count, std::vector<double>& out);
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

@@ -11,7 +11,7 @@
 
 #include "pbdam/formats/Result.h"
 
-namespace pbdam {
+namespace pbdam::formats {
 
 /// One patch vertex (docs/builder.md, "Patches"): barycentric coordinates relative to the node's
 /// corners P1 (b1) and P2 (b2) in units of 2^-15, and the displacement along the interpolated
@@ -89,4 +89,4 @@ struct PatchBlobInfo final {
 /// `pbdam info`. Errors as for decodePatch.
 Result<PatchBlobInfo> inspectPatchBlob(std::span<const std::byte> blob, std::string_view context);
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

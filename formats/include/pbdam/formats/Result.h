@@ -7,7 +7,7 @@
 #include <utility>
 #include <variant>
 
-namespace pbdam {
+namespace pbdam::formats {
 
 /// What went wrong, coarsely, so callers can map it to an exit code or an HTTP status.
 enum class ErrorCode {
@@ -98,4 +98,4 @@ inline Error makeError(ErrorCode code, std::string message) {
   return Error{code, std::move(message)};
 }
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

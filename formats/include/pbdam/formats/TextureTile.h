@@ -13,7 +13,7 @@
 
 #include "pbdam/formats/Result.h"
 
-namespace pbdam {
+namespace pbdam::formats {
 
 /// How a tile's texels are stored. The numeric values are written to disk.
 enum class TexelFormat : std::uint8_t {
@@ -84,4 +84,4 @@ Result<TextureTileImage> compressBc1(const TextureTileImage& rgba,
 /// tile is returned unchanged. InvalidArgument when the data length does not match the size.
 Result<TextureTileImage> expandToRgba8(const TextureTileImage& tile);
 
-}  // namespace pbdam
+}  // namespace pbdam::formats

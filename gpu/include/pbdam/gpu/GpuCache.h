@@ -48,13 +48,14 @@ class GpuCache final {
   /// Errors: InvalidArgument for a budget below minimumBytes (the message names both),
   /// CorruptData for a dataset without drawable patches or with an invalid tile size,
   /// DeviceError for Vulkan failures.
-  static Result<std::shared_ptr<GpuCache>> create(VulkanContext& context,
-                                                  const DatasetView& dataset,
-                                                  const GpuCacheOptions& options);
+  static formats::Result<std::shared_ptr<GpuCache>> create(VulkanContext& context,
+                                                           const runtime::DatasetView& dataset,
+                                                           const GpuCacheOptions& options);
 
   /// The smallest budget that can draw any frame: one patch slot plus one tile slot, for the
   /// texel format a cache would use on `context`'s device.
-  static std::uint64_t minimumBytes(const VulkanContext& context, const DatasetView& dataset,
+  static std::uint64_t minimumBytes(const VulkanContext& context,
+                                    const runtime::DatasetView& dataset,
                                     bool forceRgba8Textures = false);
 
   GpuCache(const GpuCache&) = delete;

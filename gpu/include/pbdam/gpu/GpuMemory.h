@@ -55,13 +55,13 @@ class GpuBuffer final {
   bool hostCoherent() const noexcept { return hostCoherent_; }
   /// Makes GPU writes visible to the host (vkInvalidateMappedMemoryRanges; no-op if coherent).
   /// Call after the GPU work and its host-visibility barrier have completed.
-  Result<void> invalidateForHostRead() const;
+  formats::Result<void> invalidateForHostRead() const;
   /// Makes host writes visible to the GPU (vkFlushMappedMemoryRanges; no-op if coherent).
-  Result<void> flushHostWrites() const;
+  formats::Result<void> flushHostWrites() const;
 
  private:
-  friend Result<GpuBuffer> createBuffer(const VulkanContext&, VkDeviceSize, VkBufferUsageFlags,
-                                        MemoryUse, const std::string&);
+  friend formats::Result<GpuBuffer> createBuffer(const VulkanContext&, VkDeviceSize,
+                                                 VkBufferUsageFlags, MemoryUse, const std::string&);
   void swap(GpuBuffer& other) noexcept;
 
   UniqueDeviceMemory memory_;  // declared first: destroyed last
@@ -74,9 +74,9 @@ class GpuBuffer final {
 /// Creates a buffer of `sizeBytes` with `usage`, allocates memory for `use`, binds it and maps
 /// it if host-visible. `debugName` names the buffer in messages. Errors: DeviceError (memory
 /// type missing, allocation failure, ...), InvalidArgument for a zero size.
-Result<GpuBuffer> createBuffer(const VulkanContext& context, VkDeviceSize sizeBytes,
-                               VkBufferUsageFlags usage, MemoryUse use,
-                               const std::string& debugName);
+formats::Result<GpuBuffer> createBuffer(const VulkanContext& context, VkDeviceSize sizeBytes,
+                                        VkBufferUsageFlags usage, MemoryUse use,
+                                        const std::string& debugName);
 
 /// What createImage2D makes: a single-mip, optimal-tiling 2D image, or a 2D array of
 /// `arrayLayers` layers (viewed as VK_IMAGE_VIEW_TYPE_2D_ARRAY when `arrayView` is set).
@@ -109,7 +109,8 @@ class GpuImage final {
   explicit operator bool() const noexcept { return static_cast<bool>(image_); }
 
  private:
-  friend Result<GpuImage> createImage2D(const VulkanContext&, const ImageDesc&, const std::string&);
+  friend formats::Result<GpuImage> createImage2D(const VulkanContext&, const ImageDesc&,
+                                                 const std::string&);
   void swap(GpuImage& other) noexcept;
 
   UniqueDeviceMemory memory_;
@@ -121,7 +122,7 @@ class GpuImage final {
 /// Creates the image described by `desc` in device-local memory, and its view of all layers.
 /// Errors: InvalidArgument for a zero or too-large size or layer count, DeviceError for Vulkan
 /// failures (including a format the device cannot use this way, VK_ERROR_FORMAT_NOT_SUPPORTED).
-Result<GpuImage> createImage2D(const VulkanContext& context, const ImageDesc& desc,
-                               const std::string& debugName);
+formats::Result<GpuImage> createImage2D(const VulkanContext& context, const ImageDesc& desc,
+                                        const std::string& debugName);
 
 }  // namespace pbdam::gpu

@@ -33,8 +33,8 @@ class OffscreenTarget final {
 
   /// Creates the images and the staging buffer. Errors: InvalidArgument for a zero or
   /// too-large size, DeviceError for Vulkan failures.
-  static Result<OffscreenTarget> create(const VulkanContext& context, uint32_t widthPixels,
-                                        uint32_t heightPixels);
+  static formats::Result<OffscreenTarget> create(const VulkanContext& context, uint32_t widthPixels,
+                                                 uint32_t heightPixels);
 
   OffscreenTarget() noexcept = default;
   OffscreenTarget(OffscreenTarget&&) noexcept = default;
@@ -73,12 +73,12 @@ class OffscreenTarget final {
 
   /// The staging buffer's pixels. Valid once the work recorded by recordEndRenderingAndReadback
   /// has completed (its fence signalled).
-  Result<RgbaImage> readPixels() const;
+  formats::Result<RgbaImage> readPixels() const;
 
   /// Convenience: records begin, `draw(cmd)`, end + readback; submits with
   /// context.submitAndWait() and returns the pixels.
-  Result<RgbaImage> render(VulkanContext& context, const std::array<float, 4>& clearRgba,
-                           const std::function<void(VkCommandBuffer)>& draw) const;
+  formats::Result<RgbaImage> render(VulkanContext& context, const std::array<float, 4>& clearRgba,
+                                    const std::function<void(VkCommandBuffer)>& draw) const;
 
  private:
   void beginRendering(VkCommandBuffer cmd, VkAttachmentLoadOp loadOp,

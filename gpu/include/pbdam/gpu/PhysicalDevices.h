@@ -43,11 +43,11 @@ std::string describe(const PhysicalDeviceInfo& info);
 PhysicalDeviceInfo queryPhysicalDeviceInfo(VkPhysicalDevice device, uint32_t index);
 
 /// The physical devices of `instance`, in enumeration order. Thread-safe.
-Result<std::vector<PhysicalDeviceInfo>> listPhysicalDevices(VkInstance instance);
+formats::Result<std::vector<PhysicalDeviceInfo>> listPhysicalDevices(VkInstance instance);
 
 /// Creates a short-lived headless instance (no layers, no window-system extensions) and lists
 /// its physical devices: what `pbdam devices` prints. Errors with ErrorCode::DeviceError when
 /// no Vulkan driver is installed. Thread-safe.
-Result<std::vector<PhysicalDeviceInfo>> listPhysicalDevices();
+formats::Result<std::vector<PhysicalDeviceInfo>> listPhysicalDevices();
 
 }  // namespace pbdam::gpu

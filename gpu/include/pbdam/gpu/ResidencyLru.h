@@ -28,10 +28,10 @@ enum class ResidentKind : std::uint8_t {
 struct ResidentKey final {
   std::uint64_t packed = 0;
 
-  static ResidentKey patch(const NodeKey& key) noexcept {
+  static ResidentKey patch(const runtime::NodeKey& key) noexcept {
     return {(std::uint64_t{key.face} << 60) | (std::uint64_t{key.tree} << 59) | key.heap};
   }
-  static ResidentKey tile(const TileKey& key) noexcept {
+  static ResidentKey tile(const runtime::TileKey& key) noexcept {
     return {(std::uint64_t{1} << 63) | (std::uint64_t{key.face} << 60) | key.heap};
   }
   ResidentKind kind() const noexcept {

@@ -15,7 +15,8 @@ namespace pbdam::gpu {
 /// Creates a shader module from `spirvWords` (a whole SPIR-V module). `name` appears in error
 /// messages. Errors: InvalidArgument for an empty or non-SPIR-V array, DeviceError otherwise.
 /// Thread-safe (as vkCreateShaderModule).
-Result<UniqueShaderModule> createShaderModule(VkDevice device, std::span<const uint32_t> spirvWords,
-                                              std::string_view name);
+formats::Result<UniqueShaderModule> createShaderModule(VkDevice device,
+                                                       std::span<const uint32_t> spirvWords,
+                                                       std::string_view name);
 
 }  // namespace pbdam::gpu

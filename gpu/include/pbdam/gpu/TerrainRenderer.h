@@ -96,17 +96,19 @@ class TerrainRenderer final {
   /// GpuCache. Errors: InvalidArgument for a zero or too-large image size, a budget below
   /// minimumCacheBytes (the message names both), or a shared cache made for another context or
   /// dataset; DeviceError for Vulkan failures.
-  static Result<TerrainRenderer> create(VulkanContext& context, const DatasetView& dataset,
-                                        const TerrainRendererOptions& options);
+  static formats::Result<TerrainRenderer> create(VulkanContext& context,
+                                                 const runtime::DatasetView& dataset,
+                                                 const TerrainRendererOptions& options);
 
   /// The smallest budget that can draw any frame: one patch slot plus one tile slot, for the
   /// texel format this renderer would use on `context`'s device.
-  static std::uint64_t minimumCacheBytes(const VulkanContext& context, const DatasetView& dataset,
+  static std::uint64_t minimumCacheBytes(const VulkanContext& context,
+                                         const runtime::DatasetView& dataset,
                                          bool forceRgba8Textures = false);
 
   /// The default sun: from above the camera (planet centre → camera), a little to its right
   /// and up, so views are lit with visible relief.
-  static glm::dvec3 defaultSunDirection(const Camera& camera);
+  static glm::dvec3 defaultSunDirection(const runtime::Camera& camera);
 
   TerrainRenderer(TerrainRenderer&&) noexcept;
   TerrainRenderer& operator=(TerrainRenderer&&) noexcept;
@@ -118,8 +120,8 @@ class TerrainRenderer final {
   /// camera's viewport must have the renderer's size (else InvalidArgument). Errors:
   /// CorruptData when a patch or tile does not decode (the message names file and offset;
   /// nothing of the failed upload stays resident), DeviceError for Vulkan failures.
-  Result<RenderedFrame> render(const Cut& cut, const Camera& camera,
-                               const FrameSettings& settings = {});
+  formats::Result<RenderedFrame> render(const runtime::Cut& cut, const runtime::Camera& camera,
+                                        const FrameSettings& settings = {});
 
   /// Draws the previous render() call's frame again and reads it back: the command buffer that
   /// frame recorded for its render pass is submitted once more as it is — same per-draw records
@@ -132,13 +134,13 @@ class TerrainRenderer final {
   /// called, or its last call failed), when it took several passes (over budget: only its last
   /// pass is still recorded), or when another renderer of a shared cache has evicted one of its
   /// patches or tiles since; DeviceError for Vulkan failures.
-  Result<RenderedFrame> redrawLast();
+  formats::Result<RenderedFrame> redrawLast();
 
   /// Changes the image size to `widthPixels` x `heightPixels`: a new offscreen target, while the
   /// pools and every resident patch and tile stay (so a server can serve several sizes from one
   /// cache). A no-op for the current size. Afterwards redrawLast() has no previous frame.
   /// Errors as create() for the size; the renderer keeps its old size then.
-  Result<void> resize(std::uint32_t widthPixels, std::uint32_t heightPixels);
+  formats::Result<void> resize(std::uint32_t widthPixels, std::uint32_t heightPixels);
   std::uint32_t widthPixels() const noexcept;
   std::uint32_t heightPixels() const noexcept;
 

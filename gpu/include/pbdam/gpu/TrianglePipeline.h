@@ -31,8 +31,8 @@ struct TriangleDraw final {
 class TrianglePipeline final {
  public:
   /// Builds the pipeline for `colorFormat`/`depthFormat`. Errors: DeviceError.
-  static Result<TrianglePipeline> create(const VulkanContext& context, VkFormat colorFormat,
-                                         VkFormat depthFormat);
+  static formats::Result<TrianglePipeline> create(const VulkanContext& context,
+                                                  VkFormat colorFormat, VkFormat depthFormat);
 
   /// Records binding the pipeline, its push constants and a 3-vertex draw. Must be called
   /// inside dynamic rendering on a target of `viewportPixels` size, with viewport and scissor

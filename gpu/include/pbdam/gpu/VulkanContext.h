@@ -68,7 +68,7 @@ class VulkanContext final {
   /// the device has. Errors: ErrorCode::InvalidArgument for a device index out of range,
   /// NotFound when lavapipe or the validation layer is requested but missing, DeviceError when
   /// a Vulkan call fails or the device lacks a required feature; messages list the devices.
-  static Result<VulkanContext> create(const ContextOptions& options = {});
+  static formats::Result<VulkanContext> create(const ContextOptions& options = {});
 
   VulkanContext(VulkanContext&&) noexcept;
   VulkanContext& operator=(VulkanContext&&) noexcept;
@@ -99,20 +99,20 @@ class VulkanContext final {
   /// Records commands with `record` into a fresh primary command buffer, submits it to the
   /// queue and blocks until it has executed (fence wait, at most `timeoutNanoseconds`).
   /// `what` names the work in error messages. Thread-safe: calls are serialised.
-  Result<void> submitAndWait(const std::function<void(VkCommandBuffer)>& record,
-                             std::string_view what = "submitAndWait",
-                             uint64_t timeoutNanoseconds = 60'000'000'000ull);
+  formats::Result<void> submitAndWait(const std::function<void(VkCommandBuffer)>& record,
+                                      std::string_view what = "submitAndWait",
+                                      uint64_t timeoutNanoseconds = 60'000'000'000ull);
 
   /// vkQueueSubmit2 of one batch under the queue lock; `fence` may be VK_NULL_HANDLE. The caller
   /// owns (and synchronises) the command buffers and the fence. `what` names the work in error
   /// messages. Thread-safe.
-  Result<void> submit(const VkSubmitInfo2& batch, VkFence fence, std::string_view what);
+  formats::Result<void> submit(const VkSubmitInfo2& batch, VkFence fence, std::string_view what);
 
   /// vkDeviceWaitIdle under the queue lock. Thread-safe.
-  Result<void> waitIdle();
+  formats::Result<void> waitIdle();
 
   /// Creates a timeline semaphore starting at `initialValue`.
-  Result<UniqueSemaphore> createTimelineSemaphore(uint64_t initialValue = 0) const;
+  formats::Result<UniqueSemaphore> createTimelineSemaphore(uint64_t initialValue = 0) const;
 
   /// Names a Vulkan object for validation messages (no-op when validation is off).
   void setObjectName(VkObjectType type, uint64_t handle, const char* name) const noexcept;

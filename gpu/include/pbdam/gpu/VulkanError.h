@@ -21,6 +21,6 @@ const char* vkResultReason(VkResult result) noexcept;
 
 /// An ErrorCode::DeviceError whose message is "<what>: <VK_NAME> — <reason>". `what` names the
 /// call and, where useful, the object ("vkAllocateMemory (readback buffer, 16384 bytes)").
-Error vulkanError(VkResult result, std::string_view what);
+formats::Error vulkanError(VkResult result, std::string_view what);
 
 }  // namespace pbdam::gpu

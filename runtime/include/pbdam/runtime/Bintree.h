@@ -12,7 +12,7 @@
 
 #include "pbdam/runtime/CubeMap.h"
 
-namespace pbdam {
+namespace pbdam::runtime {
 
 /// A lattice point of one face: (i, j) in [0, N]².
 using LatticeXY = glm::i32vec2;
@@ -55,4 +55,4 @@ BinTriangle bintreeTriangle(std::uint32_t sideCells, int face, int tree,
 /// The canonical key of lattice point `p` of `face` on a lattice of `sideCells` cells.
 PointKey latticePointKey(std::uint32_t sideCells, int face, LatticeXY p) noexcept;
 
-}  // namespace pbdam
+}  // namespace pbdam::runtime

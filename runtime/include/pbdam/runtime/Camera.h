@@ -17,7 +17,7 @@
 #include "pbdam/formats/Result.h"
 #include "pbdam/runtime/Planet.h"
 
-namespace pbdam {
+namespace pbdam::runtime {
 
 /// Where a camera is and where it looks: degrees, metres above the reference surface (the
 /// planet's sphere or ellipsoid, not the terrain), heading clockwise from north, pitch up from
@@ -32,11 +32,11 @@ struct CameraPose final {
 };
 
 /// Parses "LAT,LON,ALT[,HEADING,PITCH,ROLL]" (pitch defaults to −90: looking down).
-Result<CameraPose> parseCameraPose(std::string_view text);
+formats::Result<CameraPose> parseCameraPose(std::string_view text);
 
 /// Checks ranges: |lat| ≤ 90, |lon| ≤ 360, altitude > −0.5·polar radius and finite, angles
 /// finite.
-Result<void> validateCameraPose(const CameraPose& pose, const Planet& planet);
+formats::Result<void> validateCameraPose(const CameraPose& pose, const Planet& planet);
 
 /// The image a camera renders: size in pixels and vertical field of view.
 struct Viewport final {
@@ -46,7 +46,7 @@ struct Viewport final {
 };
 
 /// Checks 1 ≤ width, height ≤ 16384 and 0 < fov < 179°.
-Result<void> validateViewport(const Viewport& viewport);
+formats::Result<void> validateViewport(const Viewport& viewport);
 
 class Camera final {
  public:
@@ -94,4 +94,4 @@ class Camera final {
   std::array<glm::dvec4, 5> planes_{};  ///< inward normals (xyz) and offsets (w), world space
 };
 
-}  // namespace pbdam
+}  // namespace pbdam::runtime

@@ -49,7 +49,7 @@
 
 #include "pbdam/runtime/Direction.h"
 
-namespace pbdam {
+namespace pbdam::runtime {
 
 /// One of the six cube faces; the numeric value is the face index used in datasets.
 enum class CubeFace : std::uint8_t { PosX = 0, PosY = 1, NegX = 2, NegY = 3, PosZ = 4, NegZ = 5 };
@@ -159,4 +159,4 @@ class CubeMap final {
   static LatLonDegrees faceUvToLatLon(CubeFace face, const glm::dvec2& uv) noexcept;
 };
 
-}  // namespace pbdam
+}  // namespace pbdam::runtime

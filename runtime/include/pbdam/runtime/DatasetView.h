@@ -17,7 +17,7 @@
 #include "pbdam/runtime/Bintree.h"
 #include "pbdam/runtime/Planet.h"
 
-namespace pbdam {
+namespace pbdam::runtime {
 
 /// Identifies one bintree node of a dataset: face, tree (0/1) and heap index.
 struct NodeKey final {
@@ -39,24 +39,26 @@ class DatasetView final {
   /// Validates the six faces against the manifest (lattice, depth, texture levels and sizes,
   /// file sizes). `faceBytes[f]` are the bytes of manifest.faces[f]; `directory` names the
   /// dataset in errors.
-  static Result<DatasetView> open(const Manifest& manifest,
-                                  const std::array<std::span<const std::byte>, 6>& faceBytes,
-                                  const std::string& directory);
+  static formats::Result<DatasetView> open(
+      const formats::Manifest& manifest, const std::array<std::span<const std::byte>, 6>& faceBytes,
+      const std::string& directory);
 
-  const Manifest& manifest() const noexcept { return manifest_; }
+  const formats::Manifest& manifest() const noexcept { return manifest_; }
   const Planet& planet() const noexcept { return planet_; }
-  const FaceView& face(int f) const noexcept { return faces_[static_cast<std::size_t>(f)]; }
+  const formats::FaceView& face(int f) const noexcept {
+    return faces_[static_cast<std::size_t>(f)];
+  }
   std::uint32_t latticeCells() const noexcept { return manifest_.latticeCells; }
   int depth() const noexcept { return static_cast<int>(manifest_.depth); }
   std::uint32_t textureLevels() const noexcept { return manifest_.textureLevels; }
 
-  NodeRecord node(const NodeKey& key) const noexcept {
+  formats::NodeRecord node(const NodeKey& key) const noexcept {
     return faces_[key.face].node(key.tree, key.heap);
   }
   BinTriangle triangle(const NodeKey& key) const noexcept {
     return bintreeTriangle(manifest_.latticeCells, key.face, key.tree, key.heap);
   }
-  TextureRecord textureNode(const TileKey& key) const noexcept {
+  formats::TextureRecord textureNode(const TileKey& key) const noexcept {
     return faces_[key.face].textureNode(key.heap);
   }
 
@@ -75,12 +77,12 @@ class DatasetView final {
   std::uint32_t maxPatchTriangles() const noexcept { return maxPatchTriangles_; }
 
  private:
-  Manifest manifest_;
+  formats::Manifest manifest_;
   Planet planet_ = Planet::mars();
-  std::array<FaceView, 6> faces_;
+  std::array<formats::FaceView, 6> faces_;
   std::vector<double> textureErrorOfLevel_;
   std::uint32_t maxPatchVertices_ = 0;
   std::uint32_t maxPatchTriangles_ = 0;
 };
 
-}  // namespace pbdam
+}  // namespace pbdam::runtime

@@ -4,7 +4,7 @@
 
 #include <glm/vec3.hpp>
 
-namespace pbdam {
+namespace pbdam::runtime {
 
 /// A planetocentric (geocentric) latitude and a longitude, in degrees. Latitude is the angle
 /// between the equatorial plane and the direction from the planet's centre; on a sphere it equals
@@ -22,4 +22,4 @@ glm::dvec3 planetocentricToDirection(double latDegrees, double lonDegrees) noexc
 /// not be unit length). Longitude is in (-180, 180]; at the exact poles (x = y = 0) it is 0.
 LatLonDegrees directionToPlanetocentric(const glm::dvec3& direction) noexcept;
 
-}  // namespace pbdam
+}  // namespace pbdam::runtime

@@ -11,7 +11,7 @@
 #include "pbdam/formats/Result.h"
 #include "pbdam/runtime/Planet.h"
 
-namespace pbdam {
+namespace pbdam::runtime {
 
 /// A waypoint: degrees and metres above the reference surface.
 struct Waypoint final {
@@ -32,11 +32,11 @@ struct FlightOptions final {
 /// from t = 0 to the duration inclusive. Turns at waypoints are abrupt (the paper's flight has
 /// abrupt turns). InvalidArgument for fewer than two waypoints, out-of-range values, or more
 /// than 1,000,000 frames.
-Result<std::vector<CameraPathPoint>> waypointFlight(const Planet& planet,
-                                                    const std::vector<Waypoint>& waypoints,
-                                                    const FlightOptions& options);
+formats::Result<std::vector<formats::CameraPathPoint>> waypointFlight(
+    const Planet& planet, const std::vector<Waypoint>& waypoints, const FlightOptions& options);
 
 /// Mean speed of a path in m/s (3D distance between consecutive camera positions over time).
-double meanSpeedMetersPerSecond(const Planet& planet, const std::vector<CameraPathPoint>& path);
+double meanSpeedMetersPerSecond(const Planet& planet,
+                                const std::vector<formats::CameraPathPoint>& path);
 
-}  // namespace pbdam
+}  // namespace pbdam::runtime

@@ -48,7 +48,7 @@
 #include "pbdam/runtime/DatasetView.h"
 #include "pbdam/runtime/Planet.h"
 
-namespace pbdam {
+namespace pbdam::runtime {
 
 /// The per-draw record read by the patch vertex shader (std430, 16-byte vec4s; the layout and
 /// the arithmetic are mirrored in gpu/shaders/patch_position.glsl — keep them in step). Each
@@ -103,7 +103,7 @@ glm::vec2 shaderTexCoord(const PatchDrawRecord& draw, const glm::vec3& cameraRel
 /// What a draw needs besides the node record.
 struct PatchDrawInput final {
   NodeKey node;
-  NodeRecord record;
+  formats::NodeRecord record;
   std::uint32_t textureLayer = 0;
 };
 
@@ -119,17 +119,20 @@ glm::vec3 shaderVertexPosition(const PatchDrawRecord& draw, std::uint16_t b1, st
                                float heightMeters) noexcept;
 
 /// The same vertex in double: P(w, h) − camera, with the stored (float) normals.
-glm::dvec3 exactVertexPosition(const NodeRecord& record, std::uint16_t b1, std::uint16_t b2,
-                               double heightMeters, const glm::dvec3& cameraEcef) noexcept;
+glm::dvec3 exactVertexPosition(const formats::NodeRecord& record, std::uint16_t b1,
+                               std::uint16_t b2, double heightMeters,
+                               const glm::dvec3& cameraEcef) noexcept;
 
 /// The technique camera-relative drawing replaces, for comparison: absolute float corners
 /// interpolated in float, then the camera subtracted in float.
-glm::vec3 absoluteFloatVertexPosition(const NodeRecord& record, std::uint16_t b1, std::uint16_t b2,
-                                      float heightMeters, const glm::dvec3& cameraEcef) noexcept;
+glm::vec3 absoluteFloatVertexPosition(const formats::NodeRecord& record, std::uint16_t b1,
+                                      std::uint16_t b2, float heightMeters,
+                                      const glm::dvec3& cameraEcef) noexcept;
 
 /// Fig. 5 as published: corners rounded camera-relative, interpolated in float (no reference
 /// points), for the precision comparison in tests and docs.
-glm::vec3 cornerRelativeVertexPosition(const NodeRecord& record, std::uint16_t b1, std::uint16_t b2,
-                                       float heightMeters, const glm::dvec3& cameraEcef) noexcept;
+glm::vec3 cornerRelativeVertexPosition(const formats::NodeRecord& record, std::uint16_t b1,
+                                       std::uint16_t b2, float heightMeters,
+                                       const glm::dvec3& cameraEcef) noexcept;
 
-}  // namespace pbdam
+}  // namespace pbdam::runtime

@@ -13,7 +13,7 @@
 #include "pbdam/formats/Result.h"
 #include "pbdam/runtime/Direction.h"
 
-namespace pbdam {
+namespace pbdam::runtime {
 
 /// A geodetic position: latitude of the surface normal, longitude, height along that normal.
 struct GeodeticPosition final {
@@ -75,13 +75,13 @@ class Planet final {
   /// Names are case-insensitive; surrounding spaces are ignored. Returns InvalidArgument naming the
   /// spec for unknown names, malformed numbers, non-finite or non-positive radii and flattenings
   /// outside [0, 1).
-  static Result<Planet> fromSpec(std::string_view spec);
+  static formats::Result<Planet> fromSpec(std::string_view spec);
 
   /// Returns a sphere of `radiusMeters`, which must be finite and > 0 (else InvalidArgument).
-  static Result<Planet> sphere(double radiusMeters);
+  static formats::Result<Planet> sphere(double radiusMeters);
   /// Returns an ellipsoid; `equatorialRadiusMeters` finite > 0, `flattening` finite in [0, 1).
   /// A flattening of 0 gives a sphere.
-  static Result<Planet> ellipsoid(double equatorialRadiusMeters, double flattening);
+  static formats::Result<Planet> ellipsoid(double equatorialRadiusMeters, double flattening);
 
   static Planet mars();         ///< sphere, R = 3,396,190 m
   static Planet marsIau2000();  ///< ellipsoid, a = 3,396,190 m, b = 3,376,200 m
@@ -149,4 +149,4 @@ class Planet final {
   std::shared_ptr<const Impl> impl_;
 };
 
-}  // namespace pbdam
+}  // namespace pbdam::runtime

@@ -21,7 +21,7 @@
 #include "pbdam/runtime/Camera.h"
 #include "pbdam/runtime/DatasetView.h"
 
-namespace pbdam {
+namespace pbdam::runtime {
 
 struct RefinementOptions final {
   double tolerancePixels = 3.0;
@@ -56,4 +56,4 @@ double refinementErrorMeters(const DatasetView& dataset, int level,
 /// Computes the cut of `dataset` for `camera`.
 Cut refine(const DatasetView& dataset, const Camera& camera, const RefinementOptions& options);
 
-}  // namespace pbdam
+}  // namespace pbdam::runtime

@@ -9,7 +9,7 @@
 #include "pbdam/formats/Result.h"
 #include "pbdam/runtime/DatasetView.h"
 
-namespace pbdam {
+namespace pbdam::runtime {
 
 struct SurfaceHeight final {
   double heightMeters = 0.0;     ///< above the reference surface, along the geodetic normal
@@ -20,7 +20,7 @@ struct SurfaceHeight final {
 
 /// The rendered surface height at geodetic (lat, lon) in degrees. InvalidArgument for
 /// out-of-range coordinates, CorruptData if a patch fails to decode.
-Result<SurfaceHeight> surfaceHeightAt(const DatasetView& dataset, double latDegrees,
-                                      double lonDegrees);
+formats::Result<SurfaceHeight> surfaceHeightAt(const DatasetView& dataset, double latDegrees,
+                                               double lonDegrees);
 
-}  // namespace pbdam
+}  // namespace pbdam::runtime

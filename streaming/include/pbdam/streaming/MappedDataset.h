@@ -13,15 +13,16 @@
 #include "pbdam/runtime/DatasetView.h"
 #include "pbdam/streaming/MappedFile.h"
 
-namespace pbdam {
+namespace pbdam::streaming {
 
 class MappedDataset final {
  public:
   /// Opens DIR: NotFound when DIR has no manifest.json (an incomplete or missing dataset),
   /// CorruptData naming the file when a face does not match its manifest entry.
-  static Result<std::unique_ptr<MappedDataset>> open(const std::filesystem::path& directory);
+  static formats::Result<std::unique_ptr<MappedDataset>> open(
+      const std::filesystem::path& directory);
 
-  const DatasetView& view() const noexcept { return view_; }
+  const runtime::DatasetView& view() const noexcept { return view_; }
   const MappedFile& faceFile(int face) const noexcept {
     return files_[static_cast<std::size_t>(face)];
   }
@@ -33,7 +34,7 @@ class MappedDataset final {
   MappedDataset() = default;
   std::filesystem::path directory_;
   std::array<MappedFile, 6> files_;
-  DatasetView view_;
+  runtime::DatasetView view_;
 };
 
-}  // namespace pbdam
+}  // namespace pbdam::streaming

@@ -5,9 +5,9 @@
 
 #include "pbdam/formats/MemoryMapping.h"
 
-namespace pbdam {
+namespace pbdam::streaming {
 
 /// A read-only file mapping, made with MappedFile::open (MemoryMapping::open).
-using MappedFile = MemoryMapping;
+using MappedFile = formats::MemoryMapping;
 
-}  // namespace pbdam
+}  // namespace pbdam::streaming

@@ -10,7 +10,7 @@
 
 #include "pbdam/formats/Result.h"
 
-namespace pbdam {
+namespace pbdam::streaming {
 
 /// Resident and total pages of one or more files.
 struct PageResidency final {
@@ -23,16 +23,17 @@ struct PageResidency final {
 };
 
 /// Flushes and drops `path`'s pages from the page cache. Errors name the file.
-Result<void> evictFromPageCache(const std::filesystem::path& path);
+formats::Result<void> evictFromPageCache(const std::filesystem::path& path);
 
 /// Counts `path`'s pages resident in the page cache (maps it briefly).
-Result<PageResidency> pageResidency(const std::filesystem::path& path);
+formats::Result<PageResidency> pageResidency(const std::filesystem::path& path);
 
 /// The dataset's files: manifest.json and the six faces named by it.
-Result<std::vector<std::filesystem::path>> datasetFiles(const std::filesystem::path& directory);
+formats::Result<std::vector<std::filesystem::path>> datasetFiles(
+    const std::filesystem::path& directory);
 
 /// Evicts every file of a dataset and returns the residency measured afterwards (the cold-cache
 /// benchmark requires ≤ 1% and reports the figure).
-Result<PageResidency> evictDataset(const std::filesystem::path& directory);
+formats::Result<PageResidency> evictDataset(const std::filesystem::path& directory);
 
-}  // namespace pbdam
+}  // namespace pbdam::streaming

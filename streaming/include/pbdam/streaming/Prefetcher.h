@@ -20,29 +20,29 @@
 #include "pbdam/runtime/Refinement.h"
 #include "pbdam/streaming/MappedDataset.h"
 
-namespace pbdam {
+namespace pbdam::streaming {
 
 /// Linear extrapolation of a camera from its last poses: position and view axes move with the
 /// velocity of the last two observations (axes re-orthonormalised). Not thread-safe.
 class CameraPredictor final {
  public:
-  void observe(double timeSeconds, const Camera& camera);
+  void observe(double timeSeconds, const runtime::Camera& camera);
   /// The camera predicted at `timeSeconds`; nullopt before the first observation. With one
   /// observation it is that camera.
-  std::optional<Camera> predict(double timeSeconds) const;
+  std::optional<runtime::Camera> predict(double timeSeconds) const;
   std::optional<double> lastTime() const;
 
  private:
   struct Sample {
     double time;
-    Camera camera;
+    runtime::Camera camera;
   };
   std::deque<Sample> samples_;
 };
 
 struct PrefetchOptions final {
   double lookaheadSeconds = 0.5;
-  RefinementOptions refinement;
+  runtime::RefinementOptions refinement;
 };
 
 /// What the prefetcher did so far.
@@ -61,21 +61,21 @@ class Prefetcher final {
   Prefetcher& operator=(const Prefetcher&) = delete;
 
   /// Hands the worker the camera of a frame (cheap: a copy under a lock and a notify).
-  void observe(double timeSeconds, const Camera& camera);
+  void observe(double timeSeconds, const runtime::Camera& camera);
   /// Stops the worker and waits for it (also done by the destructor).
   void stop();
   PrefetchStats stats() const;
 
  private:
   void run();
-  void prefetch(const Cut& cut);
+  void prefetch(const runtime::Cut& cut);
   void adviseRange(int face, std::uint64_t offset, std::uint64_t bytes, std::uint64_t key);
 
   const MappedDataset& dataset_;
   PrefetchOptions options_;
   mutable std::mutex mutex_;
   std::condition_variable wake_;
-  std::deque<std::pair<double, Camera>> pending_;
+  std::deque<std::pair<double, runtime::Camera>> pending_;
   bool stopping_ = false;
   // Worker-only state.
   CameraPredictor predictor_;
@@ -86,4 +86,4 @@ class Prefetcher final {
   std::thread worker_;
 };
 
-}  // namespace pbdam
+}  // namespace pbdam::streaming

@@ -23,16 +23,16 @@ namespace pbdam::builder {
 
 struct BuildOptions final {
   std::filesystem::path demPath;
-  std::optional<RawLayout> rawLayout;  ///< read the DEM as a raw grid
-  std::filesystem::path texturePath;   ///< equirectangular imagery; empty: shaded relief
-  std::string planetSpec;              ///< Planet::fromSpec
+  std::optional<formats::RawLayout> rawLayout;  ///< read the DEM as a raw grid
+  std::filesystem::path texturePath;            ///< equirectangular imagery; empty: shaded relief
+  std::string planetSpec;                       ///< Planet::fromSpec
   std::filesystem::path outDir;
   std::uint32_t leafVertices = 33;        ///< leaf leg vertices (2^k + 1)
   std::uint32_t patchVertices = 512;      ///< target vertices of interior patches
   std::uint32_t textureTileTexels = 256;  ///< texture tile side, border included
   std::optional<std::uint32_t> depth;     ///< bintree depth (even); auto from the DEM density
-  TexelFormat textureFormat = TexelFormat::Bc1;
-  Bc1Quality bc1Quality = Bc1Quality::Fast;
+  formats::TexelFormat textureFormat = formats::TexelFormat::Bc1;
+  formats::Bc1Quality bc1Quality = formats::Bc1Quality::Fast;
   double heightStepMeters = 1.0 / 64.0;
   /// A DEM whose heights take at least this many bytes is read into a mapped scratch file on
   /// the output's filesystem instead of memory (DemReadOptions::mapAtBytes).
@@ -95,6 +95,6 @@ struct BuildSummary final {
 /// are returned on every rank; a rank failing after that prints the failure (rank, host, work
 /// item) and stops the whole job through Communicator::abortJob. The summary is complete on
 /// rank 0 only.
-Result<BuildSummary> buildDataset(const BuildOptions& options);
+formats::Result<BuildSummary> buildDataset(const BuildOptions& options);
 
 }  // namespace pbdam::builder

@@ -92,7 +92,7 @@ class ByteReader final {
 /// temporary. Keeps the CRC-32 of everything appended.
 class AtomicFileWriter final {
  public:
-  static Result<AtomicFileWriter> create(const std::filesystem::path& path);
+  static formats::Result<AtomicFileWriter> create(const std::filesystem::path& path);
   AtomicFileWriter() = default;
   AtomicFileWriter(AtomicFileWriter&& other) noexcept;
   AtomicFileWriter& operator=(AtomicFileWriter&& other) noexcept;
@@ -100,15 +100,15 @@ class AtomicFileWriter final {
   AtomicFileWriter& operator=(const AtomicFileWriter&) = delete;
   ~AtomicFileWriter();
 
-  Result<void> append(std::span<const std::byte> bytes);
+  formats::Result<void> append(std::span<const std::byte> bytes);
   /// Bytes appended so far.
   std::uint64_t size() const noexcept { return size_; }
   std::uint32_t crc() const noexcept { return crc_; }
   /// Flushes, fsyncs, closes and renames the temporary to the path.
-  Result<void> finish();
+  formats::Result<void> finish();
 
  private:
-  Result<void> flush();
+  formats::Result<void> flush();
   void abandon() noexcept;
   std::filesystem::path path_;
   std::filesystem::path tmp_;
@@ -120,9 +120,9 @@ class AtomicFileWriter final {
 
 /// Writes `chunks` to `path` through a temporary file in the same directory, fsync and rename
 /// (docs/architecture.md "Formats"); `crc` receives the CRC-32 of the whole file.
-Result<void> writeFileAtomically(const std::filesystem::path& path,
-                                 const std::vector<std::span<const std::byte>>& chunks,
-                                 std::uint32_t& crc);
+formats::Result<void> writeFileAtomically(const std::filesystem::path& path,
+                                          const std::vector<std::span<const std::byte>>& chunks,
+                                          std::uint32_t& crc);
 /// fsync of a directory (makes renames inside it durable).
 void syncDirectory(const std::filesystem::path& dir);
 
@@ -151,11 +151,11 @@ class Checkpoint final {
   const std::filesystem::path& directory() const noexcept { return dir_; }
 
   /// The state file, or nullopt when there is no checkpoint. Errors: unreadable or damaged.
-  Result<std::optional<CheckpointState>> readState() const;
+  formats::Result<std::optional<CheckpointState>> readState() const;
   /// Replaces the state file atomically.
-  Result<void> writeState(const CheckpointState& state) const;
+  formats::Result<void> writeState(const CheckpointState& state) const;
   /// Removes the directory and everything in it, then (with `recreate`) makes it empty.
-  Result<void> reset(bool recreate) const;
+  formats::Result<void> reset(bool recreate) const;
 
   /// Path of part `part` of the file of `kind` for `level` (level is ignored for Texture),
   /// e.g. level-03.part-1.nodes.
@@ -170,10 +170,10 @@ class Checkpoint final {
   class PartWriter final {
    public:
     PartWriter() = default;
-    Result<void> append(std::span<const std::byte> bytes) { return file_.append(bytes); }
+    formats::Result<void> append(std::span<const std::byte> bytes) { return file_.append(bytes); }
     /// Payload bytes so far (the offset of the next append).
     std::uint64_t size() const noexcept { return file_.size(); }
-    Result<void> finish();
+    formats::Result<void> finish();
 
    private:
     friend class Checkpoint;
@@ -183,12 +183,14 @@ class Checkpoint final {
     std::uint32_t part_ = 0;
     std::uint32_t parts_ = 1;
   };
-  Result<PartWriter> startFile(Kind kind, int level, std::uint32_t part, std::uint32_t parts) const;
+  formats::Result<PartWriter> startFile(Kind kind, int level, std::uint32_t part,
+                                        std::uint32_t parts) const;
   /// Maps a part file and checks its trailer (and, with `verify`, its CRC: a read of the whole
   /// file, after which its pages are released from this process); `payload` is its payload
   /// inside the returned mapping.
-  Result<MappedFile> openFile(Kind kind, int level, std::uint32_t part,
-                              std::span<const std::byte>& payload, bool verify = true) const;
+  formats::Result<streaming::MappedFile> openFile(Kind kind, int level, std::uint32_t part,
+                                                  std::span<const std::byte>& payload,
+                                                  bool verify = true) const;
   /// Removes every part of one file (missing is fine).
   void removeFile(Kind kind, int level, std::uint32_t parts) const;
 
@@ -215,32 +217,33 @@ struct LevelPartFooter final {
 std::vector<std::byte> encodeLevelPartFooter(const LevelPartFooter& footer);
 /// Decodes what encodeLevelPartFooter wrote; `bytes` must be exactly kBytes long, else the
 /// error names `where` and "truncated".
-Result<LevelPartFooter> decodeLevelPartFooter(std::span<const std::byte> bytes,
-                                              const std::string& where);
+formats::Result<LevelPartFooter> decodeLevelPartFooter(std::span<const std::byte> bytes,
+                                                       const std::string& where);
 
 /// One node as a nodes part file holds it: id, the saturated record (without blob offset) and
 /// the encoded patch.
 struct NodeEntry final {
   std::uint64_t id = 0;
-  std::span<const std::byte, kNodeRecordBytes> record;
+  std::span<const std::byte, formats::kNodeRecordBytes> record;
   std::span<const std::byte> blob;
 };
 /// Appends one node entry: u64 id, the record, u32 blob size, the blob.
 void putNodeEntry(ByteWriter& w, std::uint64_t id,
-                  std::span<const std::byte, kNodeRecordBytes> record,
+                  std::span<const std::byte, formats::kNodeRecordBytes> record,
                   std::span<const std::byte> blob);
 
 /// A nodes part file's payload: node entries, then the footer.
 class LevelPartView final {
  public:
   /// Splits `payload` (from Checkpoint::openFile); `where` names the file in errors.
-  static Result<LevelPartView> parse(std::span<const std::byte> payload, std::string where);
+  static formats::Result<LevelPartView> parse(std::span<const std::byte> payload,
+                                              std::string where);
   const LevelPartFooter& footer() const noexcept { return footer_; }
   /// Calls `visit(entry, bytesReadSoFar)` for each of the footer's 2 × diamonds entries, in
   /// file order, stopping early when `visit` returns false. Errors: the entries do not fill
   /// the payload exactly ("truncated").
   template <typename Visit>
-  Result<void> forEachNode(Visit&& visit) const {
+  formats::Result<void> forEachNode(Visit&& visit) const {
     ByteReader r(entries_);
     for (std::uint64_t k = 0; k < 2 * footer_.diamonds; ++k) {
       const std::optional<NodeEntry> entry = nextEntry(r);
@@ -253,7 +256,7 @@ class LevelPartView final {
 
  private:
   static std::optional<NodeEntry> nextEntry(ByteReader& r) noexcept;
-  Error truncated() const;
+  formats::Error truncated() const;
   std::span<const std::byte> entries_;
   LevelPartFooter footer_;
   std::string where_;
@@ -268,20 +271,21 @@ struct TexturePartFooter final {
 };
 std::vector<std::byte> encodeTexturePartFooter(const TexturePartFooter& footer);
 /// Decodes exactly TexturePartFooter::kBytes bytes; the error names `where` and "incomplete".
-Result<TexturePartFooter> decodeTexturePartFooter(std::span<const std::byte> bytes,
-                                                  const std::string& where);
+formats::Result<TexturePartFooter> decodeTexturePartFooter(std::span<const std::byte> bytes,
+                                                           const std::string& where);
 /// Appends one tile entry: f32 texture error, u32 blob size, the blob.
 void putTileEntry(ByteWriter& w, float textureErrorMeters, std::span<const std::byte> blob);
 /// A texture part file's payload: tile entries, then the footer.
 class TexturePartView final {
  public:
-  static Result<TexturePartView> parse(std::span<const std::byte> payload, std::string where);
+  static formats::Result<TexturePartView> parse(std::span<const std::byte> payload,
+                                                std::string where);
   const TexturePartFooter& footer() const noexcept { return footer_; }
   /// Calls `visit(tileIndex, textureErrorMeters, blob)` for the footer's tiles in order,
   /// stopping early when `visit` returns false. Errors: the entries do not fill the payload
   /// exactly ("incomplete").
   template <typename Visit>
-  Result<void> forEachTile(Visit&& visit) const {
+  formats::Result<void> forEachTile(Visit&& visit) const {
     ByteReader r(entries_);
     for (std::uint64_t k = footer_.firstTile; k < footer_.firstTile + footer_.tiles; ++k) {
       const auto error = r.get<float>();
@@ -294,7 +298,7 @@ class TexturePartView final {
   }
 
  private:
-  Error incomplete() const;
+  formats::Error incomplete() const;
   std::span<const std::byte> entries_;
   TexturePartFooter footer_;
   std::string where_;
@@ -325,7 +329,8 @@ std::vector<std::byte> encodeCarryIndex(
 class CarryPartView final {
  public:
   /// Checks the index against `payload`; `where` names the file in errors.
-  static Result<CarryPartView> parse(std::span<const std::byte> payload, const std::string& where);
+  static formats::Result<CarryPartView> parse(std::span<const std::byte> payload,
+                                              const std::string& where);
   /// The offset of node `id`'s record, or nullopt when the part does not hold it.
   std::optional<std::uint64_t> offsetOf(std::uint64_t id) const noexcept;
   /// The record at `offset` (from offsetOf), as getCarryRecord.
@@ -343,7 +348,8 @@ class CarryPartView final {
 class CarryReader final {
  public:
   /// Maps the `parts` carry part files of `level` (checking CRCs with `verify`).
-  Result<void> open(const Checkpoint& checkpoint, int level, std::uint32_t parts, bool verify);
+  formats::Result<void> open(const Checkpoint& checkpoint, int level, std::uint32_t parts,
+                             bool verify);
   void close() { parts_.clear(); }
   /// Drops the mappings' pages from this process.
   void releaseResident() const noexcept;
@@ -353,7 +359,7 @@ class CarryReader final {
 
  private:
   struct Part {
-    MappedFile file;
+    streaming::MappedFile file;
     CarryPartView view;
   };
   std::vector<Part> parts_;

@@ -15,13 +15,13 @@
 
 namespace pbdam::builder {
 
-using pbdam::LatticeXY;
-using pbdam::PointKey;
+using pbdam::runtime::LatticeXY;
+using pbdam::runtime::PointKey;
 
 /// An unordered pair of point keys (smaller first): the key of an edge across faces.
-using EdgeKey = std::pair<PointKey, PointKey>;
+using EdgeKey = std::pair<runtime::PointKey, runtime::PointKey>;
 
-using pbdam::BinTriangle;
+using pbdam::runtime::BinTriangle;
 
 /// The lattice of one dataset: N cells per face side (a power of two ≤ 2^28).
 class Lattice final {
@@ -31,27 +31,27 @@ class Lattice final {
 
   /// The root of tree `tree` (0 or 1) of `face`: tree 0 = ((N,0),(0,0),(N,N)), tree 1 =
   /// ((0,N),(N,N),(0,0)); both split the face along its (0,0)–(N,N) diagonal.
-  BinTriangle root(int face, int tree) const noexcept;
+  runtime::BinTriangle root(int face, int tree) const noexcept;
 
   /// The two children: first (m, left, apex), second (m, apex, right), m = hypotenuse midpoint.
   /// The triangle's legs must be at least 2 cells long (axis-aligned) or 1 cell (diagonal).
-  static std::array<BinTriangle, 2> children(const BinTriangle& t) noexcept;
+  static std::array<runtime::BinTriangle, 2> children(const runtime::BinTriangle& t) noexcept;
 
   /// The triangle with heap `index` at `level` of tree `tree` of `face`, found by descending.
-  BinTriangle triangle(int face, int tree, int level, std::uint64_t index) const noexcept;
+  runtime::BinTriangle triangle(int face, int tree, int level, std::uint64_t index) const noexcept;
 
   /// The canonical key of lattice point `p` of `face`.
-  PointKey key(int face, LatticeXY p) const noexcept;
+  runtime::PointKey key(int face, runtime::LatticeXY p) const noexcept;
   /// The canonical (face, i, j) of a key.
-  static CubeLatticePoint unpack(PointKey key) noexcept;
+  static runtime::CubeLatticePoint unpack(runtime::PointKey key) noexcept;
   /// The key of the edge a–b of `face`.
-  EdgeKey edgeKey(int face, LatticeXY a, LatticeXY b) const noexcept;
+  EdgeKey edgeKey(int face, runtime::LatticeXY a, runtime::LatticeXY b) const noexcept;
 
   /// (u, v) of a lattice point.
-  glm::dvec2 uv(LatticeXY p) const noexcept;
+  glm::dvec2 uv(runtime::LatticeXY p) const noexcept;
   /// The geocentric unit direction of a lattice point, computed from its canonical alias so that
   /// every face gives bit-identical results.
-  glm::dvec3 direction(int face, LatticeXY p) const noexcept;
+  glm::dvec3 direction(int face, runtime::LatticeXY p) const noexcept;
 
   /// Heap index of the first node of `level` (2^level − 1) and the node count of a tree of
   /// depth `levels` (2^(levels+1) − 1).
@@ -68,9 +68,9 @@ class Lattice final {
 
 /// Dataset-wide node ids: (face·2 + tree)·nodesPerTree(depth) + heap index — also the order of
 /// the node tables of the six face files concatenated.
-std::uint64_t nodeId(const BinTriangle& t, int depth) noexcept;
+std::uint64_t nodeId(const runtime::BinTriangle& t, int depth) noexcept;
 /// The triangle of a node id.
-BinTriangle triangleOfNode(const Lattice& lattice, std::uint64_t id, int depth) noexcept;
+runtime::BinTriangle triangleOfNode(const Lattice& lattice, std::uint64_t id, int depth) noexcept;
 
 /// The two node ids of one diamond (the triangles sharing a hypotenuse).
 using Diamond = std::array<std::uint64_t, 2>;
@@ -80,7 +80,8 @@ using Diamond = std::array<std::uint64_t, 2>;
 std::vector<Diamond> diamondsOfLevel(const Lattice& lattice, int depth, int level);
 
 /// Twice the signed area of the lattice triangle (a, b, c) (positive counter-clockwise).
-inline std::int64_t doubleArea(LatticeXY a, LatticeXY b, LatticeXY c) noexcept {
+inline std::int64_t doubleArea(runtime::LatticeXY a, runtime::LatticeXY b,
+                               runtime::LatticeXY c) noexcept {
   return static_cast<std::int64_t>(b.x - a.x) * (c.y - a.y) -
          static_cast<std::int64_t>(b.y - a.y) * (c.x - a.x);
 }

@@ -20,13 +20,13 @@ namespace pbdam::builder {
 /// A patch while it is being built: lattice points of its face and a CCW (in (u,v)) triangle
 /// list indexing them.
 struct WorkPatch final {
-  std::vector<LatticeXY> points;
+  std::vector<runtime::LatticeXY> points;
   std::vector<std::uint32_t> indices;
 };
 
 /// The regular triangulation of a leaf triangle: its longest-edge bisection down to single
 /// lattice cells; every lattice point inside or on the triangle is a vertex.
-WorkPatch makeLeafPatch(const BinTriangle& triangle);
+WorkPatch makeLeafPatch(const runtime::BinTriangle& triangle);
 
 /// What happened in one block.
 struct BlockStats final {
@@ -49,7 +49,8 @@ struct BlockResult final {
 /// (children[0] are triangles[0]'s, children[1] triangles[1]'s). The block boundary stays
 /// locked; the diagonal keeps its vertices on it and is simplified first to about half; then
 /// each half is simplified with meshopt_simplify (locked border) to about `targetVertices`.
-BlockResult simplifyBlock(const SampleGrid& grid, const std::array<BinTriangle, 2>& triangles,
+BlockResult simplifyBlock(const SampleGrid& grid,
+                          const std::array<runtime::BinTriangle, 2>& triangles,
                           const std::array<std::array<const WorkPatch*, 2>, 2>& children,
                           std::uint32_t targetVertices);
 
@@ -59,11 +60,11 @@ struct NodeCorners final {
   std::array<glm::dvec3, 3> positions{};
   std::array<glm::vec3, 3> normals{};
 };
-NodeCorners nodeCorners(const SampleGrid& grid, const BinTriangle& triangle);
+NodeCorners nodeCorners(const SampleGrid& grid, const runtime::BinTriangle& triangle);
 
 /// A measured, encodable patch.
 struct MeasuredPatch final {
-  PatchMesh mesh;                  ///< exact barycentrics and quantised displacements
+  formats::PatchMesh mesh;         ///< exact barycentrics and quantised displacements
   double sampleErrorMeters = 0.0;  ///< max |patch − sample| over lattice and source samples
   /// max |H(q + δ(q)) − H(q)| over the covered lattice points, δ the drawn shift, plus the
   /// vertices' own height error (docs/builder.md "Errors")
@@ -78,7 +79,7 @@ struct MeasuredPatch final {
 
 /// Measures `patch` of `triangle` (docs/builder.md "Errors") and converts it to the stored
 /// representation with `heightStepMeters` quantisation.
-MeasuredPatch measurePatch(const SampleGrid& grid, const BinTriangle& triangle,
+MeasuredPatch measurePatch(const SampleGrid& grid, const runtime::BinTriangle& triangle,
                            const WorkPatch& patch, double heightStepMeters);
 
 /// The height of the patch surface (piecewise-linear over (u,v) in the vertices' lattice

@@ -48,8 +48,8 @@ class SampleGrid final {
   /// every lattice point of every face, in parallel, and buckets the DEM's valid samples into
   /// `bucketCells`-sized squares of each face, all in memory. `progress(done, total)` is called
   /// from the calling thread only.
-  static SampleGrid build(const HeightGrid& dem, const Planet& planet, const Lattice& lattice,
-                          std::uint32_t bucketCells,
+  static SampleGrid build(const formats::HeightGrid& dem, const runtime::Planet& planet,
+                          const Lattice& lattice, std::uint32_t bucketCells,
                           const std::function<void(std::size_t, std::size_t)>& progress = {});
 
   /// Out of core, step 1: resamples the lattice rows [beginRow, endRow) of the 6·(N+1) rows
@@ -57,8 +57,8 @@ class SampleGrid final {
   /// into `heightsFile` (raw little-endian floats, face-major, rows by j, (N+1) per row; created
   /// if missing, other rows untouched), one pwrite per row, then fsyncs. Several processes may
   /// write disjoint row ranges of one file. Errors: I/O, naming the file.
-  static Result<HeightRowStats> writeHeightRows(
-      const HeightGrid& dem, const Planet& planet, const Lattice& lattice,
+  static formats::Result<HeightRowStats> writeHeightRows(
+      const formats::HeightGrid& dem, const runtime::Planet& planet, const Lattice& lattice,
       const std::filesystem::path& heightsFile, std::size_t beginRow, std::size_t endRow,
       const std::function<void(std::size_t, std::size_t)>& progress = {});
 
@@ -68,17 +68,18 @@ class SampleGrid final {
   /// twice (count, then place) in chunks, so memory stays at the bucket table plus one chunk.
   /// Files of consecutive row ranges, read in order, visit each bucket's samples in the same
   /// order as build()'s single table.
-  static Result<void> writeSourceBuckets(const HeightGrid& dem, const Planet& planet,
-                                         const Lattice& lattice, std::uint32_t bucketCells,
-                                         const std::filesystem::path& samplesFile,
-                                         std::size_t beginRow, std::size_t endRow);
+  static formats::Result<void> writeSourceBuckets(const formats::HeightGrid& dem,
+                                                  const runtime::Planet& planet,
+                                                  const Lattice& lattice, std::uint32_t bucketCells,
+                                                  const std::filesystem::path& samplesFile,
+                                                  std::size_t beginRow, std::size_t endRow);
 
   /// Out of core, step 3: maps the complete heights file and the bucket files (in row order)
   /// read-only. `stats` are the totals over all rows. Errors: missing, short or damaged files.
-  static Result<SampleGrid> open(const Lattice& lattice, const Planet& planet,
-                                 const std::filesystem::path& heightsFile,
-                                 const std::vector<std::filesystem::path>& samplesFiles,
-                                 std::uint32_t bucketCells, const HeightRowStats& stats);
+  static formats::Result<SampleGrid> open(const Lattice& lattice, const runtime::Planet& planet,
+                                          const std::filesystem::path& heightsFile,
+                                          const std::vector<std::filesystem::path>& samplesFiles,
+                                          std::uint32_t bucketCells, const HeightRowStats& stats);
 
   /// Out of core: drops this process's page-table entries of the mappings (the pages stay in the
   /// page cache; the next read is a minor fault), so that RSS counts only what was touched
@@ -95,21 +96,21 @@ class SampleGrid final {
   }
 
   const Lattice& lattice() const noexcept { return lattice_; }
-  const Planet& planet() const noexcept { return planet_; }
+  const runtime::Planet& planet() const noexcept { return planet_; }
 
   /// Height of lattice point p of `face` (equal on every face sharing the point).
-  float height(int face, LatticeXY p) const noexcept {
+  float height(int face, runtime::LatticeXY p) const noexcept {
     const auto n1 = static_cast<std::size_t>(lattice_.sideCells()) + 1;
     return faceHeights_[static_cast<std::size_t>(face)]
                        [static_cast<std::size_t>(p.y) * n1 + static_cast<std::size_t>(p.x)];
   }
   /// The terrain point (planetocentric, metres) of lattice point p: the surface point of its
   /// direction raised by its height along the surface normal. Bit-identical on every face.
-  glm::dvec3 terrainPoint(int face, LatticeXY p) const noexcept;
+  glm::dvec3 terrainPoint(int face, runtime::LatticeXY p) const noexcept;
   /// The terrain point of a direction at a given height.
   glm::dvec3 terrainPoint(const glm::dvec3& direction, double heightMeters) const noexcept;
   /// The planet's unit surface normal at lattice point p. Bit-identical on every face.
-  glm::dvec3 surfaceNormal(int face, LatticeXY p) const noexcept;
+  glm::dvec3 surfaceNormal(int face, runtime::LatticeXY p) const noexcept;
 
   /// Source samples of `face` in bucket (bx, by), bx, by in [0, bucketsPerSide()): one span
   /// per bucket table (one in memory; one per bucket file out of core), visited in order.
@@ -147,7 +148,8 @@ class SampleGrid final {
   /// error outside its bucket, and the inside test decides) are read, as one contiguous run per
   /// bucket table, rather than its whole bounding box. The order of the visits may differ.
   template <typename Fn>
-  void forEachSourceSampleIn(int face, LatticeXY la, LatticeXY lb, LatticeXY lc, Fn&& fn) const {
+  void forEachSourceSampleIn(int face, runtime::LatticeXY la, runtime::LatticeXY lb,
+                             runtime::LatticeXY lc, Fn&& fn) const {
     const glm::dvec2 a = lattice_.uv(la);
     const glm::dvec2 b = lattice_.uv(lb);
     const glm::dvec2 c = lattice_.uv(lc);
@@ -185,8 +187,8 @@ class SampleGrid final {
 
   /// The x-extent in lattice units of the triangle (a, b, c) within the rows [y0, y1] (all of
   /// it if it lies there; empty if it misses them: lo > hi).
-  static void triangleSpanInRows(LatticeXY a, LatticeXY b, LatticeXY c, double y0, double y1,
-                                 double& lo, double& hi) noexcept;
+  static void triangleSpanInRows(runtime::LatticeXY a, runtime::LatticeXY b, runtime::LatticeXY c,
+                                 double y0, double y1, double& lo, double& hi) noexcept;
 
   /// Lattice points where the DEM had no data (given height 0).
   std::uint64_t noDataPoints() const noexcept { return noDataPoints_; }
@@ -243,9 +245,10 @@ class SampleGrid final {
     const std::uint64_t* start = nullptr;  // 6·B² + 1 entries
     const SourceSample* samples = nullptr;
   };
-  SampleGrid(const Lattice& lattice, const Planet& planet) : lattice_(lattice), planet_(planet) {}
+  SampleGrid(const Lattice& lattice, const runtime::Planet& planet)
+      : lattice_(lattice), planet_(planet) {}
   Lattice lattice_;
-  Planet planet_;
+  runtime::Planet planet_;
   std::array<const float*, 6> faceHeights_{};  // per face, (N+1)² row-major by j
   std::uint32_t bucketCells_ = 1;
   std::uint32_t bucketsPerSide_ = 1;
@@ -255,8 +258,8 @@ class SampleGrid final {
   std::vector<float> heights_;
   std::vector<std::uint64_t> bucketStart_;
   std::vector<SourceSample> samples_;
-  MappedFile heightsMapping_;
-  std::vector<MappedFile> samplesMappings_;
+  streaming::MappedFile heightsMapping_;
+  std::vector<streaming::MappedFile> samplesMappings_;
   std::uint64_t noDataPoints_ = 0;
   float minHeight_ = 0.0f;
   float maxHeight_ = 0.0f;

@@ -63,17 +63,17 @@ struct TextureSource final {
   std::function<std::optional<double>(double latDegrees, double lonDegrees)> heightMeters;
   /// When set, texels show this image (sampled bilinearly, k×k supersampled with
   /// k = clamp(ceil(texel ground size / image pixel ground size), 1, 8)) instead of the tint.
-  const GeoImage* imagery = nullptr;
+  const formats::GeoImage* imagery = nullptr;
   /// Shading applied on top of imagery, 0..1 (0: the image as is). Needs heightMeters.
   double imageryShadingStrength = 0.0;
-  Planet planet = Planet::mars();
+  runtime::Planet planet = runtime::Planet::mars();
   HypsometricRamp ramp;
   ReliefShading shading;
 };
 
 /// A generated tile: Rgba8 texels (alpha 255) and the tile's texture error.
 struct TextureTileResult final {
-  TextureTileImage image;
+  formats::TextureTileImage image;
   /// The largest distance in metres between the surface points of two adjacent inner texel
   /// centres (textureTileErrorMeters). A parent's texels are twice its children's, so the
   /// errors nest: parent ≥ child.
@@ -84,7 +84,7 @@ struct TextureTileResult final {
 /// kMaxTextureTileTexels with at least 1 inner texel, and a border that stays within half a face
 /// of the node ((borderTexels + 1)·2^-level / inner < 0.5). InvalidArgument naming the field
 /// otherwise.
-Result<void> validateTextureTileRequest(const TextureTileRequest& request);
+formats::Result<void> validateTextureTileRequest(const TextureTileRequest& request);
 
 /// Returns the face (u, v) of the centre of texel (x, y) of the requested tile; x and y may lie
 /// anywhere (border texels, or beyond, give (u, v) outside the node's square).
@@ -93,7 +93,8 @@ glm::dvec2 textureTexelFaceUv(const TextureTileRequest& request, double x, doubl
 /// Returns the texture error of the requested tile (see TextureTileResult) without sampling any
 /// data: the maximum over its inner texels of the surface distance (chord) between adjacent
 /// texel centres on `planet`'s reference surface. The request must be valid.
-double textureTileErrorMeters(const Planet& planet, const TextureTileRequest& request) noexcept;
+double textureTileErrorMeters(const runtime::Planet& planet,
+                              const TextureTileRequest& request) noexcept;
 
 /// Makes the tile. For each texel: the direction of its centre (through the extended face plane
 /// for border texels), its ground spacing (the larger of the distances to its neighbours along u
@@ -109,12 +110,12 @@ double textureTileErrorMeters(const Planet& planet, const TextureTileRequest& re
 /// Deterministic: the same source and request give the same bytes on any thread; a tile is made
 /// on the calling thread only. InvalidArgument for an invalid request or a source with neither
 /// heights nor imagery.
-Result<TextureTileResult> buildTextureTile(const TextureSource& source,
-                                           const TextureTileRequest& request);
+formats::Result<TextureTileResult> buildTextureTile(const TextureSource& source,
+                                                    const TextureTileRequest& request);
 
 /// Convenience height function for TextureSource: samples `grid` (bicubic, or bilinear when
 /// `bicubic` is false). The grid must outlive the returned function.
-std::function<std::optional<double>(double, double)> heightFunctionFromGrid(const HeightGrid& grid,
-                                                                            bool bicubic = true);
+std::function<std::optional<double>(double, double)> heightFunctionFromGrid(
+    const formats::HeightGrid& grid, bool bicubic = true);
 
 }  // namespace pbdam::builder

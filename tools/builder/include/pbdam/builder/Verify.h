@@ -23,7 +23,7 @@ namespace pbdam::builder {
 struct VerifyOptions final {
   std::filesystem::path datasetDir;
   std::filesystem::path demPath;  ///< empty: skip the error-against-DEM check
-  std::optional<RawLayout> rawLayout;
+  std::optional<formats::RawLayout> rawLayout;
   std::size_t maxViolations = 20;  ///< stop collecting after this many
   std::function<void(std::string_view stage, double fraction)> progress;
 };
@@ -42,6 +42,6 @@ struct VerifyReport final {
 
 /// Runs every check. Returns an error only when verification cannot start (no manifest, DEM
 /// unreadable); a damaged dataset gives a report with violations.
-Result<VerifyReport> verifyDataset(const VerifyOptions& options);
+formats::Result<VerifyReport> verifyDataset(const VerifyOptions& options);
 
 }  // namespace pbdam::builder
