@@ -258,7 +258,9 @@ TEST(Cli, NoStallBenchNeverFaultsOnTheRenderThread) {
   ASSERT_EQ(bench.exitCode, 0) << bench.err;
   std::ifstream in(dir / "r" / "summary.json");
   const auto summary = nlohmann::json::parse(in);
+  ASSERT_EQ(summary["runs"].size(), 2u);  // --prefetch both (the default): off, then on
   for (const auto& run : summary["runs"]) {
+    EXPECT_EQ(run["frames"], 11);  // 2 s at 5 fps
     EXPECT_EQ(run["mode"], "no-stall");
     EXPECT_EQ(run["render_thread_major_faults"], 0);
   }
