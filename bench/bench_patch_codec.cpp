@@ -16,7 +16,6 @@ namespace {
 
 using pbdam::PatchCompression;
 using pbdam::PatchMesh;
-using pbdam::PatchVertex;
 
 // ---- realistic patches (tests/support/SyntheticPatches.h, shared with the codec tests) -------
 
