@@ -9,7 +9,7 @@
 namespace pbdam {
 namespace {
 
-const std::filesystem::path kEarthImage = "/usr/share/xplanet/images/earth.jpg";
+constexpr const char* kEarthImage = "/usr/share/xplanet/images/earth.jpg";
 
 TEST(Image, ReadsTheEquirectangularEarth) {
   PBDAM_REQUIRE_DATA(path, kEarthImage);
