@@ -9,10 +9,13 @@
 // Runs on lavapipe without validation; LP_NUM_THREADS is taken from the environment.
 #include <algorithm>
 #include <chrono>
+#include <cstdarg>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -255,60 +258,75 @@ void printTables(const std::vector<ViewResult>& results) {
   }
 }
 
-void writeSeries(std::FILE* out, const char* name, const std::vector<Round>& rounds,
-                 double Round::*field) {
-  std::fprintf(out, "\"%s\": [", name);
-  for (std::size_t i = 0; i < rounds.size(); ++i) {
-    std::fprintf(out, "%s%.4f", i == 0 ? "" : ", ", rounds[i].*field);
+// printf into a string (the JSON report is written in one piece).
+[[gnu::format(printf, 2, 3)]] void appendf(std::string& out, const char* format, ...) {
+  va_list args;
+  va_start(args, format);
+  va_list again;
+  va_copy(again, args);
+  const int n = std::vsnprintf(nullptr, 0, format, args);
+  va_end(args);
+  if (n > 0) {
+    const std::size_t size = out.size();
+    out.resize(size + static_cast<std::size_t>(n) + 1);
+    std::vsnprintf(out.data() + size, static_cast<std::size_t>(n) + 1, format, again);
+    out.resize(size + static_cast<std::size_t>(n));
   }
-  std::fprintf(out, "]");
+  va_end(again);
+}
+
+void writeSeries(std::string& out, const char* name, const std::vector<Round>& rounds,
+                 double Round::*field) {
+  appendf(out, "\"%s\": [", name);
+  for (std::size_t i = 0; i < rounds.size(); ++i) {
+    appendf(out, "%s%.4f", i == 0 ? "" : ", ", rounds[i].*field);
+  }
+  appendf(out, "]");
 }
 
 bool writeJson(const std::string& path, const VulkanContext& context, const char* lpThreads,
                const Options& options, const std::vector<ViewResult>& results) {
-  std::FILE* out = std::fopen(path.c_str(), "w");
-  if (out == nullptr) return false;
-  std::fprintf(out,
-               "{\n  \"device\": \"%s\",\n  \"driver\": \"%s\",\n  \"lpNumThreads\": \"%s\",\n"
-               "  \"hardwareThreads\": %u,\n  \"width\": %u,\n  \"height\": %u,\n"
-               "  \"frames\": %d,\n  \"views\": [\n",
-               context.deviceInfo().name.c_str(), context.deviceInfo().driverInfo.c_str(),
-               lpThreads, std::thread::hardware_concurrency(), options.width, options.height,
-               options.frames);
+  std::string out;
+  appendf(out,
+          "{\n  \"device\": \"%s\",\n  \"driver\": \"%s\",\n  \"lpNumThreads\": \"%s\",\n"
+          "  \"hardwareThreads\": %u,\n  \"width\": %u,\n  \"height\": %u,\n"
+          "  \"frames\": %d,\n  \"views\": [\n",
+          context.deviceInfo().name.c_str(), context.deviceInfo().driverInfo.c_str(), lpThreads,
+          std::thread::hardware_concurrency(), options.width, options.height, options.frames);
   for (std::size_t i = 0; i < results.size(); ++i) {
     const ViewResult& v = results[i];
     const double full = medianOf(v.rounds, &Round::fullMs);
     const double raw = medianOf(v.rounds, &Round::rawMs);
-    std::fprintf(
-        out,
-        "    {\"name\": \"%s\", \"patches\": %llu, \"triangles\": %llu, \"tiles\": %llu,\n"
-        "     \"firstMs\": %.4f, \"fullMs\": %.4f, \"rawMs\": %.4f,\n"
-        "     \"trianglesPerSecondFull\": %.1f, \"trianglesPerSecondRaw\": %.1f,\n"
-        "     \"overheadShare\": %.5f, \"medianRoundOverheadShare\": %.5f,\n"
-        "     \"traversalMs\": %.4f, \"decodeMs\": %.4f, \"uploadMs\": %.4f, "
-        "\"drawMs\": %.4f, \"otherMs\": %.4f, \"rawDrawMs\": %.4f, \"outsideDrawMs\": %.4f,\n"
-        "     \"roundMisses\": %llu, \"identicalImages\": %s,\n     ",
-        v.view->name, static_cast<unsigned long long>(v.patches),
-        static_cast<unsigned long long>(v.triangles), static_cast<unsigned long long>(v.tiles),
-        v.firstMs, full, raw, trianglesPerSecond(v.triangles, full),
-        trianglesPerSecond(v.triangles, raw), (full - raw) / full,
-        medianOf(v.rounds, &Round::overhead), medianOf(v.rounds, &Round::traversalMs),
-        medianOf(v.rounds, &Round::decodeMs), medianOf(v.rounds, &Round::uploadMs),
-        medianOf(v.rounds, &Round::drawMs), medianOf(v.rounds, &Round::otherMs),
-        medianOf(v.rounds, &Round::rawDrawMs), medianOf(v.rounds, &Round::outsideDrawMs),
-        static_cast<unsigned long long>(v.roundMisses), v.identical ? "true" : "false");
+    appendf(out,
+            "    {\"name\": \"%s\", \"patches\": %llu, \"triangles\": %llu, \"tiles\": %llu,\n"
+            "     \"firstMs\": %.4f, \"fullMs\": %.4f, \"rawMs\": %.4f,\n"
+            "     \"trianglesPerSecondFull\": %.1f, \"trianglesPerSecondRaw\": %.1f,\n"
+            "     \"overheadShare\": %.5f, \"medianRoundOverheadShare\": %.5f,\n"
+            "     \"traversalMs\": %.4f, \"decodeMs\": %.4f, \"uploadMs\": %.4f, "
+            "\"drawMs\": %.4f, \"otherMs\": %.4f, \"rawDrawMs\": %.4f, \"outsideDrawMs\": %.4f,\n"
+            "     \"roundMisses\": %llu, \"identicalImages\": %s,\n     ",
+            v.view->name, static_cast<unsigned long long>(v.patches),
+            static_cast<unsigned long long>(v.triangles), static_cast<unsigned long long>(v.tiles),
+            v.firstMs, full, raw, trianglesPerSecond(v.triangles, full),
+            trianglesPerSecond(v.triangles, raw), (full - raw) / full,
+            medianOf(v.rounds, &Round::overhead), medianOf(v.rounds, &Round::traversalMs),
+            medianOf(v.rounds, &Round::decodeMs), medianOf(v.rounds, &Round::uploadMs),
+            medianOf(v.rounds, &Round::drawMs), medianOf(v.rounds, &Round::otherMs),
+            medianOf(v.rounds, &Round::rawDrawMs), medianOf(v.rounds, &Round::outsideDrawMs),
+            static_cast<unsigned long long>(v.roundMisses), v.identical ? "true" : "false");
     writeSeries(out, "roundFullMs", v.rounds, &Round::fullMs);
-    std::fprintf(out, ",\n     ");
+    appendf(out, ",\n     ");
     writeSeries(out, "roundRawMs", v.rounds, &Round::rawMs);
-    std::fprintf(out, "}%s\n", i + 1 == results.size() ? "" : ",");
+    appendf(out, "}%s\n", i + 1 == results.size() ? "" : ",");
   }
-  std::fprintf(out, "  ]\n}\n");
-  return std::fclose(out) == 0;
+  appendf(out, "  ]\n}\n");
+  std::ofstream file(path, std::ios::binary | std::ios::trunc);
+  file << out;
+  file.close();
+  return file.good();
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   Options options;
   int positional = 0;
   for (int i = 1; i < argc; ++i) {
@@ -383,4 +401,17 @@ int main(int argc, char** argv) {
     return 1;
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "pbdam_bench_render: %s\n", e.what());
+  } catch (...) {
+    std::fprintf(stderr, "pbdam_bench_render: unknown exception\n");
+  }
+  return 1;
 }

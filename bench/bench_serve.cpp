@@ -25,9 +25,11 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <fstream>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -149,6 +151,7 @@ Phase runPhase(int port, pid_t server, int first, int count, int concurrency, co
     }
   });
   std::vector<std::thread> clients;
+  clients.reserve(static_cast<std::size_t>(concurrency));
   for (int c = 0; c < concurrency; ++c) {
     clients.emplace_back([&] {
       httplib::Client client("127.0.0.1", port);
@@ -203,11 +206,9 @@ int usage(const char* message) {
   return 2;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+/// Parses the command line; nullopt, with `why` set, when it is not usable.
+std::optional<Options> parseOptions(const std::vector<std::string>& args, const char*& why) {
   Options o;
-  std::vector<std::string> args(argv + 1, argv + argc);
   std::vector<std::string> positional;
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
@@ -245,7 +246,8 @@ int main(int argc, char** argv) {
       positional.push_back(a);
     }
   }
-  if (positional.size() != 2) return usage("expected PBDAM_EXE and DATASET");
+  why = "expected PBDAM_EXE and DATASET";
+  if (positional.size() != 2) return std::nullopt;
   o.pbdam = positional[0];
   o.dataset = positional[1];
   if (o.warmup < 0) o.warmup = o.period;
@@ -254,10 +256,22 @@ int main(int argc, char** argv) {
       std::any_of(o.concurrency.begin(), o.concurrency.end(),
                   [](int c) { return c < 1 || c > 256; }) ||
       !(o.timeLimitSeconds > 0.0) || !(o.gpuCacheMiB > 0.0)) {
-    return usage("bad option value");
+    why = "bad option value";
+    return std::nullopt;
   }
+  return o;
+}
 
-  // The server, on a free loopback port; its start-up line names the port.
+/// A started `pbdam serve`: pid −1 when it did not start (spawned: whether it ran at all).
+struct Server {
+  bool spawned = false;
+  pid_t pid = -1;
+  int port = 0;
+  std::string startLine;
+};
+
+/// Starts the server on a free loopback port; its start-up line names the port.
+Server startServer(const Options& o) {
   std::vector<std::string> serverArgs = {o.pbdam,
                                          "serve",
                                          o.dataset,
@@ -270,17 +284,18 @@ int main(int argc, char** argv) {
                                          "--gpu-cache-mb",
                                          std::to_string(o.gpuCacheMiB)};
   std::vector<char*> cargs;
+  cargs.reserve(serverArgs.size() + 1);
   for (std::string& s : serverArgs) cargs.push_back(s.data());
   cargs.push_back(nullptr);
   int fds[2];
-  if (::pipe(fds) != 0) return 1;
+  if (::pipe(fds) != 0) return Server{};
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
   posix_spawn_file_actions_addclose(&actions, fds[0]);
   pid_t server = -1;
   if (::posix_spawn(&server, o.pbdam.c_str(), &actions, nullptr, cargs.data(), environ) != 0) {
-    return usage("cannot start PBDAM_EXE");
+    return Server{};
   }
   posix_spawn_file_actions_destroy(&actions);
   ::close(fds[1]);
@@ -302,9 +317,79 @@ int main(int argc, char** argv) {
   if (port == 0) {
     ::kill(server, SIGKILL);
     std::fprintf(stderr, "pbdam_bench_serve: the server did not start: %s\n", startLine.c_str());
-    return 1;
+    server = -1;
   }
-  std::printf("%s", startLine.c_str());
+  return Server{true, server, port, startLine};
+}
+
+/// Warms up and measures one concurrency level `c`; `first` is the first request's index and
+/// advances past the requests sent.
+Phase measureLevel(int port, pid_t server, int c, int& first, const Options& o) {
+  // Warm-up at the level's concurrency: caches fill, pools and allocator arenas reach size.
+  double warmPeak = 0.0;
+  if (o.warmup > 0) warmPeak = runPhase(port, server, first, o.warmup, c, o).rssMaxMiB;
+  first += o.warmup;
+  const double warmRss = rssMiB(server);
+  const CacheCounters before = cacheCounters(port);
+  Phase phase = runPhase(port, server, first, o.requests, c, o);
+  const CacheCounters after = cacheCounters(port);
+  const double lookups = (after.hits - before.hits) + (after.misses - before.misses);
+  phase.cacheHitRate = lookups > 0.0 ? (after.hits - before.hits) / lookups : 0.0;
+  phase.cacheUploadedMiB = (after.uploadedBytes - before.uploadedBytes) / 1048576.0;
+  phase.cacheResidentMiB = after.residentBytes / 1048576.0;
+  first += o.requests;
+  phase.rssWarmMiB = warmRss;
+  phase.rssWarmPeakMiB = warmPeak;
+  const auto change = [](double from, double to) {
+    return 100.0 * (to - from) / std::max(1.0, from);
+  };
+  std::printf(
+      "concurrency %2d: %d requests in %.1f s: %.1f frames/s, latency p50 %.1f ms p99 %.1f ms "
+      "max %.1f ms, errors %d (503 %d, other %d)%s\n"
+      "  RSS idle after warm-up %.0f MiB, idle after the run %.0f MiB (%+.1f%%); peak during "
+      "warm-up %.0f MiB, during the run %.0f MiB (%+.1f%%)\n"
+      "  GPU cache during the run: hit rate %.1f%%, %.1f MiB uploaded, %.1f MiB resident after "
+      "it\n",
+      c, phase.sent, phase.seconds, phase.ok / phase.seconds, phase.p50Ms, phase.p99Ms, phase.maxMs,
+      phase.refused + phase.failed, phase.refused, phase.failed,
+      phase.timedOut ? " (time limit reached)" : "", phase.rssWarmMiB, phase.rssEndMiB,
+      change(phase.rssWarmMiB, phase.rssEndMiB), phase.rssWarmPeakMiB, phase.rssMaxMiB,
+      change(phase.rssWarmPeakMiB, phase.rssMaxMiB), 100.0 * phase.cacheHitRate,
+      phase.cacheUploadedMiB, phase.cacheResidentMiB);
+  return phase;
+}
+
+void writeJson(const std::string& path, const std::vector<Phase>& phases) {
+  std::ofstream out(path);
+  out << "[\n";
+  for (std::size_t i = 0; i < phases.size(); ++i) {
+    const Phase& p = phases[i];
+    out << "  {\"concurrency\": " << p.concurrency << ", \"requests\": " << p.sent
+        << ", \"ok\": " << p.ok << ", \"refused_503\": " << p.refused
+        << ", \"failed\": " << p.failed << ", \"seconds\": " << p.seconds
+        << ", \"frames_per_s\": " << p.ok / p.seconds << ", \"p50_ms\": " << p.p50Ms
+        << ", \"p99_ms\": " << p.p99Ms << ", \"max_ms\": " << p.maxMs
+        << ", \"rss_warm_mib\": " << p.rssWarmMiB << ", \"rss_warm_peak_mib\": " << p.rssWarmPeakMiB
+        << ", \"rss_max_mib\": " << p.rssMaxMiB << ", \"rss_end_mib\": " << p.rssEndMiB
+        << ", \"cache_hit_rate\": " << p.cacheHitRate
+        << ", \"cache_uploaded_mib\": " << p.cacheUploadedMiB
+        << ", \"cache_resident_mib\": " << p.cacheResidentMiB << "}"
+        << (i + 1 < phases.size() ? "," : "") << "\n";
+  }
+  out << "]\n";
+}
+
+int run(const std::vector<std::string>& args) {
+  const char* why = "";
+  const std::optional<Options> parsed = parseOptions(args, why);
+  if (!parsed) return usage(why);
+  const Options& o = *parsed;
+  const Server started = startServer(o);
+  if (!started.spawned) return usage("cannot start PBDAM_EXE");
+  if (started.pid < 0) return 1;
+  const pid_t server = started.pid;
+  const int port = started.port;
+  std::printf("%s", started.startLine.c_str());
   std::printf(
       "%d requests of %dx%d per level after a warm-up of %d (cameras loop over %d views), server "
       "--workers %d --queue %d --gpu-cache-mb %.0f\n",
@@ -313,38 +398,7 @@ int main(int argc, char** argv) {
   std::vector<Phase> phases;
   int first = 0;
   for (const int c : o.concurrency) {
-    // Warm-up at the level's concurrency: caches fill, pools and allocator arenas reach size.
-    double warmPeak = 0.0;
-    if (o.warmup > 0) warmPeak = runPhase(port, server, first, o.warmup, c, o).rssMaxMiB;
-    first += o.warmup;
-    const double warmRss = rssMiB(server);
-    const CacheCounters before = cacheCounters(port);
-    Phase phase = runPhase(port, server, first, o.requests, c, o);
-    const CacheCounters after = cacheCounters(port);
-    const double lookups = (after.hits - before.hits) + (after.misses - before.misses);
-    phase.cacheHitRate = lookups > 0.0 ? (after.hits - before.hits) / lookups : 0.0;
-    phase.cacheUploadedMiB = (after.uploadedBytes - before.uploadedBytes) / 1048576.0;
-    phase.cacheResidentMiB = after.residentBytes / 1048576.0;
-    first += o.requests;
-    phase.rssWarmMiB = warmRss;
-    phase.rssWarmPeakMiB = warmPeak;
-    phases.push_back(phase);
-    const auto change = [](double from, double to) {
-      return 100.0 * (to - from) / std::max(1.0, from);
-    };
-    std::printf(
-        "concurrency %2d: %d requests in %.1f s: %.1f frames/s, latency p50 %.1f ms p99 %.1f ms "
-        "max %.1f ms, errors %d (503 %d, other %d)%s\n"
-        "  RSS idle after warm-up %.0f MiB, idle after the run %.0f MiB (%+.1f%%); peak during "
-        "warm-up %.0f MiB, during the run %.0f MiB (%+.1f%%)\n"
-        "  GPU cache during the run: hit rate %.1f%%, %.1f MiB uploaded, %.1f MiB resident after "
-        "it\n",
-        c, phase.sent, phase.seconds, phase.ok / phase.seconds, phase.p50Ms, phase.p99Ms,
-        phase.maxMs, phase.refused + phase.failed, phase.refused, phase.failed,
-        phase.timedOut ? " (time limit reached)" : "", phase.rssWarmMiB, phase.rssEndMiB,
-        change(phase.rssWarmMiB, phase.rssEndMiB), phase.rssWarmPeakMiB, phase.rssMaxMiB,
-        change(phase.rssWarmPeakMiB, phase.rssMaxMiB), 100.0 * phase.cacheHitRate,
-        phase.cacheUploadedMiB, phase.cacheResidentMiB);
+    phases.push_back(measureLevel(port, server, c, first, o));
     std::fflush(stdout);
   }
 
@@ -354,27 +408,22 @@ int main(int argc, char** argv) {
   const bool cleanExit = WIFEXITED(status) && WEXITSTATUS(status) == 0;
   std::printf("server exit after SIGTERM: %s\n", cleanExit ? "0" : "FAILED");
 
-  if (!o.json.empty()) {
-    std::ofstream out(o.json);
-    out << "[\n";
-    for (std::size_t i = 0; i < phases.size(); ++i) {
-      const Phase& p = phases[i];
-      out << "  {\"concurrency\": " << p.concurrency << ", \"requests\": " << p.sent
-          << ", \"ok\": " << p.ok << ", \"refused_503\": " << p.refused
-          << ", \"failed\": " << p.failed << ", \"seconds\": " << p.seconds
-          << ", \"frames_per_s\": " << p.ok / p.seconds << ", \"p50_ms\": " << p.p50Ms
-          << ", \"p99_ms\": " << p.p99Ms << ", \"max_ms\": " << p.maxMs
-          << ", \"rss_warm_mib\": " << p.rssWarmMiB
-          << ", \"rss_warm_peak_mib\": " << p.rssWarmPeakMiB << ", \"rss_max_mib\": " << p.rssMaxMiB
-          << ", \"rss_end_mib\": " << p.rssEndMiB << ", \"cache_hit_rate\": " << p.cacheHitRate
-          << ", \"cache_uploaded_mib\": " << p.cacheUploadedMiB
-          << ", \"cache_resident_mib\": " << p.cacheResidentMiB << "}"
-          << (i + 1 < phases.size() ? "," : "") << "\n";
-    }
-    out << "]\n";
-  }
+  if (!o.json.empty()) writeJson(o.json, phases);
   const bool errorsAtLowConcurrency = std::any_of(
       phases.begin(), phases.end(),
       [&](const Phase& p) { return p.concurrency <= o.workers && (p.refused + p.failed) > 0; });
   return cleanExit && !errorsAtLowConcurrency ? 0 : 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(std::vector<std::string>(argv + 1, argv + argc));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "pbdam_bench_serve: %s\n", e.what());
+  } catch (...) {
+    std::fprintf(stderr, "pbdam_bench_serve: unknown exception\n");
+  }
+  return 1;
 }

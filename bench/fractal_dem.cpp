@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <filesystem>
 #include <memory>
 #include <numbers>
@@ -64,7 +65,9 @@ Options parse(int argc, char** argv) {
       char* end = nullptr;
       const double d = std::strtod(v.c_str(), &end);
       if (end == v.c_str() || *end != '\0' || !std::isfinite(d) || d < lo || d > hi) {
-        usage((a + " " + v + ": not a number in range").c_str());
+        std::string why = a;
+        why += " " + v + ": not a number in range";
+        usage(why.c_str());
       }
       return d;
     };
@@ -93,9 +96,42 @@ Options parse(int argc, char** argv) {
   return o;
 }
 
-}  // namespace
+/// Creates the tiled Int16 GeoTIFF `tmp` of `width` x `height` samples on the body of `dem`;
+/// null (after a message) when GDAL cannot.
+std::unique_ptr<GDALDataset> createGeoTiff(const std::string& tmp, std::int64_t width,
+                                           std::int64_t height, double spacingDegrees,
+                                           const pbdam::formats::HeightGrid& dem) {
+  GDALAllRegister();
+  GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
+  if (driver == nullptr) {
+    std::fprintf(stderr, "pbdam_fractal_dem: GDAL has no GTiff driver\n");
+    return nullptr;
+  }
+  char** createOptions = nullptr;
+  createOptions = CSLSetNameValue(createOptions, "TILED", "YES");
+  createOptions = CSLSetNameValue(createOptions, "BLOCKXSIZE", "512");
+  createOptions = CSLSetNameValue(createOptions, "BLOCKYSIZE", "512");
+  createOptions = CSLSetNameValue(createOptions, "BIGTIFF", "IF_SAFER");
+  std::unique_ptr<GDALDataset> out(driver->Create(
+      tmp.c_str(), static_cast<int>(width), static_cast<int>(height), 1, GDT_Int16, createOptions));
+  CSLDestroy(createOptions);
+  if (!out) {
+    std::fprintf(stderr, "pbdam_fractal_dem: %s: cannot create\n", tmp.c_str());
+    return nullptr;
+  }
+  const double semiMajor =
+      dem.source().semiMajorMeters > 0.0 ? dem.source().semiMajorMeters : 3396190.0;
+  double geoTransform[6] = {0.0, spacingDegrees, 0.0, 90.0, 0.0, -spacingDegrees};
+  out->SetGeoTransform(geoTransform);
+  OGRSpatialReference srs;
+  const double flattening = dem.source().semiMajorMeters > 0.0 ? dem.source().flattening : 0.0;
+  srs.SetGeogCS("fractal", "fractal_datum", "body", semiMajor,
+                flattening > 0.0 ? 1.0 / flattening : 0.0);
+  out->SetSpatialRef(&srs);
+  return out;
+}
 
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   const Options o = parse(argc, argv);
   auto dem = pbdam::formats::readDem(o.dem);
   if (!dem) {
@@ -132,32 +168,9 @@ int main(int argc, char** argv) {
   perlin.SetOctaveCount(octaves);
   perlin.SetNoiseQuality(noise::QUALITY_STD);
 
-  GDALAllRegister();
-  GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
-  if (driver == nullptr) {
-    std::fprintf(stderr, "pbdam_fractal_dem: GDAL has no GTiff driver\n");
-    return 1;
-  }
-  char** createOptions = nullptr;
-  createOptions = CSLSetNameValue(createOptions, "TILED", "YES");
-  createOptions = CSLSetNameValue(createOptions, "BLOCKXSIZE", "512");
-  createOptions = CSLSetNameValue(createOptions, "BLOCKYSIZE", "512");
-  createOptions = CSLSetNameValue(createOptions, "BIGTIFF", "IF_SAFER");
   const std::string tmp = o.out + ".tmp.tif";
-  std::unique_ptr<GDALDataset> out(driver->Create(
-      tmp.c_str(), static_cast<int>(width), static_cast<int>(height), 1, GDT_Int16, createOptions));
-  CSLDestroy(createOptions);
-  if (!out) {
-    std::fprintf(stderr, "pbdam_fractal_dem: %s: cannot create\n", tmp.c_str());
-    return 1;
-  }
-  double geoTransform[6] = {0.0, spacingDegrees, 0.0, 90.0, 0.0, -spacingDegrees};
-  out->SetGeoTransform(geoTransform);
-  OGRSpatialReference srs;
-  const double flattening = dem->source().semiMajorMeters > 0.0 ? dem->source().flattening : 0.0;
-  srs.SetGeogCS("fractal", "fractal_datum", "body", semiMajor,
-                flattening > 0.0 ? 1.0 / flattening : 0.0);
-  out->SetSpatialRef(&srs);
+  std::unique_ptr<GDALDataset> out = createGeoTiff(tmp, width, height, spacingDegrees, *dem);
+  if (!out) return 1;
   GDALRasterBand* band = out->GetRasterBand(1);
   band->SetNoDataValue(-32768.0);
 
@@ -218,4 +231,17 @@ int main(int argc, char** argv) {
       static_cast<double>(width * height) / 1e9, spacingDegrees, outputSpacingMeters, octaves,
       o.amplitudeMeters, o.hurst, o.seed, minM, maxM, seconds);
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "pbdam_fractal_dem: %s\n", e.what());
+  } catch (...) {
+    std::fprintf(stderr, "pbdam_fractal_dem: unknown exception\n");
+  }
+  return 1;
 }

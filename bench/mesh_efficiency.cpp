@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <functional>
 #include <string>
 #include <vector>
@@ -98,9 +99,7 @@ std::vector<float> rtinErrors(const SampleGrid& grid, int depth) {
   return error;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   if (argc < 3) {
     std::fprintf(stderr, "usage: %s DATASET DEM [ERROR_M ...]\n", argv[0]);
     return 2;
@@ -185,4 +184,17 @@ int main(int argc, char** argv) {
   json += "]}";
   std::printf("%s\n", json.c_str());
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "pbdam_mesh_efficiency: %s\n", e.what());
+  } catch (...) {
+    std::fprintf(stderr, "pbdam_mesh_efficiency: unknown exception\n");
+  }
+  return 1;
 }

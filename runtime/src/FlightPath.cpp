@@ -11,8 +11,6 @@ using namespace pbdam::formats;
 namespace pbdam::runtime {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 double smoothstep(double s) { return s * s * (3.0 - 2.0 * s); }
 
 double defaultPitch(double altitude, double radius) {

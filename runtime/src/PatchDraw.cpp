@@ -17,15 +17,15 @@ constexpr double kBaryUnit = 1.0 / static_cast<double>(kPatchBarycentricOne);
 constexpr float kTwoOverPi = static_cast<float>(2.0 / std::numbers::pi);
 
 glm::dvec3 position(const NodeRecord& n, int k) {
-  const auto i = static_cast<std::size_t>(3 * k);
+  const std::size_t i = 3 * static_cast<std::size_t>(k);
   return {n.cornerPositions[i], n.cornerPositions[i + 1], n.cornerPositions[i + 2]};
 }
 glm::dvec3 normalOf(const NodeRecord& n, int k) {
-  const auto i = static_cast<std::size_t>(3 * k);
+  const std::size_t i = 3 * static_cast<std::size_t>(k);
   return {n.cornerNormals[i], n.cornerNormals[i + 1], n.cornerNormals[i + 2]};
 }
 glm::vec3 fnormalOf(const NodeRecord& n, int k) {
-  const auto i = static_cast<std::size_t>(3 * k);
+  const std::size_t i = 3 * static_cast<std::size_t>(k);
   return {n.cornerNormals[i], n.cornerNormals[i + 1], n.cornerNormals[i + 2]};
 }
 

@@ -19,9 +19,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const fs::path kMolaLabel = "mars/megt90n000cb.lbl";
-const fs::path kMolaImage = "mars/megt90n000cb.img";
-const fs::path kMolaRadius = "mars/megr90n000cb.img";
+constexpr const char* kMolaLabel = "mars/megt90n000cb.lbl";
+constexpr const char* kMolaImage = "mars/megt90n000cb.img";
+constexpr const char* kMolaRadius = "mars/megr90n000cb.img";
 
 /// `text` with the first occurrence of `from` replaced by `to`.
 std::string replaceOnce(std::string text, const std::string& from, const std::string& to) {
@@ -268,7 +268,8 @@ fs::path writeSrtmTile(const fs::path& dir) {
       int v = 1000 + r - c;
       if (r == c && r % 100 == 50) v = -32768;
       const auto u = static_cast<std::uint16_t>(static_cast<std::int16_t>(v));
-      const auto k = static_cast<std::size_t>((r * n + c) * 2);
+      const std::size_t k = 2 * (static_cast<std::size_t>(r) * static_cast<std::size_t>(n) +
+                                 static_cast<std::size_t>(c));
       bytes[k] = static_cast<char>(u >> 8);
       bytes[k + 1] = static_cast<char>(u & 0xff);
     }
@@ -383,7 +384,7 @@ TEST(DemReader, RejectsTruncatedMolaImage) {
 TEST(DemReader, RejectsLabelDataSizeMismatch) {
   PBDAM_REQUIRE_DATA(label, test::dataDir() / kMolaLabel);
   test::TempDir dir;
-  const fs::path copy = copyMola(dir.path(), -1, [](std::string l) {
+  const fs::path copy = copyMola(dir.path(), -1, [](const std::string& l) {
     return replaceOnce(l, "LINES                        = 720",
                        "LINES                        = 700");
   });
@@ -393,7 +394,7 @@ TEST(DemReader, RejectsLabelDataSizeMismatch) {
 TEST(DemReader, RejectsProjectionOffsetsBeyondThePole) {
   PBDAM_REQUIRE_DATA(label, test::dataDir() / kMolaLabel);
   test::TempDir dir;
-  const fs::path copy = copyMola(dir.path(), -1, [](std::string l) {
+  const fs::path copy = copyMola(dir.path(), -1, [](const std::string& l) {
     return replaceOnce(l, "LINE_PROJECTION_OFFSET       = 360.5",
                        "LINE_PROJECTION_OFFSET       = 370.5");
   });

@@ -11,7 +11,7 @@ using namespace pbdam::formats;
 namespace pbdam::formats {
 namespace {
 
-const std::filesystem::path kEarthImage = "/usr/share/xplanet/images/earth.jpg";
+constexpr const char* kEarthImage = "/usr/share/xplanet/images/earth.jpg";
 
 TEST(Image, ReadsTheEquirectangularEarth) {
   PBDAM_REQUIRE_DATA(path, kEarthImage);

@@ -132,7 +132,7 @@ TEST(PatchCodec, RoundTripsLargestPatchAndExtremeValues) {
   mesh.vertices[0] = {32768, 0, std::numeric_limits<std::int32_t>::min()};
   mesh.vertices[1] = {0, 32768, std::numeric_limits<std::int32_t>::max()};
   std::uniform_int_distribution<int> index(0, kPatchMaxVertices - 1);
-  mesh.indices.resize(3 * kPatchMaxTriangles);
+  mesh.indices.resize(std::size_t{3} * kPatchMaxTriangles);
   for (std::uint16_t& i : mesh.indices) i = static_cast<std::uint16_t>(index(rng));
   mesh.indices[0] = 65534;
   expectRoundTrip(mesh);
@@ -178,7 +178,7 @@ TEST(PatchCodec, CompressesRealisticPatchesBelowHalf) {
     EXPECT_EQ(info->vertexCount, mesh.vertices.size());
     EXPECT_EQ(info->triangleCount, mesh.triangleCount());
     EXPECT_EQ(info->rawBytes, 8 * mesh.vertices.size() + (3 * mesh.triangleCount() + 1) / 2 +
-                                  2 * info->wideIndexCount);
+                                  std::size_t{2} * info->wideIndexCount);
     EXPECT_LT(info->wideIndexCount, mesh.indices.size() / 5);  // few codes need 16 bits
     EXPECT_EQ(info->compressedBytes + kPatchBlobHeaderBytes, blob.size());
   }

@@ -85,7 +85,8 @@ TEST(TextureTile, RoundTripsRgba8Exactly) {
 
 TEST(TextureTile, CompressesWhatCompressesAndStoresTheRest) {
   // A flat-coloured tile shrinks under LZO; random bytes are stored (header + raw texels).
-  TextureTileImage flat{32, TexelFormat::Rgba8, 2, std::vector<std::uint8_t>(32 * 32 * 4, 200)};
+  TextureTileImage flat{32, TexelFormat::Rgba8, 2,
+                        std::vector<std::uint8_t>(std::size_t{32} * 32 * 4, 200)};
   EXPECT_LT(encodeOrDie(flat).size(), flat.data.size() / 10);
   EXPECT_EQ(encodeOrDie(noiseTile(32, 3)).size(), 24u + 32u * 32u * 4u);
 }
@@ -131,7 +132,8 @@ TEST(TextureTile, RejectsInconsistentTilesOnEncode) {
 
 TEST(TextureTile, RejectsEverySingleByteCorruption) {
   // One LZO-compressed tile, one stored tile, one BC1 tile.
-  TextureTileImage flat{8, TexelFormat::Rgba8, 1, std::vector<std::uint8_t>(8 * 8 * 4, 90)};
+  TextureTileImage flat{8, TexelFormat::Rgba8, 1,
+                        std::vector<std::uint8_t>(std::size_t{8} * 8 * 4, 90)};
   for (const TextureTileImage& tile : {flat, noiseTile(4, 11), *compressBc1(smoothTile(8, 1))}) {
     const std::vector<std::byte> blob = encodeOrDie(tile);
     ASSERT_TRUE(decodeTextureTile(blob, "tile"));
@@ -150,7 +152,8 @@ TEST(TextureTile, RejectsEverySingleByteCorruption) {
 }
 
 TEST(TextureTile, RejectsTruncationsAndTrailingBytes) {
-  TextureTileImage flat{8, TexelFormat::Rgba8, 1, std::vector<std::uint8_t>(8 * 8 * 4, 90)};
+  TextureTileImage flat{8, TexelFormat::Rgba8, 1,
+                        std::vector<std::uint8_t>(std::size_t{8} * 8 * 4, 90)};
   const std::vector<std::byte> blob = encodeOrDie(flat);
   for (std::size_t length = 0; length < blob.size(); ++length) {
     auto decoded = decodeTextureTile(std::span(blob).first(length), "cut");
@@ -163,7 +166,8 @@ TEST(TextureTile, RejectsTruncationsAndTrailingBytes) {
 }
 
 TEST(TextureTile, RejectsInconsistentHeadersEvenWithAValidChecksum) {
-  TextureTileImage flat{8, TexelFormat::Rgba8, 1, std::vector<std::uint8_t>(8 * 8 * 4, 90)};
+  TextureTileImage flat{8, TexelFormat::Rgba8, 1,
+                        std::vector<std::uint8_t>(std::size_t{8} * 8 * 4, 90)};
   const std::vector<std::byte> blob = encodeOrDie(flat);
   ASSERT_EQ(std::to_integer<int>(blob[7]), 1);  // LZO
   const auto expectCorrupt = [](std::vector<std::byte> bad, const char* what) {

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -350,10 +351,58 @@ TEST(Cli, NoStallBenchNeverFaultsOnTheRenderThread) {
   ASSERT_EQ(bench.exitCode, 0) << bench.err;
   std::ifstream in(dir / "r" / "summary.json");
   const auto summary = nlohmann::json::parse(in);
+  ASSERT_EQ(summary["runs"].size(), 2u);  // --prefetch both (the default): off, then on
   for (const auto& run : summary["runs"]) {
+    EXPECT_EQ(run["frames"], 11);  // 2 s at 5 fps
     EXPECT_EQ(run["mode"], "no-stall");
     EXPECT_EQ(run["render_thread_major_faults"], 0);
   }
+}
+
+// Progress in logs: with stderr a pipe (as under CI or `2>log`), a long bench prints at most one
+// progress line a second plus the final one, not one per frame. Lines are counted by '\n' and
+// '\r' alike, so a redrawn terminal bar written into the log would count every redraw.
+TEST(Cli, BenchProgressInAPipeIsAtMostALineASecond) {
+  PBDAM_REQUIRE_DATASET(dataset, "mola");
+  test::TempDir dir;
+  const std::string path = (dir / "flight.csv").string();
+  ASSERT_EQ(runPbdam("path waypoints --via=0,-60,3000e3 --via=-8,-75,50e3 --duration 10 --fps 10 "
+                     "--planet mars --out '" +
+                     path + "'")
+                .exitCode,
+            0);
+  const std::string command = std::string("'") + PBDAM_EXE + "' bench '" + dataset.string() +
+                              "' --path '" + path + "' --out '" + (dir / "r").string() +
+                              "' --prefetch off --width 32 --height 24 2>&1 >/dev/null";
+  const auto start = std::chrono::steady_clock::now();
+  FILE* pipe = ::popen(command.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  std::string err;
+  std::array<char, 4096> buf{};
+  std::size_t n = 0;
+  while ((n = std::fread(buf.data(), 1, buf.size(), pipe)) > 0) err.append(buf.data(), n);
+  const int status = ::pclose(pipe);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << err;
+  std::vector<std::string> lines;
+  std::string line;
+  for (const char c : err) {
+    if (c != '\n' && c != '\r') {
+      line += c;
+    } else if (!line.empty()) {
+      lines.push_back(line);
+      line.clear();
+    }
+  }
+  if (!line.empty()) lines.push_back(line);
+  ASSERT_FALSE(lines.empty()) << "no progress at all";
+  EXPECT_EQ(lines.back().rfind("prefetch off: frame 101/101 ", 0), 0u) << lines.back();
+  // One line at the start, one per full second after it, and the final line.
+  EXPECT_LE(static_cast<double>(lines.size()), std::floor(seconds) + 2.0)
+      << lines.size() << " lines in " << seconds << " s:\n"
+      << err;
+  EXPECT_LT(lines.size(), 101u) << "one line per frame";
 }
 
 }  // namespace

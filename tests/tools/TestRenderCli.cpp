@@ -6,7 +6,10 @@
 #include <sys/wait.h>
 
 #include <array>
+#include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -164,6 +167,37 @@ TEST(RenderCli, CameraPathToFramesAndVideo) {
   EXPECT_TRUE(std::filesystem::exists(tmp / "bare_000002.png"));
   EXPECT_FALSE(std::filesystem::exists(tmp / "bare.mp4"));
   EXPECT_NE(bare.out.find("MP4 skipped"), std::string::npos) << bare.out;
+}
+
+// With stdout a pipe (a log), a camera path's per-frame statistics lines come at most one a
+// second plus the last frame's, not one per frame (--stats has every frame).
+TEST(RenderCli, APathInALogPrintsAtMostALineASecond) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  test::TempDir tmp;
+  const auto path = tmp / "path.csv";
+  {
+    std::ofstream out(path);
+    out << "t,lat,lon,alt,heading,pitch,roll\n";
+    for (int i = 0; i < 60; ++i) out << i * 0.1 << ",0," << i * 0.05 << ",4e6,0,-90,0\n";
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const CliRun run = runPbdam("render " + quoted(dir) + " --path " + quoted(path) + " --out " +
+                                  quoted(tmp / "f") + " --width 32 --height 24",
+                              "PATH=/nonexistent");
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSERT_EQ(run.exitCode, 0) << run.err;
+  ASSERT_TRUE(std::filesystem::exists(tmp / "f_000059.png"));
+  std::vector<std::string> frameLines;
+  for (const std::string& line : lines(run.out)) {
+    if (line.rfind("frame ", 0) == 0) frameLines.push_back(line);
+  }
+  ASSERT_FALSE(frameLines.empty()) << run.out;
+  EXPECT_EQ(frameLines.back().rfind("frame 60/60 ", 0), 0u) << run.out;
+  // One line at the start, one per full second after it, and the last frame's.
+  EXPECT_LE(static_cast<double>(frameLines.size()), std::floor(seconds) + 2.0)
+      << frameLines.size() << " lines in " << seconds << " s:\n"
+      << run.out;
 }
 
 TEST(RenderCli, ABudgetOverTheCutStillRenders) {

@@ -26,6 +26,7 @@
 
 #include "BenchReport.h"
 #include "Commands.h"
+#include "Progress.h"
 #include "pbdam/formats/CameraPath.h"
 #include "pbdam/gpu/TerrainRenderer.h"
 #include "pbdam/gpu/VulkanContext.h"
@@ -203,6 +204,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   }
   const Viewport viewport{o.width, o.height, 60.0};
   run.baselineRssFileBytes = rssFileBytes();
+  Progress progress(o.quiet);
   std::uint64_t residentBefore = residentDatasetPages(**dataset);
   const auto page = static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
   for (std::size_t i = 0; i < path.size(); ++i) {
@@ -241,13 +243,13 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     f.rssBytes = rssBytes();
     f.gpuPoolBytes = frame->stats.poolBytes;
     run.frames.push_back(f);
-    if (!o.quiet) {
-      std::fprintf(stderr, "\rprefetch %s: frame %zu/%zu  %.1f ms  %llu triangles   ",
-                   run.prefetch.c_str(), i + 1, path.size(), f.frameMs,
-                   static_cast<unsigned long long>(f.triangles));
-    }
+    char line[160];
+    std::snprintf(line, sizeof line, "prefetch %s: frame %zu/%zu  %.1f ms  %llu triangles",
+                  run.prefetch.c_str(), i + 1, path.size(), f.frameMs,
+                  static_cast<unsigned long long>(f.triangles));
+    progress.status(line, i + 1 == path.size());
   }
-  if (!o.quiet) std::fprintf(stderr, "\n");
+  progress.finish();
   if (prefetcher) {
     prefetcher->stop();
     run.prefetchRangesAdvised = prefetcher->stats().rangesAdvised;

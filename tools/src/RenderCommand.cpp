@@ -22,6 +22,7 @@
 
 #include "Commands.h"
 #include "FrameImage.h"
+#include "Progress.h"
 #include "pbdam/formats/CameraPath.h"
 #include "pbdam/formats/NumberList.h"
 #include "pbdam/gpu/TerrainRenderer.h"
@@ -218,6 +219,8 @@ int runRender(const RenderCliOptions& c) {
 
   RefinementOptions refinement;
   refinement.tolerancePixels = c.tolerancePixels;
+  // One statistics line per frame on a terminal; in logs at most one a second (and the last).
+  Progress frameLines(c.quiet, stdout, Progress::OnTerminal::Scroll);
   for (std::size_t i = 0; i < jobs.size(); ++i) {
     const FrameJob& job = jobs[i];
     const Camera camera = Camera::fromPose(view.planet(), job.pose, viewport);
@@ -235,20 +238,21 @@ int runRender(const RenderCliOptions& c) {
       statsFile.flush();
       if (!statsFile) return reportError(makeError(ErrorCode::IoError, c.stats + ": write failed"));
     }
-    if (!c.quiet) {
-      std::printf(
-          "%s%s: %llu patches, %llu triangles, %llu tiles; traversal %.1f ms, decode %.1f "
-          "ms, upload %.1f ms, draw %.1f ms, frame %.1f ms%s\n",
-          jobs.size() > 1
-              ? ("frame " + std::to_string(i + 1) + "/" + std::to_string(jobs.size()) + " ").c_str()
-              : "wrote ",
-          job.out.string().c_str(), static_cast<unsigned long long>(s.patches),
-          static_cast<unsigned long long>(s.triangles), static_cast<unsigned long long>(s.tiles),
-          traversalMs, s.decodeMs, s.uploadMs, s.drawMs, s.frameMs,
-          s.budgetExceeded ? " (over the GPU cache budget)" : "");
-      std::fflush(stdout);
-    }
+    char line[4608];  // room for a PATH_MAX output name
+    std::snprintf(
+        line, sizeof line,
+        "%s%s: %llu patches, %llu triangles, %llu tiles; traversal %.1f ms, decode %.1f "
+        "ms, upload %.1f ms, draw %.1f ms, frame %.1f ms%s",
+        jobs.size() > 1
+            ? ("frame " + std::to_string(i + 1) + "/" + std::to_string(jobs.size()) + " ").c_str()
+            : "wrote ",
+        job.out.string().c_str(), static_cast<unsigned long long>(s.patches),
+        static_cast<unsigned long long>(s.triangles), static_cast<unsigned long long>(s.tiles),
+        traversalMs, s.decodeMs, s.uploadMs, s.drawMs, s.frameMs,
+        s.budgetExceeded ? " (over the GPU cache budget)" : "");
+    frameLines.status(line, i + 1 == jobs.size());
   }
+  frameLines.finish();
 
   if (!c.path.empty() && !exr) {
     const fs::path video = prefix.string() + ".mp4";

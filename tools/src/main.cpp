@@ -3,12 +3,15 @@
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
+#include <exception>
 #include <iostream>
 
 #include "Commands.h"
 #include "MpiLauncher.h"
 
-int main(int argc, char** argv) {
+namespace {
+
+int run(int argc, char** argv) {
   CLI::App app{
       "pbdam: out-of-core planet-scale terrain (P-BDAM) — build, inspect and render "
       "planet datasets",
@@ -41,4 +44,19 @@ int main(int argc, char** argv) {
     return pbdam::tools::kExitBadInput;
   }
   return status.exitCode;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  // Commands report bad input as results; an exception reaching here is a bug or an exhausted
+  // resource (std::bad_alloc): one line and exit code 1 rather than std::terminate's abort.
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "pbdam: internal error: %s\n", e.what());
+  } catch (...) {
+    std::fprintf(stderr, "pbdam: internal error: unknown exception\n");
+  }
+  return pbdam::tools::kExitFailure;
 }

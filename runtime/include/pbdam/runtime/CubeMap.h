@@ -99,7 +99,9 @@ struct CubeLatticePoint final {
   std::uint32_t i = 0;
   std::uint32_t j = 0;
 
-  friend auto operator<=>(const CubeLatticePoint&, const CubeLatticePoint&) = default;
+  // clang-tidy 14 mistakes the 0 its defaulted <=> compares against for a null pointer.
+  friend auto operator<=>(const CubeLatticePoint&,
+                          const CubeLatticePoint&) = default;  // NOLINT(modernize-use-nullptr)
 };
 
 /// The (one to three) lattice points, on different faces, that are the same point of the sphere.

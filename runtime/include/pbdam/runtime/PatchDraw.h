@@ -38,6 +38,7 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
@@ -72,7 +73,7 @@ struct alignas(16) PatchDrawRecord final {
   std::array<float, 4> texCenter;           ///< xyz: float(Q − cam), w: k = d(tc)/d(u)
   std::array<float, 4> texPlane;            ///< x: ac, y: bc, z: Qn (metres), w: face index
 };
-static_assert(sizeof(PatchDrawRecord) == 25 * 16);
+static_assert(sizeof(PatchDrawRecord) == std::size_t{25} * 16);
 
 /// Where a patch's texture tile lies on its cube face.
 struct PatchTextureTile final {
