@@ -321,6 +321,7 @@ DatasetPtr warpToGeographic(GDALDatasetH source, const OGRSpatialReference& proj
                                    formatDouble(dLon, 17),
                                    formatDouble(dLat, 17)};
   std::vector<char*> argv;
+  argv.reserve(args.size() + 1);
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
   GDALWarpAppOptions* options = GDALWarpAppOptionsNew(argv.data(), nullptr);
@@ -603,7 +604,7 @@ void describeCrs(const OGRSpatialReference* crs, GridSource& source) {
 Result<GeoRef> georeference(OpenDem& dem, const fs::path& path, const GdalErrorCapture& capture) {
   OGRSpatialReference crs;
   bool hasCrs = false;
-  if (const OGRSpatialReferenceH h = GDALGetSpatialRef(dem.dataset.get()); h != nullptr) {
+  if (OGRSpatialReferenceH h = GDALGetSpatialRef(dem.dataset.get()); h != nullptr) {
     crs = *OGRSpatialReference::FromHandle(h);
     crs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
     hasCrs = true;
@@ -825,7 +826,7 @@ Result<HeightGrid> readHeights(OpenDem& dem, const GridGeometry& geometry, const
 std::optional<fs::path> pdsLabelFor(const fs::path& image) {
   std::error_code ec;
   if (!fs::is_regular_file(image, ec)) return std::nullopt;
-  const std::optional<fs::path> label = labelBeside(image);
+  std::optional<fs::path> label = labelBeside(image);
   if (!label || !labelNamesImage(*label, image)) return std::nullopt;
   registerGdalOnce();
   GdalErrorCapture capture;  // identification failures are the expected answer here

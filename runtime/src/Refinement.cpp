@@ -28,12 +28,13 @@ class Refiner {
     ++cut_.nodesVisited;
     const NodeRecord node = dataset_.node(key);
     const glm::dvec3 centre(node.sphereCenter[0], node.sphereCenter[1], node.sphereCenter[2]);
-    const double radius = node.sphereRadiusMeters;
+    const double radius = static_cast<double>(node.sphereRadiusMeters);
     if (options_.frustumCulling && !camera_.sphereInFrustum(centre, radius)) {
       ++cut_.nodesCulled;
       return;
     }
-    const double error = refinementErrorMeters(dataset_, level, node.errorMeters);
+    const double error =
+        refinementErrorMeters(dataset_, level, static_cast<double>(node.errorMeters));
     const double screen = camera_.screenError(error, centre, radius);
     if (screen > options_.tolerancePixels && level < maxLevel_) {
       visit(NodeKey{key.face, key.tree, 2 * key.heap + 1}, level + 1);

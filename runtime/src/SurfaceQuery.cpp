@@ -97,14 +97,16 @@ Result<SurfaceHeight> surfaceHeightAt(const DatasetView& view, double lat, doubl
       const PatchVertex& pv = mesh.vertices[v];
       positions[v] = exactVertexPosition(
           record, pv.b1, pv.b2,
-          vertexHeightMeters(pv.heightSteps, view.manifest().heightStepMeters), glm::dvec3(0.0));
+          static_cast<double>(vertexHeightMeters(pv.heightSteps, view.manifest().heightStepMeters)),
+          glm::dvec3(0.0));
     }
     for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
       const auto hit = intersect(origin, normal, positions[mesh.indices[t]],
                                  positions[mesh.indices[t + 1]], positions[mesh.indices[t + 2]]);
       // The outermost hit: where the line meets the surface coming from above.
       if (hit && (!best || *hit > best->heightMeters)) {
-        best = SurfaceHeight{*hit, key, record.errorMeters, record.measuredErrorMeters};
+        best = SurfaceHeight{*hit, key, static_cast<double>(record.errorMeters),
+                             static_cast<double>(record.measuredErrorMeters)};
       }
     }
   }

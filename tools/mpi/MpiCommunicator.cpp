@@ -42,13 +42,10 @@ class MpiCommunicator final : public Communicator {
   std::vector<std::vector<std::byte>> allGather(std::vector<std::byte> mine) override {
     const auto sizes = allSizes(mine.size());
     std::vector<std::vector<std::byte>> all(static_cast<std::size_t>(size_));
+    all[static_cast<std::size_t>(rank_)] = std::move(mine);
     for (int r = 0; r < size_; ++r) {
       auto& bytes = all[static_cast<std::size_t>(r)];
-      if (r == rank_) {
-        bytes = std::move(mine);
-      } else {
-        bytes.resize(sizes[static_cast<std::size_t>(r)]);
-      }
+      if (r != rank_) bytes.resize(sizes[static_cast<std::size_t>(r)]);
       broadcastFrom(r, bytes);
     }
     return all;

@@ -45,85 +45,71 @@ Result<std::pair<double, double>> parseLatLon(const std::string& text) {
   return std::pair{lat, lon};
 }
 
-int runDemInfo(const DemInfoOptions& o) {
-  DemReadOptions readOptions;
-  auto raw = rawLayoutOf(o.raw);
-  if (!raw) return reportError(raw.error());
-  readOptions.raw = *raw;
+/// Everything `dem info` reports: the grid, its statistics and the optional sampled point.
+struct DemInfoReport {
+  const HeightGrid& grid;
+  GridStats stats;
   std::optional<std::pair<double, double>> point;
-  if (!o.at.empty()) {
-    auto parsed = parseLatLon(o.at);
-    if (!parsed) return reportError(parsed.error());
-    point = *parsed;
-  }
-
-  if (!readOptions.raw) noteDemLabel(o.file);
-  auto grid = readDem(o.file, readOptions);
-  if (!grid) return reportError(grid.error());
-  const GridGeometry& g = grid->geometry();
-  const GridSource& s = grid->source();
-  const LatLonBounds b = grid->bounds();
-  const GridStats stats = grid->computeStats();
   std::optional<double> bilinear;
   std::optional<double> bicubic;
-  if (point) {
-    if (!grid->contains(point->first, point->second)) {
-      return reportError(makeError(
-          ErrorCode::InvalidArgument,
-          o.file + ": point " + latLonText(point->first, point->second) + " is outside the grid"));
-    }
-    bilinear = grid->sampleBilinear(point->first, point->second);
-    bicubic = grid->sampleBicubic(point->first, point->second);
-  }
+};
 
-  if (o.json) {
-    nlohmann::ordered_json j;
-    j["file"] = s.path;
-    if (!s.labelPath.empty()) j["label"] = s.labelPath;
-    j["format"] = s.format;
-    j["crs"] = s.crs;
-    j["body"] = s.body.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(s.body);
-    if (s.semiMajorMeters > 0.0) {
-      j["semi_major_m"] = s.semiMajorMeters;
-      j["flattening"] = s.flattening;
-    }
-    j["warped"] = s.warped;
-    j["width"] = g.width;
-    j["height"] = g.height;
-    j["pixel_is_area"] = g.pixelIsArea;
-    j["bounds_deg"] = {{"south", b.southDegrees},
-                       {"west", b.westDegrees},
-                       {"north", b.northDegrees},
-                       {"east", b.eastDegrees}};
-    j["spacing_deg"] = {{"lat", g.latSpacingDegrees}, {"lon", g.lonSpacingDegrees}};
-    j["wraps_longitude"] = grid->wrapsLongitude();
-    j["covers_poles"] = grid->coversPoles();
-    j["units"] = s.units;
-    j["nodata_value"] =
-        s.noDataValue ? nlohmann::ordered_json(*s.noDataValue) : nlohmann::ordered_json(nullptr);
-    j["nodata_count"] = stats.noDataCount;
-    if (stats.validCount > 0) {
-      j["min"] = {{"height_m", stats.minMeters},
-                  {"lat_deg", stats.minLatDegrees},
-                  {"lon_deg", stats.minLonDegrees}};
-      j["max"] = {{"height_m", stats.maxMeters},
-                  {"lat_deg", stats.maxLatDegrees},
-                  {"lon_deg", stats.maxLonDegrees}};
-      j["mean_m"] = stats.meanMeters;
-    }
-    if (point) {
-      auto opt = [](const std::optional<double>& v) {
-        return v ? nlohmann::ordered_json(*v) : nlohmann::ordered_json(nullptr);
-      };
-      j["at"] = {{"lat_deg", point->first},
-                 {"lon_deg", point->second},
-                 {"bilinear_m", opt(bilinear)},
-                 {"bicubic_m", opt(bicubic)}};
-    }
-    std::cout << j.dump(2) << "\n";
-    return kExitOk;
+void printDemInfoJson(const DemInfoReport& r) {
+  const GridGeometry& g = r.grid.geometry();
+  const GridSource& s = r.grid.source();
+  const LatLonBounds b = r.grid.bounds();
+  const GridStats& stats = r.stats;
+  nlohmann::ordered_json j;
+  j["file"] = s.path;
+  if (!s.labelPath.empty()) j["label"] = s.labelPath;
+  j["format"] = s.format;
+  j["crs"] = s.crs;
+  j["body"] = s.body.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(s.body);
+  if (s.semiMajorMeters > 0.0) {
+    j["semi_major_m"] = s.semiMajorMeters;
+    j["flattening"] = s.flattening;
   }
+  j["warped"] = s.warped;
+  j["width"] = g.width;
+  j["height"] = g.height;
+  j["pixel_is_area"] = g.pixelIsArea;
+  j["bounds_deg"] = {{"south", b.southDegrees},
+                     {"west", b.westDegrees},
+                     {"north", b.northDegrees},
+                     {"east", b.eastDegrees}};
+  j["spacing_deg"] = {{"lat", g.latSpacingDegrees}, {"lon", g.lonSpacingDegrees}};
+  j["wraps_longitude"] = r.grid.wrapsLongitude();
+  j["covers_poles"] = r.grid.coversPoles();
+  j["units"] = s.units;
+  j["nodata_value"] =
+      s.noDataValue ? nlohmann::ordered_json(*s.noDataValue) : nlohmann::ordered_json(nullptr);
+  j["nodata_count"] = stats.noDataCount;
+  if (stats.validCount > 0) {
+    j["min"] = {{"height_m", stats.minMeters},
+                {"lat_deg", stats.minLatDegrees},
+                {"lon_deg", stats.minLonDegrees}};
+    j["max"] = {{"height_m", stats.maxMeters},
+                {"lat_deg", stats.maxLatDegrees},
+                {"lon_deg", stats.maxLonDegrees}};
+    j["mean_m"] = stats.meanMeters;
+  }
+  if (r.point) {
+    auto opt = [](const std::optional<double>& v) {
+      return v ? nlohmann::ordered_json(*v) : nlohmann::ordered_json(nullptr);
+    };
+    j["at"] = {{"lat_deg", r.point->first},
+               {"lon_deg", r.point->second},
+               {"bilinear_m", opt(r.bilinear)},
+               {"bicubic_m", opt(r.bicubic)}};
+  }
+  std::cout << j.dump(2) << "\n";
+}
 
+void printDemInfoText(const DemInfoReport& r) {
+  const GridGeometry& g = r.grid.geometry();
+  const GridSource& s = r.grid.source();
+  const LatLonBounds b = r.grid.bounds();
+  const GridStats& stats = r.stats;
   std::printf("file:     %s\n", s.path.c_str());
   if (!s.labelPath.empty()) std::printf("label:    %s\n", s.labelPath.c_str());
   std::printf("format:   %s\n", s.format.c_str());
@@ -138,8 +124,8 @@ int runDemInfo(const DemInfoOptions& o) {
               static_cast<long long>(g.height), g.pixelIsArea ? "area" : "point");
   std::printf("bounds:   S %.6f  W %.6f  N %.6f  E %.6f (degrees)%s%s\n", b.southDegrees,
               b.westDegrees, b.northDegrees, b.eastDegrees,
-              grid->wrapsLongitude() ? ", wraps in longitude" : "",
-              grid->coversPoles() ? ", reaches both poles" : "");
+              r.grid.wrapsLongitude() ? ", wraps in longitude" : "",
+              r.grid.coversPoles() ? ", reaches both poles" : "");
   std::printf("spacing:  %.9g° lat x %.9g° lon (%.4g x %.4g arc-seconds)\n", g.latSpacingDegrees,
               g.lonSpacingDegrees, g.latSpacingDegrees * 3600.0, g.lonSpacingDegrees * 3600.0);
   if (stats.validCount > 0) {
@@ -155,15 +141,49 @@ int runDemInfo(const DemInfoOptions& o) {
   } else {
     std::printf("nodata:   %lld samples\n", static_cast<long long>(stats.noDataCount));
   }
-  if (point) {
+  if (r.point) {
     auto text = [](const std::optional<double>& v) {
       char buf[48];
       if (!v) return std::string("nodata");
       std::snprintf(buf, sizeof buf, "%.2f m", *v);
       return std::string(buf);
     };
-    std::printf("at %s: bilinear %s, bicubic %s\n", latLonText(point->first, point->second).c_str(),
-                text(bilinear).c_str(), text(bicubic).c_str());
+    std::printf("at %s: bilinear %s, bicubic %s\n",
+                latLonText(r.point->first, r.point->second).c_str(), text(r.bilinear).c_str(),
+                text(r.bicubic).c_str());
+  }
+}
+
+int runDemInfo(const DemInfoOptions& o) {
+  DemReadOptions readOptions;
+  auto raw = rawLayoutOf(o.raw);
+  if (!raw) return reportError(raw.error());
+  readOptions.raw = *raw;
+  std::optional<std::pair<double, double>> point;
+  if (!o.at.empty()) {
+    auto parsed = parseLatLon(o.at);
+    if (!parsed) return reportError(parsed.error());
+    point = *parsed;
+  }
+
+  if (!readOptions.raw) noteDemLabel(o.file);
+  auto grid = readDem(o.file, readOptions);
+  if (!grid) return reportError(grid.error());
+  DemInfoReport report{*grid, grid->computeStats(), point, std::nullopt, std::nullopt};
+  if (point) {
+    if (!grid->contains(point->first, point->second)) {
+      return reportError(makeError(
+          ErrorCode::InvalidArgument,
+          o.file + ": point " + latLonText(point->first, point->second) + " is outside the grid"));
+    }
+    report.bilinear = grid->sampleBilinear(point->first, point->second);
+    report.bicubic = grid->sampleBicubic(point->first, point->second);
+  }
+
+  if (o.json) {
+    printDemInfoJson(report);
+  } else {
+    printDemInfoText(report);
   }
   return kExitOk;
 }

@@ -88,7 +88,7 @@ Result<void> agree(Communicator& comm, const Result<void>& mine) {
     const auto code = static_cast<ErrorCode>(in.get<std::int32_t>());
     const auto text = in.take(all[r].size() - in.offset());
     std::string message(reinterpret_cast<const char*>(text.data()), text.size());
-    if (r != 0) message = "rank " + std::to_string(r) + ": " + message;
+    if (r != 0) message.insert(0, "rank " + std::to_string(r) + ": ");
     return makeError(code, message);
   }
   return {};
@@ -576,8 +576,12 @@ Result<void> DistributedBuild::rereadDem() {
   for (const auto& [key, value] : state_.fingerprint) {
     if (key == "dem-crc32" && value != crc) {
       return makeError(ErrorCode::InvalidArgument,
-                       o_.demPath.string() + ": changed during the build (CRC-32 " + crc +
-                           ", was " + value + " when the build started)");
+                       o_.demPath.string()
+                           .append(": changed during the build (CRC-32 ")
+                           .append(crc)
+                           .append(", was ")
+                           .append(value)
+                           .append(" when the build started)"));
     }
   }
   {

@@ -196,7 +196,7 @@ Result<std::optional<CheckpointState>> Checkpoint::readState() const {
           state.levelParts[first] = static_cast<std::uint32_t>(std::stoul(value.substr(used)));
         }
       } catch (const std::exception&) {
-        return damaged("bad " + key + " '" + value + "'");
+        return damaged(std::string("bad ").append(key).append(" '").append(value).append("'"));
       }
     } else if (key == "option") {
       const auto eq = value.find('=');
@@ -639,7 +639,14 @@ std::optional<std::string> fingerprintMismatch(
       if (k == key) old = v;
     }
     if (!old) return key + " is not recorded in it";
-    if (*old != value) return "it has " + key + " " + *old + ", this build " + value;
+    if (*old != value) {
+      return std::string("it has ")
+          .append(key)
+          .append(" ")
+          .append(*old)
+          .append(", this build ")
+          .append(value);
+    }
   }
   if (saved.size() != now.size()) return "it records other options";
   return std::nullopt;

@@ -67,7 +67,8 @@ class DiagonalCollapser final {
     const auto& idx = h_.mesh.indices;
     for (const std::uint32_t tri : around_[slot_[v]]) {
       if (dead_[tri]) continue;
-      std::array<std::uint32_t, 3> t = {idx[3 * tri], idx[3 * tri + 1], idx[3 * tri + 2]};
+      const std::size_t first = std::size_t{3} * tri;
+      std::array<std::uint32_t, 3> t = {idx[first], idx[first + 1], idx[first + 2]};
       if (t[0] != v && t[1] != v && t[2] != v) continue;  // v was moved off it earlier
       if (t[0] == w || t[1] == w || t[2] == w) continue;  // becomes degenerate and is removed
       for (auto& i : t) {
@@ -85,7 +86,7 @@ class DiagonalCollapser final {
     auto& onW = around_[slot_[w]];
     for (const std::uint32_t tri : around_[slot_[v]]) {
       if (dead_[tri]) continue;
-      std::uint32_t* t = &idx[3 * tri];
+      std::uint32_t* t = &idx[std::size_t{3} * tri];
       const bool hasV = t[0] == v || t[1] == v || t[2] == v;
       if (!hasV) continue;
       const bool hasW = t[0] == w || t[1] == w || t[2] == w;
@@ -512,7 +513,8 @@ std::optional<std::vector<std::uint32_t>> simplifyOneStep(const HalfSimplificati
                                                           const std::vector<std::uint32_t>& current,
                                                           std::int64_t targetTriangles,
                                                           BlockStats& stats) {
-  const auto currentTris = static_cast<double>(current.size() / 3);
+  const std::size_t currentTriangleCount = current.size() / 3;
+  const auto currentTris = static_cast<double>(currentTriangleCount);
   for (const double keep : {0.85, 0.93, 0.97}) {
     const auto stepTarget = std::max<std::int64_t>(
         targetTriangles, static_cast<std::int64_t>(std::floor(currentTris * keep)));

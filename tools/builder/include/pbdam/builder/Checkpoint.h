@@ -205,7 +205,7 @@ class Checkpoint final {
 /// The footer of a level's nodes part file: what the rank's share of the level did. The same
 /// bytes are what the ranks all-gather after the level for the log.
 struct LevelPartFooter final {
-  static constexpr std::size_t kBytes = 6 * 8;
+  static constexpr std::size_t kBytes = std::size_t{6} * 8;  ///< six 8-byte fields
   std::uint64_t firstDiamond = 0;  ///< the rank's first diamond of the level
   std::uint64_t diamonds = 0;      ///< how many it built (two nodes each)
   std::uint64_t simplifyRetries = 0;
@@ -264,7 +264,7 @@ class LevelPartView final {
 
 /// The footer of a texture part file (and what the ranks all-gather after the textures).
 struct TexturePartFooter final {
-  static constexpr std::size_t kBytes = 3 * 8;
+  static constexpr std::size_t kBytes = std::size_t{3} * 8;  ///< three 8-byte fields
   std::uint64_t firstTile = 0;
   std::uint64_t tiles = 0;
   double seconds = 0.0;

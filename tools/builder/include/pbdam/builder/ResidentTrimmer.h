@@ -20,7 +20,7 @@ namespace pbdam::builder {
 class ResidentTrimmer final {
  public:
   ResidentTrimmer(std::chrono::milliseconds period, std::function<void()> release)
-      : thread_([this, period, release = std::move(release)](std::stop_token stop) {
+      : thread_([this, period, release = std::move(release)](const std::stop_token& stop) {
           std::unique_lock lock(mutex_);
           while (!stop.stop_requested()) {
             wake_.wait_for(lock, stop, period, [] { return false; });
