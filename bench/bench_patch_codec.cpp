@@ -18,7 +18,6 @@ namespace {
 
 using pbdam::formats::PatchCompression;
 using pbdam::formats::PatchMesh;
-using pbdam::formats::PatchVertex;
 
 // ---- realistic patches (tests/support/SyntheticPatches.h, shared with the codec tests) -------
 

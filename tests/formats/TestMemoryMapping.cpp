@@ -153,7 +153,7 @@ TEST(MemoryMapping, ScratchIsUnnamedAndKeepsItsDataAcrossReleases) {
 TEST(MemoryMapping, MoveAssignmentReleasesTheOldMapping) {
   test::TempDir dir;
   auto a = MemoryMapping::createScratch(dir.path(), 4096);
-  auto b = MemoryMapping::createScratch(dir.path(), 2 * 4096);
+  auto b = MemoryMapping::createScratch(dir.path(), std::size_t{2} * 4096);
   ASSERT_TRUE(a && b);
   *a = std::move(*b);
   EXPECT_EQ(a->size(), 2u * 4096);

@@ -111,9 +111,9 @@ void checkPoint(const Planet& planet, const LatticePoint& p, double h, std::uint
       setPatchTexture(record, planet, tile, camera);
       EXPECT_EQ(record.corner[0][3], 3.0f) << "texture layer";
       const glm::vec2 tc = shaderTexCoord(record, glm::vec3(terrain - camera));
-      const double texels =
-          std::max(std::fabs(double{tc.x} - expected.x), std::fabs(double{tc.y} - expected.y)) *
-          kTileTexels;
+      const double texels = std::max(std::fabs(static_cast<double>(tc.x) - expected.x),
+                                     std::fabs(static_cast<double>(tc.y) - expected.y)) *
+                            kTileTexels;
       worst.texels = std::max(worst.texels, texels);
       ++worst.checked;
       if (!(texels <= toleranceTexels)) {

@@ -193,7 +193,8 @@ std::vector<glm::dvec3> highestVertices(const DatasetView& view, test::PatchStor
     const NodeRecord record = view.node(p.node);
     for (const PatchVertex& v : store.mesh(p.node).vertices) {
       vertices.push_back(exactVertexPosition(
-          record, v.b1, v.b2, vertexHeightMeters(v.heightSteps, view.manifest().heightStepMeters),
+          record, v.b1, v.b2,
+          static_cast<double>(vertexHeightMeters(v.heightSteps, view.manifest().heightStepMeters)),
           glm::dvec3(0.0)));
     }
   }
@@ -232,7 +233,8 @@ PrecisionFigures measurePrecision(const std::filesystem::path& dir, double lat, 
       const PatchDrawRecord draw = makePatchDrawRecord(view, {p.node, record, 0}, eye);
       for (const PatchVertex& v : store.mesh(p.node).vertices) {
         const float h = vertexHeightMeters(v.heightSteps, view.manifest().heightStepMeters);
-        const glm::dvec3 truth = exactVertexPosition(record, v.b1, v.b2, h, eye);
+        const glm::dvec3 truth =
+            exactVertexPosition(record, v.b1, v.b2, static_cast<double>(h), eye);
         if (glm::length(truth) > 1000.0) continue;
         ++f.vertices;
         const auto err = [&](const glm::vec3& p32) { return glm::length(glm::dvec3(p32) - truth); };
@@ -283,8 +285,9 @@ TEST(Refinement, CutsAreWithinTolerance) {
     for (const CutPatch& p : cut.patches) {
       const NodeRecord n = view.node(p.node);
       const double screen = c.camera.screenError(
-          refinementErrorMeters(view, p.level, n.errorMeters),
-          {n.sphereCenter[0], n.sphereCenter[1], n.sphereCenter[2]}, n.sphereRadiusMeters);
+          refinementErrorMeters(view, p.level, static_cast<double>(n.errorMeters)),
+          {n.sphereCenter[0], n.sphereCenter[1], n.sphereCenter[2]},
+          static_cast<double>(n.sphereRadiusMeters));
       // Every drawn patch is within the tolerance or a leaf.
       EXPECT_TRUE(p.level == view.depth() || screen <= c.tolerance)
           << "level " << p.level << " screen error " << screen;

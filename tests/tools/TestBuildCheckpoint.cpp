@@ -94,9 +94,11 @@ class ThreadGroup final {
 Result<BuildSummary> buildOnRanks(const BuildOptions& options, int ranks) {
   ThreadGroup group(ranks);
   std::vector<std::unique_ptr<ThreadGroup::Rank>> comms;
+  comms.reserve(static_cast<std::size_t>(ranks));
   for (int r = 0; r < ranks; ++r) comms.push_back(std::make_unique<ThreadGroup::Rank>(group, r));
   std::vector<std::optional<Result<BuildSummary>>> results(static_cast<std::size_t>(ranks));
   std::vector<std::thread> threads;
+  threads.reserve(static_cast<std::size_t>(ranks));
   for (int r = 0; r < ranks; ++r) {
     threads.emplace_back([&, r] {
       BuildOptions o = options;

@@ -6,6 +6,7 @@
 
 #include <fstream>
 #include <iterator>
+#include <memory>
 
 #include "TestData.h"
 #include "pbdam/builder/Builder.h"
@@ -160,7 +161,7 @@ TEST(Builder, ADirectoryWithoutManifestIsNotADataset) {
 TEST(Builder, RejectsBadOptions) {
   PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
   test::TempDir dir;
-  auto expectRejected = [&](BuildOptions o, const std::string& mention) {
+  auto expectRejected = [&](const BuildOptions& o, const std::string& mention) {
     auto r = buildDataset(o);
     ASSERT_FALSE(r) << mention;
     EXPECT_NE(r.error().message.find(mention), std::string::npos) << r.error().message;
@@ -190,18 +191,15 @@ class CorruptionTest : public ::testing::Test {
   static void SetUpTestSuite() {
     const fs::path dem = test::dataDir() / "mars/megt90n000cb.lbl";
     if (!test::missingFileMessage(dem).empty()) return;
-    dir_ = new test::TempDir();
+    dir_ = std::make_unique<test::TempDir>();
     BuildOptions o = smallMola(dem, dir_->path() / "ds");
     o.depth = 2;
     ASSERT_TRUE(buildDataset(o));
   }
-  static void TearDownTestSuite() {
-    delete dir_;
-    dir_ = nullptr;
-  }
-  static test::TempDir* dir_;
+  static void TearDownTestSuite() { dir_.reset(); }
+  static std::unique_ptr<test::TempDir> dir_;
 };
-test::TempDir* CorruptionTest::dir_ = nullptr;
+std::unique_ptr<test::TempDir> CorruptionTest::dir_;
 
 TEST_F(CorruptionTest, AByteFlippedInAnySectionIsCaughtByVerifyAndByDecode) {
   PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
@@ -296,7 +294,7 @@ TEST(SampleGrid, FilesWrittenInRowRangesGiveTheInMemoryGrid) {
   // Three "ranks": uneven ranges of lattice rows and of DEM rows.
   test::TempDir dir;
   const fs::path heights = dir / "heights.f32";
-  const std::size_t rows = 6 * 65;
+  const std::size_t rows = std::size_t{6} * 65;
   const auto demRows = static_cast<std::size_t>(dem->height());
   const std::array<std::size_t, 4> rowCuts = {0, 100, 101, rows};
   const std::array<std::size_t, 4> demCuts = {0, demRows / 3, demRows / 2, demRows};

@@ -213,7 +213,7 @@ TEST(CheckpointFormat, RejectsADamagedCarry) {
   EXPECT_FALSE(getCarryRecord(cut, s, &patch));
   // An index entry pointing past the records is not found.
   std::vector<std::byte> badOffset = f.payload;
-  const std::size_t firstEntry = badOffset.size() - 8 - 3 * 16;
+  const std::size_t firstEntry = badOffset.size() - 8 - std::size_t{3} * 16;
   putU64At(badOffset, firstEntry + 8, badOffset.size());
   auto badOffsetView = CarryPartView::parse(badOffset, "e.carry");
   ASSERT_TRUE(badOffsetView);

@@ -23,6 +23,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <vector>
 
@@ -52,6 +53,7 @@ class ServerProcess final {
     std::vector<std::string> argv = {PBDAM_EXE, "serve", dataset.string(), "--port", "0"};
     argv.insert(argv.end(), args.begin(), args.end());
     std::vector<char*> cargv;
+    cargv.reserve(argv.size() + 1);
     for (std::string& a : argv) cargv.push_back(a.data());
     cargv.push_back(nullptr);
     int fds[2];
@@ -201,7 +203,7 @@ void expectJsonError(const httplib::Result& res, const std::string& what) {
   EXPECT_FALSE(j.value("message", std::string()).empty()) << what << ": " << res->body;
 }
 
-const std::string kPng("\x89PNG\r\n\x1a\n", 8);
+constexpr std::string_view kPng("\x89PNG\r\n\x1a\n", 8);
 
 TEST(ServeCli, Help) {
   const std::string command = quoted(PBDAM_EXE) + " serve --help";
@@ -432,6 +434,7 @@ TEST(Serve, RenderContextsShareOneGpuCache) {
   std::vector<int> statuses(kClients, -1);
   std::atomic<int> ready{0};
   std::vector<std::thread> clients;
+  clients.reserve(kClients);
   for (int c = 0; c < kClients; ++c) {
     clients.emplace_back([&, c] {
       httplib::Client client = server.client();
@@ -473,6 +476,7 @@ TEST(Serve, BurstBeyondTheQueueGets503WithRetryAfter) {
   std::vector<std::string> retryAfter(kClients);
   std::atomic<int> ready{0};
   std::vector<std::thread> clients;
+  clients.reserve(kClients);
   for (int c = 0; c < kClients; ++c) {
     clients.emplace_back([&, c] {
       httplib::Client client = server.client();
@@ -540,6 +544,7 @@ TEST(Serve, SigtermFinishesInFlightFramesAndExitsZero) {
   std::vector<int> statuses(kClients, -1);
   std::vector<std::string> bodies(kClients);
   std::vector<std::thread> clients;
+  clients.reserve(kClients);
   for (int c = 0; c < kClients; ++c) {
     clients.emplace_back([&, c] {
       httplib::Client client = server.client();

@@ -24,7 +24,7 @@ namespace {
 
 using Colour = std::array<double, 3>;
 
-const std::filesystem::path kEarthImage = "/usr/share/xplanet/images/earth.jpg";
+constexpr const char* kEarthImage = "/usr/share/xplanet/images/earth.jpg";
 
 Colour texelAt(const TextureTileImage& tile, int x, int y) {
   const std::uint8_t* texel =
@@ -435,7 +435,8 @@ TEST(TextureBuilder, ImageryOverThePacificIsBlue) {
     const GeodeticPosition p =
         source.planet.directionToGeodetic(CubeMap::faceUvToDirection(CubeFace::PosY, uv));
     const auto rgba = *image->sampleBilinear(p.latDegrees, p.lonDegrees);
-    return Colour{rgba[0], rgba[1], rgba[2]};
+    return Colour{static_cast<double>(rgba[0]), static_cast<double>(rgba[1]),
+                  static_cast<double>(rgba[2])};
   };
   double tileError = 0.0;
   double pointError = 0.0;
