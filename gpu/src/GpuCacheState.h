@@ -14,7 +14,7 @@
 #include "PatchPipeline.h"
 #include "pbdam/formats/TextureTile.h"
 #include "pbdam/gpu/GpuCache.h"
-#include "pbdam/gpu/ResidencyLru.h"
+#include "pbdam/streaming/ResidencyLru.h"
 
 namespace pbdam::gpu {
 
@@ -25,8 +25,6 @@ struct TextureChoice final {
   std::uint64_t slotBytes = 0;
 };
 
-/// The texel format a dataset's tiles are stored in.
-TexelFormat datasetTexelFormat(const DatasetView& dataset);
 /// BC1 where the dataset and the device have it (and it is not refused), RGBA8 otherwise.
 TextureChoice chooseTexture(const VulkanContext& context, const DatasetView& dataset,
                             bool forceRgba8);
