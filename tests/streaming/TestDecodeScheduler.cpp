@@ -14,8 +14,19 @@
 #include "pbdam/streaming/DecodeScheduler.h"
 #include "pbdam/streaming/MappedDataset.h"
 
+#if defined(__SANITIZE_THREAD__)
+#include <tbb/global_control.h>
+#endif
+
 namespace pbdam {
 namespace {
+
+#if defined(__SANITIZE_THREAD__)
+// As gpu/src/SanitizerSupport.cpp does for the renderer: Debian's libtbb is not instrumented, so
+// TSan reports TBB's own task handoffs as races; under TSan the decoding runs on the calling
+// thread. The parallel path is checked by the release and ASan runs.
+const tbb::global_control serialTbbUnderTsan(tbb::global_control::max_allowed_parallelism, 1);
+#endif
 
 /// Patches and tiles of one face's top levels that have data.
 std::vector<DecodeJob> someJobs(const DatasetView& view) {
