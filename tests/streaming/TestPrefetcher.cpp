@@ -49,7 +49,12 @@ TEST(PageCache, EvictionEmptiesTheCacheAndMincoreSeesIt) {
 }
 
 TEST(Prefetcher, AdvisesThePredictedCutAndItBecomesResident) {
-  PBDAM_REQUIRE_DATASET(dir, "mola");
+  PBDAM_REQUIRE_DATASET(shared, "mola");
+  // A private copy, evicted: tests running beside this one read the shared dataset and would
+  // fault its pages back in, leaving nothing for the prefetcher to advise.
+  test::TempDir temp;
+  const std::filesystem::path dir = temp / "mola";
+  std::filesystem::copy(shared, dir);
   ASSERT_TRUE(evictDataset(dir).ok());
   auto dataset = MappedDataset::open(dir);
   ASSERT_TRUE(dataset.ok()) << dataset.error().message;
