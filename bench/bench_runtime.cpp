@@ -15,10 +15,10 @@
 #include <vector>
 
 #include "pbdam/formats/CameraPath.h"
-#include "pbdam/gpu/ResidencyLru.h"
 #include "pbdam/runtime/Camera.h"
 #include "pbdam/runtime/Refinement.h"
 #include "pbdam/streaming/MappedDataset.h"
+#include "pbdam/streaming/ResidencyLru.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
@@ -97,8 +97,8 @@ BENCHMARK(BM_RefineFlightFrame)->Unit(benchmark::kMicrosecond);
 void BM_LruFrame(benchmark::State& state) {
   const auto perFrame = static_cast<std::uint64_t>(state.range(0));
   constexpr std::uint64_t kSlot = 4096;
-  gpu::ResidencyLru lru(2 * perFrame * kSlot, {kSlot, kSlot});
-  std::vector<gpu::ResidentKey> evicted;
+  ResidencyLru lru(2 * perFrame * kSlot, {kSlot, kSlot});
+  std::vector<ResidentKey> evicted;
   std::uint64_t epoch = 0;
   std::uint64_t first = 0;
   std::uint64_t operations = 0;
@@ -106,7 +106,7 @@ void BM_LruFrame(benchmark::State& state) {
     ++epoch;
     evicted.clear();
     for (std::uint64_t k = first; k < first + perFrame; ++k) {
-      const gpu::ResidentKey key = gpu::ResidentKey::patch(
+      const ResidentKey key = ResidentKey::patch(
           NodeKey{static_cast<std::uint8_t>(k % 6), static_cast<std::uint8_t>(k / 6 % 2), k});
       if (lru.find(key)) {
         lru.touch(key, epoch);

@@ -20,8 +20,8 @@ GeoImage::GeoImage(std::int64_t width, std::int64_t height, std::vector<std::uin
       bounds_(bounds),
       georeferenced_(georeferenced) {}
 
-std::array<std::uint8_t, 4> GeoImage::pixel(std::int64_t row, std::int64_t col) const noexcept {
-  const auto base = static_cast<std::size_t>((row * width_ + col) * 4);
+std::array<std::uint8_t, 4> GeoImage::pixel(std::int64_t x, std::int64_t y) const noexcept {
+  const auto base = static_cast<std::size_t>((y * width_ + x) * 4);
   return {rgba_[base], rgba_[base + 1], rgba_[base + 2], rgba_[base + 3]};
 }
 
@@ -51,10 +51,10 @@ std::optional<std::array<float, 4>> GeoImage::sampleBilinear(double latDegrees,
   auto row = [&](double r) {
     return std::clamp<std::int64_t>(static_cast<std::int64_t>(r), 0, height_ - 1);
   };
-  const auto p00 = pixel(row(y0), col(x0));
-  const auto p01 = pixel(row(y0), col(x0 + 1));
-  const auto p10 = pixel(row(y0 + 1), col(x0));
-  const auto p11 = pixel(row(y0 + 1), col(x0 + 1));
+  const auto p00 = pixel(col(x0), row(y0));
+  const auto p01 = pixel(col(x0 + 1), row(y0));
+  const auto p10 = pixel(col(x0), row(y0 + 1));
+  const auto p11 = pixel(col(x0 + 1), row(y0 + 1));
   std::array<float, 4> out{};
   for (std::size_t c = 0; c < 4; ++c) {
     const double top = (1.0 - fx) * p00[c] + fx * p01[c];

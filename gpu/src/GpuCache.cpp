@@ -15,6 +15,8 @@
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
 
+using namespace pbdam::streaming;
+
 namespace pbdam::gpu {
 namespace {
 
@@ -40,15 +42,12 @@ bool deviceSamplesBc1(const VulkanContext& context) {
 
 }  // namespace
 
-TexelFormat datasetTexelFormat(const DatasetView& dataset) {
-  return dataset.manifest().textureFormat == "bc1" ? TexelFormat::Bc1 : TexelFormat::Rgba8;
-}
-
 TextureChoice chooseTexture(const VulkanContext& context, const DatasetView& dataset,
                             bool forceRgba8) {
   const std::uint32_t size = dataset.manifest().textureTileTexels;
   TextureChoice choice;
-  if (datasetTexelFormat(dataset) == TexelFormat::Bc1 && !forceRgba8 && deviceSamplesBc1(context)) {
+  if (DecodeScheduler::datasetTexels(dataset) == TexelFormat::Bc1 && !forceRgba8 &&
+      deviceSamplesBc1(context)) {
     choice.format = VK_FORMAT_BC1_RGB_UNORM_BLOCK;
     choice.texels = TexelFormat::Bc1;
   }

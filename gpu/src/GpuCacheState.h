@@ -14,7 +14,7 @@
 #include "PatchPipeline.h"
 #include "pbdam/formats/TextureTile.h"
 #include "pbdam/gpu/GpuCache.h"
-#include "pbdam/gpu/ResidencyLru.h"
+#include "pbdam/streaming/ResidencyLru.h"
 
 namespace pbdam::gpu {
 
@@ -25,8 +25,6 @@ struct TextureChoice final {
   std::uint64_t slotBytes = 0;
 };
 
-/// The texel format a dataset's tiles are stored in.
-formats::TexelFormat datasetTexelFormat(const runtime::DatasetView& dataset);
 /// BC1 where the dataset and the device have it (and it is not refused), RGBA8 otherwise.
 TextureChoice chooseTexture(const VulkanContext& context, const runtime::DatasetView& dataset,
                             bool forceRgba8);
@@ -46,7 +44,7 @@ struct GpuCache::State {
   std::mutex mutex;
   /// Signalled whenever pins are released (a pass finished or failed).
   std::condition_variable unpinned;
-  std::optional<ResidencyLru> lru;
+  std::optional<streaming::ResidencyLru> lru;
   PatchPool patches;
   TilePool tiles;
   /// Pass numbers, over every renderer of the cache.

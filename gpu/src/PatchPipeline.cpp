@@ -10,6 +10,8 @@
 
 using namespace pbdam::formats;
 
+using namespace pbdam::streaming;
+
 namespace pbdam::gpu {
 namespace {
 

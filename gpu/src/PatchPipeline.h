@@ -11,6 +11,7 @@
 
 #include "pbdam/formats/Result.h"
 #include "pbdam/gpu/UniqueHandle.h"
+#include "pbdam/streaming/DecodeScheduler.h"
 
 namespace pbdam::gpu {
 
@@ -27,13 +28,8 @@ static_assert(sizeof(PatchPush) == 84);
 inline constexpr std::uint32_t kRecordIndexOffset = 80;
 static_assert(offsetof(PatchPush, recordIndex) == kRecordIndexOffset);
 
-/// Vertex layout of the patch pools: b1, b2 as R16G16_UINT, then h (metres) as R32_SFLOAT.
-struct PatchGpuVertex final {
-  std::uint16_t b1;
-  std::uint16_t b2;
-  float heightMeters;
-};
-static_assert(sizeof(PatchGpuVertex) == 8);
+// The vertex layout of the patch pools is PatchGpuVertex (streaming/DecodeScheduler.h): b1, b2 as
+// R16G16_UINT, then h (metres) as R32_SFLOAT.
 
 class PatchPipeline final {
  public:

@@ -92,13 +92,11 @@ void Prefetcher::prefetch(const Cut& cut) {
   const DatasetView& view = dataset_.view();
   for (const CutPatch& p : cut.patches) {
     const NodeRecord n = view.node(p.node);
-    const std::uint64_t key =
-        ((p.node.face * 2ull + p.node.tree) * view.face(0).nodesPerTree() + p.node.heap) << 1;
-    adviseRange(p.node.face, n.blobOffset, n.blobBytes, key);
+    adviseRange(p.node.face, n.blobOffset, n.blobBytes, ResidentKey::patch(p.node));
   }
   for (const TileKey& t : cut.tiles) {
     const TextureRecord r = view.textureNode(t);
-    adviseRange(t.face, r.blobOffset, r.blobBytes, ((t.heap * 6 + t.face) << 1) | 1U);
+    adviseRange(t.face, r.blobOffset, r.blobBytes, ResidentKey::tile(t));
   }
   // Forget ranges advised long ago: the kernel may have dropped them since.
   if (cycle_ % 64 == 0) {
@@ -106,22 +104,21 @@ void Prefetcher::prefetch(const Cut& cut) {
   }
 }
 
-void Prefetcher::adviseRange(int face, std::uint64_t offset, std::uint64_t bytes,
-                             std::uint64_t key) {
+void Prefetcher::adviseRange(int face, std::uint64_t offset, std::uint64_t bytes, ResidentKey key) {
   if (bytes == 0) return;
-  auto [it, fresh] = advisedAt_.try_emplace(key, cycle_);
+  auto [it, fresh] = advisedAt_.try_emplace(key.packed, cycle_);
   if (!fresh && it->second + 16 > cycle_) return;  // advised recently
   it->second = cycle_;
   const MappedFile& file = dataset_.faceFile(face);
   const auto resident = file.residentPages(offset, bytes);
-  if (resident && resident->first == resident->second) {
+  const bool wasResident = resident && resident->first == resident->second;
+  if (wasResident) {
     rangesResident_.fetch_add(1, std::memory_order_relaxed);
-    return;
-  }
-  if (file.willNeed(offset, bytes)) {
+  } else if (file.willNeed(offset, bytes)) {
     rangesAdvised_.fetch_add(1, std::memory_order_relaxed);
     bytesAdvised_.fetch_add(bytes, std::memory_order_relaxed);
   }
+  if (options_.onRange) options_.onRange({key, face, offset, bytes, wasResident, cycle_});
 }
 
 }  // namespace pbdam::streaming

@@ -81,7 +81,7 @@ TEST_P(GoldenFrames, MatchTheCheckedInReference) {
   for (std::uint32_t y = 0; y < kHeight; ++y) {
     for (std::uint32_t x = 0; x < kWidth; ++x) {
       const auto a = image.pixel(x, y);
-      const auto b = reference->pixel(y, x);
+      const auto b = reference->pixel(x, y);
       int worst = 0;
       for (int c = 0; c < 3; ++c) {
         const int d =

@@ -2,10 +2,15 @@
 // with the validation layer: what one renderer uploads the other draws without uploading it
 // again; renderers drawing at the same time from their own threads under a budget too small for
 // their cuts together still give the exact frames (byte-identical to a private cache's), never
-// exceed the budget and leave nothing pinned; and the misuse cases are refused.
+// exceed the budget and leave nothing pinned; two frames in flight at once while the cache evicts
+// (and one renderer resizes, retiring its target to deferred destruction) give no validation
+// message; and the misuse cases are refused.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <atomic>
 #include <cstdint>
+#include <latch>
 #include <string>
 #include <thread>
 #include <vector>
@@ -184,6 +189,94 @@ TEST_F(SharedGpuCacheTest, ConcurrentRenderersDrawExactFramesWithinTheBudget) {
   EXPECT_GT(totalEvictions, 0u) << "the budget was meant to be contended";
   RecordProperty("evictions", std::to_string(totalEvictions));
   RecordProperty("waits_for_room", std::to_string(stats.waits));
+}
+
+TEST_F(SharedGpuCacheTest, TwoFramesInFlightWhileTheCacheEvicts) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  const auto dataset = test::openDataset(dir);
+  ASSERT_NE(dataset, nullptr);
+  const DatasetView& view = dataset->view();
+  const double r = view.planet().equatorialRadiusMeters();
+  const std::vector<std::vector<CameraPose>> flights = {
+      {{0.0, 0.0, 0.6 * r, 0.0, -90.0, 0.0}, {30.0, 90.0, 0.5 * r, 0.0, -70.0, 0.0}},
+      {{0.0, 180.0, 0.6 * r, 0.0, -90.0, 0.0}, {-30.0, 270.0, 0.5 * r, 0.0, -70.0, 0.0}},
+  };
+  std::vector<std::vector<Camera>> cameras(flights.size());
+  std::vector<std::vector<Cut>> cuts(flights.size());
+  std::uint64_t largest = 0;
+  for (std::size_t t = 0; t < flights.size(); ++t) {
+    for (const CameraPose& pose : flights[t]) {
+      cameras[t].push_back(test::cameraAt(view, pose, kWidth, kHeight));
+      cuts[t].push_back(refine(view, cameras[t].back(), RefinementOptions{}));
+      largest = std::max(largest, bytesOf(view, cuts[t].back()));
+    }
+  }
+  // Reference frames drawn one at a time by one renderer with room for everything.
+  std::vector<std::vector<std::vector<std::uint8_t>>> expected(flights.size());
+  {
+    auto reference = makeRenderer(view, makeCache(view, std::uint64_t{256} << 20));
+    ASSERT_TRUE(reference.ok()) << reference.error().message;
+    for (std::size_t t = 0; t < flights.size(); ++t) {
+      for (std::size_t i = 0; i < cuts[t].size(); ++i) {
+        auto frame = reference->render(cuts[t][i], cameras[t][i]);
+        ASSERT_TRUE(frame.ok()) << frame.error().message;
+        expected[t].push_back(std::move(frame->image.rgba));
+      }
+    }
+  }
+  // Room for about one and a quarter cuts: the two renderers' frames evict each other's.
+  const auto cache = makeCache(view, largest + largest / 4);
+  ASSERT_NE(cache, nullptr);
+  std::vector<TerrainRenderer> renderers;
+  for (std::size_t t = 0; t < flights.size(); ++t) {
+    auto renderer = makeRenderer(view, cache);
+    ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+    renderers.push_back(std::move(*renderer));
+  }
+  constexpr int kRounds = 3;
+  std::atomic<int> inFlight{0};
+  std::atomic<int> mostInFlight{0};
+  std::vector<std::string> failures(flights.size());
+  std::vector<std::uint64_t> evictions(flights.size(), 0);
+  std::latch start(static_cast<std::ptrdiff_t>(flights.size()));
+  std::vector<std::thread> threads;
+  for (std::size_t t = 0; t < flights.size(); ++t) {
+    threads.emplace_back([&, t] {
+      start.arrive_and_wait();
+      for (int round = 0; round < kRounds; ++round) {
+        if (t == 1 && round == 1) {
+          // A resize retires the old target while the other renderer's frame is in flight.
+          if (!renderers[t].resize(kWidth / 2, kHeight / 2) ||
+              !renderers[t].resize(kWidth, kHeight)) {
+            failures[t] += "resize failed\n";
+          }
+        }
+        for (std::size_t i = 0; i < cuts[t].size(); ++i) {
+          const int now = ++inFlight;
+          int most = mostInFlight.load();
+          while (now > most && !mostInFlight.compare_exchange_weak(most, now)) {
+          }
+          auto frame = renderers[t].render(cuts[t][i], cameras[t][i]);
+          --inFlight;
+          if (!frame) {
+            failures[t] += "frame " + std::to_string(i) + ": " + frame.error().message + "\n";
+            continue;
+          }
+          evictions[t] += frame->stats.evictions;
+          if (frame->image.rgba != expected[t][i]) {
+            failures[t] += "renderer " + std::to_string(t) + " frame " + std::to_string(i) +
+                           " round " + std::to_string(round) + " differs from the reference\n";
+          }
+        }
+      }
+    });
+  }
+  for (std::thread& thread : threads) thread.join();
+  for (const std::string& failure : failures) EXPECT_TRUE(failure.empty()) << failure;
+  EXPECT_GE(mostInFlight.load(), 2) << "the two renderers never had frames in flight together";
+  EXPECT_GT(evictions[0] + evictions[1], 0u) << "the budget was meant to make the cache evict";
+  EXPECT_EQ(cache->stats().pinnedBytes, 0u);
+  // Validation messages (none allowed) are checked by the fixture's TearDown.
 }
 
 TEST_F(SharedGpuCacheTest, RedrawLastRefusesWhenAnotherRendererEvictedItsEntries) {

@@ -4,6 +4,8 @@
 
 #include <chrono>
 #include <filesystem>
+#include <map>
+#include <mutex>
 #include <thread>
 
 #include "TestData.h"
@@ -47,7 +49,12 @@ TEST(PageCache, EvictionEmptiesTheCacheAndMincoreSeesIt) {
 }
 
 TEST(Prefetcher, AdvisesThePredictedCutAndItBecomesResident) {
-  PBDAM_REQUIRE_DATASET(dir, "mola");
+  PBDAM_REQUIRE_DATASET(shared, "mola");
+  // A private copy, evicted: tests running beside this one read the shared dataset and would
+  // fault its pages back in, leaving nothing for the prefetcher to advise.
+  test::TempDir temp;
+  const std::filesystem::path dir = temp / "mola";
+  std::filesystem::copy(shared, dir);
   ASSERT_TRUE(evictDataset(dir).ok());
   auto dataset = MappedDataset::open(dir);
   ASSERT_TRUE(dataset.ok()) << dataset.error().message;
@@ -83,6 +90,64 @@ TEST(Prefetcher, AdvisesThePredictedCutAndItBecomesResident) {
   EXPECT_GT(stats.rangesAdvised, 0u);
   // Everything the predicted cut needs is in the page cache without the test touching it.
   EXPECT_EQ(resident, total);
+}
+
+TEST(Prefetcher, AsksForExactlyTheRangesOfThePredictedCut) {
+  PBDAM_REQUIRE_DATASET(shared, "mola");
+  // A private copy, evicted: every range of the cut is cold, so each one is advised.
+  test::TempDir temp;
+  const std::filesystem::path dir = temp / "mola";
+  std::filesystem::copy(shared, dir);
+  ASSERT_TRUE(evictDataset(dir).ok());
+  auto dataset = MappedDataset::open(dir);
+  ASSERT_TRUE(dataset.ok()) << dataset.error().message;
+  const DatasetView& view = (*dataset)->view();
+  std::mutex mutex;
+  std::vector<PrefetchRange> asked;
+  PrefetchOptions options;
+  options.onRange = [&](const PrefetchRange& range) {
+    const std::lock_guard<std::mutex> lock(mutex);
+    asked.push_back(range);
+  };
+  // One pose: the predicted camera is that camera.
+  const Camera camera =
+      Camera::fromPose(view.planet(), {-8.0, -75.0, 150e3, 90.0, -20.0, 0.0}, {320, 240, 60.0});
+  Prefetcher prefetcher(**dataset, options);
+  prefetcher.observe(0.0, camera);
+  for (int wait = 0; wait < 400 && prefetcher.stats().predictions == 0; ++wait) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  prefetcher.stop();
+  ASSERT_EQ(prefetcher.stats().predictions, 1u);
+
+  // What the cut needs: every patch and tile with bytes, keyed as the GPU cache keys them.
+  const Cut cut = refine(view, camera, options.refinement);
+  std::map<std::uint64_t, std::pair<std::uint64_t, std::uint64_t>> expected;
+  for (const CutPatch& p : cut.patches) {
+    const NodeRecord n = view.node(p.node);
+    if (n.blobBytes > 0) expected[packKey(p.node)] = {n.blobOffset, n.blobBytes};
+  }
+  for (const TileKey& t : cut.tiles) {
+    const TextureRecord r = view.textureNode(t);
+    if (r.blobBytes > 0) expected[packKey(t)] = {r.blobOffset, r.blobBytes};
+  }
+  ASSERT_FALSE(expected.empty());
+  std::map<std::uint64_t, std::pair<std::uint64_t, std::uint64_t>> got;
+  std::uint64_t advised = 0, advisedBytes = 0;
+  for (const PrefetchRange& range : asked) {
+    EXPECT_EQ(range.cycle, 1u);
+    EXPECT_TRUE(got.emplace(range.key.packed, std::pair{range.offset, range.bytes}).second)
+        << "range asked for twice";
+    if (!range.wasResident) {
+      ++advised;
+      advisedBytes += range.bytes;
+    }
+  }
+  EXPECT_EQ(got, expected);
+  EXPECT_GT(advised, 0u);
+  EXPECT_EQ(prefetcher.stats().rangesAdvised, advised);
+  EXPECT_EQ(prefetcher.stats().bytesAdvised, advisedBytes);
+  EXPECT_EQ(prefetcher.stats().rangesResident, asked.size() - advised);
 }
 
 TEST(Prefetcher, ConcurrentCameraUpdatesAndStop) {

@@ -14,7 +14,6 @@
 
 #include <tbb/global_control.h>
 
-#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -31,6 +30,7 @@
 #include "pbdam/gpu/TerrainRenderer.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/streaming/MappedDataset.h"
+#include "pbdam/streaming/NoStallPolicy.h"
 #include "pbdam/streaming/PageCache.h"
 #include "pbdam/streaming/Prefetcher.h"
 
@@ -49,7 +49,8 @@ struct BenchCliOptions {
   std::string prefetch = "both";
   double lookahead = 0.5;
   std::string mode = "paging";
-  double gpuCacheMb = 64.0;
+  double fovDegrees = 60.0;
+  double gpuCacheMiB = 64.0;
   int device = -1;
   bool quiet = false;
 };
@@ -90,79 +91,6 @@ std::uint64_t residentDatasetPages(const MappedDataset& dataset) {
   return pages;
 }
 
-bool rangeResident(const MappedFile& file, std::uint64_t offset, std::uint64_t bytes) {
-  if (bytes == 0) return true;
-  const auto r = file.residentPages(offset, bytes);
-  return r && r->first == r->second;
-}
-
-// No-stall: the finest cut whose patches and tiles are all in the page cache, as a global level
-// cap (a cap applies to both triangles of every diamond, so the capped cut is conforming).
-Cut noStallCut(const MappedDataset& dataset, const Camera& camera, RefinementOptions options,
-               int& cap) {
-  const DatasetView& view = dataset.view();
-  int level = view.depth();
-  for (;;) {
-    options.maxLevel = level;
-    Cut cut = refine(view, camera, options);
-    int worst = level + 1;
-    for (const CutPatch& p : cut.patches) {
-      const NodeRecord n = view.node(p.node);
-      if (!rangeResident(dataset.faceFile(p.node.face), n.blobOffset, n.blobBytes)) {
-        worst = std::min(worst, p.level);
-      }
-    }
-    for (const TileKey& t : cut.tiles) {
-      const TextureRecord r = view.textureNode(t);
-      if (!rangeResident(dataset.faceFile(t.face), r.blobOffset, r.blobBytes)) {
-        // Tile level t is drawn with patches of levels 2t and 2t+1.
-        const int tileLevel = (static_cast<int>(std::bit_width(3 * t.heap + 1)) - 1) / 2;
-        worst = std::min(worst, 2 * tileLevel);
-      }
-    }
-    if (worst > level) {
-      cap = level;
-      return cut;
-    }
-    level = std::min(level, worst) - 1;
-    if (level < 0) {
-      cap = -1;
-      return Cut{};
-    }
-  }
-}
-
-// Brings every node table, the patches of levels 0-2 and the root tiles into the page cache
-// (and out of RSS again) before the first frame: no-stall refinement must not fault on node
-// records, and with the coarsest levels resident there is always a conforming cut to draw.
-void preloadCoarseLevels(const MappedDataset& dataset) {
-  const DatasetView& view = dataset.view();
-  const auto touch = [](const MappedFile& file, std::uint64_t offset, std::uint64_t bytes) {
-    if (bytes == 0) return;
-    (void)file.willNeed(offset, bytes);
-    const auto data = file.bytes();
-    volatile std::uint8_t sink = 0;
-    for (std::uint64_t k = offset; k < offset + bytes; k += 4096) {
-      sink = sink + static_cast<std::uint8_t>(data[k]);
-    }
-    sink = sink + static_cast<std::uint8_t>(data[offset + bytes - 1]);
-  };
-  for (int f = 0; f < 6; ++f) {
-    const MappedFile& file = dataset.faceFile(f);
-    const FaceHeader& h = view.face(f).header();
-    touch(file, 0, h.blobsOffset);
-    for (std::uint8_t tree = 0; tree < 2; ++tree) {
-      for (std::uint64_t heap = 0; heap < 7; ++heap) {
-        const NodeRecord n = view.node(NodeKey{static_cast<std::uint8_t>(f), tree, heap});
-        touch(file, n.blobOffset, n.blobBytes);
-      }
-    }
-    const TextureRecord root = view.textureNode(TileKey{static_cast<std::uint8_t>(f), 0});
-    touch(file, root.blobOffset, root.blobBytes);
-    (void)file.releaseResident();
-  }
-}
-
 Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
                          const std::vector<CameraPathPoint>& path, bool prefetch) {
   BenchRun run;
@@ -186,11 +114,12 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   gpu::TerrainRendererOptions ro;
   ro.widthPixels = o.width;
   ro.heightPixels = o.height;
-  ro.gpuCacheBytes = static_cast<std::uint64_t>(o.gpuCacheMb * 1048576.0);
+  ro.gpuCacheBytes = static_cast<std::uint64_t>(o.gpuCacheMiB * 1048576.0);
   auto renderer = gpu::TerrainRenderer::create(context, view, ro);
   if (!renderer) return renderer.error();
   const bool noStall = o.mode == "no-stall";
-  if (noStall) preloadCoarseLevels(**dataset);
+  const NoStallPolicy noStallPolicy(**dataset);
+  if (noStall) noStallPolicy.preloadCoarseLevels();
   RefinementOptions refinement;
   refinement.tolerancePixels = o.tolerance;
   std::optional<Prefetcher> prefetcher;
@@ -202,7 +131,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     po.refinement = refinement;
     prefetcher.emplace(**dataset, po);
   }
-  const Viewport viewport{o.width, o.height, 60.0};
+  const Viewport viewport{o.width, o.height, o.fovDegrees};
   run.baselineRssFileBytes = rssFileBytes();
   Progress progress(o.quiet);
   std::uint64_t residentBefore = residentDatasetPages(**dataset);
@@ -219,8 +148,14 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     f.pathSeconds = p.tSeconds;
     const std::uint64_t faults0 = threadMajorFaults();
     const auto t0 = Clock::now();
-    Cut cut = noStall ? noStallCut(**dataset, camera, refinement, f.drawnLevelCap)
-                      : refine(view, camera, refinement);
+    Cut cut;
+    if (noStall) {
+      NoStallCut capped = noStallPolicy.cut(camera, refinement);
+      cut = std::move(capped.cut);
+      f.drawnLevelCap = capped.levelCap;
+    } else {
+      cut = refine(view, camera, refinement);
+    }
     f.traversalMs = msSince(t0);
     auto frame = renderer->render(cut, camera);
     if (!frame) return frame.error();
@@ -272,10 +207,12 @@ int runBench(const BenchCliOptions& o) {
     return bad("--lookahead-s must be in [0, 60]");
   }
   if (!std::isfinite(o.tolerance) || o.tolerance <= 0.0) return bad("--tolerance-px must be > 0");
-  if (!std::isfinite(o.gpuCacheMb) || o.gpuCacheMb <= 0.0 || o.gpuCacheMb > 65536.0) {
-    return bad("--gpu-cache-mb must be in (0, 65536]");
+  if (!std::isfinite(o.gpuCacheMiB) || o.gpuCacheMiB <= 0.0 || o.gpuCacheMiB > 65536.0) {
+    return bad("--gpu-cache-mib (--gpu-cache-mb) must be in (0, 65536]");
   }
-  if (auto v = validateViewport({o.width, o.height, 60.0}); !v) return reportError(v.error());
+  if (auto v = validateViewport({o.width, o.height, o.fovDegrees}); !v) {
+    return reportError(v.error());
+  }
   auto path = readCameraPath(o.path);
   if (!path) return reportError(path.error());
   auto probe = MappedDataset::open(o.dir);
@@ -297,7 +234,7 @@ int runBench(const BenchCliOptions& o) {
   setup.height = o.height;
   setup.tolerancePixels = o.tolerance;
   setup.lookaheadSeconds = o.lookahead;
-  setup.gpuCacheBytes = static_cast<std::uint64_t>(o.gpuCacheMb * 1048576.0);
+  setup.gpuCacheBytes = static_cast<std::uint64_t>(o.gpuCacheMiB * 1048576.0);
   setup.datasetBytes = (*probe)->bytes();
   probe->reset();  // unmapped, so a cold run can evict every page
 
@@ -343,7 +280,12 @@ void addBenchCommand(CLI::App& app, CommandStatus& status) {
                   "paging: missing pages fault in on the render thread; no-stall: draw the "
                   "finest resident conforming cut")
       ->capture_default_str();
-  cmd->add_option("--gpu-cache-mb", o->gpuCacheMb, "GPU cache budget")->capture_default_str();
+  cmd->add_option("--fov-deg", o->fovDegrees, "Vertical field of view in degrees")
+      ->capture_default_str();
+  cmd->add_option("--gpu-cache-mib,--gpu-cache-mb", o->gpuCacheMiB,
+                  "GPU cache budget in MiB (patch and tile slots; --gpu-cache-mb is its former "
+                  "spelling, also MiB)")
+      ->capture_default_str();
   cmd->add_option("--device", o->device, "Vulkan device index (default: lavapipe)");
   cmd->add_flag("--quiet", o->quiet, "No per-frame progress");
   cmd->callback([o, &status] { status.exitCode = runBench(*o); });

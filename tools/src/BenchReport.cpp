@@ -86,13 +86,13 @@ nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   j["bytes_paged_in"] = paged;
   j["prefetch_ranges_advised"] = run.prefetchRangesAdvised;
   j["prefetch_bytes_advised"] = run.prefetchBytesAdvised;
-  j["peak_rss_mb"] = rssMb;
-  j["dataset_mb"] = datasetMb;
+  j["peak_rss_mib"] = rssMb;
+  j["dataset_mib"] = datasetMb;
   j["rss_dataset_ratio"] = datasetMb > 0.0 ? rssMb / datasetMb : 0.0;
   const double datasetRssMb = static_cast<double>(peakDatasetRss) / 1048576.0;
-  j["peak_dataset_rss_mb"] = datasetRssMb;
+  j["peak_dataset_rss_mib"] = datasetRssMb;
   j["dataset_rss_ratio"] = datasetMb > 0.0 ? datasetRssMb / datasetMb : 0.0;
-  j["peak_gpu_pool_mb"] = static_cast<double>(peakPool) / 1048576.0;
+  j["peak_gpu_pool_mib"] = static_cast<double>(peakPool) / 1048576.0;
   j["gpu_cache_hit_rate"] =
       hits + misses > 0 ? static_cast<double>(hits) / static_cast<double>(hits + misses) : 0.0;
   return j;
@@ -188,8 +188,8 @@ Result<std::string> writeBenchReport(const std::filesystem::path& dir, const Ben
   summary["height"] = setup.height;
   summary["tolerance_px"] = setup.tolerancePixels;
   summary["lookahead_s"] = setup.lookaheadSeconds;
-  summary["gpu_cache_mb"] = static_cast<double>(setup.gpuCacheBytes) / 1048576.0;
-  summary["dataset_mb"] = static_cast<double>(setup.datasetBytes) / 1048576.0;
+  summary["gpu_cache_mib"] = static_cast<double>(setup.gpuCacheBytes) / 1048576.0;
+  summary["dataset_mib"] = static_cast<double>(setup.datasetBytes) / 1048576.0;
   summary["runs"] = nlohmann::ordered_json::array();
   for (const BenchRun& r : runs) summary["runs"].push_back(summarise(r, setup));
   {
@@ -207,25 +207,25 @@ Result<std::string> writeBenchReport(const std::filesystem::path& dir, const Ben
     std::snprintf(
         line, sizeof line,
         "prefetch %-3s %-8s %4zu frames  %.1f fps  frame ms p50 %.1f p95 %.1f p99 %.1f "
-        "max %.1f  stalls %lld  major faults %llu  traversal %.1f%%  peak RSS %.0f MB "
-        "(%.1f%% of %.0f MB)  GPU hit rate %.1f%%\n",
+        "max %.1f  stalls %lld  major faults %llu  traversal %.1f%%  peak RSS %.0f MiB "
+        "(%.1f%% of %.0f MiB)  GPU hit rate %.1f%%\n",
         r["prefetch"].get<std::string>().c_str(), r["mode"].get<std::string>().c_str(),
         r["frames"].get<std::size_t>(), r["fps_mean"].get<double>(),
         r["frame_ms_p50"].get<double>(), r["frame_ms_p95"].get<double>(),
         r["frame_ms_p99"].get<double>(), r["frame_ms_max"].get<double>(),
         static_cast<long long>(r["stalls"].get<std::int64_t>()),
         static_cast<unsigned long long>(r["render_thread_major_faults"].get<std::uint64_t>()),
-        100.0 * r["traversal_fraction"].get<double>(), r["peak_rss_mb"].get<double>(),
-        100.0 * r["rss_dataset_ratio"].get<double>(), r["dataset_mb"].get<double>(),
+        100.0 * r["traversal_fraction"].get<double>(), r["peak_rss_mib"].get<double>(),
+        100.0 * r["rss_dataset_ratio"].get<double>(), r["dataset_mib"].get<double>(),
         100.0 * r["gpu_cache_hit_rate"].get<double>());
     text << line;
     std::snprintf(line, sizeof line,
                   "  data stalls (time outside the draw > median frame) %lld; dataset pages in "
-                  "RSS peak %.1f MB (%.2f%% of the dataset); GPU cache pools %.0f MB\n",
+                  "RSS peak %.1f MiB (%.2f%% of the dataset); GPU cache pools %.0f MiB\n",
                   static_cast<long long>(r["data_stalls"].get<std::int64_t>()),
-                  r["peak_dataset_rss_mb"].get<double>(),
+                  r["peak_dataset_rss_mib"].get<double>(),
                   100.0 * r["dataset_rss_ratio"].get<double>(),
-                  r["peak_gpu_pool_mb"].get<double>());
+                  r["peak_gpu_pool_mib"].get<double>());
     text << line;
     if (r["cold"].get<bool>()) {
       std::snprintf(

@@ -144,7 +144,7 @@ int runRender(const RenderCliOptions& c) {
   }
   if (c.device < -1) return badInput("--device must be a device index (pbdam devices)");
   if (!std::isfinite(c.gpuCacheMiB) || c.gpuCacheMiB <= 0.0 || c.gpuCacheMiB > 1048576.0) {
-    return badInput("--gpu-cache-mb must be a positive number of MiB");
+    return badInput("--gpu-cache-mib (--gpu-cache-mb) must be a positive number of MiB");
   }
   std::vector<double> rgb;
   if (!parseNumberList(c.clear, 3, rgb) || std::any_of(rgb.begin(), rgb.end(), [](double v) {
@@ -308,9 +308,9 @@ void addRenderCommand(CLI::App& app, CommandStatus& status) {
                    "Screen-space error tolerance of the cut in pixels")
       ->capture_default_str();
   render
-      ->add_option("--gpu-cache-mb", o->gpuCacheMiB,
+      ->add_option("--gpu-cache-mib,--gpu-cache-mb", o->gpuCacheMiB,
                    "GPU cache budget in MiB (patch and tile slots); a cut that does not fit "
-                   "is drawn in several passes")
+                   "is drawn in several passes. --gpu-cache-mb is its former spelling (also MiB)")
       ->capture_default_str();
   render->add_option("--device", o->device,
                      "Vulkan device index (pbdam devices); default: lavapipe");

@@ -39,7 +39,7 @@ int runServe(const ServeCliOptions& c) {
   if (o.workers < 1 || o.workers > 64) return badInput("--workers must be in 1..64");
   if (o.queueCapacity > 4096) return badInput("--queue must be in 0..4096");
   if (!std::isfinite(o.gpuCacheMiB) || o.gpuCacheMiB <= 0.0 || o.gpuCacheMiB > 1048576.0) {
-    return badInput("--gpu-cache-mb must be a positive number of MiB");
+    return badInput("--gpu-cache-mib (--gpu-cache-mb) must be a positive number of MiB");
   }
   if (!std::isfinite(o.deadlineSeconds) || o.deadlineSeconds <= 0.0 || o.deadlineSeconds > 3600.0) {
     return badInput("--deadline-s must be in (0, 3600] seconds");
@@ -126,8 +126,9 @@ void addServeCommand(CLI::App& app, CommandStatus& status) {
                    "with Retry-After")
       ->capture_default_str();
   serve
-      ->add_option("--gpu-cache-mb", o->server.gpuCacheMiB,
-                   "GPU cache budget in MiB: one cache (LRU, pools) shared by every render context")
+      ->add_option("--gpu-cache-mib,--gpu-cache-mb", o->server.gpuCacheMiB,
+                   "GPU cache budget in MiB: one cache (LRU, pools) shared by every render "
+                   "context. --gpu-cache-mb is its former spelling (also MiB)")
       ->capture_default_str();
   serve
       ->add_option("--deadline-s", o->server.deadlineSeconds,

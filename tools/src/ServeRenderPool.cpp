@@ -52,7 +52,7 @@ Result<std::unique_ptr<RenderPool>> RenderPool::create(const MappedDataset& data
   if (!cache) {
     Error error = std::move(cache).error();
     if (error.code == ErrorCode::InvalidArgument)
-      error.message = "--gpu-cache-mb: " + error.message;
+      error.message = "--gpu-cache-mib: " + error.message;
     return error;
   }
   pool->cache_ = std::move(*cache);

@@ -456,7 +456,7 @@ Result<std::unique_ptr<FrameServer>> FrameServer::create(const std::string& dire
                      {"format", "png"}}}};
   info["server"] = {{"contexts", options.workers},
                     {"queue", options.queueCapacity},
-                    {"gpu_cache_mb", options.gpuCacheMiB},
+                    {"gpu_cache_mib", options.gpuCacheMiB},
                     {"deadline_s", options.deadlineSeconds},
                     {"device", impl->pool->deviceName()}};
 

@@ -30,8 +30,9 @@ class GeoImage final {
   bool georeferenced() const noexcept { return georeferenced_; }
   const std::vector<std::uint8_t>& rgba() const noexcept { return rgba_; }
 
-  /// The RGBA of pixel (row, col); indices must be in range.
-  std::array<std::uint8_t, 4> pixel(std::int64_t row, std::int64_t col) const noexcept;
+  /// The RGBA of the pixel in column x of row y (row 0 at the top), the argument order of every
+  /// image type in pbdam (gpu::RgbaImage too); indices must be in range.
+  std::array<std::uint8_t, 4> pixel(std::int64_t x, std::int64_t y) const noexcept;
 
   /// Bilinear RGBA at (lat, lon), channels in [0, 255]; longitude wraps for global images.
   /// nullopt outside the image or for non-finite input.

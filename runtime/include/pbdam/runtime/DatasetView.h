@@ -19,6 +19,11 @@
 
 namespace pbdam::runtime {
 
+/// Heap indices of node and tile keys stay below 2^kMaxKeyHeapBits, faces below 8 and trees
+/// below 2: the bounds under which packKey() is injective (a bintree of depth ≤ 57 and a texture
+/// quadtree of ≤ 29 levels have smaller heap indices).
+inline constexpr int kMaxKeyHeapBits = 59;
+
 /// Identifies one bintree node of a dataset: face, tree (0/1) and heap index.
 struct NodeKey final {
   std::uint8_t face = 0;
@@ -33,6 +38,19 @@ struct TileKey final {
   std::uint64_t heap = 0;
   friend bool operator==(const TileKey&, const TileKey&) = default;
 };
+
+/// The one integer packing of node keys: face in bits 60-62, tree in bit 59, heap index in
+/// bits 0-58; bit 63 is 0. Injective for face < 8, tree < 2, heap < 2^kMaxKeyHeapBits.
+constexpr std::uint64_t packKey(const NodeKey& key) noexcept {
+  return (std::uint64_t{key.face} << 60) | (std::uint64_t{key.tree} << kMaxKeyHeapBits) | key.heap;
+}
+
+/// The one integer packing of tile keys: bit 63 set (so that a tile never packs like a node),
+/// face in bits 60-62, heap index in bits 0-58. Injective for face < 8, heap <
+/// 2^kMaxKeyHeapBits, and disjoint from every packed NodeKey.
+constexpr std::uint64_t packKey(const TileKey& key) noexcept {
+  return (std::uint64_t{1} << 63) | (std::uint64_t{key.face} << 60) | key.heap;
+}
 
 class DatasetView final {
  public:

@@ -1,16 +1,16 @@
-// Speculative prefetch (docs/architecture.md "Streaming", paper 004 §4.4): a worker thread predicts
-// the camera a look-ahead ahead by linear extrapolation of the last poses, runs the renderer's
-// refinement for the predicted camera, and asks the kernel to start reading
-// (madvise(MADV_WILLNEED)) the page-aligned byte ranges of every needed patch and tile that is not
-// resident. The render path knows nothing of it: whoever drives the frames hands it the camera of
-// each frame. Thread-safety: observe() and stats() may be called from any thread while the worker
-// runs.
+// Speculative prefetch (design.md §5, paper 004 §4.4): a worker thread predicts the camera a
+// look-ahead ahead by linear extrapolation of the last poses, runs the renderer's refinement for
+// the predicted camera, and asks the kernel to start reading (madvise(MADV_WILLNEED)) the
+// page-aligned byte ranges of every needed patch and tile that is not resident. The render path
+// knows nothing of it: whoever drives the frames hands it the camera of each frame.
+// Thread-safety: observe() and stats() may be called from any thread while the worker runs.
 #pragma once
 
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -19,6 +19,7 @@
 #include "pbdam/runtime/Camera.h"
 #include "pbdam/runtime/Refinement.h"
 #include "pbdam/streaming/MappedDataset.h"
+#include "pbdam/streaming/ResidencyLru.h"
 
 namespace pbdam::streaming {
 
@@ -40,9 +41,23 @@ class CameraPredictor final {
   std::deque<Sample> samples_;
 };
 
+/// A patch's or tile's byte range of a predicted cut, as the prefetcher handled it.
+struct PrefetchRange final {
+  ResidentKey key;  ///< the patch or tile (packKey() of its NodeKey or TileKey)
+  int face = 0;     ///< the face file the range is in
+  std::uint64_t offset = 0;
+  std::uint64_t bytes = 0;
+  bool wasResident = false;  ///< already in the page cache: not advised
+  std::uint64_t cycle = 0;   ///< which prediction (1, 2, …) asked for it
+};
+
 struct PrefetchOptions final {
   double lookaheadSeconds = 0.5;
   runtime::RefinementOptions refinement;
+  /// Called on the worker thread for every range of a predicted cut that was not advised in
+  /// the last 16 predictions, after it was advised (or found resident). Unset: nothing. Lets a
+  /// caller (a test) see what was fetched; must not call back into the Prefetcher.
+  std::function<void(const PrefetchRange&)> onRange;
 };
 
 /// What the prefetcher did so far.
@@ -69,7 +84,7 @@ class Prefetcher final {
  private:
   void run();
   void prefetch(const runtime::Cut& cut);
-  void adviseRange(int face, std::uint64_t offset, std::uint64_t bytes, std::uint64_t key);
+  void adviseRange(int face, std::uint64_t offset, std::uint64_t bytes, ResidentKey key);
 
   const MappedDataset& dataset_;
   PrefetchOptions options_;

@@ -1,11 +1,11 @@
 // ResidencyLru: slot bookkeeping and LRU eviction under a byte budget (ResidencyLru.h).
-#include "pbdam/gpu/ResidencyLru.h"
+#include "pbdam/streaming/ResidencyLru.h"
 
 #include <cassert>
 #include <iterator>
 #include <limits>
 
-namespace pbdam::gpu {
+namespace pbdam::streaming {
 
 ResidencyLru::ResidencyLru(std::uint64_t budgetBytes,
                            std::array<std::uint64_t, 2> slotBytes) noexcept
@@ -117,4 +117,4 @@ void ResidencyLru::release(std::unordered_map<std::uint64_t, Entry>::iterator it
   entries_.erase(it);
 }
 
-}  // namespace pbdam::gpu
+}  // namespace pbdam::streaming

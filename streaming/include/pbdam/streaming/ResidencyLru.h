@@ -1,8 +1,8 @@
-// ResidencyLru: the bookkeeping of the GPU-resident patch and texture cache (docs/architecture.md
-// "Streaming") — which patches and tiles occupy which pool slot, one least-recently-used order over
-// both kinds, and a byte budget counted in slot bytes. No Vulkan here: GpuCache owns the pools the
-// slot numbers index. Thread-safety: none; GpuCache guards it with its lock when several render
-// threads share it.
+// ResidencyLru: the bookkeeping of the GPU-resident patch and texture cache (design.md §5) —
+// which patches and tiles occupy which pool slot, one least-recently-used order over both kinds,
+// and a byte budget counted in slot bytes. Residency policy, not Vulkan: gpu/GpuCache owns the
+// pools the slot numbers index. Thread-safety: none; GpuCache guards it with its lock when
+// several render threads share it.
 #pragma once
 
 #include <array>
@@ -15,7 +15,7 @@
 
 #include "pbdam/runtime/DatasetView.h"
 
-namespace pbdam::gpu {
+namespace pbdam::streaming {
 
 /// What a cache entry holds.
 enum class ResidentKind : std::uint8_t {
@@ -23,17 +23,13 @@ enum class ResidentKind : std::uint8_t {
   Tile = 1,   ///< a texture tile (one texture-array layer)
 };
 
-/// A patch or a tile, packed into one integer: kind (1 bit), face (3 bits), tree (1 bit), heap
-/// index (up to 59 bits).
+/// A patch or a tile as one integer: packKey() of its NodeKey or TileKey (DatasetView.h), whose
+/// top bit tells the kinds apart.
 struct ResidentKey final {
   std::uint64_t packed = 0;
 
-  static ResidentKey patch(const runtime::NodeKey& key) noexcept {
-    return {(std::uint64_t{key.face} << 60) | (std::uint64_t{key.tree} << 59) | key.heap};
-  }
-  static ResidentKey tile(const runtime::TileKey& key) noexcept {
-    return {(std::uint64_t{1} << 63) | (std::uint64_t{key.face} << 60) | key.heap};
-  }
+  static ResidentKey patch(const runtime::NodeKey& key) noexcept { return {runtime::packKey(key)}; }
+  static ResidentKey tile(const runtime::TileKey& key) noexcept { return {runtime::packKey(key)}; }
   ResidentKind kind() const noexcept {
     return (packed >> 63) != 0 ? ResidentKind::Tile : ResidentKind::Patch;
   }
@@ -111,4 +107,4 @@ class ResidencyLru final {
   std::array<std::uint32_t, 2> nextSlot_{};           ///< slots ever handed out, per kind
 };
 
-}  // namespace pbdam::gpu
+}  // namespace pbdam::streaming

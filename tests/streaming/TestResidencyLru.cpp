@@ -1,14 +1,18 @@
-// The GPU cache's bookkeeping (ResidencyLru): byte budget in slot bytes, one LRU order over
-// patches and tiles, no eviction of entries the current pass uses, lowest free slots first.
+// The GPU cache's bookkeeping (ResidencyLru, no Vulkan): byte budget in slot bytes, one LRU
+// order over patches and tiles, no eviction of entries the current pass uses, lowest free slots
+// first; and the one packing of node and tile keys that the cache and the prefetcher share.
 #include <gtest/gtest.h>
 
+#include <random>
+#include <unordered_set>
 #include <vector>
 
-#include "pbdam/gpu/ResidencyLru.h"
+#include "pbdam/streaming/ResidencyLru.h"
 
 using namespace pbdam::runtime;
+using namespace pbdam::streaming;
 
-namespace pbdam::gpu {
+namespace pbdam::streaming {
 namespace {
 
 ResidentKey patch(std::uint64_t heap) { return ResidentKey::patch(NodeKey{1, 0, heap}); }
@@ -21,6 +25,47 @@ TEST(ResidencyLru, KeysKeepKindFaceTreeAndHeapApart) {
   EXPECT_NE(ResidentKey::patch(NodeKey{0, 0, 7}), ResidentKey::patch(NodeKey{0, 1, 7}));
   EXPECT_NE(ResidentKey::patch(NodeKey{0, 0, 7}), ResidentKey::patch(NodeKey{5, 0, 7}));
   EXPECT_NE(ResidentKey::tile(TileKey{0, 7}), ResidentKey::tile(TileKey{5, 7}));
+}
+
+TEST(KeyPacking, IsInjectiveOverTheValidRanges) {
+  // Exhaustive over every face, tree and the heap indices of a bintree of depth 10 (and a
+  // texture quadtree of 5 levels), plus the largest heap indices the packing allows.
+  std::unordered_set<std::uint64_t> seen;
+  std::size_t count = 0;
+  std::vector<std::uint64_t> heaps;
+  for (std::uint64_t heap = 0; heap < (std::uint64_t{1} << 11); ++heap) heaps.push_back(heap);
+  const std::uint64_t top = (std::uint64_t{1} << kMaxKeyHeapBits) - 1;
+  for (std::uint64_t k = 0; k < 16; ++k) heaps.push_back(top - k);
+  for (std::uint8_t face = 0; face < 8; ++face) {
+    for (const std::uint64_t heap : heaps) {
+      for (std::uint8_t tree = 0; tree < 2; ++tree) {
+        seen.insert(packKey(NodeKey{face, tree, heap}));
+        ++count;
+      }
+      seen.insert(packKey(TileKey{face, heap}));
+      ++count;
+    }
+  }
+  EXPECT_EQ(seen.size(), count);
+  // Random keys round-trip through the bit fields the packing documents.
+  std::mt19937_64 random(7);
+  for (int i = 0; i < 100000; ++i) {
+    const NodeKey node{static_cast<std::uint8_t>(random() % 8),
+                       static_cast<std::uint8_t>(random() % 2), random() & top};
+    const std::uint64_t p = packKey(node);
+    EXPECT_EQ(p >> 63, 0u);
+    EXPECT_EQ((p >> 60) & 7, node.face);
+    EXPECT_EQ((p >> 59) & 1, node.tree);
+    EXPECT_EQ(p & top, node.heap);
+    const TileKey tile{node.face, node.heap};
+    const std::uint64_t q = packKey(tile);
+    EXPECT_EQ(q >> 63, 1u);
+    EXPECT_EQ((q >> 60) & 7, tile.face);
+    EXPECT_EQ(q & top, tile.heap);
+  }
+  // The cache's keys are exactly these packings.
+  EXPECT_EQ(ResidentKey::patch(NodeKey{3, 1, 99}).packed, packKey(NodeKey{3, 1, 99}));
+  EXPECT_EQ(ResidentKey::tile(TileKey{3, 99}).packed, packKey(TileKey{3, 99}));
 }
 
 TEST(ResidencyLru, CountsSlotBytesAndNeverExceedsTheBudget) {
@@ -130,4 +175,4 @@ TEST(ResidencyLru, APinnedEntryIsNeverEvictedWhateverItsEpoch) {
 }
 
 }  // namespace
-}  // namespace pbdam::gpu
+}  // namespace pbdam::streaming

@@ -1,0 +1,50 @@
+// One pass's render pass and per-patch draws (DrawRecorder.h; paper 004 §4.2).
+#include "DrawRecorder.h"
+
+#include <limits>
+
+namespace pbdam::gpu {
+
+void DrawRecorder::record(VkCommandBuffer cmd, const OffscreenTarget& target,
+                          const PassPlacement& placement, std::span<const std::byte> push,
+                          std::span<const DrawItem> items) const {
+  if (placement.first) {
+    target.recordBeginRendering(cmd, placement.clearRgba, OffscreenTarget::kFarDepth,
+                                !placement.last);
+  } else {
+    target.recordResumeRendering(cmd, !placement.last);
+  }
+  const PatchPipeline& pipeline = *pipeline_;
+  constexpr VkShaderStageFlags kStages = VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.pipeline());
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 0, 1,
+                          &recordsSet_, 0, nullptr);
+  vkCmdPushConstants(cmd, pipeline.layout(), kStages, 0, static_cast<std::uint32_t>(push.size()),
+                     push.data());
+  std::uint32_t boundChunk = std::numeric_limits<std::uint32_t>::max();
+  std::uint32_t boundPage = std::numeric_limits<std::uint32_t>::max();
+  for (const DrawItem& item : items) {
+    const PoolLocation patch = patches_->locate(item.patchSlot);
+    const PoolLocation tile = tiles_->locate(item.tileSlot);
+    if (patch.chunk != boundChunk) {
+      const VkBuffer vertexBuffer = patches_->vertexBuffer(patch.chunk);
+      const VkDeviceSize zero = 0;
+      vkCmdBindVertexBuffers(cmd, 0, 1, &vertexBuffer, &zero);
+      vkCmdBindIndexBuffer(cmd, patches_->indexBuffer(patch.chunk), 0, VK_INDEX_TYPE_UINT16);
+      boundChunk = patch.chunk;
+    }
+    if (tile.chunk != boundPage) {
+      const VkDescriptorSet set = tiles_->descriptorSet(tile.chunk);
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 1, 1, &set,
+                              0, nullptr);
+      boundPage = tile.chunk;
+    }
+    vkCmdPushConstants(cmd, pipeline.layout(), kStages, kRecordIndexOffset, sizeof item.recordIndex,
+                       &item.recordIndex);
+    vkCmdDrawIndexed(cmd, item.indexCount, 1, patches_->firstIndex(patch.local),
+                     static_cast<std::int32_t>(patches_->firstVertex(patch.local)), 0);
+  }
+  vkCmdEndRendering(cmd);
+}
+
+}  // namespace pbdam::gpu

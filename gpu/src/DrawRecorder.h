@@ -1,0 +1,53 @@
+// DrawRecorder (internal to pbdam_gpu): records one pass of a terrain frame (paper 004 §4.2):
+// the render pass into the offscreen target, the patch pipeline, and one indexed draw per patch
+// in cut order, binding a pool chunk's vertex/index buffers and a tile page's descriptor set only
+// when they change. Thread-safety: const; the command buffer is the caller's.
+#pragma once
+
+#include <vulkan/vulkan.h>
+
+#include <array>
+#include <cstdint>
+#include <span>
+
+#include "GpuPools.h"
+#include "PatchPipeline.h"
+#include "pbdam/gpu/OffscreenTarget.h"
+
+namespace pbdam::gpu {
+
+/// One patch to draw: its pool slots and per-draw record.
+struct DrawItem final {
+  std::uint32_t patchSlot = 0;
+  std::uint32_t tileSlot = 0;
+  std::uint32_t recordIndex = 0;  ///< index of its PatchDrawRecord in the records buffer
+  std::uint32_t indexCount = 0;   ///< 3 × triangles
+};
+
+/// How the pass sits in its frame.
+struct PassPlacement final {
+  bool first = true;  ///< clears the attachments (else resumes the previous pass's)
+  bool last = true;   ///< the frame's last pass: its attachments are stored for readback
+  std::array<float, 4> clearRgba{0.0f, 0.0f, 0.0f, 1.0f};
+};
+
+class DrawRecorder final {
+ public:
+  /// Everything referenced must outlive the recorder and the command buffers it records.
+  DrawRecorder(const PatchPipeline& pipeline, const PatchPool& patches, const TilePool& tiles,
+               VkDescriptorSet recordsSet) noexcept
+      : pipeline_(&pipeline), patches_(&patches), tiles_(&tiles), recordsSet_(recordsSet) {}
+
+  /// Records begin (or resume) rendering into `target`, the draws of `items` in order with
+  /// `push` (PatchPush bytes), and the end of rendering.
+  void record(VkCommandBuffer cmd, const OffscreenTarget& target, const PassPlacement& placement,
+              std::span<const std::byte> push, std::span<const DrawItem> items) const;
+
+ private:
+  const PatchPipeline* pipeline_;
+  const PatchPool* patches_;
+  const TilePool* tiles_;
+  VkDescriptorSet recordsSet_;
+};
+
+}  // namespace pbdam::gpu

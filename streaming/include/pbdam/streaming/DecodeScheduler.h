@@ -1,0 +1,74 @@
+// DecodeScheduler: decodes the patches and tiles a pass misses in the GPU cache (design.md §5,
+// paper 004 §4.4) in parallel on TBB workers, straight into host memory the caller provides
+// (the GPU cache's staging buffer), in the layout the GPU pools copy from. No Vulkan here.
+// Thread-safety: const members only; decode() may run on several threads at once for disjoint
+// outputs.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include "pbdam/formats/Result.h"
+#include "pbdam/formats/TextureTile.h"
+#include "pbdam/runtime/DatasetView.h"
+#include "pbdam/streaming/ResidencyLru.h"
+
+namespace pbdam::streaming {
+
+/// One vertex as the patch pools hold it (gpu/PatchPipeline.h binds it): b1, b2 as
+/// R16G16_UINT, then the height above the reference surface in metres as R32_SFLOAT.
+struct PatchGpuVertex final {
+  std::uint16_t b1;
+  std::uint16_t b2;
+  float heightMeters;
+};
+static_assert(sizeof(PatchGpuVertex) == 8);
+
+/// One missing patch (key.kind() Patch: `node`) or tile (Tile: `tile`) and where its decoded
+/// bytes go in the output.
+struct DecodeJob final {
+  ResidentKey key;
+  runtime::NodeKey node;
+  runtime::TileKey tile;
+  std::uint64_t offset = 0;       ///< first byte in the output (layout() sets it)
+  std::uint64_t bytes = 0;        ///< patches: vertices then 16-bit indices; tiles: texels
+  std::uint64_t vertexBytes = 0;  ///< patches: the vertex part of `bytes`
+};
+
+/// Decodes jobs of one dataset. The DatasetView (and the bytes under it) must outlive it.
+class DecodeScheduler final {
+ public:
+  /// Every job's offset is a multiple of this (buffer-to-image copies need 4 bytes and the
+  /// 8-byte BC1 block).
+  static constexpr std::uint64_t kAlignment = 16;
+
+  /// Tiles are decoded to `tileTexels`: the dataset's own format, or RGBA8 (BC1 expanded).
+  DecodeScheduler(const runtime::DatasetView& dataset, formats::TexelFormat tileTexels) noexcept;
+
+  /// The texel format the dataset's tiles are stored in (manifest.json's texture_format).
+  static formats::TexelFormat datasetTexels(const runtime::DatasetView& dataset) noexcept;
+  /// Bytes of one decoded tile.
+  std::uint64_t tileBytes() const noexcept { return tileBytes_; }
+
+  /// Sets every job's offset, bytes and vertexBytes: consecutive in job order, each offset
+  /// aligned to kAlignment. Returns the bytes the output needs. Patch jobs must name drawable
+  /// nodes (vertices and triangles > 0).
+  std::uint64_t layout(std::span<DecodeJob> jobs) const;
+
+  /// Decodes every job (laid out by layout()) into out.subspan(offset, bytes), in parallel.
+  /// `out` must hold layout()'s bytes. Errors: CorruptData for a blob that does not decode or
+  /// does not match its record or the manifest, naming the face file and the blob's offset
+  /// ("FILE@OFFSET"); the first failing job in job order is reported.
+  formats::Result<void> decode(std::span<const DecodeJob> jobs, std::span<std::byte> out) const;
+
+ private:
+  formats::Result<void> decodePatch(const runtime::NodeKey& key, std::span<std::byte> out) const;
+  formats::Result<void> decodeTile(const runtime::TileKey& key, std::span<std::byte> out) const;
+
+  const runtime::DatasetView* dataset_;
+  formats::TexelFormat tileTexels_;
+  std::uint64_t tileBytes_;
+};
+
+}  // namespace pbdam::streaming

@@ -1,0 +1,47 @@
+// NoStallPolicy: the no-stall mode of design.md §5 — the render thread never waits on disk; it
+// draws the finest conforming cut whose patches and tiles are all in the page cache already,
+// while a loader thread (Prefetcher) brings in what the camera needs. The cut is capped by one
+// global level (a cap applies to both triangles of every diamond, so the capped cut stays
+// conforming). No Vulkan here. Thread-safety: const members only; any thread may call them.
+#pragma once
+
+#include <cstdint>
+
+#include "pbdam/runtime/Camera.h"
+#include "pbdam/runtime/Refinement.h"
+#include "pbdam/streaming/MappedDataset.h"
+
+namespace pbdam::streaming {
+
+/// A cut and the global level cap it was refined under.
+struct NoStallCut final {
+  runtime::Cut cut;
+  /// The finest level drawn (refinement's maxLevel); the dataset's depth when nothing was
+  /// capped; -1 (and an empty cut) when not even the roots are resident.
+  int levelCap = -1;
+};
+
+/// Chooses no-stall cuts over one mapped dataset, which must outlive it.
+class NoStallPolicy final {
+ public:
+  explicit NoStallPolicy(const MappedDataset& dataset) noexcept : dataset_(&dataset) {}
+
+  /// Whether every page of [offset, offset + bytes) of `file` is in the page cache (mincore);
+  /// an empty range is.
+  static bool rangeResident(const MappedFile& file, std::uint64_t offset, std::uint64_t bytes);
+
+  /// Brings every node table, the patches of levels 0-2 and the root tiles into the page cache
+  /// (and out of the process's RSS again): no-stall refinement must not fault on node records,
+  /// and with the coarsest levels resident there is always a conforming cut to draw. Blocks on
+  /// the reads: call it before the first frame.
+  void preloadCoarseLevels() const;
+
+  /// The finest level-capped cut for `camera` (refined with `options`, whose maxLevel it
+  /// replaces) whose patch and tile byte ranges are all resident. Faults in node records only.
+  NoStallCut cut(const runtime::Camera& camera, runtime::RefinementOptions options) const;
+
+ private:
+  const MappedDataset* dataset_;
+};
+
+}  // namespace pbdam::streaming

@@ -1,0 +1,134 @@
+// Parallel decoding of a pass's missing patches and tiles into caller-provided memory
+// (DecodeScheduler.h; design.md §5).
+#include "pbdam/streaming/DecodeScheduler.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "pbdam/formats/PatchCodec.h"
+#include "pbdam/runtime/PatchDraw.h"
+
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
+namespace pbdam::streaming {
+namespace {
+
+std::string blobContext(const FaceView& face, std::uint64_t offset) {
+  return face.context() + "@" + std::to_string(offset);
+}
+
+std::uint64_t alignUp(std::uint64_t value, std::uint64_t alignment) {
+  return (value + alignment - 1) / alignment * alignment;
+}
+
+}  // namespace
+
+DecodeScheduler::DecodeScheduler(const DatasetView& dataset, TexelFormat tileTexels) noexcept
+    : dataset_(&dataset),
+      tileTexels_(tileTexels),
+      tileBytes_(textureTileDataBytes(dataset.manifest().textureTileTexels, tileTexels)) {}
+
+TexelFormat DecodeScheduler::datasetTexels(const DatasetView& dataset) noexcept {
+  return dataset.manifest().textureFormat == "bc1" ? TexelFormat::Bc1 : TexelFormat::Rgba8;
+}
+
+std::uint64_t DecodeScheduler::layout(std::span<DecodeJob> jobs) const {
+  std::uint64_t total = 0;
+  for (DecodeJob& job : jobs) {
+    job.offset = alignUp(total, kAlignment);
+    if (job.key.kind() == ResidentKind::Patch) {
+      const NodeRecord n = dataset_->node(job.node);
+      job.vertexBytes = std::uint64_t{sizeof(PatchGpuVertex)} * n.vertexCount;
+      job.bytes = job.vertexBytes + std::uint64_t{6} * n.triangleCount;
+    } else {
+      job.vertexBytes = 0;
+      job.bytes = tileBytes_;
+    }
+    total = job.offset + job.bytes;
+  }
+  return total;
+}
+
+Result<void> DecodeScheduler::decode(std::span<const DecodeJob> jobs,
+                                     std::span<std::byte> out) const {
+  std::vector<Error> errors(jobs.size());
+  std::vector<char> failed(jobs.size(), 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, jobs.size()),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      for (std::size_t j = range.begin(); j != range.end(); ++j) {
+                        const DecodeJob& job = jobs[j];
+                        const std::span<std::byte> dst = out.subspan(job.offset, job.bytes);
+                        Result<void> r = job.key.kind() == ResidentKind::Patch
+                                             ? decodePatch(job.node, dst)
+                                             : decodeTile(job.tile, dst);
+                        if (!r) {
+                          errors[j] = std::move(r).error();
+                          failed[j] = 1;
+                        }
+                      }
+                    });
+  for (std::size_t j = 0; j < jobs.size(); ++j) {
+    if (failed[j] != 0) return std::move(errors[j]);
+  }
+  return {};
+}
+
+Result<void> DecodeScheduler::decodePatch(const NodeKey& key, std::span<std::byte> out) const {
+  thread_local PatchMesh mesh;
+  const FaceView& face = dataset_->face(key.face);
+  const NodeRecord record = dataset_->node(key);
+  const std::string context = blobContext(face, record.blobOffset);
+  if (Result<void> r = pbdam::formats::decodePatch(face.patchBlob(record), mesh, context); !r) {
+    return std::move(r).error();
+  }
+  if (mesh.vertices.size() != record.vertexCount || mesh.triangleCount() != record.triangleCount) {
+    return makeError(ErrorCode::CorruptData,
+                     context + ": patch has " + std::to_string(mesh.vertices.size()) +
+                         " vertices and " + std::to_string(mesh.triangleCount()) +
+                         " triangles, its node record says " + std::to_string(record.vertexCount) +
+                         " and " + std::to_string(record.triangleCount));
+  }
+  const double step = dataset_->manifest().heightStepMeters;
+  std::byte* dst = out.data();
+  for (const PatchVertex& v : mesh.vertices) {
+    const PatchGpuVertex gpu{v.b1, v.b2, vertexHeightMeters(v.heightSteps, step)};
+    std::memcpy(dst, &gpu, sizeof gpu);
+    dst += sizeof gpu;
+  }
+  std::memcpy(dst, mesh.indices.data(), mesh.indices.size() * sizeof(std::uint16_t));
+  return {};
+}
+
+Result<void> DecodeScheduler::decodeTile(const TileKey& key, std::span<std::byte> out) const {
+  const FaceView& face = dataset_->face(key.face);
+  const TextureRecord record = dataset_->textureNode(key);
+  const std::string context = blobContext(face, record.blobOffset);
+  Result<TextureTileImage> tile = decodeTextureTile(face.textureBlob(record), context);
+  if (!tile) return std::move(tile).error();
+  const Manifest& m = dataset_->manifest();
+  if (tile->sizeTexels != m.textureTileTexels || tile->borderTexels != m.textureBorderTexels ||
+      tile->format != datasetTexels(*dataset_)) {
+    return makeError(ErrorCode::CorruptData,
+                     context + ": tile of " + std::to_string(tile->sizeTexels) +
+                         " texels (border " + std::to_string(tile->borderTexels) +
+                         ") does not match manifest.json (" + std::to_string(m.textureTileTexels) +
+                         ", border " + std::to_string(m.textureBorderTexels) + ", " +
+                         m.textureFormat + ")");
+  }
+  if (tile->format != tileTexels_) {
+    tile = expandToRgba8(*tile);
+    if (!tile) return makeError(ErrorCode::CorruptData, context + ": " + tile.error().message);
+  }
+  if (tile->data.size() != out.size()) {
+    return makeError(ErrorCode::Internal, context + ": tile data size differs from its slot");
+  }
+  std::memcpy(out.data(), tile->data.data(), out.size());
+  return {};
+}
+
+}  // namespace pbdam::streaming

@@ -1,0 +1,75 @@
+// The finest fully resident level-capped cut, and the preload that guarantees one exists
+// (NoStallPolicy.h; design.md §5).
+#include "pbdam/streaming/NoStallPolicy.h"
+
+#include <algorithm>
+#include <bit>
+
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
+namespace pbdam::streaming {
+
+bool NoStallPolicy::rangeResident(const MappedFile& file, std::uint64_t offset,
+                                  std::uint64_t bytes) {
+  if (bytes == 0) return true;
+  const auto r = file.residentPages(offset, bytes);
+  return r && r->first == r->second;
+}
+
+NoStallCut NoStallPolicy::cut(const Camera& camera, RefinementOptions options) const {
+  const DatasetView& view = dataset_->view();
+  int level = view.depth();
+  for (;;) {
+    options.maxLevel = level;
+    Cut cut = refine(view, camera, options);
+    int worst = level + 1;
+    for (const CutPatch& p : cut.patches) {
+      const NodeRecord n = view.node(p.node);
+      if (!rangeResident(dataset_->faceFile(p.node.face), n.blobOffset, n.blobBytes)) {
+        worst = std::min(worst, p.level);
+      }
+    }
+    for (const TileKey& t : cut.tiles) {
+      const TextureRecord r = view.textureNode(t);
+      if (!rangeResident(dataset_->faceFile(t.face), r.blobOffset, r.blobBytes)) {
+        // Tile level t is drawn with patches of levels 2t and 2t+1.
+        const int tileLevel = (static_cast<int>(std::bit_width(3 * t.heap + 1)) - 1) / 2;
+        worst = std::min(worst, 2 * tileLevel);
+      }
+    }
+    if (worst > level) return {std::move(cut), level};
+    level = std::min(level, worst) - 1;
+    if (level < 0) return {Cut{}, -1};
+  }
+}
+
+void NoStallPolicy::preloadCoarseLevels() const {
+  const DatasetView& view = dataset_->view();
+  const auto touch = [](const MappedFile& file, std::uint64_t offset, std::uint64_t bytes) {
+    if (bytes == 0) return;
+    (void)file.willNeed(offset, bytes);
+    const auto data = file.bytes();
+    volatile std::uint8_t sink = 0;
+    for (std::uint64_t k = offset; k < offset + bytes; k += 4096) {
+      sink = sink + static_cast<std::uint8_t>(data[k]);
+    }
+    sink = sink + static_cast<std::uint8_t>(data[offset + bytes - 1]);
+  };
+  for (int f = 0; f < 6; ++f) {
+    const MappedFile& file = dataset_->faceFile(f);
+    const FaceHeader& h = view.face(f).header();
+    touch(file, 0, h.blobsOffset);
+    for (std::uint8_t tree = 0; tree < 2; ++tree) {
+      for (std::uint64_t heap = 0; heap < 7; ++heap) {
+        const NodeRecord n = view.node(NodeKey{static_cast<std::uint8_t>(f), tree, heap});
+        touch(file, n.blobOffset, n.blobBytes);
+      }
+    }
+    const TextureRecord root = view.textureNode(TileKey{static_cast<std::uint8_t>(f), 0});
+    touch(file, root.blobOffset, root.blobBytes);
+    (void)file.releaseResident();
+  }
+}
+
+}  // namespace pbdam::streaming

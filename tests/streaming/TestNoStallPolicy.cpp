@@ -1,0 +1,101 @@
+// The no-stall policy without Vulkan (NoStallPolicy): on a private copy of the MOLA dataset,
+// evicted from the page cache (posix_fadvise DONTNEED), the cut it chooses is the finest
+// level-capped cut whose every patch and tile is resident — one level finer is not — and once
+// the full cut's bytes are read in, nothing is capped.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "TestData.h"
+#include "pbdam/streaming/MappedDataset.h"
+#include "pbdam/streaming/NoStallPolicy.h"
+#include "pbdam/streaming/PageCache.h"
+
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+using namespace pbdam::streaming;
+
+namespace pbdam::streaming {
+namespace {
+
+bool cutResident(const MappedDataset& dataset, const Cut& cut) {
+  const DatasetView& view = dataset.view();
+  for (const CutPatch& p : cut.patches) {
+    const NodeRecord n = view.node(p.node);
+    if (!NoStallPolicy::rangeResident(dataset.faceFile(p.node.face), n.blobOffset, n.blobBytes)) {
+      return false;
+    }
+  }
+  for (const TileKey& t : cut.tiles) {
+    const TextureRecord r = view.textureNode(t);
+    if (!NoStallPolicy::rangeResident(dataset.faceFile(t.face), r.blobOffset, r.blobBytes)) {
+      return false;
+    }
+  }
+  return true;
+}
+
+TEST(NoStallPolicy, DrawsTheFinestFullyResidentCapAndNothingCappedOnceResident) {
+  PBDAM_REQUIRE_DATASET(shared, "mola");
+  // A private copy: other tests read the shared dataset (and fault pages back in) meanwhile.
+  test::TempDir temp;
+  const std::filesystem::path dir = temp / "mola";
+  std::filesystem::copy(shared, dir);
+  ASSERT_TRUE(evictDataset(dir).ok());
+  auto dataset = MappedDataset::open(dir);
+  ASSERT_TRUE(dataset.ok()) << dataset.error().message;
+  const DatasetView& view = (*dataset)->view();
+  const NoStallPolicy policy(**dataset);
+  policy.preloadCoarseLevels();
+
+  const Camera camera =
+      Camera::fromPose(view.planet(), {18.65, 226.2, 400e3, 0.0, -40.0, 0.0}, {320, 240, 60.0});
+  const RefinementOptions options;
+  const Cut full = refine(view, camera, options);
+  ASSERT_FALSE(cutResident(**dataset, full)) << "the eviction was meant to leave the cut cold";
+
+  const NoStallCut chosen = policy.cut(camera, options);
+  ASSERT_GE(chosen.levelCap, 0) << "the preloaded coarse levels always give a cut";
+  ASSERT_LT(chosen.levelCap, view.depth());
+  EXPECT_FALSE(chosen.cut.patches.empty());
+  EXPECT_TRUE(cutResident(**dataset, chosen.cut));
+  RefinementOptions capped = options;
+  capped.maxLevel = chosen.levelCap;
+  EXPECT_EQ(refine(view, camera, capped).patches.size(), chosen.cut.patches.size());
+  // The finest: one level more needs something that is not resident.
+  capped.maxLevel = chosen.levelCap + 1;
+  EXPECT_FALSE(cutResident(**dataset, refine(view, camera, capped)));
+
+  // Read the full cut's bytes in: then nothing is capped and the cut is the full one.
+  for (const CutPatch& p : full.patches) {
+    const NodeRecord n = view.node(p.node);
+    ASSERT_TRUE((*dataset)->faceFile(p.node.face).willNeed(n.blobOffset, n.blobBytes).ok());
+  }
+  for (const TileKey& t : full.tiles) {
+    const TextureRecord r = view.textureNode(t);
+    ASSERT_TRUE((*dataset)->faceFile(t.face).willNeed(r.blobOffset, r.blobBytes).ok());
+  }
+  const auto bytes = [&](const MappedFile& file, std::uint64_t offset, std::uint64_t size) {
+    volatile std::uint8_t sink = 0;
+    const auto data = file.bytes();
+    for (std::uint64_t k = offset; k < offset + size; k += 512) {
+      sink = sink + static_cast<std::uint8_t>(data[k]);
+    }
+  };
+  for (const CutPatch& p : full.patches) {
+    const NodeRecord n = view.node(p.node);
+    bytes((*dataset)->faceFile(p.node.face), n.blobOffset, n.blobBytes);
+  }
+  for (const TileKey& t : full.tiles) {
+    const TextureRecord r = view.textureNode(t);
+    bytes((*dataset)->faceFile(t.face), r.blobOffset, r.blobBytes);
+  }
+  ASSERT_TRUE(cutResident(**dataset, full));
+  const NoStallCut warm = policy.cut(camera, options);
+  EXPECT_EQ(warm.levelCap, view.depth());
+  EXPECT_EQ(warm.cut.patches.size(), full.patches.size());
+  EXPECT_EQ(warm.cut.triangles, full.triangles);
+}
+
+}  // namespace
+}  // namespace pbdam::streaming
