@@ -27,14 +27,14 @@ void DrawRecorder::record(VkCommandBuffer cmd, const OffscreenTarget& target,
     const PoolLocation patch = patches_->locate(item.patchSlot);
     const PoolLocation tile = tiles_->locate(item.tileSlot);
     if (patch.chunk != boundChunk) {
-      const VkBuffer vertexBuffer = patches_->vertexBuffer(patch.chunk);
+      VkBuffer vertexBuffer = patches_->vertexBuffer(patch.chunk);
       const VkDeviceSize zero = 0;
       vkCmdBindVertexBuffers(cmd, 0, 1, &vertexBuffer, &zero);
       vkCmdBindIndexBuffer(cmd, patches_->indexBuffer(patch.chunk), 0, VK_INDEX_TYPE_UINT16);
       boundChunk = patch.chunk;
     }
     if (tile.chunk != boundPage) {
-      const VkDescriptorSet set = tiles_->descriptorSet(tile.chunk);
+      VkDescriptorSet set = tiles_->descriptorSet(tile.chunk);
       vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 1, 1, &set,
                               0, nullptr);
       boundPage = tile.chunk;

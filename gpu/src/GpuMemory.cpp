@@ -119,7 +119,7 @@ Result<GpuBuffer> createBuffer(const VulkanContext& context, VkDeviceSize sizeBy
   if (sizeBytes == 0) {
     return makeError(ErrorCode::InvalidArgument, "buffer " + debugName + " has size 0");
   }
-  const VkDevice device = context.device();
+  VkDevice device = context.device();
   VkBufferCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
   info.size = sizeBytes;
@@ -211,7 +211,7 @@ Result<GpuImage> createImage2D(const VulkanContext& context, const ImageDesc& de
                          std::to_string(formatProperties.maxExtent.height));
   }
 
-  const VkDevice device = context.device();
+  VkDevice device = context.device();
   VkImageCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
   info.imageType = VK_IMAGE_TYPE_2D;

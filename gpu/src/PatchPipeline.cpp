@@ -41,23 +41,8 @@ Result<UniqueDescriptorSetLayout> createSetLayout(VkDevice device, VkDescriptorT
   return UniqueDescriptorSetLayout(device, raw);
 }
 
-}  // namespace
-
-Result<PatchPipeline> PatchPipeline::create(const VulkanContext& context, VkFormat colorFormat,
-                                            VkFormat depthFormat) {
-  const VkDevice device = context.device();
-  PatchPipeline result;
-  {
-    auto records = createSetLayout(device, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
-                                   VK_SHADER_STAGE_VERTEX_BIT, "patch draw records");
-    if (!records) return std::move(records).error();
-    result.recordsSetLayout_ = std::move(*records);
-    auto tiles = createSetLayout(device, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER,
-                                 VK_SHADER_STAGE_FRAGMENT_BIT, "tile pages");
-    if (!tiles) return std::move(tiles).error();
-    result.tilesSetLayout_ = std::move(*tiles);
-  }
-
+/// The tiles' sampler: bilinear within a page, clamped at its edges, no mipmaps.
+Result<UniqueSampler> createTilesSampler(VkDevice device) {
   VkSamplerCreateInfo samplerInfo{};
   samplerInfo.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
   samplerInfo.magFilter = VK_FILTER_LINEAR;
@@ -71,10 +56,12 @@ Result<PatchPipeline> PatchPipeline::create(const VulkanContext& context, VkForm
   if (VkResult r = vkCreateSampler(device, &samplerInfo, nullptr, &rawSampler); r != VK_SUCCESS) {
     return vulkanError(r, "vkCreateSampler (tiles)");
   }
-  result.sampler_ = UniqueSampler(device, rawSampler);
+  return UniqueSampler(device, rawSampler);
+}
 
-  const std::array<VkDescriptorSetLayout, 2> setLayouts = {result.recordsSetLayout_.get(),
-                                                           result.tilesSetLayout_.get()};
+/// The pipeline layout: the two descriptor sets and the per-draw push constants.
+Result<UniquePipelineLayout> createPatchLayout(
+    VkDevice device, const std::array<VkDescriptorSetLayout, 2>& setLayouts) {
   VkPushConstantRange range{};
   range.stageFlags = VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
   range.offset = 0;
@@ -90,8 +77,13 @@ Result<PatchPipeline> PatchPipeline::create(const VulkanContext& context, VkForm
       r != VK_SUCCESS) {
     return vulkanError(r, "vkCreatePipelineLayout (patch)");
   }
-  result.layout_ = UniquePipelineLayout(device, rawLayout);
+  return UniquePipelineLayout(device, rawLayout);
+}
 
+/// The graphics pipeline: the patch shaders and their fixed-function state (reversed-Z depth,
+/// back-face culling, dynamic viewport and scissor) for dynamic rendering to these formats.
+Result<UniquePipeline> createPatchGraphicsPipeline(VkDevice device, VkPipelineLayout layout,
+                                                   VkFormat colorFormat, VkFormat depthFormat) {
   Result<UniqueShaderModule> vert = createShaderModule(device, kPatchVert, "patch.vert");
   if (!vert) return std::move(vert).error();
   Result<UniqueShaderModule> frag = createShaderModule(device, kPatchFrag, "patch.frag");
@@ -183,14 +175,43 @@ Result<PatchPipeline> PatchPipeline::create(const VulkanContext& context, VkForm
   info.pDepthStencilState = &depth;
   info.pColorBlendState = &blend;
   info.pDynamicState = &dynamic;
-  info.layout = result.layout_.get();
+  info.layout = layout;
   VkPipeline rawPipeline = VK_NULL_HANDLE;
   if (VkResult r =
           vkCreateGraphicsPipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &rawPipeline);
       r != VK_SUCCESS) {
     return vulkanError(r, "vkCreateGraphicsPipelines (patch)");
   }
-  result.pipeline_ = UniquePipeline(device, rawPipeline);
+  return UniquePipeline(device, rawPipeline);
+}
+
+}  // namespace
+
+Result<PatchPipeline> PatchPipeline::create(const VulkanContext& context, VkFormat colorFormat,
+                                            VkFormat depthFormat) {
+  VkDevice device = context.device();
+  PatchPipeline result;
+  {
+    auto records = createSetLayout(device, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+                                   VK_SHADER_STAGE_VERTEX_BIT, "patch draw records");
+    if (!records) return std::move(records).error();
+    result.recordsSetLayout_ = std::move(*records);
+    auto tiles = createSetLayout(device, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER,
+                                 VK_SHADER_STAGE_FRAGMENT_BIT, "tile pages");
+    if (!tiles) return std::move(tiles).error();
+    result.tilesSetLayout_ = std::move(*tiles);
+  }
+  auto sampler = createTilesSampler(device);
+  if (!sampler) return std::move(sampler).error();
+  result.sampler_ = std::move(*sampler);
+  auto layout =
+      createPatchLayout(device, {result.recordsSetLayout_.get(), result.tilesSetLayout_.get()});
+  if (!layout) return std::move(layout).error();
+  result.layout_ = std::move(*layout);
+  auto pipeline =
+      createPatchGraphicsPipeline(device, result.layout_.get(), colorFormat, depthFormat);
+  if (!pipeline) return std::move(pipeline).error();
+  result.pipeline_ = std::move(*pipeline);
   return result;
 }
 

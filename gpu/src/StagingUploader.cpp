@@ -74,7 +74,7 @@ void StagingUploader::record(VkCommandBuffer cmd, std::span<const DecodeJob> job
   for (std::size_t j = 0; j < jobs.size(); ++j) {
     if (jobs[j].key.kind() != ResidentKind::Tile) continue;
     const PoolLocation at = tiles.locate(slots[j]);
-    const VkImage image = tiles.image(at.chunk);
+    VkImage image = tiles.image(at.chunk);
     toTransfer.push_back(layerBarrier(image, at.local, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
                                       VK_ACCESS_2_NONE, VK_PIPELINE_STAGE_2_COPY_BIT,
                                       VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,

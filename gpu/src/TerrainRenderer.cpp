@@ -220,8 +220,8 @@ Result<void> TerrainRenderer::Impl::ensureRecords(std::size_t count) {
 
 Result<void> TerrainRenderer::Impl::submitAndWait(std::span<const VkCommandBuffer> buffers,
                                                   const char* what) {
-  const VkDevice device = context->device();
-  const VkFence submitFence = fence.get();
+  VkDevice device = context->device();
+  VkFence submitFence = fence.get();
   if (VkResult r = vkResetFences(device, 1, &submitFence); r != VK_SUCCESS) {
     return vulkanError(r, std::string("vkResetFences (") + what + ")");
   }
@@ -354,7 +354,7 @@ Result<void> TerrainRenderer::Impl::stagePass(const PassInput& in, PassWork& wor
 Result<void> TerrainRenderer::Impl::recordPass(const PassInput& in, const PassWork& work) {
   // Timestamps: 0 and 3 around the uploads, 1 and 2 around the render pass. The draw buffer
   // resets its own two queries, so that redrawLast() can submit it alone.
-  const VkQueryPool timestamps = queries.get();
+  VkQueryPool timestamps = queries.get();
   Result<void> recorded =
       recordCommands(commands[kUploadCommands], "terrain uploads", [&](VkCommandBuffer cmd) {
         if (timestamps != VK_NULL_HANDLE) {
@@ -418,7 +418,7 @@ Result<void> TerrainRenderer::Impl::createFrameObjects() {
     return vulkanError(r, "vkCreateDescriptorPool (patch draw records)");
   }
   recordsPool = UniqueDescriptorPool(context->device(), rawPool);
-  const VkDescriptorSetLayout recordsLayout = shared->pipeline.recordsSetLayout();
+  VkDescriptorSetLayout recordsLayout = shared->pipeline.recordsSetLayout();
   VkDescriptorSetAllocateInfo allocate{};
   allocate.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
   allocate.descriptorPool = rawPool;
@@ -478,7 +478,7 @@ Result<void> TerrainRenderer::Impl::createFrameObjects() {
     }
     queries = UniqueQueryPool(context->device(), rawQueries);
     timestampMask = validBits >= 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << validBits) - 1;
-    timestampPeriodNs = context->caps().timestampPeriodNanoseconds;
+    timestampPeriodNs = static_cast<double>(context->caps().timestampPeriodNanoseconds);
   }
   return {};
 }

@@ -32,7 +32,7 @@ static_assert(sizeof(TrianglePush) == 72);
 
 Result<TrianglePipeline> TrianglePipeline::create(const VulkanContext& context,
                                                   VkFormat colorFormat, VkFormat depthFormat) {
-  const VkDevice device = context.device();
+  VkDevice device = context.device();
   Result<UniqueShaderModule> vert = createShaderModule(device, kTriangleVert, "triangle.vert");
   if (!vert) return std::move(vert).error();
   Result<UniqueShaderModule> frag = createShaderModule(device, kTriangleFrag, "triangle.frag");

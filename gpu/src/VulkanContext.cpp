@@ -407,7 +407,7 @@ Result<void> VulkanContext::submitAndWait(const std::function<void(VkCommandBuff
                                           std::string_view what, uint64_t timeoutNanoseconds) {
   assert(impl_ && "use of a moved-from VulkanContext");
   const std::lock_guard<std::mutex> helperLock(impl_->helperMutex);
-  const VkDevice dev = impl_->device.get();
+  VkDevice dev = impl_->device.get();
   VkCommandBufferAllocateInfo allocInfo{};
   allocInfo.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
   allocInfo.commandPool = impl_->commandPool.get();
@@ -436,7 +436,7 @@ Result<void> VulkanContext::submitAndWait(const std::function<void(VkCommandBuff
     return vulkanError(r, "vkEndCommandBuffer (" + std::string(what) + ")");
   }
 
-  const VkFence fence = impl_->submitFence.get();
+  VkFence fence = impl_->submitFence.get();
   if (VkResult r = vkResetFences(dev, 1, &fence); r != VK_SUCCESS) {
     return vulkanError(r, "vkResetFences (" + std::string(what) + ")");
   }

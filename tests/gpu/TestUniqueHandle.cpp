@@ -7,7 +7,8 @@
 
 #include <gtest/gtest.h>
 
-#include <cstdint>
+#include <array>
+#include <cstddef>
 #include <utility>
 #include <vector>
 
@@ -26,9 +27,14 @@ void fakeDestroyFence(VkDevice device, VkFence fence, const VkAllocationCallback
 }
 using FakeFence = UniqueHandle<VkFence, VkDevice, &fakeDestroyFence>;
 
-// Distinct non-null fake handles (never dereferenced).
-VkDevice fakeDevice() { return reinterpret_cast<VkDevice>(std::uintptr_t{0x1000}); }
-VkFence fakeFence(std::uintptr_t n) { return reinterpret_cast<VkFence>(0x2000 + n); }
+// Distinct non-null fake handles (never dereferenced): addresses inside one static array, so
+// no integer is turned into a pointer.
+std::byte* fakeHandleStorage() {
+  static std::array<std::byte, 16> storage{};
+  return storage.data();
+}
+VkDevice fakeDevice() { return reinterpret_cast<VkDevice>(fakeHandleStorage()); }
+VkFence fakeFence(std::size_t n) { return reinterpret_cast<VkFence>(fakeHandleStorage() + n); }
 
 TEST(UniqueHandle, DestroysOnceWithItsParent) {
   destroyed().clear();
@@ -100,7 +106,7 @@ TEST_F(GpuOwners, GpuBufferMovesItsHandlesAndMapping) {
                                            MemoryUse::HostReadback, "move test buffer");
   ASSERT_TRUE(created.ok()) << created.error().message;
   GpuBuffer first = std::move(created).value();
-  const VkBuffer handle = first.buffer();
+  VkBuffer handle = first.buffer();
   ASSERT_NE(handle, VK_NULL_HANDLE);
   ASSERT_EQ(first.mappedBytes().size(), 256u);
 
@@ -130,8 +136,8 @@ TEST_F(GpuOwners, GpuImageMovesItsHandles) {
   Result<GpuImage> created = createImage2D(context(), desc, "move test image");
   ASSERT_TRUE(created.ok()) << created.error().message;
   GpuImage first = std::move(created).value();
-  const VkImage image = first.image();
-  const VkImageView view = first.view();
+  VkImage image = first.image();
+  VkImageView view = first.view();
   GpuImage second;
   second = std::move(first);
   EXPECT_FALSE(first);  // NOLINT(bugprone-use-after-move)

@@ -130,7 +130,7 @@ TEST(VulkanContext, MovedFromContextIsEmptyAndTheTargetWorks) {
   Result<VulkanContext> created = VulkanContext::create(test::lavapipeWithValidation(log));
   ASSERT_TRUE(created.ok()) << created.error().message;
   VulkanContext first = std::move(created).value();
-  const VkDevice device = first.device();
+  VkDevice device = first.device();
   VulkanContext second = std::move(first);
   EXPECT_FALSE(first);  // NOLINT(bugprone-use-after-move): testing the moved-from state
   EXPECT_TRUE(second);

@@ -159,8 +159,10 @@ TEST(Prefetcher, ConcurrentCameraUpdatesAndStop) {
   PrefetchOptions options;
   options.refinement.tolerancePixels = 8.0;
   auto prefetcher = std::make_unique<Prefetcher>(**dataset, options);
+  constexpr int kProducers = 2;
   std::vector<std::thread> producers;
-  for (int t = 0; t < 2; ++t) {
+  producers.reserve(kProducers);
+  for (int t = 0; t < kProducers; ++t) {
     producers.emplace_back([&, t] {
       for (int k = 0; k < 200; ++k) {
         const CameraPose pose{10.0 * t, 0.5 * k, 1e6, 0.0, -90.0, 0.0};

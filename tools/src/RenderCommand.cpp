@@ -90,6 +90,7 @@ std::optional<fs::path> findOnPath(const std::string& name) {
 /// Runs `argv` (no shell) and returns its exit status, or -1 when it could not start.
 int runProgram(const std::vector<std::string>& argv) {
   std::vector<char*> args;
+  args.reserve(argv.size() + 1);
   for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
   args.push_back(nullptr);
   pid_t pid = 0;
@@ -128,16 +129,31 @@ nlohmann::ordered_json statsJson(std::size_t frame, double traversalMs, const gp
   return j;
 }
 
-int runRender(const RenderCliOptions& c) {
-  // Options first: nothing is opened before the command line is known to be good.
-  if (c.camera.empty() == c.path.empty()) {
-    return badInput("give exactly one of --camera LAT,LON,ALT[,HEADING,PITCH,ROLL] or --path FILE");
-  }
-  if (c.out.empty()) return badInput("--out is required");
+/// The frames to draw: one for --camera; one a row for --path, then numbered frames beside a
+/// video at the path's frame rate.
+struct RenderPlan final {
+  std::vector<FrameJob> jobs;
+  double fps = 30.0;
+  fs::path prefix;  ///< OUT without its extension: the numbered frames' and the video's name
+};
+
+Viewport viewportOf(const RenderCliOptions& c) {
   Viewport viewport;
   viewport.width = c.width;
   viewport.height = c.height;
   viewport.fovYDegrees = c.fovDegrees;
+  return viewport;
+}
+
+/// Checks every option that needs no dataset (nothing is opened before the command line is
+/// known to be good) and fills the frame settings; kExitOk or the exit status of the first bad
+/// option.
+int checkRenderOptions(const RenderCliOptions& c, const Viewport& viewport,
+                       gpu::FrameSettings& settings) {
+  if (c.camera.empty() == c.path.empty()) {
+    return badInput("give exactly one of --camera LAT,LON,ALT[,HEADING,PITCH,ROLL] or --path FILE");
+  }
+  if (c.out.empty()) return badInput("--out is required");
   if (auto r = validateViewport(viewport); !r) return reportError(r.error());
   if (!std::isfinite(c.tolerancePixels) || c.tolerancePixels <= 0.0) {
     return badInput("--tolerance-px must be a positive number of pixels");
@@ -152,12 +168,11 @@ int runRender(const RenderCliOptions& c) {
       })) {
     return badInput("--clear '" + c.clear + "': expected R,G,B integers in 0..255");
   }
-  gpu::FrameSettings settings;
   for (std::size_t i = 0; i < 3; ++i) settings.clearRgb[i] = static_cast<std::uint8_t>(rgb[i]);
 
   const fs::path out(c.out);
   const bool exr = isExrPath(out);
-  std::string ext = out.extension().string();
+  const std::string ext = out.extension().string();
   if (!c.camera.empty() && !exr && ext != ".png" && ext != ".PNG") {
     return badInput("--out '" + c.out + "': expected a .png or .exr file name");
   }
@@ -165,47 +180,48 @@ int runRender(const RenderCliOptions& c) {
     return badInput("--out '" + c.out + "': directory " + out.parent_path().string() +
                     " does not exist");
   }
+  return kExitOk;
+}
 
-  auto dataset = MappedDataset::open(c.dir);
-  if (!dataset) return reportError(dataset.error());
-  const DatasetView& view = (*dataset)->view();
-
-  std::vector<FrameJob> jobs;
-  double fps = 30.0;
-  fs::path prefix;
+/// The frames of --camera or of every row of --path, each pose checked against the planet.
+int planFrames(const RenderCliOptions& c, const DatasetView& view, RenderPlan& plan) {
+  const fs::path out(c.out);
+  const bool exr = isExrPath(out);
+  std::string ext = out.extension().string();
   if (!c.camera.empty()) {
     auto pose = parseCameraPose(c.camera);
     if (!pose) return reportError(pose.error());
     if (auto r = validateCameraPose(*pose, view.planet()); !r) return reportError(r.error());
-    jobs.push_back({*pose, 0.0, out});
-  } else {
-    auto points = readCameraPath(c.path);
-    if (!points) return reportError(points.error());
-    // Frames OUT_000000.png ...: OUT is a prefix (a .png/.exr/.mp4 extension is dropped).
-    prefix = out;
-    if (ext == ".png" || ext == ".PNG" || exr || ext == ".mp4") prefix.replace_extension();
-    ext = exr ? ".exr" : ".png";
-    for (std::size_t i = 0; i < points->size(); ++i) {
-      const CameraPathPoint& p = (*points)[i];
-      const CameraPose pose{p.latDegrees,     p.lonDegrees,   p.altitudeMeters,
-                            p.headingDegrees, p.pitchDegrees, p.rollDegrees};
-      if (auto r = validateCameraPose(pose, view.planet()); !r) {
-        return badInput(c.path + ": row " + std::to_string(i + 1) + ": " + r.error().message);
-      }
-      jobs.push_back({pose, p.tSeconds, frameName(prefix, i, ext)});
-    }
-    if (points->size() > 1) {
-      fps = static_cast<double>(points->size() - 1) /
-            (points->back().tSeconds - points->front().tSeconds);
-    }
+    plan.jobs.push_back({*pose, 0.0, out});
+    return kExitOk;
   }
-
-  std::ofstream statsFile;
-  if (!c.stats.empty()) {
-    statsFile.open(c.stats, std::ios::trunc);
-    if (!statsFile) return badInput("--stats '" + c.stats + "': cannot create the file");
+  auto points = readCameraPath(c.path);
+  if (!points) return reportError(points.error());
+  // Frames OUT_000000.png ...: OUT is a prefix (a .png/.exr/.mp4 extension is dropped).
+  plan.prefix = out;
+  if (ext == ".png" || ext == ".PNG" || exr || ext == ".mp4") plan.prefix.replace_extension();
+  ext = exr ? ".exr" : ".png";
+  for (std::size_t i = 0; i < points->size(); ++i) {
+    const CameraPathPoint& p = (*points)[i];
+    const CameraPose pose{p.latDegrees,     p.lonDegrees,   p.altitudeMeters,
+                          p.headingDegrees, p.pitchDegrees, p.rollDegrees};
+    if (auto r = validateCameraPose(pose, view.planet()); !r) {
+      return badInput(c.path + ": row " + std::to_string(i + 1) + ": " + r.error().message);
+    }
+    plan.jobs.push_back({pose, p.tSeconds, frameName(plan.prefix, i, ext)});
   }
+  if (points->size() > 1) {
+    plan.fps = static_cast<double>(points->size() - 1) /
+               (points->back().tSeconds - points->front().tSeconds);
+  }
+  return kExitOk;
+}
 
+/// Renders and writes every frame of the plan, with a statistics line each (and a JSON line
+/// in `statsFile` when it is open).
+int renderFrames(const RenderCliOptions& c, const DatasetView& view, const Viewport& viewport,
+                 const gpu::FrameSettings& settings, const RenderPlan& plan,
+                 std::ofstream& statsFile) {
   gpu::ContextOptions contextOptions;
   if (c.device >= 0) contextOptions.deviceIndex = static_cast<std::uint32_t>(c.device);
   auto context = gpu::VulkanContext::create(contextOptions);
@@ -221,8 +237,8 @@ int runRender(const RenderCliOptions& c) {
   refinement.tolerancePixels = c.tolerancePixels;
   // One statistics line per frame on a terminal; in logs at most one a second (and the last).
   Progress frameLines(c.quiet, stdout, Progress::OnTerminal::Scroll);
-  for (std::size_t i = 0; i < jobs.size(); ++i) {
-    const FrameJob& job = jobs[i];
+  for (std::size_t i = 0; i < plan.jobs.size(); ++i) {
+    const FrameJob& job = plan.jobs[i];
     const Camera camera = Camera::fromPose(view.planet(), job.pose, viewport);
     const auto traversalStart = std::chrono::steady_clock::now();
     const Cut cut = refine(view, camera, refinement);
@@ -239,41 +255,70 @@ int runRender(const RenderCliOptions& c) {
       if (!statsFile) return reportError(makeError(ErrorCode::IoError, c.stats + ": write failed"));
     }
     char line[4608];  // room for a PATH_MAX output name
-    std::snprintf(
-        line, sizeof line,
-        "%s%s: %llu patches, %llu triangles, %llu tiles; traversal %.1f ms, decode %.1f "
-        "ms, upload %.1f ms, draw %.1f ms, frame %.1f ms%s",
-        jobs.size() > 1
-            ? ("frame " + std::to_string(i + 1) + "/" + std::to_string(jobs.size()) + " ").c_str()
-            : "wrote ",
-        job.out.string().c_str(), static_cast<unsigned long long>(s.patches),
-        static_cast<unsigned long long>(s.triangles), static_cast<unsigned long long>(s.tiles),
-        traversalMs, s.decodeMs, s.uploadMs, s.drawMs, s.frameMs,
-        s.budgetExceeded ? " (over the GPU cache budget)" : "");
-    frameLines.status(line, i + 1 == jobs.size());
+    std::snprintf(line, sizeof line,
+                  "%s%s: %llu patches, %llu triangles, %llu tiles; traversal %.1f ms, decode %.1f "
+                  "ms, upload %.1f ms, draw %.1f ms, frame %.1f ms%s",
+                  plan.jobs.size() > 1 ? ("frame " + std::to_string(i + 1) + "/" +
+                                          std::to_string(plan.jobs.size()) + " ")
+                                             .c_str()
+                                       : "wrote ",
+                  job.out.string().c_str(), static_cast<unsigned long long>(s.patches),
+                  static_cast<unsigned long long>(s.triangles),
+                  static_cast<unsigned long long>(s.tiles), traversalMs, s.decodeMs, s.uploadMs,
+                  s.drawMs, s.frameMs, s.budgetExceeded ? " (over the GPU cache budget)" : "");
+    frameLines.status(line, i + 1 == plan.jobs.size());
   }
   frameLines.finish();
+  return kExitOk;
+}
 
-  if (!c.path.empty() && !exr) {
-    const fs::path video = prefix.string() + ".mp4";
-    if (!findOnPath("ffmpeg")) {
-      std::printf("ffmpeg not found on PATH: MP4 skipped (frames are %s_NNNNNN.png)\n",
-                  prefix.string().c_str());
-      return kExitOk;
-    }
-    char rate[32];
-    std::snprintf(rate, sizeof rate, "%.6g", fps);
-    const int status =
-        runProgram({"ffmpeg", "-y", "-loglevel", "error", "-framerate", rate, "-i",
-                    prefix.string() + "_%06d.png", "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2",
-                    "-pix_fmt", "yuv420p", video.string()});
-    if (status != 0) {
-      return reportError(makeError(ErrorCode::IoError, "ffmpeg failed to make " + video.string() +
-                                                           " (exit status " +
-                                                           std::to_string(status) + ")"));
-    }
-    if (!c.quiet) std::printf("wrote %s (%s fps)\n", video.string().c_str(), rate);
+/// Encodes a camera path's numbered PNG frames into PREFIX.mp4 with ffmpeg, when it is on PATH.
+int encodeVideo(const RenderPlan& plan, bool quiet) {
+  const fs::path video = plan.prefix.string() + ".mp4";
+  if (!findOnPath("ffmpeg")) {
+    std::printf("ffmpeg not found on PATH: MP4 skipped (frames are %s_NNNNNN.png)\n",
+                plan.prefix.string().c_str());
+    return kExitOk;
   }
+  char rate[32];
+  std::snprintf(rate, sizeof rate, "%.6g", plan.fps);
+  const int status =
+      runProgram({"ffmpeg", "-y", "-loglevel", "error", "-framerate", rate, "-i",
+                  plan.prefix.string() + "_%06d.png", "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+                  "-pix_fmt", "yuv420p", video.string()});
+  if (status != 0) {
+    return reportError(makeError(ErrorCode::IoError, "ffmpeg failed to make " + video.string() +
+                                                         " (exit status " + std::to_string(status) +
+                                                         ")"));
+  }
+  if (!quiet) std::printf("wrote %s (%s fps)\n", video.string().c_str(), rate);
+  return kExitOk;
+}
+
+int runRender(const RenderCliOptions& c) {
+  const Viewport viewport = viewportOf(c);
+  gpu::FrameSettings settings;
+  if (const int status = checkRenderOptions(c, viewport, settings); status != kExitOk) {
+    return status;
+  }
+
+  auto dataset = MappedDataset::open(c.dir);
+  if (!dataset) return reportError(dataset.error());
+  const DatasetView& view = (*dataset)->view();
+  RenderPlan plan;
+  if (const int status = planFrames(c, view, plan); status != kExitOk) return status;
+
+  std::ofstream statsFile;
+  if (!c.stats.empty()) {
+    statsFile.open(c.stats, std::ios::trunc);
+    if (!statsFile) return badInput("--stats '" + c.stats + "': cannot create the file");
+  }
+  if (const int status = renderFrames(c, view, viewport, settings, plan, statsFile);
+      status != kExitOk) {
+    return status;
+  }
+
+  if (!c.path.empty() && !isExrPath(fs::path(c.out))) return encodeVideo(plan, c.quiet);
   return kExitOk;
 }
 

@@ -184,7 +184,7 @@ struct FrameServer::Impl {
   Json info;  ///< GET /info, computed once
 
   void routes();
-  void handleFrame(const httplib::Request& req, httplib::Response& res);
+  void handleFrame(const httplib::Request& req, httplib::Response& res) const;
   void handleHeight(const httplib::Request& req, httplib::Response& res) const;
   Json statsJson() const;
   int retryAfterSeconds() const;
@@ -199,7 +199,7 @@ int FrameServer::Impl::retryAfterSeconds() const {
   return std::max(1, static_cast<int>(std::ceil(backlogMs / 1000.0)));
 }
 
-void FrameServer::Impl::handleFrame(const httplib::Request& req, httplib::Response& res) {
+void FrameServer::Impl::handleFrame(const httplib::Request& req, httplib::Response& res) const {
   const auto received = Clock::now();
   Result<FrameQuery> query = parseFrameQuery(req.params, dataset->view().planet());
   if (!query) return sendError(res, 400, query.error().message);
@@ -377,7 +377,7 @@ void FrameServer::Impl::routes() {
         return httplib::Server::HandlerResponse::Handled;
       }));
   http.set_exception_handler(
-      [](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
+      [](const httplib::Request&, httplib::Response& res, const std::exception_ptr& ep) {
         std::string what = "internal error";
         try {
           if (ep) std::rethrow_exception(ep);
@@ -464,12 +464,16 @@ Result<std::unique_ptr<FrameServer>> FrameServer::create(const std::string& dire
   // for its frame while a few more answer /stats, /healthz and the refusals.
   impl->httpThreads = options.workers + options.queueCapacity + 8;
   const std::size_t threads = impl->httpThreads;
-  impl->http.new_task_queue = [threads] { return new BoundedTaskQueue(threads, 4 * threads); };
+  impl->http.new_task_queue = [threads] {
+    // NOLINTNEXTLINE(cppcoreguidelines-owning-memory): httplib's hook returns a raw pointer;
+    // the server owns the queue from then on and deletes it when it stops.
+    return new BoundedTaskQueue(threads, 4 * threads);
+  };
   impl->http.set_keep_alive_timeout(2);
   impl->http.set_keep_alive_max_count(100);
   impl->http.set_read_timeout(5, 0);
   impl->http.set_write_timeout(5, 0);
-  impl->http.set_payload_max_length(64 * 1024);
+  impl->http.set_payload_max_length(std::size_t{64} * 1024);
   impl->http.set_tcp_nodelay(true);
   impl->routes();
   return std::unique_ptr<FrameServer>(new FrameServer(std::move(impl)));
