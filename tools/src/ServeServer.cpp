@@ -465,8 +465,9 @@ Result<std::unique_ptr<FrameServer>> FrameServer::create(const std::string& dire
   impl->httpThreads = options.workers + options.queueCapacity + 8;
   const std::size_t threads = impl->httpThreads;
   impl->http.new_task_queue = [threads] {
-    // NOLINTNEXTLINE(cppcoreguidelines-owning-memory): httplib's hook returns a raw pointer;
-    // the server owns the queue from then on and deletes it when it stops.
+    // httplib's hook returns a raw pointer; the server owns the queue from then on and deletes
+    // it when it stops.
+    // NOLINTNEXTLINE(cppcoreguidelines-owning-memory): ownership passes to httplib
     return new BoundedTaskQueue(threads, 4 * threads);
   };
   impl->http.set_keep_alive_timeout(2);
