@@ -8,6 +8,7 @@
 #include <fstream>
 #include <vector>
 
+#include "PrivateCopy.h"
 #include "TestData.h"
 #include "pbdam/formats/PatchCodec.h"
 #include "pbdam/runtime/PatchDraw.h"
@@ -109,8 +110,7 @@ TEST(DecodeScheduler, DecodesPatchesAndTilesIntoTheCallersMemory) {
 TEST(DecodeScheduler, NamesTheFileAndOffsetOfACorruptBlob) {
   PBDAM_REQUIRE_DATASET(shared, "mola");
   test::TempDir temp;
-  const std::filesystem::path dir = temp / "mola";
-  std::filesystem::copy(shared, dir);
+  const std::filesystem::path dir = test::privateCopy(shared, temp);
   NodeKey victim{2, 0, 3};
   std::uint64_t offset = 0;
   std::string file;

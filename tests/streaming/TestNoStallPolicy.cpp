@@ -6,6 +6,7 @@
 
 #include <filesystem>
 
+#include "PrivateCopy.h"
 #include "TestData.h"
 #include "pbdam/streaming/MappedDataset.h"
 #include "pbdam/streaming/NoStallPolicy.h"
@@ -37,10 +38,8 @@ bool cutResident(const MappedDataset& dataset, const Cut& cut) {
 
 TEST(NoStallPolicy, DrawsTheFinestFullyResidentCapAndNothingCappedOnceResident) {
   PBDAM_REQUIRE_DATASET(shared, "mola");
-  // A private copy: other tests read the shared dataset (and fault pages back in) meanwhile.
   test::TempDir temp;
-  const std::filesystem::path dir = temp / "mola";
-  std::filesystem::copy(shared, dir);
+  const std::filesystem::path dir = test::privateCopy(shared, temp);
   ASSERT_TRUE(evictDataset(dir).ok());
   auto dataset = MappedDataset::open(dir);
   ASSERT_TRUE(dataset.ok()) << dataset.error().message;

@@ -8,6 +8,7 @@
 #include <mutex>
 #include <thread>
 
+#include "PrivateCopy.h"
 #include "TestData.h"
 #include "pbdam/streaming/PageCache.h"
 #include "pbdam/streaming/Prefetcher.h"
@@ -37,10 +38,8 @@ TEST(CameraPredictor, ExtrapolatesLinearMotion) {
 
 TEST(PageCache, EvictionEmptiesTheCacheAndMincoreSeesIt) {
   PBDAM_REQUIRE_DATASET(shared, "mola");
-  // A private copy: other tests read the shared dataset (and fault pages back in) meanwhile.
   test::TempDir temp;
-  const std::filesystem::path dir = temp / "mola";
-  std::filesystem::copy(shared, dir);
+  const std::filesystem::path dir = test::privateCopy(shared, temp);
   auto before = evictDataset(dir);
   ASSERT_TRUE(before.ok()) << before.error().message;
   EXPECT_LE(before->residentFraction(), 0.01) << before->residentPages << " pages";
@@ -50,11 +49,8 @@ TEST(PageCache, EvictionEmptiesTheCacheAndMincoreSeesIt) {
 
 TEST(Prefetcher, AdvisesThePredictedCutAndItBecomesResident) {
   PBDAM_REQUIRE_DATASET(shared, "mola");
-  // A private copy, evicted: tests running beside this one read the shared dataset and would
-  // fault its pages back in, leaving nothing for the prefetcher to advise.
   test::TempDir temp;
-  const std::filesystem::path dir = temp / "mola";
-  std::filesystem::copy(shared, dir);
+  const std::filesystem::path dir = test::privateCopy(shared, temp);
   ASSERT_TRUE(evictDataset(dir).ok());
   auto dataset = MappedDataset::open(dir);
   ASSERT_TRUE(dataset.ok()) << dataset.error().message;
@@ -94,10 +90,8 @@ TEST(Prefetcher, AdvisesThePredictedCutAndItBecomesResident) {
 
 TEST(Prefetcher, AsksForExactlyTheRangesOfThePredictedCut) {
   PBDAM_REQUIRE_DATASET(shared, "mola");
-  // A private copy, evicted: every range of the cut is cold, so each one is advised.
   test::TempDir temp;
-  const std::filesystem::path dir = temp / "mola";
-  std::filesystem::copy(shared, dir);
+  const std::filesystem::path dir = test::privateCopy(shared, temp);
   ASSERT_TRUE(evictDataset(dir).ok());
   auto dataset = MappedDataset::open(dir);
   ASSERT_TRUE(dataset.ok()) << dataset.error().message;
