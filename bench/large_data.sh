@@ -7,7 +7,7 @@
 # OUTDIR/report-paging and OUTDIR/report-no-stall and prints their summaries.
 #   bench/large_data.sh [OUTDIR]          (default: build/large)
 # Environment: PBDAM_DATA_DIR (default ../shared/data), LARGE_WIDTH (fractal DEM columns,
-# default 16384: a 4096-cell lattice), LARGE_PATCH_VERTICES (default 800, the paper's ratio of
+# default 16384: a 4096-cell lattice), LARGE_MIN_PATCH_TRIANGLES (default 512; formerly the patch vertex count, 800 the paper's ratio of
 # interior to leaf patch size), LARGE_THREADS (build threads per rank, default all cores),
 # LARGE_LEVELS (bintree depth, default auto: 18 makes the paper's 16384-cell lattice from any
 # DEM), LARGE_RANKS (MPI ranks through mpirun, each under /usr/bin/time; default 1: no mpirun).
@@ -24,7 +24,7 @@ mola="$data/mars/megt90n000cb.lbl"
 [ -f "$mola" ] || { echo "large_data.sh: $mola not found (set PBDAM_DATA_DIR)" >&2; exit 2; }
 out=${1:-"$root/build/large"}
 width=${LARGE_WIDTH:-16384}
-pv=${LARGE_PATCH_VERTICES:-800}
+pv=${LARGE_MIN_PATCH_TRIANGLES:-512}
 threads=${LARGE_THREADS:-0}
 levels=${LARGE_LEVELS:-auto}
 ranks=${LARGE_RANKS:-1}
@@ -42,10 +42,10 @@ if [ ! -f "$dataset/manifest.json" ]; then
     [ "$(id -u)" -eq 0 ] && asroot=(--allow-run-as-root)
     mpirun "${asroot[@]}" --oversubscribe --bind-to none -np "$ranks" \
       sh -c 'exec /usr/bin/time -v -o "$0.$OMPI_COMM_WORLD_RANK" "$@"' "$out/build-time.txt" \
-      "$pbdam" build --dem "$dem" --planet mars --patch-vertices "$pv" --levels "$levels" \
+      "$pbdam" build --dem "$dem" --planet mars --min-patch-triangles "$pv" --levels "$levels" \
       --threads "$threads" --out "$dataset" --force
   else
-    /usr/bin/time -v "$pbdam" build --dem "$dem" --planet mars --patch-vertices "$pv" \
+    /usr/bin/time -v "$pbdam" build --dem "$dem" --planet mars --min-patch-triangles "$pv" \
       --levels "$levels" --threads "$threads" --out "$dataset" --force \
       2> >(tee "$out/build-time.txt" >&2)
   fi

@@ -14,7 +14,6 @@ find_package(ZLIB REQUIRED)
 find_package(Vulkan REQUIRED COMPONENTS glslc)
 pkg_check_modules(GeographicLib REQUIRED IMPORTED_TARGET geographiclib)
 pkg_check_modules(LZO2 REQUIRED IMPORTED_TARGET lzo2)
-pkg_check_modules(GEOS REQUIRED IMPORTED_TARGET geos)
 # libsquish's pkg-config file has an empty prefix (Debian 12): locate it directly.
 find_path(SQUISH_INCLUDE_DIR squish.h REQUIRED)
 find_library(SQUISH_LIBRARY squish REQUIRED)

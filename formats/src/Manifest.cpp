@@ -22,7 +22,8 @@ std::string manifestToJson(const Manifest& m) {
   j["lattice_cells"] = m.latticeCells;
   j["leaf_cells"] = m.leafCells;
   j["depth"] = m.depth;
-  j["patch_vertices"] = m.patchVertices;
+  j["min_patch_triangles"] = m.minPatchTriangles;
+  j["error_margin"] = m.errorMargin;
   j["height_step_m"] = m.heightStepMeters;
   j["texture"] = {{"levels", m.textureLevels},
                   {"tile_texels", m.textureTileTexels},
@@ -73,7 +74,8 @@ Result<Manifest> parseManifest(std::string_view text, std::string_view context) 
     m.latticeCells = j.at("lattice_cells").get<std::uint32_t>();
     m.leafCells = j.at("leaf_cells").get<std::uint32_t>();
     m.depth = j.at("depth").get<std::uint32_t>();
-    m.patchVertices = j.at("patch_vertices").get<std::uint32_t>();
+    m.minPatchTriangles = j.at("min_patch_triangles").get<std::uint32_t>();
+    m.errorMargin = j.at("error_margin").get<double>();
     m.heightStepMeters = j.at("height_step_m").get<double>();
     const auto& t = j.at("texture");
     m.textureLevels = t.at("levels").get<std::uint32_t>();

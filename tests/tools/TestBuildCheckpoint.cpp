@@ -32,7 +32,7 @@ BuildOptions smallMola(const fs::path& dem, const fs::path& out) {
   o.planetSpec = "mars";
   o.outDir = out;
   o.leafVertices = 17;
-  o.patchVertices = 128;
+  o.minPatchTriangles = 128;
   o.depth = 4;
   o.textureTileTexels = 64;
   o.textureFormat = TexelFormat::Rgba8;

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iterator>
 #include <memory>
+#include <span>
 
 #include "TestData.h"
 #include "pbdam/builder/Builder.h"
@@ -45,13 +46,45 @@ void expectSameFiles(const fs::path& a, const fs::path& b) {
 }
 
 /// A small MOLA build: 17-vertex leaves, depth 6 (lattice 128), RGBA8 64-texel tiles.
+/// Every node's stored error is at least (1 + margin) times each child's, and every interior
+/// patch has at least `minTriangles` triangles (MOLA has no exact block), within the 16-bit
+/// index limit.
+void expectErrorTargetsHold(const fs::path& dataset, std::uint32_t minTriangles, double margin) {
+  auto manifest = readManifest(dataset);
+  ASSERT_TRUE(manifest) << manifest.error().message;
+  EXPECT_EQ(manifest->minPatchTriangles, minTriangles);
+  EXPECT_EQ(manifest->errorMargin, margin);
+  std::size_t checked = 0;
+  for (const ManifestFace& f : manifest->faces) {
+    const std::string bytes = readFile(dataset / f.file);
+    auto view =
+        FaceView::open(std::as_bytes(std::span<const char>(bytes.data(), bytes.size())), f.file);
+    ASSERT_TRUE(view) << view.error().message;
+    const std::uint64_t perTree = view->nodesPerTree();
+    for (std::uint64_t k = 0; k < view->header().nodeCount; ++k) {
+      const NodeRecord n = view->nodeAt(k);
+      const std::uint64_t heap = k % perTree;
+      if (2 * heap + 2 >= perTree) continue;  // a leaf
+      EXPECT_GE(n.triangleCount, minTriangles) << f.file << " node " << k;
+      EXPECT_LE(n.vertexCount, kPatchMaxVertices);
+      for (const std::uint64_t child : {k - heap + 2 * heap + 1, k - heap + 2 * heap + 2}) {
+        const double e = static_cast<double>(view->nodeAt(child).errorMeters);
+        EXPECT_GE(static_cast<double>(n.errorMeters), (1.0 + margin) * e * (1.0 - 1e-6))
+            << f.file << " node " << k << " child " << child;
+        ++checked;
+      }
+    }
+  }
+  EXPECT_GT(checked, 1000u);
+}
+
 BuildOptions smallMola(const fs::path& dem, const fs::path& out) {
   BuildOptions o;
   o.demPath = dem;
   o.planetSpec = "mars";
   o.outDir = out;
   o.leafVertices = 17;
-  o.patchVertices = 128;
+  o.minPatchTriangles = 128;
   o.depth = 6;
   o.textureTileTexels = 64;
   o.textureFormat = TexelFormat::Rgba8;
@@ -83,10 +116,11 @@ TEST(Builder, MolaBuildPassesVerifyAgainstTheDem) {
   EXPECT_EQ(summary->depth, 6u);
   EXPECT_EQ(summary->patches, 12u * 127u);
   EXPECT_EQ(summary->leafTriangles, 12u * 64u * 256u);
-  EXPECT_EQ(summary->halvesKeptUnsimplified, 0u);
+  EXPECT_EQ(summary->halvesOverTarget, 0u);
   EXPECT_LT(summary->patchBytesCompressed, summary->patchBytesRaw / 2);  // ≤ 50% compressed
-  // Interior patches are simplified towards --patch-vertices: far fewer triangles than leaves.
+  // Interior patches carry what their error targets need: far fewer triangles than leaves.
   EXPECT_LT(summary->totalTriangles, 3 * summary->leafTriangles);
+  expectErrorTargetsHold(dir / "mola", 128, 0.25);
 
   const VerifyReport r = verify(dir / "mola", dem);
   EXPECT_TRUE(r.ok()) << describe(r);
@@ -246,9 +280,9 @@ TEST_F(CorruptionTest, AByteFlippedInAnySectionIsCaughtByVerifyAndByDecode) {
   const fs::path manifestPath = dir_->path() / "ds" / "manifest.json";
   const std::string manifest = readFile(manifestPath);
   std::string edited = manifest;
-  const auto at = edited.find("\"patch_vertices\": 128");
+  const auto at = edited.find("\"min_patch_triangles\": 128");
   ASSERT_NE(at, std::string::npos);
-  edited.replace(at, 21, "\"patch_vertices\": 129");
+  edited.replace(at, 26, "\"min_patch_triangles\": 129");
   writeFile(manifestPath, edited);
   EXPECT_FALSE(verify(dir_->path() / "ds").ok());
   writeFile(manifestPath, manifest);

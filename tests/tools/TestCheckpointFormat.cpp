@@ -42,8 +42,8 @@ TEST(CheckpointFormat, LevelFooterRoundTrips) {
   ASSERT_TRUE(decoded) << decoded.error().message;
   EXPECT_EQ(decoded->firstDiamond, 48u);
   EXPECT_EQ(decoded->diamonds, 96u);
-  EXPECT_EQ(decoded->simplifyRetries, 3u);
-  EXPECT_EQ(decoded->halvesKeptUnsimplified, 1u);
+  EXPECT_EQ(decoded->insertedPoints, 3u);
+  EXPECT_EQ(decoded->halvesOverTarget, 1u);
   EXPECT_EQ(decoded->patchBytesRaw, 123456789u);
   EXPECT_EQ(decoded->seconds, 2.5);
 }

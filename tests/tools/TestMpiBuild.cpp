@@ -66,10 +66,10 @@ std::string mpirun(int ranks) {
 
 /// The small MOLA build of these tests: lattice 128, depth 6, 17-vertex leaves, RGBA8 tiles
 /// (about 2 s per build here).
-std::string buildArgs(const fs::path& dem, const fs::path& out, int patchVertices = 128) {
+std::string buildArgs(const fs::path& dem, const fs::path& out, int minPatchTriangles = 128) {
   return std::string("'") + PBDAM_EXE + "' build --dem '" + dem.string() +
-         "' --planet mars --levels 6 --leaf-vertices 17 --patch-vertices " +
-         std::to_string(patchVertices) +
+         "' --planet mars --levels 6 --leaf-vertices 17 --min-patch-triangles " +
+         std::to_string(minPatchTriangles) +
          " --texture-tile 64 --texture-format rgba8 --threads 1 --out '" + out.string() + "'";
 }
 
@@ -255,7 +255,8 @@ TEST(MpiBuild, ResumeRefusesACheckpointOfOtherOptions) {
     const ShellRun other = runShell(launcher + buildArgs(dem, out, 96) + " --resume");
     EXPECT_EQ(other.exitCode, 2) << other.err;
     EXPECT_NE(other.err.find("pbdam: --resume: "), std::string::npos) << other.err;
-    EXPECT_NE(other.err.find("patch-vertices 128, this build 96"), std::string::npos) << other.err;
+    EXPECT_NE(other.err.find("min-patch-triangles 128, this build 96"), std::string::npos)
+        << other.err;
     // One line from pbdam (rank 0 only), whatever mpirun adds.
     std::size_t lines = 0;
     for (std::size_t at = other.err.find("pbdam: "); at != std::string::npos;

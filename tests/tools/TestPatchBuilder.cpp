@@ -122,7 +122,7 @@ TEST(PatchBuilder, MeasuredSampleErrorEqualsAScanOfEveryCandidate) {
                     latticeDeviationByScan(grid, kids[c].face, leaf));
         }
       }
-      const BlockResult block = simplifyBlock(grid, tri, children, 40);
+      const BlockResult block = simplifyBlock(grid, tri, children, BlockTargets{200.0, 40, 65535});
       const std::array<const WorkPatch*, 2> halves = {&block.first, &block.second};
       for (std::size_t s = 0; s < 2; ++s) {
         for (const WorkPatch& patch : {*halves[s], wholeTriangle(tri[s])}) {

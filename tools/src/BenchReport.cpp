@@ -27,7 +27,7 @@ double percentile(std::vector<double> v, double p) {
 
 nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   std::vector<double> ms;
-  double total = 0.0, traversal = 0.0, peakTps = 0.0, triangles = 0.0;
+  double total = 0.0, traversal = 0.0, peakTps = 0.0, triangles = 0.0, draws = 0.0;
   std::uint64_t faults = 0, maxPatches = 0, maxTiles = 0, peakRss = 0, hits = 0, misses = 0,
                 paged = 0, peakDatasetRss = 0, peakPool = 0;
   for (const BenchFrame& f : run.frames) {
@@ -35,6 +35,7 @@ nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
     total += f.frameMs;
     traversal += f.traversalMs;
     triangles += static_cast<double>(f.triangles);
+    draws += static_cast<double>(f.patches);  // one indexed draw per patch
     if (f.frameMs > 0.0)
       peakTps = std::max(peakTps, static_cast<double>(f.triangles) / f.frameMs * 1e3);
     faults += f.renderThreadMajorFaults;
@@ -79,6 +80,9 @@ nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   j["data_stalls"] = dataStalls;
   j["triangles_per_s_mean"] = total > 0.0 ? triangles / total * 1e3 : 0.0;
   j["triangles_per_s_peak"] = peakTps;
+  const double frames = std::max<double>(1.0, static_cast<double>(run.frames.size()));
+  j["triangles_per_frame_mean"] = triangles / frames;
+  j["draws_per_frame_mean"] = draws / frames;
   j["max_patches_per_frame"] = maxPatches;
   j["max_tiles_per_frame"] = maxTiles;
   j["traversal_fraction"] = total > 0.0 ? traversal / total : 0.0;
@@ -218,6 +222,13 @@ Result<std::string> writeBenchReport(const std::filesystem::path& dir, const Ben
         100.0 * r["traversal_fraction"].get<double>(), r["peak_rss_mib"].get<double>(),
         100.0 * r["rss_dataset_ratio"].get<double>(), r["dataset_mib"].get<double>(),
         100.0 * r["gpu_cache_hit_rate"].get<double>());
+    text << line;
+    std::snprintf(line, sizeof line,
+                  "  per frame: %.0f triangles in %.0f draws on average (one per patch; at most "
+                  "%llu)\n",
+                  r["triangles_per_frame_mean"].get<double>(),
+                  r["draws_per_frame_mean"].get<double>(),
+                  static_cast<unsigned long long>(r["max_patches_per_frame"].get<std::uint64_t>()));
     text << line;
     std::snprintf(line, sizeof line,
                   "  data stalls (time outside the draw > median frame) %lld; dataset pages in "

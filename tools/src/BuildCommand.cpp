@@ -28,7 +28,8 @@ struct BuildCliOptions {
   std::string planet;
   std::string out;
   std::uint32_t leafVertices = 33;
-  std::uint32_t patchVertices = 512;
+  std::uint32_t minPatchTriangles = 512;
+  double errorMargin = 0.25;
   std::uint32_t textureTile = 256;
   std::string levels = "auto";
   std::string textureFormat = "bc1";
@@ -115,7 +116,8 @@ int runBuild(const BuildCliOptions& c) {
   o.planetSpec = c.planet;
   o.outDir = c.out;
   o.leafVertices = c.leafVertices;
-  o.patchVertices = c.patchVertices;
+  o.minPatchTriangles = c.minPatchTriangles;
+  o.errorMargin = c.errorMargin;
   o.textureTileTexels = c.textureTile;
   o.threads = c.threads;
   o.force = c.force;
@@ -195,10 +197,9 @@ int runBuild(const BuildCliOptions& c) {
     std::printf("  note        %llu lattice points had no DEM data (height 0)\n",
                 static_cast<unsigned long long>(s.noDataPoints));
   }
-  if (s.halvesKeptUnsimplified > 0) {
-    std::printf(
-        "  note        %llu block halves kept unsimplified (every simplification flipped)\n",
-        static_cast<unsigned long long>(s.halvesKeptUnsimplified));
+  if (s.halvesOverTarget > 0) {
+    std::printf("  note        %llu patches reached 65535 vertices before their error target\n",
+                static_cast<unsigned long long>(s.halvesOverTarget));
   }
   return kExitOk;
 }
@@ -217,7 +218,11 @@ void addBuildCommand(CLI::App& app, CommandStatus& status) {
   cmd->add_option("--out", c->out, "Dataset directory to write")->required();
   cmd->add_option("--leaf-vertices", c->leafVertices, "Vertices along a leaf patch leg (2^k+1)")
       ->capture_default_str();
-  cmd->add_option("--patch-vertices", c->patchVertices, "Target vertices of interior patches")
+  cmd->add_option("--min-patch-triangles", c->minPatchTriangles,
+                  "Fewest triangles of a simplified patch (unless its block is exact with fewer)")
+      ->capture_default_str();
+  cmd->add_option("--error-margin", c->errorMargin,
+                  "r >= 0.25: each level's error is at least (1 + r) x its children's")
       ->capture_default_str();
   cmd->add_option("--texture-tile", c->textureTile, "Texture tile side in texels (border incl.)")
       ->capture_default_str();

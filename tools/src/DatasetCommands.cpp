@@ -28,6 +28,8 @@ struct LevelStats {
   std::uint64_t vertices = 0;
   std::uint64_t triangles = 0;
   std::uint64_t compressedBytes = 0;
+  std::uint64_t minTriangles = std::numeric_limits<std::uint64_t>::max();  ///< per patch
+  std::uint64_t maxTriangles = 0;
   double minError = std::numeric_limits<double>::infinity();
   double maxError = 0.0;
 };
@@ -57,6 +59,8 @@ int runInfo(const std::string& dir, bool json) {
       ++s.nodes;
       s.vertices += n.vertexCount;
       s.triangles += n.triangleCount;
+      s.minTriangles = std::min<std::uint64_t>(s.minTriangles, n.triangleCount);
+      s.maxTriangles = std::max<std::uint64_t>(s.maxTriangles, n.triangleCount);
       s.compressedBytes += n.blobBytes;
       s.minError = std::min(s.minError, static_cast<double>(n.errorMeters));
       s.maxError = std::max(s.maxError, static_cast<double>(n.errorMeters));
@@ -108,6 +112,8 @@ int runInfo(const std::string& dir, bool json) {
                      {"nodes", levels[l].nodes},
                      {"triangles", levels[l].triangles},
                      {"vertices", levels[l].vertices},
+                     {"patch_triangles_min", levels[l].nodes > 0 ? levels[l].minTriangles : 0},
+                     {"patch_triangles_max", levels[l].maxTriangles},
                      {"error_min_m", levels[l].minError},
                      {"error_max_m", levels[l].maxError}});
     }
@@ -135,12 +141,16 @@ int runInfo(const std::string& dir, bool json) {
       static_cast<double>(fileBytes) / 1e6, static_cast<double>(total.compressedBytes) / 1e6,
       static_cast<double>(rawBytes) / 1e6, ratio, static_cast<double>(textureBytes) / 1e6,
       static_cast<double>(nodeTableBytes) / 1e6, static_cast<double>(textureTableBytes) / 1e6);
-  std::printf("level  nodes  triangles  error min .. max (m)\n");
+  std::printf("level  nodes  triangles  per patch min / mean / max  error min .. max (m)\n");
   for (std::size_t l = 0; l < levels.size(); ++l) {
-    std::printf("%5zu %6llu %10llu  %9.2f .. %.2f\n", l,
-                static_cast<unsigned long long>(levels[l].nodes),
-                static_cast<unsigned long long>(levels[l].triangles), levels[l].minError,
-                levels[l].maxError);
+    const LevelStats& s = levels[l];
+    const double mean =
+        s.nodes > 0 ? static_cast<double>(s.triangles) / static_cast<double>(s.nodes) : 0.0;
+    std::printf("%5zu %6llu %10llu  %8llu / %6.0f / %6llu   %9.2f .. %.2f\n", l,
+                static_cast<unsigned long long>(s.nodes),
+                static_cast<unsigned long long>(s.triangles),
+                static_cast<unsigned long long>(s.nodes > 0 ? s.minTriangles : 0), mean,
+                static_cast<unsigned long long>(s.maxTriangles), s.minError, s.maxError);
   }
   return kExitOk;
 }

@@ -57,9 +57,14 @@ Result<BuildInputs> prepareInputs(const BuildOptions& o) {
     return invalid("--leaf-vertices " + std::to_string(o.leafVertices) +
                    ": must be 2^k + 1 between 3 and 257 (e.g. 17 or 33)");
   }
-  if (o.patchVertices < 16 || o.patchVertices > kPatchMaxVertices) {
-    return invalid("--patch-vertices " + std::to_string(o.patchVertices) +
+  if (o.minPatchTriangles < 16 || o.minPatchTriangles > kPatchMaxVertices) {
+    return invalid("--min-patch-triangles " + std::to_string(o.minPatchTriangles) +
                    ": must be between 16 and 65535");
+  }
+  if (!(o.errorMargin >= 0.25 && o.errorMargin <= 4.0)) {
+    return invalid("--error-margin " + exact(o.errorMargin) +
+                   ": must be between 0.25 and 4 (a level's error is at least 1 + r times its "
+                   "children's)");
   }
   if (o.textureTileTexels < 16 || o.textureTileTexels > 4096 || o.textureTileTexels % 4 != 0) {
     return invalid("--texture-tile " + std::to_string(o.textureTileTexels) +
@@ -148,7 +153,8 @@ std::vector<std::pair<std::string, std::string>> fingerprintOf(const BuildOption
   f.emplace_back("levels", std::to_string(in.depth));
   f.emplace_back("lattice", std::to_string(in.n));
   f.emplace_back("leaf-vertices", std::to_string(o.leafVertices));
-  f.emplace_back("patch-vertices", std::to_string(o.patchVertices));
+  f.emplace_back("min-patch-triangles", std::to_string(o.minPatchTriangles));
+  f.emplace_back("error-margin", exact(o.errorMargin));
   f.emplace_back("texture-tile", std::to_string(o.textureTileTexels));
   f.emplace_back("texture-format", o.textureFormat == TexelFormat::Bc1 ? "bc1" : "rgba8");
   f.emplace_back("texture-quality", o.bc1Quality == Bc1Quality::High ? "high" : "fast");

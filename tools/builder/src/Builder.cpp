@@ -419,7 +419,7 @@ Result<LevelPartFooter> DistributedBuild::buildShare(int level,
       static_cast<std::uint64_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
   const std::uint64_t batch = 256 * threads;
   DiamondBuilder builder(DiamondLevel{*grid_, lattice_, d_, level, level < d_ ? &below_ : nullptr,
-                                      o_.patchVertices, o_.heightStepMeters,
+                                      o_.minPatchTriangles, o_.errorMargin, o_.heightStepMeters,
                                       files.carry.has_value(), level > 0 && level < d_});
   std::vector<DiamondBytes> out;
   files.carryIndex.reserve(files.carry ? 2 * mine : 0);
@@ -455,8 +455,8 @@ Result<LevelPartFooter> DistributedBuild::buildShare(int level,
   }
   out.clear();
   if (builder.failed()) return fail(item, builder.failure());
-  footer.simplifyRetries = builder.simplifyRetries();
-  footer.halvesKeptUnsimplified = builder.halvesKeptUnsimplified();
+  footer.insertedPoints = builder.insertedPoints();
+  footer.halvesOverTarget = builder.halvesOverTarget();
   footer.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   return footer;
 }

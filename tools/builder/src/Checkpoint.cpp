@@ -25,7 +25,7 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr std::array<char, 8> kMagic = {'P', 'B', 'D', 'A', 'M', 'C', 'K', 'P'};
-constexpr std::uint32_t kFileVersion = 2;
+constexpr std::uint32_t kFileVersion = 3;
 // Trailer: magic, version, kind, level, part, parts, 0, payload bytes; then the CRC-32 of the
 // payload and the trailer.
 constexpr std::size_t kTrailerBytes = 8 + 4 + 4 + 4 + 4 + 4 + 4 + 8;
@@ -353,8 +353,8 @@ std::vector<std::byte> encodeLevelPartFooter(const LevelPartFooter& footer) {
   ByteWriter w;
   w.put(footer.firstDiamond);
   w.put(footer.diamonds);
-  w.put(footer.simplifyRetries);
-  w.put(footer.halvesKeptUnsimplified);
+  w.put(footer.insertedPoints);
+  w.put(footer.halvesOverTarget);
   w.put(footer.patchBytesRaw);
   w.put(footer.seconds);
   return w.take();
@@ -369,8 +369,8 @@ Result<LevelPartFooter> decodeLevelPartFooter(std::span<const std::byte> bytes,
   LevelPartFooter footer;
   footer.firstDiamond = r.get<std::uint64_t>();
   footer.diamonds = r.get<std::uint64_t>();
-  footer.simplifyRetries = r.get<std::uint64_t>();
-  footer.halvesKeptUnsimplified = r.get<std::uint64_t>();
+  footer.insertedPoints = r.get<std::uint64_t>();
+  footer.halvesOverTarget = r.get<std::uint64_t>();
   footer.patchBytesRaw = r.get<std::uint64_t>();
   footer.seconds = r.get<double>();
   return footer;
@@ -531,6 +531,7 @@ void putCarryRecord(ByteWriter& w, const CarrySaturation& saturation, const Work
   w.put(saturation.sphereCenter.y);
   w.put(saturation.sphereCenter.z);
   w.put(saturation.sphereRadiusMeters);
+  w.put(saturation.floorMeters);
   w.put(static_cast<std::uint8_t>(patch != nullptr ? 1 : 0));
   if (patch != nullptr) putPatch(w, *patch);
 }
@@ -541,6 +542,7 @@ bool getCarryRecord(ByteReader& r, CarrySaturation& saturation, WorkPatch* patch
   saturation.sphereCenter.y = r.get<double>();
   saturation.sphereCenter.z = r.get<double>();
   saturation.sphereRadiusMeters = r.get<float>();
+  saturation.floorMeters = r.get<float>();
   const bool hasPatch = r.get<std::uint8_t>() != 0;
   if (patch != nullptr) {
     if (!hasPatch) return false;

@@ -111,8 +111,8 @@ Result<void> Assembly::locateLevelPart(int level, std::uint32_t part) {
   auto view =
       LevelPartView::parse(payload, checkpoint.file(Checkpoint::Kind::Nodes, level, part).string());
   if (!view) return std::move(view).error();
-  summary_.simplifyRetries += view->footer().simplifyRetries;
-  summary_.halvesKeptUnsimplified += view->footer().halvesKeptUnsimplified;
+  summary_.insertedPoints += view->footer().insertedPoints;
+  summary_.halvesOverTarget += view->footer().halvesOverTarget;
   summary_.patchBytesRaw += view->footer().patchBytesRaw;
   std::size_t releasedUpTo = 0;
   auto walked = view->forEachNode([&](const NodeEntry& node, std::size_t readBytes) {
@@ -179,7 +179,8 @@ Manifest Assembly::makeManifest() const {
   manifest.latticeCells = in_.latticeCells;
   manifest.leafCells = in_.leafCells;
   manifest.depth = in_.depth;
-  manifest.patchVertices = o.patchVertices;
+  manifest.minPatchTriangles = o.minPatchTriangles;
+  manifest.errorMargin = o.errorMargin;
   manifest.heightStepMeters = o.heightStepMeters;
   manifest.textureLevels = textureLevels_;
   manifest.textureTileTexels = o.textureTileTexels;

@@ -51,6 +51,7 @@ float roundUpToFloat(double v) {
 /// needs.
 struct DiamondBuilder::Node {
   std::uint64_t id = 0;
+  BinTriangle triangle;
   NodeRecord record;
   std::vector<std::byte> blob;
   double measuredError = 0.0;
@@ -61,6 +62,7 @@ struct DiamondBuilder::Node {
 struct DiamondBuilder::Saturated {
   double error = 0.0;  // the stored float, as double
   Sphere sphere;       // centre, stored radius
+  double floor = 0.0;  // the largest leaf error under the diamond (stored float)
 };
 
 void DiamondBuilder::noteFailure(Error error) {
@@ -72,6 +74,7 @@ void DiamondBuilder::noteFailure(Error error) {
 bool DiamondBuilder::makeNode(const BinTriangle& t, const WorkPatch& patch, Node& n) {
   const SampleGrid& grid = level_.grid;
   n.id = nodeId(t, level_.depth);
+  n.triangle = t;
   MeasuredPatch m = measurePatch(grid, t, patch, level_.heightStepMeters);
   optimizePatchForRendering(m.mesh);
   auto blob = encodePatch(m.mesh);
@@ -117,7 +120,8 @@ bool DiamondBuilder::readChildren(const std::array<BinTriangle, 2>& tri,
       }
       saturated[2 * s + c] =
           Saturated{static_cast<double>(carried.errorMeters),
-                    Sphere{carried.sphereCenter, static_cast<double>(carried.sphereRadiusMeters)}};
+                    Sphere{carried.sphereCenter, static_cast<double>(carried.sphereRadiusMeters)},
+                    static_cast<double>(carried.floorMeters)};
       if (leaf) children[s][c] = makeLeafPatch(kids[c]);
     }
   }
@@ -137,9 +141,20 @@ bool DiamondBuilder::makeNodes(const std::array<BinTriangle, 2>& tri, std::array
   if (!readChildren(tri, childSaturated, children)) return false;
   const std::array<std::array<const WorkPatch*, 2>, 2> childPointers = {
       {{&children[0][0], &children[0][1]}, {&children[1][0], &children[1][1]}}};
-  BlockResult block = simplifyBlock(level_.grid, tri, childPointers, level_.patchVertices);
-  retries_ += block.stats.simplifyRetries;
-  unsimplified_ += block.stats.halvesKeptUnsimplified;
+  // The block's target (docs/builder.md "Patches"): its saturated error will be (1 + r) times
+  // its children's largest; the heights get what the leaves' floor leaves of it.
+  double childError = 0.0;
+  double floor = 0.0;
+  for (const Saturated& child : childSaturated) {
+    childError = std::max(childError, child.error);
+    floor = std::max(floor, child.floor);
+  }
+  const double target = (1.0 + level_.errorMargin) * childError;
+  const BlockTargets targets{std::max(0.0, target - floor), level_.minPatchTriangles,
+                             kPatchMaxVertices};
+  BlockResult block = simplifyBlock(level_.grid, tri, childPointers, targets);
+  inserted_ += block.stats.insertedPoints;
+  overTarget_ += block.stats.halvesOverTarget;
   bool ok = makeNode(tri[0], block.first, nodes[0]);
   ok = makeNode(tri[1], block.second, nodes[1]) && ok;
   made = {std::move(block.first), std::move(block.second)};
@@ -148,19 +163,24 @@ bool DiamondBuilder::makeNodes(const std::array<BinTriangle, 2>& tri, std::array
 
 DiamondBuilder::Saturated DiamondBuilder::saturate(
     const std::array<Node, 2>& nodes, const std::array<Saturated, 4>& childSaturated) const {
-  // Saturate over the diamond DAG.
+  // Saturate over the diamond DAG, with the margin: at least (1 + r) times every child
+  // diamond's error, so that the errors of consecutive levels never come closer than that.
   double e = std::max(nodes[0].measuredError, nodes[1].measuredError);
+  double floor = e;  // a leaf diamond's floor is its error
   Sphere sphere = merge(nodes[0].sphere, nodes[1].sphere);
   if (level_.level < level_.depth) {
+    floor = 0.0;
     for (const Saturated& child : childSaturated) {
-      e = std::max(e, child.error);
+      e = std::max(e, (1.0 + level_.errorMargin) * child.error);
+      floor = std::max(floor, child.floor);
       sphere = merge(sphere, child.sphere);
     }
   }
   const float storedError = roundUpToFloat(e);
   const float radius = storedRadius(sphere.radius);
   return Saturated{static_cast<double>(storedError),
-                   Sphere{sphere.center, static_cast<double>(radius)}};
+                   Sphere{sphere.center, static_cast<double>(radius)},
+                   static_cast<double>(roundUpToFloat(floor))};
 }
 
 void DiamondBuilder::serialise(std::array<Node, 2>& nodes, const Saturated& saturated,
@@ -179,11 +199,19 @@ void DiamondBuilder::serialise(std::array<Node, 2>& nodes, const Saturated& satu
   out.nodes = w.take();
   if (!level_.writeCarry) return;
   const CarrySaturation carried{static_cast<float>(saturated.error), saturated.sphere.center,
-                                static_cast<float>(saturated.sphere.radius)};
+                                static_cast<float>(saturated.sphere.radius),
+                                static_cast<float>(saturated.floor)};
+  // The parent's block keeps only what a patch has on its hypotenuse.
+  std::array<WorkPatch, 2> kept;
+  if (level_.keepPatches) {
+    for (std::size_t s = 0; s < 2; ++s) {
+      kept[s].points = hypotenusePoints(nodes[s].triangle, made[s]);
+    }
+  }
   ByteWriter c;
-  putCarryRecord(c, carried, level_.keepPatches ? &made[0] : nullptr);
+  putCarryRecord(c, carried, level_.keepPatches ? &kept[0] : nullptr);
   out.firstCarryBytes = c.bytes().size();
-  putCarryRecord(c, carried, level_.keepPatches ? &made[1] : nullptr);
+  putCarryRecord(c, carried, level_.keepPatches ? &kept[1] : nullptr);
   out.carry = c.take();
 }
 

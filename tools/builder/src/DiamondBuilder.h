@@ -36,7 +36,8 @@ struct DiamondLevel final {
   int level = 0;
   /// The carry of level + 1 (nothing at the leaf level).
   const CarryReader* below = nullptr;
-  std::uint32_t patchVertices = 0;
+  std::uint32_t minPatchTriangles = 0;
+  double errorMargin = 0.25;
   double heightStepMeters = 0.0;
   bool writeCarry = false;   ///< the level writes a carry (every level but 0)
   bool keepPatches = false;  ///< its carry holds the working patches (level − 1 is a block level)
@@ -55,8 +56,8 @@ class DiamondBuilder final {
   bool failed() const noexcept { return failed_; }
   /// The first failure; only meaningful once failed() and no build() runs.
   const formats::Error& failure() const noexcept { return failure_; }
-  std::uint64_t simplifyRetries() const noexcept { return retries_; }
-  std::uint64_t halvesKeptUnsimplified() const noexcept { return unsimplified_; }
+  std::uint64_t insertedPoints() const noexcept { return inserted_; }
+  std::uint64_t halvesOverTarget() const noexcept { return overTarget_; }
 
  private:
   struct Node;
@@ -77,8 +78,8 @@ class DiamondBuilder final {
   std::mutex failureMutex_;
   std::atomic<bool> failed_{false};
   formats::Error failure_;
-  std::atomic<std::uint64_t> retries_{0};
-  std::atomic<std::uint64_t> unsimplified_{0};
+  std::atomic<std::uint64_t> inserted_{0};
+  std::atomic<std::uint64_t> overTarget_{0};
 };
 
 }  // namespace pbdam::builder

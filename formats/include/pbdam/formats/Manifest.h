@@ -32,7 +32,8 @@ struct Manifest final {
   std::uint32_t latticeCells = 0;
   std::uint32_t leafCells = 0;
   std::uint32_t depth = 0;
-  std::uint32_t patchVertices = 0;
+  std::uint32_t minPatchTriangles = 0;  ///< the fewest triangles of a simplified patch
+  double errorMargin = 0.0;             ///< r: a level's error ≥ (1 + r) × its children's
   double heightStepMeters = 0.0;
   std::uint32_t textureLevels = 0;
   std::uint32_t textureTileTexels = 0;

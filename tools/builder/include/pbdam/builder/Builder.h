@@ -27,8 +27,11 @@ struct BuildOptions final {
   std::filesystem::path texturePath;            ///< equirectangular imagery; empty: shaded relief
   std::string planetSpec;                       ///< Planet::fromSpec
   std::filesystem::path outDir;
-  std::uint32_t leafVertices = 33;        ///< leaf leg vertices (2^k + 1)
-  std::uint32_t patchVertices = 512;      ///< target vertices of interior patches
+  std::uint32_t leafVertices = 33;  ///< leaf leg vertices (2^k + 1)
+  /// The fewest triangles of a simplified patch (unless its block is exact with fewer).
+  std::uint32_t minPatchTriangles = 512;
+  /// r: each level's saturated error is at least (1 + r) × its children's (docs/builder.md).
+  double errorMargin = 0.25;
   std::uint32_t textureTileTexels = 256;  ///< texture tile side, border included
   std::optional<std::uint32_t> depth;     ///< bintree depth (even); auto from the DEM density
   formats::TexelFormat textureFormat = formats::TexelFormat::Bc1;
@@ -78,8 +81,8 @@ struct BuildSummary final {
   std::uint64_t patchBytesRaw = 0;  ///< 8 bytes/vertex + 6 bytes/triangle
   std::uint64_t patchBytesCompressed = 0;
   std::uint64_t noDataPoints = 0;
-  std::uint64_t simplifyRetries = 0;
-  std::uint64_t halvesKeptUnsimplified = 0;
+  std::uint64_t insertedPoints = 0;
+  std::uint64_t halvesOverTarget = 0;
   double rootErrorMeters = 0.0;
   double leafMaxErrorMeters = 0.0;
   double seconds = 0.0;

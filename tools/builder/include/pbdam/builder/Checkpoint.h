@@ -208,8 +208,8 @@ struct LevelPartFooter final {
   static constexpr std::size_t kBytes = std::size_t{6} * 8;  ///< six 8-byte fields
   std::uint64_t firstDiamond = 0;  ///< the rank's first diamond of the level
   std::uint64_t diamonds = 0;      ///< how many it built (two nodes each)
-  std::uint64_t simplifyRetries = 0;
-  std::uint64_t halvesKeptUnsimplified = 0;
+  std::uint64_t insertedPoints = 0;
+  std::uint64_t halvesOverTarget = 0;
   std::uint64_t patchBytesRaw = 0;  ///< 8 bytes a vertex and 6 a triangle, uncompressed
   double seconds = 0.0;
 };
@@ -310,6 +310,9 @@ struct CarrySaturation final {
   float errorMeters = 0.0f;
   glm::dvec3 sphereCenter{0.0};
   float sphereRadiusMeters = 0.0f;
+  /// The largest leaf error under the diamond: what the lattice cannot do better than (its
+  /// deviation from the source samples), which the parent's height target leaves room for.
+  float floorMeters = 0.0f;
 };
 /// Appends one carry record: the saturation, a u8 flag, and with `patch` the working patch —
 /// u32 point count, u8 width (2 when every coordinate and index fits 16 bits — always for

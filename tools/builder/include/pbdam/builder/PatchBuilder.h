@@ -1,6 +1,6 @@
 // Patch construction for P-BDAM (paper 004 §5 "Out-of-core Geometric Simplification";
 // docs/builder.md "Patches"): regular leaf patches, the simplification of one block (the four
-// children of a diamond) into the diamond's two patches with meshoptimizer, and the measurement
+// children of a diamond) into the diamond's two patches by greedy insertion, and the measurement
 // and encoding of a patch (exact barycentrics, displacement along the interpolated normal,
 // error against lattice and source samples, bounding sphere). Thread-safety: free functions on
 // their own data; SampleGrid is read-only, so blocks may be processed concurrently.
@@ -30,11 +30,20 @@ WorkPatch makeLeafPatch(const runtime::BinTriangle& triangle);
 
 /// What happened in one block.
 struct BlockStats final {
-  std::uint32_t diagonalBefore = 0;   ///< vertices on the block diagonal before
-  std::uint32_t diagonalAfter = 0;    ///< and after its polyline simplification
-  std::uint32_t simplifyRetries = 0;  ///< meshopt results rejected for a (u,v) flip
-  std::uint32_t halvesKeptUnsimplified = 0;
-  std::uint32_t delaunayFallbacks = 0;  ///< folded meshopt steps retriangulated (GEOS Delaunay)
+  std::uint32_t diagonalPoints = 0;    ///< lattice points on the block diagonal
+  std::uint32_t diagonalKept = 0;      ///< of which the diagonal keeps as vertices
+  std::uint32_t insertedPoints = 0;    ///< interior points inserted into the two halves
+  std::uint32_t halvesOverTarget = 0;  ///< halves that stopped at the vertex limit above target
+};
+
+/// How far a block is refined (docs/builder.md "Patches").
+struct BlockTargets final {
+  /// Every triangle's height error plus chord sag at most this (metres) …
+  double latticeErrorMeters = 0.0;
+  /// … and at least this many triangles per half, unless the half is exact with fewer …
+  std::uint32_t minTriangles = 512;
+  /// … but never more vertices than this (16-bit indices).
+  std::uint32_t maxVertices = 65535;
 };
 
 /// The two patches of a diamond, built from its block.
@@ -45,14 +54,21 @@ struct BlockResult final {
 };
 
 /// Builds the patches of the diamond (triangles[0], triangles[1]) — two bintree triangles that
-/// share their hypotenuse, possibly on different faces — from their children's patches
-/// (children[0] are triangles[0]'s, children[1] triangles[1]'s). The block boundary stays
-/// locked; the diagonal keeps its vertices on it and is simplified first to about half; then
-/// each half is simplified with meshopt_simplify (locked border) to about `targetVertices`.
+/// share their hypotenuse, possibly on different faces — whose legs keep the vertices their
+/// children's patches have on their hypotenuses (children[0] are triangles[0]'s, children[1]
+/// triangles[1]'s; only those points are read). The shared diagonal is refined first, by greedy
+/// insertion of its lattice points to the target; then each half by greedy insertion of its
+/// interior lattice points into a Delaunay triangulation (Garland & Heckbert 1995) until
+/// `targets` hold.
 BlockResult simplifyBlock(const SampleGrid& grid,
                           const std::array<runtime::BinTriangle, 2>& triangles,
                           const std::array<std::array<const WorkPatch*, 2>, 2>& children,
-                          std::uint32_t targetVertices);
+                          const BlockTargets& targets);
+
+/// The points of `patch` on the hypotenuse of `triangle` (its ends included), in patch order:
+/// what the parent's block keeps of a child.
+std::vector<runtime::LatticeXY> hypotenusePoints(const runtime::BinTriangle& triangle,
+                                                 const WorkPatch& patch);
 
 /// The corner data of a node: terrain positions (double), surface normals (float-rounded, as
 /// stored), in the order apex, left, right.

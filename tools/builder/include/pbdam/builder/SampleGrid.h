@@ -98,6 +98,10 @@ class SampleGrid final {
   const Lattice& lattice() const noexcept { return lattice_; }
   const runtime::Planet& planet() const noexcept { return planet_; }
 
+  /// The heights of `face`'s lattice points, (N + 1)² row-major by j.
+  const float* faceHeights(int face) const noexcept {
+    return faceHeights_[static_cast<std::size_t>(face)];
+  }
   /// Height of lattice point p of `face` (equal on every face sharing the point).
   float height(int face, runtime::LatticeXY p) const noexcept {
     const auto n1 = static_cast<std::size_t>(lattice_.sideCells()) + 1;

@@ -1,0 +1,464 @@
+// Greedy insertion into a Delaunay triangulation of a lattice triangle (GreedyInsertion.h).
+#include "GreedyInsertion.h"
+
+#include <algorithm>
+#include <array>
+#include <cassert>
+#include <cmath>
+#include <limits>
+#include <queue>
+
+using namespace pbdam::runtime;
+
+namespace pbdam::builder {
+namespace {
+
+__extension__ using Int128 = __int128;
+
+constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+
+std::int64_t floorDiv(std::int64_t a, std::int64_t b) noexcept {  // b > 0
+  std::int64_t q = a / b;
+  if (a % b != 0 && a < 0) --q;
+  return q;
+}
+
+/// Whether d lies strictly inside the circumcircle of the counter-clockwise triangle (a, b, c).
+/// Exact: 128-bit integers hold the determinant for any lattice up to 2^28 cells.
+bool inCircle(LatticeXY a, LatticeXY b, LatticeXY c, LatticeXY d) noexcept {
+  const Int128 adx = a.x - d.x;
+  const Int128 ady = a.y - d.y;
+  const Int128 bdx = b.x - d.x;
+  const Int128 bdy = b.y - d.y;
+  const Int128 cdx = c.x - d.x;
+  const Int128 cdy = c.y - d.y;
+  const Int128 det = (adx * adx + ady * ady) * (bdx * cdy - cdx * bdy) +
+                     (bdx * bdx + bdy * bdy) * (cdx * ady - adx * cdy) +
+                     (cdx * cdx + cdy * cdy) * (adx * bdy - bdx * ady);
+  return det > 0;
+}
+
+/// A triangle of the triangulation: corners counter-clockwise, n[i] the neighbour across the
+/// edge opposite corner i (kNone on the locked boundary).
+struct Tri final {
+  std::array<std::uint32_t, 3> v{};
+  std::array<std::uint32_t, 3> n{};
+  std::uint32_t stamp = 0;  // bumped whenever the slot is rewritten: older heap entries are stale
+  double error = -1.0;      // height error + chord bound; < 0: nothing to insert
+  LatticeXY candidate{0};
+};
+
+struct HeapEntry final {
+  double error;
+  std::uint32_t tri;
+  std::uint32_t stamp;
+  bool operator<(const HeapEntry& o) const noexcept {
+    if (error != o.error) return error < o.error;
+    return tri > o.tri;  // equal errors: the lower slot first
+  }
+};
+
+class Triangulation final {
+ public:
+  Triangulation(const FaceHeights& heights, const ChordModel& chord)
+      : heights_(heights),
+        sagPerCell2_(chord.radiusMeters > 0.0
+                         ? chord.metresPerCell * chord.metresPerCell / (2.0 * chord.radiusMeters)
+                         : 0.0) {}
+
+  std::uint32_t addPoint(LatticeXY p) {
+    points_.push_back(p);
+    z_.push_back(static_cast<double>(heights_.at(p)));
+    return static_cast<std::uint32_t>(points_.size() - 1);
+  }
+
+  /// The triangle of the three corners (counter-clockwise) and its boundary points, inserted
+  /// edge by edge as splits of the boundary edge that holds them.
+  void start(const std::array<LatticeXY, 3>& ccw, std::span<const LatticeXY> boundary);
+
+  /// Inserts the candidate of triangle `t` (inside it or on an inner edge).
+  void insertCandidate(std::uint32_t t);
+
+  /// Rescans every triangle rewritten since the last call and queues it.
+  void rescanDirty();
+
+  /// The valid heap top, or nothing.
+  bool top(HeapEntry& out) {
+    while (!heap_.empty()) {
+      const HeapEntry e = heap_.top();
+      if (tris_[e.tri].stamp == e.stamp) {
+        out = e;
+        return true;
+      }
+      heap_.pop();
+    }
+    return false;
+  }
+
+  std::size_t vertexCount() const noexcept { return points_.size(); }
+  std::size_t triangleCount() const noexcept { return tris_.size(); }
+  const std::vector<Tri>& triangles() const noexcept { return tris_; }
+  const std::vector<LatticeXY>& points() const noexcept { return points_; }
+
+ private:
+  std::uint32_t newTri() {
+    tris_.emplace_back();
+    return static_cast<std::uint32_t>(tris_.size() - 1);
+  }
+  void set(std::uint32_t t, std::array<std::uint32_t, 3> v, std::array<std::uint32_t, 3> n) {
+    Tri& tri = tris_[t];
+    tri.v = v;
+    tri.n = n;
+    ++tri.stamp;
+    dirty_.push_back(t);
+  }
+  /// Points neighbour `of` (if any) at `to` where it pointed at `from`.
+  void repoint(std::uint32_t of, std::uint32_t from, std::uint32_t to) {
+    if (of == kNone) return;
+    for (std::uint32_t& k : tris_[of].n) {
+      if (k == from) k = to;
+    }
+  }
+  static int slot(const Tri& t, std::uint32_t vertex) noexcept {
+    return t.v[0] == vertex ? 0 : (t.v[1] == vertex ? 1 : 2);
+  }
+  void splitBoundaryEdge(std::uint32_t t, int opposite, std::uint32_t p);
+  void splitInside(std::uint32_t t, std::uint32_t p);
+  void splitInnerEdge(std::uint32_t t, int opposite, std::uint32_t p);
+  /// Lawson flips from the edges opposite corner 0 of the queued triangles.
+  void legalize();
+  void scan(std::uint32_t t);
+
+  const FaceHeights& heights_;
+  double sagPerCell2_;
+  std::vector<LatticeXY> points_;
+  std::vector<double> z_;
+  std::vector<Tri> tris_;
+  std::vector<std::uint32_t> dirty_;
+  std::vector<std::uint32_t> pending_;  // triangles whose edge opposite corner 0 is to check
+  std::priority_queue<HeapEntry> heap_;
+};
+
+void Triangulation::start(const std::array<LatticeXY, 3>& ccw,
+                          std::span<const LatticeXY> boundary) {
+  const std::array<std::uint32_t, 3> c = {addPoint(ccw[0]), addPoint(ccw[1]), addPoint(ccw[2])};
+  const std::uint32_t first = newTri();
+  set(first, {c[0], c[1], c[2]}, {kNone, kNone, kNone});
+  for (int e = 0; e < 3; ++e) {
+    // Edge from corner e+1 to corner e+2 (opposite corner e): its boundary points by distance.
+    const LatticeXY from = ccw[static_cast<std::size_t>((e + 1) % 3)];
+    const LatticeXY to = ccw[static_cast<std::size_t>((e + 2) % 3)];
+    const LatticeXY dir = to - from;
+    const std::int64_t len2 = std::int64_t{dir.x} * dir.x + std::int64_t{dir.y} * dir.y;
+    std::vector<std::pair<std::int64_t, LatticeXY>> onEdge;
+    for (const LatticeXY p : boundary) {
+      if (doubleArea(from, to, p) != 0) continue;
+      const LatticeXY d = p - from;
+      const std::int64_t s = std::int64_t{d.x} * dir.x + std::int64_t{d.y} * dir.y;
+      if (s > 0 && s < len2) onEdge.emplace_back(s, p);
+    }
+    std::sort(onEdge.begin(), onEdge.end(),
+              [](const auto& a, const auto& b) { return a.first < b.first; });
+    onEdge.erase(std::unique(onEdge.begin(), onEdge.end(),
+                             [](const auto& a, const auto& b) { return a.first == b.first; }),
+                 onEdge.end());
+    if (onEdge.empty()) continue;
+    // The triangle that holds this boundary edge: the split keeps each remaining part of it in
+    // the same slot (flips around the new point never touch the boundary edge's triangle slot).
+    const std::uint32_t toIndex = c[static_cast<std::size_t>((e + 2) % 3)];
+    std::uint32_t holder = kNone;
+    const std::uint32_t fromIndex = c[static_cast<std::size_t>((e + 1) % 3)];
+    for (std::uint32_t t = 0; t < tris_.size() && holder == kNone; ++t) {
+      const Tri& tri = tris_[t];
+      for (int k = 0; k < 3; ++k) {
+        if (tri.n[static_cast<std::size_t>(k)] == kNone &&
+            tri.v[static_cast<std::size_t>((k + 1) % 3)] == fromIndex &&
+            tri.v[static_cast<std::size_t>((k + 2) % 3)] == toIndex) {
+          holder = t;
+        }
+      }
+    }
+    assert(holder != kNone);
+    for (const auto& [s, p] : onEdge) {
+      const std::uint32_t index = addPoint(p);
+      const Tri& tri = tris_[holder];
+      const int far = slot(tri, toIndex);
+      splitBoundaryEdge(holder, (far + 1) % 3, index);
+      legalize();
+    }
+  }
+}
+
+void Triangulation::splitBoundaryEdge(std::uint32_t t, int opposite, std::uint32_t p) {
+  // t = (a, b, c) with the boundary edge b–c opposite a; p on it. A1 = (p, a, b) in a new slot,
+  // A2 = (p, c, a) in t's slot, which keeps the boundary edge p–c.
+  const Tri old = tris_[t];
+  const auto k = static_cast<std::size_t>(opposite);
+  const std::uint32_t a = old.v[k];
+  const std::uint32_t b = old.v[(k + 1) % 3];
+  const std::uint32_t c = old.v[(k + 2) % 3];
+  const std::uint32_t acrossAB = old.n[(k + 2) % 3];
+  const std::uint32_t acrossCA = old.n[(k + 1) % 3];
+  const std::uint32_t a1 = newTri();
+  set(a1, {p, a, b}, {acrossAB, kNone, t});
+  set(t, {p, c, a}, {acrossCA, a1, kNone});
+  repoint(acrossAB, t, a1);
+  pending_.push_back(a1);
+  pending_.push_back(t);
+}
+
+void Triangulation::splitInside(std::uint32_t t, std::uint32_t p) {
+  const Tri old = tris_[t];
+  const std::uint32_t a = old.v[0];
+  const std::uint32_t b = old.v[1];
+  const std::uint32_t c = old.v[2];
+  const std::uint32_t t1 = newTri();
+  const std::uint32_t t2 = newTri();
+  set(t, {p, b, c}, {old.n[0], t1, t2});
+  set(t1, {p, c, a}, {old.n[1], t2, t});
+  set(t2, {p, a, b}, {old.n[2], t, t1});
+  repoint(old.n[1], t, t1);
+  repoint(old.n[2], t, t2);
+  pending_.insert(pending_.end(), {t, t1, t2});
+}
+
+void Triangulation::splitInnerEdge(std::uint32_t t, int opposite, std::uint32_t p) {
+  // t = (a, b, c), p on b–c, u = (d, c, b) across it. A1 = (p, a, b) in t, A2 = (p, c, a),
+  // B1 = (p, d, c) in u, B2 = (p, b, d).
+  const Tri ot = tris_[t];
+  const auto k = static_cast<std::size_t>(opposite);
+  const std::uint32_t a = ot.v[k];
+  const std::uint32_t b = ot.v[(k + 1) % 3];
+  const std::uint32_t c = ot.v[(k + 2) % 3];
+  const std::uint32_t u = ot.n[k];
+  const Tri ou = tris_[u];
+  std::size_t j = 0;
+  while (ou.n[j] != t) ++j;
+  const std::uint32_t d = ou.v[j];
+  const std::uint32_t tAB = ot.n[(k + 2) % 3];
+  const std::uint32_t tCA = ot.n[(k + 1) % 3];
+  // In u = (d, c, b): the edge d–c is opposite b, b–d opposite c.
+  const std::uint32_t uDC = ou.n[(j + 2) % 3];
+  const std::uint32_t uBD = ou.n[(j + 1) % 3];
+  const std::uint32_t a2 = newTri();
+  const std::uint32_t b2 = newTri();
+  set(t, {p, a, b}, {tAB, b2, a2});
+  set(a2, {p, c, a}, {tCA, t, u});
+  set(u, {p, d, c}, {uDC, a2, b2});
+  set(b2, {p, b, d}, {uBD, u, t});
+  repoint(tCA, t, a2);
+  repoint(uBD, u, b2);
+  pending_.insert(pending_.end(), {t, a2, u, b2});
+}
+
+void Triangulation::legalize() {
+  while (!pending_.empty()) {
+    const std::uint32_t t = pending_.back();
+    pending_.pop_back();
+    const Tri tri = tris_[t];
+    const std::uint32_t u = tri.n[0];
+    if (u == kNone) continue;
+    const Tri other = tris_[u];
+    std::size_t j = 0;
+    while (other.n[j] != t) ++j;
+    const std::uint32_t a = tri.v[0];
+    const std::uint32_t b = tri.v[1];
+    const std::uint32_t c = tri.v[2];
+    const std::uint32_t d = other.v[j];
+    if (!inCircle(points_[a], points_[b], points_[c], points_[d])) continue;
+    // Flip b–c to a–d: t = (a, b, d), u = (a, d, c).
+    const std::uint32_t uBD = other.n[(j + 1) % 3];
+    const std::uint32_t uDC = other.n[(j + 2) % 3];
+    set(t, {a, b, d}, {uBD, u, tri.n[2]});
+    set(u, {a, d, c}, {uDC, tri.n[1], t});
+    repoint(uBD, u, t);
+    repoint(tri.n[1], t, u);
+    pending_.push_back(t);
+    pending_.push_back(u);
+  }
+}
+
+void Triangulation::insertCandidate(std::uint32_t t) {
+  const Tri tri = tris_[t];
+  const std::uint32_t p = addPoint(tri.candidate);
+  for (int k = 0; k < 3; ++k) {
+    const LatticeXY b = points_[tri.v[static_cast<std::size_t>((k + 1) % 3)]];
+    const LatticeXY c = points_[tri.v[static_cast<std::size_t>((k + 2) % 3)]];
+    if (doubleArea(b, c, tri.candidate) == 0) {
+      assert(tri.n[static_cast<std::size_t>(k)] != kNone);
+      splitInnerEdge(t, k, p);
+      legalize();
+      return;
+    }
+  }
+  splitInside(t, p);
+  legalize();
+}
+
+void Triangulation::rescanDirty() {
+  std::sort(dirty_.begin(), dirty_.end());
+  dirty_.erase(std::unique(dirty_.begin(), dirty_.end()), dirty_.end());
+  for (const std::uint32_t t : dirty_) scan(t);
+  dirty_.clear();
+}
+
+void Triangulation::scan(std::uint32_t t) {
+  Tri& tri = tris_[t];
+  const std::array<LatticeXY, 3> p = {points_[tri.v[0]], points_[tri.v[1]], points_[tri.v[2]]};
+  const std::array<double, 3> z = {z_[tri.v[0]], z_[tri.v[1]], z_[tri.v[2]]};
+  // The plane through the corners' heights, z = z0 + gx (x − x0) + gy (y − y0).
+  const auto det = static_cast<double>(doubleArea(p[0], p[1], p[2]));
+  const double e1x = p[1].x - p[0].x;
+  const double e1y = p[1].y - p[0].y;
+  const double e2x = p[2].x - p[0].x;
+  const double e2y = p[2].y - p[0].y;
+  const double gx = ((z[1] - z[0]) * e2y - (z[2] - z[0]) * e1y) / det;
+  const double gy = (e1x * (z[2] - z[0]) - e2x * (z[1] - z[0])) / det;
+  // Circumcentre (relative to p0) and squared circumradius, in cells.
+  const double l1 = e1x * e1x + e1y * e1y;
+  const double l2 = e2x * e2x + e2y * e2y;
+  const double ccx = (e2y * l1 - e1y * l2) / (2.0 * det);
+  const double ccy = (e1x * l2 - e2x * l1) / (2.0 * det);
+  const double rc2 = ccx * ccx + ccy * ccy;
+  double chordBound = 0.0;  // the largest sag inside the triangle
+  {
+    const double e0x = p[2].x - p[1].x;
+    const double e0y = p[2].y - p[1].y;
+    const double l0 = e0x * e0x + e0y * e0y;
+    const double longest = std::max({l0, l1, l2});
+    const bool acute = 2.0 * longest < l0 + l1 + l2;
+    chordBound = sagPerCell2_ * (acute ? rc2 : 0.25 * longest);
+  }
+
+  double worstHeight = -1.0;
+  double worstScore = -1.0;
+  LatticeXY worst{0};
+  const int yMin = std::min({p[0].y, p[1].y, p[2].y});
+  const int yMax = std::max({p[0].y, p[1].y, p[2].y});
+  const int xMinBox = std::min({p[0].x, p[1].x, p[2].x});
+  const int xMaxBox = std::max({p[0].x, p[1].x, p[2].x});
+  for (int y = yMin; y <= yMax; ++y) {
+    std::int64_t lo = xMinBox;
+    std::int64_t hi = xMaxBox;
+    // Inside edge q→r (opposite corner k): (r − q) × (s − q) ≥ 0, i.e. dy·x ≤ dx·(y − qy) + dy·qx.
+    for (std::size_t k = 0; k < 3 && lo <= hi; ++k) {
+      const LatticeXY q = p[(k + 1) % 3];
+      const LatticeXY r = p[(k + 2) % 3];
+      const std::int64_t dx = r.x - q.x;
+      const std::int64_t dy = r.y - q.y;
+      const std::int64_t rhs = dx * (y - q.y) + dy * q.x;
+      if (dy > 0) {
+        hi = std::min(hi, floorDiv(rhs, dy));
+      } else if (dy < 0) {
+        lo = std::max(lo, -floorDiv(rhs, -dy));  // x ≥ ceil(rhs / dy)
+      } else if (rhs < 0) {
+        hi = lo - 1;
+      }
+    }
+    for (std::int64_t x = lo; x <= hi; ++x) {
+      const LatticeXY s{static_cast<std::int32_t>(x), y};
+      if (s == p[0] || s == p[1] || s == p[2]) continue;
+      bool onLockedEdge = false;
+      for (std::size_t k = 0; k < 3; ++k) {
+        if (tri.n[k] == kNone && doubleArea(p[(k + 1) % 3], p[(k + 2) % 3], s) == 0) {
+          onLockedEdge = true;
+        }
+      }
+      if (onLockedEdge) continue;
+      const double rx = static_cast<double>(x - p[0].x);
+      const double ry = static_cast<double>(y - p[0].y);
+      const double dev = std::abs(static_cast<double>(heights_.at(s)) - (z[0] + gx * rx + gy * ry));
+      const double dcx = rx - ccx;
+      const double dcy = ry - ccy;
+      const double sag = sagPerCell2_ * std::max(0.0, rc2 - (dcx * dcx + dcy * dcy));
+      worstHeight = std::max(worstHeight, dev);
+      if (dev + sag > worstScore) {
+        worstScore = dev + sag;
+        worst = s;
+      }
+    }
+  }
+  tri.error = worstScore < 0.0 ? -1.0 : worstHeight + chordBound;
+  tri.candidate = worst;
+  if (tri.error >= 0.0) heap_.push(HeapEntry{tri.error, t, tri.stamp});
+}
+
+}  // namespace
+
+InsertionResult insertGreedily(const FaceHeights& heights, const std::array<LatticeXY, 3>& corners,
+                               std::span<const LatticeXY> boundary, const InsertionLimits& limits,
+                               const ChordModel& chord) {
+  std::array<LatticeXY, 3> ccw = corners;
+  if (doubleArea(ccw[0], ccw[1], ccw[2]) < 0) std::swap(ccw[1], ccw[2]);
+  Triangulation tin(heights, chord);
+  tin.start(ccw, boundary);
+  tin.rescanDirty();
+  InsertionResult result;
+  HeapEntry best{};
+  while (tin.top(best) && tin.vertexCount() < limits.maxVertices) {
+    const bool enough = tin.triangleCount() >= limits.minTriangles;
+    if (best.error <= 0.0 || (enough && best.error <= limits.targetMeters)) break;
+    tin.insertCandidate(best.tri);
+    tin.rescanDirty();
+    ++result.insertedPoints;
+  }
+  result.maxErrorMeters = tin.top(best) ? std::max(0.0, best.error) : 0.0;
+  result.patch.points = tin.points();
+  result.patch.indices.reserve(3 * tin.triangleCount());
+  for (const Tri& t : tin.triangles()) {
+    result.patch.indices.insert(result.patch.indices.end(), t.v.begin(), t.v.end());
+  }
+  return result;
+}
+
+std::vector<std::size_t> insertAlongSegment(std::span<const double> heights, double stepCells,
+                                            double targetMeters, const ChordModel& chord) {
+  assert(heights.size() >= 2);
+  const std::size_t n = heights.size() - 1;
+  const double sagPerStep2 = chord.radiusMeters > 0.0 ? (stepCells * chord.metresPerCell) *
+                                                            (stepCells * chord.metresPerCell) /
+                                                            (2.0 * chord.radiusMeters)
+                                                      : 0.0;
+  std::vector<bool> kept(n + 1, false);
+  kept[0] = kept[n] = true;
+  struct Span {
+    double error;
+    std::size_t from, to, worst;
+    bool operator<(const Span& o) const noexcept {
+      return error != o.error ? error < o.error : from > o.from;
+    }
+  };
+  std::priority_queue<Span> spans;
+  const auto push = [&](std::size_t from, std::size_t to) {
+    if (to - from < 2) return;
+    Span s{-1.0, from, to, from};
+    const double h0 = heights[from];
+    const double slope = (heights[to] - h0) / static_cast<double>(to - from);
+    for (std::size_t k = from + 1; k < to; ++k) {
+      const auto a = static_cast<double>(k - from);
+      const auto b = static_cast<double>(to - k);
+      // A chord of the segment sags a·b·step²/(2R) below the surface at k.
+      const double e = std::abs(heights[k] - (h0 + slope * a)) + sagPerStep2 * a * b;
+      if (e > s.error) {
+        s.error = e;
+        s.worst = k;
+      }
+    }
+    spans.push(s);
+  };
+  push(0, n);
+  while (!spans.empty() && spans.top().error > targetMeters) {
+    const Span s = spans.top();
+    spans.pop();
+    kept[s.worst] = true;
+    push(s.from, s.worst);
+    push(s.worst, s.to);
+  }
+  std::vector<std::size_t> out;
+  for (std::size_t k = 0; k <= n; ++k) {
+    if (kept[k]) out.push_back(k);
+  }
+  return out;
+}
+
+}  // namespace pbdam::builder
