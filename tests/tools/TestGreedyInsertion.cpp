@@ -262,6 +262,25 @@ TEST(GreedyInsertion, DiagonalTrianglesOfEveryOrientation) {
   }
 }
 
+TEST(GreedyInsertion, LargeHalvesStartCoarseAndStillMeetTheTargetExactly) {
+  // 131,841 lattice points: the first insertions choose among every 4th point of each axis.
+  const Field f = roughField(512, 13, 10.0f);
+  const std::array<LatticeXY, 3> corners = {LatticeXY{0, 0}, LatticeXY{512, 0},
+                                            LatticeXY{0, 512}};
+  std::vector<LatticeXY> boundary;
+  for (std::size_t e = 0; e < 3; ++e) {
+    const auto s = segmentPoints(corners[e], corners[(e + 1) % 3]);
+    boundary.insert(boundary.end(), s.begin(), s.end());
+  }
+  const InsertionResult r =
+      insertGreedily(f.view(), corners, boundary, InsertionLimits{40.0, 0, 65535}, {});
+  EXPECT_LE(maxDeviationByScan(f, r.patch), 40.0);
+  EXPECT_LE(r.maxErrorMeters, 40.0);
+  // Points off the coarse strides were inserted too: the last pass looks at every point.
+  EXPECT_TRUE(std::any_of(r.patch.points.begin(), r.patch.points.end(),
+                          [](LatticeXY p) { return p.x % 2 != 0 || p.y % 2 != 0; }));
+}
+
 TEST(GreedyInsertion, SegmentKeepsItsEndsAndMeetsTheTarget) {
   std::vector<double> h(65);
   for (std::size_t k = 0; k < h.size(); ++k) h[k] = 300.0 * std::sin(0.4 * static_cast<double>(k));

@@ -16,6 +16,9 @@ namespace {
 __extension__ using Int128 = __int128;
 
 constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+/// A half starts with a coarser candidate stride while it has at least this many candidates
+/// at the next coarser stride.
+constexpr double kCoarseCandidates = 4096.0;
 
 std::int64_t floorDiv(std::int64_t a, std::int64_t b) noexcept {  // b > 0
   std::int64_t q = a / b;
@@ -82,6 +85,20 @@ class Triangulation final {
   /// Rescans every triangle rewritten since the last call and queues it.
   void rescanDirty();
 
+  /// Candidates are the lattice points whose coordinates are multiples of the stride.
+  int stride() const noexcept { return stride_; }
+  /// Sets a finer stride and rescans every triangle with it (the queue starts afresh).
+  void refineStride(int finer) {
+    stride_ = finer;
+    heap_ = {};
+    dirty_.clear();
+    for (std::uint32_t t = 0; t < tris_.size(); ++t) {
+      ++tris_[t].stamp;
+      scan(t);
+    }
+  }
+  void setStride(int s) noexcept { stride_ = s; }
+
   /// The valid heap top, or nothing.
   bool top(HeapEntry& out) {
     while (!heap_.empty()) {
@@ -137,6 +154,7 @@ class Triangulation final {
   std::vector<std::uint32_t> dirty_;
   std::vector<std::uint32_t> pending_;  // triangles whose edge opposite corner 0 is to check
   std::priority_queue<HeapEntry> heap_;
+  int stride_ = 1;
 };
 
 void Triangulation::start(const std::array<LatticeXY, 3>& ccw,
@@ -337,7 +355,10 @@ void Triangulation::scan(std::uint32_t t) {
   const int yMax = std::max({p[0].y, p[1].y, p[2].y});
   const int xMinBox = std::min({p[0].x, p[1].x, p[2].x});
   const int xMaxBox = std::max({p[0].x, p[1].x, p[2].x});
-  for (int y = yMin; y <= yMax; ++y) {
+  const int step = stride_;
+  // Lattice coordinates are never negative.
+  const auto roundUp = [step](std::int64_t v) { return (v + step - 1) / step * step; };
+  for (int y = (yMin + step - 1) / step * step; y <= yMax; y += step) {
     std::int64_t lo = xMinBox;
     std::int64_t hi = xMaxBox;
     // Inside edge q→r (opposite corner k): (r − q) × (s − q) ≥ 0, i.e. dy·x ≤ dx·(y − qy) + dy·qx.
@@ -355,7 +376,7 @@ void Triangulation::scan(std::uint32_t t) {
         hi = lo - 1;
       }
     }
-    for (std::int64_t x = lo; x <= hi; ++x) {
+    for (std::int64_t x = roundUp(lo); x <= hi; x += step) {
       const LatticeXY s{static_cast<std::int32_t>(x), y};
       if (s == p[0] || s == p[1] || s == p[2]) continue;
       bool onLockedEdge = false;
@@ -391,16 +412,30 @@ InsertionResult insertGreedily(const FaceHeights& heights, const std::array<Latt
   std::array<LatticeXY, 3> ccw = corners;
   if (doubleArea(ccw[0], ccw[1], ccw[2]) < 0) std::swap(ccw[1], ccw[2]);
   Triangulation tin(heights, chord);
+  // Coarse to fine: while a half has many lattice points per candidate it needs, its first
+  // insertions choose among every 2nd, 4th, … point (each triangle scans a stride² of what it
+  // covers), then the stride halves and every triangle is scanned again, down to every point.
+  // The big early triangles are thus never scanned in full, and the final pass at stride 1
+  // decides the stop exactly as a single pass would.
+  const double points = 0.5 * static_cast<double>(std::abs(doubleArea(ccw[0], ccw[1], ccw[2])));
+  int stride = 1;
+  while (points / (4.0 * stride * stride) >= kCoarseCandidates) stride *= 2;
+  tin.setStride(stride);
   tin.start(ccw, boundary);
   tin.rescanDirty();
   InsertionResult result;
   HeapEntry best{};
-  while (tin.top(best) && tin.vertexCount() < limits.maxVertices) {
-    const bool enough = tin.triangleCount() >= limits.minTriangles;
-    if (best.error <= 0.0 || (enough && best.error <= limits.targetMeters)) break;
-    tin.insertCandidate(best.tri);
-    tin.rescanDirty();
-    ++result.insertedPoints;
+  for (;;) {
+    while (tin.top(best) && tin.vertexCount() < limits.maxVertices) {
+      const bool enough = tin.triangleCount() >= limits.minTriangles;
+      if (best.error <= 0.0 || (enough && best.error <= limits.targetMeters)) break;
+      tin.insertCandidate(best.tri);
+      tin.rescanDirty();
+      ++result.insertedPoints;
+    }
+    if (tin.stride() == 1) break;
+    // At the vertex cap only the exact error is left to know.
+    tin.refineStride(tin.vertexCount() >= limits.maxVertices ? 1 : tin.stride() / 2);
   }
   result.maxErrorMeters = tin.top(best) ? std::max(0.0, best.error) : 0.0;
   result.patch.points = tin.points();
