@@ -292,7 +292,10 @@ bool getPatch(ByteReader& r, WorkPatch& p) {
       p.indices[k] = v;
     }
   }
-  return true;
+  // Whole triangles of the record's own points: the simplifier indexes `points` with these.
+  if (indices % 3 != 0) return false;
+  return std::all_of(p.indices.begin(), p.indices.end(),
+                     [&](std::uint32_t index) { return index < points; });
 }
 
 constexpr std::size_t kCarryIndexEntryBytes = 16;  // node id, record offset
