@@ -4,12 +4,14 @@
 # SECONDS or RUNS executions, whichever comes first; crashing inputs are kept in OUT/<target>-*.
 # Build the targets first: cmake --build build/release --target fuzz_all (or each fuzz_* name).
 #   bench/fuzz_long.sh [BUILD_DIR=build/release] [SECONDS=300] [RUNS=10000000] [OUT=/tmp/pbdam-fuzz]
+#                      [TARGETS="fuzz_manifest fuzz_checkpoint ..." (default: every one built)]
 # The machine may be shared: run it under `nice`.
 set -u
 build=${1:-build/release}
 seconds=${2:-300}
 runs=${3:-10000000}
 out=${4:-/tmp/pbdam-fuzz}
+targets=${5:-}
 src=$(cd "$(dirname "$0")/.." && pwd)
 mkdir -p "$out"
 crashes_total=0
@@ -17,6 +19,9 @@ printf '%-20s %12s %10s %8s %8s %8s\n' target executions exec/s seconds corpus c
 for exe in "$build"/tests/fuzz/bin/fuzz_*; do
   [ -x "$exe" ] || continue
   name=$(basename "$exe")
+  if [ -n "$targets" ]; then
+    case " $targets " in *" $name "*) ;; *) continue ;; esac
+  fi
   seeds=$src/tests/fuzz/corpus/${name#fuzz_}
   corpus=$out/${name}_corpus
   mkdir -p "$corpus"

@@ -251,6 +251,7 @@ void Soak::bursts() {
     if (!running()) break;
     std::vector<std::thread> burst;
     const int n = o_.workers + o_.queue + 6;
+    burst.reserve(static_cast<std::size_t>(n));
     for (int k = 0; k < n; ++k) {
       burst.emplace_back([this, k] {
         httplib::Client client("127.0.0.1", port_);

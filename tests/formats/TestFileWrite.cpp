@@ -35,7 +35,7 @@ int underFileSizeLimit(rlim_t limitBytes, int (*body)(const char*), const char* 
 int writePastTheLimit(const char* path) {
   const int fd = ::open(path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) return 91;
-  const std::vector<std::byte> bytes(3 * 4096, std::byte{7});
+  const std::vector<std::byte> bytes(std::size_t{3} * 4096, std::byte{7});
   const auto r = writeFully(fd, bytes, path);
   ::close(fd);
   if (r) return 92;

@@ -81,6 +81,7 @@ BuildRun run(const std::vector<std::string>& args, const fs::path& errFile,
       ::setenv("PBDAM_TEST_FAIL_WRITE", failWrite.c_str(), 1);
     }
     std::vector<char*> argv;
+    argv.reserve(args.size() + 1);
     for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
     argv.push_back(nullptr);
     ::execv(argv[0], argv.data());
