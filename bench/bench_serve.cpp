@@ -35,9 +35,14 @@
 #include <thread>
 #include <vector>
 
-extern char** environ;
+#include "ServeHarness.h"
 
 namespace {
+
+using pbdam::bench::percentile;
+using pbdam::bench::rssMiB;
+using pbdam::bench::Server;
+using pbdam::bench::startServer;
 
 using Clock = std::chrono::steady_clock;
 
@@ -102,14 +107,6 @@ CacheCounters cacheCounters(int port) {
   return c;
 }
 
-double rssMiB(pid_t pid) {
-  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
-  for (std::string line; std::getline(status, line);) {
-    if (line.rfind("VmRSS:", 0) == 0) return std::atof(line.c_str() + 6) / 1024.0;  // kB
-  }
-  return 0.0;
-}
-
 /// The i-th camera: a closed orbit of `period` views once around the planet at 1,000–3,000 km,
 /// weaving ±40° in latitude, looking down and ahead, so successive requests differ but share
 /// much of the cut (as a flight does).
@@ -123,13 +120,6 @@ std::string frameQuery(int i, const Options& o) {
                 2.0e6 + 1.0e6 * std::sin(5.0 * kTwoPi * u), std::fmod(360.0 * 7.0 * u, 360.0),
                 o.width, o.height);
   return text;
-}
-
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const auto k = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size()))) - 1;
-  return v[std::min(k, v.size() - 1)];
 }
 
 /// Sends `count` requests (numbered from `first`) from `concurrency` threads.
@@ -262,66 +252,6 @@ std::optional<Options> parseOptions(const std::vector<std::string>& args, const 
   return o;
 }
 
-/// A started `pbdam serve`: pid −1 when it did not start (spawned: whether it ran at all).
-struct Server {
-  bool spawned = false;
-  pid_t pid = -1;
-  int port = 0;
-  std::string startLine;
-};
-
-/// Starts the server on a free loopback port; its start-up line names the port.
-Server startServer(const Options& o) {
-  std::vector<std::string> serverArgs = {o.pbdam,
-                                         "serve",
-                                         o.dataset,
-                                         "--port",
-                                         "0",
-                                         "--workers",
-                                         std::to_string(o.workers),
-                                         "--queue",
-                                         std::to_string(o.queue),
-                                         "--gpu-cache-mb",
-                                         std::to_string(o.gpuCacheMiB)};
-  std::vector<char*> cargs;
-  cargs.reserve(serverArgs.size() + 1);
-  for (std::string& s : serverArgs) cargs.push_back(s.data());
-  cargs.push_back(nullptr);
-  int fds[2];
-  if (::pipe(fds) != 0) return Server{};
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
-  posix_spawn_file_actions_addclose(&actions, fds[0]);
-  pid_t server = -1;
-  if (::posix_spawn(&server, o.pbdam.c_str(), &actions, nullptr, cargs.data(), environ) != 0) {
-    return Server{};
-  }
-  posix_spawn_file_actions_destroy(&actions);
-  ::close(fds[1]);
-  std::string startLine;
-  int port = 0;
-  const auto until = Clock::now() + std::chrono::seconds(120);
-  while (port == 0 && Clock::now() < until) {
-    pollfd p{fds[0], POLLIN, 0};
-    if (::poll(&p, 1, 500) <= 0) continue;
-    std::array<char, 1024> buf{};
-    const ssize_t n = ::read(fds[0], buf.data(), buf.size());
-    if (n <= 0) break;
-    startLine.append(buf.data(), static_cast<std::size_t>(n));
-    const std::size_t at = startLine.find("127.0.0.1:");
-    if (at != std::string::npos && startLine.find('\n') != std::string::npos) {
-      port = std::atoi(startLine.c_str() + at + 10);
-    }
-  }
-  if (port == 0) {
-    ::kill(server, SIGKILL);
-    std::fprintf(stderr, "pbdam_bench_serve: the server did not start: %s\n", startLine.c_str());
-    server = -1;
-  }
-  return Server{true, server, port, startLine};
-}
-
 /// Warms up and measures one concurrency level `c`; `first` is the first request's index and
 /// advances past the requests sent.
 Phase measureLevel(int port, pid_t server, int c, int& first, const Options& o) {
@@ -384,7 +314,10 @@ int run(const std::vector<std::string>& args) {
   const std::optional<Options> parsed = parseOptions(args, why);
   if (!parsed) return usage(why);
   const Options& o = *parsed;
-  const Server started = startServer(o);
+  const Server started =
+      startServer(o.pbdam, o.dataset,
+                  {"--workers", std::to_string(o.workers), "--queue", std::to_string(o.queue),
+                   "--gpu-cache-mb", std::to_string(o.gpuCacheMiB)});
   if (!started.spawned) return usage("cannot start PBDAM_EXE");
   if (started.pid < 0) return 1;
   const pid_t server = started.pid;

@@ -13,6 +13,8 @@
 #include <utility>
 #include <vector>
 
+#include "pbdam/formats/FileWrite.h"
+
 namespace pbdam::formats {
 namespace {
 
@@ -93,10 +95,9 @@ Result<MemoryMapping> MemoryMapping::open(const fs::path& path) {
 
 Result<MemoryMapping> MemoryMapping::mapWritable(int fd, std::size_t size, const fs::path& path) {
   assert(size > 0);
-  // posix_fallocate returns the error instead of setting errno.
-  if (const int err = ::posix_fallocate(fd, 0, static_cast<off_t>(size)); err != 0) {
+  if (auto reserved = reserveFileSpace(fd, 0, size, path); !reserved) {
     ::close(fd);
-    return ioFailure(path, "cannot reserve " + std::to_string(size) + " bytes", err);
+    return std::move(reserved).error();
   }
   void* p = ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
   const int mapErr = errno;

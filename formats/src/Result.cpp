@@ -15,6 +15,8 @@ const char* errorCodeName(ErrorCode code) noexcept {
       return "corrupt-data";
     case ErrorCode::IoError:
       return "io-error";
+    case ErrorCode::NoSpace:
+      return "no-space";
     case ErrorCode::DeviceError:
       return "device-error";
     case ErrorCode::Internal:

@@ -222,5 +222,26 @@ TEST(CheckpointFormat, RejectsADamagedCarry) {
   EXPECT_FALSE(badOffsetView->offsetOf(firstId));
 }
 
+TEST(CheckpointFormat, ACarryPatchIndexingPastItsPointsIsDamaged) {
+  // Found by fuzz_checkpoint: the record decoded, and the simplifier would have read past the
+  // patch's points. Also a partial triangle.
+  const CarryFixture f;
+  for (const bool partialTriangle : {false, true}) {
+    WorkPatch bad = f.narrow;
+    if (partialTriangle) {
+      bad.indices.pop_back();
+    } else {
+      bad.indices[1] = static_cast<std::uint32_t>(bad.points.size());
+    }
+    ByteWriter w;
+    putCarryRecord(w, f.saturation, &bad);
+    const auto record = w.take();
+    ByteReader r(record);
+    CarrySaturation s;
+    WorkPatch patch;
+    EXPECT_FALSE(getCarryRecord(r, s, &patch)) << partialTriangle;
+  }
+}
+
 }  // namespace
 }  // namespace pbdam::builder

@@ -240,6 +240,27 @@ TEST(MpiBuild, ARankReportingAnErrorStopsTheJobNamingItsWorkItem) {
   EXPECT_EQ(completeLevel(dir / "out"), 6);
 }
 
+TEST(MpiBuild, ARankFindingTheDiskFullStopsTheJobWithCode2AndResumeCompletesIt) {
+  PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
+  test::TempDir dir;
+  const fs::path out = dir / "out";
+  // Rank 1's level-4 nodes file finds no space (an injected ENOSPC, formats/FileWrite.h).
+  const ShellRun full = runShell("PBDAM_TEST_FAIL_WRITE=level-04.part-1 " + mpirun(2) +
+                                 buildArgs(dem, out) + " --quiet");
+  EXPECT_EQ(full.exitCode, 2) << full.err;
+  EXPECT_NE(full.err.find("pbdam: rank 1 of 2 on "), std::string::npos) << full.err;
+  EXPECT_NE(full.err.find("level-04.part-1.nodes: no space to write "), std::string::npos)
+      << full.err;
+  EXPECT_NE(full.err.find("rerun with --resume"), std::string::npos) << full.err;
+  EXPECT_FALSE(fs::exists(out / "manifest.json"));
+  EXPECT_EQ(completeLevel(out), 5);
+  const ShellRun resumed = runShell(mpirun(2) + buildArgs(dem, out) + " --resume --quiet");
+  ASSERT_EQ(resumed.exitCode, 0) << resumed.err;
+  const ShellRun plain = runShell(buildArgs(dem, dir / "plain") + " --quiet");
+  ASSERT_EQ(plain.exitCode, 0) << plain.err;
+  expectSameDataset(dir / "plain", out);
+}
+
 TEST(MpiBuild, ResumeRefusesACheckpointOfOtherOptions) {
   PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
   test::TempDir dir;

@@ -16,6 +16,7 @@
 #include "MpiLauncher.h"
 #include "Progress.h"
 #include "pbdam/builder/Builder.h"
+#include "pbdam/formats/FileWrite.h"
 
 using namespace pbdam::formats;
 
@@ -96,6 +97,12 @@ builder::BuildOptions::FaultInjection faultFromEnvironment() {
 }
 
 int runBuild(const BuildCliOptions& c) {
+  // Past the file-size limit (ulimit -f) a write fails with EFBIG, which the builder reports
+  // (exit code 2, the file and the bytes) like a full disk, instead of the signal killing it.
+  std::signal(SIGXFSZ, SIG_IGN);
+  if (const char* part = std::getenv("PBDAM_TEST_FAIL_WRITE"); part != nullptr) {
+    formats::failWritesForTesting(part);
+  }
   // Under mpirun: join the job first, so that every rank reports errors the same way.
   std::unique_ptr<MpiJob> job;
   if (launchedByMpi()) {

@@ -72,6 +72,16 @@ std::pair<std::uint64_t, std::uint64_t> shareOf(std::uint64_t count, int rank, i
   return {count * r / n, count * (r + 1) / n};
 }
 
+/// A write that found no space says how to go on: what is checkpointed is kept.
+Error withResumeHint(Error error) {
+  constexpr std::string_view kHint =
+      "; free space (or raise the file-size limit) and rerun with --resume to continue";
+  if (error.code == ErrorCode::NoSpace && error.message.find(kHint) == std::string::npos) {
+    error.message += kHint;
+  }
+  return error;
+}
+
 /// Collective: the first failure of any rank (lowest rank first) on every rank.
 Result<void> agree(Communicator& comm, const Result<void>& mine) {
   ByteWriter w;
@@ -151,13 +161,16 @@ class DistributedBuild {
   }
   /// A failure after the ranks started: one process returns it; several print it, naming
   /// this rank, its host and its work item, and stop the job.
+  /// A full disk stops the job with exit code 2 (like bad input: the user's to fix), any
+  /// other failure with 1.
   Error fail(const std::string& item, const Error& error) {
-    if (comm_.size() == 1) return error;
+    Error e = withResumeHint(error);
+    if (comm_.size() == 1) return e;
     std::fprintf(stderr, "pbdam: rank %d of %d on %s failed while %s: %s\n", comm_.rank(),
-                 comm_.size(), comm_.hostName().c_str(), item.c_str(), error.message.c_str());
+                 comm_.size(), comm_.hostName().c_str(), item.c_str(), e.message.c_str());
     std::fflush(stderr);
-    comm_.abortJob(1);
-    return error;  // not reached: abortJob does not return
+    comm_.abortJob(e.code == ErrorCode::NoSpace ? 2 : 1);
+    return e;  // not reached: abortJob does not return
   }
 
   Result<StartPoint> setUpOutput();
@@ -869,6 +882,7 @@ Result<BuildSummary> buildDataset(const BuildOptions& o) {
     DistributedBuild build(o, comm, *inputs);
     result = build.run();
   });
+  if (!result) return withResumeHint(std::move(result).error());
   if (result) {
     result->seconds = std::chrono::duration<double>(Clock::now() - start).count();
   }

@@ -253,6 +253,8 @@ Result<ManifestFace> Assembly::writeFace(int face) {
   const std::string name = "face" + std::to_string(face) + ".pbdam";
   auto file = AtomicFileWriter::create(in_.options.outDir / name);
   if (!file) return std::move(file).error();
+  // The whole face's blocks first: a disk that cannot hold it fails here, naming its size.
+  if (auto r = file->reserve(h.fileBytes); !r) return std::move(r).error();
   for (std::span<const std::byte> chunk : std::initializer_list<std::span<const std::byte>>{
            header, nodeTable, textureTable, padding}) {
     if (auto w = file->append(chunk); !w) return std::move(w).error();

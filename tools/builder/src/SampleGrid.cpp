@@ -4,6 +4,7 @@
 // process count.
 #include "pbdam/builder/SampleGrid.h"
 
+#include "pbdam/formats/FileWrite.h"
 #include "pbdam/formats/MemoryMapping.h"
 
 #include <fcntl.h>
@@ -17,6 +18,8 @@
 #include <cstring>
 #include <limits>
 #include <mutex>
+#include <optional>
+#include <span>
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
@@ -188,10 +191,19 @@ Result<HeightRowStats> SampleGrid::writeHeightRows(
   const std::size_t n1 = std::size_t{lattice.sideCells()} + 1;
   const int fd = ::open(heightsFile.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
   if (fd < 0) return ioError(heightsFile, "cannot open for writing");
+  const std::size_t rowBytes = n1 * sizeof(float);
+  // This rank's rows get their blocks first: a full disk stops the build here, naming the bytes.
+  if (auto r =
+          reserveFileSpace(fd, beginRow * rowBytes, (endRow - beginRow) * rowBytes, heightsFile);
+      !r) {
+    ::close(fd);
+    return std::move(r).error();
+  }
   std::atomic<std::uint64_t> noData{0};
   std::atomic<std::size_t> rowsDone{0};
-  std::atomic<int> writeErrno{0};
+  std::atomic<bool> failed{false};
   std::mutex statsMutex;
+  std::optional<Error> writeError;  // the first failed write, under statsMutex
   HeightRowStats stats;
   stats.minHeightMeters = std::numeric_limits<float>::infinity();
   stats.maxHeightMeters = -std::numeric_limits<float>::infinity();
@@ -200,6 +212,7 @@ Result<HeightRowStats> SampleGrid::writeHeightRows(
   for (std::size_t first = beginRow; first < endRow; first += chunk) {
     const std::size_t last = std::min(endRow, first + chunk);
     tbb::parallel_for(first, last, [&](std::size_t row) {
+      if (failed) return;
       std::vector<float> heights(n1);
       const auto face = static_cast<int>(row / n1);
       noData += resampleRow(dem, planet, lattice, face, row % n1, heights.data());
@@ -209,33 +222,25 @@ Result<HeightRowStats> SampleGrid::writeHeightRows(
         stats.minHeightMeters = std::min(stats.minHeightMeters, *mn);
         stats.maxHeightMeters = std::max(stats.maxHeightMeters, *mx);
       }
-      const auto* bytes = reinterpret_cast<const char*>(heights.data());
-      std::size_t done = 0;
-      const std::size_t size = n1 * sizeof(float);
-      const auto offset = static_cast<off_t>(row * size);
-      while (done < size) {
-        const ssize_t k =
-            ::pwrite(fd, bytes + done, size - done, offset + static_cast<off_t>(done));
-        if (k < 0 && errno == EINTR) continue;
-        if (k <= 0) {
-          writeErrno = errno == 0 ? EIO : errno;
-          break;
-        }
-        done += static_cast<std::size_t>(k);
+      auto written = pwriteFully(fd, std::as_bytes(std::span<const float>(heights)), row * rowBytes,
+                                 heightsFile);
+      if (!written) {
+        std::lock_guard lock(statsMutex);
+        if (!writeError) writeError = std::move(written).error();
+        failed = true;
       }
       ++rowsDone;
     });
-    if (writeErrno != 0) break;
+    if (failed) break;
     if (progress) progress(rowsDone.load(), endRow - beginRow);
   }
-  if (writeErrno != 0) {
+  if (writeError) {
     ::close(fd);
-    errno = writeErrno;
-    return ioError(heightsFile, "write failed");
+    return std::move(*writeError);
   }
-  if (::fsync(fd) != 0) {
+  if (auto r = syncFile(fd, (endRow - beginRow) * rowBytes, heightsFile); !r) {
     ::close(fd);
-    return ioError(heightsFile, "fsync failed");
+    return std::move(r).error();
   }
   if (::close(fd) != 0) return ioError(heightsFile, "close failed");
   stats.noDataPoints = noData.load();

@@ -16,6 +16,7 @@ enum class ErrorCode {
   UnsupportedFormat,  ///< a format/driver/CRS that pbdam cannot handle
   CorruptData,        ///< bytes that do not decode: truncated, bad checksum, size mismatch
   IoError,            ///< the OS refused a read, write, map or rename
+  NoSpace,            ///< a write found the disk full, the quota or the file-size limit reached
   DeviceError,        ///< Vulkan or another device API failed
   Internal,           ///< a broken invariant inside pbdam
 };

@@ -93,7 +93,11 @@ struct BuildSummary final {
 
 /// Builds the dataset. Errors: bad options (InvalidArgument), unreadable inputs (the reader's
 /// error), an existing dataset without `force`, `resume` with a checkpoint of other options
-/// (InvalidArgument), I/O failures. An interrupted build leaves no manifest, so the directory is
+/// (InvalidArgument), I/O failures; a write that finds the disk full or the file-size limit
+/// reached (formats/FileWrite.h: space is reserved before anything is written through a
+/// mapping, so this is never a SIGBUS) is NoSpace, naming the file and the bytes it needed, and
+/// `resume` continues after space is freed (a job of several ranks then exits with code 2). An
+/// interrupted build leaves no manifest, so the directory is
 /// never taken for a complete dataset. With several ranks, errors found before the build starts
 /// are returned on every rank; a rank failing after that prints the failure (rank, host, work
 /// item) and stops the whole job through Communicator::abortJob. The summary is complete on

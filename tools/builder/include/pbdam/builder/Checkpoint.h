@@ -15,6 +15,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -100,7 +101,12 @@ class AtomicFileWriter final {
   AtomicFileWriter& operator=(const AtomicFileWriter&) = delete;
   ~AtomicFileWriter();
 
+  /// Appends `bytes`. Errors name the file: ErrorCode::NoSpace when the disk is full or the
+  /// file-size limit is reached (formats/FileWrite.h), IoError otherwise.
   formats::Result<void> append(std::span<const std::byte> bytes);
+  /// Reserves the file's blocks for `bytes` bytes up front (posix_fallocate), so that a file of
+  /// known size fails at once, naming the size it needs, when it cannot fit.
+  formats::Result<void> reserve(std::uint64_t bytes);
   /// Bytes appended so far.
   std::uint64_t size() const noexcept { return size_; }
   std::uint32_t crc() const noexcept { return crc_; }
@@ -115,6 +121,7 @@ class AtomicFileWriter final {
   int fd_ = -1;
   std::vector<std::byte> buffer_;
   std::uint64_t size_ = 0;
+  std::uint64_t reserved_ = 0;
   std::uint32_t crc_ = 0;
 };
 
@@ -139,6 +146,12 @@ struct CheckpointState final {
   std::map<int, std::uint32_t> levelParts;
   std::uint32_t textureParts = 0;
 };
+
+/// The first line of the state file.
+inline constexpr std::string_view kCheckpointStateHeader = "pbdam-build-checkpoint 2";
+/// Parses the text of a state file; CorruptData naming `where` and the bad line otherwise.
+formats::Result<CheckpointState> parseCheckpointState(std::string_view text,
+                                                      const std::string& where);
 
 /// The checkpoint directory OUT/.build-checkpoint and its files.
 class Checkpoint final {
@@ -197,6 +210,19 @@ class Checkpoint final {
  private:
   std::filesystem::path dir_;
 };
+
+// ---- The trailer of the part files: magic PBDAMCKP, u32 version 2, u32 kind, i32 level, u32
+// part, u32 parts, u32 0, u64 payload bytes; then the CRC-32 of payload and trailer.
+inline constexpr std::size_t kPartTrailerBytes = 8 + 4 + 4 + 4 + 4 + 4 + 4 + 8;
+/// The trailer of a part file whose payload has `payloadBytes` bytes (the CRC follows it).
+std::vector<std::byte> encodePartTrailer(Checkpoint::Kind kind, int level, std::uint32_t part,
+                                         std::uint32_t parts, std::uint64_t payloadBytes);
+/// The payload of the whole part file `bytes` after checking its trailer against `kind`,
+/// `level` (not for Texture) and `part` (not the CRC); CorruptData naming `where` otherwise.
+formats::Result<std::span<const std::byte>> partPayload(std::span<const std::byte> bytes,
+                                                        Checkpoint::Kind kind, int level,
+                                                        std::uint32_t part,
+                                                        const std::string& where);
 
 // ---- The payloads of the part files (docs/builder.md "Checkpoints"). Every byte of them is
 // written and read here and nowhere else; a reader never trusts a count or offset it has not
