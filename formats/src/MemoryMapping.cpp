@@ -1,6 +1,8 @@
 // The owner of mmap regions and their madvise/mincore page control (MemoryMapping.h).
 #include "pbdam/formats/MemoryMapping.h"
 
+#include "pbdam/formats/GuardedCopy.h"
+
 #include <fcntl.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
@@ -63,6 +65,7 @@ std::size_t MemoryMapping::pageSize() noexcept {
 }
 
 Result<MemoryMapping> MemoryMapping::open(const fs::path& path) {
+  installMappedReadGuard();  // before any byte of a mapping can be read
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) {
     const int err = errno;
@@ -130,6 +133,20 @@ Result<MemoryMapping> MemoryMapping::createScratch(const fs::path& directory, st
     ::unlink(name.c_str());
   }
   return mapWritable(fd, size, directory);
+}
+
+Result<void> MemoryMapping::read(std::uint64_t offset, std::span<std::byte> out) const {
+  return readMapped(bytes(), offset, out, path_.string());
+}
+
+Result<void> MemoryMapping::touch(std::uint64_t offset, std::uint64_t length) const {
+  // One byte of every page is enough to fault it in; the range's last byte ends it.
+  const std::uint64_t page = pageSize();
+  std::byte sink{};
+  for (std::uint64_t at = offset; at < offset + length; at = (at / page + 1) * page) {
+    if (auto r = read(at, std::span(&sink, 1)); !r) return r;
+  }
+  return {};
 }
 
 Result<void> MemoryMapping::advise(MappingAdvice advice) const noexcept {
