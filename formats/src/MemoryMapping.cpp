@@ -39,7 +39,9 @@ MemoryMapping::MemoryMapping(MemoryMapping&& other) noexcept
     : path_(std::move(other.path_)),
       data_(std::exchange(other.data_, nullptr)),
       size_(std::exchange(other.size_, 0)),
-      writable_(std::exchange(other.writable_, false)) {}
+      writable_(std::exchange(other.writable_, false)),
+      device_(std::exchange(other.device_, 0)),
+      inode_(std::exchange(other.inode_, 0)) {}
 
 MemoryMapping& MemoryMapping::operator=(MemoryMapping&& other) noexcept {
   if (this != &other) {
@@ -48,6 +50,8 @@ MemoryMapping& MemoryMapping::operator=(MemoryMapping&& other) noexcept {
     data_ = std::exchange(other.data_, nullptr);
     size_ = std::exchange(other.size_, 0);
     writable_ = std::exchange(other.writable_, false);
+    device_ = std::exchange(other.device_, 0);
+    inode_ = std::exchange(other.inode_, 0);
   }
   return *this;
 }
@@ -79,6 +83,8 @@ Result<MemoryMapping> MemoryMapping::open(const fs::path& path) {
   }
   MemoryMapping mapping;
   mapping.path_ = path;
+  mapping.device_ = static_cast<std::uint64_t>(st.st_dev);
+  mapping.inode_ = static_cast<std::uint64_t>(st.st_ino);
   const auto size = static_cast<std::size_t>(st.st_size);
   if (size > 0) {
     void* p = ::mmap(nullptr, size, PROT_READ, MAP_SHARED, fd, 0);

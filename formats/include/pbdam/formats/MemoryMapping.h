@@ -63,6 +63,12 @@ class MemoryMapping final {
   bool writable() const noexcept { return writable_; }
   /// The mapped file's path (the directory for a scratch mapping).
   const std::filesystem::path& path() const noexcept { return path_; }
+  /// The mapped file's device and inode numbers (st_dev, st_ino) when it was opened: whether
+  /// the path still names the mapped file or one put in its place since. Zero for writable and
+  /// scratch mappings.
+  std::pair<std::uint64_t, std::uint64_t> fileIdentity() const noexcept {
+    return {device_, inode_};
+  }
 
   /// Sets the whole mapping's access pattern (MADV_RANDOM makes fault accounting honest).
   Result<void> advise(MappingAdvice advice) const noexcept;
@@ -103,6 +109,8 @@ class MemoryMapping final {
   std::byte* data_ = nullptr;
   std::size_t size_ = 0;
   bool writable_ = false;
+  std::uint64_t device_ = 0;
+  std::uint64_t inode_ = 0;
 };
 
 /// Drops this process's page-table entries of the pages overlapping [data, data + bytes) of a
