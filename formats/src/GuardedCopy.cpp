@@ -4,7 +4,9 @@
 
 #include <setjmp.h>
 #include <signal.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <cstring>
@@ -29,6 +31,64 @@ thread_local Guard tGuard{};
 
 std::array<struct sigaction, 2> gPrevious{};  // SIGBUS, SIGSEGV; written once, before install
 std::once_flag gInstalled;
+
+/// Live mappings for reportUnreadableMappingsAndExit: a slot is claimed with a compare-exchange
+/// on its state, filled, then published; the handler reads only published slots, without locks.
+/// A slot freed and reused while a fault is reported can name the wrong file in that report; the
+/// process ends either way.
+constexpr int kSlotFree = 0, kSlotWriting = 1, kSlotLive = 2;
+struct MappedRange {
+  std::atomic<int> state{kSlotFree};
+  const std::byte* begin = nullptr;
+  std::size_t bytes = 0;
+  std::array<char, 240> file{};
+};
+constexpr int kMappedRangeSlots = 256;
+std::array<MappedRange, kMappedRangeSlots> gRanges;
+std::atomic<int> gReportExitCode{-1};  ///< -1: no report, faults go to the previous handler
+
+/// write(2) of a whole string, from the signal handler.
+void writeAll(const char* text, std::size_t length) noexcept {
+  while (length > 0) {
+    const ssize_t n = ::write(STDERR_FILENO, text, length);
+    if (n <= 0) return;
+    text += n;
+    length -= static_cast<std::size_t>(n);
+  }
+}
+
+void writeText(const char* text) noexcept { writeAll(text, std::strlen(text)); }
+
+void writeNumber(std::uint64_t value) noexcept {
+  std::array<char, 24> digits{};
+  std::size_t at = digits.size();
+  do {
+    digits[--at] = static_cast<char>('0' + value % 10);
+    value /= 10;
+  } while (value != 0);
+  writeAll(digits.data() + at, digits.size() - at);
+}
+
+/// Reports a fault in a registered mapping and ends the process; returns when the address is in
+/// none of them (or reports are off).
+void reportIfMapped(int signalNumber, const std::byte* address) noexcept {
+  const int exitCode = gReportExitCode.load(std::memory_order_acquire);
+  if (exitCode < 0) return;
+  for (const MappedRange& range : gRanges) {
+    if (range.state.load(std::memory_order_acquire) != kSlotLive) continue;
+    const std::byte* begin = range.begin;
+    if (address < begin || address >= begin + range.bytes) continue;
+    writeText("pbdam: ");
+    writeText(range.file.data());
+    writeText(": offset ");
+    writeNumber(static_cast<std::uint64_t>(address - begin));
+    writeText(signalNumber == SIGBUS
+                  ? " became unreadable (SIGBUS: the file was truncated while in use, or its "
+                    "disk failed)\n"
+                  : " became unreadable (SIGSEGV)\n");
+    ::_exit(exitCode);
+  }
+}
 
 const struct sigaction& previousFor(int signalNumber) noexcept {
   return gPrevious[signalNumber == SIGBUS ? 0 : 1];
@@ -66,6 +126,7 @@ void onFault(int signalNumber, siginfo_t* info, void* context) noexcept {
     guard.faultSignal = signalNumber;
     siglongjmp(*jump, 1);  // back into guardedCopy's frame, which owns nothing
   }
+  if (info->si_code > 0) reportIfMapped(signalNumber, address);
   chainFault(signalNumber, info, context);
 }
 
@@ -111,6 +172,36 @@ Error unreadable(std::string_view file, std::uint64_t offset, std::size_t bytes,
 }  // namespace
 
 void installMappedReadGuard() noexcept { std::call_once(gInstalled, install); }
+
+void reportUnreadableMappingsAndExit(int exitCode) noexcept {
+  installMappedReadGuard();
+  gReportExitCode.store(exitCode, std::memory_order_release);
+}
+
+int registerMappedRange(const std::byte* begin, std::size_t bytes,
+                        std::string_view file) noexcept {
+  if (begin == nullptr || bytes == 0) return -1;
+  for (int slot = 0; slot < kMappedRangeSlots; ++slot) {
+    MappedRange& range = gRanges[static_cast<std::size_t>(slot)];
+    int expected = kSlotFree;
+    if (!range.state.compare_exchange_strong(expected, kSlotWriting, std::memory_order_acq_rel)) {
+      continue;
+    }
+    range.begin = begin;
+    range.bytes = bytes;
+    const std::size_t n = std::min(file.size(), range.file.size() - 1);
+    std::memcpy(range.file.data(), file.data(), n);
+    range.file[n] = '\0';
+    range.state.store(kSlotLive, std::memory_order_release);  // the handler may read it now
+    return slot;
+  }
+  return -1;
+}
+
+void unregisterMappedRange(int slot) noexcept {
+  if (slot < 0 || slot >= kMappedRangeSlots) return;
+  gRanges[static_cast<std::size_t>(slot)].state.store(kSlotFree, std::memory_order_release);
+}
 
 std::optional<CopyFault> guardedCopy(std::byte* destination, const std::byte* source,
                                      std::size_t bytes) noexcept {

@@ -41,7 +41,8 @@ MemoryMapping::MemoryMapping(MemoryMapping&& other) noexcept
       size_(std::exchange(other.size_, 0)),
       writable_(std::exchange(other.writable_, false)),
       device_(std::exchange(other.device_, 0)),
-      inode_(std::exchange(other.inode_, 0)) {}
+      inode_(std::exchange(other.inode_, 0)),
+      reportSlot_(std::exchange(other.reportSlot_, -1)) {}
 
 MemoryMapping& MemoryMapping::operator=(MemoryMapping&& other) noexcept {
   if (this != &other) {
@@ -52,11 +53,13 @@ MemoryMapping& MemoryMapping::operator=(MemoryMapping&& other) noexcept {
     writable_ = std::exchange(other.writable_, false);
     device_ = std::exchange(other.device_, 0);
     inode_ = std::exchange(other.inode_, 0);
+    reportSlot_ = std::exchange(other.reportSlot_, -1);
   }
   return *this;
 }
 
 void MemoryMapping::reset() noexcept {
+  unregisterMappedRange(std::exchange(reportSlot_, -1));
   if (data_ != nullptr) ::munmap(data_, size_);
   data_ = nullptr;
   size_ = 0;
@@ -95,6 +98,7 @@ Result<MemoryMapping> MemoryMapping::open(const fs::path& path) {
     }
     mapping.data_ = static_cast<std::byte*>(p);
     mapping.size_ = size;
+    mapping.reportSlot_ = registerMappedRange(mapping.data_, size, path.string());
   }
   ::close(fd);  // the mapping keeps the file referenced
   return mapping;
@@ -120,6 +124,7 @@ Result<MemoryMapping> MemoryMapping::mapWritable(int fd, std::size_t size, const
   mapping.data_ = static_cast<std::byte*>(p);
   mapping.size_ = size;
   mapping.writable_ = true;
+  mapping.reportSlot_ = registerMappedRange(mapping.data_, size, path.string());
   return mapping;
 }
 

@@ -1,7 +1,8 @@
 // Guarded copies out of file mappings: a mapping whose file was truncated under it reads as an
 // error naming the file and offset (never a SIGBUS), bytes still in the file read as before, any
-// number of threads may hit unreadable pages at once, and a fault outside a guarded copy still
-// kills the process as it did before the handler was installed.
+// number of threads may hit unreadable pages at once, a fault outside a guarded copy still
+// kills the process as it did before the handler was installed, and a command-line tool that
+// opts in reports an unguarded fault in a mapping with its file and offset.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -136,6 +137,28 @@ TEST(GuardedCopyDeathTest, AFaultOutsideAGuardStillKillsTheProcess) {
   // A plain null-pointer read is a SIGSEGV that no guard expects.
   EXPECT_DEATH(
       {
+        volatile int* volatile nowhere = nullptr;
+        (void)*nowhere;
+      },
+      "");
+}
+
+TEST(GuardedCopyDeathTest, ACommandLineToolReportsAnUnguardedFaultInAMappingAndExits) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  test::TempDir dir;
+  const std::size_t page = MemoryMapping::pageSize();
+  TruncatedMapping t = mapThenTruncate(dir, 4, page);
+  // The opt-in of `pbdam`'s main: a line naming the file and offset, and the exit code given.
+  EXPECT_EXIT(
+      {
+        reportUnreadableMappingsAndExit(2);
+        (void)readUnguarded(t.mapping, 3 * page + 5);
+      },
+      testing::ExitedWithCode(2), "f.bin: offset " + std::to_string(3 * page + 5));
+  // Outside every mapping the fault still goes to the previous handler.
+  EXPECT_DEATH(
+      {
+        reportUnreadableMappingsAndExit(2);
         volatile int* volatile nowhere = nullptr;
         (void)*nowhere;
       },

@@ -17,6 +17,7 @@
 
 #include "Commands.h"
 #include "ServeServer.h"
+#include "pbdam/formats/GuardedCopy.h"
 
 using namespace pbdam::formats;
 
@@ -58,6 +59,9 @@ int runServe(const ServeCliOptions& c) {
   sigaddset(&stopSignals, SIGHUP);
   pthread_sigmask(SIG_BLOCK, &stopSignals, nullptr);
   ::signal(SIGPIPE, SIG_IGN);  // a client that hangs up is a failed write, not a dead server
+  // Every read of the dataset is a guarded copy (an unreadable page fails one request); a fault
+  // anywhere else is a bug, and crashes with its core dump rather than a tidy exit.
+  reportUnreadableMappingsAndExit(-1);
 
   auto server = FrameServer::create(c.dir, o);
   if (!server) return reportError(server.error());

@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "pbdam/formats/Checksum.h"
+#include "pbdam/formats/GuardedCopy.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
@@ -307,7 +308,10 @@ Result<MappedFile> Checkpoint::openFile(Kind kind, int level, std::uint32_t part
   };
   if (bytes.size() < kTrailerBytes + 4) return damaged("truncated checkpoint file");
   const std::size_t payloadEnd = bytes.size() - kTrailerBytes - 4;
-  ByteReader r(bytes.subspan(payloadEnd));
+  // The trailer and CRC are copied out guarded: a file cut short under the mapping is an error.
+  std::array<std::byte, kTrailerBytes + 4> tail{};
+  if (auto read = mapped->read(payloadEnd, tail); !read) return std::move(read).error();
+  ByteReader r(tail);
   std::array<char, 8> magic{};
   for (char& c : magic) c = r.get<char>();
   const auto version = r.get<std::uint32_t>();
@@ -325,16 +329,19 @@ Result<MappedFile> Checkpoint::openFile(Kind kind, int level, std::uint32_t part
   if (payloadBytes != payloadEnd) return damaged("size mismatch");
   if (verify) {
     std::uint32_t stored = 0;
-    std::memcpy(&stored, bytes.data() + bytes.size() - 4, 4);
+    std::memcpy(&stored, tail.data() + kTrailerBytes, 4);
     // RSS bound: the check reads every page; release them every 64 MB (chunk starts stay
-    // page-aligned), not only at the end, or a leaf level's file would be resident whole.
+    // page-aligned), not only at the end, or a leaf level's file would be resident whole. Read
+    // through guarded copies: a part truncated or unreadable on disk is an error naming it.
     constexpr std::size_t kChunk = std::size_t{64} << 20;
-    const auto checked = bytes.first(bytes.size() - 4);
+    const std::size_t checked = bytes.size() - 4;
     std::uint32_t crc = 0;
-    for (std::size_t at = 0; at < checked.size(); at += kChunk) {
-      const std::size_t n = std::min(kChunk, checked.size() - at);
-      crc = crc32(checked.subspan(at, n), crc);
+    for (std::size_t at = 0; at < checked; at += kChunk) {
+      const std::size_t n = std::min(kChunk, checked - at);
+      auto piece = crc32Mapped(bytes, at, n, path.string(), crc);
       (void)mapped->releaseResident(at, n);
+      if (!piece) return std::move(piece).error();
+      crc = *piece;
     }
     if (crc != stored) return damaged("checksum mismatch");
   }

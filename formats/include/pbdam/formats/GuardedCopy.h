@@ -42,6 +42,23 @@ void installMappedReadGuard() noexcept;
 std::optional<CopyFault> guardedCopy(std::byte* destination, const std::byte* source,
                                      std::size_t bytes) noexcept;
 
+/// The fallback for code that reads a mapping in place rather than through guarded copies (the
+/// builder's per-sample reads of its own scratch and checkpoint files, where a copy per sample
+/// would cost more than the work): once a process calls this, a fault outside any guarded copy
+/// whose address lies in a live read-only or writable file mapping (MemoryMapping registers
+/// each) writes "pbdam: FILE: offset N became unreadable (SIGBUS: ...)" to stderr and ends the
+/// process with `exitCode` (_exit: no destructors run, as with the crash it replaces). Faults
+/// anywhere else are still handed to the previous handler. For command-line tools only — a
+/// server must not die of one bad file; its reads all go through guarded copies. A negative
+/// `exitCode` turns the report off again (faults outside guards crash as before).
+void reportUnreadableMappingsAndExit(int exitCode) noexcept;
+
+/// Registers `bytes` bytes at `begin`, a mapping of `file`, for the report above; returns a
+/// slot to pass to unregisterMappedRange (or -1 when every slot is taken: such a range is not
+/// reported). MemoryMapping calls these; nobody else needs to.
+int registerMappedRange(const std::byte* begin, std::size_t bytes, std::string_view file) noexcept;
+void unregisterMappedRange(int slot) noexcept;
+
 /// Copies bytes [offset, offset + out.size()) of `mapped` (a whole file's mapping, or bytes in
 /// memory) into `out` through guardedCopy. Errors, naming `file` and the offset: CorruptData
 /// when the range lies outside `mapped` or a page of it cannot be read (the file was truncated

@@ -111,6 +111,7 @@ class MemoryMapping final {
   bool writable_ = false;
   std::uint64_t device_ = 0;
   std::uint64_t inode_ = 0;
+  int reportSlot_ = -1;  ///< registerMappedRange's slot (GuardedCopy.h)
 };
 
 /// Drops this process's page-table entries of the pages overlapping [data, data + bytes) of a
