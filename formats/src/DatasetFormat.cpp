@@ -211,8 +211,7 @@ Result<FaceView> FaceView::open(std::span<const std::byte> file, std::string con
   if (auto r = readMapped(file, 0, std::span(headerBytes).first(headerRead), context); !r) {
     return std::move(r).error();
   }
-  auto header =
-      decodeFaceHeader(std::span(headerBytes).first(headerRead), file.size(), context);
+  auto header = decodeFaceHeader(std::span(headerBytes).first(headerRead), file.size(), context);
   if (!header) return std::move(header).error();
   FaceView view;
   view.header_ = *header;
@@ -280,8 +279,8 @@ TextureRecord FaceView::textureNode(std::uint64_t heapIndex) const noexcept {
                                  .first<kTextureRecordBytes>());
 }
 
-Result<std::span<const std::byte>> FaceView::readTextureBlob(
-    const TextureRecord& t, std::vector<std::byte>& buffer) const {
+Result<std::span<const std::byte>> FaceView::readTextureBlob(const TextureRecord& t,
+                                                             std::vector<std::byte>& buffer) const {
   return readBlob(t.blobOffset, t.blobBytes, buffer);
 }
 

@@ -21,8 +21,8 @@ namespace {
 /// The copy a thread is guarding now. Trivial and zero-initialised, so that the signal handler
 /// may read it without running a constructor.
 struct Guard {
-  sigjmp_buf* jump;            ///< set only while a copy runs
-  const std::byte* begin;      ///< the source range of that copy
+  sigjmp_buf* jump;        ///< set only while a copy runs
+  const std::byte* begin;  ///< the source range of that copy
   const std::byte* end;
   const std::byte* faultAddress;
   int faultSignal;
@@ -118,8 +118,7 @@ void chainFault(int signalNumber, siginfo_t* info, void* context) noexcept {
 void onFault(int signalNumber, siginfo_t* info, void* context) noexcept {
   Guard& guard = tGuard;
   const auto* address = static_cast<const std::byte*>(info->si_addr);
-  if (guard.jump != nullptr && info->si_code > 0 && address >= guard.begin &&
-      address < guard.end) {
+  if (guard.jump != nullptr && info->si_code > 0 && address >= guard.begin && address < guard.end) {
     sigjmp_buf* jump = guard.jump;
     guard.jump = nullptr;
     guard.faultAddress = address;
@@ -178,8 +177,7 @@ void reportUnreadableMappingsAndExit(int exitCode) noexcept {
   gReportExitCode.store(exitCode, std::memory_order_release);
 }
 
-int registerMappedRange(const std::byte* begin, std::size_t bytes,
-                        std::string_view file) noexcept {
+int registerMappedRange(const std::byte* begin, std::size_t bytes, std::string_view file) noexcept {
   if (begin == nullptr || bytes == 0) return -1;
   for (int slot = 0; slot < kMappedRangeSlots; ++slot) {
     MappedRange& range = gRanges[static_cast<std::size_t>(slot)];
@@ -215,10 +213,10 @@ std::optional<CopyFault> guardedCopy(std::byte* destination, const std::byte* so
 Result<void> readMapped(std::span<const std::byte> mapped, std::uint64_t offset,
                         std::span<std::byte> out, std::string_view file) {
   if (offset > mapped.size() || out.size() > mapped.size() - offset) {
-    return makeError(ErrorCode::CorruptData,
-                     std::string(file) + ": " + std::to_string(out.size()) + " bytes at offset " +
-                         std::to_string(offset) + " lie outside its " +
-                         std::to_string(mapped.size()) + " bytes");
+    return makeError(ErrorCode::CorruptData, std::string(file) + ": " + std::to_string(out.size()) +
+                                                 " bytes at offset " + std::to_string(offset) +
+                                                 " lie outside its " +
+                                                 std::to_string(mapped.size()) + " bytes");
   }
   if (const auto fault = guardedCopy(out.data(), mapped.data() + offset, out.size())) {
     return unreadable(file, offset, out.size(), offset + fault->offset, fault->signalNumber);
@@ -229,15 +227,16 @@ Result<void> readMapped(std::span<const std::byte> mapped, std::uint64_t offset,
 Result<std::uint32_t> crc32Mapped(std::span<const std::byte> mapped, std::uint64_t offset,
                                   std::uint64_t length, std::string_view file, std::uint32_t crc) {
   if (offset > mapped.size() || length > mapped.size() - offset) {
-    return makeError(ErrorCode::CorruptData,
-                     std::string(file) + ": " + std::to_string(length) + " bytes at offset " +
-                         std::to_string(offset) + " lie outside its " +
-                         std::to_string(mapped.size()) + " bytes");
+    return makeError(ErrorCode::CorruptData, std::string(file) + ": " + std::to_string(length) +
+                                                 " bytes at offset " + std::to_string(offset) +
+                                                 " lie outside its " +
+                                                 std::to_string(mapped.size()) + " bytes");
   }
   constexpr std::size_t kPieceBytes = std::size_t{64} << 10;
   std::array<std::byte, kPieceBytes> piece;  // NOLINT(cppcoreguidelines-pro-type-member-init)
   for (std::uint64_t at = offset; at < offset + length; at += kPieceBytes) {
-    const auto n = static_cast<std::size_t>(std::min<std::uint64_t>(kPieceBytes, offset + length - at));
+    const auto n =
+        static_cast<std::size_t>(std::min<std::uint64_t>(kPieceBytes, offset + length - at));
     if (auto r = readMapped(mapped, at, std::span(piece).first(n), file); !r) {
       return std::move(r).error();
     }

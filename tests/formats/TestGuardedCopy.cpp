@@ -117,8 +117,8 @@ TEST(GuardedCopy, ManyThreadsHitUnreadablePagesAtOnce) {
 
 /// Reads a byte of a truncated mapping directly, outside any guard.
 int readUnguarded(const MemoryMapping& mapping, std::size_t offset) {
-  const volatile auto* bytes = reinterpret_cast<const volatile unsigned char*>(
-      mapping.bytes().data());
+  const volatile auto* bytes =
+      reinterpret_cast<const volatile unsigned char*>(mapping.bytes().data());
   return bytes[offset];
 }
 

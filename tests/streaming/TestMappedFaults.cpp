@@ -117,8 +117,8 @@ TEST(MappedFaults, FacesTruncatedAfterOpenAreErrorsNamingFileAndOffset) {
   EXPECT_EQ(decoded.error().code, ErrorCode::CorruptData);
   EXPECT_NE(decoded.error().message.find("face2.pbdam"), std::string::npos)
       << decoded.error().message;
-  EXPECT_NE(decoded.error().message.find(
-                "offset " + std::to_string(view.node(jobs.front().node).blobOffset)),
+  EXPECT_NE(decoded.error().message.find("offset " +
+                                         std::to_string(view.node(jobs.front().node).blobOffset)),
             std::string::npos)
       << decoded.error().message;
   // A tile alone fails the same way.

@@ -673,9 +673,8 @@ TEST(Serve, SurvivesTruncatedFacesAndReloadsADatasetPutInPlace) {
   for (const auto& [query, camera] :
        {std::pair<const char*, const char*>{"lat=45&lon=7&alt=3e6&width=160&height=90",
                                             "45,7,3e6 --width 160 --height 90"},
-        std::pair<const char*, const char*>{
-            "lat=-10&lon=-70&alt=2e6&pitch=-60&width=173&height=97",
-            "-10,-70,2e6,0,-60,0 --width 173 --height 97"}}) {
+        std::pair<const char*, const char*>{"lat=-10&lon=-70&alt=2e6&pitch=-60&width=173&height=97",
+                                            "-10,-70,2e6,0,-60,0 --width 173 --height 97"}}) {
     SCOPED_TRACE(query);
     auto res = client.Get(std::string("/frame?") + query);
     ASSERT_TRUE(res);

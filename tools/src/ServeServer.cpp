@@ -300,8 +300,8 @@ void checkTables(const MappedDataset& dataset, FileCheck& check) {
       check.problems.push_back(r.error().message);
       continue;
     }
-    auto nodes =
-        crc32Mapped(file.bytes(), h.nodeTableOffset, h.nodeCount * kNodeRecordBytes, face.context());
+    auto nodes = crc32Mapped(file.bytes(), h.nodeTableOffset, h.nodeCount * kNodeRecordBytes,
+                             face.context());
     auto textures = crc32Mapped(file.bytes(), h.textureTableOffset,
                                 h.textureNodeCount * kTextureRecordBytes, face.context());
     if (!nodes) {
@@ -312,8 +312,7 @@ void checkTables(const MappedDataset& dataset, FileCheck& check) {
     if (!textures) {
       check.problems.push_back(textures.error().message);
     } else if (*textures != h.textureTableCrc) {
-      check.problems.push_back(face.context() +
-                               ": texture table checksum differs from its header");
+      check.problems.push_back(face.context() + ": texture table checksum differs from its header");
     }
   }
 }
@@ -467,8 +466,9 @@ void FrameServer::Impl::handleHeight(const httplib::Request& req, httplib::Respo
 
 void FrameServer::Impl::handleReload(const httplib::Request& req, httplib::Response& res) {
   if (!isLoopback(req.remote_addr)) {
-    return sendError(res, 403, "POST /admin/reload is accepted only from loopback (" +
-                                   req.remote_addr + " is not)");
+    return sendError(
+        res, 403,
+        "POST /admin/reload is accepted only from loopback (" + req.remote_addr + " is not)");
   }
   if (auto r = expectNoParams(req.params); !r) return sendError(res, 400, r.error().message);
   auto number = reload();
