@@ -133,6 +133,7 @@ int run(int argc, char** argv) {
   std::vector<float> vertical(12 * perTree);
   std::vector<std::uint32_t> triangles(12 * perTree);
   PatchMesh mesh;
+  std::vector<std::byte> blobBuffer;
   for (std::size_t f = 0; f < 6; ++f) {
     auto file = MappedFile::open(dir / manifest->faces[f].file);
     if (!file) return 2;
@@ -143,7 +144,8 @@ int run(int argc, char** argv) {
       const NodeRecord n = view->nodeAt(k);
       stored[id] = n.errorMeters;
       triangles[id] = n.triangleCount;
-      if (!decodePatch(view->patchBlob(n), mesh, "patch")) return 2;
+      const auto blob = view->readPatchBlob(n, blobBuffer);
+      if (!blob || !decodePatch(*blob, mesh, "patch")) return 2;
       const BinTriangle t = triangleOfNode(lattice, id, depth);
       WorkPatch patch;
       const LatticeXY e1 = t.left - t.apex;

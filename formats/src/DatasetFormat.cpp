@@ -1,10 +1,12 @@
 // Face-file header, node and texture records (DatasetFormat.h, FORMAT.md).
 #include "pbdam/formats/DatasetFormat.h"
 
+#include <algorithm>
 #include <bit>
 #include <cstring>
 
 #include "pbdam/formats/Checksum.h"
+#include "pbdam/formats/GuardedCopy.h"
 
 namespace pbdam::formats {
 namespace {
@@ -78,9 +80,15 @@ void encodeFaceHeader(const FaceHeader& h, std::span<std::byte, kFaceHeaderBytes
 }
 
 Result<FaceHeader> decodeFaceHeader(std::span<const std::byte> bytes, std::string_view context) {
-  if (bytes.size() < kFaceHeaderBytes) {
+  return decodeFaceHeader(bytes.first(std::min(bytes.size(), kFaceHeaderBytes)), bytes.size(),
+                          context);
+}
+
+Result<FaceHeader> decodeFaceHeader(std::span<const std::byte> bytes, std::uint64_t fileBytes,
+                                    std::string_view context) {
+  if (fileBytes < kFaceHeaderBytes || bytes.size() < kFaceHeaderBytes) {
     return corrupt(context, 0,
-                   "file of " + std::to_string(bytes.size()) + " bytes is shorter than the " +
+                   "file of " + std::to_string(fileBytes) + " bytes is shorter than the " +
                        std::to_string(kFaceHeaderBytes) + "-byte header");
   }
   if (std::memcmp(bytes.data(), kMagic.data(), kMagic.size()) != 0) {
@@ -127,10 +135,10 @@ Result<FaceHeader> decodeFaceHeader(std::span<const std::byte> bytes, std::strin
   if (h.nodeCount != expectedNodes || h.textureNodeCount != expectedTextures) {
     return corrupt(context, 40, "node counts do not match the depth and texture levels");
   }
-  if (h.fileBytes != bytes.size()) {
+  if (h.fileBytes != fileBytes) {
     return corrupt(context, 80,
                    "header says " + std::to_string(h.fileBytes) + " bytes, the file has " +
-                       std::to_string(bytes.size()) + " (truncated or padded)");
+                       std::to_string(fileBytes) + " (truncated or padded)");
   }
   const std::uint64_t nodeEnd = h.nodeTableOffset + h.nodeCount * kNodeRecordBytes;
   const std::uint64_t textureEnd = h.textureTableOffset + h.textureNodeCount * kTextureRecordBytes;
@@ -195,20 +203,33 @@ TextureRecord decodeTextureRecord(std::span<const std::byte, kTextureRecordBytes
 }
 
 Result<FaceView> FaceView::open(std::span<const std::byte> file, std::string context) {
-  auto header = decodeFaceHeader(file, context);
+  // The header and both tables are copied out (guarded: a truncated or unreadable file is an
+  // error here, not a SIGBUS) and checked against their CRCs once; records are decoded from
+  // these copies from then on, so bytes rewritten in the file later are never drawn.
+  std::array<std::byte, kFaceHeaderBytes> headerBytes{};
+  const std::size_t headerRead = std::min(file.size(), kFaceHeaderBytes);
+  if (auto r = readMapped(file, 0, std::span(headerBytes).first(headerRead), context); !r) {
+    return std::move(r).error();
+  }
+  auto header = decodeFaceHeader(std::span(headerBytes).first(headerRead), file.size(), context);
   if (!header) return std::move(header).error();
   FaceView view;
   view.header_ = *header;
   view.file_ = file;
   view.context_ = std::move(context);
   const FaceHeader& h = view.header_;
-  const auto nodeTable = file.subspan(h.nodeTableOffset, h.nodeCount * kNodeRecordBytes);
-  if (crc32(nodeTable) != h.nodeTableCrc) {
+  view.nodeTable_.resize(h.nodeCount * kNodeRecordBytes);
+  if (auto r = readMapped(file, h.nodeTableOffset, view.nodeTable_, view.context_); !r) {
+    return std::move(r).error();
+  }
+  if (crc32(view.nodeTable_) != h.nodeTableCrc) {
     return corrupt(view.context_, h.nodeTableOffset, "node table checksum mismatch");
   }
-  const auto textureTable =
-      file.subspan(h.textureTableOffset, h.textureNodeCount * kTextureRecordBytes);
-  if (crc32(textureTable) != h.textureTableCrc) {
+  view.textureTable_.resize(h.textureNodeCount * kTextureRecordBytes);
+  if (auto r = readMapped(file, h.textureTableOffset, view.textureTable_, view.context_); !r) {
+    return std::move(r).error();
+  }
+  if (crc32(view.textureTable_) != h.textureTableCrc) {
     return corrupt(view.context_, h.textureTableOffset, "texture table checksum mismatch");
   }
   for (std::uint64_t k = 0; k < h.nodeCount; ++k) {
@@ -231,25 +252,36 @@ Result<FaceView> FaceView::open(std::span<const std::byte> file, std::string con
 }
 
 NodeRecord FaceView::nodeAt(std::uint64_t tableIndex) const noexcept {
-  return decodeNodeRecord(file_.subspan(nodeRecordOffset(tableIndex)).first<kNodeRecordBytes>());
+  return decodeNodeRecord(std::span<const std::byte>(nodeTable_)
+                              .subspan(tableIndex * kNodeRecordBytes)
+                              .first<kNodeRecordBytes>());
 }
 
 NodeRecord FaceView::node(std::uint32_t tree, std::uint64_t heapIndex) const noexcept {
   return nodeAt(tree * nodesPerTree() + heapIndex);
 }
 
-std::span<const std::byte> FaceView::patchBlob(const NodeRecord& n) const noexcept {
-  return file_.subspan(n.blobOffset, n.blobBytes);
+Result<std::span<const std::byte>> FaceView::readBlob(std::uint64_t offset, std::uint32_t bytes,
+                                                      std::vector<std::byte>& buffer) const {
+  buffer.resize(bytes);
+  if (auto r = readMapped(file_, offset, buffer, context_); !r) return std::move(r).error();
+  return std::span<const std::byte>(buffer);
+}
+
+Result<std::span<const std::byte>> FaceView::readPatchBlob(const NodeRecord& n,
+                                                           std::vector<std::byte>& buffer) const {
+  return readBlob(n.blobOffset, n.blobBytes, buffer);
 }
 
 TextureRecord FaceView::textureNode(std::uint64_t heapIndex) const noexcept {
-  return decodeTextureRecord(
-      file_.subspan(header_.textureTableOffset + heapIndex * kTextureRecordBytes)
-          .first<kTextureRecordBytes>());
+  return decodeTextureRecord(std::span<const std::byte>(textureTable_)
+                                 .subspan(heapIndex * kTextureRecordBytes)
+                                 .first<kTextureRecordBytes>());
 }
 
-std::span<const std::byte> FaceView::textureBlob(const TextureRecord& t) const noexcept {
-  return file_.subspan(t.blobOffset, t.blobBytes);
+Result<std::span<const std::byte>> FaceView::readTextureBlob(const TextureRecord& t,
+                                                             std::vector<std::byte>& buffer) const {
+  return readBlob(t.blobOffset, t.blobBytes, buffer);
 }
 
 }  // namespace pbdam::formats

@@ -1,6 +1,8 @@
 // The owner of mmap regions and their madvise/mincore page control (MemoryMapping.h).
 #include "pbdam/formats/MemoryMapping.h"
 
+#include "pbdam/formats/GuardedCopy.h"
+
 #include <fcntl.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
@@ -39,7 +41,10 @@ MemoryMapping::MemoryMapping(MemoryMapping&& other) noexcept
     : path_(std::move(other.path_)),
       data_(std::exchange(other.data_, nullptr)),
       size_(std::exchange(other.size_, 0)),
-      writable_(std::exchange(other.writable_, false)) {}
+      writable_(std::exchange(other.writable_, false)),
+      device_(std::exchange(other.device_, 0)),
+      inode_(std::exchange(other.inode_, 0)),
+      reportSlot_(std::exchange(other.reportSlot_, -1)) {}
 
 MemoryMapping& MemoryMapping::operator=(MemoryMapping&& other) noexcept {
   if (this != &other) {
@@ -48,11 +53,15 @@ MemoryMapping& MemoryMapping::operator=(MemoryMapping&& other) noexcept {
     data_ = std::exchange(other.data_, nullptr);
     size_ = std::exchange(other.size_, 0);
     writable_ = std::exchange(other.writable_, false);
+    device_ = std::exchange(other.device_, 0);
+    inode_ = std::exchange(other.inode_, 0);
+    reportSlot_ = std::exchange(other.reportSlot_, -1);
   }
   return *this;
 }
 
 void MemoryMapping::reset() noexcept {
+  unregisterMappedRange(std::exchange(reportSlot_, -1));
   if (data_ != nullptr) ::munmap(data_, size_);
   data_ = nullptr;
   size_ = 0;
@@ -65,6 +74,7 @@ std::size_t MemoryMapping::pageSize() noexcept {
 }
 
 Result<MemoryMapping> MemoryMapping::open(const fs::path& path) {
+  installMappedReadGuard();  // before any byte of a mapping can be read
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) {
     const int err = errno;
@@ -78,6 +88,8 @@ Result<MemoryMapping> MemoryMapping::open(const fs::path& path) {
   }
   MemoryMapping mapping;
   mapping.path_ = path;
+  mapping.device_ = static_cast<std::uint64_t>(st.st_dev);
+  mapping.inode_ = static_cast<std::uint64_t>(st.st_ino);
   const auto size = static_cast<std::size_t>(st.st_size);
   if (size > 0) {
     void* p = ::mmap(nullptr, size, PROT_READ, MAP_SHARED, fd, 0);
@@ -88,6 +100,7 @@ Result<MemoryMapping> MemoryMapping::open(const fs::path& path) {
     }
     mapping.data_ = static_cast<std::byte*>(p);
     mapping.size_ = size;
+    mapping.reportSlot_ = registerMappedRange(mapping.data_, size, path.string());
   }
   ::close(fd);  // the mapping keeps the file referenced
   return mapping;
@@ -112,6 +125,7 @@ Result<MemoryMapping> MemoryMapping::mapWritable(int fd, std::size_t size, const
   mapping.data_ = static_cast<std::byte*>(p);
   mapping.size_ = size;
   mapping.writable_ = true;
+  mapping.reportSlot_ = registerMappedRange(mapping.data_, size, path.string());
   return mapping;
 }
 
@@ -131,6 +145,20 @@ Result<MemoryMapping> MemoryMapping::createScratch(const fs::path& directory, st
     ::unlink(name.c_str());
   }
   return mapWritable(fd, size, directory);
+}
+
+Result<void> MemoryMapping::read(std::uint64_t offset, std::span<std::byte> out) const {
+  return readMapped(bytes(), offset, out, path_.string());
+}
+
+Result<void> MemoryMapping::touch(std::uint64_t offset, std::uint64_t length) const {
+  // One byte of every page is enough to fault it in; the range's last byte ends it.
+  const std::uint64_t page = pageSize();
+  std::byte sink{};
+  for (std::uint64_t at = offset; at < offset + length; at = (at / page + 1) * page) {
+    if (auto r = read(at, std::span(&sink, 1)); !r) return r;
+  }
+  return {};
 }
 
 Result<void> MemoryMapping::advise(MappingAdvice advice) const noexcept {

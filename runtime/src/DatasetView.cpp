@@ -34,10 +34,12 @@ Result<DatasetView> DatasetView::open(const Manifest& manifest,
     const auto fi = static_cast<std::size_t>(f);
     const std::string context = directory + "/" + manifest.faces[fi].file;
     if (faceBytes[fi].size() != manifest.faces[fi].bytes) {
-      return makeError(ErrorCode::CorruptData, context + ": " +
-                                                   std::to_string(faceBytes[fi].size()) +
-                                                   " bytes, manifest.json says " +
-                                                   std::to_string(manifest.faces[fi].bytes));
+      const bool shorter = faceBytes[fi].size() < manifest.faces[fi].bytes;
+      return makeError(ErrorCode::CorruptData,
+                       context + ": " + (shorter ? "truncated" : "extended") + " at offset " +
+                           std::to_string(faceBytes[fi].size()) + " (" +
+                           std::to_string(faceBytes[fi].size()) + " bytes, manifest.json says " +
+                           std::to_string(manifest.faces[fi].bytes) + ")");
     }
     auto face = FaceView::open(faceBytes[fi], context);
     if (!face) return std::move(face).error();

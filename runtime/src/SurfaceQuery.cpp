@@ -86,11 +86,14 @@ Result<SurfaceHeight> surfaceHeightAt(const DatasetView& view, double lat, doubl
   std::optional<SurfaceHeight> best;
   PatchMesh mesh;
   std::vector<glm::dvec3> positions;
+  std::vector<std::byte> blob;
   for (const NodeKey& key : leaves) {
     const NodeRecord record = view.node(key);
     const FaceView& face = view.face(key.face);
-    auto decoded = decodePatch(face.patchBlob(record), mesh,
-                               face.context() + "@" + std::to_string(record.blobOffset));
+    auto bytes = face.readPatchBlob(record, blob);
+    if (!bytes) return std::move(bytes).error();
+    auto decoded =
+        decodePatch(*bytes, mesh, face.context() + "@" + std::to_string(record.blobOffset));
     if (!decoded) return decoded.error();
     positions.resize(mesh.vertices.size());
     for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {

@@ -83,7 +83,10 @@ Result<void> DecodeScheduler::decodePatch(const NodeKey& key, std::span<std::byt
   const FaceView& face = dataset_->face(key.face);
   const NodeRecord record = dataset_->node(key);
   const std::string context = blobContext(face, record.blobOffset);
-  if (Result<void> r = pbdam::formats::decodePatch(face.patchBlob(record), mesh, context); !r) {
+  thread_local std::vector<std::byte> blob;  // the blob copied out of the mapping, guarded
+  auto bytes = face.readPatchBlob(record, blob);
+  if (!bytes) return std::move(bytes).error();
+  if (Result<void> r = pbdam::formats::decodePatch(*bytes, mesh, context); !r) {
     return std::move(r).error();
   }
   if (mesh.vertices.size() != record.vertexCount || mesh.triangleCount() != record.triangleCount) {
@@ -108,7 +111,10 @@ Result<void> DecodeScheduler::decodeTile(const TileKey& key, std::span<std::byte
   const FaceView& face = dataset_->face(key.face);
   const TextureRecord record = dataset_->textureNode(key);
   const std::string context = blobContext(face, record.blobOffset);
-  Result<TextureTileImage> tile = decodeTextureTile(face.textureBlob(record), context);
+  thread_local std::vector<std::byte> blob;  // the blob copied out of the mapping, guarded
+  auto bytes = face.readTextureBlob(record, blob);
+  if (!bytes) return std::move(bytes).error();
+  Result<TextureTileImage> tile = decodeTextureTile(*bytes, context);
   if (!tile) return std::move(tile).error();
   const Manifest& m = dataset_->manifest();
   if (tile->sizeTexels != m.textureTileTexels || tile->borderTexels != m.textureBorderTexels ||

@@ -44,17 +44,15 @@ NoStallCut NoStallPolicy::cut(const Camera& camera, RefinementOptions options) c
   }
 }
 
-void NoStallPolicy::preloadCoarseLevels() const {
+std::vector<Error> NoStallPolicy::preloadCoarseLevels() const {
   const DatasetView& view = dataset_->view();
-  const auto touch = [](const MappedFile& file, std::uint64_t offset, std::uint64_t bytes) {
+  std::vector<Error> unreadable;
+  const auto touch = [&unreadable](const MappedFile& file, std::uint64_t offset,
+                                   std::uint64_t bytes) {
     if (bytes == 0) return;
     (void)file.willNeed(offset, bytes);
-    const auto data = file.bytes();
-    volatile std::uint8_t sink = 0;
-    for (std::uint64_t k = offset; k < offset + bytes; k += 4096) {
-      sink = sink + static_cast<std::uint8_t>(data[k]);
-    }
-    sink = sink + static_cast<std::uint8_t>(data[offset + bytes - 1]);
+    // Guarded reads: an unreadable page is skipped and reported, not a SIGBUS.
+    if (auto r = file.touch(offset, bytes); !r) unreadable.push_back(std::move(r).error());
   };
   for (int f = 0; f < 6; ++f) {
     const MappedFile& file = dataset_->faceFile(f);
@@ -70,6 +68,7 @@ void NoStallPolicy::preloadCoarseLevels() const {
     touch(file, root.blobOffset, root.blobBytes);
     (void)file.releaseResident();
   }
+  return unreadable;
 }
 
 }  // namespace pbdam::streaming

@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <vector>
 
 #include "pbdam/formats/DatasetFormat.h"
 #include "pbdam/formats/PatchCodec.h"
@@ -14,15 +15,17 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   auto view = pbdam::formats::FaceView::open(bytes, "fuzz");
   if (!view) return 0;
   pbdam::formats::PatchMesh mesh;
+  std::vector<std::byte> buffer;
   for (std::uint64_t k = 0; k < view->header().nodeCount; ++k) {
     const pbdam::formats::NodeRecord node = view->nodeAt(k);
-    const auto blob = view->patchBlob(node);
-    if (blob.size() != node.blobBytes) __builtin_trap();
-    (void)pbdam::formats::decodePatch(blob, mesh, "fuzz");
+    const auto blob = view->readPatchBlob(node, buffer);
+    if (!blob || blob->size() != node.blobBytes) __builtin_trap();
+    (void)pbdam::formats::decodePatch(*blob, mesh, "fuzz");
   }
   for (std::uint64_t k = 0; k < view->header().textureNodeCount; ++k) {
     const auto record = view->textureNode(k);
-    if (view->textureBlob(record).size() != record.blobBytes) __builtin_trap();
+    const auto blob = view->readTextureBlob(record, buffer);
+    if (!blob || blob->size() != record.blobBytes) __builtin_trap();
   }
   return 0;
 }

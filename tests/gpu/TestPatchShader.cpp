@@ -161,9 +161,12 @@ class PatchShader : public test::GpuTest {
   void capture(const DatasetView& view, const Cut& cut, const Camera& camera, CapturedCut& out) {
     const double step = view.manifest().heightStepMeters;
     PatchMesh mesh;
+    std::vector<std::byte> blob;
     for (const CutPatch& patch : cut.patches) {
       const NodeRecord record = view.node(patch.node);
-      ASSERT_TRUE(decodePatch(view.face(patch.node.face).patchBlob(record), mesh, "test").ok());
+      const auto bytes = view.face(patch.node.face).readPatchBlob(record, blob);
+      ASSERT_TRUE(bytes.ok());
+      ASSERT_TRUE(decodePatch(*bytes, mesh, "test").ok());
       out.nodes.push_back(patch.node);
       out.records.push_back(
           makePatchDrawRecord(view, PatchDrawInput{patch.node, record, 0}, camera.position()));

@@ -26,8 +26,11 @@ class PatchStore final {
     auto [it, inserted] = meshes_.try_emplace(id);
     if (inserted) {
       const formats::NodeRecord record = view_.node(key);
-      const auto decoded =
-          formats::decodePatch(view_.face(key.face).patchBlob(record), it->second, "test");
+      std::vector<std::byte> blob;
+      const auto bytes = view_.face(key.face).readPatchBlob(record, blob);
+      EXPECT_TRUE(bytes.ok()) << (bytes.ok() ? "" : bytes.error().message);
+      if (!bytes.ok()) return it->second;
+      const auto decoded = formats::decodePatch(*bytes, it->second, "test");
       EXPECT_TRUE(decoded.ok()) << (decoded.ok() ? "" : decoded.error().message);
     }
     return it->second;

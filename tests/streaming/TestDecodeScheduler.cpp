@@ -79,7 +79,10 @@ TEST(DecodeScheduler, DecodesPatchesAndTilesIntoTheCallersMemory) {
       // Vertices as the pools hold them, then the codec's indices.
       const NodeRecord n = view.node(job.node);
       PatchMesh mesh;
-      ASSERT_TRUE(decodePatch(view.face(job.node.face).patchBlob(n), mesh, "test").ok());
+      std::vector<std::byte> blob;
+      const auto bytes = view.face(job.node.face).readPatchBlob(n, blob);
+      ASSERT_TRUE(bytes.ok());
+      ASSERT_TRUE(decodePatch(*bytes, mesh, "test").ok());
       ASSERT_EQ(job.vertexBytes, 8u * mesh.vertices.size());
       ASSERT_EQ(job.bytes - job.vertexBytes, 2u * mesh.indices.size());
       for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
@@ -96,7 +99,10 @@ TEST(DecodeScheduler, DecodesPatchesAndTilesIntoTheCallersMemory) {
     } else {
       // RGBA8 texels of the tile (BC1 tiles expanded).
       const TextureRecord r = view.textureNode(job.tile);
-      auto tile = decodeTextureTile(view.face(job.tile.face).textureBlob(r), "test");
+      std::vector<std::byte> blob;
+      const auto bytes = view.face(job.tile.face).readTextureBlob(r, blob);
+      ASSERT_TRUE(bytes.ok());
+      auto tile = decodeTextureTile(*bytes, "test");
       ASSERT_TRUE(tile.ok());
       if (tile->format != TexelFormat::Rgba8) tile = expandToRgba8(*tile);
       ASSERT_TRUE(tile.ok());

@@ -268,10 +268,16 @@ TEST_F(CorruptionTest, AByteFlippedInAnySectionIsCaughtByVerifyAndByDecode) {
     } else if (section == "patch blob") {
       ASSERT_TRUE(damagedView);
       PatchMesh mesh;
-      EXPECT_FALSE(decodePatch(damagedView->patchBlob(damagedView->node(1, 2)), mesh, "x"));
+      std::vector<std::byte> blob;
+      const auto bytes = damagedView->readPatchBlob(damagedView->node(1, 2), blob);
+      ASSERT_TRUE(bytes);
+      EXPECT_FALSE(decodePatch(*bytes, mesh, "x"));
     } else {
       ASSERT_TRUE(damagedView);
-      EXPECT_FALSE(decodeTextureTile(damagedView->textureBlob(damagedView->textureNode(0)), "x"));
+      std::vector<std::byte> blob;
+      const auto bytes = damagedView->readTextureBlob(damagedView->textureNode(0), blob);
+      ASSERT_TRUE(bytes);
+      EXPECT_FALSE(decodeTextureTile(*bytes, "x"));
     }
   }
   writeFile(face, original);

@@ -1,6 +1,6 @@
 // `pbdam render` as a user runs it: one camera to PNG and EXR with a statistics line, a camera
 // path to numbered frames (and the MP4 through ffmpeg when it is on PATH, skipped otherwise),
-// and bad input → one clear line on stderr and exit code 2.
+// bad input → one clear line on stderr and exit code 2, and so is a dataset truncated on disk.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -256,6 +256,28 @@ TEST(RenderCli, BadInputIsOneLineAndExitCode2) {
     EXPECT_NE(run.err.find(expected), std::string::npos) << args << "\n" << run.err;
   }
   EXPECT_FALSE(std::filesystem::exists(tmp / "x.png"));
+}
+
+// A face file truncated in place (a failing disk, a half-finished copy): every command that
+// reads the dataset says which file and where, and exits 2 — never a SIGBUS.
+TEST(RenderCli, ATruncatedDatasetIsExitCode2NamingFileAndOffset) {
+  PBDAM_REQUIRE_DATASET(shared, "mola");
+  test::TempDir temp;
+  const std::filesystem::path dir = temp / "mola";
+  std::filesystem::copy(shared, dir);
+  const std::filesystem::path face = dir / "face3.pbdam";
+  std::filesystem::resize_file(face, std::filesystem::file_size(face) / 2);
+  const std::string png = (temp / "frame.png").string();
+  for (const std::string& args :
+       {"render " + quoted(dir) + " --camera 0,0,4e6 --out '" + png + "'" + kSmall,
+        "height " + quoted(dir) + " --at 18.4,-133.9", "info " + quoted(dir),
+        "verify " + quoted(dir)}) {
+    SCOPED_TRACE(args);
+    const CliRun run = runPbdam(args);
+    EXPECT_EQ(run.exitCode, 2) << run.err;
+    EXPECT_NE(run.err.find("face3.pbdam"), std::string::npos) << run.err;
+    EXPECT_NE(run.err.find("offset"), std::string::npos) << run.err;
+  }
 }
 
 }  // namespace

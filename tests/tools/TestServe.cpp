@@ -2,7 +2,9 @@
 // (--port 0; the start-up line names it) and is driven with httplib's client. Frames equal
 // `pbdam render`'s PNG for the same camera byte for byte; malformed requests get a 4xx with a
 // JSON body; a burst beyond the queue gets 503 + Retry-After and the server survives; SIGTERM
-// lets in-flight frames finish and the process exits 0.
+// lets in-flight frames finish and the process exits 0; face files truncated under the server
+// fail frames with a 5xx JSON error while it goes on serving, and a reload serves a dataset put
+// in their place.
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <httplib.h>
@@ -584,6 +586,134 @@ TEST(Serve, SigtermFinishesInFlightFramesAndExitsZero) {
   httplib::Client after = server.client();
   after.set_connection_timeout(2, 0);
   EXPECT_FALSE(after.Get("/healthz"));
+}
+
+/// The JSON body of a response, or a null value when it is not JSON.
+nlohmann::json jsonOf(const httplib::Result& res) {
+  return nlohmann::json::parse(res->body, nullptr, false);
+}
+
+// The operator's story: the served dataset's face files are truncated in place (a failing disk,
+// a half-finished copy). The server stays up, fails the frames it cannot draw with a 5xx JSON
+// error naming the file and offset, and /healthz says why it is degraded. A reload of the broken
+// directory is refused and keeps what is served; once a different dataset is put in place, a
+// reload (POST /admin/reload, then SIGHUP) serves it, frame for frame equal to `pbdam render`.
+TEST(Serve, SurvivesTruncatedFacesAndReloadsADatasetPutInPlace) {
+  PBDAM_REQUIRE_DATASET(mola, "mola");
+  PBDAM_REQUIRE_DATASET(earth, "earth");
+  test::TempDir tmp;
+  const std::filesystem::path served = tmp / "served";
+  std::filesystem::copy(mola, served);
+  START_SERVER(server, served, {"--workers", "2"});
+  httplib::Client client = server.client();
+  auto health = client.Get("/healthz");
+  ASSERT_TRUE(health);
+  EXPECT_EQ(health->status, 200) << health->body;
+  EXPECT_EQ(jsonOf(health)["status"], "ok");
+
+  for (int f = 0; f < 6; ++f) {
+    std::filesystem::resize_file(served / ("face" + std::to_string(f) + ".pbdam"), 4096);
+  }
+  for (const char* query : {"lat=18.65&lon=226.2&alt=3e6&width=160&height=90",
+                            "lat=-10&lon=-70&alt=2e6&pitch=-60&width=173&height=97"}) {
+    SCOPED_TRACE(query);
+    auto res = client.Get(std::string("/frame?") + query);
+    ASSERT_TRUE(res) << "no answer: the server died (" << httplib::to_string(res.error()) << ")";
+    EXPECT_GE(res->status, 500);
+    EXPECT_LT(res->status, 600);
+    EXPECT_EQ(res->get_header_value("Content-Type"), "application/json");
+    const std::string message = jsonOf(res).value("message", std::string());
+    EXPECT_NE(message.find(".pbdam"), std::string::npos) << res->body;
+    EXPECT_NE(message.find("offset"), std::string::npos) << res->body;
+  }
+  auto height = client.Get("/height?lat=18.4&lon=-133.9");
+  ASSERT_TRUE(height);
+  EXPECT_EQ(height->status, 500) << height->body;
+  health = client.Get("/healthz");
+  ASSERT_TRUE(health);
+  EXPECT_EQ(health->status, 503);
+  const auto h = jsonOf(health);
+  EXPECT_EQ(h["status"], "degraded") << health->body;
+  ASSERT_TRUE(h.contains("reasons")) << health->body;
+  EXPECT_NE(h["reasons"].dump().find("truncated"), std::string::npos) << health->body;
+
+  // Reloading the broken directory is refused; the old mapping goes on being served.
+  auto refused = client.Post("/admin/reload");
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused->status, 422) << refused->body;
+  EXPECT_NE(jsonOf(refused).value("message", std::string()).find("still serving"),
+            std::string::npos)
+      << refused->body;
+  auto info = client.Get("/info");
+  ASSERT_TRUE(info);
+  EXPECT_EQ(jsonOf(info)["planet"], "mars");
+
+  // A different dataset put in place (manifest last, as a build writes it), then reloaded.
+  for (const auto& entry : std::filesystem::directory_iterator(served)) {
+    std::filesystem::remove(entry.path());
+  }
+  for (const auto& entry : std::filesystem::directory_iterator(earth)) {
+    if (entry.path().filename() != "manifest.json") {
+      std::filesystem::copy(entry.path(), served / entry.path().filename());
+    }
+  }
+  std::filesystem::copy(earth / "manifest.json", served / "manifest.json");
+  auto reloaded = client.Post("/admin/reload");
+  ASSERT_TRUE(reloaded);
+  ASSERT_EQ(reloaded->status, 200) << reloaded->body;
+  EXPECT_EQ(jsonOf(reloaded)["generation"], 2);
+  health = client.Get("/healthz");
+  ASSERT_TRUE(health);
+  EXPECT_EQ(health->status, 200) << health->body;
+  EXPECT_EQ(jsonOf(health)["status"], "ok");
+  info = client.Get("/info");
+  ASSERT_TRUE(info);
+  EXPECT_EQ(jsonOf(info)["planet"], "earth");
+  int index = 0;
+  for (const auto& [query, camera] :
+       {std::pair<const char*, const char*>{"lat=45&lon=7&alt=3e6&width=160&height=90",
+                                            "45,7,3e6 --width 160 --height 90"},
+        std::pair<const char*, const char*>{"lat=-10&lon=-70&alt=2e6&pitch=-60&width=173&height=97",
+                                            "-10,-70,2e6,0,-60,0 --width 173 --height 97"}}) {
+    SCOPED_TRACE(query);
+    auto res = client.Get(std::string("/frame?") + query);
+    ASSERT_TRUE(res);
+    ASSERT_EQ(res->status, 200) << res->body;
+    const auto png = tmp / ("render" + std::to_string(index++) + ".png");
+    ASSERT_EQ(runPbdam("render " + quoted(earth.string()) + " --camera " + camera + " --out " +
+                       quoted(png.string()) + " --quiet"),
+              0);
+    const std::string expected = readFile(png);
+    ASSERT_EQ(expected.substr(0, 8), kPng);
+    EXPECT_TRUE(res->body == expected) << "served PNG differs from pbdam render's";
+  }
+
+  // SIGHUP reloads too (the same dataset again: a new generation, a fresh cache).
+  ASSERT_EQ(::kill(server.pid(), SIGHUP), 0);
+  int generation = 0;
+  for (int i = 0; i < 600 && generation < 3; ++i) {
+    auto stats = client.Get("/stats");
+    if (stats && stats->status == 200) generation = jsonOf(stats)["dataset"]["generation"];
+    if (generation < 3) std::this_thread::sleep_for(100ms);
+  }
+  EXPECT_EQ(generation, 3);
+  auto after = client.Get("/frame?lat=45&lon=7&alt=3e6&width=160&height=90");
+  ASSERT_TRUE(after);
+  EXPECT_EQ(after->status, 200);
+  EXPECT_EQ(jsonOf(client.Get("/stats"))["cache"]["hits"], 0) << "the new cache starts empty";
+}
+
+TEST(Serve, AdminReloadIsPostOnly) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  START_SERVER(server, dir, {"--workers", "1"});
+  httplib::Client client = server.client();
+  auto get = client.Get("/admin/reload");
+  ASSERT_TRUE(get);
+  EXPECT_EQ(get->status, 405);
+  EXPECT_EQ(get->get_header_value("Allow"), "POST");
+  auto withParams = client.Post("/admin/reload?now=1");
+  ASSERT_TRUE(withParams);
+  EXPECT_EQ(withParams->status, 400);
 }
 
 }  // namespace

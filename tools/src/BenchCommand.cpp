@@ -119,7 +119,12 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   if (!renderer) return renderer.error();
   const bool noStall = o.mode == "no-stall";
   const NoStallPolicy noStallPolicy(**dataset);
-  if (noStall) noStallPolicy.preloadCoarseLevels();
+  if (noStall) {
+    // What cannot be read is skipped (the level cap keeps it out of the frames) and reported.
+    for (const Error& e : noStallPolicy.preloadCoarseLevels()) {
+      std::fprintf(stderr, "pbdam: warning: preload skipped: %s\n", e.message.c_str());
+    }
+  }
   RefinementOptions refinement;
   refinement.tolerancePixels = o.tolerance;
   std::optional<Prefetcher> prefetcher;

@@ -1,7 +1,9 @@
 // `pbdam serve DIR`: exact-mode frames over HTTP with a web viewer (docs/architecture.md "What
-// pbdam is"). The command line, the start-up line, and graceful shutdown: SIGTERM/SIGINT are taken
-// by a signal thread (sigtimedwait; blocked in every other thread), which stops the listener; the
-// requests already accepted are answered before the process exits with 0.
+// pbdam is"). The command line, the start-up line, graceful shutdown and reload: SIGTERM/SIGINT
+// and SIGHUP are taken by a signal thread (sigtimedwait; blocked in every other thread). SIGTERM
+// and SIGINT stop the listener; the requests already accepted are answered before the process
+// exits with 0. SIGHUP maps the dataset directory again and serves it (FrameServer::reload); a
+// broken one is refused with a line on stderr and the old one goes on being served.
 #include <signal.h>
 
 #include <atomic>
@@ -15,6 +17,7 @@
 
 #include "Commands.h"
 #include "ServeServer.h"
+#include "pbdam/formats/GuardedCopy.h"
 
 using namespace pbdam::formats;
 
@@ -53,8 +56,12 @@ int runServe(const ServeCliOptions& c) {
   sigemptyset(&stopSignals);
   sigaddset(&stopSignals, SIGTERM);
   sigaddset(&stopSignals, SIGINT);
+  sigaddset(&stopSignals, SIGHUP);
   pthread_sigmask(SIG_BLOCK, &stopSignals, nullptr);
   ::signal(SIGPIPE, SIG_IGN);  // a client that hangs up is a failed write, not a dead server
+  // Every read of the dataset is a guarded copy (an unreadable page fails one request); a fault
+  // anywhere else is a bug, and crashes with its core dump rather than a tidy exit.
+  reportUnreadableMappingsAndExit(-1);
 
   auto server = FrameServer::create(c.dir, o);
   if (!server) return reportError(server.error());
@@ -78,6 +85,16 @@ int runServe(const ServeCliOptions& c) {
     const timespec poll{0, 200'000'000};
     while (!finished.load()) {
       const int sig = sigtimedwait(&stopSignals, nullptr, &poll);
+      if (sig == SIGHUP) {
+        const Result<void> reloaded = raw->reload();
+        if (!reloaded) {
+          std::fprintf(stderr, "pbdam serve: SIGHUP: %s\n", reloaded.error().message.c_str());
+        } else if (!c.quiet) {
+          std::printf("pbdam serve: SIGHUP: reloaded %s\n", c.dir.c_str());
+          std::fflush(stdout);
+        }
+        continue;
+      }
       if (sig == SIGTERM || sig == SIGINT) {
         caught = sig;
         raw->stop();
@@ -109,7 +126,8 @@ void addServeCommand(CLI::App& app, CommandStatus& status) {
       "Serve exact-mode frames over HTTP: GET /frame?lat=&lon=&alt=[&heading=&pitch=&roll="
       "&width=&height=&fov=&tolerance=&format=png|jpeg] (PNG/JPEG), /height?lat=&lon=, /info, "
       "/stats, /healthz (JSON), and a web viewer at /. SIGTERM/SIGINT stop it after the "
-      "requests in flight");
+      "requests in flight; SIGHUP or POST /admin/reload (from loopback only) serves the dataset "
+      "rebuilt in DIR without a restart");
   serve->add_option("DIR", o->dir, "Dataset directory (pbdam build --out)")->required();
   serve->add_option("--bind", o->server.bindAddress, "Address to listen on (loopback by default)")
       ->capture_default_str();

@@ -2,13 +2,17 @@
 #include "ServeServer.h"
 
 #include <httplib.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <array>
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
 #include <cstdio>
+#include <cstring>
 #include <deque>
 #include <fstream>
 #include <functional>
@@ -23,6 +27,8 @@
 #include "HeightJson.h"
 #include "ServeRequest.h"
 #include "ServeViewerHtml.h"
+#include "pbdam/formats/DatasetFormat.h"
+#include "pbdam/formats/GuardedCopy.h"
 #include "pbdam/runtime/SurfaceQuery.h"
 #include "pbdam/streaming/MappedDataset.h"
 
@@ -96,6 +102,8 @@ const char* reasonPhrase(int status) {
   switch (status) {
     case 400:
       return "Bad Request";
+    case 403:
+      return "Forbidden";
     case 404:
       return "Not Found";
     case 405:
@@ -108,6 +116,8 @@ const char* reasonPhrase(int status) {
       return "URI Too Long";
     case 416:
       return "Range Not Satisfiable";
+    case 422:
+      return "Unprocessable Content";
     case 500:
       return "Internal Server Error";
     case 503:
@@ -150,7 +160,8 @@ std::uint64_t residentSetBytes() {
   return residentPages * static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
 }
 
-constexpr const char* kKnownPaths[] = {"/", "/frame", "/height", "/info", "/stats", "/healthz"};
+constexpr const char* kKnownPaths[] = {"/",      "/frame",   "/height",      "/info",
+                                       "/stats", "/healthz", "/admin/reload"};
 
 bool knownPath(const std::string& path) {
   for (const char* p : kKnownPaths) {
@@ -159,12 +170,160 @@ bool knownPath(const std::string& path) {
   return false;
 }
 
+/// Whether a peer address is this machine's loopback (IPv4 127/8, IPv6 ::1, or IPv4-mapped).
+bool isLoopback(const std::string& address) {
+  return address.starts_with("127.") || address == "::1" || address.starts_with("::ffff:127.");
+}
+
+/// GET /info of a generation: the dataset and the server's settings.
+Json makeInfo(const MappedDataset& dataset, const ServeOptions& options,
+              const std::string& device) {
+  const DatasetView& view = dataset.view();
+  const Manifest& m = view.manifest();
+  std::uint64_t nodes = 0;
+  for (int f = 0; f < 6; ++f) nodes += view.face(f).header().nodeCount;
+  Json info;
+  info["dataset"] = dataset.directory().filename().string();
+  info["planet"] = m.planetSpec;
+  info["equatorial_radius_m"] = m.equatorialRadiusMeters;
+  info["flattening"] = m.flattening;
+  info["source_dem"] = m.sourceDem;
+  info["min_height_m"] = m.minHeightMeters;
+  info["max_height_m"] = m.maxHeightMeters;
+  info["lattice_cells"] = m.latticeCells;
+  info["depth"] = m.depth;
+  info["patches"] = nodes;
+  info["texture_levels"] = m.textureLevels;
+  info["texture_format"] = m.textureFormat;
+  info["texture_source"] = m.textureSource;
+  info["bytes"] = dataset.bytes();
+  info["frame"] = {{"max_side_px", kMaxFrameSidePixels},
+                   {"tolerance_px", {kMinTolerancePixels, kMaxTolerancePixels}},
+                   {"defaults",
+                    {{"heading", 0},
+                     {"pitch", -90},
+                     {"roll", 0},
+                     {"width", 640},
+                     {"height", 480},
+                     {"fov", 60},
+                     {"tolerance", 3},
+                     {"format", "png"}}}};
+  info["server"] = {{"contexts", options.workers},
+                    {"queue", options.queueCapacity},
+                    {"gpu_cache_mib", options.gpuCacheMiB},
+                    {"deadline_s", options.deadlineSeconds},
+                    {"device", device}};
+  return info;
+}
+
+/// What is served: one mapping of the dataset and the render pool (contexts, GPU cache) drawing
+/// it. Requests hold it through shared_ptr; the last one to let go destroys it — the pool first
+/// (members go in reverse order), then the mapping.
+struct Generation final {
+  std::unique_ptr<MappedDataset> dataset;
+  std::unique_ptr<RenderPool> pool;
+  Json info;
+  std::uint64_t number = 1;  ///< 1 at start, +1 per successful reload
+};
+
+Result<std::shared_ptr<Generation>> openGeneration(const std::string& directory,
+                                                   const ServeOptions& options,
+                                                   std::uint64_t number) {
+  auto generation = std::make_shared<Generation>();
+  generation->number = number;
+  auto dataset = MappedDataset::open(directory);
+  if (!dataset) return std::move(dataset).error();
+  generation->dataset = std::move(*dataset);
+  RenderPoolOptions poolOptions;
+  poolOptions.workers = options.workers;
+  poolOptions.queueCapacity = options.queueCapacity;
+  poolOptions.gpuCacheBytes = static_cast<std::uint64_t>(options.gpuCacheMiB * 1048576.0);
+  if (options.device >= 0) poolOptions.deviceIndex = static_cast<std::uint32_t>(options.device);
+  auto pool = RenderPool::create(*generation->dataset, poolOptions);
+  if (!pool) return std::move(pool).error();
+  generation->pool = std::move(*pool);
+  generation->info = makeInfo(*generation->dataset, options, generation->pool->deviceName());
+  return generation;
+}
+
+/// What /healthz found wrong with the files of a generation (empty: nothing), and files that
+/// were replaced on disk since they were mapped (a rebuild waiting for a reload).
+struct FileCheck final {
+  std::vector<std::string> problems;
+  std::vector<std::string> replaced;
+};
+
+/// Sizes of every face file against manifest.json, through the path (cheap: one stat each).
+/// A path that names another file than the one mapped was replaced by a rebuild: noted, not a
+/// problem (the mapping still holds the old file).
+void checkFileSizes(const MappedDataset& dataset, FileCheck& check) {
+  const Manifest& m = dataset.view().manifest();
+  for (int f = 0; f < 6; ++f) {
+    const MappedFile& file = dataset.faceFile(f);
+    const std::string name = m.faces[static_cast<std::size_t>(f)].file;
+    struct stat st {};
+    if (::stat(file.path().c_str(), &st) != 0) {
+      check.problems.push_back(name + ": missing (" + std::strerror(errno) + ")");
+      continue;
+    }
+    const auto [device, inode] = file.fileIdentity();
+    if (static_cast<std::uint64_t>(st.st_dev) != device ||
+        static_cast<std::uint64_t>(st.st_ino) != inode) {
+      check.replaced.push_back(name);
+      continue;
+    }
+    const auto expected = m.faces[static_cast<std::size_t>(f)].bytes;
+    if (static_cast<std::uint64_t>(st.st_size) != expected) {
+      check.problems.push_back(name + ": " + std::to_string(st.st_size) +
+                               " bytes, manifest.json says " + std::to_string(expected) +
+                               (static_cast<std::uint64_t>(st.st_size) < expected
+                                    ? " (truncated in place)"
+                                    : " (grown in place)"));
+    }
+  }
+}
+
+/// Header and table checksums of every face, read again through the mapping (guarded): a
+/// failing disk or bytes rewritten in place since the dataset was opened. Reads the tables —
+/// megabytes — so /healthz runs it at most every kTableCheckSeconds.
+void checkTables(const MappedDataset& dataset, FileCheck& check) {
+  for (int f = 0; f < 6; ++f) {
+    const MappedFile& file = dataset.faceFile(f);
+    const FaceView& face = dataset.view().face(f);
+    const FaceHeader& h = face.header();
+    std::array<std::byte, kFaceHeaderBytes> header{};
+    if (auto r = file.read(0, header); !r) {
+      check.problems.push_back(r.error().message);
+      continue;
+    }
+    if (auto r = decodeFaceHeader(header, file.size(), face.context()); !r) {
+      check.problems.push_back(r.error().message);
+      continue;
+    }
+    auto nodes = crc32Mapped(file.bytes(), h.nodeTableOffset, h.nodeCount * kNodeRecordBytes,
+                             face.context());
+    auto textures = crc32Mapped(file.bytes(), h.textureTableOffset,
+                                h.textureNodeCount * kTextureRecordBytes, face.context());
+    if (!nodes) {
+      check.problems.push_back(nodes.error().message);
+    } else if (*nodes != h.nodeTableCrc) {
+      check.problems.push_back(face.context() + ": node table checksum differs from its header");
+    }
+    if (!textures) {
+      check.problems.push_back(textures.error().message);
+    } else if (*textures != h.textureTableCrc) {
+      check.problems.push_back(face.context() + ": texture table checksum differs from its header");
+    }
+  }
+}
+
+constexpr double kTableCheckSeconds = 10.0;
+
 }  // namespace
 
 struct FrameServer::Impl {
   ServeOptions options;
-  std::unique_ptr<MappedDataset> dataset;
-  std::unique_ptr<RenderPool> pool;
+  std::string directory;
   httplib::Server http;
   Clock::time_point started = Clock::now();
   std::uint32_t httpThreads = 0;
@@ -181,18 +340,57 @@ struct FrameServer::Impl {
   std::uint64_t requests = 0;
   std::atomic<std::uint64_t> served{0};
 
-  Json info;  ///< GET /info, computed once
+  // The served generation, swapped by reload(); reloads run one at a time.
+  mutable std::mutex generationMutex;
+  std::shared_ptr<Generation> generation;
+  std::uint64_t reloads = 0;
+  std::uint64_t failedReloads = 0;
+  std::string lastReloadError;
+  std::mutex reloadMutex;
 
+  // /healthz's last table check: its generation, time and findings.
+  mutable std::mutex healthMutex;
+  std::uint64_t tablesCheckedGeneration = 0;
+  Clock::time_point tablesCheckedAt;
+  std::vector<std::string> tableProblems;
+
+  std::shared_ptr<Generation> current() const {
+    const std::lock_guard<std::mutex> lock(generationMutex);
+    return generation;
+  }
+  Result<std::uint64_t> reload();
   void routes();
   void handleFrame(const httplib::Request& req, httplib::Response& res) const;
   void handleHeight(const httplib::Request& req, httplib::Response& res) const;
+  void handleReload(const httplib::Request& req, httplib::Response& res);
+  std::pair<int, Json> healthJson();
   Json statsJson() const;
-  int retryAfterSeconds() const;
+  static int retryAfterSeconds(const RenderPool& pool);
 };
 
-int FrameServer::Impl::retryAfterSeconds() const {
+Result<std::uint64_t> FrameServer::Impl::reload() {
+  const std::lock_guard<std::mutex> reloading(reloadMutex);
+  std::shared_ptr<Generation> old = current();
+  auto next = openGeneration(directory, options, old->number + 1);
+  const std::lock_guard<std::mutex> lock(generationMutex);
+  if (!next) {
+    ++failedReloads;
+    lastReloadError = next.error().message;
+    Error error = std::move(next).error();
+    error.message = "reload failed, still serving the dataset loaded before: " + error.message;
+    return error;
+  }
+  generation = std::move(*next);
+  ++reloads;
+  lastReloadError.clear();
+  // `old` goes when the requests still drawing from it have been answered (the last one
+  // destroys it), or here, after the lock, when none are.
+  return generation->number;
+}
+
+int FrameServer::Impl::retryAfterSeconds(const RenderPool& pool) {
   // About the time the contexts need to work off a full queue, at least a second.
-  const RenderPoolStats s = pool->stats();
+  const RenderPoolStats s = pool.stats();
   const double meanMs = s.frames > 0 ? s.renderMsTotal / static_cast<double>(s.frames) : 100.0;
   const double backlogMs =
       meanMs * static_cast<double>(s.queued + s.rendering) / static_cast<double>(s.workers);
@@ -201,19 +399,21 @@ int FrameServer::Impl::retryAfterSeconds() const {
 
 void FrameServer::Impl::handleFrame(const httplib::Request& req, httplib::Response& res) const {
   const auto received = Clock::now();
-  Result<FrameQuery> query = parseFrameQuery(req.params, dataset->view().planet());
+  // The whole request draws from one generation, even when a reload swaps it meanwhile.
+  const std::shared_ptr<Generation> g = current();
+  Result<FrameQuery> query = parseFrameQuery(req.params, g->dataset->view().planet());
   if (!query) return sendError(res, 400, query.error().message);
   const auto deadline = received + std::chrono::duration_cast<Clock::duration>(
                                        std::chrono::duration<double>(options.deadlineSeconds));
-  FrameOutcome outcome = pool->render(query->request, deadline);
+  FrameOutcome outcome = g->pool->render(query->request, deadline);
   switch (outcome.refusal) {
     case FrameRefusal::QueueFull:
-      res.set_header("Retry-After", std::to_string(retryAfterSeconds()));
+      res.set_header("Retry-After", std::to_string(retryAfterSeconds(*g->pool)));
       return sendError(res, 503,
                        "overloaded: every render context is busy and the queue of " +
                            std::to_string(options.queueCapacity) + " requests is full");
     case FrameRefusal::Deadline:
-      res.set_header("Retry-After", std::to_string(retryAfterSeconds()));
+      res.set_header("Retry-After", std::to_string(retryAfterSeconds(*g->pool)));
       return sendError(res, 503,
                        "deadline: the frame was not drawn within " +
                            std::to_string(options.deadlineSeconds) + " s");
@@ -256,17 +456,79 @@ void FrameServer::Impl::handleFrame(const httplib::Request& req, httplib::Respon
 void FrameServer::Impl::handleHeight(const httplib::Request& req, httplib::Response& res) const {
   Result<HeightQuery> query = parseHeightQuery(req.params);
   if (!query) return sendError(res, 400, query.error().message);
-  const DatasetView& view = dataset->view();
+  const std::shared_ptr<Generation> g = current();
+  const DatasetView& view = g->dataset->view();
   auto h = surfaceHeightAt(view, query->latDegrees, query->lonDegrees);
   if (!h) return sendError(res, statusFor(h.error()), h.error().message);
   sendJson(res, 200,
            surfaceHeightJson(query->latDegrees, query->lonDegrees, *h, view.manifest().planetSpec));
 }
 
+void FrameServer::Impl::handleReload(const httplib::Request& req, httplib::Response& res) {
+  if (!isLoopback(req.remote_addr)) {
+    return sendError(
+        res, 403,
+        "POST /admin/reload is accepted only from loopback (" + req.remote_addr + " is not)");
+  }
+  if (auto r = expectNoParams(req.params); !r) return sendError(res, 400, r.error().message);
+  auto number = reload();
+  if (!number) {
+    const ErrorCode code = number.error().code;
+    const bool badDataset = code == ErrorCode::CorruptData || code == ErrorCode::NotFound ||
+                            code == ErrorCode::UnsupportedFormat;
+    return sendError(res, badDataset ? 422 : 500, number.error().message);
+  }
+  sendJson(res, 200, {{"status", "reloaded"}, {"generation", *number}, {"dataset", directory}});
+}
+
+std::pair<int, Json> FrameServer::Impl::healthJson() {
+  if (stopRequested) return {503, {{"status", "stopping"}}};
+  const std::shared_ptr<Generation> g = current();
+  FileCheck check;
+  checkFileSizes(*g->dataset, check);
+  {
+    // The table checksums read megabytes: at most every kTableCheckSeconds per generation.
+    const std::lock_guard<std::mutex> lock(healthMutex);
+    const auto now = Clock::now();
+    if (tablesCheckedGeneration != g->number ||
+        std::chrono::duration<double>(now - tablesCheckedAt).count() >= kTableCheckSeconds) {
+      FileCheck tables;
+      checkTables(*g->dataset, tables);
+      tableProblems = std::move(tables.problems);
+      tablesCheckedGeneration = g->number;
+      tablesCheckedAt = now;
+    }
+    check.problems.insert(check.problems.end(), tableProblems.begin(), tableProblems.end());
+  }
+  Json j;
+  j["status"] = check.problems.empty() ? "ok" : "degraded";
+  if (!check.problems.empty()) j["reasons"] = check.problems;
+  j["dataset"] = directory;
+  j["generation"] = g->number;
+  if (!check.replaced.empty()) {
+    j["replaced_on_disk"] = check.replaced;  // a rebuild: POST /admin/reload or SIGHUP serves it
+  }
+  {
+    const std::lock_guard<std::mutex> lock(generationMutex);
+    if (!lastReloadError.empty()) j["last_reload_error"] = lastReloadError;
+  }
+  return {check.problems.empty() ? 200 : 503, j};
+}
+
 Json FrameServer::Impl::statsJson() const {
+  const std::shared_ptr<Generation> g = current();
+  const RenderPool* pool = g->pool.get();
   const RenderPoolStats s = pool->stats();
   Json j;
   j["uptime_s"] = std::chrono::duration<double>(Clock::now() - started).count();
+  {
+    const std::lock_guard<std::mutex> lock(generationMutex);
+    j["dataset"] = {{"directory", directory},
+                    {"generation", g->number},
+                    {"reloads", reloads},
+                    {"failed_reloads", failedReloads},
+                    {"last_reload_error", lastReloadError}};
+  }
   {
     const std::lock_guard<std::mutex> lock(countersMutex);
     Json byStatus = Json::object();
@@ -327,7 +589,7 @@ void FrameServer::Impl::routes() {
            [this](const httplib::Request& req, httplib::Response& res) { handleHeight(req, res); });
   http.Get("/info", [this](const httplib::Request& req, httplib::Response& res) {
     if (auto r = expectNoParams(req.params); !r) return sendError(res, 400, r.error().message);
-    sendJson(res, 200, info);
+    sendJson(res, 200, current()->info);
   });
   http.Get("/stats", [this](const httplib::Request& req, httplib::Response& res) {
     if (auto r = expectNoParams(req.params); !r) return sendError(res, 400, r.error().message);
@@ -335,15 +597,22 @@ void FrameServer::Impl::routes() {
   });
   http.Get("/healthz", [this](const httplib::Request& req, httplib::Response& res) {
     if (auto r = expectNoParams(req.params); !r) return sendError(res, 400, r.error().message);
-    if (stopRequested) return sendJson(res, 503, {{"status", "stopping"}});
-    sendJson(res, 200, {{"status", "ok"}});
+    const auto [status, body] = healthJson();
+    sendJson(res, status, body);
+  });
+  http.Post("/admin/reload", [this](const httplib::Request& req, httplib::Response& res) {
+    handleReload(req, res);
   });
   // Every other method: 405 on our paths, 404 elsewhere.
   const auto notAllowed = [](const httplib::Request& req, httplib::Response& res) {
     if (!knownPath(req.path)) return sendError(res, 404, "no such path");
-    res.set_header("Allow", "GET, HEAD");
-    sendError(res, 405, "method " + req.method + " not allowed on " + req.path + " (GET only)");
+    const bool post = req.path == "/admin/reload";
+    res.set_header("Allow", post ? "POST" : "GET, HEAD");
+    sendError(res, 405,
+              "method " + req.method + " not allowed on " + req.path +
+                  (post ? " (POST only)" : " (GET only)"));
   };
+  http.Get("/admin/reload", notAllowed);
   http.Post(".*", notAllowed);
   http.Put(".*", notAllowed);
   http.Patch(".*", notAllowed);
@@ -361,7 +630,9 @@ void FrameServer::Impl::routes() {
             message = "malformed request (not HTTP/1.x, an unsupported method or bad headers)";
             break;
           case 404:
-            message = "no such path (GET /, /frame, /height, /info, /stats, /healthz)";
+            message =
+                "no such path (GET /, /frame, /height, /info, /stats, /healthz; POST "
+                "/admin/reload)";
             break;
           case 413:
             message = "request body too large";
@@ -405,60 +676,17 @@ void FrameServer::Impl::routes() {
 
 FrameServer::FrameServer(std::unique_ptr<Impl> impl) noexcept : impl_(std::move(impl)) {}
 FrameServer::~FrameServer() {
-  if (impl_ && impl_->pool) impl_->pool->shutdown();
+  if (impl_ && impl_->generation) impl_->generation->pool->shutdown();
 }
 
 Result<std::unique_ptr<FrameServer>> FrameServer::create(const std::string& directory,
                                                          const ServeOptions& options) {
   auto impl = std::make_unique<Impl>();
   impl->options = options;
-  auto dataset = MappedDataset::open(directory);
-  if (!dataset) return std::move(dataset).error();
-  impl->dataset = std::move(*dataset);
-  RenderPoolOptions poolOptions;
-  poolOptions.workers = options.workers;
-  poolOptions.queueCapacity = options.queueCapacity;
-  poolOptions.gpuCacheBytes = static_cast<std::uint64_t>(options.gpuCacheMiB * 1048576.0);
-  if (options.device >= 0) poolOptions.deviceIndex = static_cast<std::uint32_t>(options.device);
-  auto pool = RenderPool::create(*impl->dataset, poolOptions);
-  if (!pool) return std::move(pool).error();
-  impl->pool = std::move(*pool);
-
-  const DatasetView& view = impl->dataset->view();
-  const Manifest& m = view.manifest();
-  std::uint64_t nodes = 0;
-  for (int f = 0; f < 6; ++f) nodes += view.face(f).header().nodeCount;
-  Json& info = impl->info;
-  info["dataset"] = impl->dataset->directory().filename().string();
-  info["planet"] = m.planetSpec;
-  info["equatorial_radius_m"] = m.equatorialRadiusMeters;
-  info["flattening"] = m.flattening;
-  info["source_dem"] = m.sourceDem;
-  info["min_height_m"] = m.minHeightMeters;
-  info["max_height_m"] = m.maxHeightMeters;
-  info["lattice_cells"] = m.latticeCells;
-  info["depth"] = m.depth;
-  info["patches"] = nodes;
-  info["texture_levels"] = m.textureLevels;
-  info["texture_format"] = m.textureFormat;
-  info["texture_source"] = m.textureSource;
-  info["bytes"] = impl->dataset->bytes();
-  info["frame"] = {{"max_side_px", kMaxFrameSidePixels},
-                   {"tolerance_px", {kMinTolerancePixels, kMaxTolerancePixels}},
-                   {"defaults",
-                    {{"heading", 0},
-                     {"pitch", -90},
-                     {"roll", 0},
-                     {"width", 640},
-                     {"height", 480},
-                     {"fov", 60},
-                     {"tolerance", 3},
-                     {"format", "png"}}}};
-  info["server"] = {{"contexts", options.workers},
-                    {"queue", options.queueCapacity},
-                    {"gpu_cache_mib", options.gpuCacheMiB},
-                    {"deadline_s", options.deadlineSeconds},
-                    {"device", impl->pool->deviceName()}};
+  impl->directory = directory;
+  auto generation = openGeneration(directory, options, 1);
+  if (!generation) return std::move(generation).error();
+  impl->generation = std::move(*generation);
 
   // Enough connection threads that every admitted frame request (contexts + queue) can wait
   // for its frame while a few more answer /stats, /healthz and the refusals.
@@ -518,7 +746,7 @@ Result<void> FrameServer::run() {
   watcher.join();
   // Every connection has been answered (httplib drains its task queue before returning); the
   // contexts have nothing left to draw.
-  m.pool->shutdown();
+  m.current()->pool->shutdown();
   if (!ok && !m.stopRequested) {
     return makeError(ErrorCode::IoError,
                      "the HTTP listener failed on port " + std::to_string(m.port));
@@ -534,7 +762,13 @@ void FrameServer::stop() {
   impl_->stopWake.notify_all();
 }
 
-const std::string& FrameServer::deviceName() const noexcept { return impl_->pool->deviceName(); }
+Result<void> FrameServer::reload() {
+  auto number = impl_->reload();
+  if (!number) return std::move(number).error();
+  return {};
+}
+
+std::string FrameServer::deviceName() const { return impl_->current()->pool->deviceName(); }
 
 std::uint64_t FrameServer::requestsServed() const noexcept { return impl_->served.load(); }
 

@@ -1,8 +1,13 @@
 // The HTTP side of `pbdam serve` (docs/architecture.md "What pbdam is"): cpp-httplib (Debian's
-// libcpp-httplib) routes GET /frame, /height, /info, /stats, /healthz and the embedded viewer page
-// at /, turns every bad request into a 4xx with a JSON body, and answers overload with 503 +
-// Retry-After. Frames come from a RenderPool over one mapping of the dataset. Thread-safety: stop()
-// may be called from any thread (the signal thread); the rest from the thread that owns the server.
+// libcpp-httplib) routes GET /frame, /height, /info, /stats, /healthz, POST /admin/reload and the
+// embedded viewer page at /, turns every bad request into a 4xx with a JSON body, and answers
+// overload with 503 + Retry-After. Frames come from a RenderPool over one mapping of the dataset:
+// together they are the served *generation*, which reload() replaces by a new one over the files
+// now in the directory while requests in flight finish on the old one. A dataset whose files
+// become unreadable (truncated in place, a failing disk) fails the frames that need them with a
+// 500 naming file and offset; the server goes on, and /healthz says "degraded".
+// Thread-safety: stop() and reload() may be called from any thread (the signal thread); the rest
+// from the thread that owns the server.
 #pragma once
 
 #include <cstdint>
@@ -44,8 +49,14 @@ class FrameServer final {
   /// Stops accepting connections; run() then returns after the in-flight requests. Safe from
   /// any thread, any number of times.
   void stop();
+  /// Maps the dataset directory again (a rebuilt dataset) and serves it from here on with a new
+  /// render pool and GPU cache: requests in flight finish on the old dataset, which is unmapped
+  /// once the last of them is answered; nothing cached from it is drawn again. Errors (the new
+  /// dataset is broken or missing, as MappedDataset::open and RenderPool::create) keep the old
+  /// one served and are remembered for /healthz and /stats. One reload runs at a time.
+  formats::Result<void> reload();
   /// The render pool's device, for the start-up line.
-  const std::string& deviceName() const noexcept;
+  std::string deviceName() const;
   /// Requests answered so far.
   std::uint64_t requestsServed() const noexcept;
 

@@ -8,6 +8,7 @@
 
 #include "Commands.h"
 #include "MpiLauncher.h"
+#include "pbdam/formats/GuardedCopy.h"
 
 namespace {
 
@@ -49,6 +50,10 @@ int run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Mapped bytes read in place (the builder's and verify's scratch and checkpoint files) that
+  // become unreadable end the command with a line naming the file and offset and exit code 2,
+  // not a SIGBUS; reads of datasets go through guarded copies and are errors of their own.
+  pbdam::formats::reportUnreadableMappingsAndExit(pbdam::tools::kExitBadInput);
   // Commands report bad input as results; an exception reaching here is a bug or an exhausted
   // resource (std::bad_alloc): one line and exit code 1 rather than std::terminate's abort.
   try {

@@ -15,6 +15,7 @@
 
 #include "pbdam/formats/Checksum.h"
 #include "pbdam/formats/FileWrite.h"
+#include "pbdam/formats/GuardedCopy.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
@@ -241,26 +242,37 @@ Result<MappedFile> Checkpoint::openFile(Kind kind, int level, std::uint32_t part
   auto mapped = MappedFile::open(path);
   if (!mapped) return std::move(mapped).error();
   const auto bytes = mapped->bytes();
-  auto inside = partPayload(bytes, kind, level, part, path.string());
-  if (!inside) return std::move(inside).error();
+  // The trailer and CRC are copied out guarded: a file cut short under the mapping is an error.
+  std::array<std::byte, kPartTrailerBytes + 4> tail{};
+  if (bytes.size() < tail.size()) {
+    return makeError(ErrorCode::CorruptData, path.string() + ": truncated checkpoint file");
+  }
+  if (auto read = mapped->read(bytes.size() - tail.size(), tail); !read) {
+    return std::move(read).error();
+  }
+  auto payloadBytes = partPayloadBytes(tail, bytes.size(), kind, level, part, path.string());
+  if (!payloadBytes) return std::move(payloadBytes).error();
   if (verify) {
     std::uint32_t stored = 0;
-    std::memcpy(&stored, bytes.data() + bytes.size() - 4, 4);
+    std::memcpy(&stored, tail.data() + kPartTrailerBytes, 4);
     // RSS bound: the check reads every page; release them every 64 MB (chunk starts stay
-    // page-aligned), not only at the end, or a leaf level's file would be resident whole.
+    // page-aligned), not only at the end, or a leaf level's file would be resident whole. Read
+    // through guarded copies: a part truncated or unreadable on disk is an error naming it.
     constexpr std::size_t kChunk = std::size_t{64} << 20;
-    const auto checked = bytes.first(bytes.size() - 4);
+    const std::size_t checked = bytes.size() - 4;
     std::uint32_t crc = 0;
-    for (std::size_t at = 0; at < checked.size(); at += kChunk) {
-      const std::size_t n = std::min(kChunk, checked.size() - at);
-      crc = crc32(checked.subspan(at, n), crc);
+    for (std::size_t at = 0; at < checked; at += kChunk) {
+      const std::size_t n = std::min(kChunk, checked - at);
+      auto piece = crc32Mapped(bytes, at, n, path.string(), crc);
       (void)mapped->releaseResident(at, n);
+      if (!piece) return std::move(piece).error();
+      crc = *piece;
     }
     if (crc != stored) {
       return makeError(ErrorCode::CorruptData, path.string() + ": checksum mismatch");
     }
   }
-  payload = *inside;
+  payload = bytes.first(*payloadBytes);
   return mapped;
 }
 

@@ -34,15 +34,17 @@ std::vector<std::byte> encodePartTrailer(Checkpoint::Kind kind, int level, std::
   return trailer.take();
 }
 
-Result<std::span<const std::byte>> partPayload(std::span<const std::byte> bytes,
-                                               Checkpoint::Kind kind, int level, std::uint32_t part,
-                                               const std::string& where) {
+Result<std::size_t> partPayloadBytes(std::span<const std::byte> tail, std::size_t fileBytes,
+                                     Checkpoint::Kind kind, int level, std::uint32_t part,
+                                     const std::string& where) {
   auto damaged = [&](const std::string& what) {
     return makeError(ErrorCode::CorruptData, where + ": " + what);
   };
-  if (bytes.size() < kPartTrailerBytes + 4) return damaged("truncated checkpoint file");
-  const std::size_t payloadEnd = bytes.size() - kPartTrailerBytes - 4;
-  ByteReader r(bytes.subspan(payloadEnd));
+  if (fileBytes < kPartTrailerBytes + 4 || tail.size() != kPartTrailerBytes + 4) {
+    return damaged("truncated checkpoint file");
+  }
+  const std::size_t payloadEnd = fileBytes - kPartTrailerBytes - 4;
+  ByteReader r(tail);
   std::array<char, 8> magic{};
   for (char& c : magic) c = r.get<char>();
   const auto version = r.get<std::uint32_t>();
@@ -58,7 +60,17 @@ Result<std::span<const std::byte>> partPayload(std::span<const std::byte> bytes,
     return damaged("holds another kind, level or part");
   }
   if (payloadBytes != payloadEnd) return damaged("size mismatch");
-  return bytes.first(payloadEnd);
+  return payloadEnd;
+}
+
+Result<std::span<const std::byte>> partPayload(std::span<const std::byte> bytes,
+                                               Checkpoint::Kind kind, int level, std::uint32_t part,
+                                               const std::string& where) {
+  const std::size_t tailBytes = std::min(bytes.size(), kPartTrailerBytes + 4);
+  auto payloadBytes =
+      partPayloadBytes(bytes.last(tailBytes), bytes.size(), kind, level, part, where);
+  if (!payloadBytes) return std::move(payloadBytes).error();
+  return bytes.first(*payloadBytes);
 }
 
 Result<CheckpointState> parseCheckpointState(std::string_view text, const std::string& where) {

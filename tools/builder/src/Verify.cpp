@@ -20,6 +20,7 @@
 #include "pbdam/builder/SampleGrid.h"
 #include "pbdam/formats/Checksum.h"
 #include "pbdam/formats/DatasetFormat.h"
+#include "pbdam/formats/GuardedCopy.h"
 #include "pbdam/formats/Manifest.h"
 #include "pbdam/formats/PatchCodec.h"
 #include "pbdam/formats/TextureTile.h"
@@ -176,11 +177,19 @@ void DatasetVerifier::openFaces() {
     }
     // In 64 MB pieces, dropping the mapping's pages from this process after each: the file's
     // pages stay in the page cache but not in verify's RSS.
+    // Read through guarded copies: a file truncated while it is checked is a violation, not
+    // a SIGBUS.
     std::uint32_t crc = 0;
     const std::span<const std::byte> all = files_[f].bytes();
     for (std::size_t at = 0; at < all.size(); at += std::size_t{64} << 20) {
-      crc = crc32(all.subspan(at, std::min(all.size() - at, std::size_t{64} << 20)), crc);
+      const std::size_t n = std::min(all.size() - at, std::size_t{64} << 20);
+      auto piece = crc32Mapped(all, at, n, path.string(), crc);
       (void)files_[f].releaseResident();
+      if (!piece) {
+        violations_.add(piece.error().message);
+        break;
+      }
+      crc = *piece;
     }
     if (crc != manifest_.faces[f].crc32) {
       violations_.add(path.string() + ": file checksum differs from the manifest");
@@ -375,7 +384,13 @@ void DatasetVerifier::checkNode(std::uint64_t id) {
   const std::string where = view.context() + " " + nodeName(t);
   PatchMesh mesh;
   const std::string context = view.context() + " offset " + std::to_string(node.record.blobOffset);
-  if (auto r = decodePatch(view.patchBlob(node.record), mesh, context); !r) {
+  thread_local std::vector<std::byte> blob;
+  auto bytes = view.readPatchBlob(node.record, blob);
+  if (!bytes) {
+    violations_.add(bytes.error().message + " (" + nodeName(t) + ")");
+    return;
+  }
+  if (auto r = decodePatch(*bytes, mesh, context); !r) {
     violations_.add(r.error().message + " (" + nodeName(t) + ")");
     return;
   }
@@ -488,6 +503,7 @@ void DatasetVerifier::checkDiamondDag() {
 }
 
 void DatasetVerifier::checkTextures() {
+  std::vector<std::byte> blob;
   for (std::size_t f = 0; f < 6; ++f) {
     const FaceView& view = *views_[f];
     const std::uint32_t levels = view.header().textureLevels;
@@ -495,8 +511,13 @@ void DatasetVerifier::checkTextures() {
       for (std::uint32_t qj = 0; qj < (1U << level); ++qj) {
         for (std::uint32_t qi = 0; qi < (1U << level); ++qi) {
           const TextureRecord r = view.textureNode(textureHeapIndex(level, qi, qj));
-          auto tile = decodeTextureTile(view.textureBlob(r),
-                                        view.context() + " offset " + std::to_string(r.blobOffset));
+          auto bytes = view.readTextureBlob(r, blob);
+          if (!bytes) {
+            violations_.add(bytes.error().message);
+            continue;
+          }
+          auto tile =
+              decodeTextureTile(*bytes, view.context() + " offset " + std::to_string(r.blobOffset));
           if (!tile) {
             violations_.add(tile.error().message);
             continue;

@@ -80,14 +80,23 @@ void encodeTextureRecord(const TextureRecord& record,
 /// Decodes a header: magic, version, CRC, and internal consistency (counts match the depth and
 /// texture levels, tables and blobs lie in order inside `fileBytes`). `context` names the file.
 Result<FaceHeader> decodeFaceHeader(std::span<const std::byte> bytes, std::string_view context);
+/// The same for a header's bytes held apart from its file (`bytes` its first 128 bytes or
+/// fewer, `fileBytes` the file's size).
+Result<FaceHeader> decodeFaceHeader(std::span<const std::byte> bytes, std::uint64_t fileBytes,
+                                    std::string_view context);
 NodeRecord decodeNodeRecord(std::span<const std::byte, kNodeRecordBytes> bytes) noexcept;
 TextureRecord decodeTextureRecord(std::span<const std::byte, kTextureRecordBytes> bytes) noexcept;
 
-/// A validated, read-only view of a whole face file held in memory or mapped.
+/// A validated, read-only view of a whole face file held in memory or mapped. The header and
+/// both tables are copied out of the file when it opens (through guarded copies, GuardedCopy.h)
+/// and checked against their CRC-32s; records are decoded from those copies, never from the
+/// file again. Blobs are copied out on each read (guarded too): a truncated or unreadable file
+/// is an error naming it and the offset, never a SIGBUS. Thread-safety: const members from any
+/// thread; the file's bytes must outlive the view.
 class FaceView final {
  public:
-  /// Validates the header, both table CRCs, and that every node's and tile's blob lies inside the
-  /// blob area. Errors are CorruptData naming `context` and the offset.
+  /// Copies and validates the header, both tables (CRCs), and that every node's and tile's blob
+  /// lies inside the blob area. Errors are CorruptData naming `context` and the offset.
   static Result<FaceView> open(std::span<const std::byte> file, std::string context);
 
   const FaceHeader& header() const noexcept { return header_; }
@@ -96,19 +105,29 @@ class FaceView final {
   /// Node `heapIndex` of tree `tree` (0 or 1).
   NodeRecord node(std::uint32_t tree, std::uint64_t heapIndex) const noexcept;
   NodeRecord nodeAt(std::uint64_t tableIndex) const noexcept;
-  /// The patch blob of a node (empty when the node has none).
-  std::span<const std::byte> patchBlob(const NodeRecord& node) const noexcept;
+  /// Copies the patch blob of a node into `buffer` (resized to fit) and returns it (empty when
+  /// the node has none). CorruptData naming the file and offset when the blob's bytes cannot be
+  /// read (the file was truncated under its mapping, or its disk failed). The blob's own CRC is
+  /// for its decoder to check.
+  Result<std::span<const std::byte>> readPatchBlob(const NodeRecord& node,
+                                                   std::vector<std::byte>& buffer) const;
   TextureRecord textureNode(std::uint64_t heapIndex) const noexcept;
-  std::span<const std::byte> textureBlob(const TextureRecord& record) const noexcept;
+  /// The same for a tile blob.
+  Result<std::span<const std::byte>> readTextureBlob(const TextureRecord& record,
+                                                     std::vector<std::byte>& buffer) const;
   /// Byte offset of a table entry in the file (for error messages and prefetch).
   std::uint64_t nodeRecordOffset(std::uint64_t tableIndex) const noexcept {
     return header_.nodeTableOffset + tableIndex * kNodeRecordBytes;
   }
 
  private:
+  Result<std::span<const std::byte>> readBlob(std::uint64_t offset, std::uint32_t bytes,
+                                              std::vector<std::byte>& buffer) const;
   FaceHeader header_;
   std::span<const std::byte> file_;
   std::string context_;
+  std::vector<std::byte> nodeTable_;     ///< copied and CRC-checked at open
+  std::vector<std::byte> textureTable_;  ///< copied and CRC-checked at open
 };
 
 /// Heap index of texture quadtree node (level, qi, qj): (4^level − 1)/3 + qj·2^level + qi.

@@ -43,8 +43,18 @@ class MemoryMapping final {
   static Result<MemoryMapping> createScratch(const std::filesystem::path& directory,
                                              std::size_t size);
 
-  /// The mapped bytes (empty for an empty or moved-from mapping).
+  /// The mapped bytes (empty for an empty or moved-from mapping). Reading them directly can
+  /// fault (SIGBUS) when the file is truncated or its disk fails: code that must survive that
+  /// reads through read(), touch() or formats/GuardedCopy.h instead.
   std::span<const std::byte> bytes() const noexcept { return {data_, size_}; }
+
+  /// Copies bytes [offset, offset + out.size()) into `out` through a guarded copy
+  /// (GuardedCopy.h). CorruptData naming the file and offset when the range lies outside the
+  /// mapping or a page of it cannot be read (truncated file, failing disk).
+  Result<void> read(std::uint64_t offset, std::span<std::byte> out) const;
+  /// Reads every page of [offset, offset + length) through guarded copies (bringing them into
+  /// the page cache) and discards the bytes. Errors as read().
+  Result<void> touch(std::uint64_t offset, std::uint64_t length) const;
   /// The mapped bytes for writing; empty unless the mapping is writable.
   std::span<std::byte> writableBytes() const noexcept {
     return writable_ ? std::span<std::byte>(data_, size_) : std::span<std::byte>();
@@ -53,6 +63,12 @@ class MemoryMapping final {
   bool writable() const noexcept { return writable_; }
   /// The mapped file's path (the directory for a scratch mapping).
   const std::filesystem::path& path() const noexcept { return path_; }
+  /// The mapped file's device and inode numbers (st_dev, st_ino) when it was opened: whether
+  /// the path still names the mapped file or one put in its place since. Zero for writable and
+  /// scratch mappings.
+  std::pair<std::uint64_t, std::uint64_t> fileIdentity() const noexcept {
+    return {device_, inode_};
+  }
 
   /// Sets the whole mapping's access pattern (MADV_RANDOM makes fault accounting honest).
   Result<void> advise(MappingAdvice advice) const noexcept;
@@ -93,6 +109,9 @@ class MemoryMapping final {
   std::byte* data_ = nullptr;
   std::size_t size_ = 0;
   bool writable_ = false;
+  std::uint64_t device_ = 0;
+  std::uint64_t inode_ = 0;
+  int reportSlot_ = -1;  ///< registerMappedRange's slot (GuardedCopy.h)
 };
 
 /// Drops this process's page-table entries of the pages overlapping [data, data + bytes) of a

@@ -6,6 +6,9 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
+
+#include "pbdam/formats/Result.h"
 
 #include "pbdam/runtime/Camera.h"
 #include "pbdam/runtime/Refinement.h"
@@ -33,8 +36,10 @@ class NoStallPolicy final {
   /// Brings every node table, the patches of levels 0-2 and the root tiles into the page cache
   /// (and out of the process's RSS again): no-stall refinement must not fault on node records,
   /// and with the coarsest levels resident there is always a conforming cut to draw. Blocks on
-  /// the reads: call it before the first frame.
-  void preloadCoarseLevels() const;
+  /// the reads: call it before the first frame. Ranges that cannot be read (a truncated file,
+  /// a failing disk) are skipped; their errors, naming the file and offset, are returned (empty
+  /// when everything was read).
+  std::vector<formats::Error> preloadCoarseLevels() const;
 
   /// The finest level-capped cut for `camera` (refined with `options`, whose maxLevel it
   /// replaces) whose patch and tile byte ranges are all resident. Faults in node records only.

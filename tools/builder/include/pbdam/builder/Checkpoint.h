@@ -211,12 +211,18 @@ class Checkpoint final {
   std::filesystem::path dir_;
 };
 
-// ---- The trailer of the part files: magic PBDAMCKP, u32 version 2, u32 kind, i32 level, u32
+// ---- The trailer of the part files: magic PBDAMCKP, u32 version 3, u32 kind, i32 level, u32
 // part, u32 parts, u32 0, u64 payload bytes; then the CRC-32 of payload and trailer.
 inline constexpr std::size_t kPartTrailerBytes = 8 + 4 + 4 + 4 + 4 + 4 + 4 + 8;
 /// The trailer of a part file whose payload has `payloadBytes` bytes (the CRC follows it).
 std::vector<std::byte> encodePartTrailer(Checkpoint::Kind kind, int level, std::uint32_t part,
                                          std::uint32_t parts, std::uint64_t payloadBytes);
+/// The payload size of a part file of `fileBytes` bytes whose last kPartTrailerBytes + 4 bytes
+/// are `tail` (trailer and CRC, copied out of the file), checked as partPayload checks them.
+formats::Result<std::size_t> partPayloadBytes(std::span<const std::byte> tail,
+                                              std::size_t fileBytes, Checkpoint::Kind kind,
+                                              int level, std::uint32_t part,
+                                              const std::string& where);
 /// The payload of the whole part file `bytes` after checking its trailer against `kind`,
 /// `level` (not for Texture) and `part` (not the CRC); CorruptData naming `where` otherwise.
 formats::Result<std::span<const std::byte>> partPayload(std::span<const std::byte> bytes,
