@@ -96,6 +96,7 @@ TEST(GuardedCopy, ManyThreadsHitUnreadablePagesAtOnce) {
   TruncatedMapping t = mapThenTruncate(dir, 16, 2 * page);
   std::atomic<int> failures{0}, successes{0}, expectedSuccesses{0};
   std::vector<std::thread> threads;
+  threads.reserve(4);
   for (int i = 0; i < 4; ++i) {
     threads.emplace_back([&, i] {
       std::vector<std::byte> out(page);

@@ -7,7 +7,6 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
-#include <cstring>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -78,9 +77,7 @@ TEST(MappedFaults, NodeTablesRewrittenAfterOpenAreNeverRead) {
   EXPECT_EQ(after.blobOffset, before.blobOffset);
   EXPECT_EQ(after.errorMeters, before.errorMeters);
   EXPECT_EQ(after.vertexCount, before.vertexCount);
-  EXPECT_EQ(std::memcmp(after.cornerPositions.data(), before.cornerPositions.data(),
-                        sizeof before.cornerPositions),
-            0);
+  EXPECT_EQ(after.cornerPositions, before.cornerPositions);
 }
 
 TEST(MappedFaults, FacesTruncatedAfterOpenAreErrorsNamingFileAndOffset) {

@@ -219,6 +219,8 @@ Json makeInfo(const MappedDataset& dataset, const ServeOptions& options,
 /// What is served: one mapping of the dataset and the render pool (contexts, GPU cache) drawing
 /// it. Requests hold it through shared_ptr; the last one to let go destroys it — the pool first
 /// (members go in reverse order), then the mapping.
+// RenderPool's destructor joins its threads, which throws only on misuse (joining itself).
+// NOLINTNEXTLINE(bugprone-exception-escape): see above
 struct Generation final {
   std::unique_ptr<MappedDataset> dataset;
   std::unique_ptr<RenderPool> pool;
