@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <glm/trigonometric.hpp>
 #include <numbers>
@@ -184,6 +185,23 @@ PatchVertexPlacement::PatchVertexPlacement(const DatasetView& dataset, const Nod
     corners_[static_cast<std::size_t>(k)] = position(record, k);
     normals_[static_cast<std::size_t>(k)] = fnormalOf(record, k);
   }
+  planeOrigin_ = glm::min(tri.apex, glm::min(tri.left, tri.right));
+  const LatticeXY size = glm::max(tri.apex, glm::max(tri.left, tri.right)) - planeOrigin_ + 1;
+  constexpr std::int32_t kMaxCachedSide = 4096;
+  if (size.x <= kMaxCachedSide && size.y <= kMaxCachedSide) {
+    // The same uv the lattice direction uses (latticeDirection), so the same bits.
+    const double n = static_cast<double>(latticeCells_);
+    planeU_.resize(static_cast<std::size_t>(size.x));
+    planeV_.resize(static_cast<std::size_t>(size.y));
+    for (std::size_t i = 0; i < planeU_.size(); ++i) {
+      planeU_[i] = CubeMap::uvToPlaneCoordinate(
+          static_cast<double>(planeOrigin_.x + static_cast<std::int32_t>(i)) / n);
+    }
+    for (std::size_t j = 0; j < planeV_.size(); ++j) {
+      planeV_[j] = CubeMap::uvToPlaneCoordinate(
+          static_cast<double>(planeOrigin_.y + static_cast<std::int32_t>(j)) / n);
+    }
+  }
 }
 
 bool PatchVertexPlacement::latticePoint(std::uint16_t b1, std::uint16_t b2,
@@ -200,8 +218,20 @@ bool PatchVertexPlacement::latticePoint(std::uint16_t b1, std::uint16_t b2,
 
 glm::dvec3 PatchVertexPlacement::terrainPoint(LatticeXY q,
                                               std::int32_t heightSteps) const noexcept {
-  return latticeTerrainPoint(*planet_, latticeCells_, face_, q,
-                             static_cast<double>(heightSteps) * heightStepMeters_);
+  const double h = static_cast<double>(heightSteps) * heightStepMeters_;
+  // A point inside the face is its own canonical alias (latticeDirection): its direction from
+  // the cached plane coordinates is the same bits. Points on face edges take the full path.
+  const auto n = static_cast<std::int32_t>(latticeCells_);
+  const LatticeXY local = q - planeOrigin_;
+  if (q.x > 0 && q.y > 0 && q.x < n && q.y < n && !planeU_.empty() && local.x >= 0 &&
+      local.y >= 0 && std::cmp_less(local.x, planeU_.size()) &&
+      std::cmp_less(local.y, planeV_.size())) {
+    const glm::dvec3 d = CubeMap::planeToDirection(cubeFaceFromIndex(face_),
+                                                   planeU_[static_cast<std::size_t>(local.x)],
+                                                   planeV_[static_cast<std::size_t>(local.y)]);
+    return terrainPointOfDirection(*planet_, d, h);
+  }
+  return latticeTerrainPoint(*planet_, latticeCells_, face_, q, h);
 }
 
 bool PatchVertexPlacement::displacement(const PatchVertex& v,

@@ -98,6 +98,8 @@ TEST(DecodeScheduler, DecodesPatchesAndTilesIntoTheCallersMemory) {
         ASSERT_TRUE(placement.latticePoint(pv.b1, pv.b2, q));
         const glm::dvec3 terrain = latticeTerrainPoint(view.planet(), view.latticeCells(),
                                                        job.node.face, q, pv.heightSteps * step);
+        // The placement's cached tangents give the very bits of the shared function.
+        EXPECT_TRUE(placement.terrainPoint(q, pv.heightSteps) == terrain);
         const glm::dvec3 offset(gpu.offsetMeters[0], gpu.offsetMeters[1], gpu.offsetMeters[2]);
         const PatchVertexBase base = placement.base(pv.b1, pv.b2);
         EXPECT_EQ(std::fmod(static_cast<double>(gpu.heightMeters), step), 0.0);

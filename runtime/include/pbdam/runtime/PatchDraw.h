@@ -56,6 +56,7 @@
 #include <cstdint>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
+#include <vector>
 
 #include "pbdam/formats/DatasetFormat.h"
 #include "pbdam/formats/PatchCodec.h"
@@ -182,6 +183,11 @@ class PatchVertexPlacement final {
   int face_;
   double heightStepMeters_;
   LatticeXY apex_{0}, leg1_{0}, leg2_{0};
+  // Plane coordinates of the columns x0.. and rows y0.. of the triangle's bounding box (the
+  // tangents of the cube map, once per column and row instead of twice per vertex); empty
+  // where the box is too large to be worth it.
+  LatticeXY planeOrigin_{0};
+  std::vector<double> planeU_, planeV_;
   std::array<glm::dvec3, 3> corners_{};
   std::array<glm::vec3, 3> normals_{};
   std::array<PointKey, 3> keys_{};
