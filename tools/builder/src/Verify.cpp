@@ -66,7 +66,7 @@ std::string nodeName(const BinTriangle& t) {
          std::to_string(t.level) + " node " + std::to_string(t.index);
 }
 
-/// The vertices one patch has on one of its edges: (canonical key, displacement) sorted.
+/// The vertices one patch has on one of its edges: (canonical key, height steps) sorted.
 using EdgeVertices = std::vector<std::pair<PointKey, std::int32_t>>;
 
 /// A 64-bit digest of an edge's vertex list (splitmix64 over its count and entries): verify keeps
@@ -532,7 +532,7 @@ Result<VerifyReport> DatasetVerifier::run() {
   // ---- Every node: decode, coverage, orientation, sphere, edges, error against the DEM.
   checkNodes();
   // ---- Shared edges: every patch bordering an edge has the same vertices there (and the same
-  // displacements), so every conforming cut is crack-free.
+  // heights), so every conforming cut is crack-free.
   checkSharedEdges();
   // ---- The diamond DAG: partners share error and sphere; parents bound children.
   checkDiamondDag();

@@ -1,7 +1,7 @@
 // Patch construction for P-BDAM (paper 004 §5 "Out-of-core Geometric Simplification";
 // docs/builder.md "Patches"): regular leaf patches, the simplification of one block (the four
 // children of a diamond) into the diamond's two patches with meshoptimizer, and the measurement
-// and encoding of a patch (exact barycentrics, displacement along the interpolated normal,
+// and encoding of a patch (exact barycentrics, quantised lattice heights,
 // error against lattice and source samples, bounding sphere). Thread-safety: free functions on
 // their own data; SampleGrid is read-only, so blocks may be processed concurrently.
 #pragma once
