@@ -1,11 +1,14 @@
 // Runtime micro-benchmarks (docs/architecture.md "Refinement and drawing", "Streaming"): the
 // stateless refinement traversal of paper 004 §4.3 over the poses of a recorded flight (µs per
-// frame), and the GPU cache's LRU bookkeeping (ResidencyLru: touch, insert with eviction). Google
+// frame), the decode of patches into GPU vertices (DecodeScheduler: LZO, then each vertex's
+// terrain point and offset in double; one thread), and the GPU cache's LRU bookkeeping
+// (ResidencyLru: touch, insert with eviction). Google
 // Benchmark; the traversal reads a built dataset: PBDAM_BENCH_DATASET (default build/testdata/mola,
 // which the test suite's fixture builds) and the flight PBDAM_BENCH_PATH (default
 // bench/paths/mars_flight.csv).
 //   build/release/bench/pbdam_bench_runtime [--benchmark_filter=...]
 #include <benchmark/benchmark.h>
+#include <tbb/global_control.h>
 
 #include <cstdint>
 #include <cstdio>
@@ -17,6 +20,7 @@
 #include "pbdam/formats/CameraPath.h"
 #include "pbdam/runtime/Camera.h"
 #include "pbdam/runtime/Refinement.h"
+#include "pbdam/streaming/DecodeScheduler.h"
 #include "pbdam/streaming/MappedDataset.h"
 #include "pbdam/streaming/ResidencyLru.h"
 
@@ -90,6 +94,47 @@ void BM_RefineFlightFrame(benchmark::State& state) {
   state.SetLabel(std::to_string(f.cameras.size()) + " poses");
 }
 BENCHMARK(BM_RefineFlightFrame)->Unit(benchmark::kMicrosecond);
+
+// Every leaf patch of the dataset decoded into the GPU cache's layout (vertices, then indices)
+// on one thread, as a cache miss does: LZO and the byte planes, then the GPU vertex of each
+// vertex. Items: triangles.
+void BM_DecodeLeafPatchesToGpu(benchmark::State& state) {
+  const Flight& f = flight();
+  if (!f.error.empty()) {
+    state.SkipWithError(f.error.c_str());
+    return;
+  }
+  const tbb::global_control oneThread(tbb::global_control::max_allowed_parallelism, 1);
+  const DatasetView& view = f.dataset->view();
+  const DecodeScheduler decoder(view, TexelFormat::Rgba8);
+  std::vector<DecodeJob> jobs;
+  std::uint64_t triangles = 0;
+  const std::uint64_t leaves = std::uint64_t{1} << view.depth();
+  for (std::uint8_t face = 0; face < 6; ++face) {
+    for (std::uint8_t tree = 0; tree < 2; ++tree) {
+      for (std::uint64_t k = 0; k < leaves; ++k) {
+        const NodeKey key{face, tree, leaves - 1 + k};
+        DecodeJob job;
+        job.key = ResidentKey::patch(key);
+        job.node = key;
+        jobs.push_back(job);
+        triangles += view.node(key).triangleCount;
+      }
+    }
+  }
+  std::vector<std::byte> out(decoder.layout(jobs));
+  for (auto _ : state) {
+    const auto r = decoder.decode(jobs, out);
+    if (!r) {
+      state.SkipWithError(r.error().message.c_str());
+      return;
+    }
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(triangles) * state.iterations());
+  state.SetLabel(std::to_string(jobs.size()) + " patches");
+}
+BENCHMARK(BM_DecodeLeafPatchesToGpu)->Unit(benchmark::kMillisecond);
 
 // A frame's worth of cache traffic: `range(0)` keys per frame from a window that slides by a
 // quarter of itself each frame, under a budget of two frames' entries — so every frame touches

@@ -3,7 +3,8 @@
 // bisection of the same cube-map lattice samples down to single cells — at the same maximum
 // errors. Both use the exact vertical error against every lattice sample a triangle covers,
 // saturated over the diamond DAG; the P-BDAM column with its stored errors (which add the
-// displaced-triangle, quantisation and chord terms and the source-DEM deviation) is shown too.
+// representation term (quantisation and offset rounding), the chord term and the source-DEM
+// deviation) is shown too.
 // Prints a table and a JSON line.
 //   pbdam_mesh_efficiency DATASET DEM [ERROR_M ...]      (defaults 50 200 1000)
 #include <algorithm>

@@ -120,7 +120,8 @@ Result<FaceHeader> decodeFaceHeader(std::span<const std::byte> bytes, std::uint6
   if (h.version != kDatasetFormatVersion) {
     return corrupt(context, 8,
                    "format version " + std::to_string(h.version) + " (this pbdam reads version " +
-                       std::to_string(kDatasetFormatVersion) + ")");
+                       std::to_string(kDatasetFormatVersion) +
+                       "); rebuild the dataset with this pbdam (pbdam build)");
   }
   if (h.face > 5) return corrupt(context, 12, "face index " + std::to_string(h.face));
   if (h.depth > kMaxBintreeDepth || h.textureLevels > kMaxTextureLevels) {

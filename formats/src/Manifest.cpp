@@ -64,8 +64,9 @@ Result<Manifest> parseManifest(std::string_view text, std::string_view context) 
     Manifest m;
     m.version = j.at("version").get<std::uint32_t>();
     if (m.version != kDatasetFormatVersion) {
-      return fail("format version " + std::to_string(m.version) + " (this pbdam reads " +
-                  std::to_string(kDatasetFormatVersion) + ")");
+      return fail("format version " + std::to_string(m.version) + " (this pbdam reads version " +
+                  std::to_string(kDatasetFormatVersion) +
+                  "); rebuild the dataset with this pbdam (pbdam build)");
     }
     m.planetSpec = j.at("planet").at("spec").get<std::string>();
     m.equatorialRadiusMeters = j.at("planet").at("equatorial_radius_m").get<double>();

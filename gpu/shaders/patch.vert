@@ -2,9 +2,11 @@
 // the push constant recordIndex, set before each draw. (Not gl_InstanceIndex with firstInstance:
 // lavapipe cannot prove an instance index uniform, so every record load became an 8-lane gather;
 // a push constant is uniform and made the vertex stage about twice as fast — docs/decisions.md.)
-// Vertex attributes: the barycentrics b1, b2 (R16G16_UINT) and the displacement h in metres
-// (R32_SFLOAT). Texture coordinates come from the vertex's position (patch_texcoord.glsl), not
-// from w; the normal is still interpolated in w.
+// Vertex attributes: the barycentrics b1, b2 (R16G16_UINT), the displacement h in metres along
+// the interpolated normal (R32_SFLOAT) and the sideways offset o that takes the displaced point
+// to the vertex's terrain point (R32G32B32_SFLOAT), both computed in double at decode
+// (runtime/PatchDraw.h). Texture coordinates come from the vertex's position
+// (patch_texcoord.glsl), not from w; the normal is still interpolated in w.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 
@@ -19,6 +21,7 @@ layout(push_constant) uniform PatchPush {
 
 layout(location = 0) in uvec2 inBarycentric;
 layout(location = 1) in float inHeightMeters;
+layout(location = 2) in vec3 inOffsetMeters;
 
 layout(location = 0) out vec2 outTexCoord;
 layout(location = 1) flat out float outLayer;
@@ -27,7 +30,7 @@ layout(location = 3) out vec3 outCameraRelative;
 
 void main() {
   const uint r = pc.recordIndex;
-  precise vec3 position = patchVertexPosition(r, inBarycentric, inHeightMeters);
+  precise vec3 position = patchVertexPosition(r, inBarycentric, inHeightMeters, inOffsetMeters);
   gl_Position = pc.viewProjection * vec4(position, 1.0);
 
   const vec3 w = patchVertexWeights(inBarycentric);

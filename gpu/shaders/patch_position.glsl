@@ -44,13 +44,15 @@ vec4 pick(vec4 a, vec4 b, vec4 c, int k) {
   return mix(mix(a, b, bvec4(k == 1)), c, bvec4(k == 2));
 }
 
-// P(w, h) - camera for a vertex of the patch drawn with record `r` (see PatchDraw.h for the
-// corner, edge and interior cases).
+// T - camera for a vertex of the patch drawn with record `r`, its displacement h along the
+// interpolated normal and its decoded sideways offset o (see PatchDraw.h for the corner, edge
+// and interior cases): the displaced point P(w, h) - camera, then + o.
 //
 // shaderVertexPosition evaluates one of three formulas:
-//   corner k:  C_k + h N_k
-//   edge k:    (Re + s Ee + (h - hr)(Na + t dNe)) + hr (s dNe)
-//   interior:  ((R + d1 E1) + d2 E2 + (h - hr)((N0 + w1 dN1) + w2 dN2)) + hr ((d1 dN1) + (d2 dN2))
+//   corner k:  (C_k + h N_k) + o
+//   edge k:    ((Re + s Ee + (h - hr)(Na + t dNe)) + hr (s dNe)) + o
+//   interior:  (((R + d1 E1) + d2 E2 + (h - hr)((N0 + w1 dN1) + w2 dN2))
+//               + hr ((d1 dN1) + (d2 dN2))) + o
 // Here all three are the interior formula, with the inputs of the vertex's case selected per
 // vertex and zeros for the terms a case does not have: +0 scalars and -0 vectors, so that every
 // absent term is a product (+0)(-0) = -0 or a sum of such, and x + (-0) = x and x - (+0) = x hold
@@ -59,7 +61,7 @@ vec4 pick(vec4 a, vec4 b, vec4 c, int k) {
 // instead of three divergent branches with dynamically indexed loads: with the record index
 // uniform (a push constant), lavapipe's SIMD vertex stage runs about twice as fast
 // (docs/decisions.md).
-precise vec3 patchVertexPosition(uint r, uvec2 bary, float h) {
+precise vec3 patchVertexPosition(uint r, uvec2 bary, float h, vec3 offset) {
   precise vec3 w = patchVertexWeights(bary);
   const PatchDrawRecord d = draws.records[r];
 
@@ -102,5 +104,6 @@ precise vec3 patchVertexPosition(uint r, uvec2 bary, float h) {
 
   precise vec3 planar = (A + d1 * B) + d2 * C;
   precise vec3 nrm = (N + x1 * D1) + x2 * D2;
-  return (planar + (h - hr) * nrm) + hr * ((d1 * D1) + (d2 * D2));
+  precise vec3 displaced = (planar + (h - hr) * nrm) + hr * ((d1 * D1) + (d2 * D2));
+  return displaced + offset;
 }

@@ -7,6 +7,7 @@
 
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/gpu/VulkanError.h"
+#include "pbdam/streaming/DecodeScheduler.h"
 
 using namespace pbdam::formats;
 
@@ -25,7 +26,8 @@ Result<void> PatchPool::ensureSlots(const VulkanContext& context, std::uint32_t 
     const auto first = static_cast<std::uint32_t>(chunks_.size()) * slotsPerChunk_;
     const std::uint32_t slots = std::min(slotsPerChunk_, capacitySlots_ - first);
     const std::string name = "patch pool chunk " + std::to_string(chunks_.size());
-    const VkDeviceSize vertexBytes = VkDeviceSize{8} * maxVertices_ * slots;
+    const VkDeviceSize vertexBytes =
+        VkDeviceSize{sizeof(streaming::PatchGpuVertex)} * maxVertices_ * slots;
     const VkDeviceSize indexBytes = VkDeviceSize{2} * maxIndices_ * slots;
     Chunk chunk;
     auto vertices = createBuffer(

@@ -23,8 +23,8 @@ struct PoolLocation final {
   std::uint32_t local = 0;
 };
 
-/// Patch slots of `maxVertices` 8-byte vertices and `maxIndices` 16-bit indices, in chunks of
-/// one vertex buffer and one index buffer each.
+/// Patch slots of `maxVertices` 20-byte vertices (streaming::PatchGpuVertex) and `maxIndices`
+/// 16-bit indices, in chunks of one vertex buffer and one index buffer each.
 class PatchPool final {
  public:
   PatchPool() = default;

@@ -2,6 +2,7 @@
 #include "PatchPipeline.h"
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 
 #include "pbdam/gpu/ShaderModule.h"
@@ -102,7 +103,7 @@ Result<UniquePipeline> createPatchGraphicsPipeline(VkDevice device, VkPipelineLa
   binding.binding = 0;
   binding.stride = sizeof(PatchGpuVertex);
   binding.inputRate = VK_VERTEX_INPUT_RATE_VERTEX;
-  std::array<VkVertexInputAttributeDescription, 2> attributes{};
+  std::array<VkVertexInputAttributeDescription, 3> attributes{};
   attributes[0].location = 0;
   attributes[0].binding = 0;
   attributes[0].format = VK_FORMAT_R16G16_UINT;
@@ -110,7 +111,11 @@ Result<UniquePipeline> createPatchGraphicsPipeline(VkDevice device, VkPipelineLa
   attributes[1].location = 1;
   attributes[1].binding = 0;
   attributes[1].format = VK_FORMAT_R32_SFLOAT;
-  attributes[1].offset = 4;
+  attributes[1].offset = offsetof(PatchGpuVertex, heightMeters);
+  attributes[2].location = 2;
+  attributes[2].binding = 0;
+  attributes[2].format = VK_FORMAT_R32G32B32_SFLOAT;
+  attributes[2].offset = offsetof(PatchGpuVertex, offsetMeters);
   VkPipelineVertexInputStateCreateInfo vertexInput{};
   vertexInput.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO;
   vertexInput.vertexBindingDescriptionCount = 1;

@@ -140,12 +140,18 @@ CubeFaceFrame CubeMap::faceFrame(CubeFace face) noexcept {
 }
 
 glm::dvec3 CubeMap::faceUvToDirection(CubeFace face, const glm::dvec2& uv) noexcept {
+  return planeToDirection(face, uvToPlane(uv.x), uvToPlane(uv.y));
+}
+
+double CubeMap::uvToPlaneCoordinate(double uv) noexcept { return uvToPlane(uv); }
+
+glm::dvec3 CubeMap::planeToDirection(CubeFace face, double planeU, double planeV) noexcept {
   const FaceAxes& axes = axesOf(face);
   // Each component is exactly one of ±1, ±a, ±b: no rounding before the normalisation.
   glm::dvec3 point{0.0};
   point[axes.normal.axis] = axes.normal.sign;
-  point[axes.u.axis] = axes.u.sign * uvToPlane(uv.x);
-  point[axes.v.axis] = axes.v.sign * uvToPlane(uv.y);
+  point[axes.u.axis] = axes.u.sign * planeU;
+  point[axes.v.axis] = axes.v.sign * planeV;
   const double length = std::sqrt(point.x * point.x + point.y * point.y + point.z * point.z);
   return point / length;
 }

@@ -4,9 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <glm/trigonometric.hpp>
 #include <numbers>
+#include <utility>
 
 using namespace pbdam::formats;
 
@@ -38,23 +40,30 @@ double toBaryGrid(double w) { return std::floor(std::clamp(w, 0.0, 1.0) / kBaryU
 
 double toHeightGrid(double h, double step) { return std::round(h / step) * step; }
 
-}  // namespace
-
-float vertexHeightMeters(std::int32_t heightSteps, double heightStepMeters) noexcept {
-  return static_cast<float>(static_cast<double>(heightSteps) * heightStepMeters);
+// The canonical keys of a node's lattice corners (apex, left, right).
+std::array<PointKey, 3> cornerKeys(std::uint32_t latticeCells, const NodeKey& node,
+                                   const BinTriangle& tri) noexcept {
+  return {latticePointKey(latticeCells, node.face, tri.apex),
+          latticePointKey(latticeCells, node.face, tri.left),
+          latticePointKey(latticeCells, node.face, tri.right)};
 }
+
+// The corners a, b of edge k (opposite corner k) in canonical key order.
+std::pair<std::size_t, std::size_t> edgeCorners(const std::array<PointKey, 3>& keys,
+                                                std::size_t k) noexcept {
+  std::size_t a = (k + 1) % 3, b = (k + 2) % 3;
+  if (keys[b] < keys[a]) std::swap(a, b);
+  return {a, b};
+}
+
+}  // namespace
 
 PatchDrawRecord makePatchDrawRecord(const DatasetView& dataset, const PatchDrawInput& input,
                                     const glm::dvec3& cam) noexcept {
   const NodeRecord& n = input.record;
   const double step = dataset.manifest().heightStepMeters;
   const BinTriangle tri = dataset.triangle(input.node);
-  const std::array<LatticeXY, 3> lattice{tri.apex, tri.left, tri.right};
-  std::array<PointKey, 3> keys{};
-  for (int k = 0; k < 3; ++k) {
-    keys[static_cast<std::size_t>(k)] = latticePointKey(dataset.latticeCells(), input.node.face,
-                                                        lattice[static_cast<std::size_t>(k)]);
-  }
+  const std::array<PointKey, 3> keys = cornerKeys(dataset.latticeCells(), input.node, tri);
   std::array<glm::dvec3, 3> p{}, nd{};
   std::array<glm::vec3, 3> nf{};
   for (int k = 0; k < 3; ++k) {
@@ -73,8 +82,7 @@ PatchDrawRecord makePatchDrawRecord(const DatasetView& dataset, const PatchDrawI
   const double radius = dataset.planet().equatorialRadiusMeters();
   const double span = dataset.manifest().maxHeightMeters - dataset.manifest().minHeightMeters;
   for (std::size_t k = 0; k < 3; ++k) {
-    std::size_t a = (k + 1) % 3, b = (k + 2) % 3;
-    if (keys[b] < keys[a]) std::swap(a, b);
+    const auto [a, b] = edgeCorners(keys, k);
     const glm::dvec3 e = p[b] - p[a];
     const double tr = toBaryGrid(glm::dot(cam - p[a], e) / glm::dot(e, e));
     const glm::dvec3 dn = glm::dvec3(nf[b] - nf[a]);
@@ -130,6 +138,109 @@ PatchDrawRecord makePatchDrawRecord(const DatasetView& dataset, const PatchDrawI
                                    m.textureTileTexels, m.textureBorderTexels, input.textureLayer),
                   cam);
   return d;
+}
+
+PatchVertexBase patchVertexBase(const std::array<glm::dvec3, 3>& p,
+                                const std::array<glm::vec3, 3>& n,
+                                const std::array<PointKey, 3>& keys, std::uint16_t b1,
+                                std::uint16_t b2) noexcept {
+  // The same case selection as the shader: a corner, else the first edge, else the interior.
+  const double w1 = b1 * kBaryUnit, w2 = b2 * kBaryUnit;
+  const std::array<double, 3> w{(1.0 - w1) - w2, w1, w2};  // exact: 15-bit dyadics
+  const std::array<glm::dvec3, 3> nd{glm::dvec3(n[0]), glm::dvec3(n[1]), glm::dvec3(n[2])};
+  for (std::size_t k = 0; k < 3; ++k) {
+    if (w[k] == 1.0) return {p[k], nd[k]};
+  }
+  for (std::size_t k = 0; k < 3; ++k) {
+    if (w[k] == 0.0) {
+      const auto [a, b] = edgeCorners(keys, k);
+      return {p[a] + w[b] * (p[b] - p[a]), nd[a] + w[b] * (nd[b] - nd[a])};
+    }
+  }
+  return {p[0] + w1 * (p[1] - p[0]) + w2 * (p[2] - p[0]),
+          nd[0] + w1 * (nd[1] - nd[0]) + w2 * (nd[2] - nd[0])};
+}
+
+PatchVertexDisplacement patchVertexDisplacement(const PatchVertexBase& base,
+                                                const glm::dvec3& terrain,
+                                                double heightStepMeters) noexcept {
+  const glm::dvec3 d = terrain - base.flat;
+  const float h = static_cast<float>(toHeightGrid(
+      glm::dot(d, base.normal) / glm::dot(base.normal, base.normal), heightStepMeters));
+  return {h, glm::vec3(d - static_cast<double>(h) * base.normal)};
+}
+
+PatchVertexPlacement::PatchVertexPlacement(const DatasetView& dataset, const NodeKey& node,
+                                           const NodeRecord& record) noexcept
+    : planet_(&dataset.planet()),
+      latticeCells_(dataset.latticeCells()),
+      face_(node.face),
+      heightStepMeters_(dataset.manifest().heightStepMeters) {
+  const BinTriangle tri = dataset.triangle(node);
+  apex_ = tri.apex;
+  leg1_ = tri.left - tri.apex;
+  leg2_ = tri.right - tri.apex;
+  keys_ = cornerKeys(latticeCells_, node, tri);
+  for (int k = 0; k < 3; ++k) {
+    corners_[static_cast<std::size_t>(k)] = position(record, k);
+    normals_[static_cast<std::size_t>(k)] = fnormalOf(record, k);
+  }
+  planeOrigin_ = glm::min(tri.apex, glm::min(tri.left, tri.right));
+  const LatticeXY size = glm::max(tri.apex, glm::max(tri.left, tri.right)) - planeOrigin_ + 1;
+  constexpr std::int32_t kMaxCachedSide = 4096;
+  if (size.x <= kMaxCachedSide && size.y <= kMaxCachedSide) {
+    // The same uv the lattice direction uses (latticeDirection), so the same bits.
+    const double n = static_cast<double>(latticeCells_);
+    planeU_.resize(static_cast<std::size_t>(size.x));
+    planeV_.resize(static_cast<std::size_t>(size.y));
+    for (std::size_t i = 0; i < planeU_.size(); ++i) {
+      planeU_[i] = CubeMap::uvToPlaneCoordinate(
+          static_cast<double>(planeOrigin_.x + static_cast<std::int32_t>(i)) / n);
+    }
+    for (std::size_t j = 0; j < planeV_.size(); ++j) {
+      planeV_[j] = CubeMap::uvToPlaneCoordinate(
+          static_cast<double>(planeOrigin_.y + static_cast<std::int32_t>(j)) / n);
+    }
+  }
+}
+
+bool PatchVertexPlacement::latticePoint(std::uint16_t b1, std::uint16_t b2,
+                                        LatticeXY& q) const noexcept {
+  constexpr std::int64_t one = kPatchBarycentricOne;
+  if (std::int64_t{b1} + b2 > one) return false;
+  // q = apex + (b1·leg1 + b2·leg2) / 2^15, which must be a lattice point.
+  const std::int64_t x = std::int64_t{b1} * leg1_.x + std::int64_t{b2} * leg2_.x;
+  const std::int64_t y = std::int64_t{b1} * leg1_.y + std::int64_t{b2} * leg2_.y;
+  if (x % one != 0 || y % one != 0) return false;
+  q = apex_ + LatticeXY(static_cast<std::int32_t>(x / one), static_cast<std::int32_t>(y / one));
+  return true;
+}
+
+glm::dvec3 PatchVertexPlacement::terrainPoint(LatticeXY q,
+                                              std::int32_t heightSteps) const noexcept {
+  const double h = static_cast<double>(heightSteps) * heightStepMeters_;
+  // A point inside the face is its own canonical alias (latticeDirection): its direction from
+  // the cached plane coordinates is the same bits. Points on face edges take the full path.
+  const auto n = static_cast<std::int32_t>(latticeCells_);
+  const LatticeXY local = q - planeOrigin_;
+  if (q.x > 0 && q.y > 0 && q.x < n && q.y < n && !planeU_.empty() && local.x >= 0 &&
+      local.y >= 0 && std::cmp_less(local.x, planeU_.size()) &&
+      std::cmp_less(local.y, planeV_.size())) {
+    const glm::dvec3 d = CubeMap::planeToDirection(cubeFaceFromIndex(face_),
+                                                   planeU_[static_cast<std::size_t>(local.x)],
+                                                   planeV_[static_cast<std::size_t>(local.y)]);
+    return terrainPointOfDirection(*planet_, d, h);
+  }
+  return latticeTerrainPoint(*planet_, latticeCells_, face_, q, h);
+}
+
+bool PatchVertexPlacement::displacement(const PatchVertex& v,
+                                        PatchVertexDisplacement& out) const noexcept {
+  LatticeXY q{0};
+  if (!latticePoint(v.b1, v.b2, q)) return false;
+  out =
+      patchVertexDisplacement(base(v.b1, v.b2), terrainPoint(q, v.heightSteps), heightStepMeters_);
+  return true;
 }
 
 PatchTextureTile patchTextureTile(CubeFace face, std::uint32_t latticeCells,
@@ -199,15 +310,17 @@ glm::vec2 shaderTexCoord(const PatchDrawRecord& d, const glm::vec3& cameraRelati
 }
 
 glm::vec3 shaderVertexPosition(const PatchDrawRecord& d, std::uint16_t b1, std::uint16_t b2,
-                               float h) noexcept {
-  // Mirrors patch.vert: every line is one float operation in the same order.
+                               const PatchVertexDisplacement& v) noexcept {
+  // Mirrors patch_position.glsl: every line is one float operation in the same order.
+  const float h = v.heightMeters;
+  const glm::vec3 o = v.offsetMeters;
   const float unit = 1.0f / 32768.0f;
   const float w1 = static_cast<float>(b1) * unit;
   const float w2 = static_cast<float>(b2) * unit;
   const float w0 = (1.0f - w1) - w2;
   const float w[3] = {w0, w1, w2};
   for (std::size_t k = 0; k < 3; ++k) {
-    if (w[k] == 1.0f) return xyz(d.corner[k]) + h * xyz(d.normal[k]);
+    if (w[k] == 1.0f) return (xyz(d.corner[k]) + h * xyz(d.normal[k])) + o;
   }
   for (std::size_t k = 0; k < 3; ++k) {
     if (w[k] == 0.0f) {
@@ -218,7 +331,7 @@ glm::vec3 shaderVertexPosition(const PatchDrawRecord& d, std::uint16_t b1, std::
       const glm::vec3 dn = xyz(d.edgeNormalDelta[k]);
       const glm::vec3 nrm = xyz(d.edgeNormal[k]) + t * dn;
       const glm::vec3 flat = xyz(d.edgeOrigin[k]) + s * xyz(d.edgeVector[k]);
-      return (flat + (h - hr) * nrm) + hr * (s * dn);
+      return ((flat + (h - hr) * nrm) + hr * (s * dn)) + o;
     }
   }
   const float d1 = w1 - d.origin[3];
@@ -227,33 +340,37 @@ glm::vec3 shaderVertexPosition(const PatchDrawRecord& d, std::uint16_t b1, std::
   const glm::vec3 dn1 = xyz(d.normalDelta1), dn2 = xyz(d.normalDelta2);
   const glm::vec3 nrm = (xyz(d.normal[0]) + w1 * dn1) + w2 * dn2;
   const glm::vec3 flat = (xyz(d.origin) + d1 * xyz(d.axis1)) + d2 * xyz(d.axis2);
-  return (flat + (h - hr) * nrm) + hr * ((d1 * dn1) + (d2 * dn2));
+  return ((flat + (h - hr) * nrm) + hr * ((d1 * dn1) + (d2 * dn2))) + o;
 }
 
-glm::dvec3 exactVertexPosition(const NodeRecord& n, std::uint16_t b1, std::uint16_t b2, double h,
+glm::dvec3 exactVertexPosition(const PatchVertexPlacement& placement, const PatchVertex& v,
                                const glm::dvec3& cam) noexcept {
-  const double w1 = b1 * kBaryUnit, w2 = b2 * kBaryUnit, w0 = 1.0 - w1 - w2;
-  const glm::dvec3 flat = w0 * position(n, 0) + w1 * position(n, 1) + w2 * position(n, 2);
-  const glm::dvec3 nrm = w0 * normalOf(n, 0) + w1 * normalOf(n, 1) + w2 * normalOf(n, 2);
-  return (flat - cam) + h * nrm;
+  LatticeXY q{0};
+  if (!placement.latticePoint(v.b1, v.b2, q)) return glm::dvec3(0.0);
+  return placement.terrainPoint(q, v.heightSteps) - cam;
 }
 
 glm::vec3 absoluteFloatVertexPosition(const NodeRecord& n, std::uint16_t b1, std::uint16_t b2,
-                                      float h, const glm::dvec3& cam) noexcept {
+                                      const PatchVertexDisplacement& v,
+                                      const glm::dvec3& cam) noexcept {
   const float w1 = static_cast<float>(b1) / 32768.0f, w2 = static_cast<float>(b2) / 32768.0f;
+  const float h = v.heightMeters;
   const glm::vec3 p0(position(n, 0)), p1(position(n, 1)), p2(position(n, 2));
   const glm::vec3 n0 = fnormalOf(n, 0), n1 = fnormalOf(n, 1), n2 = fnormalOf(n, 2);
-  const glm::vec3 world =
-      p0 + w1 * (p1 - p0) + w2 * (p2 - p0) + h * (n0 + w1 * (n1 - n0) + w2 * (n2 - n0));
+  const glm::vec3 world = p0 + w1 * (p1 - p0) + w2 * (p2 - p0) +
+                          h * (n0 + w1 * (n1 - n0) + w2 * (n2 - n0)) + v.offsetMeters;
   return world - glm::vec3(cam);
 }
 
 glm::vec3 cornerRelativeVertexPosition(const NodeRecord& n, std::uint16_t b1, std::uint16_t b2,
-                                       float h, const glm::dvec3& cam) noexcept {
+                                       const PatchVertexDisplacement& v,
+                                       const glm::dvec3& cam) noexcept {
   const float w1 = static_cast<float>(b1) / 32768.0f, w2 = static_cast<float>(b2) / 32768.0f;
+  const float h = v.heightMeters;
   const glm::vec3 p0(position(n, 0) - cam), p1(position(n, 1) - cam), p2(position(n, 2) - cam);
   const glm::vec3 n0 = fnormalOf(n, 0), n1 = fnormalOf(n, 1), n2 = fnormalOf(n, 2);
-  return p0 + w1 * (p1 - p0) + w2 * (p2 - p0) + h * (n0 + w1 * (n1 - n0) + w2 * (n2 - n0));
+  return p0 + w1 * (p1 - p0) + w2 * (p2 - p0) + h * (n0 + w1 * (n1 - n0) + w2 * (n2 - n0)) +
+         v.offsetMeters;
 }
 
 }  // namespace pbdam::runtime

@@ -95,13 +95,19 @@ Result<SurfaceHeight> surfaceHeightAt(const DatasetView& view, double lat, doubl
     auto decoded =
         decodePatch(*bytes, mesh, face.context() + "@" + std::to_string(record.blobOffset));
     if (!decoded) return decoded.error();
+    // The vertices where they are drawn: their terrain points (PatchDraw.h).
+    const PatchVertexPlacement placement(view, key, record);
     positions.resize(mesh.vertices.size());
     for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
+      LatticeXY q{0};
       const PatchVertex& pv = mesh.vertices[v];
-      positions[v] = exactVertexPosition(
-          record, pv.b1, pv.b2,
-          static_cast<double>(vertexHeightMeters(pv.heightSteps, view.manifest().heightStepMeters)),
-          glm::dvec3(0.0));
+      if (!placement.latticePoint(pv.b1, pv.b2, q)) {
+        return makeError(ErrorCode::CorruptData,
+                         face.context() + "@" + std::to_string(record.blobOffset) +
+                             ": patch vertex " + std::to_string(v) +
+                             " is not a lattice point of its node's triangle");
+      }
+      positions[v] = placement.terrainPoint(q, pv.heightSteps);
     }
     for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
       const auto hit = intersect(origin, normal, positions[mesh.indices[t]],

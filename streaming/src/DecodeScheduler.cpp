@@ -96,10 +96,19 @@ Result<void> DecodeScheduler::decodePatch(const NodeKey& key, std::span<std::byt
                          " triangles, its node record says " + std::to_string(record.vertexCount) +
                          " and " + std::to_string(record.triangleCount));
   }
-  const double step = dataset_->manifest().heightStepMeters;
+  const runtime::PatchVertexPlacement placement(*dataset_, key, record);
   std::byte* dst = out.data();
-  for (const PatchVertex& v : mesh.vertices) {
-    const PatchGpuVertex gpu{v.b1, v.b2, vertexHeightMeters(v.heightSteps, step)};
+  for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
+    const PatchVertex& pv = mesh.vertices[v];
+    PatchVertexDisplacement d;
+    if (!placement.displacement(pv, d)) {
+      return makeError(ErrorCode::CorruptData,
+                       context + ": patch vertex " + std::to_string(v) + " (b1 " +
+                           std::to_string(pv.b1) + ", b2 " + std::to_string(pv.b2) +
+                           ") is not a lattice point of its node's triangle");
+    }
+    const glm::vec3& o = d.offsetMeters;
+    const PatchGpuVertex gpu{pv.b1, pv.b2, d.heightMeters, {o.x, o.y, o.z}};
     std::memcpy(dst, &gpu, sizeof gpu);
     dst += sizeof gpu;
   }

@@ -1,7 +1,10 @@
 // libFuzzer target for the face-file reader (DatasetFormat.h): FaceView::open on arbitrary bytes,
 // then every node and texture record and every patch blob it accepts. Must never crash, read out
 // of bounds or hang; accepted files must be internally consistent. Seeds: tiny valid face files
-// (tests/fuzz/corpus/face_file, written by a depth-0 build of a synthetic DEM).
+// (tests/fuzz/corpus/face_file, faces 0 and 4 of a depth-0 build of a synthetic DEM: an 8 × 4
+// int16le global grid of 1000·sin(0.7·i) + 500·cos(1.3·j), built with `pbdam build --raw-size
+// 8,4 --raw-type int16le --bounds -90,-180,90,180 --planet mars --levels 0 --leaf-vertices 3
+// --texture-tile 16 --texture-format rgba8`; rewrite them when the face format version changes).
 #include <cstddef>
 #include <cstdint>
 #include <span>

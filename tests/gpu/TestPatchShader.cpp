@@ -18,6 +18,8 @@
 #include <unordered_map>
 #include <vector>
 
+#include <glm/geometric.hpp>
+
 #include "GpuTestSupport.h"
 #include "TerrainTestSupport.h"
 #include "TestData.h"
@@ -43,8 +45,9 @@ struct CaptureVertex {
   std::uint16_t b1;
   std::uint16_t b2;
   float heightMeters;
+  std::array<float, 3> offsetMeters;
 };
-static_assert(sizeof(CaptureVertex) == 8);
+static_assert(sizeof(CaptureVertex) == 20);
 
 /// A point-list pipeline with rasterization discarded that runs patch_capture.vert.
 class CapturePipeline {
@@ -91,14 +94,15 @@ class CapturePipeline {
     stage.module = module->get();
     stage.pName = "main";
     VkVertexInputBindingDescription binding{0, sizeof(CaptureVertex), VK_VERTEX_INPUT_RATE_VERTEX};
-    std::array<VkVertexInputAttributeDescription, 2> attributes{};
+    std::array<VkVertexInputAttributeDescription, 3> attributes{};
     attributes[0] = {0, 0, VK_FORMAT_R16G16_UINT, 0};
     attributes[1] = {1, 0, VK_FORMAT_R32_SFLOAT, 4};
+    attributes[2] = {2, 0, VK_FORMAT_R32G32B32_SFLOAT, 8};
     VkPipelineVertexInputStateCreateInfo vertexInput{};
     vertexInput.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO;
     vertexInput.vertexBindingDescriptionCount = 1;
     vertexInput.pVertexBindingDescriptions = &binding;
-    vertexInput.vertexAttributeDescriptionCount = 2;
+    vertexInput.vertexAttributeDescriptionCount = static_cast<std::uint32_t>(attributes.size());
     vertexInput.pVertexAttributeDescriptions = attributes.data();
     VkPipelineInputAssemblyStateCreateInfo assembly{};
     assembly.sType = VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO;
@@ -143,7 +147,7 @@ struct CapturedCut {
   std::vector<PatchDrawRecord> records;
   std::vector<std::uint32_t> firstVertex;  ///< per patch, into vertices
   std::vector<PatchVertex> vertices;
-  std::vector<float> heights;                      ///< vertexHeightMeters of each vertex
+  std::vector<PatchVertexDisplacement> decoded;    ///< decoded h and offset of each vertex
   std::vector<std::array<float, 4>> gpu;           ///< captured positions
   std::vector<std::array<float, 2>> gpuTexCoords;  ///< captured texture coordinates
 };
@@ -155,11 +159,19 @@ struct CapturedVertex {
 };
 static_assert(sizeof(CapturedVertex) == 32);
 
+/// The longest edge of a record's corner triangle.
+double recordSpan(const PatchDrawRecord& r) {
+  double span = 0.0;
+  for (const std::array<float, 4>& e : r.edgeVector) {
+    span = std::max(span, glm::length(glm::dvec3(e[0], e[1], e[2])));
+  }
+  return span;
+}
+
 class PatchShader : public test::GpuTest {
  protected:
   // Runs every vertex of `cut` through the capture shader for `camera`.
   void capture(const DatasetView& view, const Cut& cut, const Camera& camera, CapturedCut& out) {
-    const double step = view.manifest().heightStepMeters;
     PatchMesh mesh;
     std::vector<std::byte> blob;
     for (const CutPatch& patch : cut.patches) {
@@ -171,9 +183,12 @@ class PatchShader : public test::GpuTest {
       out.records.push_back(
           makePatchDrawRecord(view, PatchDrawInput{patch.node, record, 0}, camera.position()));
       out.firstVertex.push_back(static_cast<std::uint32_t>(out.vertices.size()));
+      const PatchVertexPlacement placement(view, patch.node, record);
       for (const PatchVertex& v : mesh.vertices) {
+        PatchVertexDisplacement d;
+        ASSERT_TRUE(placement.displacement(v, d));
         out.vertices.push_back(v);
-        out.heights.push_back(vertexHeightMeters(v.heightSteps, step));
+        out.decoded.push_back(d);
       }
     }
     out.firstVertex.push_back(static_cast<std::uint32_t>(out.vertices.size()));
@@ -188,7 +203,9 @@ class PatchShader : public test::GpuTest {
                                      MemoryUse::HostUpload, "capture vertices");
     ASSERT_TRUE(vertexBuffer.ok());
     for (std::size_t i = 0; i < out.vertices.size(); ++i) {
-      const CaptureVertex v{out.vertices[i].b1, out.vertices[i].b2, out.heights[i]};
+      const glm::vec3& o = out.decoded[i].offsetMeters;
+      const CaptureVertex v{
+          out.vertices[i].b1, out.vertices[i].b2, out.decoded[i].heightMeters, {o.x, o.y, o.z}};
       std::memcpy(vertexBuffer->mappedBytes().data() + i * sizeof v, &v, sizeof v);
     }
     const VkDeviceSize recordBytes = sizeof(PatchDrawRecord) * out.records.size();
@@ -291,6 +308,10 @@ class PatchShader : public test::GpuTest {
       capture(view, cut, camera, captured);
       if (HasFatalFailure()) return;
 
+      std::vector<PatchVertexPlacement> placements;
+      for (const NodeKey& node : captured.nodes)
+        placements.emplace_back(view, node, view.node(node));
+      double worstDrawnError = -1.0;
       std::uint64_t mismatches = 0;
       std::uint64_t texCoordMismatches = 0;
       double worstTexels = 0.0;
@@ -304,7 +325,7 @@ class PatchShader : public test::GpuTest {
         for (std::uint32_t i = captured.firstVertex[p]; i < captured.firstVertex[p + 1]; ++i) {
           const PatchVertex& v = captured.vertices[i];
           const glm::vec3 cpu =
-              shaderVertexPosition(captured.records[p], v.b1, v.b2, captured.heights[i]);
+              shaderVertexPosition(captured.records[p], v.b1, v.b2, captured.decoded[i]);
           const std::array<float, 3> gpu = {captured.gpu[i][0], captured.gpu[i][1],
                                             captured.gpu[i][2]};
           if (std::bit_cast<std::uint32_t>(cpu.x) != std::bit_cast<std::uint32_t>(gpu[0]) ||
@@ -318,6 +339,16 @@ class PatchShader : public test::GpuTest {
                             << cpu.x << "," << cpu.y << "," << cpu.z;
             }
           }
+          // Drawn at its terrain point: the float sums are within a few roundings of T − cam,
+          // relative to the sizes summed (the distance, the patch's corner triangle, the
+          // displacement and the offset).
+          const glm::dvec3 truth = exactVertexPosition(placements[p], v, camera.position());
+          const double scale = glm::length(truth) + recordSpan(captured.records[p]) +
+                               std::fabs(static_cast<double>(captured.decoded[i].heightMeters)) +
+                               glm::length(glm::dvec3(captured.decoded[i].offsetMeters));
+          const double drawnError =
+              glm::length(glm::dvec3(gpu[0], gpu[1], gpu[2]) - truth) - std::ldexp(scale, -20);
+          worstDrawnError = std::max(worstDrawnError, drawnError);
           // Texture coordinates: the CPU mirror of the same formula, from the same position.
           const glm::vec2 tc =
               shaderTexCoord(captured.records[p], glm::vec3(gpu[0], gpu[1], gpu[2]));
@@ -362,14 +393,16 @@ class PatchShader : public test::GpuTest {
       EXPECT_EQ(mismatches, 0u) << "of " << captured.vertices.size() << " vertices";
       EXPECT_EQ(texCoordMismatches, 0u)
           << "of " << captured.vertices.size() << " vertices; worst " << worstTexels << " texels";
-      // Every texture coordinate lies near its tile: inside the inner square but for the drawn
-      // shift of a vertex on the tile's boundary (a few texels on coarse patches; beyond the
-      // border the sampler clamps to the edge texel). A wrong face or tile is far outside.
+      // Every vertex is drawn at its terrain point, so its texture coordinates lie in its tile's
+      // inner square (the patch's part of the face), to float rounding (0.05 texel). A wrong
+      // face or tile, or a vertex drawn beside its lattice point, is outside.
+      const double border = view.manifest().textureBorderTexels / tileTexels;
       for (const std::array<float, 2>& tc : captured.gpuTexCoords) {
         ASSERT_TRUE(std::isfinite(tc[0]) && std::isfinite(tc[1]));
-        ASSERT_GE(std::min(tc[0], tc[1]), -0.25f);
-        ASSERT_LE(std::max(tc[0], tc[1]), 1.25f);
+        ASSERT_GE(std::min(tc[0], tc[1]), border - 0.05 / tileTexels);
+        ASSERT_LE(std::max(tc[0], tc[1]), 1.0 - border + 0.05 / tileTexels);
       }
+      EXPECT_LE(worstDrawnError, 0.0) << "vertices drawn off their terrain points (relative)";
       EXPECT_EQ(sharedMismatches, 0u) << "of " << shared << " shared vertices";
       EXPECT_GT(shared, captured.records.size()) << "patches share edge vertices";
     }

@@ -20,6 +20,7 @@
 #include "TestData.h"
 #include "pbdam/gpu/GpuCache.h"
 #include "pbdam/gpu/TerrainRenderer.h"
+#include "pbdam/streaming/DecodeScheduler.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
@@ -52,7 +53,8 @@ class SharedGpuCacheTest : public test::GpuTest {
   /// Slot bytes a cut needs resident.
   std::uint64_t bytesOf(const DatasetView& view, const Cut& cut) {
     const std::uint64_t patchSlot =
-        std::uint64_t{8} * view.maxPatchVertices() + std::uint64_t{6} * view.maxPatchTriangles();
+        std::uint64_t{sizeof(streaming::PatchGpuVertex)} * view.maxPatchVertices() +
+        std::uint64_t{6} * view.maxPatchTriangles();
     const std::uint64_t tileSlot = GpuCache::minimumBytes(context(), view) - patchSlot;
     return cut.patches.size() * patchSlot + cut.tiles.size() * tileSlot;
   }

@@ -20,6 +20,7 @@
 #include "TestData.h"
 #include "pbdam/formats/Manifest.h"
 #include "pbdam/gpu/TerrainRenderer.h"
+#include "pbdam/streaming/DecodeScheduler.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
@@ -271,7 +272,8 @@ TEST_F(TerrainRendererTest, TheCacheHitsOnRepeatAndEvictsWhenTheViewMoves) {
   const Cut cutA = refine(view, a, RefinementOptions{});
   const Cut cutB = refine(view, b, RefinementOptions{});
   const std::uint64_t patchSlot =
-      std::uint64_t{8} * view.maxPatchVertices() + std::uint64_t{6} * view.maxPatchTriangles();
+      std::uint64_t{sizeof(streaming::PatchGpuVertex)} * view.maxPatchVertices() +
+      std::uint64_t{6} * view.maxPatchTriangles();
   const std::uint64_t tileSlot = TerrainRenderer::minimumCacheBytes(context(), view) - patchSlot;
   const auto bytesOf = [&](const Cut& cut) {
     return cut.patches.size() * patchSlot + cut.tiles.size() * tileSlot;
@@ -461,8 +463,12 @@ TEST_F(TerrainRendererTest, ACorruptPatchIsAnErrorAndLeavesNothingResident) {
   ASSERT_TRUE(clean.ok()) << clean.error().message;
   const Camera camera = test::cameraAt(*clean, {0.0, 0.0, 8e6, 0.0, -90.0, 0.0}, kWidth, kHeight);
   const Cut cut = refine(*clean, camera, RefinementOptions{});
-  // Damage one byte in the middle of the 10th patch's blob.
-  const CutPatch& victim = cut.patches.at(10);
+  // Damage one byte in the middle of the blob of a patch below level 1 (the cut the renderer
+  // draws afterwards stops at level 1).
+  const auto below = std::find_if(cut.patches.begin(), cut.patches.end(),
+                                  [](const CutPatch& p) { return p.level > 1; });
+  ASSERT_NE(below, cut.patches.end());
+  const CutPatch& victim = *below;
   const NodeRecord record = clean->node(victim.node);
   data.faces[victim.node.face][record.blobOffset + record.blobBytes / 2] ^= std::byte{0x5a};
   auto damaged = data.view();

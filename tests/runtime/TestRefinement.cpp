@@ -73,12 +73,14 @@ MeshCheck checkClosedManifold(const DatasetView& view, const Cut& cut, const glm
   for (const CutPatch& p : cut.patches) {
     const NodeRecord record = view.node(p.node);
     const PatchDrawRecord draw = makePatchDrawRecord(view, {p.node, record, 0}, eye);
+    const PatchVertexPlacement placement(view, p.node, record);
     const PatchMesh& mesh = store.mesh(p.node);
     local.resize(mesh.vertices.size());
     for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
       const PatchVertex& pv = mesh.vertices[v];
-      const glm::vec3 pos = shaderVertexPosition(
-          draw, pv.b1, pv.b2, vertexHeightMeters(pv.heightSteps, view.manifest().heightStepMeters));
+      PatchVertexDisplacement d;
+      EXPECT_TRUE(placement.displacement(pv, d));
+      const glm::vec3 pos = shaderVertexPosition(draw, pv.b1, pv.b2, d);
       PositionKey key{};
       std::memcpy(key.bits.data(), &pos, sizeof(key.bits));
       local[v] = ids.try_emplace(key, static_cast<std::uint32_t>(ids.size())).first->second;
@@ -190,12 +192,9 @@ std::vector<glm::dvec3> highestVertices(const DatasetView& view, test::PatchStor
   std::vector<glm::dvec3> vertices;
   for (const CutPatch& p : cut.patches) {
     if (p.level != view.depth()) continue;
-    const NodeRecord record = view.node(p.node);
+    const PatchVertexPlacement placement(view, p.node, view.node(p.node));
     for (const PatchVertex& v : store.mesh(p.node).vertices) {
-      vertices.push_back(exactVertexPosition(
-          record, v.b1, v.b2,
-          static_cast<double>(vertexHeightMeters(v.heightSteps, view.manifest().heightStepMeters)),
-          glm::dvec3(0.0)));
+      vertices.push_back(exactVertexPosition(placement, v, glm::dvec3(0.0)));
     }
   }
   std::sort(vertices.begin(), vertices.end(), [](const glm::dvec3& a, const glm::dvec3& b) {
@@ -231,11 +230,16 @@ PrecisionFigures measurePrecision(const std::filesystem::path& dir, double lat, 
     for (const CutPatch& p : cut.patches) {
       const NodeRecord record = view.node(p.node);
       const PatchDrawRecord draw = makePatchDrawRecord(view, {p.node, record, 0}, eye);
+      const PatchVertexPlacement placement(view, p.node, record);
       for (const PatchVertex& v : store.mesh(p.node).vertices) {
-        const float h = vertexHeightMeters(v.heightSteps, view.manifest().heightStepMeters);
-        const glm::dvec3 truth =
-            exactVertexPosition(record, v.b1, v.b2, static_cast<double>(h), eye);
+        // Truth: the vertex's terrain point in double. Each technique adds the decoded offset.
+        const glm::dvec3 truth = exactVertexPosition(placement, v, eye);
         if (glm::length(truth) > 1000.0) continue;
+        PatchVertexDisplacement h;
+        if (!placement.displacement(v, h)) {
+          ADD_FAILURE() << "vertex off its node's lattice";
+          continue;
+        }
         ++f.vertices;
         const auto err = [&](const glm::vec3& p32) { return glm::length(glm::dvec3(p32) - truth); };
         f.cameraRelative =

@@ -3,6 +3,8 @@
 // a corrupt blob reported with its file and offset.
 #include <gtest/gtest.h>
 
+#include <glm/geometric.hpp>
+
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -83,15 +85,32 @@ TEST(DecodeScheduler, DecodesPatchesAndTilesIntoTheCallersMemory) {
       const auto bytes = view.face(job.node.face).readPatchBlob(n, blob);
       ASSERT_TRUE(bytes.ok());
       ASSERT_TRUE(decodePatch(*bytes, mesh, "test").ok());
-      ASSERT_EQ(job.vertexBytes, 8u * mesh.vertices.size());
+      ASSERT_EQ(job.vertexBytes, 20u * mesh.vertices.size());
       ASSERT_EQ(job.bytes - job.vertexBytes, 2u * mesh.indices.size());
+      const PatchVertexPlacement placement(view, job.node, n);
+      const double step = view.manifest().heightStepMeters;
       for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
+        const PatchVertex& pv = mesh.vertices[v];
         PatchGpuVertex gpu{};
-        std::memcpy(&gpu, out.data() + job.offset + 8 * v, sizeof gpu);
-        EXPECT_EQ(gpu.b1, mesh.vertices[v].b1);
-        EXPECT_EQ(gpu.b2, mesh.vertices[v].b2);
-        EXPECT_EQ(gpu.heightMeters, vertexHeightMeters(mesh.vertices[v].heightSteps,
-                                                       view.manifest().heightStepMeters));
+        std::memcpy(&gpu, out.data() + job.offset + 20 * v, sizeof gpu);
+        EXPECT_EQ(gpu.b1, pv.b1);
+        EXPECT_EQ(gpu.b2, pv.b2);
+        // Displacement and offset take the flat point to the vertex's terrain point: its lattice
+        // point's direction at its stored height (to the offset's float rounding).
+        LatticeXY q{0};
+        ASSERT_TRUE(placement.latticePoint(pv.b1, pv.b2, q));
+        const glm::dvec3 terrain = latticeTerrainPoint(view.planet(), view.latticeCells(),
+                                                       job.node.face, q, pv.heightSteps * step);
+        // The placement's cached tangents give the very bits of the shared function.
+        EXPECT_TRUE(placement.terrainPoint(q, pv.heightSteps) == terrain);
+        const glm::dvec3 offset(gpu.offsetMeters[0], gpu.offsetMeters[1], gpu.offsetMeters[2]);
+        const PatchVertexBase base = placement.base(pv.b1, pv.b2);
+        EXPECT_EQ(std::fmod(static_cast<double>(gpu.heightMeters), step), 0.0);
+        const glm::dvec3 drawn =
+            base.flat + static_cast<double>(gpu.heightMeters) * base.normal + offset;
+        EXPECT_LE(glm::length(drawn - terrain), 1e-6 * glm::length(offset) + 1e-9);
+        EXPECT_NEAR(glm::length(terrain) - view.planet().equatorialRadiusMeters(),
+                    pv.heightSteps * step, 1e-6);  // MOLA: a sphere
       }
       EXPECT_EQ(std::memcmp(out.data() + job.offset + job.vertexBytes, mesh.indices.data(),
                             job.bytes - job.vertexBytes),

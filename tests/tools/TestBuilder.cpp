@@ -4,6 +4,8 @@
 // out-of-core sample grid (files written in row ranges, mapped) equals the in-memory one.
 #include <gtest/gtest.h>
 
+#include <array>
+#include <cstring>
 #include <fstream>
 #include <iterator>
 #include <memory>
@@ -190,6 +192,50 @@ TEST(Builder, ADirectoryWithoutManifestIsNotADataset) {
   ASSERT_FALSE(r);
   EXPECT_EQ(r.error().code, ErrorCode::NotFound);
   EXPECT_FALSE(readManifest(dir / "d"));
+}
+
+// Version 2 changed what a vertex's stored height means (its own lattice height, drawn at its
+// terrain point; formats/FORMAT.md): a version-1 dataset is refused, naming the file, its version
+// and what to do, for the manifest and for each face file.
+TEST(Builder, AnOlderFormatVersionIsRefusedNamingTheFileAndTheRebuild) {
+  PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
+  test::TempDir dir;
+  BuildOptions o = smallMola(dem, dir / "d");
+  o.depth = 2;
+  ASSERT_TRUE(buildDataset(o));
+  ASSERT_EQ(kDatasetFormatVersion, 2u);
+
+  // A face file whose header says version 1 (its header checksum made valid again).
+  const fs::path facePath = dir / "d" / "face4.pbdam";
+  std::string face = readFile(facePath);
+  const auto headerBytes = std::as_bytes(std::span(face.data(), kFaceHeaderBytes));
+  auto header = decodeFaceHeader(headerBytes, facePath.string());
+  ASSERT_TRUE(header) << header.error().message;
+  header->version = 1;
+  std::array<std::byte, kFaceHeaderBytes> patched{};
+  encodeFaceHeader(*header, patched);
+  std::memcpy(face.data(), patched.data(), patched.size());
+  const auto old =
+      decodeFaceHeader(std::as_bytes(std::span(face.data(), face.size())), facePath.string());
+  ASSERT_FALSE(old);
+  EXPECT_EQ(old.error().code, ErrorCode::CorruptData);
+  for (const std::string& part :
+       {facePath.string(), std::string("format version 1"), std::string("reads version 2"),
+        std::string("rebuild the dataset")}) {
+    EXPECT_NE(old.error().message.find(part), std::string::npos) << old.error().message;
+  }
+
+  // A manifest that says version 1 (its own checksum recomputed).
+  auto manifest = readManifest(dir / "d");
+  ASSERT_TRUE(manifest) << manifest.error().message;
+  manifest->version = 1;
+  writeFile(dir / "d" / "manifest.json", manifestToJson(*manifest));
+  const auto refused = readManifest(dir / "d");
+  ASSERT_FALSE(refused);
+  for (const std::string& part : {std::string("manifest.json"), std::string("format version 1"),
+                                  std::string("rebuild the dataset")}) {
+    EXPECT_NE(refused.error().message.find(part), std::string::npos) << refused.error().message;
+  }
 }
 
 TEST(Builder, RejectsBadOptions) {

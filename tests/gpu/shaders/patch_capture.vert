@@ -15,6 +15,7 @@ layout(push_constant) uniform CapturePush {
 
 layout(location = 0) in uvec2 inBarycentric;
 layout(location = 1) in float inHeightMeters;
+layout(location = 2) in vec3 inOffsetMeters;
 
 struct CapturedVertex {
   vec4 position;  // xyz: camera-relative position
@@ -27,7 +28,7 @@ layout(std430, set = 0, binding = 1) writeonly buffer CapturedVertices {
 
 void main() {
   precise vec3 position =
-      patchVertexPosition(pc.recordIndex, inBarycentric, inHeightMeters);
+      patchVertexPosition(pc.recordIndex, inBarycentric, inHeightMeters, inOffsetMeters);
   captured.vertices[gl_VertexIndex].position = vec4(position, 1.0);
   captured.vertices[gl_VertexIndex].texCoord =
       vec4(patchVertexTexCoord(pc.recordIndex, position), 0.0, 0.0);

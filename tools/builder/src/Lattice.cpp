@@ -7,6 +7,8 @@
 #include <bit>
 #include <cassert>
 
+#include "pbdam/runtime/TerrainPoint.h"
+
 using namespace pbdam::runtime;
 
 namespace pbdam::builder {
@@ -55,10 +57,7 @@ glm::dvec2 Lattice::uv(LatticeXY p) const noexcept {
 }
 
 glm::dvec3 Lattice::direction(int face, LatticeXY p) const noexcept {
-  const CubeLatticePoint c = unpack(key(face, p));
-  const double n = static_cast<double>(sideCells_);
-  return CubeMap::faceUvToDirection(c.face,
-                                    {static_cast<double>(c.i) / n, static_cast<double>(c.j) / n});
+  return latticeDirection(sideCells_, face, p);
 }
 
 std::uint64_t nodeId(const BinTriangle& t, int depth) noexcept {

@@ -1,5 +1,5 @@
-// Patch measurement and conversion to the stored representation: exact barycentrics,
-// displacement along the interpolated normal, the sample, representation and chord errors,
+// Patch measurement and conversion to the stored representation: exact barycentrics and the
+// lattice height quantised to the height step, the sample, representation and chord errors,
 // the bounding sphere (PatchBuilder.h; paper 004 §4.2; docs/builder.md "Errors").
 #include <glm/common.hpp>
 
@@ -7,10 +7,10 @@
 #include <cassert>
 #include <cmath>
 #include <limits>
-#include <optional>
 
 #include "pbdam/builder/PatchBuilder.h"
-#include "pbdam/runtime/CubeMap.h"
+#include "pbdam/runtime/PatchDraw.h"
+#include "pbdam/runtime/TerrainPoint.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
@@ -18,12 +18,6 @@ using namespace pbdam::runtime;
 namespace pbdam::builder {
 
 namespace {
-
-/// Position data of one corner or edge endpoint, in double.
-struct CornerData {
-  glm::dvec3 position;
-  glm::dvec3 normal;
-};
 
 std::int64_t floorDiv(std::int64_t a, std::int64_t b) noexcept {
   const std::int64_t q = a / b;
@@ -79,23 +73,6 @@ void forEachLatticePointIn(const WorkPatch& patch, F&& f) {
   }
 }
 
-/// The lattice heights of `face` interpolated bilinearly at (x, y) in cells, clamped to the face.
-double latticeHeightAt(const SampleGrid& grid, int face, glm::dvec2 xy) noexcept {
-  const auto n = static_cast<std::int32_t>(grid.lattice().sideCells());
-  xy = glm::clamp(xy, glm::dvec2(0.0), glm::dvec2(static_cast<double>(n)));
-  const double fx = std::floor(xy.x);
-  const double fy = std::floor(xy.y);
-  const auto x0 = std::min(static_cast<std::int32_t>(fx), n - 1);
-  const auto y0 = std::min(static_cast<std::int32_t>(fy), n - 1);
-  const double tx = xy.x - static_cast<double>(x0);
-  const double ty = xy.y - static_cast<double>(y0);
-  const double h00 = static_cast<double>(grid.height(face, LatticeXY{x0, y0}));
-  const double h10 = static_cast<double>(grid.height(face, LatticeXY{x0 + 1, y0}));
-  const double h01 = static_cast<double>(grid.height(face, LatticeXY{x0, y0 + 1}));
-  const double h11 = static_cast<double>(grid.height(face, LatticeXY{x0 + 1, y0 + 1}));
-  return (1.0 - ty) * ((1.0 - tx) * h00 + tx * h10) + ty * ((1.0 - tx) * h01 + tx * h11);
-}
-
 }  // namespace
 
 double maxLatticeDeviation(const SampleGrid& grid, int face, const WorkPatch& patch) {
@@ -113,20 +90,21 @@ double maxLatticeDeviation(const SampleGrid& grid, int face, const WorkPatch& pa
 
 namespace {
 
-/// The flat corner triangle of a node that a patch's vertices are placed on: corner positions
-/// and normals, the legs in lattice steps, and the lattice points' barycentrics on it.
+/// The corner triangle of a node that a patch's barycentrics refer to: its legs in lattice
+/// steps, its corner positions (the records' P_k) and canonical corner keys.
 class CornerTriangle final {
  public:
   CornerTriangle(const SampleGrid& grid, const BinTriangle& t)
-      : lattice_(grid.lattice()),
-        t_(t),
-        cornerXY_{t.apex, t.left, t.right},
+      : t_(t),
         e1_(t.left - t.apex),
         e2_(t.right - t.apex),
         len2_(static_cast<std::int64_t>(e1_.x) * e1_.x + static_cast<std::int64_t>(e1_.y) * e1_.y) {
     const NodeCorners corners = nodeCorners(grid, t);
+    const std::array<LatticeXY, 3> xy{t.apex, t.left, t.right};
     for (std::size_t k = 0; k < 3; ++k) {
-      cd_[k] = CornerData{corners.positions[k], glm::dvec3(corners.normals[k])};
+      positions_[k] = corners.positions[k];
+      normals_[k] = corners.normals[k];
+      keys_[k] = grid.lattice().key(t.face, xy[k]);
     }
   }
 
@@ -138,85 +116,62 @@ class CornerTriangle final {
   }
   std::int64_t len2() const noexcept { return len2_; }
 
-  /// The point of the flat triangle and the interpolated normal at numerators (n1, n2).
-  void flatPointAndNormal(std::int64_t n1, std::int64_t n2, glm::dvec3& pflat,
-                          glm::dvec3& nb) const {
-    if (n2 == 0) {
-      edgePoint(0, 1, n1, pflat, nb);  // apex–left
-    } else if (n1 == 0) {
-      edgePoint(0, 2, n2, pflat, nb);  // apex–right
-    } else if (n1 + n2 == len2_) {
-      edgePoint(1, 2, n2, pflat, nb);  // left–right
-    } else {
-      const double b1 = static_cast<double>(n1) / static_cast<double>(len2_);
-      const double b2 = static_cast<double>(n2) / static_cast<double>(len2_);
-      pflat = cd_[0].position + b1 * (cd_[1].position - cd_[0].position) +
-              b2 * (cd_[2].position - cd_[0].position);
-      nb = cd_[0].normal + b1 * (cd_[1].normal - cd_[0].normal) +
-           b2 * (cd_[2].normal - cd_[0].normal);
-    }
+  /// The flat point and interpolated normal the runtime splits the terrain point over
+  /// (runtime::patchVertexBase, from the corners and normals the node record stores).
+  PatchVertexBase base(std::uint16_t b1, std::uint16_t b2) const noexcept {
+    return patchVertexBase(positions_, normals_, keys_, b1, b2);
   }
 
  private:
-  /// Data of an edge endpoint pair in canonical key order (so both patches on the edge compute
-  /// the same numbers) and the parameter from the first.
-  void edgePoint(std::size_t from, std::size_t to, std::int64_t numerator, glm::dvec3& pflat,
-                 glm::dvec3& nb) const {
-    std::size_t first = from;
-    std::size_t second = to;
-    std::int64_t num = numerator;
-    if (lattice_.key(t_.face, cornerXY_[from]) > lattice_.key(t_.face, cornerXY_[to])) {
-      std::swap(first, second);
-      num = len2_ - numerator;
-    }
-    if (num == 0) {
-      pflat = cd_[first].position;
-      nb = cd_[first].normal;
-    } else if (num == len2_) {
-      pflat = cd_[second].position;
-      nb = cd_[second].normal;
-    } else {
-      const double s = static_cast<double>(num) / static_cast<double>(len2_);
-      pflat = cd_[first].position + s * (cd_[second].position - cd_[first].position);
-      nb = cd_[first].normal + s * (cd_[second].normal - cd_[first].normal);
-    }
-  }
-
-  const Lattice& lattice_;
   BinTriangle t_;
-  std::array<LatticeXY, 3> cornerXY_;
-  std::array<CornerData, 3> cd_;
   LatticeXY e1_;
   LatticeXY e2_;
   std::int64_t len2_;
+  std::array<glm::dvec3, 3> positions_{};
+  std::array<glm::vec3, 3> normals_{};
+  std::array<PointKey, 3> keys_{};
 };
 
-/// Places every vertex of `patch`: its exact barycentrics and quantised displacement in
-/// `out.mesh`, where it is drawn in `rendered`, and the patch's height range; copies the indices.
-void placeVertices(const SampleGrid& grid, const BinTriangle& t, const WorkPatch& patch,
-                   double heightStepMeters, MeasuredPatch& out, std::vector<glm::dvec3>& rendered) {
+/// Places every vertex of `patch`: its exact barycentrics and its lattice height quantised to
+/// the height step in `out.mesh`, where it is drawn (its terrain point at that height, the
+/// function the runtime decodes with) in `rendered`, and the patch's height range; copies the
+/// indices. Returns the representation error (docs/builder.md "Errors"): the largest height
+/// quantisation plus the largest float rounding of a GPU vertex's sideways offset
+/// o = float(T − Pflat − h·N) (runtime/PatchDraw.h; each component rounds by at most 2^-24 of
+/// itself, so the vector by at most 2^-24·|o|; h is exact in float or its rounding is in o).
+double placeVertices(const SampleGrid& grid, const BinTriangle& t, const WorkPatch& patch,
+                     double heightStepMeters, MeasuredPatch& out,
+                     std::vector<glm::dvec3>& rendered) {
   const CornerTriangle corners(grid, t);
   const std::int64_t len2 = corners.len2();
   constexpr std::int64_t one = kPatchBarycentricOne;
+  const Planet& planet = grid.planet();
+  const std::uint32_t cells = grid.lattice().sideCells();
   out.mesh.vertices.resize(patch.points.size());
   rendered.resize(patch.points.size());
   double minH = std::numeric_limits<double>::infinity();
   double maxH = -std::numeric_limits<double>::infinity();
+  double quantisation = 0.0;
+  double offsetRounding = 0.0;
   for (std::size_t v = 0; v < patch.points.size(); ++v) {
     const LatticeXY p = patch.points[v];
     const auto [n1, n2] = corners.numerators(p);
     assert((n1 * one) % len2 == 0 && (n2 * one) % len2 == 0);
-    glm::dvec3 pflat;
-    glm::dvec3 nb;
-    corners.flatPointAndNormal(n1, n2, pflat, nb);
-    const glm::dvec3 terrain = grid.terrainPoint(t.face, p);
-    const double h = glm::dot(terrain - pflat, nb) / glm::dot(nb, nb);
-    const double steps = std::round(h / heightStepMeters);
-    const auto stepsInt = static_cast<std::int32_t>(std::clamp(steps, -2147483647.0, 2147483647.0));
-    rendered[v] = pflat + (static_cast<double>(stepsInt) * heightStepMeters) * nb;
-    out.mesh.vertices[v] = PatchVertex{static_cast<std::uint16_t>(n1 * one / len2),
-                                       static_cast<std::uint16_t>(n2 * one / len2), stepsInt};
     const double height = static_cast<double>(grid.height(t.face, p));
+    const double steps = std::round(height / heightStepMeters);
+    const auto stepsInt = static_cast<std::int32_t>(std::clamp(steps, -2147483647.0, 2147483647.0));
+    const double stored = static_cast<double>(stepsInt) * heightStepMeters;
+    const PatchVertex vertex{static_cast<std::uint16_t>(n1 * one / len2),
+                             static_cast<std::uint16_t>(n2 * one / len2), stepsInt};
+    rendered[v] = latticeTerrainPoint(planet, cells, t.face, p, stored);
+    out.mesh.vertices[v] = vertex;
+    quantisation = std::max(quantisation, std::abs(stored - height));
+    const PatchVertexBase base = corners.base(vertex.b1, vertex.b2);
+    const PatchVertexDisplacement split =
+        patchVertexDisplacement(base, rendered[v], heightStepMeters);
+    offsetRounding = std::max(offsetRounding,
+                              glm::length(rendered[v] - base.flat -
+                                          static_cast<double>(split.heightMeters) * base.normal));
     minH = std::min(minH, height);
     maxH = std::max(maxH, height);
   }
@@ -226,6 +181,7 @@ void placeVertices(const SampleGrid& grid, const BinTriangle& t, const WorkPatch
   for (std::size_t k = 0; k < patch.indices.size(); ++k) {
     out.mesh.indices[k] = static_cast<std::uint16_t>(patch.indices[k]);
   }
+  return quantisation + std::ldexp(offsetRounding, -24);
 }
 
 /// Bounding sphere of the rendered vertices (box centre; deterministic).
@@ -269,61 +225,6 @@ double chordError(const SampleGrid& grid, const WorkPatch& patch,
   return worst / (8.0 * rMin);
 }
 
-/// For each vertex, the lattice shift δ of where it is drawn (in cells); returns the largest
-/// difference between a vertex's drawn height and its lattice height.
-double vertexShifts(const SampleGrid& grid, int faceIndex, const WorkPatch& patch,
-                    const std::vector<glm::dvec3>& rendered, std::vector<glm::dvec2>& shift) {
-  const Planet& planet = grid.planet();
-  const double n = static_cast<double>(grid.lattice().sideCells());
-  const CubeFace face = cubeFaceFromIndex(faceIndex);
-  shift.resize(patch.points.size());
-  double vertexError = 0.0;
-  for (std::size_t v = 0; v < patch.points.size(); ++v) {
-    double drawnHeight = 0.0;
-    glm::dvec3 direction;
-    if (planet.isSphere()) {
-      const double r = glm::length(rendered[v]);
-      drawnHeight = r - planet.equatorialRadiusMeters();
-      direction = rendered[v] / r;
-    } else {
-      const GeodeticPosition g = planet.ecefToGeodetic(rendered[v]);
-      drawnHeight = g.heightMeters;
-      direction = planet.geodeticToDirection(g.latDegrees, g.lonDegrees);
-    }
-    const LatticeXY q = patch.points[v];
-    const glm::dvec2 qd(static_cast<double>(q.x), static_cast<double>(q.y));
-    const std::optional<glm::dvec2> uv = CubeMap::directionToUvOnFace(face, direction);
-    shift[v] = uv ? *uv * n - qd : glm::dvec2(0.0);
-    vertexError = std::max(vertexError,
-                           std::abs(drawnHeight - static_cast<double>(grid.height(faceIndex, q))));
-  }
-  return vertexError;
-}
-
-/// Representation error (docs/builder.md "Errors"). A vertex is drawn at its lattice
-/// barycentrics on the flat corner triangle, displaced along the interpolated normal: on the
-/// tangent-adjusted cube map that lands beside its lattice point, by a shift δ that is smooth
-/// over the patch (kilometres on coarse patches, zero at the corners). Textures are looked up
-/// by the drawn point's own direction (patch.vert), so the shift is seen only through heights:
-/// above lattice point q + δ(q) the surface has the patch's height for q, and the terrain
-/// H(q + δ). The term is max |H(q + δ(q)) − H(q)| over every lattice point the patch covers (δ
-/// exact at the vertices, interpolated in between), plus each vertex's own height difference
-/// (displacement quantisation and the tilt of the interpolated normal).
-double representationError(const SampleGrid& grid, int face, const WorkPatch& patch,
-                           const std::vector<glm::dvec3>& rendered) {
-  std::vector<glm::dvec2> shift;
-  const double vertexError = vertexShifts(grid, face, patch, rendered, shift);
-  double shiftError = 0.0;
-  forEachLatticePointIn(patch, [&](std::uint32_t ia, std::uint32_t ib, std::uint32_t ic,
-                                   LatticeXY q, double w0, double w1, double w2, double total) {
-    const glm::dvec2 d = (w0 * shift[ia] + w1 * shift[ib] + w2 * shift[ic]) / total;
-    const glm::dvec2 qd(static_cast<double>(q.x), static_cast<double>(q.y));
-    shiftError = std::max(shiftError, std::abs(latticeHeightAt(grid, face, qd + d) -
-                                               static_cast<double>(grid.height(face, q))));
-  });
-  return vertexError + shiftError;
-}
-
 /// Sample error: lattice samples, then the source DEM's own samples.
 double sampleError(const SampleGrid& grid, int face, const WorkPatch& patch) {
   double error = maxLatticeDeviation(grid, face, patch);
@@ -349,10 +250,9 @@ MeasuredPatch measurePatch(const SampleGrid& grid, const BinTriangle& t, const W
                            double heightStepMeters) {
   MeasuredPatch out;
   std::vector<glm::dvec3> rendered;
-  placeVertices(grid, t, patch, heightStepMeters, out, rendered);
+  out.representationErrorMeters = placeVertices(grid, t, patch, heightStepMeters, out, rendered);
   boundingSphere(rendered, out);
   out.chordErrorMeters = chordError(grid, patch, rendered);
-  out.representationErrorMeters = representationError(grid, t.face, patch, rendered);
   out.sampleErrorMeters = sampleError(grid, t.face, patch);
   out.errorMeters = out.sampleErrorMeters + out.representationErrorMeters + out.chordErrorMeters;
   return out;

@@ -6,6 +6,7 @@
 
 #include "pbdam/formats/FileWrite.h"
 #include "pbdam/formats/MemoryMapping.h"
+#include "pbdam/runtime/TerrainPoint.h"
 
 #include <fcntl.h>
 #include <tbb/parallel_for.h>
@@ -98,15 +99,12 @@ std::uint32_t bucketsPerSideOf(const Lattice& lattice, std::uint32_t bucketCells
 
 glm::dvec3 SampleGrid::terrainPoint(const glm::dvec3& direction,
                                     double heightMeters) const noexcept {
-  if (planet_.isSphere()) {
-    return (planet_.equatorialRadiusMeters() + heightMeters) * direction;
-  }
-  const GeodeticPosition g = planet_.directionToGeodetic(direction);
-  return planet_.geodeticToEcef(g.latDegrees, g.lonDegrees, heightMeters);
+  return terrainPointOfDirection(planet_, direction, heightMeters);
 }
 
 glm::dvec3 SampleGrid::terrainPoint(int face, LatticeXY p) const noexcept {
-  return terrainPoint(lattice_.direction(face, p), static_cast<double>(height(face, p)));
+  return latticeTerrainPoint(planet_, lattice_.sideCells(), face, p,
+                             static_cast<double>(height(face, p)));
 }
 
 glm::dvec3 SampleGrid::surfaceNormal(int face, LatticeXY p) const noexcept {

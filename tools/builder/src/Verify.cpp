@@ -25,6 +25,7 @@
 #include "pbdam/formats/PatchCodec.h"
 #include "pbdam/formats/TextureTile.h"
 #include "pbdam/runtime/Planet.h"
+#include "pbdam/runtime/TerrainPoint.h"
 #include "pbdam/streaming/MappedFile.h"
 
 using namespace pbdam::formats;
@@ -66,7 +67,7 @@ std::string nodeName(const BinTriangle& t) {
          std::to_string(t.level) + " node " + std::to_string(t.index);
 }
 
-/// The vertices one patch has on one of its edges: (canonical key, displacement) sorted.
+/// The vertices one patch has on one of its edges: (canonical key, height steps) sorted.
 using EdgeVertices = std::vector<std::pair<PointKey, std::int32_t>>;
 
 /// A 64-bit digest of an edge's vertex list (splitmix64 over its count and entries): verify keeps
@@ -130,8 +131,10 @@ class DatasetVerifier final {
   /// Coverage without flips: positive triangles whose areas add up to the node's.
   bool checkCoverage(const BinTriangle& t, const PatchMesh& mesh,
                      const std::vector<LatticeXY>& points, const std::string& where);
-  /// Rendered positions inside the node's sphere; the rendered vertices' heights.
-  std::vector<double> checkSphere(const NodeRecord& record, const PatchMesh& mesh,
+  /// Rendered positions (the vertices' terrain points, as the runtime draws them) inside the
+  /// node's sphere; the rendered vertices' heights.
+  std::vector<double> checkSphere(const BinTriangle& t, const NodeRecord& record,
+                                  const PatchMesh& mesh, const std::vector<LatticeXY>& points,
                                   const std::string& where);
   void digestEdges(const BinTriangle& t, const PatchMesh& mesh,
                    const std::vector<LatticeXY>& points, DecodedNode& node) const;
@@ -306,20 +309,15 @@ bool DatasetVerifier::checkCoverage(const BinTriangle& t, const PatchMesh& mesh,
   return true;
 }
 
-std::vector<double> DatasetVerifier::checkSphere(const NodeRecord& record, const PatchMesh& mesh,
+std::vector<double> DatasetVerifier::checkSphere(const BinTriangle& t, const NodeRecord& record,
+                                                 const PatchMesh& mesh,
+                                                 const std::vector<LatticeXY>& points,
                                                  const std::string& where) {
-  const auto& P = record.cornerPositions;
-  const auto& N = record.cornerNormals;
-  const glm::dvec3 p0{P[0], P[1], P[2]}, p1{P[3], P[4], P[5]}, p2{P[6], P[7], P[8]};
-  const glm::dvec3 n0{N[0], N[1], N[2]}, n1{N[3], N[4], N[5]}, n2{N[6], N[7], N[8]};
   const glm::dvec3 c{record.sphereCenter[0], record.sphereCenter[1], record.sphereCenter[2]};
   std::vector<double> heights(mesh.vertices.size());
   for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
-    const double b1 = mesh.vertices[v].b1 / double{kPatchBarycentricOne};
-    const double b2 = mesh.vertices[v].b2 / double{kPatchBarycentricOne};
-    const glm::dvec3 nb = n0 + b1 * (n1 - n0) + b2 * (n2 - n0);
-    const glm::dvec3 p = p0 + b1 * (p1 - p0) + b2 * (p2 - p0) +
-                         (mesh.vertices[v].heightSteps * manifest_.heightStepMeters) * nb;
+    const double h = mesh.vertices[v].heightSteps * manifest_.heightStepMeters;
+    const glm::dvec3 p = latticeTerrainPoint(planet_, lattice_.sideCells(), t.face, points[v], h);
     if (glm::length(p - c) > static_cast<double>(record.sphereRadiusMeters) + 1e-3) {
       violations_.add(where + ": vertex " + std::to_string(v) + " lies outside its sphere");
       break;
@@ -401,7 +399,7 @@ void DatasetVerifier::checkNode(std::uint64_t id) {
   }
   const auto points = latticePoints(t, mesh, where);
   if (!points || !checkCoverage(t, mesh, *points, where)) return;
-  const std::vector<double> heights = checkSphere(node.record, mesh, where);
+  const std::vector<double> heights = checkSphere(t, node.record, mesh, *points, where);
   digestEdges(t, mesh, *points, node);
   node.valid = true;
   if (grid_) checkAgainstDem(t, node.record, mesh, *points, heights, where);
@@ -555,7 +553,7 @@ Result<VerifyReport> DatasetVerifier::run() {
   // ---- Every node: decode, coverage, orientation, sphere, edges, error against the DEM.
   checkNodes();
   // ---- Shared edges: every patch bordering an edge has the same vertices there (and the same
-  // displacements), so every conforming cut is crack-free.
+  // heights), so every conforming cut is crack-free.
   checkSharedEdges();
   // ---- The diamond DAG: partners share error and sphere; parents bound children.
   checkDiamondDag();

@@ -18,7 +18,7 @@
 
 namespace pbdam::formats {
 
-inline constexpr std::uint32_t kDatasetFormatVersion = 1;
+inline constexpr std::uint32_t kDatasetFormatVersion = 2;
 inline constexpr std::size_t kFaceHeaderBytes = 128;
 inline constexpr std::size_t kNodeRecordBytes = 176;
 inline constexpr std::size_t kTextureRecordBytes = 16;

@@ -14,8 +14,9 @@
 namespace pbdam::formats {
 
 /// One patch vertex (docs/builder.md, "Patches"): barycentric coordinates relative to the node's
-/// corners P1 (b1) and P2 (b2) in units of 2^-15, and the displacement along the interpolated
-/// corner normal in units of the dataset's height step (h = heightSteps * heightStep metres).
+/// corners P1 (b1) and P2 (b2) in units of 2^-15 (exact: the vertex is a lattice point), and that
+/// lattice point's own height in units of the dataset's height step (h = heightSteps ·
+/// heightStep metres; dataset format 2, formats/FORMAT.md).
 /// Valid vertices have b1 + b2 <= kPatchBarycentricOne.
 struct PatchVertex final {
   std::uint16_t b1 = 0;

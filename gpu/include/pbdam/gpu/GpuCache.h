@@ -21,7 +21,7 @@ class VulkanContext;
 /// How a GpuCache is set up.
 struct GpuCacheOptions final {
   /// Slot bytes of resident patches and tiles together (a patch slot holds
-  /// DatasetView::maxPatchVertices vertices of 8 bytes and maxPatchTriangles triangles of 16-bit
+  /// DatasetView::maxPatchVertices vertices of 20 bytes and maxPatchTriangles triangles of 16-bit
   /// indices; a tile slot one texture-array layer).
   std::uint64_t budgetBytes = std::uint64_t{256} << 20;
   /// Upload BC1 tiles expanded to RGBA8 even when the device samples BC1 (tests, comparisons).

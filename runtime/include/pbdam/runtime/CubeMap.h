@@ -125,6 +125,12 @@ class CubeMap final {
     return faceUvToDirection(point.face, point.uv);
   }
 
+  /// The plane coordinate tan(π/4·(2u − 1)) of face coordinate u (exactly ±1 at the edges).
+  static double uvToPlaneCoordinate(double uv) noexcept;
+  /// faceUvToDirection from the plane coordinates of u and v (uvToPlaneCoordinate): the same
+  /// bits, for callers that reuse plane coordinates along a lattice row or column.
+  static glm::dvec3 planeToDirection(CubeFace face, double planeU, double planeV) noexcept;
+
   /// Returns the face that owns `direction` (non-zero, need not be unit): the axis of the
   /// largest-magnitude component, with ties (points on face edges) resolved towards x, then y.
   static CubeFace faceOfDirection(const glm::dvec3& direction) noexcept;

@@ -1,14 +1,30 @@
 // Camera-relative patch vertices (docs/architecture.md "Precision", paper 004 §4.2 and Fig. 5):
-// what the host computes per draw in double, what the vertex shader then computes per vertex in
-// float, and a CPU copy of the shader's float arithmetic for tests.
+// where a vertex is drawn, what decode computes for it once per residency in double, what the
+// host computes per draw in double, what the vertex shader then computes per vertex in float,
+// and a CPU copy of the shader's float arithmetic for tests.
 //
-// A vertex with barycentrics (w0, w1, w2) (exact: 15-bit dyadics) and displacement h is at
-//   P(w, h) = w0·P0 + w1·P1 + w2·P2 + h·N(w),   N(w) = w0·N0 + w1·N1 + w2·N2 (not normalised).
+// A stored vertex is a lattice point q of its node's triangle, given by barycentrics
+// (w0, w1, w2) (exact: 15-bit dyadics) on the corner triangle (P0, P1, P2), and q's own lattice
+// height (quantised to the height step). It is drawn at its terrain point T (TerrainPoint.h: q's
+// direction on the reference surface raised by the height along the surface normal), the point
+// the builder measured. Decode (PatchVertexPlacement, on the decode workers, once per residency)
+// splits T in double into the displaced point of paper §4.2 and a residual:
+//   T = P(w, h) + o,   P(w, h) = Pflat(w) + h·N(w),
+//   Pflat(w) = w0·P0 + w1·P1 + w2·P2,   N(w) = w0·N0 + w1·N1 + w2·N2 (not normalised),
+// with h the normal component of T − Pflat rounded to the height step (the patch's relief and
+// sag: up to the planet's largest relief) and o = float(T − Pflat − h·N) the sideways rest (the
+// cube map's shift, metres to kilometres; zero at the corners). The GPU vertex is (b, h, o). A
+// vertex on an edge takes Pflat and N from the edge's corners in canonical key order (and a
+// corner its own P_k, N_k), so both patches compute identical doubles and store identical floats.
+// Storing T − Pflat as one float offset would round the relief (20 km on Olympus Mons) to 1–2 mm;
+// split, h is handled around a reference height near the camera (below), and o, which is small
+// near the camera, rounds by 2^-24·|o|.
+//
 // Fig. 5 rounds the corners (P_i − camera) to float and interpolates them. That is crack-free if
 // both patches of an edge do the same operations, but its rounding error scales with the corners'
 // distance: a 330 km MOLA leaf has ~2 cm error even at the camera. Here the host instead expands
 // P around reference points near the camera, in double, and the shader adds only small float
-// terms (docs/decisions.md "Camera-relative precision"):
+// terms (docs/decisions.md "Camera-relative precision"), then o:
 //   interior vertex: P − cam = R + d1·E1 + d2·E2 + (h − hr)·N(w) + hr·(d1·ΔN1 + d2·ΔN2)
 //     with r the patch's reference barycentrics (the camera's projection, rounded to 2^-15),
 //     hr its reference displacement (rounded to the height step), d = w − r (exact in float),
@@ -17,24 +33,22 @@
 //     P − cam = Re + (t − tr)·Ee + (h − hre)·(Na + t·ΔNe) + hre·((t − tr)·ΔNe)
 //     with every term computed from the edge's own data (its corners, the camera and
 //     dataset-wide constants) so both patches on the edge compute bit-identical floats;
-//   corner k: (P_k − cam rounded) + h·N_k.
+//   corner k: (P_k − cam rounded) + h·N_k;
+//   and T − cam = (P − cam) + o in every case.
 // The float operations are fixed in order and never contracted into FMAs (GLSL `precise`; this
 // file's .cpp is built with -ffp-contract=off), so shaderVertexPosition reproduces the GPU
 // bit for bit on IEEE hardware.
 //
-// Texture coordinates come from where the vertex is drawn, not from w: a vertex drawn at its
-// lattice barycentrics lands beside its lattice point (kilometres on coarse patches), and with
-// the texture looked up at the drawn point that shift is seen only through heights, which the
-// builder's representation error bounds (docs/builder.md "Errors"). The tile's texture
+// Texture coordinates come from where the vertex is drawn, its terrain point. The tile's texture
 // coordinate is affine in the face coordinates (u, v) of the vertex's terrain direction,
 // tc = 0.5 + k·(u − uc, v − vc) with (uc, vc) the tile's centre. The shader finds the direction by
-// inverting the builder's T = surface(d) + H·n(d) (exact on a sphere; on an ellipsoid two
+// inverting T = surface(d) + H·n(d) (exact on a sphere; on an ellipsoid two
 // fixed-point steps, which leave millimetres) on the record's own face, and forms u − uc as
 // (2/π)·atan of a plane-coordinate
 // difference computed from the vertex's offset to the tile centre's surface point Q, so no absolute
 // float position is ever rounded (docs/architecture.md "Refinement and drawing"): its error scales
 // with the tile, not the planet. Not bit-exact across GPUs (atan, inversesqrt); shaderTexCoord is
-// its float mirror. Thread-safety: pure functions.
+// its float mirror. Thread-safety: pure functions; PatchVertexPlacement is an immutable value.
 #pragma once
 
 #include <array>
@@ -42,12 +56,14 @@
 #include <cstdint>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
+#include <vector>
 
 #include "pbdam/formats/DatasetFormat.h"
 #include "pbdam/formats/PatchCodec.h"
 #include "pbdam/runtime/CubeMap.h"
 #include "pbdam/runtime/DatasetView.h"
 #include "pbdam/runtime/Planet.h"
+#include "pbdam/runtime/TerrainPoint.h"
 
 namespace pbdam::runtime {
 
@@ -112,28 +128,90 @@ struct PatchDrawInput final {
 PatchDrawRecord makePatchDrawRecord(const DatasetView& dataset, const PatchDrawInput& input,
                                     const glm::dvec3& cameraEcef) noexcept;
 
-/// A vertex's displacement in metres as the GPU receives it (exact: steps · 2^-6 in float).
-float vertexHeightMeters(std::int32_t heightSteps, double heightStepMeters) noexcept;
+/// A vertex's point on its flat corner triangle and its interpolated (not normalised) normal.
+struct PatchVertexBase final {
+  glm::dvec3 flat{0.0};    ///< Pflat(w)
+  glm::dvec3 normal{0.0};  ///< N(w), from the float corner normals
+};
+
+/// Barycentrics (b1, b2) (units of 2^-15; b1 + b2 ≤ 2^15) on the corner triangle with corner
+/// positions `corners` (apex, left, right), float normals `normals` and canonical lattice keys
+/// `keys`: a corner's own P_k, N_k; on edge k (w_k = 0) Pa + t·(Pb − Pa) and Na + t·(Nb − Na)
+/// with a, b the edge's other corners in key order and t the weight of b (exact), so both
+/// triangles on the edge get identical doubles; else P0 + w1·(P1 − P0) + w2·(P2 − P0) and the
+/// same for N. The case selection is the shader's.
+PatchVertexBase patchVertexBase(const std::array<glm::dvec3, 3>& corners,
+                                const std::array<glm::vec3, 3>& normals,
+                                const std::array<PointKey, 3>& keys, std::uint16_t b1,
+                                std::uint16_t b2) noexcept;
+
+/// What the GPU vertex carries besides b: the displacement along N(w) and the sideways rest.
+struct PatchVertexDisplacement final {
+  float heightMeters = 0.0f;     ///< h: the normal component of T − Pflat on the height grid
+  glm::vec3 offsetMeters{0.0f};  ///< o = float(T − Pflat − h·N)
+};
+
+/// Splits `terrain` (T, planetocentric metres) over `base` (the header comment): exact for
+/// identical inputs, so both patches on an edge get the same floats.
+PatchVertexDisplacement patchVertexDisplacement(const PatchVertexBase& base,
+                                                const glm::dvec3& terrain,
+                                                double heightStepMeters) noexcept;
+
+/// Where the vertices of one patch are drawn, in double (the header comment): built once per
+/// decoded patch from its node and record.
+class PatchVertexPlacement final {
+ public:
+  PatchVertexPlacement(const DatasetView& dataset, const NodeKey& node,
+                       const formats::NodeRecord& record) noexcept;
+
+  /// The lattice point of barycentrics (b1, b2) on the node's triangle, or false when they are
+  /// not one (b1 + b2 > 2^15, or off the lattice: a blob that does not belong to the node).
+  bool latticePoint(std::uint16_t b1, std::uint16_t b2, LatticeXY& q) const noexcept;
+  /// The vertex's terrain point T(q, heightSteps · heightStep), planetocentric metres.
+  glm::dvec3 terrainPoint(LatticeXY q, std::int32_t heightSteps) const noexcept;
+  /// patchVertexBase of (b1, b2) on the node's corner triangle.
+  PatchVertexBase base(std::uint16_t b1, std::uint16_t b2) const noexcept {
+    return patchVertexBase(corners_, normals_, keys_, b1, b2);
+  }
+  /// The GPU vertex's h and o; false for barycentrics latticePoint rejects.
+  bool displacement(const formats::PatchVertex& vertex,
+                    PatchVertexDisplacement& out) const noexcept;
+
+ private:
+  const Planet* planet_;
+  std::uint32_t latticeCells_;
+  int face_;
+  double heightStepMeters_;
+  LatticeXY apex_{0}, leg1_{0}, leg2_{0};
+  // Plane coordinates of the columns x0.. and rows y0.. of the triangle's bounding box (the
+  // tangents of the cube map, once per column and row instead of twice per vertex); empty
+  // where the box is too large to be worth it.
+  LatticeXY planeOrigin_{0};
+  std::vector<double> planeU_, planeV_;
+  std::array<glm::dvec3, 3> corners_{};
+  std::array<glm::vec3, 3> normals_{};
+  std::array<PointKey, 3> keys_{};
+};
 
 /// The vertex shader's float computation of a vertex's camera-relative position, on the CPU.
 glm::vec3 shaderVertexPosition(const PatchDrawRecord& draw, std::uint16_t b1, std::uint16_t b2,
-                               float heightMeters) noexcept;
+                               const PatchVertexDisplacement& vertex) noexcept;
 
-/// The same vertex in double: P(w, h) − camera, with the stored (float) normals.
-glm::dvec3 exactVertexPosition(const formats::NodeRecord& record, std::uint16_t b1,
-                               std::uint16_t b2, double heightMeters,
+/// The same vertex in double: its terrain point T − camera (what the shader approximates).
+glm::dvec3 exactVertexPosition(const PatchVertexPlacement& placement,
+                               const formats::PatchVertex& vertex,
                                const glm::dvec3& cameraEcef) noexcept;
 
 /// The technique camera-relative drawing replaces, for comparison: absolute float corners
-/// interpolated in float, then the camera subtracted in float.
+/// interpolated in float, displaced, the offset added, then the camera subtracted in float.
 glm::vec3 absoluteFloatVertexPosition(const formats::NodeRecord& record, std::uint16_t b1,
-                                      std::uint16_t b2, float heightMeters,
+                                      std::uint16_t b2, const PatchVertexDisplacement& vertex,
                                       const glm::dvec3& cameraEcef) noexcept;
 
 /// Fig. 5 as published: corners rounded camera-relative, interpolated in float (no reference
-/// points), for the precision comparison in tests and docs.
+/// points), displaced, the offset added, for the precision comparison in tests and docs.
 glm::vec3 cornerRelativeVertexPosition(const formats::NodeRecord& record, std::uint16_t b1,
-                                       std::uint16_t b2, float heightMeters,
+                                       std::uint16_t b2, const PatchVertexDisplacement& vertex,
                                        const glm::dvec3& cameraEcef) noexcept;
 
 }  // namespace pbdam::runtime

@@ -5,6 +5,7 @@
 // outputs.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -17,13 +18,16 @@
 namespace pbdam::streaming {
 
 /// One vertex as the patch pools hold it (gpu/PatchPipeline.h binds it): b1, b2 as
-/// R16G16_UINT, then the height above the reference surface in metres as R32_SFLOAT.
+/// R16G16_UINT, the displacement h along the interpolated normal as R32_SFLOAT and the sideways
+/// offset o as R32G32B32_SFLOAT, metres (runtime/PatchDraw.h PatchVertexDisplacement: computed in
+/// double here, once per residency, so that the shader draws the vertex at its terrain point).
 struct PatchGpuVertex final {
   std::uint16_t b1;
   std::uint16_t b2;
   float heightMeters;
+  std::array<float, 3> offsetMeters;
 };
-static_assert(sizeof(PatchGpuVertex) == 8);
+static_assert(sizeof(PatchGpuVertex) == 20);
 
 /// One missing patch (key.kind() Patch: `node`) or tile (Tile: `tile`) and where its decoded
 /// bytes go in the output.

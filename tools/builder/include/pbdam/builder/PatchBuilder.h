@@ -1,7 +1,7 @@
 // Patch construction for P-BDAM (paper 004 §5 "Out-of-core Geometric Simplification";
 // docs/builder.md "Patches"): regular leaf patches, the simplification of one block (the four
 // children of a diamond) into the diamond's two patches by greedy insertion, and the measurement
-// and encoding of a patch (exact barycentrics, displacement along the interpolated normal,
+// and encoding of a patch (exact barycentrics, quantised lattice heights,
 // error against lattice and source samples, bounding sphere). Thread-safety: free functions on
 // their own data; SampleGrid is read-only, so blocks may be processed concurrently.
 #pragma once
@@ -80,10 +80,10 @@ NodeCorners nodeCorners(const SampleGrid& grid, const runtime::BinTriangle& tria
 
 /// A measured, encodable patch.
 struct MeasuredPatch final {
-  formats::PatchMesh mesh;         ///< exact barycentrics and quantised displacements
+  formats::PatchMesh mesh;         ///< exact barycentrics and quantised lattice heights
   double sampleErrorMeters = 0.0;  ///< max |patch − sample| over lattice and source samples
-  /// max |H(q + δ(q)) − H(q)| over the covered lattice points, δ the drawn shift, plus the
-  /// vertices' own height error (docs/builder.md "Errors")
+  /// the vertices' height quantisation plus the float rounding of their GPU offsets: every
+  /// vertex is drawn at its terrain point (docs/builder.md "Errors")
   double representationErrorMeters = 0.0;
   double chordErrorMeters = 0.0;  ///< max sag of its flat triangles below the planet (R_min)
   double errorMeters = 0.0;       ///< the sum of the three

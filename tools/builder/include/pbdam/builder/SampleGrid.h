@@ -109,7 +109,8 @@ class SampleGrid final {
                        [static_cast<std::size_t>(p.y) * n1 + static_cast<std::size_t>(p.x)];
   }
   /// The terrain point (planetocentric, metres) of lattice point p: the surface point of its
-  /// direction raised by its height along the surface normal. Bit-identical on every face.
+  /// direction raised by its height along the surface normal. Bit-identical on every face:
+  /// runtime::latticeTerrainPoint (TerrainPoint.h), the function the runtime draws vertices with.
   glm::dvec3 terrainPoint(int face, runtime::LatticeXY p) const noexcept;
   /// The terrain point of a direction at a given height.
   glm::dvec3 terrainPoint(const glm::dvec3& direction, double heightMeters) const noexcept;

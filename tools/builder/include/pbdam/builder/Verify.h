@@ -1,7 +1,7 @@
 // `pbdam verify`: checks a dataset against every invariant P-BDAM relies on (docs/builder.md):
 // checksums and decodability of every section, header/manifest agreement, error nesting over
 // the diamond DAG across faces, diamond partners sharing error and sphere, sphere containment,
-// patches covering their triangles without flips, identical vertex sets (and displacements) on
+// patches covering their triangles without flips, identical vertex sets (and heights) on
 // every edge two patches can share in a conforming cut, and — given the source DEM — stored
 // error ≥ the patch's deviation from every DEM sample it covers. Thread-safety: independent
 // calls may run concurrently.
