@@ -1,8 +1,11 @@
 // libFuzzer target for the build checkpoint's decoders (tools/builder Checkpoint.h, compiled from
 // CheckpointPayloads.cpp alone): the first byte picks the state file's text parser or a part
 // file of one kind (nodes, carry, texture) — trailer, CRC, then every entry, index lookup and
-// carry record the decoders accept. Seeds: the checkpoint of a small MOLA build stopped just
-// before its manifest, each file prefixed with its selector (tests/fuzz/corpus/checkpoint).
+// carry record the decoders accept. Seeds: the checkpoint of a small MOLA build (`pbdam build
+// --dem megt90n000cb.lbl --planet mars --levels 2 --leaf-vertices 9 --min-patch-triangles 16
+// --texture-tile 16 --texture-format rgba8`) stopped before its manifest (PBDAM_TEST_FAIL_WRITE=
+// manifest) and, for the carry, before level 0 (PBDAM_TEST_FAIL_LEVEL=0), each file prefixed with
+// its selector (tests/fuzz/corpus/checkpoint); rewrite them when the checkpoint version changes.
 #include <array>
 #include <cstddef>
 #include <cstdint>
