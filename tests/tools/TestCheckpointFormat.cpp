@@ -137,7 +137,7 @@ TEST(CheckpointFormat, TexturePartRoundTripsAndRejectsDamage) {
 /// and the index after them, as a level writes its carry part.
 struct CarryFixture {
   std::vector<std::byte> payload;
-  CarrySaturation saturation{0.75f, glm::dvec3(1.0e6, -2.5e6, 3.25), 1234.5f};
+  CarrySaturation saturation{0.75f, glm::dvec3(1.0e6, -2.5e6, 3.25), 1234.5f, 0.5f};
   WorkPatch narrow = patchWithin(65535);
   WorkPatch wide = patchWithin(70000);
 
@@ -168,6 +168,7 @@ TEST(CheckpointFormat, CarryRecordsAndIndexRoundTrip) {
     EXPECT_EQ(s.errorMeters, f.saturation.errorMeters);
     EXPECT_EQ(s.sphereCenter, f.saturation.sphereCenter);
     EXPECT_EQ(s.sphereRadiusMeters, f.saturation.sphereRadiusMeters);
+    EXPECT_EQ(s.floorMeters, f.saturation.floorMeters);
     EXPECT_EQ(patch.points, expected->points);
     EXPECT_EQ(patch.indices, expected->indices);
   }
@@ -220,6 +221,23 @@ TEST(CheckpointFormat, RejectsADamagedCarry) {
   std::uint64_t firstId = 0;
   std::memcpy(&firstId, badOffset.data() + firstEntry, 8);
   EXPECT_FALSE(badOffsetView->offsetOf(firstId));
+}
+
+TEST(CheckpointFormat, HypotenusePointsWithoutTrianglesRoundTripInBothWidths) {
+  // What a level carries for its parent: the points on a patch's hypotenuse, no triangles.
+  for (const std::int32_t far : {100, 70000}) {
+    WorkPatch points;
+    points.points = {LatticeXY{0, 0}, LatticeXY{far / 2, far / 2}, LatticeXY{far, far}};
+    ByteWriter w;
+    putCarryRecord(w, CarrySaturation{}, &points);
+    const auto bytes = w.take();
+    ByteReader r(bytes);
+    CarrySaturation s;
+    WorkPatch back;
+    ASSERT_TRUE(getCarryRecord(r, s, &back)) << far;
+    EXPECT_EQ(back.points, points.points);
+    EXPECT_TRUE(back.indices.empty());
+  }
 }
 
 TEST(CheckpointFormat, ACarryPatchIndexingPastItsPointsIsDamaged) {

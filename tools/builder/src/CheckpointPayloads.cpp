@@ -296,7 +296,8 @@ bool getPatch(ByteReader& r, WorkPatch& p) {
   if (r.failed()) return false;
   p.indices.resize(indices);
   if (width == 4) {
-    std::memcpy(p.indices.data(), run.data(), run.size());
+    // A carry keeps only hypotenuse points: no indices, and memcpy must not see null pointers.
+    if (!run.empty()) std::memcpy(p.indices.data(), run.data(), run.size());
   } else {
     for (std::size_t k = 0; k < indices; ++k) {
       std::uint16_t v = 0;
