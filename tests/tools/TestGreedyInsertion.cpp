@@ -109,13 +109,16 @@ void expectDelaunayTiling(const WorkPatch& patch, const std::array<LatticeXY, 3>
   }
 }
 
-const std::array<LatticeXY, 3> kCorners = {LatticeXY{0, 0}, LatticeXY{0, 32}, LatticeXY{32, 0}};
+/// The test triangle: a right triangle with 32-cell legs.
+std::array<LatticeXY, 3> corners32() {
+  return {LatticeXY{0, 0}, LatticeXY{0, 32}, LatticeXY{32, 0}};
+}
 
 /// Every lattice point of the three edges: then every covered point is checked by the target.
 std::vector<LatticeXY> wholeBoundary() {
   std::vector<LatticeXY> b;
   for (std::size_t e = 0; e < 3; ++e) {
-    const auto s = segmentPoints(kCorners[e], kCorners[(e + 1) % 3]);
+    const auto s = segmentPoints(corners32()[e], corners32()[(e + 1) % 3]);
     b.insert(b.end(), s.begin(), s.end());
   }
   return b;
@@ -126,8 +129,8 @@ TEST(GreedyInsertion, RoughFieldReachesTheTargetWithADelaunayTiling) {
   const auto boundary = wholeBoundary();
   for (const double target : {200.0, 50.0, 5.0}) {
     const InsertionResult r =
-        insertGreedily(f.view(), kCorners, boundary, InsertionLimits{target, 0, 65535}, {});
-    expectDelaunayTiling(r.patch, kCorners, boundary);
+        insertGreedily(f.view(), corners32(), boundary, InsertionLimits{target, 0, 65535}, {});
+    expectDelaunayTiling(r.patch, corners32(), boundary);
     EXPECT_LE(maxDeviationByScan(f, r.patch), target);
     EXPECT_LE(r.maxErrorMeters, target);
     EXPECT_GT(r.insertedPoints, 0u);
@@ -140,7 +143,7 @@ TEST(GreedyInsertion, FinerTargetsNeedMoreTriangles) {
   std::size_t previous = 0;
   for (const double target : {400.0, 100.0, 25.0, 1.0}) {
     const InsertionResult r =
-        insertGreedily(f.view(), kCorners, boundary, InsertionLimits{target, 0, 65535}, {});
+        insertGreedily(f.view(), corners32(), boundary, InsertionLimits{target, 0, 65535}, {});
     EXPECT_GT(r.patch.indices.size(), previous) << "target " << target;
     previous = r.patch.indices.size();
   }
@@ -151,8 +154,8 @@ TEST(GreedyInsertion, FlatFieldKeepsOnlyTheBoundaryEvenBelowTheTriangleFloor) {
   std::fill(f.heights.begin(), f.heights.end(), 1234.0f);
   const std::vector<LatticeXY> boundary = {{0, 8}, {0, 16}, {8, 0}, {16, 16}};
   const InsertionResult r =
-      insertGreedily(f.view(), kCorners, boundary, InsertionLimits{0.0, 512, 65535}, {});
-  expectDelaunayTiling(r.patch, kCorners, boundary);
+      insertGreedily(f.view(), corners32(), boundary, InsertionLimits{0.0, 512, 65535}, {});
+  expectDelaunayTiling(r.patch, corners32(), boundary);
   EXPECT_EQ(r.insertedPoints, 0u);
   EXPECT_EQ(r.patch.points.size(), 3u + boundary.size());
   EXPECT_EQ(r.maxErrorMeters, 0.0);
@@ -164,12 +167,12 @@ TEST(GreedyInsertion, ASpikeIsInsertedFirst) {
   f.at(9, 13) = 8000.0f;
   const auto boundary = wholeBoundary();
   const InsertionResult first =
-      insertGreedily(f.view(), kCorners, boundary, InsertionLimits{7999.0, 0, 65535}, {});
+      insertGreedily(f.view(), corners32(), boundary, InsertionLimits{7999.0, 0, 65535}, {});
   EXPECT_EQ(first.insertedPoints, 1u);
   EXPECT_EQ(first.patch.points.back(), LatticeXY(9, 13));
   // Then its neighbours, which the spike's triangles lift, until the field is exact.
   const InsertionResult exact =
-      insertGreedily(f.view(), kCorners, boundary, InsertionLimits{0.0, 0, 65535}, {});
+      insertGreedily(f.view(), corners32(), boundary, InsertionLimits{0.0, 0, 65535}, {});
   EXPECT_EQ(exact.patch.points[96], LatticeXY(9, 13));  // after the 96 boundary points
   EXPECT_LE(exact.insertedPoints, 9u);
   EXPECT_EQ(maxDeviationByScan(f, exact.patch), 0.0);
@@ -185,23 +188,24 @@ TEST(GreedyInsertion, ExtremeSlopesStayValid) {
   }
   const auto boundary = wholeBoundary();
   const InsertionResult r =
-      insertGreedily(f.view(), kCorners, boundary, InsertionLimits{0.5, 0, 65535}, {});
-  expectDelaunayTiling(r.patch, kCorners, boundary);
+      insertGreedily(f.view(), corners32(), boundary, InsertionLimits{0.5, 0, 65535}, {});
+  expectDelaunayTiling(r.patch, corners32(), boundary);
   EXPECT_LE(maxDeviationByScan(f, r.patch), 0.5);
 }
 
 TEST(GreedyInsertion, TheTriangleFloorAndTheVertexCapHold) {
   const Field f = roughField(32, 3, 30.0f);
-  const std::vector<LatticeXY> corners(kCorners.begin(), kCorners.end());
+  const auto triangle = corners32();
+  const std::vector<LatticeXY> corners(triangle.begin(), triangle.end());
   const InsertionResult floor =
-      insertGreedily(f.view(), kCorners, corners, InsertionLimits{1e9, 100, 65535}, {});
+      insertGreedily(f.view(), corners32(), corners, InsertionLimits{1e9, 100, 65535}, {});
   EXPECT_GE(floor.patch.indices.size() / 3, 100u);
   EXPECT_LT(floor.patch.indices.size() / 3, 104u);  // stops as soon as the floor is reached
   const InsertionResult capped =
-      insertGreedily(f.view(), kCorners, corners, InsertionLimits{0.0, 0, 40}, {});
+      insertGreedily(f.view(), corners32(), corners, InsertionLimits{0.0, 0, 40}, {});
   EXPECT_EQ(capped.patch.points.size(), 40u);
   EXPECT_GT(capped.maxErrorMeters, 0.0);
-  expectDelaunayTiling(capped.patch, kCorners, corners);
+  expectDelaunayTiling(capped.patch, corners32(), corners);
 }
 
 TEST(GreedyInsertion, ChordSagIsRefinedOnAFlatField) {
@@ -211,7 +215,7 @@ TEST(GreedyInsertion, ChordSagIsRefinedOnAFlatField) {
   const ChordModel chord{10000.0, 3.0e6};
   const auto boundary = wholeBoundary();
   const InsertionResult r =
-      insertGreedily(f.view(), kCorners, boundary, InsertionLimits{100.0, 0, 65535}, chord);
+      insertGreedily(f.view(), corners32(), boundary, InsertionLimits{100.0, 0, 65535}, chord);
   EXPECT_GT(r.insertedPoints, 0u);
   EXPECT_LE(r.maxErrorMeters, 100.0);
   for (std::size_t k = 0; k < r.patch.indices.size(); k += 3) {
@@ -230,10 +234,10 @@ TEST(GreedyInsertion, SameInputGivesTheSameTriangulationWhateverTheBoundaryOrder
   const Field f = roughField(32, 5, 30.0f);
   auto boundary = wholeBoundary();
   const InsertionResult a =
-      insertGreedily(f.view(), kCorners, boundary, InsertionLimits{20.0, 64, 65535}, {});
+      insertGreedily(f.view(), corners32(), boundary, InsertionLimits{20.0, 64, 65535}, {});
   std::reverse(boundary.begin(), boundary.end());
   boundary.insert(boundary.end(), boundary.begin(), boundary.begin() + 5);  // duplicates
-  const std::array<LatticeXY, 3> clockwise = {kCorners[0], kCorners[2], kCorners[1]};
+  const std::array<LatticeXY, 3> clockwise = {corners32()[0], corners32()[2], corners32()[1]};
   const InsertionResult b =
       insertGreedily(f.view(), clockwise, boundary, InsertionLimits{20.0, 64, 65535}, {});
   EXPECT_EQ(a.patch.points, b.patch.points);
@@ -265,8 +269,7 @@ TEST(GreedyInsertion, DiagonalTrianglesOfEveryOrientation) {
 TEST(GreedyInsertion, LargeHalvesStartCoarseAndStillMeetTheTargetExactly) {
   // 131,841 lattice points: the first insertions choose among every 4th point of each axis.
   const Field f = roughField(512, 13, 10.0f);
-  const std::array<LatticeXY, 3> corners = {LatticeXY{0, 0}, LatticeXY{512, 0},
-                                            LatticeXY{0, 512}};
+  const std::array<LatticeXY, 3> corners = {LatticeXY{0, 0}, LatticeXY{512, 0}, LatticeXY{0, 512}};
   std::vector<LatticeXY> boundary;
   for (std::size_t e = 0; e < 3; ++e) {
     const auto s = segmentPoints(corners[e], corners[(e + 1) % 3]);

@@ -87,6 +87,7 @@ BlockResult simplifyBlock(const SampleGrid& grid, const std::array<BinTriangle, 
   for (std::size_t s = 0; s < 2; ++s) {
     const BinTriangle& t = triangles[s];
     std::vector<LatticeXY> boundary;
+    boundary.reserve(kept.size() + da.points.size());
     for (const std::size_t k : kept)
       boundary.push_back(s == 0 ? da.points[k] : db.points[last - k]);
     for (std::size_t c = 0; c < 2; ++c) {
