@@ -202,14 +202,15 @@ TEST(Builder, AnOlderFormatVersionIsRefusedNamingTheFileAndTheRebuild) {
   test::TempDir dir;
   BuildOptions o = smallMola(dem, dir / "d");
   o.depth = 2;
-  ASSERT_TRUE(buildDataset(o));
+  const auto built = buildDataset(o);
+  ASSERT_TRUE(built) << built.error().message;
   ASSERT_EQ(kDatasetFormatVersion, 2u);
 
   // A face file whose header says version 1 (its header checksum made valid again).
   const fs::path facePath = dir / "d" / "face4.pbdam";
   std::string face = readFile(facePath);
   const auto headerBytes = std::as_bytes(std::span(face.data(), kFaceHeaderBytes));
-  auto header = decodeFaceHeader(headerBytes, facePath.string());
+  auto header = decodeFaceHeader(headerBytes, face.size(), facePath.string());
   ASSERT_TRUE(header) << header.error().message;
   header->version = 1;
   std::array<std::byte, kFaceHeaderBytes> patched{};
