@@ -17,6 +17,7 @@
 #include "GreedyInsertion.h"
 
 using pbdam::builder::ChordModel;
+using pbdam::builder::doubleArea;
 using pbdam::builder::FaceHeights;
 using pbdam::builder::InsertionLimits;
 using pbdam::runtime::LatticeXY;
@@ -39,11 +40,6 @@ class Bytes {
   std::span<const std::uint8_t> data_;
   std::size_t at_ = 0;
 };
-
-std::int64_t doubleArea(LatticeXY a, LatticeXY b, LatticeXY c) {
-  return static_cast<std::int64_t>(b.x - a.x) * (c.y - a.y) -
-         static_cast<std::int64_t>(b.y - a.y) * (c.x - a.x);
-}
 
 std::vector<float> heightsFrom(Bytes& in) {
   std::vector<float> h(static_cast<std::size_t>((kCells + 1) * (kCells + 1)));
