@@ -46,7 +46,7 @@ std::vector<std::string> buildArgs(const fs::path& dem, const fs::path& out) {
           "6",
           "--leaf-vertices",
           "17",
-          "--patch-vertices",
+          "--min-patch-triangles",
           "128",
           "--texture-tile",
           "64",
