@@ -4,7 +4,9 @@
 // clients that send a request and never read the reply or never finish their headers, and
 // bursts of simultaneous frames beyond the render queue — and reports, per window, requests
 // served, 4xx and 503 counts and frame latency p50/p99, with the server's anonymous RSS and open
-// descriptors; after the warm-up and at the end, the drift of both; crashes (the server gone
+// descriptors, and from its /stats the C heap in use, the heap kept free by the allocator and the
+// GPU cache's memory; from the first window after the warm-up to the end, the drift of RSS and
+// descriptors; crashes (the server gone
 // before the stop, or not exiting cleanly on SIGTERM); and sampled frames served under load
 // compared byte for byte with `pbdam render` of the same camera. Every client is bounded (count
 // of open slow connections, burst size) and stops at the deadline.
@@ -13,8 +15,11 @@
 //                    [--check-flat]
 // Exit code 0 when there was no crash, no wrong frame, no 5xx besides 503, and the server
 // still answered at the end (with --check-flat also: anonymous RSS and descriptors within 5%
-// of the warm-up's, last window's p99 within 1.5x of the first's); 1 otherwise.
+// of the first window's after the warm-up, last window's p99 within 1.5x of that window's); 1
+// otherwise.
 #include <httplib.h>
+
+#include <nlohmann/json.hpp>
 
 #include <atomic>
 #include <condition_variable>
@@ -123,6 +128,7 @@ class Soak {
   bool serverAlive();
   int compareFrames();
   struct Window;
+  void readServerMemory(Window& w) const;
   int report(const std::vector<Window>& windows, const std::optional<Window>& warm, bool answers,
              int wrong, int crashes);
 
@@ -302,7 +308,32 @@ struct Soak::Window {
   long frames = 0;
   double anonMiB = 0.0;
   int fds = 0;
+  // From the server's /stats: the C heap in use and kept free by the allocator, and the GPU
+  // cache's device memory (host memory on lavapipe). Negative: /stats did not answer.
+  double heapMiB = -1.0;
+  double heapFreeMiB = -1.0;
+  double cacheMiB = -1.0;
+  double residentMiB = -1.0;  ///< of the cache: the patches and tiles in it
 };
+
+/// The memory figures of the server's /stats into `w` (left negative when it does not answer).
+void Soak::readServerMemory(Window& w) const {
+  httplib::Client client("127.0.0.1", port_);
+  client.set_read_timeout(10, 0);
+  const auto res = client.Get("/stats");
+  if (!res || res->status != 200) return;
+  const auto stats = nlohmann::json::parse(res->body, nullptr, false);
+  if (stats.is_discarded()) return;
+  constexpr double kMiB = 1024.0 * 1024.0;
+  const auto mib = [&](const nlohmann::json::json_pointer& at) {
+    return stats.contains(at) ? stats[at].get<double>() / kMiB : -1.0;
+  };
+  using P = nlohmann::json::json_pointer;
+  w.heapMiB = mib(P("/server/heap/in_use_bytes"));
+  w.heapFreeMiB = mib(P("/server/heap/free_in_arenas_bytes"));
+  w.cacheMiB = mib(P("/cache/pool_bytes"));
+  w.residentMiB = mib(P("/cache/resident_bytes"));
+}
 
 int Soak::run() {
   std::vector<std::thread> clients;
@@ -313,8 +344,9 @@ int Soak::run() {
   clients.emplace_back([this] { slowClients(); });
   clients.emplace_back([this] { bursts(); });
 
-  std::printf("%8s %8s %6s %6s %7s %9s %9s %10s %8s\n", "t_s", "served", "4xx", "503", "frames",
-              "p50_ms", "p99_ms", "anon_MiB", "min_fds");
+  std::printf("%8s %8s %6s %6s %7s %9s %9s %10s %8s %9s %9s %10s %10s\n", "t_s", "served", "4xx",
+              "503", "frames", "p50_ms", "p99_ms", "anon_MiB", "min_fds", "heap_MiB", "free_MiB",
+              "cache_MiB", "cached_MiB");
   std::vector<Window> windows;
   std::optional<Window> warm;
   std::size_t seen = 0;
@@ -332,6 +364,7 @@ int Soak::run() {
     w.endSeconds = now();
     w.anonMiB = procStatusMiB(server_, "RssAnon:");
     w.fds = fewestFds;
+    readServerMemory(w);
     long served = 0, clientErrors = 0, refused = 0;
     {
       const std::lock_guard lock(t_.mutex);
@@ -347,11 +380,15 @@ int Soak::run() {
       clientErrors = t_.clientErrors;
       refused = t_.refused;
     }
-    std::printf("%8.0f %8ld %6ld %6ld %7ld %9.1f %9.1f %10.1f %8d\n", w.endSeconds, served,
-                clientErrors, refused, w.frames, w.p50Ms, w.p99Ms, w.anonMiB, w.fds);
+    std::printf("%8.0f %8ld %6ld %6ld %7ld %9.1f %9.1f %10.1f %8d %9.1f %9.1f %10.1f %10.1f\n",
+                w.endSeconds, served, clientErrors, refused, w.frames, w.p50Ms, w.p99Ms, w.anonMiB,
+                w.fds, w.heapMiB, w.heapFreeMiB, w.cacheMiB, w.residentMiB);
     std::fflush(stdout);
+    // The baseline is the first whole window after the warm-up: one that overlaps the warm-up
+    // still sees the slow clients and the cache filling up.
+    const double start = windows.empty() ? 0.0 : windows.back().endSeconds;
+    if (!warm && start >= o_.warmupSeconds - 0.5) warm = w;
     windows.push_back(w);
-    if (!warm && w.endSeconds >= o_.warmupSeconds) warm = w;
   }
   stop_ = true;
   stopCv_.notify_all();
@@ -388,17 +425,12 @@ int Soak::report(const std::vector<Window>& windows, const std::optional<Window>
     const auto change = [](double from, double to) {
       return 100.0 * (to - from) / std::max(1.0, from);
     };
-    // The first window after the warm-up is the latency baseline.
-    const Window* first = nullptr;
-    for (const Window& w : windows) {
-      if (w.endSeconds > warm->endSeconds && w.frames > 0) {
-        first = &w;
-        break;
-      }
-    }
+    // The same window is the latency baseline.
+    const Window* first = warm->frames > 0 ? &*warm : nullptr;
     const double p99Ratio = first != nullptr && first->p99Ms > 0.0 ? end.p99Ms / first->p99Ms : 0.0;
     std::printf(
-        "after warm-up (%.0f s) -> end (%.0f s): anonymous RSS %.1f -> %.1f MiB (%+.1f%%), open "
+        "first window after the warm-up (ending %.0f s) -> end (%.0f s): anonymous RSS %.1f -> "
+        "%.1f MiB (%+.1f%%), open "
         "fds %d -> %d (%+.1f%%), p99 %.1f -> %.1f ms (x%.2f)\n",
         warm->endSeconds, end.endSeconds, warm->anonMiB, end.anonMiB,
         change(warm->anonMiB, end.anonMiB), warm->fds, end.fds, change(warm->fds, end.fds),

@@ -402,6 +402,10 @@ TEST(Serve, InfoHeightStatsHealthzAndViewer) {
   EXPECT_GT(s["cache"]["resident_bytes"].get<std::int64_t>(), 0);
   EXPECT_EQ(s["queue"]["capacity"], 8);
   EXPECT_GT(s["server"]["rss_bytes"].get<std::int64_t>(), 0);
+  // glibc's view of the heap (ASan's allocator bypasses it, so only the fields are checked).
+  for (const char* field : {"in_use_bytes", "mapped_blocks_bytes", "free_in_arenas_bytes"}) {
+    EXPECT_GE(s["server"]["heap"][field].get<std::int64_t>(), 0) << field;
+  }
 
   auto health = client.Get("/healthz");
   ASSERT_TRUE(health);

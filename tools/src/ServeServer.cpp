@@ -2,6 +2,7 @@
 #include "ServeServer.h"
 
 #include <httplib.h>
+#include <malloc.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -158,6 +159,16 @@ std::uint64_t residentSetBytes() {
   std::uint64_t sizePages = 0, residentPages = 0;
   if (!(statm >> sizePages >> residentPages)) return 0;
   return residentPages * static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
+}
+
+/// The C heap as glibc's allocator sees it, summed over its arenas: what the program holds
+/// (small blocks in arenas plus blocks mapped on their own), and what the arenas keep free
+/// without giving it back. Growth of the first is the program's; of the second, fragmentation.
+Json heapJson() {
+  const struct mallinfo2 m = ::mallinfo2();
+  return {{"in_use_bytes", m.uordblks + m.hblkhd},
+          {"mapped_blocks_bytes", m.hblkhd},
+          {"free_in_arenas_bytes", m.fordblks}};
 }
 
 constexpr const char* kKnownPaths[] = {"/",      "/frame",   "/height",      "/info",
@@ -537,11 +548,9 @@ Json FrameServer::Impl::statsJson() const {
     for (const auto& [status, count] : responsesByStatus) byStatus[std::to_string(status)] = count;
     Json byPath = Json::object();
     for (const auto& [path, count] : requestsByPath) byPath[path] = count;
-    j["server"] = {{"requests", requests},
-                   {"responses", byStatus},
-                   {"paths", byPath},
-                   {"http_threads", httpThreads},
-                   {"rss_bytes", residentSetBytes()}};
+    j["server"] = {
+        {"requests", requests},        {"responses", byStatus},           {"paths", byPath},
+        {"http_threads", httpThreads}, {"rss_bytes", residentSetBytes()}, {"heap", heapJson()}};
   }
   j["queue"] = {{"capacity", s.queueCapacity},
                 {"queued", s.queued},
