@@ -4,8 +4,10 @@
 // and SIGINT stop the listener; the requests already accepted are answered before the process
 // exits with 0. SIGHUP maps the dataset directory again and serves it (FrameServer::reload); a
 // broken one is refused with a line on stderr and the old one goes on being served.
+#include <malloc.h>
 #include <signal.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -59,6 +61,12 @@ int runServe(const ServeCliOptions& c) {
   sigaddset(&stopSignals, SIGHUP);
   pthread_sigmask(SIG_BLOCK, &stopSignals, nullptr);
   ::signal(SIGPIPE, SIG_IGN);  // a client that hangs up is a failed write, not a dead server
+  // Few malloc arenas. By default glibc gives up to 8 per core, and with dozens of HTTP threads
+  // each arena comes to keep its own free blocks between frames: over a soak, anonymous memory
+  // kept growing through fragmentation while the heap in use and the cache stayed flat. Two
+  // arenas (or one per render context) held it flat at the same frame rate (docs/performance.md
+  // "Soak"). Set before any thread exists, since arenas are made as threads first allocate.
+  ::mallopt(M_ARENA_MAX, std::max(2, static_cast<int>(o.workers)));
   // Every read of the dataset is a guarded copy (an unreadable page fails one request); a fault
   // anywhere else is a bug, and crashes with its core dump rather than a tidy exit.
   reportUnreadableMappingsAndExit(-1);
