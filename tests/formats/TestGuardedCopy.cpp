@@ -50,7 +50,6 @@ TEST(GuardedCopy, CopiesOrdinaryMemory) {
 }
 
 TEST(GuardedCopy, ReadPastTheEndOfATruncatedMappingIsAnErrorNamingFileAndOffset) {
-  PBDAM_SKIP_REAL_FAULTS_UNDER_ASAN();
   test::TempDir dir;
   const std::size_t page = MemoryMapping::pageSize();
   TruncatedMapping t = mapThenTruncate(dir, 4, page + 100);
@@ -92,7 +91,6 @@ TEST(GuardedCopy, RangesOutsideTheMappingAreErrors) {
 }
 
 TEST(GuardedCopy, ManyThreadsHitUnreadablePagesAtOnce) {
-  PBDAM_SKIP_REAL_FAULTS_UNDER_ASAN();
   test::TempDir dir;
   const std::size_t page = MemoryMapping::pageSize();
   TruncatedMapping t = mapThenTruncate(dir, 16, 2 * page);

@@ -81,7 +81,6 @@ TEST(MappedFaults, NodeTablesRewrittenAfterOpenAreNeverRead) {
 }
 
 TEST(MappedFaults, FacesTruncatedAfterOpenAreErrorsNamingFileAndOffset) {
-  PBDAM_SKIP_REAL_FAULTS_UNDER_ASAN();
   PBDAM_REQUIRE_DATASET(shared, "mola");
   test::TempDir temp;
   const std::filesystem::path dir = test::privateCopy(shared, temp);

@@ -71,15 +71,3 @@ inline std::filesystem::path testDatasetDir(const std::string& name) {
     GTEST_SKIP() << pbdamWhy_##var;                                                           \
   }                                                                                           \
   static_assert(true)
-
-/// Skips a test that turns real SIGBUS faults into errors (formats/GuardedCopy) in the ASan
-/// build. AddressSanitizer owns the fault signals and intercepts memcpy and siglongjmp, the two
-/// calls the guard is made of; on the CI machine these tests died of SIGBUS under ASan while
-/// passing in the release and TSan builds and under ASan on development machines. They run in
-/// the release and TSan presets, which test the guard as it ships.
-#if defined(__SANITIZE_ADDRESS__)
-#define PBDAM_SKIP_REAL_FAULTS_UNDER_ASAN() \
-  GTEST_SKIP() << "real SIGBUS faults are tested in the release and TSan builds, not under ASan"
-#else
-#define PBDAM_SKIP_REAL_FAULTS_UNDER_ASAN() static_assert(true)
-#endif
