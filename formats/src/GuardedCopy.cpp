@@ -4,6 +4,7 @@
 
 #include <setjmp.h>
 #include <signal.h>
+#include <ucontext.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -123,6 +124,16 @@ void onFault(int signalNumber, siginfo_t* info, void* context) noexcept {
     guard.jump = nullptr;
     guard.faultAddress = address;
     guard.faultSignal = signalNumber;
+    // The jump skips the sigreturn that would restore the faulting thread's signal mask. With
+    // SA_NODEFER and an empty sa_mask the handler blocks nothing, but a runtime that wraps the
+    // handlers (ThreadSanitizer installs its own with every signal blocked and calls ours from
+    // it) leaves SIGBUS blocked after the jump, and the next fault would kill the process. The
+    // mask of the interrupted code is in the context; putting it back costs a system call on
+    // the fault path only.
+    if (context != nullptr) {
+      ::pthread_sigmask(SIG_SETMASK, &static_cast<const ucontext_t*>(context)->uc_sigmask,
+                        nullptr);
+    }
     siglongjmp(*jump, 1);  // back into guardedCopy's frame, which owns nothing
   }
   if (info->si_code > 0) reportIfMapped(signalNumber, address);
