@@ -131,8 +131,7 @@ void onFault(int signalNumber, siginfo_t* info, void* context) noexcept {
     // mask of the interrupted code is in the context; putting it back costs a system call on
     // the fault path only.
     if (context != nullptr) {
-      ::pthread_sigmask(SIG_SETMASK, &static_cast<const ucontext_t*>(context)->uc_sigmask,
-                        nullptr);
+      ::pthread_sigmask(SIG_SETMASK, &static_cast<const ucontext_t*>(context)->uc_sigmask, nullptr);
     }
     siglongjmp(*jump, 1);  // back into guardedCopy's frame, which owns nothing
   }
