@@ -4,6 +4,7 @@
 // kills the process as it did before the handler was installed, and a command-line tool that
 // opts in reports an unguarded fault in a mapping with its file and offset.
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -79,6 +80,26 @@ TEST(GuardedCopy, ReadPastTheEndOfATruncatedMappingIsAnErrorNamingFileAndOffset)
   const auto crc = crc32Mapped(t.mapping.bytes(), 0, page + 100, "f.bin");
   ASSERT_TRUE(crc);
   EXPECT_EQ(*crc, crc32(std::as_bytes(std::span(t.content)).first(page + 100)));
+}
+
+TEST(GuardedCopy, AGuardedFaultLeavesTheThreadsSignalMaskAsItWas) {
+  // The jump out of the handler skips the sigreturn that restores the mask; a runtime that
+  // runs our handler from its own with every signal blocked (ThreadSanitizer) would otherwise
+  // leave SIGBUS blocked, and the next fault would kill the process.
+  test::TempDir dir;
+  const std::size_t page = MemoryMapping::pageSize();
+  TruncatedMapping t = mapThenTruncate(dir, 4, page);
+  sigset_t before;
+  ASSERT_EQ(::pthread_sigmask(SIG_SETMASK, nullptr, &before), 0);
+  std::vector<std::byte> out(16);
+  ASSERT_FALSE(t.mapping.read(2 * page, out));
+  sigset_t after;
+  ASSERT_EQ(::pthread_sigmask(SIG_SETMASK, nullptr, &after), 0);
+  for (const int signal : {SIGBUS, SIGSEGV, SIGTERM, SIGINT, SIGHUP, SIGUSR1}) {
+    EXPECT_EQ(sigismember(&after, signal), sigismember(&before, signal)) << "signal " << signal;
+  }
+  // And a second fault on the same thread is still an error, not the end of the process.
+  EXPECT_FALSE(t.mapping.read(3 * page, out));
 }
 
 TEST(GuardedCopy, RangesOutsideTheMappingAreErrors) {
