@@ -6,8 +6,8 @@
 // served, 4xx and 503 counts and frame latency p50/p99, with the server's anonymous RSS and open
 // descriptors, and from its /stats the C heap in use, the heap kept free by the allocator and the
 // GPU cache's memory; from the first window after the warm-up to the end, the drift of RSS and
-// descriptors; crashes (the server gone
-// before the stop, or not exiting cleanly on SIGTERM); and sampled frames served under load
+// descriptors; crashes (the server gone before the stop, or not exiting cleanly on SIGTERM);
+// and sampled frames served under load
 // compared byte for byte with `pbdam render` of the same camera. Every client is bounded (count
 // of open slow connections, burst size) and stops at the deadline.
 //   pbdam_serve_soak PBDAM_EXE DATASET [--duration-s 1800] [--warmup-s 60] [--window-s 60]

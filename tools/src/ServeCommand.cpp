@@ -63,9 +63,10 @@ int runServe(const ServeCliOptions& c) {
   ::signal(SIGPIPE, SIG_IGN);  // a client that hangs up is a failed write, not a dead server
   // Few malloc arenas. By default glibc gives up to 8 per core, and with dozens of HTTP threads
   // each arena comes to keep its own free blocks between frames: over a soak, anonymous memory
-  // kept growing through fragmentation while the heap in use and the cache stayed flat. Two
-  // arenas (or one per render context) held it flat at the same frame rate (docs/performance.md
-  // "Soak"). Set before any thread exists, since arenas are made as threads first allocate.
+  // kept growing through fragmentation while the heap in use and the cache stayed flat. With two
+  // arenas (or one per render context) it levels off, for about 3% of the request rate
+  // (docs/decisions.md "Server"). Set before any thread exists: arenas are made as threads
+  // first allocate.
   ::mallopt(M_ARENA_MAX, std::max(2, static_cast<int>(o.workers)));
   // Every read of the dataset is a guarded copy (an unreadable page fails one request); a fault
   // anywhere else is a bug, and crashes with its core dump rather than a tidy exit.

@@ -548,10 +548,14 @@ Json FrameServer::Impl::statsJson() const {
     for (const auto& [status, count] : responsesByStatus) byStatus[std::to_string(status)] = count;
     Json byPath = Json::object();
     for (const auto& [path, count] : requestsByPath) byPath[path] = count;
-    j["server"] = {
-        {"requests", requests},        {"responses", byStatus},           {"paths", byPath},
-        {"http_threads", httpThreads}, {"rss_bytes", residentSetBytes()}, {"heap", heapJson()}};
+    j["server"] = {{"requests", requests},
+                   {"responses", byStatus},
+                   {"paths", byPath},
+                   {"http_threads", httpThreads},
+                   {"rss_bytes", residentSetBytes()}};
   }
+  // Outside the counters' lock: mallinfo2 takes every arena's lock in turn.
+  j["server"]["heap"] = heapJson();
   j["queue"] = {{"capacity", s.queueCapacity},
                 {"queued", s.queued},
                 {"rendering", s.rendering},
