@@ -3,7 +3,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include "pbdam/formats/Checksum.h"
@@ -46,6 +48,34 @@ std::string manifestToJson(const Manifest& m) {
   return j.dump(2) + "\n";
 }
 
+namespace {
+
+/// A field of the wrong kind of number, by its name.
+struct BadNumber final {
+  std::string field;
+};
+
+/// An unsigned integer field: a JSON integer from 0 to T's maximum. nlohmann's get<T>() would
+/// convert a float, a negative or a larger number silently (or, for a float out of T's range,
+/// with undefined behaviour).
+template <class T>
+T unsignedField(const nlohmann::ordered_json& parent, const char* key) {
+  const auto& v = parent.at(key);
+  if (!v.is_number_unsigned() || v.get<std::uint64_t>() > std::numeric_limits<T>::max()) {
+    throw BadNumber{key};
+  }
+  return static_cast<T>(v.get<std::uint64_t>());
+}
+
+/// A finite number field.
+double finiteField(const nlohmann::ordered_json& parent, const char* key) {
+  const auto& v = parent.at(key);
+  if (!v.is_number() || !std::isfinite(v.get<double>())) throw BadNumber{key};
+  return v.get<double>();
+}
+
+}  // namespace
+
 Result<Manifest> parseManifest(std::string_view text, std::string_view context) {
   const auto fail = [&](const std::string& what) {
     return makeError(ErrorCode::CorruptData, std::string(context) + ": " + what);
@@ -54,7 +84,7 @@ Result<Manifest> parseManifest(std::string_view text, std::string_view context) 
   if (j.is_discarded() || !j.is_object()) return fail("not valid JSON");
   try {
     if (!j.contains("checksum")) return fail("no checksum field");
-    const auto stored = j.at("checksum").get<std::uint32_t>();
+    const auto stored = unsignedField<std::uint32_t>(j, "checksum");
     j.erase("checksum");
     const std::string body = j.dump(2);
     if (crc32(std::as_bytes(std::span<const char>(body.data(), body.size()))) != stored) {
@@ -62,40 +92,40 @@ Result<Manifest> parseManifest(std::string_view text, std::string_view context) 
     }
     if (j.value("format", "") != kManifestFormatName) return fail("not a pbdam dataset manifest");
     Manifest m;
-    m.version = j.at("version").get<std::uint32_t>();
+    m.version = unsignedField<std::uint32_t>(j, "version");
     if (m.version != kDatasetFormatVersion) {
       return fail("format version " + std::to_string(m.version) + " (this pbdam reads version " +
                   std::to_string(kDatasetFormatVersion) +
                   "); rebuild the dataset with this pbdam (pbdam build)");
     }
     m.planetSpec = j.at("planet").at("spec").get<std::string>();
-    m.equatorialRadiusMeters = j.at("planet").at("equatorial_radius_m").get<double>();
-    m.flattening = j.at("planet").at("flattening").get<double>();
+    m.equatorialRadiusMeters = finiteField(j.at("planet"), "equatorial_radius_m");
+    m.flattening = finiteField(j.at("planet"), "flattening");
     m.cubeMap = j.at("cube_map").get<std::string>();
-    m.latticeCells = j.at("lattice_cells").get<std::uint32_t>();
-    m.leafCells = j.at("leaf_cells").get<std::uint32_t>();
-    m.depth = j.at("depth").get<std::uint32_t>();
-    m.minPatchTriangles = j.at("min_patch_triangles").get<std::uint32_t>();
-    m.errorMargin = j.at("error_margin").get<double>();
-    m.heightStepMeters = j.at("height_step_m").get<double>();
+    m.latticeCells = unsignedField<std::uint32_t>(j, "lattice_cells");
+    m.leafCells = unsignedField<std::uint32_t>(j, "leaf_cells");
+    m.depth = unsignedField<std::uint32_t>(j, "depth");
+    m.minPatchTriangles = unsignedField<std::uint32_t>(j, "min_patch_triangles");
+    m.errorMargin = finiteField(j, "error_margin");
+    m.heightStepMeters = finiteField(j, "height_step_m");
     const auto& t = j.at("texture");
-    m.textureLevels = t.at("levels").get<std::uint32_t>();
-    m.textureTileTexels = t.at("tile_texels").get<std::uint32_t>();
-    m.textureBorderTexels = t.at("border_texels").get<std::uint32_t>();
+    m.textureLevels = unsignedField<std::uint32_t>(t, "levels");
+    m.textureTileTexels = unsignedField<std::uint32_t>(t, "tile_texels");
+    m.textureBorderTexels = unsignedField<std::uint32_t>(t, "border_texels");
     m.textureFormat = t.at("format").get<std::string>();
     m.textureSource = t.at("source").get<std::string>();
     const auto& s = j.at("source");
     m.sourceDem = s.at("dem").get<std::string>();
     m.sourceFormat = s.at("format").get<std::string>();
-    m.sourceSamples = s.at("samples").get<std::uint64_t>();
-    m.minHeightMeters = s.at("min_height_m").get<double>();
-    m.maxHeightMeters = s.at("max_height_m").get<double>();
+    m.sourceSamples = unsignedField<std::uint64_t>(s, "samples");
+    m.minHeightMeters = finiteField(s, "min_height_m");
+    m.maxHeightMeters = finiteField(s, "max_height_m");
     const auto& faces = j.at("faces");
     if (!faces.is_array() || faces.size() != 6) return fail("'faces' must list 6 files");
     for (std::size_t f = 0; f < 6; ++f) {
       m.faces[f].file = faces[f].at("file").get<std::string>();
-      m.faces[f].bytes = faces[f].at("bytes").get<std::uint64_t>();
-      m.faces[f].crc32 = faces[f].at("crc32").get<std::uint32_t>();
+      m.faces[f].bytes = unsignedField<std::uint64_t>(faces[f], "bytes");
+      m.faces[f].crc32 = unsignedField<std::uint32_t>(faces[f], "crc32");
       if (m.faces[f].file.empty() || m.faces[f].file.find('/') != std::string::npos ||
           m.faces[f].file.find("..") != std::string::npos) {
         return fail("face file name '" + m.faces[f].file + "' is not a plain file name");
@@ -107,6 +137,8 @@ Result<Manifest> parseManifest(std::string_view text, std::string_view context) 
       return fail("out-of-range numbers");
     }
     return m;
+  } catch (const BadNumber& e) {
+    return fail("field '" + e.field + "' is not a number in range");
   } catch (const nlohmann::json::exception& e) {
     return fail(std::string("missing or mistyped field (") + e.what() + ")");
   }
