@@ -63,16 +63,21 @@ void saturate(const Lattice& lattice, int depth, std::vector<float>& error) {
   }
 }
 
-/// Triangles of the cut refining every node whose (saturated) error exceeds e.
+/// Triangles of the cut refining every node whose (saturated) error exceeds e; `perLevel`, when
+/// given, receives the triangles the cut takes from each level.
 std::uint64_t cutTriangles(const Lattice& lattice, int depth, const std::vector<float>& error,
-                           const std::vector<std::uint32_t>& triangles, double e) {
+                           const std::vector<std::uint32_t>& triangles, double e,
+                           std::vector<std::uint64_t>* perLevel = nullptr) {
   std::uint64_t count = 0;
+  if (perLevel) perLevel->assign(static_cast<std::size_t>(depth) + 1, 0);
   const std::uint64_t perTree = Lattice::nodesPerTree(depth);
   for (std::uint64_t g = 0; g < 12; ++g) {
     std::function<void(std::uint64_t, int)> visit = [&](std::uint64_t index, int level) {
       const std::uint64_t id = g * perTree + index;
       if (static_cast<double>(error[id]) <= e || level == depth) {
-        count += triangles.empty() ? 1 : triangles[id];
+        const std::uint64_t n = triangles.empty() ? 1 : triangles[id];
+        count += n;
+        if (perLevel) (*perLevel)[static_cast<std::size_t>(level)] += n;
         return;
       }
       visit(2 * index + 1, level + 1);
@@ -185,6 +190,32 @@ int run(int argc, char** argv) {
             ",\"ratio_stored\":" + std::to_string(rs) + "}";
   }
   json += "]}";
+  // Where the P-BDAM cuts' triangles come from, and what each level holds.
+  std::printf(
+      "\nper level: patches, mean triangles, mean/max vertical error, mean stored error, "
+      "then the vertical cuts' triangles from that level\n");
+  std::vector<std::vector<std::uint64_t>> fromLevel(errors.size());
+  for (std::size_t k = 0; k < errors.size(); ++k)
+    cutTriangles(lattice, depth, vertical, triangles, errors[k], &fromLevel[k]);
+  for (int level = 0; level <= depth; ++level) {
+    const std::uint64_t first = (std::uint64_t{1} << level) - 1;
+    const std::uint64_t count = std::uint64_t{1} << level;
+    double tris = 0.0, v = 0.0, vMax = 0.0, s = 0.0;
+    for (std::uint64_t g = 0; g < 12; ++g) {
+      for (std::uint64_t i = first; i < first + count; ++i) {
+        const std::uint64_t id = g * perTree + i;
+        tris += static_cast<double>(triangles[id]);
+        v += static_cast<double>(vertical[id]);
+        vMax = std::max(vMax, static_cast<double>(vertical[id]));
+        s += static_cast<double>(stored[id]);
+      }
+    }
+    const double n = 12.0 * static_cast<double>(count);
+    std::printf("L%-2d %7.0f %8.0f %9.1f %9.1f %9.1f", level, n, tris / n, v / n, vMax, s / n);
+    for (const auto& from : fromLevel)
+      std::printf(" %9llu", static_cast<unsigned long long>(from[static_cast<std::size_t>(level)]));
+    std::printf("\n");
+  }
   std::printf("%s\n", json.c_str());
   return 0;
 }

@@ -136,6 +136,48 @@ TEST(PatchBuilder, MeasuredSampleErrorEqualsAScanOfEveryCandidate) {
   }
 }
 
+TEST(PatchBuilder, SampleErrorAndSagAddPerTriangle) {
+  // A point of a triangle is off by its sample error plus that triangle's own sag: the stored
+  // error is the largest such sum, at most (and on rough data less than) the two maxima added.
+  const HeightGrid dem = roughDem();
+  const Lattice lattice(64);
+  const SampleGrid grid = SampleGrid::build(dem, Planet::mars(), lattice, 1);
+  int tighter = 0;
+  for (const Diamond& d : diamondsOfLevel(lattice, 4, 3)) {
+    const std::array<BinTriangle, 2> tri = {triangleOfNode(lattice, d[0], 4),
+                                            triangleOfNode(lattice, d[1], 4)};
+    std::array<std::array<WorkPatch, 2>, 2> leaves;
+    std::array<std::array<const WorkPatch*, 2>, 2> children{};
+    for (std::size_t s = 0; s < 2; ++s) {
+      const auto kids = Lattice::children(tri[s]);
+      for (std::size_t c = 0; c < 2; ++c) {
+        leaves[s][c] = makeLeafPatch(kids[c]);
+        children[s][c] = &leaves[s][c];
+      }
+    }
+    const BlockResult block = simplifyBlock(grid, tri, children, BlockTargets{200.0, 40, 65535});
+    const std::array<const WorkPatch*, 2> halves = {&block.first, &block.second};
+    for (std::size_t s = 0; s < 2; ++s) {
+      const WorkPatch& patch = *halves[s];
+      const MeasuredPatch m = measurePatch(grid, tri[s], patch, 1.0 / 64.0);
+      double worst = 0.0;
+      for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
+        WorkPatch one;
+        one.points = patch.points;
+        one.indices = {patch.indices[k], patch.indices[k + 1], patch.indices[k + 2]};
+        const double sag = measurePatch(grid, tri[s], one, 1.0 / 64.0).chordErrorMeters;
+        worst = std::max(worst, sampleErrorByScan(grid, tri[s].face, one) + sag);
+      }
+      EXPECT_EQ(m.errorMeters, worst + m.representationErrorMeters);
+      const double sumOfMaxima =
+          m.sampleErrorMeters + m.chordErrorMeters + m.representationErrorMeters;
+      EXPECT_LE(m.errorMeters, sumOfMaxima);
+      if (m.errorMeters < sumOfMaxima) ++tighter;
+    }
+  }
+  EXPECT_GT(tighter, 0);
+}
+
 TEST(PatchBuilder, LeavesOfOneShapeAreTranslates) {
   const Lattice lattice(64);
   // Every level-4 triangle of one tree against the first one of the same shape.

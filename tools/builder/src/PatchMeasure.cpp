@@ -35,10 +35,11 @@ void clipSpan(std::int64_t coefX, std::int64_t rest, std::int64_t& lo, std::int6
   }
 }
 
-/// Calls f(a, b, c, w0, w1, w2, total) for every lattice point inside or on a triangle (a, b, c)
-/// of `patch` (vertex indices), with its integer barycentric weights (w0 + w1 + w2 = total).
+/// Calls f(k, a, b, c, w0, w1, w2, total) for every lattice point inside or on triangle k (the
+/// triangle of indices 3k..3k+2) of `patch`, (a, b, c) its vertex indices, with the point's
+/// integer barycentric weights (w0 + w1 + w2 = total).
 template <class F>
-void forEachLatticePointIn(const WorkPatch& patch, F&& f) {
+void forEachLatticePointOfTriangle(const WorkPatch& patch, F&& f) {
   for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
     const std::uint32_t ia = patch.indices[k];
     const std::uint32_t ib = patch.indices[k + 1];
@@ -66,11 +67,21 @@ void forEachLatticePointIn(const WorkPatch& patch, F&& f) {
         const std::int64_t w1 = doubleArea(c, a, p);
         const std::int64_t w2 = doubleArea(a, b, p);
         assert(w0 >= 0 && w1 >= 0 && w2 >= 0);
-        f(ia, ib, ic, p, static_cast<double>(w0), static_cast<double>(w1), static_cast<double>(w2),
-          static_cast<double>(total));
+        f(k / 3, ia, ib, ic, p, static_cast<double>(w0), static_cast<double>(w1),
+          static_cast<double>(w2), static_cast<double>(total));
       }
     }
   }
+}
+
+/// Calls f(a, b, c, w0, w1, w2, total) for every lattice point inside or on a triangle (a, b, c)
+/// of `patch` (vertex indices), with its integer barycentric weights (w0 + w1 + w2 = total).
+template <class F>
+void forEachLatticePointIn(const WorkPatch& patch, F&& f) {
+  forEachLatticePointOfTriangle(
+      patch,
+      [&](std::size_t, std::uint32_t ia, std::uint32_t ib, std::uint32_t ic, LatticeXY p, double w0,
+          double w1, double w2, double total) { f(ia, ib, ic, p, w0, w1, w2, total); });
 }
 
 }  // namespace
@@ -198,17 +209,17 @@ void boundingSphere(const std::vector<glm::dvec3>& rendered, MeasuredPatch& out)
   }
 }
 
-/// Chord bound: a flat triangle between three points of a sphere of radius R sags below it by
-/// (rc² − ρ²)/(2R) at distance ρ from its circumcentre (rc the circumradius): at most rc²/(2R)
-/// where the circumcentre is inside (acute triangles), else c²/(8R) at the midpoint of the
-/// longest edge c. (The longest-edge bound alone is 3/4 of the truth for an equilateral
-/// triangle.) Below, `worst` is 4rc² or c², so the bound is worst/(8R).
-double chordError(const SampleGrid& grid, const WorkPatch& patch,
-                  const std::vector<glm::dvec3>& rendered) {
+/// Chord bound of each triangle: a flat triangle between three points of a sphere of radius R
+/// sags below it by (rc² − ρ²)/(2R) at distance ρ from its circumcentre (rc the circumradius):
+/// at most rc²/(2R) where the circumcentre is inside (acute triangles), else c²/(8R) at the
+/// midpoint of the longest edge c. (The longest-edge bound alone is 3/4 of the truth for an
+/// equilateral triangle.) Below, `worst` is 4rc² or c², so the bound is worst/(8R).
+std::vector<double> chordErrors(const SampleGrid& grid, const WorkPatch& patch,
+                                const std::vector<glm::dvec3>& rendered) {
   const Planet& planet = grid.planet();
   const double rMin =
       std::max(1.0, planet.polarRadiusMeters() + static_cast<double>(grid.minHeightMeters()));
-  double worst = 0.0;
+  std::vector<double> sag(patch.indices.size() / 3);
   for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
     const glm::dvec3& a = rendered[patch.indices[k]];
     const glm::dvec3& b = rendered[patch.indices[k + 1]];
@@ -220,14 +231,25 @@ double chordError(const SampleGrid& grid, const WorkPatch& patch,
     const double area16 = 2.0 * (sq[0] * sq[1] + sq[1] * sq[2] + sq[2] * sq[0]) -
                           (sq[0] * sq[0] + sq[1] * sq[1] + sq[2] * sq[2]);
     const bool acute = sq[0] + sq[1] > sq[2] && area16 > 0.0;
-    worst = std::max(worst, acute ? 4.0 * sq[0] * sq[1] * sq[2] / area16 : sq[2]);
+    const double worst = acute ? 4.0 * sq[0] * sq[1] * sq[2] / area16 : sq[2];
+    sag[k / 3] = worst / (8.0 * rMin);
   }
-  return worst / (8.0 * rMin);
+  return sag;
 }
 
-/// Sample error: lattice samples, then the source DEM's own samples.
-double sampleError(const SampleGrid& grid, int face, const WorkPatch& patch) {
-  double error = maxLatticeDeviation(grid, face, patch);
+/// Sample error of each triangle: the largest |patch − sample| over the lattice samples and the
+/// source DEM's own samples inside or on it.
+std::vector<double> sampleErrors(const SampleGrid& grid, int face, const WorkPatch& patch) {
+  std::vector<double> error(patch.indices.size() / 3, 0.0);
+  forEachLatticePointOfTriangle(
+      patch, [&](std::size_t k, std::uint32_t ia, std::uint32_t ib, std::uint32_t ic, LatticeXY p,
+                 double w0, double w1, double w2, double total) {
+        const double ha = static_cast<double>(grid.height(face, patch.points[ia]));
+        const double hb = static_cast<double>(grid.height(face, patch.points[ib]));
+        const double hc = static_cast<double>(grid.height(face, patch.points[ic]));
+        const double hp = (w0 * ha + w1 * hb + w2 * hc) / total;
+        error[k] = std::max(error[k], std::abs(hp - static_cast<double>(grid.height(face, p))));
+      });
   for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
     const LatticeXY la = patch.points[patch.indices[k]];
     const LatticeXY lb = patch.points[patch.indices[k + 1]];
@@ -235,10 +257,11 @@ double sampleError(const SampleGrid& grid, int face, const WorkPatch& patch) {
     const double ha = static_cast<double>(grid.height(face, la));
     const double hb = static_cast<double>(grid.height(face, lb));
     const double hc = static_cast<double>(grid.height(face, lc));
+    double& e = error[k / 3];
     grid.forEachSourceSampleIn(
         face, la, lb, lc, [&](double l0, double l1, double l2, const SourceSample& s) {
           const double hp = l0 * ha + l1 * hb + l2 * hc;
-          error = std::max(error, std::abs(hp - static_cast<double>(s.heightMeters)));
+          e = std::max(e, std::abs(hp - static_cast<double>(s.heightMeters)));
         });
   }
   return error;
@@ -252,9 +275,17 @@ MeasuredPatch measurePatch(const SampleGrid& grid, const BinTriangle& t, const W
   std::vector<glm::dvec3> rendered;
   out.representationErrorMeters = placeVertices(grid, t, patch, heightStepMeters, out, rendered);
   boundingSphere(rendered, out);
-  out.chordErrorMeters = chordError(grid, patch, rendered);
-  out.sampleErrorMeters = sampleError(grid, t.face, patch);
-  out.errorMeters = out.sampleErrorMeters + out.representationErrorMeters + out.chordErrorMeters;
+  // A point of triangle k is off the terrain by at most its sample error plus k's sag, so the
+  // two terms add per triangle, not as the patch's two maxima.
+  const std::vector<double> sag = chordErrors(grid, patch, rendered);
+  const std::vector<double> sample = sampleErrors(grid, t.face, patch);
+  double worst = 0.0;
+  for (std::size_t k = 0; k < sag.size(); ++k) {
+    out.chordErrorMeters = std::max(out.chordErrorMeters, sag[k]);
+    out.sampleErrorMeters = std::max(out.sampleErrorMeters, sample[k]);
+    worst = std::max(worst, sample[k] + sag[k]);
+  }
+  out.errorMeters = worst + out.representationErrorMeters;
   return out;
 }
 

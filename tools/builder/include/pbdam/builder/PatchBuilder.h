@@ -86,8 +86,10 @@ struct MeasuredPatch final {
   /// vertex is drawn at its terrain point (docs/builder.md "Errors")
   double representationErrorMeters = 0.0;
   double chordErrorMeters = 0.0;  ///< max sag of its flat triangles below the planet (R_min)
-  double errorMeters = 0.0;       ///< the sum of the three
-  glm::dvec3 sphereCenter{0.0};   ///< bounding sphere of the rendered vertices
+  /// the largest sample error plus sag over its triangles (both bound the same point), plus the
+  /// representation error
+  double errorMeters = 0.0;
+  glm::dvec3 sphereCenter{0.0};  ///< bounding sphere of the rendered vertices
   double sphereRadiusMeters = 0.0;
   double minHeightMeters = 0.0;  ///< over its vertices
   double maxHeightMeters = 0.0;
