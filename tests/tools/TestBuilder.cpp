@@ -4,16 +4,20 @@
 // out-of-core sample grid (files written in row ranges, mapped) equals the in-memory one.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <iterator>
 #include <memory>
 #include <span>
+#include <tuple>
 
 #include "TestData.h"
 #include "pbdam/builder/Builder.h"
 #include "pbdam/builder/Lattice.h"
+#include "pbdam/builder/PatchBuilder.h"
 #include "pbdam/builder/SampleGrid.h"
 #include "pbdam/builder/Verify.h"
 #include "pbdam/formats/DatasetFormat.h"
@@ -368,6 +372,85 @@ TEST(Lattice, DiamondsPairEveryHypotenuseAcrossFaces) {
   }
 }
 
+TEST(SampleGrid, EverySourceSampleLiesInItsBucketAsStored) {
+  // A triangle looks for its samples in the buckets its corners span, and tests each by its
+  // stored (float) position, so a sample must lie in its bucket by that position. Bucketing by
+  // the double position put MOLA samples that round onto a lattice line into the bucket beside
+  // it, and triangles on that line missed them (stored errors up to 11 m too small).
+  PBDAM_REQUIRE_DATA(demPath, test::dataDir() / "mars/megt90n000cb.lbl");
+  auto dem = readDem(demPath);
+  ASSERT_TRUE(dem) << dem.error().message;
+  auto planet = Planet::fromSpec("mars");
+  ASSERT_TRUE(planet);
+  const Lattice lattice(512);
+  const SampleGrid grid = SampleGrid::build(*dem, *planet, lattice, 1);
+  const double n = static_cast<double>(lattice.sideCells());
+  std::size_t onALine = 0;
+  std::size_t outside = 0;
+  for (int face = 0; face < 6; ++face) {
+    for (std::uint32_t by = 0; by < grid.bucketsPerSide(); ++by) {
+      for (std::uint32_t bx = 0; bx < grid.bucketsPerSide(); ++bx) {
+        for (const SourceSample& s : grid.bucket(0, face, bx, by)) {
+          const double x = static_cast<double>(s.u) * n;
+          const double y = static_cast<double>(s.v) * n;
+          if (x == std::floor(x) || y == std::floor(y)) ++onALine;
+          const double last = n - 1.0;
+          if (std::min(std::floor(x), last) != bx || std::min(std::floor(y), last) != by) ++outside;
+        }
+      }
+    }
+  }
+  EXPECT_GT(onALine, 0u);  // the case that matters occurs in this data
+  EXPECT_EQ(outside, 0u);
+}
+
+TEST(SampleGrid, CellByCellVisitsAreThoseOfEachTriangle) {
+  // A leaf's samples located cell by cell: the same (triangle, sample, weights) as testing each
+  // triangle's own buckets.
+  PBDAM_REQUIRE_DATA(demPath, test::dataDir() / "mars/megt90n000cb.lbl");
+  auto dem = readDem(demPath);
+  ASSERT_TRUE(dem) << dem.error().message;
+  auto planet = Planet::fromSpec("mars");
+  ASSERT_TRUE(planet);
+  const Lattice lattice(512);
+  using Visit = std::tuple<std::size_t, float, float, double, double, double>;
+  for (const std::uint32_t bucketCells : {1u, 4u}) {
+    const SampleGrid grid = SampleGrid::build(*dem, *planet, lattice, bucketCells);
+    std::size_t visits = 0;
+    // Every leaf (32-cell legs, depth 8) of two trees: an equatorial face and a polar one.
+    for (const std::uint64_t first : {std::uint64_t{0}, 8 * Lattice::nodesPerTree(8)}) {
+      for (std::uint64_t id = first + Lattice::firstIndexOfLevel(8);
+           id < first + Lattice::nodesPerTree(8); id += 37) {
+        const BinTriangle t = triangleOfNode(lattice, id, 8);
+        const WorkPatch leaf = makeLeafPatch(t);
+        std::vector<std::array<LatticeXY, 3>> corners;
+        for (std::size_t k = 0; k < leaf.indices.size(); k += 3) {
+          corners.push_back({leaf.points[leaf.indices[k]], leaf.points[leaf.indices[k + 1]],
+                             leaf.points[leaf.indices[k + 2]]});
+        }
+        std::vector<Visit> byTriangle;
+        for (std::size_t k = 0; k < corners.size(); ++k) {
+          grid.forEachSourceSampleIn(t.face, corners[k][0], corners[k][1], corners[k][2],
+                                     [&](double l0, double l1, double l2, const SourceSample& s) {
+                                       byTriangle.emplace_back(k, s.u, s.v, l0, l1, l2);
+                                     });
+        }
+        std::vector<Visit> byCell;
+        grid.forEachSourceSampleInCells(
+            t.face, corners,
+            [&](std::size_t k, double l0, double l1, double l2, const SourceSample& s) {
+              byCell.emplace_back(k, s.u, s.v, l0, l1, l2);
+            });
+        std::sort(byTriangle.begin(), byTriangle.end());
+        std::sort(byCell.begin(), byCell.end());
+        EXPECT_EQ(byCell, byTriangle) << "leaf " << id;
+        visits += byCell.size();
+      }
+    }
+    EXPECT_GT(visits, 2000u);
+  }
+}
+
 TEST(SampleGrid, FilesWrittenInRowRangesGiveTheInMemoryGrid) {
   PBDAM_REQUIRE_DATA(demPath, test::dataDir() / "mars/megt90n000cb.lbl");
   auto dem = readDem(demPath);
@@ -441,6 +524,19 @@ TEST(SampleGrid, FilesWrittenInRowRangesGiveTheInMemoryGrid) {
   auto other = SampleGrid::open(Lattice(32), *planet, heights, samples, bucketCells, total);
   ASSERT_FALSE(other);
   EXPECT_NE(other.error().message.find("heights.f32"), std::string::npos);
+
+  // A bucket file of an earlier version (a checkpoint of another pbdam) is refused, saying so.
+  {
+    std::fstream f(samples[1], std::ios::in | std::ios::out | std::ios::binary);
+    const std::uint32_t version = 1;
+    f.seekp(8);
+    f.write(reinterpret_cast<const char*>(&version), sizeof version);
+  }
+  auto older = SampleGrid::open(lattice, *planet, heights, samples, bucketCells, total);
+  ASSERT_FALSE(older);
+  EXPECT_NE(older.error().message.find("bucket file version 1"), std::string::npos)
+      << older.error().message;
+  EXPECT_NE(older.error().message.find("without --resume"), std::string::npos);
 }
 
 }  // namespace

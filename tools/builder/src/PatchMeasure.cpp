@@ -240,29 +240,46 @@ std::vector<double> chordErrors(const SampleGrid& grid, const WorkPatch& patch,
 /// Sample error of each triangle: the largest |patch − sample| over the lattice samples and the
 /// source DEM's own samples inside or on it.
 std::vector<double> sampleErrors(const SampleGrid& grid, int face, const WorkPatch& patch) {
-  std::vector<double> error(patch.indices.size() / 3, 0.0);
-  forEachLatticePointOfTriangle(
-      patch, [&](std::size_t k, std::uint32_t ia, std::uint32_t ib, std::uint32_t ic, LatticeXY p,
-                 double w0, double w1, double w2, double total) {
-        const double ha = static_cast<double>(grid.height(face, patch.points[ia]));
-        const double hb = static_cast<double>(grid.height(face, patch.points[ib]));
-        const double hc = static_cast<double>(grid.height(face, patch.points[ic]));
-        const double hp = (w0 * ha + w1 * hb + w2 * hc) / total;
-        error[k] = std::max(error[k], std::abs(hp - static_cast<double>(grid.height(face, p))));
-      });
-  for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
-    const LatticeXY la = patch.points[patch.indices[k]];
-    const LatticeXY lb = patch.points[patch.indices[k + 1]];
-    const LatticeXY lc = patch.points[patch.indices[k + 2]];
-    const double ha = static_cast<double>(grid.height(face, la));
-    const double hb = static_cast<double>(grid.height(face, lb));
-    const double hc = static_cast<double>(grid.height(face, lc));
-    double& e = error[k / 3];
-    grid.forEachSourceSampleIn(
-        face, la, lb, lc, [&](double l0, double l1, double l2, const SourceSample& s) {
-          const double hp = l0 * ha + l1 * hb + l2 * hc;
-          e = std::max(e, std::abs(hp - static_cast<double>(s.heightMeters)));
+  const std::size_t count = patch.indices.size() / 3;
+  std::vector<double> error(count, 0.0);
+  // A triangle of doubled area 1 (half a lattice cell) covers only its corners, where the patch
+  // is exact: only larger ones need the lattice scan. A patch made of such triangles only (a
+  // leaf) has its source samples located cell by cell.
+  std::vector<std::array<LatticeXY, 3>> corners(count);
+  bool unitTriangles = true;
+  for (std::size_t k = 0; k < count; ++k) {
+    corners[k] = {patch.points[patch.indices[3 * k]], patch.points[patch.indices[3 * k + 1]],
+                  patch.points[patch.indices[3 * k + 2]]};
+    unitTriangles = unitTriangles && doubleArea(corners[k][0], corners[k][1], corners[k][2]) == 1;
+  }
+  if (!unitTriangles) {
+    forEachLatticePointOfTriangle(
+        patch, [&](std::size_t k, std::uint32_t ia, std::uint32_t ib, std::uint32_t ic, LatticeXY p,
+                   double w0, double w1, double w2, double total) {
+          const double ha = static_cast<double>(grid.height(face, patch.points[ia]));
+          const double hb = static_cast<double>(grid.height(face, patch.points[ib]));
+          const double hc = static_cast<double>(grid.height(face, patch.points[ic]));
+          const double hp = (w0 * ha + w1 * hb + w2 * hc) / total;
+          error[k] = std::max(error[k], std::abs(hp - static_cast<double>(grid.height(face, p))));
         });
+  }
+  std::vector<std::array<double, 3>> heights(count);
+  for (std::size_t k = 0; k < count; ++k) {
+    for (std::size_t c = 0; c < 3; ++c)
+      heights[k][c] = static_cast<double>(grid.height(face, corners[k][c]));
+  }
+  auto visit = [&](std::size_t k, double l0, double l1, double l2, const SourceSample& s) {
+    const double hp = l0 * heights[k][0] + l1 * heights[k][1] + l2 * heights[k][2];
+    error[k] = std::max(error[k], std::abs(hp - static_cast<double>(s.heightMeters)));
+  };
+  if (unitTriangles) {
+    grid.forEachSourceSampleInCells(face, corners, visit);
+    return error;
+  }
+  for (std::size_t k = 0; k < count; ++k) {
+    grid.forEachSourceSampleIn(
+        face, corners[k][0], corners[k][1], corners[k][2],
+        [&](double l0, double l1, double l2, const SourceSample& s) { visit(k, l0, l1, l2, s); });
   }
   return error;
 }

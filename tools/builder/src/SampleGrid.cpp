@@ -35,7 +35,7 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr std::array<char, 8> kSamplesMagic = {'P', 'B', 'D', 'A', 'M', 'S', 'M', 'P'};
-constexpr std::uint32_t kSamplesVersion = 1;
+constexpr std::uint32_t kSamplesVersion = 2;     // 2: bucketed by the stored float position
 constexpr std::size_t kSamplesHeaderBytes = 32;  // magic, version, buckets per side, count
 
 Error ioError(const fs::path& path, const std::string& what) {
@@ -79,13 +79,19 @@ Placed place(const HeightGrid& dem, const Planet& planet, double n, std::uint32_
   const double lon = dem.lonOfColumnDegrees(static_cast<std::int64_t>(col));
   const glm::dvec3 d = planet.geodeticToDirection(lat, lon);
   const FaceUv fuv = CubeMap::directionToFaceUv(d);
+  // The bucket of the stored (float) position, which the inside tests use: bucketing the double
+  // one put a sample that rounds onto a bucket's edge into the bucket beside it, where a
+  // triangle on that edge did not look.
+  const SourceSample sample{static_cast<float>(fuv.uv.x), static_cast<float>(fuv.uv.y), value};
   const double last = static_cast<double>(bucketsPerSide - 1);
-  const double bx = std::clamp(std::floor(fuv.uv.x * n / bucketCells), 0.0, last);
-  const double by = std::clamp(std::floor(fuv.uv.y * n / bucketCells), 0.0, last);
+  const double bx =
+      std::clamp(std::floor(static_cast<double>(sample.u) * n / bucketCells), 0.0, last);
+  const double by =
+      std::clamp(std::floor(static_cast<double>(sample.v) * n / bucketCells), 0.0, last);
   const auto face = static_cast<std::uint32_t>(cubeFaceIndex(fuv.face));
   p.bucket = (face * bucketsPerSide + static_cast<std::uint32_t>(by)) * bucketsPerSide +
              static_cast<std::uint32_t>(bx);
-  p.sample = SourceSample{static_cast<float>(fuv.uv.x), static_cast<float>(fuv.uv.y), value};
+  p.sample = sample;
   return p;
 }
 
@@ -388,10 +394,15 @@ Result<SampleGrid> SampleGrid::open(const Lattice& lattice, const Planet& planet
     std::memcpy(&version, bytes.data() + 8, 4);
     std::memcpy(&perSide, bytes.data() + 12, 4);
     std::memcpy(&total, bytes.data() + 16, 8);
-    if (std::memcmp(bytes.data(), kSamplesMagic.data(), 8) != 0 || version != kSamplesVersion ||
-        perSide != grid.bucketsPerSide_) {
+    if (std::memcmp(bytes.data(), kSamplesMagic.data(), 8) != 0) {
       return damaged("not a bucket file of this lattice");
     }
+    if (version != kSamplesVersion) {
+      return damaged("bucket file version " + std::to_string(version) + ", this pbdam writes " +
+                     std::to_string(kSamplesVersion) +
+                     " (a checkpoint of another pbdam: build again without --resume)");
+    }
+    if (perSide != grid.bucketsPerSide_) return damaged("not a bucket file of this lattice");
     if (bytes.size() != kSamplesHeaderBytes + startBytes + total * sizeof(SourceSample)) {
       return damaged("size mismatch");
     }

@@ -190,6 +190,93 @@ class SampleGrid final {
     }
   }
 
+  /// For a patch whose triangles are all halves of single lattice cells (doubled area 1: a
+  /// leaf), the same visits as forEachSourceSampleIn of each triangle k — the same inside test
+  /// and weights, fn(k, l0, l1, l2, sample) — but each sample of the patch's buckets is read once
+  /// and tested only against the triangles of the cells it lies in or on (instead of from every
+  /// triangle whose widened bucket box reaches it). The order of the visits differs.
+  template <typename Fn>
+  void forEachSourceSampleInCells(int face,
+                                  std::span<const std::array<runtime::LatticeXY, 3>> triangles,
+                                  Fn&& fn) const {
+    if (triangles.empty()) return;
+    constexpr std::uint32_t kNoTriangle = 0xffffffffu;
+    int x0 = triangles[0][0].x;
+    int x1 = x0;
+    int y0 = triangles[0][0].y;
+    int y1 = y0;
+    for (const auto& t : triangles) {
+      for (const runtime::LatticeXY p : t) {
+        x0 = std::min(x0, p.x);
+        x1 = std::max(x1, p.x);
+        y0 = std::min(y0, p.y);
+        y1 = std::max(y1, p.y);
+      }
+    }
+    const int w = std::max(1, x1 - x0);
+    const int h = std::max(1, y1 - y0);
+    // The (at most two) triangles of each cell, and each triangle's corners and test.
+    std::vector<std::array<std::uint32_t, 2>> cells(
+        static_cast<std::size_t>(w) * static_cast<std::size_t>(h), {kNoTriangle, kNoTriangle});
+    std::vector<std::array<glm::dvec2, 3>> uv(triangles.size());
+    std::vector<TriangleBuckets> tests(triangles.size());
+    for (std::size_t k = 0; k < triangles.size(); ++k) {
+      const auto& t = triangles[k];
+      uv[k] = {lattice_.uv(t[0]), lattice_.uv(t[1]), lattice_.uv(t[2])};
+      const std::optional<TriangleBuckets> box = bucketsOf(uv[k][0], uv[k][1], uv[k][2]);
+      if (!box) continue;  // degenerate or clockwise: visits nothing, as forEachSourceSampleIn
+      tests[k] = *box;
+      const int cx = std::min({t[0].x, t[1].x, t[2].x}) - x0;
+      const int cy = std::min({t[0].y, t[1].y, t[2].y}) - y0;
+      auto& slot = cells[static_cast<std::size_t>(cy) * static_cast<std::size_t>(w) +
+                         static_cast<std::size_t>(cx)];
+      slot[slot[0] == kNoTriangle ? 0 : 1] = static_cast<std::uint32_t>(k);
+    }
+    // Buckets of the patch's box widened by one, as forEachSourceSampleIn widens each triangle's.
+    const auto last = static_cast<std::int64_t>(bucketsPerSide_) - 1;
+    auto bucketOf = [&](std::int64_t cell) {
+      return static_cast<std::uint32_t>(std::clamp<std::int64_t>(
+          cell < 0 ? -1 : cell / static_cast<std::int64_t>(bucketCells_), 0, last));
+    };
+    const std::uint32_t bx0 = bucketOf(std::int64_t{x0} - 1 - bucketCells_);
+    const std::uint32_t bx1 = bucketOf(std::int64_t{x1} + bucketCells_);
+    const std::uint32_t by0 = bucketOf(std::int64_t{y0} - 1 - bucketCells_);
+    const std::uint32_t by1 = bucketOf(std::int64_t{y1} + bucketCells_);
+    const double n = static_cast<double>(lattice_.sideCells());
+    // A sample passes a triangle's test only within ~1e-9 of a cell of it; 1e-6 cells is ample.
+    constexpr double kSlack = 1e-6;
+    for (std::uint32_t by = by0; by <= by1; ++by) {
+      for (std::size_t table = 0; table < tables_.size(); ++table) {
+        const SourceSample* begin = bucket(table, face, bx0, by).data();
+        const std::span<const SourceSample> lastBucket = bucket(table, face, bx1, by);
+        const SourceSample* end = lastBucket.data() + lastBucket.size();
+        for (const SourceSample* s = begin; s != end; ++s) {
+          const double x = static_cast<double>(s->u) * n - x0;
+          const double y = static_cast<double>(s->v) * n - y0;
+          const int cx0 = std::max(0, static_cast<int>(std::floor(x - kSlack)));
+          const int cx1 = std::min(w - 1, static_cast<int>(std::floor(x + kSlack)));
+          const int cy0 = std::max(0, static_cast<int>(std::floor(y - kSlack)));
+          const int cy1 = std::min(h - 1, static_cast<int>(std::floor(y + kSlack)));
+          for (int cy = cy0; cy <= cy1; ++cy) {
+            for (int cx = cx0; cx <= cx1; ++cx) {
+              for (const std::uint32_t k :
+                   cells[static_cast<std::size_t>(cy) * static_cast<std::size_t>(w) +
+                         static_cast<std::size_t>(cx)]) {
+                if (k == kNoTriangle) continue;
+                double w0 = 0.0;
+                double w1 = 0.0;
+                double w2 = 0.0;
+                if (!inside(*s, uv[k][0], uv[k][1], uv[k][2], tests[k], w0, w1, w2)) continue;
+                const double total = tests[k].total;
+                fn(std::size_t{k}, w0 / total, w1 / total, w2 / total, *s);
+              }
+            }
+          }
+        }
+      }
+    }
+  }
+
   /// The x-extent in lattice units of the triangle (a, b, c) within the rows [y0, y1] (all of
   /// it if it lies there; empty if it misses them: lo > hi).
   static void triangleSpanInRows(runtime::LatticeXY a, runtime::LatticeXY b, runtime::LatticeXY c,
@@ -226,20 +313,29 @@ class SampleGrid final {
     return box;
   }
 
+  /// The inside test of forEachSourceSampleIn for one sample: whether it lies inside or on
+  /// (a, b, c) up to `eps` of the doubled area `total`, and its weights (w0, w1, w2) / total.
+  static bool inside(const SourceSample& s, glm::dvec2 a, glm::dvec2 b, glm::dvec2 c,
+                     const TriangleBuckets& box, double& w0, double& w1, double& w2) noexcept {
+    const double px = static_cast<double>(s.u);
+    const double py = static_cast<double>(s.v);
+    w0 = (c.x - b.x) * (py - b.y) - (c.y - b.y) * (px - b.x);
+    w1 = (a.x - c.x) * (py - c.y) - (a.y - c.y) * (px - c.x);
+    w2 = (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x);
+    return !(w0 < box.eps || w1 < box.eps || w2 < box.eps);
+  }
+
   /// The inside test of forEachSourceSampleIn over one run of samples: fn(l0, l1, l2, sample)
   /// for those inside or on (a, b, c) up to `eps` of the doubled area `total`.
   template <typename Fn>
   static void visitInside(std::span<const SourceSample> run, glm::dvec2 a, glm::dvec2 b,
                           glm::dvec2 c, const TriangleBuckets& box, Fn& fn) {
     const double total = box.total;
-    const double eps = box.eps;
     for (const SourceSample& s : run) {
-      const double px = static_cast<double>(s.u);
-      const double py = static_cast<double>(s.v);
-      const double w0 = (c.x - b.x) * (py - b.y) - (c.y - b.y) * (px - b.x);
-      const double w1 = (a.x - c.x) * (py - c.y) - (a.y - c.y) * (px - c.x);
-      const double w2 = (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x);
-      if (w0 < eps || w1 < eps || w2 < eps) continue;
+      double w0 = 0.0;
+      double w1 = 0.0;
+      double w2 = 0.0;
+      if (!inside(s, a, b, c, box, w0, w1, w2)) continue;
       fn(w0 / total, w1 / total, w2 / total, s);
     }
   }
