@@ -89,6 +89,38 @@ std::uint64_t cutTriangles(const Lattice& lattice, int depth, const std::vector<
   return count;
 }
 
+/// A lower bound on any stored-error cut at e for these leaves: a node's stored error is at
+/// least (1 + r)^(depth − level) times the largest leaf error under it (the margin rule, before
+/// saturation adds its neighbours'), and a patch above the leaves has at least `minTriangles`.
+std::uint64_t storedCutLowerBound(int depth, const std::vector<float>& stored,
+                                  const std::vector<std::uint32_t>& triangles, double margin,
+                                  std::uint32_t minTriangles, double e) {
+  const std::uint64_t perTree = Lattice::nodesPerTree(depth);
+  std::uint64_t count = 0;
+  for (std::uint64_t g = 0; g < 12; ++g) {
+    // The largest leaf error under every node, bottom-up in heap order.
+    std::vector<double> worstLeaf(perTree, 0.0);
+    for (std::uint64_t i = perTree; i-- > 0;) {
+      worstLeaf[i] = 2 * i + 1 < perTree ? std::max(worstLeaf[2 * i + 1], worstLeaf[2 * i + 2])
+                                         : static_cast<double>(stored[g * perTree + i]);
+    }
+    std::function<void(std::uint64_t, int)> visit = [&](std::uint64_t index, int level) {
+      if (level == depth) {
+        count += triangles[g * perTree + index];
+        return;
+      }
+      if (std::pow(1.0 + margin, depth - level) * worstLeaf[index] <= e) {
+        count += minTriangles;
+        return;
+      }
+      visit(2 * index + 1, level + 1);
+      visit(2 * index + 2, level + 1);
+    };
+    visit(0, 0);
+  }
+  return count;
+}
+
 /// Exact vertical error of every RTIN triangle down to single lattice cells: the largest
 /// deviation of any lattice sample it covers from the plane of its three corners' heights.
 std::vector<float> rtinErrors(const SampleGrid& grid, int depth) {
@@ -103,6 +135,59 @@ std::vector<float> rtinErrors(const SampleGrid& grid, int depth) {
     error[id] = static_cast<float>(maxLatticeDeviation(grid, t.face, tri));
   }
   return error;
+}
+
+/// Where the P-BDAM vertical cuts' triangles come from, and what each level holds.
+void printPerLevel(const Lattice& lattice, int depth, const std::vector<float>& stored,
+                   const std::vector<float>& vertical, const std::vector<std::uint32_t>& triangles,
+                   const std::vector<double>& errors) {
+  const std::uint64_t perTree = Lattice::nodesPerTree(depth);
+  std::printf(
+      "\nper level: patches, mean triangles, mean/max vertical error, mean stored error, "
+      "then the vertical cuts' triangles from that level\n");
+  std::vector<std::vector<std::uint64_t>> fromLevel(errors.size());
+  for (std::size_t k = 0; k < errors.size(); ++k)
+    cutTriangles(lattice, depth, vertical, triangles, errors[k], &fromLevel[k]);
+  for (int level = 0; level <= depth; ++level) {
+    const std::uint64_t first = (std::uint64_t{1} << level) - 1;
+    const std::uint64_t count = std::uint64_t{1} << level;
+    double tris = 0.0;
+    double v = 0.0;
+    double vMax = 0.0;
+    double s = 0.0;
+    for (std::uint64_t g = 0; g < 12; ++g) {
+      for (std::uint64_t i = first; i < first + count; ++i) {
+        const std::uint64_t id = g * perTree + i;
+        tris += static_cast<double>(triangles[id]);
+        v += static_cast<double>(vertical[id]);
+        vMax = std::max(vMax, static_cast<double>(vertical[id]));
+        s += static_cast<double>(stored[id]);
+      }
+    }
+    const double n = 12.0 * static_cast<double>(count);
+    std::printf("L%-2d %7.0f %8.0f %9.1f %9.1f %9.1f", level, n, tris / n, v / n, vMax, s / n);
+    for (const auto& from : fromLevel)
+      std::printf(" %9llu", static_cast<unsigned long long>(from[static_cast<std::size_t>(level)]));
+    std::printf("\n");
+  }
+}
+
+/// What the leaves alone allow: the stored errors' floor compounded by the margin.
+template <class RtinCut>
+void printLowerBounds(const Manifest& manifest, int depth, const std::vector<float>& stored,
+                      const std::vector<std::uint32_t>& triangles,
+                      const std::vector<double>& errors, RtinCut rtinCut) {
+  std::printf(
+      "\nlower bound on any stored cut for these leaves (margin %.2f, %u triangles a "
+      "patch):",
+      manifest.errorMargin, manifest.minPatchTriangles);
+  for (double e : errors) {
+    const std::uint64_t bound = storedCutLowerBound(depth, stored, triangles, manifest.errorMargin,
+                                                    manifest.minPatchTriangles, e);
+    std::printf(" %.0f m: %llu (%.2fx the RTIN)", e, static_cast<unsigned long long>(bound),
+                static_cast<double>(bound) / static_cast<double>(rtinCut(e)));
+  }
+  std::printf("\n");
 }
 
 int run(int argc, char** argv) {
@@ -190,32 +275,9 @@ int run(int argc, char** argv) {
             ",\"ratio_stored\":" + std::to_string(rs) + "}";
   }
   json += "]}";
-  // Where the P-BDAM cuts' triangles come from, and what each level holds.
-  std::printf(
-      "\nper level: patches, mean triangles, mean/max vertical error, mean stored error, "
-      "then the vertical cuts' triangles from that level\n");
-  std::vector<std::vector<std::uint64_t>> fromLevel(errors.size());
-  for (std::size_t k = 0; k < errors.size(); ++k)
-    cutTriangles(lattice, depth, vertical, triangles, errors[k], &fromLevel[k]);
-  for (int level = 0; level <= depth; ++level) {
-    const std::uint64_t first = (std::uint64_t{1} << level) - 1;
-    const std::uint64_t count = std::uint64_t{1} << level;
-    double tris = 0.0, v = 0.0, vMax = 0.0, s = 0.0;
-    for (std::uint64_t g = 0; g < 12; ++g) {
-      for (std::uint64_t i = first; i < first + count; ++i) {
-        const std::uint64_t id = g * perTree + i;
-        tris += static_cast<double>(triangles[id]);
-        v += static_cast<double>(vertical[id]);
-        vMax = std::max(vMax, static_cast<double>(vertical[id]));
-        s += static_cast<double>(stored[id]);
-      }
-    }
-    const double n = 12.0 * static_cast<double>(count);
-    std::printf("L%-2d %7.0f %8.0f %9.1f %9.1f %9.1f", level, n, tris / n, v / n, vMax, s / n);
-    for (const auto& from : fromLevel)
-      std::printf(" %9llu", static_cast<unsigned long long>(from[static_cast<std::size_t>(level)]));
-    std::printf("\n");
-  }
+  printPerLevel(lattice, depth, stored, vertical, triangles, errors);
+  printLowerBounds(*manifest, depth, stored, triangles, errors,
+                   [&](double e) { return cutTriangles(lattice, rtinDepth, rtin, {}, e); });
   std::printf("%s\n", json.c_str());
   return 0;
 }
