@@ -11,8 +11,10 @@
 #include <fstream>
 #include <iterator>
 #include <memory>
+#include <optional>
 #include <span>
 #include <tuple>
+#include <utility>
 
 #include "TestData.h"
 #include "pbdam/builder/Builder.h"
@@ -372,18 +374,33 @@ TEST(Lattice, DiamondsPairEveryHypotenuseAcrossFaces) {
   }
 }
 
+/// MOLA's DEM and Mars; nothing (with the reason as a test failure) if either cannot be read.
+std::optional<std::pair<HeightGrid, Planet>> readMars(const fs::path& demPath) {
+  auto dem = readDem(demPath);
+  if (!dem) {
+    ADD_FAILURE() << dem.error().message;
+    return std::nullopt;
+  }
+  auto planet = Planet::fromSpec("mars");
+  if (!planet) {
+    ADD_FAILURE() << planet.error().message;
+    return std::nullopt;
+  }
+  return std::pair<HeightGrid, Planet>{std::move(dem).value(), std::move(planet).value()};
+}
+
 TEST(SampleGrid, EverySourceSampleLiesInItsBucketAsStored) {
   // A triangle looks for its samples in the buckets its corners span, and tests each by its
   // stored (float) position, so a sample must lie in its bucket by that position. Bucketing by
   // the double position put MOLA samples that round onto a lattice line into the bucket beside
   // it, and triangles on that line missed them (stored errors up to 11 m too small).
   PBDAM_REQUIRE_DATA(demPath, test::dataDir() / "mars/megt90n000cb.lbl");
-  auto dem = readDem(demPath);
-  ASSERT_TRUE(dem) << dem.error().message;
-  auto planet = Planet::fromSpec("mars");
-  ASSERT_TRUE(planet);
+  const auto mars = readMars(demPath);
+  ASSERT_TRUE(mars);
+  const HeightGrid& dem = mars->first;
+  const Planet& planet = mars->second;
   const Lattice lattice(512);
-  const SampleGrid grid = SampleGrid::build(*dem, *planet, lattice, 1);
+  const SampleGrid grid = SampleGrid::build(dem, planet, lattice, 1);
   const double n = static_cast<double>(lattice.sideCells());
   std::size_t onALine = 0;
   std::size_t outside = 0;
@@ -408,14 +425,14 @@ TEST(SampleGrid, CellByCellVisitsAreThoseOfEachTriangle) {
   // A leaf's samples located cell by cell: the same (triangle, sample, weights) as testing each
   // triangle's own buckets.
   PBDAM_REQUIRE_DATA(demPath, test::dataDir() / "mars/megt90n000cb.lbl");
-  auto dem = readDem(demPath);
-  ASSERT_TRUE(dem) << dem.error().message;
-  auto planet = Planet::fromSpec("mars");
-  ASSERT_TRUE(planet);
+  const auto mars = readMars(demPath);
+  ASSERT_TRUE(mars);
+  const HeightGrid& dem = mars->first;
+  const Planet& planet = mars->second;
   const Lattice lattice(512);
   using Visit = std::tuple<std::size_t, float, float, double, double, double>;
   for (const std::uint32_t bucketCells : {1u, 4u}) {
-    const SampleGrid grid = SampleGrid::build(*dem, *planet, lattice, bucketCells);
+    const SampleGrid grid = SampleGrid::build(dem, planet, lattice, bucketCells);
     std::size_t visits = 0;
     // Every leaf (32-cell legs, depth 8) of two trees: an equatorial face and a polar one.
     for (const std::uint64_t first : {std::uint64_t{0}, 8 * Lattice::nodesPerTree(8)}) {
@@ -453,19 +470,19 @@ TEST(SampleGrid, CellByCellVisitsAreThoseOfEachTriangle) {
 
 TEST(SampleGrid, FilesWrittenInRowRangesGiveTheInMemoryGrid) {
   PBDAM_REQUIRE_DATA(demPath, test::dataDir() / "mars/megt90n000cb.lbl");
-  auto dem = readDem(demPath);
-  ASSERT_TRUE(dem) << dem.error().message;
-  auto planet = Planet::fromSpec("mars");
-  ASSERT_TRUE(planet);
+  const auto mars = readMars(demPath);
+  ASSERT_TRUE(mars);
+  const HeightGrid& dem = mars->first;
+  const Planet& planet = mars->second;
   const Lattice lattice(64);
   const std::uint32_t bucketCells = 4;
-  const SampleGrid memory = SampleGrid::build(*dem, *planet, lattice, bucketCells);
+  const SampleGrid memory = SampleGrid::build(dem, planet, lattice, bucketCells);
 
   // Three "ranks": uneven ranges of lattice rows and of DEM rows.
   test::TempDir dir;
   const fs::path heights = dir / "heights.f32";
   const std::size_t rows = std::size_t{6} * 65;
-  const auto demRows = static_cast<std::size_t>(dem->height());
+  const auto demRows = static_cast<std::size_t>(dem.height());
   const std::array<std::size_t, 4> rowCuts = {0, 100, 101, rows};
   const std::array<std::size_t, 4> demCuts = {0, demRows / 3, demRows / 2, demRows};
   HeightRowStats total;
@@ -474,16 +491,16 @@ TEST(SampleGrid, FilesWrittenInRowRangesGiveTheInMemoryGrid) {
   std::vector<fs::path> samples;
   for (std::size_t r = 0; r < 3; ++r) {
     auto stats =
-        SampleGrid::writeHeightRows(*dem, *planet, lattice, heights, rowCuts[r], rowCuts[r + 1]);
+        SampleGrid::writeHeightRows(dem, planet, lattice, heights, rowCuts[r], rowCuts[r + 1]);
     ASSERT_TRUE(stats) << stats.error().message;
     total.noDataPoints += stats->noDataPoints;
     total.minHeightMeters = std::min(total.minHeightMeters, stats->minHeightMeters);
     total.maxHeightMeters = std::max(total.maxHeightMeters, stats->maxHeightMeters);
     samples.push_back(dir / ("samples." + std::to_string(r)));
-    ASSERT_TRUE(SampleGrid::writeSourceBuckets(*dem, *planet, lattice, bucketCells, samples.back(),
+    ASSERT_TRUE(SampleGrid::writeSourceBuckets(dem, planet, lattice, bucketCells, samples.back(),
                                                demCuts[r], demCuts[r + 1]));
   }
-  auto mapped = SampleGrid::open(lattice, *planet, heights, samples, bucketCells, total);
+  auto mapped = SampleGrid::open(lattice, planet, heights, samples, bucketCells, total);
   ASSERT_TRUE(mapped) << mapped.error().message;
   mapped->releaseResident();
 
@@ -521,7 +538,7 @@ TEST(SampleGrid, FilesWrittenInRowRangesGiveTheInMemoryGrid) {
   }
 
   // A heights file of another lattice is refused, naming the file.
-  auto other = SampleGrid::open(Lattice(32), *planet, heights, samples, bucketCells, total);
+  auto other = SampleGrid::open(Lattice(32), planet, heights, samples, bucketCells, total);
   ASSERT_FALSE(other);
   EXPECT_NE(other.error().message.find("heights.f32"), std::string::npos);
 
@@ -532,7 +549,7 @@ TEST(SampleGrid, FilesWrittenInRowRangesGiveTheInMemoryGrid) {
     f.seekp(8);
     f.write(reinterpret_cast<const char*>(&version), sizeof version);
   }
-  auto older = SampleGrid::open(lattice, *planet, heights, samples, bucketCells, total);
+  auto older = SampleGrid::open(lattice, planet, heights, samples, bucketCells, total);
   ASSERT_FALSE(older);
   EXPECT_NE(older.error().message.find("bucket file version 1"), std::string::npos)
       << older.error().message;

@@ -97,6 +97,23 @@ WorkPatch wholeTriangle(const BinTriangle& t) {
   return p;
 }
 
+/// The four leaf patches under a diamond's two triangles, and the pointers simplifyBlock takes.
+struct DiamondLeaves final {
+  explicit DiamondLeaves(const std::array<BinTriangle, 2>& tri) {
+    for (std::size_t s = 0; s < 2; ++s) {
+      const auto kids = Lattice::children(tri[s]);
+      for (std::size_t c = 0; c < 2; ++c) {
+        leaves[s][c] = makeLeafPatch(kids[c]);
+        children[s][c] = &leaves[s][c];
+      }
+    }
+  }
+  DiamondLeaves(const DiamondLeaves&) = delete;
+  DiamondLeaves& operator=(const DiamondLeaves&) = delete;
+  std::array<std::array<WorkPatch, 2>, 2> leaves;
+  std::array<std::array<const WorkPatch*, 2>, 2> children{};
+};
+
 TEST(PatchBuilder, MeasuredSampleErrorEqualsAScanOfEveryCandidate) {
   const HeightGrid dem = roughDem();
   const Lattice lattice(64);
@@ -109,20 +126,17 @@ TEST(PatchBuilder, MeasuredSampleErrorEqualsAScanOfEveryCandidate) {
     for (const Diamond& d : diamondsOfLevel(lattice, 4, 3)) {
       const std::array<BinTriangle, 2> tri = {triangleOfNode(lattice, d[0], 4),
                                               triangleOfNode(lattice, d[1], 4)};
-      std::array<std::array<WorkPatch, 2>, 2> leaves;
-      std::array<std::array<const WorkPatch*, 2>, 2> children{};
+      const DiamondLeaves kids(tri);
       for (std::size_t s = 0; s < 2; ++s) {
-        const auto kids = Lattice::children(tri[s]);
-        for (std::size_t c = 0; c < 2; ++c) {
-          leaves[s][c] = makeLeafPatch(kids[c]);
-          children[s][c] = &leaves[s][c];
-          const WorkPatch& leaf = leaves[s][c];
+        for (const WorkPatch& leaf : kids.leaves[s]) {
           EXPECT_EQ(leaf.points.size(), 17u * 18u / 2u);
-          EXPECT_EQ(maxLatticeDeviation(grid, kids[c].face, leaf),
-                    latticeDeviationByScan(grid, kids[c].face, leaf));
+          // A leaf lies on its parent's face.
+          EXPECT_EQ(maxLatticeDeviation(grid, tri[s].face, leaf),
+                    latticeDeviationByScan(grid, tri[s].face, leaf));
         }
       }
-      const BlockResult block = simplifyBlock(grid, tri, children, BlockTargets{200.0, 40, 65535});
+      const BlockResult block =
+          simplifyBlock(grid, tri, kids.children, BlockTargets{200.0, 40, 65535});
       const std::array<const WorkPatch*, 2> halves = {&block.first, &block.second};
       for (std::size_t s = 0; s < 2; ++s) {
         for (const WorkPatch& patch : {*halves[s], wholeTriangle(tri[s])}) {
@@ -146,16 +160,9 @@ TEST(PatchBuilder, SampleErrorAndSagAddPerTriangle) {
   for (const Diamond& d : diamondsOfLevel(lattice, 4, 3)) {
     const std::array<BinTriangle, 2> tri = {triangleOfNode(lattice, d[0], 4),
                                             triangleOfNode(lattice, d[1], 4)};
-    std::array<std::array<WorkPatch, 2>, 2> leaves;
-    std::array<std::array<const WorkPatch*, 2>, 2> children{};
-    for (std::size_t s = 0; s < 2; ++s) {
-      const auto kids = Lattice::children(tri[s]);
-      for (std::size_t c = 0; c < 2; ++c) {
-        leaves[s][c] = makeLeafPatch(kids[c]);
-        children[s][c] = &leaves[s][c];
-      }
-    }
-    const BlockResult block = simplifyBlock(grid, tri, children, BlockTargets{200.0, 40, 65535});
+    const DiamondLeaves kids(tri);
+    const BlockResult block =
+        simplifyBlock(grid, tri, kids.children, BlockTargets{200.0, 40, 65535});
     const std::array<const WorkPatch*, 2> halves = {&block.first, &block.second};
     for (std::size_t s = 0; s < 2; ++s) {
       const WorkPatch& patch = *halves[s];
