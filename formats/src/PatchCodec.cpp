@@ -11,6 +11,7 @@
 #include <array>
 #include <cassert>
 #include <cstring>
+#include <numeric>
 #include <string>
 
 #include "pbdam/formats/Checksum.h"
@@ -223,15 +224,34 @@ void optimizePatchForRendering(PatchMesh& mesh) {
     mesh.vertices.clear();
     return;
   }
-  std::vector<std::uint16_t> ordered(indexCount);
-  meshopt_optimizeVertexCache(ordered.data(), mesh.indices.data(), indexCount,
-                              mesh.vertices.size());
-  std::vector<PatchVertex> fetched(mesh.vertices.size());
-  const std::size_t used =
-      meshopt_optimizeVertexFetch(fetched.data(), ordered.data(), indexCount, mesh.vertices.data(),
-                                  mesh.vertices.size(), sizeof(PatchVertex));
-  fetched.resize(used);
-  mesh.indices = std::move(ordered);
+  // Both orders depend on the indices alone, and many patches share theirs (every leaf of a
+  // dataset has the same grid): the last topology's result is reused on each thread. The fetch
+  // order is found by reordering vertex numbers, so a reuse gives the very bytes a fresh run
+  // would.
+  struct Orders {
+    std::size_t vertexCount = 0;
+    std::vector<std::uint16_t> input;
+    std::vector<std::uint16_t> ordered;  // the cache order, indices already renumbered
+    std::vector<std::uint32_t> source;   // new vertex k is old vertex source[k]
+  };
+  thread_local Orders last;
+  if (last.vertexCount != mesh.vertices.size() || last.input != mesh.indices) {
+    last.vertexCount = mesh.vertices.size();
+    last.input = mesh.indices;
+    last.ordered.resize(indexCount);
+    meshopt_optimizeVertexCache(last.ordered.data(), mesh.indices.data(), indexCount,
+                                mesh.vertices.size());
+    std::vector<std::uint32_t> numbers(mesh.vertices.size());
+    std::iota(numbers.begin(), numbers.end(), 0U);
+    last.source.resize(mesh.vertices.size());
+    const std::size_t used =
+        meshopt_optimizeVertexFetch(last.source.data(), last.ordered.data(), indexCount,
+                                    numbers.data(), numbers.size(), sizeof(std::uint32_t));
+    last.source.resize(used);
+  }
+  std::vector<PatchVertex> fetched(last.source.size());
+  for (std::size_t k = 0; k < fetched.size(); ++k) fetched[k] = mesh.vertices[last.source[k]];
+  mesh.indices = last.ordered;
   mesh.vertices = std::move(fetched);
 }
 

@@ -166,6 +166,28 @@ TEST(PatchCodec, EncodingIsDeterministic) {
   EXPECT_EQ(again, other);
 }
 
+TEST(PatchCodec, AShapeOptimisedAgainGivesWhatAFreshRunGives) {
+  // Orders are reused from the last patch of the same topology (every leaf shares one): with
+  // other heights, after other shapes, and on a thread that has seen nothing, the same bytes.
+  const PatchMesh first = gridPatch(32, 7);
+  const PatchMesh second = gridPatch(32, 8);  // the same grid, other heights
+  ASSERT_EQ(first.indices, second.indices);
+  ASSERT_NE(first.vertices, second.vertices);
+  PatchMesh fresh = second;
+  std::thread([&] { optimizePatchForRendering(fresh); }).join();
+  PatchMesh reused = first;
+  optimizePatchForRendering(reused);
+  reused = second;
+  optimizePatchForRendering(reused);
+  EXPECT_EQ(reused, fresh);
+  PatchMesh afterOther = simplifiedPatch(128, 1000, 6);
+  optimizePatchForRendering(afterOther);
+  afterOther = second;
+  optimizePatchForRendering(afterOther);
+  EXPECT_EQ(afterOther, fresh);
+  EXPECT_NE(fresh.indices, second.indices);  // the orders did change something
+}
+
 TEST(PatchCodec, CompressesRealisticPatchesBelowHalf) {
   for (const PatchMesh& mesh : {optimized(gridPatch(32, 8)), simplifiedPatch(128, 1000, 9),
                                 simplifiedPatch(256, 1000, 10)}) {

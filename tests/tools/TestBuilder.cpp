@@ -421,9 +421,9 @@ TEST(SampleGrid, EverySourceSampleLiesInItsBucketAsStored) {
   EXPECT_EQ(outside, 0u);
 }
 
-TEST(SampleGrid, CellByCellVisitsAreThoseOfEachTriangle) {
-  // A leaf's samples located cell by cell: the same (triangle, sample, weights) as testing each
-  // triangle's own buckets.
+TEST(SampleGrid, BinnedVisitsAreThoseOfEachTriangle) {
+  // A leaf's samples located through bins of cells: the same (triangle, sample, weights) as
+  // testing each triangle's own buckets.
   PBDAM_REQUIRE_DATA(demPath, test::dataDir() / "mars/megt90n000cb.lbl");
   const auto mars = readMars(demPath);
   ASSERT_TRUE(mars);
@@ -453,8 +453,8 @@ TEST(SampleGrid, CellByCellVisitsAreThoseOfEachTriangle) {
                                      });
         }
         std::vector<Visit> byCell;
-        grid.forEachSourceSampleInCells(
-            t.face, corners,
+        grid.forEachSourceSampleInTriangles(
+            t.face, {t.apex, t.left, t.right}, corners,
             [&](std::size_t k, double l0, double l1, double l2, const SourceSample& s) {
               byCell.emplace_back(k, s.u, s.v, l0, l1, l2);
             });

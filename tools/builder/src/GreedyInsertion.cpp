@@ -41,6 +41,76 @@ bool inCircle(LatticeXY a, LatticeXY b, LatticeXY c, LatticeXY d) noexcept {
   return det > 0;
 }
 
+/// The lattice points of a triangle row by row, every `step`-th row from `firstRow`: inside
+/// edge q→r (opposite corner k) means (r − q) × (s − q) ≥ 0, i.e. dy·x ≤ dx·(y − qy) + dy·qx, so
+/// each edge bounds x by floor(rhs / |dy|) (dy > 0: from above; dy < 0: from below, negated).
+/// The quotients are carried from row to row with their remainders: exact, and one division
+/// per edge rather than one per edge and row.
+class RowSpans final {
+ public:
+  RowSpans(const std::array<LatticeXY, 3>& p, const std::array<std::uint32_t, 3>& neighbours,
+           int firstRow, int step) noexcept {
+    for (std::size_t k = 0; k < 3; ++k) {
+      const LatticeXY q = p[(k + 1) % 3];
+      const LatticeXY r = p[(k + 2) % 3];
+      const std::int64_t dx = r.x - q.x;
+      Edge& e = edges_[k];
+      e.locked = neighbours[k] == kNone;
+      e.dy = r.y - q.y;
+      e.rhs = dx * (firstRow - q.y) + e.dy * q.x;
+      e.rowStep = dx * step;
+      if (e.dy == 0) continue;
+      e.divisor = e.dy > 0 ? e.dy : -e.dy;
+      e.quotient = floorDiv(e.rhs, e.divisor);
+      e.remainder = e.rhs - e.quotient * e.divisor;
+      e.stepQuotient = floorDiv(e.rowStep, e.divisor);
+      e.stepRemainder = e.rowStep - e.stepQuotient * e.divisor;
+    }
+  }
+
+  /// Narrows [lo, hi] to this row's span and moves to the next row. True when the row lies on
+  /// a locked edge along it (none of its points is a candidate).
+  bool next(std::int64_t& lo, std::int64_t& hi) noexcept {
+    bool onLockedRow = false;
+    for (Edge& e : edges_) {
+      if (e.dy > 0) {
+        hi = std::min(hi, e.quotient);
+      } else if (e.dy < 0) {
+        lo = std::max(lo, -e.quotient);  // x ≥ ceil(rhs / dy)
+      } else if (e.rhs < 0) {
+        hi = lo - 1;
+      } else if (e.rhs == 0 && e.locked) {
+        onLockedRow = true;
+      }
+      if (e.dy == 0) {
+        e.rhs += e.rowStep;
+        continue;
+      }
+      e.quotient += e.stepQuotient;
+      e.remainder += e.stepRemainder;
+      if (e.remainder >= e.divisor) {
+        e.remainder -= e.divisor;
+        ++e.quotient;
+      }
+    }
+    return onLockedRow;
+  }
+
+ private:
+  struct Edge {
+    bool locked = false;
+    std::int64_t dy = 0;
+    std::int64_t divisor = 1;   // |dy|
+    std::int64_t rhs = 0;       // while dy == 0
+    std::int64_t quotient = 0;  // floor(rhs / |dy|)
+    std::int64_t remainder = 0;
+    std::int64_t stepQuotient = 0;  // floor(dx·step / |dy|)
+    std::int64_t stepRemainder = 0;
+    std::int64_t rowStep = 0;  // dx·step
+  };
+  std::array<Edge, 3> edges_{};
+};
+
 /// A triangle of the triangulation: corners counter-clockwise, n[i] the neighbour across the
 /// edge opposite corner i (kNone on the locked boundary).
 struct Tri final {
@@ -355,47 +425,47 @@ void Triangulation::scan(std::uint32_t t) {
   const int yMax = std::max({p[0].y, p[1].y, p[2].y});
   const int xMinBox = std::min({p[0].x, p[1].x, p[2].x});
   const int xMaxBox = std::max({p[0].x, p[1].x, p[2].x});
-  const int step = stride_;
+  const int step = stride_;  // a power of two
   // Lattice coordinates are never negative.
-  const auto roundUp = [step](std::int64_t v) { return (v + step - 1) / step * step; };
-  for (int y = (yMin + step - 1) / step * step; y <= yMax; y += step) {
+  const auto roundUp = [step](std::int64_t v) { return (v + step - 1) & ~std::int64_t{step - 1}; };
+  const auto roundDown = [step](std::int64_t v) { return v & ~std::int64_t{step - 1}; };
+  // Not candidates: the corners and the points on a locked edge. Along a row they can only be
+  // the ends of the span (or the whole row, on a locked edge along the row).
+  const auto excluded = [&](LatticeXY s) {
+    if (s == p[0] || s == p[1] || s == p[2]) return true;
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (tri.n[k] == kNone && doubleArea(p[(k + 1) % 3], p[(k + 2) % 3], s) == 0) return true;
+    }
+    return false;
+  };
+  const int firstRow = static_cast<int>(roundUp(yMin));
+  RowSpans spans(p, tri.n, firstRow, step);
+  const float* heights = heights_.data;
+  const std::size_t rowLength = std::size_t{heights_.sideCells} + 1;
+  for (int y = firstRow; y <= yMax; y += step) {
     std::int64_t lo = xMinBox;
     std::int64_t hi = xMaxBox;
-    // Inside edge q→r (opposite corner k): (r − q) × (s − q) ≥ 0, i.e. dy·x ≤ dx·(y − qy) + dy·qx.
-    for (std::size_t k = 0; k < 3 && lo <= hi; ++k) {
-      const LatticeXY q = p[(k + 1) % 3];
-      const LatticeXY r = p[(k + 2) % 3];
-      const std::int64_t dx = r.x - q.x;
-      const std::int64_t dy = r.y - q.y;
-      const std::int64_t rhs = dx * (y - q.y) + dy * q.x;
-      if (dy > 0) {
-        hi = std::min(hi, floorDiv(rhs, dy));
-      } else if (dy < 0) {
-        lo = std::max(lo, -floorDiv(rhs, -dy));  // x ≥ ceil(rhs / dy)
-      } else if (rhs < 0) {
-        hi = lo - 1;
-      }
-    }
-    for (std::int64_t x = roundUp(lo); x <= hi; x += step) {
-      const LatticeXY s{static_cast<std::int32_t>(x), y};
-      if (s == p[0] || s == p[1] || s == p[2]) continue;
-      bool onLockedEdge = false;
-      for (std::size_t k = 0; k < 3; ++k) {
-        if (tri.n[k] == kNone && doubleArea(p[(k + 1) % 3], p[(k + 2) % 3], s) == 0) {
-          onLockedEdge = true;
-        }
-      }
-      if (onLockedEdge) continue;
+    const bool onLockedRow = spans.next(lo, hi);
+    if (onLockedRow) continue;
+    std::int64_t first = roundUp(lo);
+    std::int64_t last = roundDown(hi);
+    if (first > last) continue;
+    if (excluded(LatticeXY{static_cast<std::int32_t>(first), y})) first += step;
+    if (first <= last && excluded(LatticeXY{static_cast<std::int32_t>(last), y})) last -= step;
+    const float* row = heights + static_cast<std::size_t>(y) * rowLength;
+    const double ry = static_cast<double>(y - p[0].y);
+    const double gyry = gy * ry;
+    const double dcy = ry - ccy;
+    const double dcy2 = dcy * dcy;
+    for (std::int64_t x = first; x <= last; x += step) {
       const double rx = static_cast<double>(x - p[0].x);
-      const double ry = static_cast<double>(y - p[0].y);
-      const double dev = std::abs(static_cast<double>(heights_.at(s)) - (z[0] + gx * rx + gy * ry));
+      const double dev = std::abs(static_cast<double>(row[x]) - (z[0] + gx * rx + gyry));
       const double dcx = rx - ccx;
-      const double dcy = ry - ccy;
-      const double sag = sagPerCell2_ * std::max(0.0, rc2 - (dcx * dcx + dcy * dcy));
+      const double sag = sagPerCell2_ * std::max(0.0, rc2 - (dcx * dcx + dcy2));
       worstHeight = std::max(worstHeight, dev);
       if (dev + sag > worstScore) {
         worstScore = dev + sag;
-        worst = s;
+        worst = LatticeXY{static_cast<std::int32_t>(x), y};
       }
     }
   }

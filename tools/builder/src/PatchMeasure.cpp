@@ -35,68 +35,86 @@ void clipSpan(std::int64_t coefX, std::int64_t rest, std::int64_t& lo, std::int6
   }
 }
 
-/// Calls f(k, a, b, c, w0, w1, w2, total) for every lattice point inside or on triangle k (the
-/// triangle of indices 3k..3k+2) of `patch`, (a, b, c) its vertex indices, with the point's
-/// integer barycentric weights (w0 + w1 + w2 = total).
-template <class F>
-void forEachLatticePointOfTriangle(const WorkPatch& patch, F&& f) {
-  for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
-    const std::uint32_t ia = patch.indices[k];
-    const std::uint32_t ib = patch.indices[k + 1];
-    const std::uint32_t ic = patch.indices[k + 2];
-    const LatticeXY a = patch.points[ia];
-    const LatticeXY b = patch.points[ib];
-    const LatticeXY c = patch.points[ic];
-    const std::int64_t total = doubleArea(a, b, c);
-    if (total <= 0) continue;
-    const int x0 = std::min({a.x, b.x, c.x});
-    const int x1 = std::max({a.x, b.x, c.x});
-    const int y0 = std::min({a.y, b.y, c.y});
-    const int y1 = std::max({a.y, b.y, c.y});
-    for (int y = y0; y <= y1; ++y) {
-      // The lattice points of this row inside or on the triangle: where all three edge
-      // functions doubleArea(edge, p) are ≥ 0 (each is linear in x along the row).
-      std::int64_t lo = x0;
-      std::int64_t hi = x1;
-      clipSpan(-static_cast<std::int64_t>(c.y - b.y), doubleArea(b, c, LatticeXY{0, y}), lo, hi);
-      clipSpan(-static_cast<std::int64_t>(a.y - c.y), doubleArea(c, a, LatticeXY{0, y}), lo, hi);
-      clipSpan(-static_cast<std::int64_t>(b.y - a.y), doubleArea(a, b, LatticeXY{0, y}), lo, hi);
-      for (auto x = static_cast<int>(lo); x <= hi; ++x) {
-        const LatticeXY p{x, y};
-        const std::int64_t w0 = doubleArea(b, c, p);
-        const std::int64_t w1 = doubleArea(c, a, p);
-        const std::int64_t w2 = doubleArea(a, b, p);
-        assert(w0 >= 0 && w1 >= 0 && w2 >= 0);
-        f(k / 3, ia, ib, ic, p, static_cast<double>(w0), static_cast<double>(w1),
-          static_cast<double>(w2), static_cast<double>(total));
-      }
+/// The largest |patch − lattice| over the lattice points inside or on triangle (a, b, c)
+/// (counter-clockwise, positive doubled area `total`), whose corner heights are ha, hb, hc: the
+/// patch's height at p is (w0·ha + w1·hb + w2·hc) / total with w the integer barycentric weights
+/// of p (w0 + w1 + w2 = total). Along a row each weight changes by a constant integer step, so
+/// the weights are exact and the sum is the same double at every point as a direct evaluation.
+double triangleLatticeDeviation(const float* heights, std::size_t rowLength, LatticeXY a,
+                                LatticeXY b, LatticeXY c, double ha, double hb, double hc,
+                                std::int64_t total) noexcept {
+  const int x0 = std::min({a.x, b.x, c.x});
+  const int x1 = std::max({a.x, b.x, c.x});
+  const int y0 = std::min({a.y, b.y, c.y});
+  const int y1 = std::max({a.y, b.y, c.y});
+  const double sum = static_cast<double>(total);
+  // doubleArea(q, r, p) grows by −(r.y − q.y) per step in x.
+  const std::int64_t d0 = -static_cast<std::int64_t>(c.y - b.y);
+  const std::int64_t d1 = -static_cast<std::int64_t>(a.y - c.y);
+  const std::int64_t d2 = -static_cast<std::int64_t>(b.y - a.y);
+  double worst = 0.0;
+  for (int y = y0; y <= y1; ++y) {
+    // The lattice points of this row inside or on the triangle: where all three edge
+    // functions doubleArea(edge, p) are ≥ 0 (each is linear in x along the row).
+    std::int64_t lo = x0;
+    std::int64_t hi = x1;
+    clipSpan(d0, doubleArea(b, c, LatticeXY{0, y}), lo, hi);
+    clipSpan(d1, doubleArea(c, a, LatticeXY{0, y}), lo, hi);
+    clipSpan(d2, doubleArea(a, b, LatticeXY{0, y}), lo, hi);
+    if (lo > hi) continue;
+    const LatticeXY first{static_cast<int>(lo), y};
+    std::int64_t w0 = doubleArea(b, c, first);
+    std::int64_t w1 = doubleArea(c, a, first);
+    std::int64_t w2 = doubleArea(a, b, first);
+    const float* row = heights + static_cast<std::size_t>(y) * rowLength;
+    for (std::int64_t x = lo; x <= hi; ++x) {
+      assert(w0 >= 0 && w1 >= 0 && w2 >= 0 && w0 + w1 + w2 == total);
+      const double hp = (static_cast<double>(w0) * ha + static_cast<double>(w1) * hb +
+                         static_cast<double>(w2) * hc) /
+                        sum;
+      worst = std::max(worst, std::abs(hp - static_cast<double>(row[x])));
+      w0 += d0;
+      w1 += d1;
+      w2 += d2;
     }
+  }
+  return worst;
+}
+
+/// Calls f(k, a, b, c) for every triangle k of `patch` with positive area, (a, b, c) its
+/// corners and `total` its doubled area.
+template <class F>
+void forEachTriangle(const WorkPatch& patch, F&& f) {
+  for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
+    const LatticeXY a = patch.points[patch.indices[k]];
+    const LatticeXY b = patch.points[patch.indices[k + 1]];
+    const LatticeXY c = patch.points[patch.indices[k + 2]];
+    const std::int64_t total = doubleArea(a, b, c);
+    if (total > 0) f(k / 3, a, b, c, total);
   }
 }
 
-/// Calls f(a, b, c, w0, w1, w2, total) for every lattice point inside or on a triangle (a, b, c)
-/// of `patch` (vertex indices), with its integer barycentric weights (w0 + w1 + w2 = total).
-template <class F>
-void forEachLatticePointIn(const WorkPatch& patch, F&& f) {
-  forEachLatticePointOfTriangle(
-      patch,
-      [&](std::size_t, std::uint32_t ia, std::uint32_t ib, std::uint32_t ic, LatticeXY p, double w0,
-          double w1, double w2, double total) { f(ia, ib, ic, p, w0, w1, w2, total); });
+/// The largest |patch − lattice| over the lattice points of triangle k, for every k.
+void latticeDeviations(const SampleGrid& grid, int face, const WorkPatch& patch,
+                       std::vector<double>& error) {
+  const float* heights = grid.faceHeights(face);
+  const std::size_t rowLength = std::size_t{grid.lattice().sideCells()} + 1;
+  forEachTriangle(
+      patch, [&](std::size_t k, LatticeXY a, LatticeXY b, LatticeXY c, std::int64_t total) {
+        error[k] = std::max(
+            error[k], triangleLatticeDeviation(heights, rowLength, a, b, c,
+                                               static_cast<double>(grid.height(face, a)),
+                                               static_cast<double>(grid.height(face, b)),
+                                               static_cast<double>(grid.height(face, c)), total));
+      });
 }
 
 }  // namespace
 
 double maxLatticeDeviation(const SampleGrid& grid, int face, const WorkPatch& patch) {
-  double worst = 0.0;
-  forEachLatticePointIn(patch, [&](std::uint32_t ia, std::uint32_t ib, std::uint32_t ic,
-                                   LatticeXY p, double w0, double w1, double w2, double total) {
-    const double ha = static_cast<double>(grid.height(face, patch.points[ia]));
-    const double hb = static_cast<double>(grid.height(face, patch.points[ib]));
-    const double hc = static_cast<double>(grid.height(face, patch.points[ic]));
-    const double hp = (w0 * ha + w1 * hb + w2 * hc) / total;
-    worst = std::max(worst, std::abs(hp - static_cast<double>(grid.height(face, p))));
-  });
-  return worst;
+  std::vector<double> error(patch.indices.size() / 3, 0.0);
+  latticeDeviations(grid, face, patch, error);
+  return error.empty() ? 0.0 : *std::max_element(error.begin(), error.end());
 }
 
 namespace {
@@ -239,12 +257,14 @@ std::vector<double> chordErrors(const SampleGrid& grid, const WorkPatch& patch,
 
 /// Sample error of each triangle: the largest |patch − sample| over the lattice samples and the
 /// source DEM's own samples inside or on it.
-std::vector<double> sampleErrors(const SampleGrid& grid, int face, const WorkPatch& patch) {
+std::vector<double> sampleErrors(const SampleGrid& grid, const BinTriangle& t,
+                                 const WorkPatch& patch) {
+  const int face = t.face;
   const std::size_t count = patch.indices.size() / 3;
   std::vector<double> error(count, 0.0);
   // A triangle of doubled area 1 (half a lattice cell) covers only its corners, where the patch
-  // is exact: only larger ones need the lattice scan. A patch made of such triangles only (a
-  // leaf) has its source samples located cell by cell.
+  // is exact: only larger ones need the lattice scan. Source samples are read once per patch
+  // and tested against the triangles near each.
   std::vector<std::array<LatticeXY, 3>> corners(count);
   bool unitTriangles = true;
   for (std::size_t k = 0; k < count; ++k) {
@@ -252,17 +272,7 @@ std::vector<double> sampleErrors(const SampleGrid& grid, int face, const WorkPat
                   patch.points[patch.indices[3 * k + 2]]};
     unitTriangles = unitTriangles && doubleArea(corners[k][0], corners[k][1], corners[k][2]) == 1;
   }
-  if (!unitTriangles) {
-    forEachLatticePointOfTriangle(
-        patch, [&](std::size_t k, std::uint32_t ia, std::uint32_t ib, std::uint32_t ic, LatticeXY p,
-                   double w0, double w1, double w2, double total) {
-          const double ha = static_cast<double>(grid.height(face, patch.points[ia]));
-          const double hb = static_cast<double>(grid.height(face, patch.points[ib]));
-          const double hc = static_cast<double>(grid.height(face, patch.points[ic]));
-          const double hp = (w0 * ha + w1 * hb + w2 * hc) / total;
-          error[k] = std::max(error[k], std::abs(hp - static_cast<double>(grid.height(face, p))));
-        });
-  }
+  if (!unitTriangles) latticeDeviations(grid, face, patch, error);
   std::vector<std::array<double, 3>> heights(count);
   for (std::size_t k = 0; k < count; ++k) {
     for (std::size_t c = 0; c < 3; ++c)
@@ -272,15 +282,7 @@ std::vector<double> sampleErrors(const SampleGrid& grid, int face, const WorkPat
     const double hp = l0 * heights[k][0] + l1 * heights[k][1] + l2 * heights[k][2];
     error[k] = std::max(error[k], std::abs(hp - static_cast<double>(s.heightMeters)));
   };
-  if (unitTriangles) {
-    grid.forEachSourceSampleInCells(face, corners, visit);
-    return error;
-  }
-  for (std::size_t k = 0; k < count; ++k) {
-    grid.forEachSourceSampleIn(
-        face, corners[k][0], corners[k][1], corners[k][2],
-        [&](double l0, double l1, double l2, const SourceSample& s) { visit(k, l0, l1, l2, s); });
-  }
+  grid.forEachSourceSampleInTriangles(face, {t.apex, t.left, t.right}, corners, visit);
   return error;
 }
 
@@ -295,7 +297,7 @@ MeasuredPatch measurePatch(const SampleGrid& grid, const BinTriangle& t, const W
   // A point of triangle k is off the terrain by at most its sample error plus k's sag, so the
   // two terms add per triangle, not as the patch's two maxima.
   const std::vector<double> sag = chordErrors(grid, patch, rendered);
-  const std::vector<double> sample = sampleErrors(grid, t.face, patch);
+  const std::vector<double> sample = sampleErrors(grid, t, patch);
   double worst = 0.0;
   for (std::size_t k = 0; k < sag.size(); ++k) {
     out.chordErrorMeters = std::max(out.chordErrorMeters, sag[k]);

@@ -331,6 +331,73 @@ Result<void> SampleGrid::writeSourceBuckets(const HeightGrid& dem, const Planet&
   return {};
 }
 
+SampleGrid::TriangleBins SampleGrid::binTriangles(
+    std::span<const std::array<LatticeXY, 3>> triangles) const {
+  TriangleBins bins;
+  int x1 = triangles[0][0].x;
+  int y1 = triangles[0][0].y;
+  bins.x0 = x1;
+  bins.y0 = y1;
+  for (const auto& t : triangles) {
+    for (const LatticeXY p : t) {
+      bins.x0 = std::min(bins.x0, p.x);
+      x1 = std::max(x1, p.x);
+      bins.y0 = std::min(bins.y0, p.y);
+      y1 = std::max(y1, p.y);
+    }
+  }
+  const std::int64_t w = std::max(1, x1 - bins.x0);
+  const std::int64_t h = std::max(1, y1 - bins.y0);
+  const auto binsOf = [](std::int64_t extent, std::int64_t cells) {
+    return (extent + cells - 1) / cells;
+  };
+  const std::int64_t most = std::max<std::int64_t>(16, 4 * std::ssize(triangles));
+  while (binsOf(w, bins.binCells) * binsOf(h, bins.binCells) > most) bins.binCells *= 2;
+  bins.columns = binsOf(w, bins.binCells);
+  bins.rows = binsOf(h, bins.binCells);
+  bins.margin = 1e-6 + 1e-8 * static_cast<double>(std::max(w, h));
+  bins.uv.resize(triangles.size());
+  bins.tests.resize(triangles.size());
+  bins.reach.resize(triangles.size());
+  bins.start.assign(static_cast<std::size_t>(bins.columns * bins.rows) + 1, 0);
+  const auto forEachBin = [&](std::size_t k, auto&& f) {
+    for (std::int64_t by = bins.reach[k][2]; by <= bins.reach[k][3]; ++by) {
+      for (std::int64_t bx = bins.reach[k][0]; bx <= bins.reach[k][1]; ++bx) {
+        f(static_cast<std::size_t>(by * bins.columns + bx));
+      }
+    }
+  };
+  for (std::size_t k = 0; k < triangles.size(); ++k) {
+    const auto& t = triangles[k];
+    bins.uv[k] = {lattice_.uv(t[0]), lattice_.uv(t[1]), lattice_.uv(t[2])};
+    const std::optional<TriangleBuckets> box =
+        bucketsOf(bins.uv[k][0], bins.uv[k][1], bins.uv[k][2]);
+    if (!box) {  // degenerate or clockwise: visits nothing, as forEachSourceSampleIn
+      bins.reach[k] = {1, 0, 1, 0};
+      continue;
+    }
+    bins.tests[k] = *box;
+    // The cells [x0, x1) × [y0, y1) of the triangle's box (positive area: both extents ≥ 1).
+    const std::int64_t cx0 = std::min({t[0].x, t[1].x, t[2].x}) - bins.x0;
+    const std::int64_t cx1 = std::max({t[0].x, t[1].x, t[2].x}) - bins.x0 - 1;
+    const std::int64_t cy0 = std::min({t[0].y, t[1].y, t[2].y}) - bins.y0;
+    const std::int64_t cy1 = std::max({t[0].y, t[1].y, t[2].y}) - bins.y0 - 1;
+    bins.reach[k] = {std::min(cx0 / bins.binCells, bins.columns - 1),
+                     std::min(cx1 / bins.binCells, bins.columns - 1),
+                     std::min(cy0 / bins.binCells, bins.rows - 1),
+                     std::min(cy1 / bins.binCells, bins.rows - 1)};
+    forEachBin(k, [&](std::size_t bin) { ++bins.start[bin + 1]; });
+  }
+  for (std::size_t b = 1; b < bins.start.size(); ++b) bins.start[b] += bins.start[b - 1];
+  bins.binned.resize(bins.start.back());
+  std::vector<std::uint32_t> fill(bins.start.begin(), bins.start.end() - 1);
+  for (std::size_t k = 0; k < triangles.size(); ++k) {
+    forEachBin(k,
+               [&](std::size_t bin) { bins.binned[fill[bin]++] = static_cast<std::uint32_t>(k); });
+  }
+  return bins;
+}
+
 void SampleGrid::triangleSpanInRows(LatticeXY a, LatticeXY b, LatticeXY c, double y0, double y1,
                                     double& lo, double& hi) noexcept {
   lo = std::numeric_limits<double>::infinity();

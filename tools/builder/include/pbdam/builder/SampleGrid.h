@@ -190,85 +190,85 @@ class SampleGrid final {
     }
   }
 
-  /// For a patch whose triangles are all halves of single lattice cells (doubled area 1: a
-  /// leaf), the same visits as forEachSourceSampleIn of each triangle k — the same inside test
-  /// and weights, fn(k, l0, l1, l2, sample) — but each sample of the patch's buckets is read once
-  /// and tested only against the triangles of the cells it lies in or on (instead of from every
-  /// triangle whose widened bucket box reaches it). The order of the visits differs.
+  /// For a patch's triangles (lattice-point corners, all inside or on the triangle `outline`),
+  /// the same visits as forEachSourceSampleIn of each triangle k — the
+  /// same inside test and weights, fn(k, l0, l1, l2, sample) — but each sample of the patch's
+  /// buckets is read once and tested only against the triangles whose bounding boxes reach the
+  /// bin it lies in (instead of by every triangle whose widened bucket box reaches it). Bins are
+  /// squares of a power-of-two number of cells, at most four per triangle. The order of the
+  /// visits differs.
   template <typename Fn>
-  void forEachSourceSampleInCells(int face,
-                                  std::span<const std::array<runtime::LatticeXY, 3>> triangles,
-                                  Fn&& fn) const {
+  void forEachSourceSampleInTriangles(int face, const std::array<runtime::LatticeXY, 3>& outline,
+                                      std::span<const std::array<runtime::LatticeXY, 3>> triangles,
+                                      Fn&& fn) const {
     if (triangles.empty()) return;
-    constexpr std::uint32_t kNoTriangle = 0xffffffffu;
-    int x0 = triangles[0][0].x;
-    int x1 = x0;
-    int y0 = triangles[0][0].y;
-    int y1 = y0;
-    for (const auto& t : triangles) {
-      for (const runtime::LatticeXY p : t) {
-        x0 = std::min(x0, p.x);
-        x1 = std::max(x1, p.x);
-        y0 = std::min(y0, p.y);
-        y1 = std::max(y1, p.y);
-      }
-    }
-    const int w = std::max(1, x1 - x0);
-    const int h = std::max(1, y1 - y0);
-    // The (at most two) triangles of each cell, and each triangle's corners and test.
-    std::vector<std::array<std::uint32_t, 2>> cells(
-        static_cast<std::size_t>(w) * static_cast<std::size_t>(h), {kNoTriangle, kNoTriangle});
-    std::vector<std::array<glm::dvec2, 3>> uv(triangles.size());
-    std::vector<TriangleBuckets> tests(triangles.size());
-    for (std::size_t k = 0; k < triangles.size(); ++k) {
-      const auto& t = triangles[k];
-      uv[k] = {lattice_.uv(t[0]), lattice_.uv(t[1]), lattice_.uv(t[2])};
-      const std::optional<TriangleBuckets> box = bucketsOf(uv[k][0], uv[k][1], uv[k][2]);
-      if (!box) continue;  // degenerate or clockwise: visits nothing, as forEachSourceSampleIn
-      tests[k] = *box;
-      const int cx = std::min({t[0].x, t[1].x, t[2].x}) - x0;
-      const int cy = std::min({t[0].y, t[1].y, t[2].y}) - y0;
-      auto& slot = cells[static_cast<std::size_t>(cy) * static_cast<std::size_t>(w) +
-                         static_cast<std::size_t>(cx)];
-      slot[slot[0] == kNoTriangle ? 0 : 1] = static_cast<std::uint32_t>(k);
-    }
-    // Buckets of the patch's box widened by one, as forEachSourceSampleIn widens each triangle's.
-    const auto last = static_cast<std::int64_t>(bucketsPerSide_) - 1;
-    auto bucketOf = [&](std::int64_t cell) {
-      return static_cast<std::uint32_t>(std::clamp<std::int64_t>(
-          cell < 0 ? -1 : cell / static_cast<std::int64_t>(bucketCells_), 0, last));
+    const TriangleBins bins = binTriangles(triangles);
+    const auto x0 = static_cast<double>(bins.x0);
+    const auto y0 = static_cast<double>(bins.y0);
+    const double margin = bins.margin;
+    const double perBin = 1.0 / static_cast<double>(bins.binCells);
+    const auto binOf = [perBin](double x, std::int64_t count) {
+      return std::clamp<std::int64_t>(static_cast<std::int64_t>(x * perBin), 0, count - 1);
     };
-    const std::uint32_t bx0 = bucketOf(std::int64_t{x0} - 1 - bucketCells_);
-    const std::uint32_t bx1 = bucketOf(std::int64_t{x1} + bucketCells_);
-    const std::uint32_t by0 = bucketOf(std::int64_t{y0} - 1 - bucketCells_);
-    const std::uint32_t by1 = bucketOf(std::int64_t{y1} + bucketCells_);
+    const std::int64_t bw = bins.columns;
+    const std::int64_t bh = bins.rows;
+    // The buckets the outline reaches, row by row, widened as forEachSourceSampleIn widens
+    // each triangle's (every sample that passes a triangle's test is among them).
+    const glm::dvec2 oa = lattice_.uv(outline[0]);
+    const glm::dvec2 ob = lattice_.uv(outline[1]);
+    const glm::dvec2 oc = lattice_.uv(outline[2]);
+    const std::optional<TriangleBuckets> outer =
+        bucketsOf(oa, ob, oc) ? bucketsOf(oa, ob, oc) : bucketsOf(oa, oc, ob);
+    if (!outer) return;
     const double n = static_cast<double>(lattice_.sideCells());
-    // A sample passes a triangle's test only within ~1e-9 of a cell of it; 1e-6 cells is ample.
-    constexpr double kSlack = 1e-6;
-    for (std::uint32_t by = by0; by <= by1; ++by) {
+    const double cells = static_cast<double>(bucketCells_);
+    const double perBucket = 1.0 / cells;
+    for (std::uint32_t by = outer->by0; by <= outer->by1; ++by) {
+      double xLo = 0.0;
+      double xHi = 0.0;
+      triangleSpanInRows(outline[0], outline[1], outline[2],
+                         (static_cast<double>(by) - 1.0) * cells,
+                         (static_cast<double>(by) + 2.0) * cells, xLo, xHi);
+      if (!(xLo <= xHi)) continue;
+      const auto rx0 = static_cast<std::uint32_t>(std::clamp(std::floor(xLo / cells) - 1.0,
+                                                             static_cast<double>(outer->bx0),
+                                                             static_cast<double>(outer->bx1)));
+      const auto rx1 = static_cast<std::uint32_t>(std::clamp(std::floor(xHi / cells) + 1.0,
+                                                             static_cast<double>(outer->bx0),
+                                                             static_cast<double>(outer->bx1)));
+      if (rx0 > rx1) continue;
       for (std::size_t table = 0; table < tables_.size(); ++table) {
-        const SourceSample* begin = bucket(table, face, bx0, by).data();
-        const std::span<const SourceSample> lastBucket = bucket(table, face, bx1, by);
+        const SourceSample* begin = bucket(table, face, rx0, by).data();
+        const std::span<const SourceSample> lastBucket = bucket(table, face, rx1, by);
         const SourceSample* end = lastBucket.data() + lastBucket.size();
         for (const SourceSample* s = begin; s != end; ++s) {
-          const double x = static_cast<double>(s->u) * n - x0;
-          const double y = static_cast<double>(s->v) * n - y0;
-          const int cx0 = std::max(0, static_cast<int>(std::floor(x - kSlack)));
-          const int cx1 = std::min(w - 1, static_cast<int>(std::floor(x + kSlack)));
-          const int cy0 = std::max(0, static_cast<int>(std::floor(y - kSlack)));
-          const int cy1 = std::min(h - 1, static_cast<int>(std::floor(y + kSlack)));
-          for (int cy = cy0; cy <= cy1; ++cy) {
-            for (int cx = cx0; cx <= cx1; ++cx) {
-              for (const std::uint32_t k :
-                   cells[static_cast<std::size_t>(cy) * static_cast<std::size_t>(w) +
-                         static_cast<std::size_t>(cx)]) {
-                if (k == kNoTriangle) continue;
+          const double x = static_cast<double>(s->u) * n;
+          const double y = static_cast<double>(s->v) * n;
+          // The sample's bucket column, as writeSourceBuckets computed it (u ≥ 0; the
+          // division by a power of two is exact).
+          const auto bx = static_cast<std::uint32_t>(
+              std::min(x * perBucket, static_cast<double>(bucketsPerSide_ - 1)));
+          const std::int64_t sx0 = binOf(x - x0 - margin, bw);
+          const std::int64_t sx1 = binOf(x - x0 + margin, bw);
+          const std::int64_t sy0 = binOf(y - y0 - margin, bh);
+          const std::int64_t sy1 = binOf(y - y0 + margin, bh);
+          for (std::int64_t sy = sy0; sy <= sy1; ++sy) {
+            for (std::int64_t sx = sx0; sx <= sx1; ++sx) {
+              const auto bin = static_cast<std::size_t>(sy * bw + sx);
+              for (std::uint32_t i = bins.start[bin]; i < bins.start[bin + 1]; ++i) {
+                const std::uint32_t k = bins.binned[i];
+                // A triangle in several of the sample's bins is visited from the first.
+                if ((sx != sx0 && bins.reach[k][0] < sx) || (sy != sy0 && bins.reach[k][2] < sy))
+                  continue;
+                // Only from the buckets forEachSourceSampleIn reads for triangle k.
+                const TriangleBuckets& test = bins.tests[k];
+                if (bx < test.bx0 || bx > test.bx1 || by < test.by0 || by > test.by1) continue;
                 double w0 = 0.0;
                 double w1 = 0.0;
                 double w2 = 0.0;
-                if (!inside(*s, uv[k][0], uv[k][1], uv[k][2], tests[k], w0, w1, w2)) continue;
-                const double total = tests[k].total;
-                fn(std::size_t{k}, w0 / total, w1 / total, w2 / total, *s);
+                if (!inside(*s, bins.uv[k][0], bins.uv[k][1], bins.uv[k][2], test, w0, w1, w2))
+                  continue;
+                fn(std::size_t{k}, w0 / test.total, w1 / test.total, w2 / test.total, *s);
               }
             }
           }
@@ -294,6 +294,24 @@ class SampleGrid final {
     double eps = 0.0;
     std::uint32_t bx0 = 0, bx1 = 0, by0 = 0, by1 = 0;
   };
+  /// A patch's triangles binned for forEachSourceSampleInTriangles: bins are squares of
+  /// `binCells` cells (a power of two, at most four bins per triangle) over the triangles' box
+  /// from (x0, y0); a triangle is in the bins its own box covers (`reach`: columns and rows,
+  /// first and last), listed CSR-style (`start`, `binned`). A sample passes a triangle's test
+  /// only if its barycentric weights are all ≥ −1e-9, so it lies within 1e-8 of the box's
+  /// extent of the triangle's box: a sample looks in the bins within `margin` cells of it.
+  struct TriangleBins final {
+    int x0 = 0, y0 = 0;
+    std::int64_t binCells = 1, columns = 1, rows = 1;
+    double margin = 0.0;
+    std::vector<std::array<glm::dvec2, 3>> uv;
+    std::vector<TriangleBuckets> tests;
+    std::vector<std::array<std::int64_t, 4>> reach;
+    std::vector<std::uint32_t> start;
+    std::vector<std::uint32_t> binned;
+  };
+  TriangleBins binTriangles(std::span<const std::array<runtime::LatticeXY, 3>> triangles) const;
+
   /// Nothing for a degenerate or clockwise triangle.
   std::optional<TriangleBuckets> bucketsOf(glm::dvec2 a, glm::dvec2 b,
                                            glm::dvec2 c) const noexcept {
