@@ -116,19 +116,91 @@ class RowSpans final {
 struct Tri final {
   std::array<std::uint32_t, 3> v{};
   std::array<std::uint32_t, 3> n{};
-  std::uint32_t stamp = 0;  // bumped whenever the slot is rewritten: older heap entries are stale
-  double error = -1.0;      // height error + chord bound; < 0: nothing to insert
+  double error = -1.0;  // height error + chord bound; < 0: nothing to insert
   LatticeXY candidate{0};
 };
 
 struct HeapEntry final {
   double error;
   std::uint32_t tri;
-  std::uint32_t stamp;
-  bool operator<(const HeapEntry& o) const noexcept {
-    if (error != o.error) return error < o.error;
-    return tri > o.tri;  // equal errors: the lower slot first
+  /// Whether this entry comes out of the queue before `o`: the larger error first, and of
+  /// equal errors the lower slot.
+  bool before(const HeapEntry& o) const noexcept {
+    if (error != o.error) return error > o.error;
+    return tri < o.tri;
   }
+};
+
+/// The triangles that have a candidate, by error: a binary heap holding one entry per triangle,
+/// whose entry moves when the triangle is rescanned (rather than a queue of stale entries,
+/// which grows with every scan). The order is total, so the top is the same whichever way the
+/// heap got there.
+class CandidateQueue final {
+ public:
+  bool empty() const noexcept { return heap_.empty(); }
+  const HeapEntry& top() const noexcept { return heap_.front(); }
+  void clear() noexcept {
+    for (const HeapEntry& e : heap_) position_[e.tri] = kNone;
+    heap_.clear();
+  }
+  /// Sets triangle t's entry (error ≥ 0) or removes it (error < 0).
+  void update(std::uint32_t t, double error) {
+    if (t >= position_.size()) position_.resize(std::size_t{t} + 1, kNone);
+    const std::uint32_t at = position_[t];
+    if (error < 0.0) {
+      if (at != kNone) removeAt(at);
+      return;
+    }
+    if (at == kNone) {
+      heap_.push_back(HeapEntry{error, t});
+      position_[t] = static_cast<std::uint32_t>(heap_.size() - 1);
+      up(static_cast<std::uint32_t>(heap_.size() - 1));
+      return;
+    }
+    heap_[at].error = error;
+    down(up(at));
+  }
+
+ private:
+  void place(std::uint32_t at, const HeapEntry& e) noexcept {
+    heap_[at] = e;
+    position_[e.tri] = at;
+  }
+  std::uint32_t up(std::uint32_t at) noexcept {
+    const HeapEntry e = heap_[at];
+    while (at > 0) {
+      const std::uint32_t parent = (at - 1) / 2;
+      if (!e.before(heap_[parent])) break;
+      place(at, heap_[parent]);
+      at = parent;
+    }
+    place(at, e);
+    return at;
+  }
+  void down(std::uint32_t at) noexcept {
+    const HeapEntry e = heap_[at];
+    const auto size = static_cast<std::uint32_t>(heap_.size());
+    for (;;) {
+      std::uint32_t child = 2 * at + 1;
+      if (child >= size) break;
+      if (child + 1 < size && heap_[child + 1].before(heap_[child])) ++child;
+      if (!heap_[child].before(e)) break;
+      place(at, heap_[child]);
+      at = child;
+    }
+    place(at, e);
+  }
+  void removeAt(std::uint32_t at) {
+    position_[heap_[at].tri] = kNone;
+    const HeapEntry last = heap_.back();
+    heap_.pop_back();
+    if (at == heap_.size()) return;
+    place(at, last);
+    down(up(at));
+  }
+
+  std::vector<HeapEntry> heap_;
+  std::vector<std::uint32_t> position_;  // per triangle slot: its index in heap_, or kNone
 };
 
 class Triangulation final {
@@ -160,26 +232,17 @@ class Triangulation final {
   /// Sets a finer stride and rescans every triangle with it (the queue starts afresh).
   void refineStride(int finer) {
     stride_ = finer;
-    heap_ = {};
+    queue_.clear();
     dirty_.clear();
-    for (std::uint32_t t = 0; t < tris_.size(); ++t) {
-      ++tris_[t].stamp;
-      scan(t);
-    }
+    for (std::uint32_t t = 0; t < tris_.size(); ++t) scan(t);
   }
   void setStride(int s) noexcept { stride_ = s; }
 
-  /// The valid heap top, or nothing.
-  bool top(HeapEntry& out) {
-    while (!heap_.empty()) {
-      const HeapEntry e = heap_.top();
-      if (tris_[e.tri].stamp == e.stamp) {
-        out = e;
-        return true;
-      }
-      heap_.pop();
-    }
-    return false;
+  /// The triangle whose candidate comes next, or nothing.
+  bool top(HeapEntry& out) const {
+    if (queue_.empty()) return false;
+    out = queue_.top();
+    return true;
   }
 
   std::size_t vertexCount() const noexcept { return points_.size(); }
@@ -196,7 +259,6 @@ class Triangulation final {
     Tri& tri = tris_[t];
     tri.v = v;
     tri.n = n;
-    ++tri.stamp;
     dirty_.push_back(t);
   }
   /// Points neighbour `of` (if any) at `to` where it pointed at `from`.
@@ -223,7 +285,7 @@ class Triangulation final {
   std::vector<Tri> tris_;
   std::vector<std::uint32_t> dirty_;
   std::vector<std::uint32_t> pending_;  // triangles whose edge opposite corner 0 is to check
-  std::priority_queue<HeapEntry> heap_;
+  CandidateQueue queue_;
   int stride_ = 1;
 };
 
@@ -471,7 +533,7 @@ void Triangulation::scan(std::uint32_t t) {
   }
   tri.error = worstScore < 0.0 ? -1.0 : worstHeight + chordBound;
   tri.candidate = worst;
-  if (tri.error >= 0.0) heap_.push(HeapEntry{tri.error, t, tri.stamp});
+  queue_.update(t, tri.error);
 }
 
 }  // namespace
