@@ -109,17 +109,18 @@ void BM_DecodeLeafPatchesToGpu(benchmark::State& state) {
   const DecodeScheduler decoder(view, TexelFormat::Rgba8);
   std::vector<DecodeJob> jobs;
   std::uint64_t triangles = 0;
-  const std::uint64_t leaves = std::uint64_t{1} << view.depth();
   for (std::uint8_t face = 0; face < 6; ++face) {
-    for (std::uint8_t tree = 0; tree < 2; ++tree) {
-      for (std::uint64_t k = 0; k < leaves; ++k) {
-        const NodeKey key{face, tree, leaves - 1 + k};
-        DecodeJob job;
-        job.key = ResidentKey::patch(key);
-        job.node = key;
-        jobs.push_back(job);
-        triangles += view.node(key).triangleCount;
-      }
+    const FaceView& file = view.face(face);
+    for (std::uint64_t row = 0; row < file.header().nodeCount; ++row) {
+      const NodeRecord n = file.nodeAt(row);
+      if (!n.leaf()) continue;
+      const auto tree = static_cast<std::uint8_t>(row >= file.treeFirstNode(1) ? 1 : 0);
+      const NodeKey key{face, tree, n.heapIndex};
+      DecodeJob job;
+      job.key = ResidentKey::patch(key);
+      job.node = key;
+      jobs.push_back(job);
+      triangles += n.triangleCount;
     }
   }
   std::vector<std::byte> out(decoder.layout(jobs));

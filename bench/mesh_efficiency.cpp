@@ -230,6 +230,11 @@ int run(int argc, char** argv) {
     if (!file) return 2;
     auto view = FaceView::open(file->bytes(), manifest->faces[f].file);
     if (!view) return 2;
+    if (!view->completeForest()) {
+      std::fprintf(stderr, "%s: adaptive depth (the RTIN comparison needs complete trees)\n",
+                   manifest->faces[f].file.c_str());
+      return 2;
+    }
     for (std::uint64_t k = 0; k < view->header().nodeCount; ++k) {
       const std::uint64_t id = f * 2 * perTree + k;
       const NodeRecord n = view->nodeAt(k);

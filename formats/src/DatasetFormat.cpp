@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cassert>
 #include <cstring>
 
 #include "pbdam/formats/Checksum.h"
@@ -47,6 +48,40 @@ class Reader {
   std::size_t at_ = 0;
 };
 
+/// Where the heap index lies in a record of each table.
+constexpr std::size_t kNodeHeapField = 176;
+constexpr std::size_t kTextureHeapField = 16;
+
+/// A table copied out of a face file, as far as finding a record by heap index goes.
+struct HeapIndexedTable {
+  std::span<const std::byte> bytes;
+  std::size_t recordBytes;
+  std::size_t heapField;
+  std::uint64_t heapAt(std::uint64_t row) const noexcept {
+    std::uint64_t value = 0;
+    std::memcpy(&value, bytes.data() + row * recordBytes + heapField, sizeof(value));
+    return value;
+  }
+};
+
+/// The row in [lo, hi) holding `heapIndex`, the rows' heap indices ascending.
+std::optional<std::uint64_t> findHeapIndex(const HeapIndexedTable& table, std::uint64_t lo,
+                                           std::uint64_t hi, std::uint64_t heapIndex) noexcept {
+  // A tree complete down to this index's level holds it at its own position.
+  if (heapIndex < hi - lo && table.heapAt(lo + heapIndex) == heapIndex) return lo + heapIndex;
+  while (lo < hi) {
+    const std::uint64_t mid = lo + (hi - lo) / 2;
+    const std::uint64_t at = table.heapAt(mid);
+    if (at == heapIndex) return mid;
+    if (at < heapIndex) {
+      lo = mid + 1;
+    } else {
+      hi = mid;
+    }
+  }
+  return std::nullopt;
+}
+
 Error corrupt(std::string_view context, std::uint64_t offset, const std::string& what) {
   return makeError(ErrorCode::CorruptData,
                    std::string(context) + " offset " + std::to_string(offset) + ": " + what);
@@ -74,6 +109,7 @@ void encodeFaceHeader(const FaceHeader& h, std::span<std::byte, kFaceHeaderBytes
   w.put(h.fileBytes);
   w.put(h.nodeTableCrc);
   w.put(h.textureTableCrc);
+  w.put(h.tree1FirstNode);
   // The CRC of the first 124 bytes sits in the last 4.
   const std::uint32_t crc = crc32(std::span<const std::byte>(out.data(), kFaceHeaderBytes - 4));
   std::memcpy(out.data() + kFaceHeaderBytes - 4, &crc, 4);
@@ -117,6 +153,7 @@ Result<FaceHeader> decodeFaceHeader(std::span<const std::byte> bytes, std::uint6
   h.fileBytes = r.get<std::uint64_t>();
   h.nodeTableCrc = r.get<std::uint32_t>();
   h.textureTableCrc = r.get<std::uint32_t>();
+  h.tree1FirstNode = r.get<std::uint64_t>();
   if (h.version != kDatasetFormatVersion) {
     return corrupt(context, 8,
                    "format version " + std::to_string(h.version) + " (this pbdam reads version " +
@@ -131,15 +168,22 @@ Result<FaceHeader> decodeFaceHeader(std::span<const std::byte> bytes, std::uint6
       !std::has_single_bit(h.leafCells) || h.leafCells > h.latticeCells) {
     return corrupt(context, 16, "lattice or leaf size is not a power of two");
   }
-  const std::uint64_t expectedNodes = 2 * ((std::uint64_t{1} << (h.depth + 1)) - 1);
-  const std::uint64_t expectedTextures = ((std::uint64_t{1} << (2 * h.textureLevels)) - 1) / 3;
-  if (h.nodeCount != expectedNodes || h.textureNodeCount != expectedTextures) {
-    return corrupt(context, 40, "node counts do not match the depth and texture levels");
+  // Each tree has between 1 node and a complete tree's; at least the root tile.
+  const std::uint64_t completeTree = (std::uint64_t{1} << (h.depth + 1)) - 1;
+  const std::uint64_t completeTextures = ((std::uint64_t{1} << (2 * h.textureLevels)) - 1) / 3;
+  if (h.tree1FirstNode < 1 || h.tree1FirstNode > completeTree || h.nodeCount <= h.tree1FirstNode ||
+      h.nodeCount - h.tree1FirstNode > completeTree || h.textureNodeCount < 1 ||
+      h.textureNodeCount > completeTextures) {
+    return corrupt(context, 40, "node counts do not fit the depth and texture levels");
   }
   if (h.fileBytes != fileBytes) {
     return corrupt(context, 80,
                    "header says " + std::to_string(h.fileBytes) + " bytes, the file has " +
                        std::to_string(fileBytes) + " (truncated or padded)");
+  }
+  // Counts are bounded above (depth and levels), so only the offsets can overflow a sum.
+  if (h.nodeTableOffset > h.fileBytes || h.textureTableOffset > h.fileBytes) {
+    return corrupt(context, 48, "tables overlap or lie outside the file");
   }
   const std::uint64_t nodeEnd = h.nodeTableOffset + h.nodeCount * kNodeRecordBytes;
   const std::uint64_t textureEnd = h.textureTableOffset + h.textureNodeCount * kTextureRecordBytes;
@@ -165,6 +209,8 @@ void encodeNodeRecord(const NodeRecord& n, std::span<std::byte, kNodeRecordBytes
   w.put(n.blobBytes);
   w.put(n.vertexCount);
   w.put(n.triangleCount);
+  w.put(n.flags);
+  w.put(n.heapIndex);
 }
 
 NodeRecord decodeNodeRecord(std::span<const std::byte, kNodeRecordBytes> bytes) noexcept {
@@ -182,6 +228,8 @@ NodeRecord decodeNodeRecord(std::span<const std::byte, kNodeRecordBytes> bytes) 
   n.blobBytes = r.get<std::uint32_t>();
   n.vertexCount = r.get<std::uint32_t>();
   n.triangleCount = r.get<std::uint32_t>();
+  n.flags = r.get<std::uint32_t>();
+  n.heapIndex = r.get<std::uint64_t>();
   return n;
 }
 
@@ -192,6 +240,8 @@ void encodeTextureRecord(const TextureRecord& t,
   w.put(t.blobOffset);
   w.put(t.blobBytes);
   w.put(t.errorMeters);
+  w.put(t.heapIndex);
+  w.put(t.flags);
 }
 
 TextureRecord decodeTextureRecord(std::span<const std::byte, kTextureRecordBytes> bytes) noexcept {
@@ -200,6 +250,8 @@ TextureRecord decodeTextureRecord(std::span<const std::byte, kTextureRecordBytes
   t.blobOffset = r.get<std::uint64_t>();
   t.blobBytes = r.get<std::uint32_t>();
   t.errorMeters = r.get<float>();
+  t.heapIndex = r.get<std::uint64_t>();
+  t.flags = r.get<std::uint32_t>();
   return t;
 }
 
@@ -233,22 +285,8 @@ Result<FaceView> FaceView::open(std::span<const std::byte> file, std::string con
   if (crc32(view.textureTable_) != h.textureTableCrc) {
     return corrupt(view.context_, h.textureTableOffset, "texture table checksum mismatch");
   }
-  for (std::uint64_t k = 0; k < h.nodeCount; ++k) {
-    const NodeRecord n = view.nodeAt(k);
-    if (n.blobBytes != 0 && (n.blobOffset < h.blobsOffset || n.blobOffset > h.fileBytes ||
-                             n.blobBytes > h.fileBytes - n.blobOffset)) {
-      return corrupt(view.context_, view.nodeRecordOffset(k),
-                     "node " + std::to_string(k) + " points outside the blob area");
-    }
-  }
-  for (std::uint64_t k = 0; k < h.textureNodeCount; ++k) {
-    const TextureRecord t = view.textureNode(k);
-    if (t.blobBytes != 0 && (t.blobOffset < h.blobsOffset || t.blobOffset > h.fileBytes ||
-                             t.blobBytes > h.fileBytes - t.blobOffset)) {
-      return corrupt(view.context_, h.textureTableOffset + k * kTextureRecordBytes,
-                     "texture node " + std::to_string(k) + " points outside the blob area");
-    }
-  }
+  if (auto r = view.checkNodes(); !r) return std::move(r).error();
+  if (auto r = view.checkTextures(); !r) return std::move(r).error();
   return view;
 }
 
@@ -258,8 +296,107 @@ NodeRecord FaceView::nodeAt(std::uint64_t tableIndex) const noexcept {
                               .first<kNodeRecordBytes>());
 }
 
+Result<void> FaceView::checkNodes() {
+  // Each tree's records in ascending heap order are breadth-first: the root, then the children
+  // of every inner node in the order of their parents (2k+1 and 2k+2 grow with k). One walk
+  // checks that shape and records where each inner node's children are.
+  const FaceHeader& h = header_;
+  firstChild_.assign(h.nodeCount, 0);
+  for (std::uint32_t tree = 0; tree < 2; ++tree) {
+    const std::uint64_t first = treeFirstNode(tree);
+    const std::uint64_t end = tree == 0 ? h.tree1FirstNode : h.nodeCount;
+    std::uint64_t next = first + 1;  // the next record that must be a child
+    for (std::uint64_t k = first; k < end; ++k) {
+      const NodeRecord n = nodeAt(k);
+      const auto where = [&](const std::string& what) {
+        return corrupt(context_, nodeRecordOffset(k),
+                       "node " + std::to_string(k) + " (tree " + std::to_string(tree) +
+                           ", heap index " + std::to_string(n.heapIndex) + "): " + what);
+      };
+      if (k == first && n.heapIndex != 0) return where("a tree does not start at its root");
+      if ((n.flags & ~kRecordLeaf) != 0) return where("unknown flags");
+      if (n.blobBytes != 0 && (n.blobOffset < h.blobsOffset || n.blobOffset > h.fileBytes ||
+                               n.blobBytes > h.fileBytes - n.blobOffset)) {
+        return where("points outside the blob area");
+      }
+      if (n.leaf()) continue;
+      if (n.heapIndex >= (std::uint64_t{1} << h.depth) - 1) {
+        return where("has children below the face's depth " + std::to_string(h.depth));
+      }
+      if (next + 2 > end || nodeAt(next).heapIndex != 2 * n.heapIndex + 1 ||
+          nodeAt(next + 1).heapIndex != 2 * n.heapIndex + 2) {
+        return where("its children are missing or out of order");
+      }
+      firstChild_[k] = next;
+      next += 2;
+    }
+    if (next != end) {
+      return corrupt(context_, nodeRecordOffset(next),
+                     "node " + std::to_string(next) + " is not the child of a node before it");
+    }
+  }
+  return {};
+}
+
+Result<void> FaceView::checkTextures() {
+  // Ascending heap order, every tile but the root has an inner parent, and an inner tile has all
+  // four children (row-major heap order puts them on two rows, so each is looked up).
+  const FaceHeader& h = header_;
+  for (std::uint64_t k = 0; k < h.textureNodeCount; ++k) {
+    const TextureRecord t = textureAt(k);
+    const auto where = [&](const std::string& what) {
+      return corrupt(context_, h.textureTableOffset + k * kTextureRecordBytes,
+                     "texture node " + std::to_string(k) + " (heap index " +
+                         std::to_string(t.heapIndex) + "): " + what);
+    };
+    if ((k == 0) != (t.heapIndex == 0) || (k > 0 && textureAt(k - 1).heapIndex >= t.heapIndex)) {
+      return where("tiles are not in ascending heap order from the root");
+    }
+    if ((t.flags & ~kRecordLeaf) != 0) return where("unknown flags");
+    if (t.blobBytes != 0 && (t.blobOffset < h.blobsOffset || t.blobOffset > h.fileBytes ||
+                             t.blobBytes > h.fileBytes - t.blobOffset)) {
+      return where("points outside the blob area");
+    }
+    const std::uint32_t level = textureLevelOfHeap(t.heapIndex);
+    if (level >= h.textureLevels) return where("deeper than the face's texture levels");
+    const std::uint64_t inLevel = t.heapIndex - textureHeapIndex(level, 0, 0);
+    const auto qi = static_cast<std::uint32_t>(inLevel & ((std::uint64_t{1} << level) - 1));
+    const auto qj = static_cast<std::uint32_t>(inLevel >> level);
+    if (level > 0) {
+      const auto parent = findTexture(textureHeapIndex(level - 1, qi / 2, qj / 2));
+      if (!parent || textureAt(*parent).leaf()) return where("its parent is missing or a leaf");
+    }
+    if (t.leaf()) continue;
+    if (level + 1 >= h.textureLevels) return where("has children below the last texture level");
+    for (std::uint32_t c = 0; c < 4; ++c) {
+      if (!findTexture(textureHeapIndex(level + 1, 2 * qi + (c & 1), 2 * qj + (c >> 1)))) {
+        return where("one of its four children is missing");
+      }
+    }
+  }
+  return {};
+}
+
+bool FaceView::completeForest() const noexcept {
+  const std::uint64_t completeTree = (std::uint64_t{1} << (header_.depth + 1)) - 1;
+  return header_.tree1FirstNode == completeTree && header_.nodeCount == 2 * completeTree;
+}
+
+std::optional<std::uint64_t> FaceView::findNode(std::uint32_t tree,
+                                                std::uint64_t heapIndex) const noexcept {
+  return findHeapIndex({nodeTable_, kNodeRecordBytes, kNodeHeapField}, treeFirstNode(tree),
+                       tree == 0 ? header_.tree1FirstNode : header_.nodeCount, heapIndex);
+}
+
 NodeRecord FaceView::node(std::uint32_t tree, std::uint64_t heapIndex) const noexcept {
-  return nodeAt(tree * nodesPerTree() + heapIndex);
+  const auto row = findNode(tree, heapIndex);
+  assert(row);
+  return row ? nodeAt(*row) : NodeRecord{};
+}
+
+std::optional<std::uint64_t> FaceView::findTexture(std::uint64_t heapIndex) const noexcept {
+  return findHeapIndex({textureTable_, kTextureRecordBytes, kTextureHeapField}, 0,
+                       header_.textureNodeCount, heapIndex);
 }
 
 Result<std::span<const std::byte>> FaceView::readBlob(std::uint64_t offset, std::uint32_t bytes,
@@ -274,10 +411,16 @@ Result<std::span<const std::byte>> FaceView::readPatchBlob(const NodeRecord& n,
   return readBlob(n.blobOffset, n.blobBytes, buffer);
 }
 
-TextureRecord FaceView::textureNode(std::uint64_t heapIndex) const noexcept {
+TextureRecord FaceView::textureAt(std::uint64_t tableIndex) const noexcept {
   return decodeTextureRecord(std::span<const std::byte>(textureTable_)
-                                 .subspan(heapIndex * kTextureRecordBytes)
+                                 .subspan(tableIndex * kTextureRecordBytes)
                                  .first<kTextureRecordBytes>());
+}
+
+TextureRecord FaceView::textureNode(std::uint64_t heapIndex) const noexcept {
+  const auto row = findTexture(heapIndex);
+  assert(row);
+  return row ? textureAt(*row) : TextureRecord{};
 }
 
 Result<std::span<const std::byte>> FaceView::readTextureBlob(const TextureRecord& t,

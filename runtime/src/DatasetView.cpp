@@ -58,13 +58,10 @@ Result<DatasetView> DatasetView::open(const Manifest& manifest,
       view.maxPatchVertices_ = std::max(view.maxPatchVertices_, n.vertexCount);
       view.maxPatchTriangles_ = std::max(view.maxPatchTriangles_, n.triangleCount);
     }
-    for (std::uint32_t t = 0; t < manifest.textureLevels; ++t) {
-      const std::uint64_t first = textureHeapIndex(t, 0, 0);
-      const std::uint64_t count = std::uint64_t{1} << (2 * t);
-      double& e = view.textureErrorOfLevel_[t];
-      for (std::uint64_t k = first; k < first + count; ++k) {
-        e = std::max(e, static_cast<double>(face->textureNode(k).errorMeters));
-      }
+    for (std::uint64_t k = 0; k < h.textureNodeCount; ++k) {
+      const TextureRecord r = face->textureAt(k);
+      double& e = view.textureErrorOfLevel_[textureLevelOfHeap(r.heapIndex)];
+      e = std::max(e, static_cast<double>(r.errorMeters));
     }
     view.faces_[fi] = std::move(face).value();
   }
@@ -77,12 +74,17 @@ std::uint32_t DatasetView::textureLevelOf(int level) const noexcept {
 
 TileKey DatasetView::tileOf(const NodeKey& key) const noexcept {
   const BinTriangle t = triangle(key);
-  const std::uint32_t tl = textureLevelOf(t.level);
-  const auto side = static_cast<std::int32_t>(manifest_.latticeCells >> tl);
   const std::int32_t minX = std::min({t.apex.x, t.left.x, t.right.x});
   const std::int32_t minY = std::min({t.apex.y, t.left.y, t.right.y});
-  return TileKey{key.face, textureHeapIndex(tl, static_cast<std::uint32_t>(minX / side),
-                                            static_cast<std::uint32_t>(minY / side))};
+  const formats::FaceView& face = faces_[key.face];
+  for (auto tl = static_cast<std::int32_t>(textureLevelOf(t.level));; --tl) {
+    const auto side = static_cast<std::int32_t>(manifest_.latticeCells >> tl);
+    const std::uint64_t heap =
+        textureHeapIndex(static_cast<std::uint32_t>(tl), static_cast<std::uint32_t>(minX / side),
+                         static_cast<std::uint32_t>(minY / side));
+    // The root tile always exists (FaceView::open).
+    if (tl == 0 || face.findTexture(heap)) return TileKey{key.face, heap};
+  }
 }
 
 }  // namespace pbdam::runtime

@@ -24,9 +24,11 @@ class Refiner {
         maxLevel_(options.maxLevel < 0 ? dataset.depth()
                                        : std::min(options.maxLevel, dataset.depth())) {}
 
-  void visit(const NodeKey& key, int level) {
+  // `row` is the node's table index in its face file.
+  void visit(const NodeKey& key, std::uint64_t row, int level) {
     ++cut_.nodesVisited;
-    const NodeRecord node = dataset_.node(key);
+    const FaceView& face = dataset_.face(key.face);
+    const NodeRecord node = face.nodeAt(row);
     const glm::dvec3 centre(node.sphereCenter[0], node.sphereCenter[1], node.sphereCenter[2]);
     const double radius = static_cast<double>(node.sphereRadiusMeters);
     if (options_.frustumCulling && !camera_.sphereInFrustum(centre, radius)) {
@@ -36,9 +38,10 @@ class Refiner {
     const double error =
         refinementErrorMeters(dataset_, level, static_cast<double>(node.errorMeters));
     const double screen = camera_.screenError(error, centre, radius);
-    if (screen > options_.tolerancePixels && level < maxLevel_) {
-      visit(NodeKey{key.face, key.tree, 2 * key.heap + 1}, level + 1);
-      visit(NodeKey{key.face, key.tree, 2 * key.heap + 2}, level + 1);
+    if (screen > options_.tolerancePixels && level < maxLevel_ && !node.leaf()) {
+      const std::uint64_t first = face.firstChildOf(row);
+      visit(NodeKey{key.face, key.tree, 2 * key.heap + 1}, first, level + 1);
+      visit(NodeKey{key.face, key.tree, 2 * key.heap + 2}, first + 1, level + 1);
       return;
     }
     CutPatch patch;
@@ -75,7 +78,9 @@ double refinementErrorMeters(const DatasetView& dataset, int level,
 Cut refine(const DatasetView& dataset, const Camera& camera, const RefinementOptions& options) {
   Refiner refiner(dataset, camera, options);
   for (std::uint8_t face = 0; face < 6; ++face) {
-    for (std::uint8_t tree = 0; tree < 2; ++tree) refiner.visit(NodeKey{face, tree, 0}, 0);
+    for (std::uint8_t tree = 0; tree < 2; ++tree) {
+      refiner.visit(NodeKey{face, tree, 0}, dataset.face(face).treeFirstNode(tree), 0);
+    }
   }
   return refiner.take();
 }

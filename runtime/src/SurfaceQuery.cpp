@@ -27,11 +27,13 @@ NodeKey leafAt(const DatasetView& view, int face, const glm::dvec2& xy) {
   // Tree 0 is the half below the (0,0)–(N,N) diagonal (x ≥ y), tree 1 the other.
   NodeKey key{static_cast<std::uint8_t>(face), static_cast<std::uint8_t>(xy.x >= xy.y ? 0 : 1), 0};
   BinTriangle t = bintreeRoot(n, face, key.tree);
-  for (int level = 0; level < view.depth(); ++level) {
+  const FaceView& file = view.face(face);
+  for (std::uint64_t row = file.treeFirstNode(key.tree); !file.nodeAt(row).leaf();) {
     const auto kids = bintreeChildren(t);
     // First child (m, left, apex) lies on the left's side of the line apex–m.
     const glm::dvec2 apex(t.apex), m(kids[0].apex), left(t.left);
     const bool first = side(apex, m, xy) * side(apex, m, left) >= 0.0;
+    row = file.firstChildOf(row) + (first ? 0 : 1);
     t = kids[first ? 0 : 1];
   }
   key.heap = t.index;
@@ -64,9 +66,10 @@ Result<SurfaceHeight> surfaceHeightAt(const DatasetView& view, double lat, doubl
   const Planet& planet = view.planet();
   const glm::dvec3 origin = planet.geodeticToEcef({lat, lon, 0.0});
   const glm::dvec3 normal = planet.surfaceNormal(lat, lon);
-  // Candidate leaves: the one under the point and those a quarter leaf away in eight
-  // directions (rendered vertices sit slightly sideways of their lattice points, so the surface
-  // above a point near a leaf edge can belong to the neighbour, possibly on another face).
+  // Candidate leaves: the one under the point and those a quarter of a deepest leaf away in
+  // eight directions (rendered vertices sit slightly sideways of their lattice points, so the
+  // surface above a point near a leaf edge can belong to the neighbour, possibly on another
+  // face). The lattice cells are those of the deepest leaves; a shallower leaf is larger.
   const EnuFrame enu = planet.enuFrame(lat, lon, 0.0);
   const double n = view.latticeCells();
   const double leafMeters = planet.equatorialRadiusMeters() * (3.14159265358979323846 / 2.0) *

@@ -3,7 +3,6 @@
 #include "pbdam/streaming/NoStallPolicy.h"
 
 #include <algorithm>
-#include <bit>
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
@@ -34,7 +33,7 @@ NoStallCut NoStallPolicy::cut(const Camera& camera, RefinementOptions options) c
       const TextureRecord r = view.textureNode(t);
       if (!rangeResident(dataset_->faceFile(t.face), r.blobOffset, r.blobBytes)) {
         // Tile level t is drawn with patches of levels 2t and 2t+1.
-        const int tileLevel = (static_cast<int>(std::bit_width(3 * t.heap + 1)) - 1) / 2;
+        const auto tileLevel = static_cast<int>(textureLevelOfHeap(t.heap));
         worst = std::min(worst, 2 * tileLevel);
       }
     }
@@ -60,7 +59,9 @@ std::vector<Error> NoStallPolicy::preloadCoarseLevels() const {
     touch(file, 0, h.blobsOffset);
     for (std::uint8_t tree = 0; tree < 2; ++tree) {
       for (std::uint64_t heap = 0; heap < 7; ++heap) {
-        const NodeRecord n = view.node(NodeKey{static_cast<std::uint8_t>(f), tree, heap});
+        const auto row = view.face(f).findNode(tree, heap);
+        if (!row) continue;  // above a shallow leaf
+        const NodeRecord n = view.face(f).nodeAt(*row);
         touch(file, n.blobOffset, n.blobBytes);
       }
     }

@@ -5,7 +5,8 @@
 // --dem megt90n000cb.lbl --planet mars --levels 2 --leaf-vertices 9 --min-patch-triangles 16
 // --texture-tile 16 --texture-format rgba8`) stopped before its manifest (PBDAM_TEST_FAIL_WRITE=
 // manifest) and, for the carry, before level 0 (PBDAM_TEST_FAIL_LEVEL=0), each file prefixed with
-// its selector (tests/fuzz/corpus/checkpoint); rewrite them when the checkpoint version changes.
+// its selector (tests/fuzz/corpus/checkpoint); tests/fuzz/make_seeds.sh rewrites them when the
+// checkpoint version changes.
 #include <array>
 #include <cstddef>
 #include <cstdint>

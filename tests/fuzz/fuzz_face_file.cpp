@@ -1,10 +1,12 @@
 // libFuzzer target for the face-file reader (DatasetFormat.h): FaceView::open on arbitrary bytes,
 // then every node and texture record and every patch blob it accepts. Must never crash, read out
-// of bounds or hang; accepted files must be internally consistent. Seeds: tiny valid face files
-// (tests/fuzz/corpus/face_file, faces 0 and 4 of a depth-0 build of a synthetic DEM: an 8 × 4
+// of bounds or hang; accepted files must be internally consistent (every record found by its key,
+// children where the table says). Seeds: tiny valid face files (tests/fuzz/corpus/face_file,
+// faces 0 and 4 of a depth-0 build of a synthetic DEM: an 8 × 4
 // int16le global grid of 1000·sin(0.7·i) + 500·cos(1.3·j), built with `pbdam build --raw-size
 // 8,4 --raw-type int16le --bounds -90,-180,90,180 --planet mars --levels 0 --leaf-vertices 3
-// --texture-tile 16 --texture-format rgba8`; rewrite them when the face format version changes).
+// --texture-tile 16 --texture-format rgba8`; tests/fuzz/make_seeds.sh rewrites them when the face
+// format version changes).
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -21,12 +23,25 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   std::vector<std::byte> buffer;
   for (std::uint64_t k = 0; k < view->header().nodeCount; ++k) {
     const pbdam::formats::NodeRecord node = view->nodeAt(k);
+    // An accepted table is a forest: every record is found by its key, inner nodes have their
+    // two children next to each other.
+    const std::uint32_t tree = k >= view->treeFirstNode(1) ? 1 : 0;
+    if (view->findNode(tree, node.heapIndex) != k) __builtin_trap();
+    if (!node.leaf()) {
+      const std::uint64_t child = view->firstChildOf(k);
+      if (child + 1 >= view->header().nodeCount ||
+          view->nodeAt(child).heapIndex != 2 * node.heapIndex + 1 ||
+          view->nodeAt(child + 1).heapIndex != 2 * node.heapIndex + 2) {
+        __builtin_trap();
+      }
+    }
     const auto blob = view->readPatchBlob(node, buffer);
     if (!blob || blob->size() != node.blobBytes) __builtin_trap();
     (void)pbdam::formats::decodePatch(*blob, mesh, "fuzz");
   }
   for (std::uint64_t k = 0; k < view->header().textureNodeCount; ++k) {
-    const auto record = view->textureNode(k);
+    const auto record = view->textureAt(k);
+    if (view->findTexture(record.heapIndex) != k) __builtin_trap();
     const auto blob = view->readTextureBlob(record, buffer);
     if (!blob || blob->size() != record.blobBytes) __builtin_trap();
   }

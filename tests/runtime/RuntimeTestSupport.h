@@ -22,8 +22,7 @@ class PatchStore final {
  public:
   explicit PatchStore(const runtime::DatasetView& view) : view_(view) {}
   const formats::PatchMesh& mesh(const runtime::NodeKey& key) {
-    const std::uint64_t id = (key.face * 2ull + key.tree) * view_.face(0).nodesPerTree() + key.heap;
-    auto [it, inserted] = meshes_.try_emplace(id);
+    auto [it, inserted] = meshes_.try_emplace(runtime::packKey(key));
     if (inserted) {
       const formats::NodeRecord record = view_.node(key);
       std::vector<std::byte> blob;

@@ -17,6 +17,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "ClosedManifold.h"
 #include "RefinementCuts.h"
 #include "RuntimeTestSupport.h"
 #include "TestData.h"
@@ -30,6 +31,8 @@ using namespace pbdam::streaming;
 namespace pbdam::runtime {
 namespace {
 
+using test::checkClosedManifold;
+using test::MeshCheck;
 using test::randomPose;
 using test::serializeToleranceCuts;
 using test::ToleranceCamera;
@@ -39,79 +42,6 @@ std::unique_ptr<MappedDataset> openDataset(const std::filesystem::path& dir) {
   auto dataset = MappedDataset::open(dir);
   EXPECT_TRUE(dataset.ok()) << (dataset.ok() ? "" : dataset.error().message);
   return dataset.ok() ? std::move(dataset).value() : nullptr;
-}
-
-// Welds bit-identical positions and checks that the triangles form a closed, consistently
-// oriented 2-manifold. Returns the Euler characteristic (V − E + F) or reports failures.
-struct MeshCheck {
-  std::size_t vertices = 0, edges = 0, triangles = 0;
-  std::size_t badEdges = 0, degenerate = 0;
-  long euler() const {
-    return static_cast<long>(vertices) - static_cast<long>(edges) + static_cast<long>(triangles);
-  }
-};
-
-struct PositionKey {
-  std::array<std::uint32_t, 3> bits;
-  bool operator==(const PositionKey&) const = default;
-};
-struct PositionKeyHash {
-  std::size_t operator()(const PositionKey& k) const noexcept {
-    return (std::size_t{k.bits[0]} * 0x9E3779B97F4A7C15ull) ^
-           (std::size_t{k.bits[1]} * 0xC2B2AE3D27D4EB4Full) ^ (std::size_t{k.bits[2]} << 1);
-  }
-};
-
-MeshCheck checkClosedManifold(const DatasetView& view, const Cut& cut, const glm::dvec3& eye,
-                              test::PatchStore& store) {
-  std::unordered_map<PositionKey, std::uint32_t, PositionKeyHash> ids;
-  ids.reserve(cut.vertices);
-  std::vector<std::uint64_t> directed;  // from << 32 | to
-  directed.reserve(3 * cut.triangles);
-  MeshCheck check;
-  std::vector<std::uint32_t> local;
-  for (const CutPatch& p : cut.patches) {
-    const NodeRecord record = view.node(p.node);
-    const PatchDrawRecord draw = makePatchDrawRecord(view, {p.node, record, 0}, eye);
-    const PatchVertexPlacement placement(view, p.node, record);
-    const PatchMesh& mesh = store.mesh(p.node);
-    local.resize(mesh.vertices.size());
-    for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
-      const PatchVertex& pv = mesh.vertices[v];
-      PatchVertexDisplacement d;
-      EXPECT_TRUE(placement.displacement(pv, d));
-      const glm::vec3 pos = shaderVertexPosition(draw, pv.b1, pv.b2, d);
-      PositionKey key{};
-      std::memcpy(key.bits.data(), &pos, sizeof(key.bits));
-      local[v] = ids.try_emplace(key, static_cast<std::uint32_t>(ids.size())).first->second;
-    }
-    for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
-      const std::array<std::uint32_t, 3> c{local[mesh.indices[t]], local[mesh.indices[t + 1]],
-                                           local[mesh.indices[t + 2]]};
-      ++check.triangles;
-      if (c[0] == c[1] || c[1] == c[2] || c[0] == c[2]) ++check.degenerate;
-      for (int e = 0; e < 3; ++e) {
-        const std::uint64_t from = c[static_cast<std::size_t>(e)];
-        const std::uint64_t to = c[static_cast<std::size_t>((e + 1) % 3)];
-        directed.push_back((from << 32) | to);
-      }
-    }
-  }
-  check.vertices = ids.size();
-  std::sort(directed.begin(), directed.end());
-  for (std::size_t k = 0; k < directed.size(); ++k) {
-    const std::uint64_t edge = directed[k];
-    const std::uint64_t reverse = (edge << 32) | (edge >> 32);
-    // Each directed edge once, and its reverse once: every edge is shared by exactly two
-    // triangles, oriented consistently (a closed, oriented 2-manifold).
-    const bool repeated =
-        (k > 0 && directed[k - 1] == edge) || (k + 1 < directed.size() && directed[k + 1] == edge);
-    if (repeated || !std::binary_search(directed.begin(), directed.end(), reverse)) {
-      ++check.badEdges;
-    }
-  }
-  check.edges = directed.size() / 2;
-  return check;
 }
 
 void expectWatertight(const std::filesystem::path& dir, const std::filesystem::path& demPath,

@@ -68,14 +68,13 @@ void expectErrorTargetsHold(const fs::path& dataset, std::uint32_t minTriangles,
     auto view =
         FaceView::open(std::as_bytes(std::span<const char>(bytes.data(), bytes.size())), f.file);
     ASSERT_TRUE(view) << view.error().message;
-    const std::uint64_t perTree = view->nodesPerTree();
     for (std::uint64_t k = 0; k < view->header().nodeCount; ++k) {
       const NodeRecord n = view->nodeAt(k);
-      const std::uint64_t heap = k % perTree;
-      if (2 * heap + 2 >= perTree) continue;  // a leaf
+      if (n.leaf()) continue;
       EXPECT_GE(n.triangleCount, minTriangles) << f.file << " node " << k;
       EXPECT_LE(n.vertexCount, kPatchMaxVertices);
-      for (const std::uint64_t child : {k - heap + 2 * heap + 1, k - heap + 2 * heap + 2}) {
+      const std::uint64_t first = view->firstChildOf(k);
+      for (const std::uint64_t child : {first, first + 1}) {
         const double e = static_cast<double>(view->nodeAt(child).errorMeters);
         EXPECT_GE(static_cast<double>(n.errorMeters), (1.0 + margin) * e * (1.0 - 1e-6))
             << f.file << " node " << k << " child " << child;
@@ -210,15 +209,16 @@ TEST(Builder, AnOlderFormatVersionIsRefusedNamingTheFileAndTheRebuild) {
   o.depth = 2;
   const auto built = buildDataset(o);
   ASSERT_TRUE(built) << built.error().message;
-  ASSERT_EQ(kDatasetFormatVersion, 2u);
+  ASSERT_EQ(kDatasetFormatVersion, 3u);
 
-  // A face file whose header says version 1 (its header checksum made valid again).
+  // A face file whose header says version 2 (its header checksum made valid again): the version
+  // is read before anything whose layout version 3 changed.
   const fs::path facePath = dir / "d" / "face4.pbdam";
   std::string face = readFile(facePath);
   const auto headerBytes = std::as_bytes(std::span(face.data(), kFaceHeaderBytes));
   auto header = decodeFaceHeader(headerBytes, face.size(), facePath.string());
   ASSERT_TRUE(header) << header.error().message;
-  header->version = 1;
+  header->version = 2;
   std::array<std::byte, kFaceHeaderBytes> patched{};
   encodeFaceHeader(*header, patched);
   std::memcpy(face.data(), patched.data(), patched.size());
@@ -227,19 +227,19 @@ TEST(Builder, AnOlderFormatVersionIsRefusedNamingTheFileAndTheRebuild) {
   ASSERT_FALSE(old);
   EXPECT_EQ(old.error().code, ErrorCode::CorruptData);
   for (const std::string& part :
-       {facePath.string(), std::string("format version 1"), std::string("reads version 2"),
+       {facePath.string(), std::string("format version 2"), std::string("reads version 3"),
         std::string("rebuild the dataset")}) {
     EXPECT_NE(old.error().message.find(part), std::string::npos) << old.error().message;
   }
 
-  // A manifest that says version 1 (its own checksum recomputed).
+  // A manifest that says version 2 (its own checksum recomputed).
   auto manifest = readManifest(dir / "d");
   ASSERT_TRUE(manifest) << manifest.error().message;
-  manifest->version = 1;
+  manifest->version = 2;
   writeFile(dir / "d" / "manifest.json", manifestToJson(*manifest));
   const auto refused = readManifest(dir / "d");
   ASSERT_FALSE(refused);
-  for (const std::string& part : {std::string("manifest.json"), std::string("format version 1"),
+  for (const std::string& part : {std::string("manifest.json"), std::string("format version 2"),
                                   std::string("rebuild the dataset")}) {
     EXPECT_NE(refused.error().message.find(part), std::string::npos) << refused.error().message;
   }

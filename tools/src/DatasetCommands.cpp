@@ -25,6 +25,7 @@ namespace {
 
 struct LevelStats {
   std::uint64_t nodes = 0;
+  std::uint64_t leaves = 0;
   std::uint64_t vertices = 0;
   std::uint64_t triangles = 0;
   std::uint64_t compressedBytes = 0;
@@ -33,6 +34,24 @@ struct LevelStats {
   double minError = std::numeric_limits<double>::infinity();
   double maxError = 0.0;
 };
+
+/// Adds every node of a face to the statistics of its level.
+void addNodeStats(const FaceView& view, std::vector<LevelStats>& levels) {
+  for (std::uint64_t k = 0; k < view.header().nodeCount; ++k) {
+    const NodeRecord n = view.nodeAt(k);
+    const auto level = static_cast<std::size_t>(std::bit_width(n.heapIndex + 1) - 1);
+    LevelStats& s = levels[level];
+    ++s.nodes;
+    s.leaves += n.leaf() ? 1U : 0U;
+    s.vertices += n.vertexCount;
+    s.triangles += n.triangleCount;
+    s.minTriangles = std::min<std::uint64_t>(s.minTriangles, n.triangleCount);
+    s.maxTriangles = std::max<std::uint64_t>(s.maxTriangles, n.triangleCount);
+    s.compressedBytes += n.blobBytes;
+    s.minError = std::min(s.minError, static_cast<double>(n.errorMeters));
+    s.maxError = std::max(s.maxError, static_cast<double>(n.errorMeters));
+  }
+}
 
 int runInfo(const std::string& dir, bool json) {
   auto manifest = readManifest(dir);
@@ -51,22 +70,9 @@ int runInfo(const std::string& dir, bool json) {
     headerBytes += kFaceHeaderBytes;
     nodeTableBytes += h.nodeCount * kNodeRecordBytes;
     textureTableBytes += h.textureNodeCount * kTextureRecordBytes;
-    for (std::uint64_t k = 0; k < h.nodeCount; ++k) {
-      const NodeRecord n = view->nodeAt(k);
-      const std::uint64_t heap = k % view->nodesPerTree();
-      const auto level = static_cast<std::size_t>(std::bit_width(heap + 1) - 1);
-      LevelStats& s = levels[level];
-      ++s.nodes;
-      s.vertices += n.vertexCount;
-      s.triangles += n.triangleCount;
-      s.minTriangles = std::min<std::uint64_t>(s.minTriangles, n.triangleCount);
-      s.maxTriangles = std::max<std::uint64_t>(s.maxTriangles, n.triangleCount);
-      s.compressedBytes += n.blobBytes;
-      s.minError = std::min(s.minError, static_cast<double>(n.errorMeters));
-      s.maxError = std::max(s.maxError, static_cast<double>(n.errorMeters));
-    }
+    addNodeStats(*view, levels);
     for (std::uint64_t k = 0; k < h.textureNodeCount; ++k) {
-      textureBytes += view->textureNode(k).blobBytes;
+      textureBytes += view->textureAt(k).blobBytes;
       ++tiles;
     }
   }
@@ -110,6 +116,7 @@ int runInfo(const std::string& dir, bool json) {
     for (std::size_t l = 0; l < levels.size(); ++l) {
       per.push_back({{"level", l},
                      {"nodes", levels[l].nodes},
+                     {"leaves", levels[l].leaves},
                      {"triangles", levels[l].triangles},
                      {"vertices", levels[l].vertices},
                      {"patch_triangles_min", levels[l].nodes > 0 ? levels[l].minTriangles : 0},
@@ -141,13 +148,14 @@ int runInfo(const std::string& dir, bool json) {
       static_cast<double>(fileBytes) / 1e6, static_cast<double>(total.compressedBytes) / 1e6,
       static_cast<double>(rawBytes) / 1e6, ratio, static_cast<double>(textureBytes) / 1e6,
       static_cast<double>(nodeTableBytes) / 1e6, static_cast<double>(textureTableBytes) / 1e6);
-  std::printf("level  nodes  triangles  per patch min / mean / max  error min .. max (m)\n");
+  std::printf(
+      "level  nodes  leaves  triangles  per patch min / mean / max  error min .. max (m)\n");
   for (std::size_t l = 0; l < levels.size(); ++l) {
     const LevelStats& s = levels[l];
     const double mean =
         s.nodes > 0 ? static_cast<double>(s.triangles) / static_cast<double>(s.nodes) : 0.0;
-    std::printf("%5zu %6llu %10llu  %8llu / %6.0f / %6llu   %9.2f .. %.2f\n", l,
-                static_cast<unsigned long long>(s.nodes),
+    std::printf("%5zu %6llu %7llu %10llu  %8llu / %6.0f / %6llu   %9.2f .. %.2f\n", l,
+                static_cast<unsigned long long>(s.nodes), static_cast<unsigned long long>(s.leaves),
                 static_cast<unsigned long long>(s.triangles),
                 static_cast<unsigned long long>(s.nodes > 0 ? s.minTriangles : 0), mean,
                 static_cast<unsigned long long>(s.maxTriangles), s.minError, s.maxError);

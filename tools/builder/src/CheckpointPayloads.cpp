@@ -16,7 +16,7 @@ namespace pbdam::builder {
 namespace {
 
 constexpr std::array<char, 8> kMagic = {'P', 'B', 'D', 'A', 'M', 'C', 'K', 'P'};
-constexpr std::uint32_t kFileVersion = 3;
+constexpr std::uint32_t kFileVersion = 4;
 
 }  // namespace
 

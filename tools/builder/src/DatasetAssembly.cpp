@@ -208,7 +208,9 @@ Result<ManifestFace> Assembly::writeFace(int face) {
   h.textureLevels = textureLevels_;
   h.textureTileTexels = in_.options.textureTileTexels;
   h.textureBorderTexels = kTextureBorderTexels;
+  // Complete trees and quadtree: every leaf at depth D, every tile down to the last level.
   h.nodeCount = 2 * nodesPerTree_;
+  h.tree1FirstNode = nodesPerTree_;
   h.nodeTableOffset = kFaceHeaderBytes;
   h.textureNodeCount = tiles_.perFace;
   h.textureTableOffset = h.nodeTableOffset + h.nodeCount * kNodeRecordBytes;
@@ -224,21 +226,23 @@ Result<ManifestFace> Assembly::writeFace(int face) {
         std::span<const std::byte, kNodeRecordBytes>(node.record, kNodeRecordBytes));
     record.blobOffset = at;
     record.blobBytes = static_cast<std::uint32_t>(node.blob.size());
+    record.heapIndex = k % nodesPerTree_;
+    const bool leaf = record.heapIndex >= Lattice::firstIndexOfLevel(d_);
+    record.flags = leaf ? kRecordLeaf : 0;
     at += node.blob.size();
     blobs.emplace_back(node.blob);
     encodeNodeRecord(record, std::span<std::byte, kNodeRecordBytes>(
                                  nodeTable.data() + k * kNodeRecordBytes, kNodeRecordBytes));
     summary_.patchBytesCompressed += node.blob.size();
     summary_.totalTriangles += record.triangleCount;
-    if (k % nodesPerTree_ >= Lattice::firstIndexOfLevel(d_)) {
-      summary_.leafTriangles += record.triangleCount;
-    }
+    if (leaf) summary_.leafTriangles += record.triangleCount;
   }
   std::vector<std::byte> textureTable(tiles_.perFace * kTextureRecordBytes);
   for (std::uint64_t k = 0; k < tiles_.perFace; ++k) {
     const std::size_t tile = static_cast<std::size_t>(face) * tiles_.perFace + k;
     const auto& blob = tiles_.blobs[tile];
-    TextureRecord t{at, static_cast<std::uint32_t>(blob.size()), tiles_.errors[tile]};
+    TextureRecord t{at, static_cast<std::uint32_t>(blob.size()), tiles_.errors[tile], k,
+                    textureLevelOfHeap(k) + 1 == textureLevels_ ? kRecordLeaf : 0};
     at += blob.size();
     blobs.emplace_back(blob);
     encodeTextureRecord(t, std::span<std::byte, kTextureRecordBytes>(

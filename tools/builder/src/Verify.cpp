@@ -209,6 +209,14 @@ void DatasetVerifier::openFaces() {
       violations_.add(path.string() + ": header disagrees with the manifest");
       continue;
     }
+    const std::uint64_t completeTiles = ((std::uint64_t{1} << (2 * h.textureLevels)) - 1) / 3;
+    if (!view->completeForest() || h.textureNodeCount != completeTiles) {
+      // The builder makes complete forests; the checks below walk them by heap index.
+      violations_.add(path.string() + ": its bintrees or texture quadtree are not complete to " +
+                      "depth " + std::to_string(h.depth) + " and " +
+                      std::to_string(h.textureLevels) + " texture levels");
+      continue;
+    }
     views_[f] = std::move(view).value();
   }
 }

@@ -1,14 +1,19 @@
 // The on-disk layout of a P-BDAM face file (formats/FORMAT.md): a fixed header, the node table
-// (fixed-size records of both bintrees of the face in heap order — pointerless and breadth-first,
-// so top-down refinement reads it front to back), the texture table (quadtree in heap order),
-// then patch and texture blobs. Little-endian. Decoding is safe for untrusted bytes: every
-// offset and size is checked against the file, and the header and tables carry CRC-32s.
+// (fixed-size records of the nodes that exist of both bintrees of the face, each tree in
+// ascending heap order — breadth-first, so top-down refinement reads it front to back; a node
+// either has both children or is a leaf, flagged, so a forest may be deeper in one place than
+// in another), the texture table (the quadtree's tiles that exist, in ascending heap order, each
+// with none or all four children), then patch and texture blobs. Little-endian. Decoding is safe
+// for untrusted bytes: every offset and size is checked against the file, the shape of both
+// trees is checked when a file opens, and the header and tables carry CRC-32s.
 // Thread-safety: pure functions and values; FaceView is read-only over caller-owned bytes.
 #pragma once
 
 #include <array>
+#include <bit>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -18,13 +23,16 @@
 
 namespace pbdam::formats {
 
-inline constexpr std::uint32_t kDatasetFormatVersion = 2;
+inline constexpr std::uint32_t kDatasetFormatVersion = 3;
 inline constexpr std::size_t kFaceHeaderBytes = 128;
-inline constexpr std::size_t kNodeRecordBytes = 176;
-inline constexpr std::size_t kTextureRecordBytes = 16;
-/// Deepest bintree a face file may declare (2^(depth+1) − 1 nodes per tree).
-inline constexpr std::uint32_t kMaxBintreeDepth = 30;
-inline constexpr std::uint32_t kMaxTextureLevels = 16;
+inline constexpr std::size_t kNodeRecordBytes = 192;
+inline constexpr std::size_t kTextureRecordBytes = 32;
+/// Deepest bintree level a face file may declare (heap indices below 2^(depth+1)).
+inline constexpr std::uint32_t kMaxBintreeDepth = 40;
+/// Most texture quadtree levels (heap indices below 4^levels).
+inline constexpr std::uint32_t kMaxTextureLevels = 24;
+/// Record flag: the node or tile has no children (refinement stops here).
+inline constexpr std::uint32_t kRecordLeaf = 1;
 
 /// The header of one face file.
 struct FaceHeader final {
@@ -32,18 +40,19 @@ struct FaceHeader final {
   std::uint32_t face = 0;           ///< 0..5 (runtime/CubeMap.h)
   std::uint32_t latticeCells = 0;   ///< N: lattice cells per face side
   std::uint32_t leafCells = 0;      ///< L: leaf leg length in cells
-  std::uint32_t depth = 0;          ///< D: deepest bintree level (leaves)
+  std::uint32_t depth = 0;          ///< D: deepest bintree level (the deepest leaves)
   std::uint32_t textureLevels = 0;  ///< quadtree levels 0 .. textureLevels−1
   std::uint32_t textureTileTexels = 0;
   std::uint32_t textureBorderTexels = 0;
-  std::uint64_t nodeCount = 0;  ///< 2 · (2^(D+1) − 1)
+  std::uint64_t nodeCount = 0;  ///< records of both trees (2 · (2^(D+1) − 1) when complete)
   std::uint64_t nodeTableOffset = 0;
-  std::uint64_t textureNodeCount = 0;  ///< (4^textureLevels − 1) / 3
+  std::uint64_t textureNodeCount = 0;  ///< tiles ((4^textureLevels − 1) / 3 when complete)
   std::uint64_t textureTableOffset = 0;
   std::uint64_t blobsOffset = 0;
   std::uint64_t fileBytes = 0;
   std::uint32_t nodeTableCrc = 0;
   std::uint32_t textureTableCrc = 0;
+  std::uint64_t tree1FirstNode = 0;  ///< table index of tree 1's root (tree 0's node count)
 };
 
 /// One bintree node: corners, bounding sphere, errors, and where its patch blob is.
@@ -60,13 +69,19 @@ struct NodeRecord final {
   std::uint32_t blobBytes = 0;
   std::uint32_t vertexCount = 0;
   std::uint32_t triangleCount = 0;
+  std::uint32_t flags = 0;      ///< kRecordLeaf
+  std::uint64_t heapIndex = 0;  ///< within its tree
+  bool leaf() const noexcept { return (flags & kRecordLeaf) != 0; }
 };
 
 /// One texture quadtree node: its tile blob and its texture error.
 struct TextureRecord final {
   std::uint64_t blobOffset = 0;
   std::uint32_t blobBytes = 0;
-  float errorMeters = 0.0f;  ///< largest texel footprint on the ground
+  float errorMeters = 0.0f;     ///< largest texel footprint on the ground
+  std::uint64_t heapIndex = 0;  ///< textureHeapIndex(level, qi, qj)
+  std::uint32_t flags = 0;      ///< kRecordLeaf
+  bool leaf() const noexcept { return (flags & kRecordLeaf) != 0; }
 };
 
 /// Serialises into exactly k*Bytes bytes (the header's own CRC is computed here).
@@ -77,8 +92,9 @@ void encodeNodeRecord(const NodeRecord& record,
 void encodeTextureRecord(const TextureRecord& record,
                          std::span<std::byte, kTextureRecordBytes> out) noexcept;
 
-/// Decodes a header: magic, version, CRC, and internal consistency (counts match the depth and
-/// texture levels, tables and blobs lie in order inside `fileBytes`). `context` names the file.
+/// Decodes a header: magic, version, CRC, and internal consistency (counts within what the depth
+/// and texture levels allow, tables and blobs lie in order inside `fileBytes`). `context` names
+/// the file.
 Result<FaceHeader> decodeFaceHeader(std::span<const std::byte> bytes, std::string_view context);
 /// The same for a header's bytes held apart from its file (`bytes` its first 128 bytes or
 /// fewer, `fileBytes` the file's size).
@@ -95,23 +111,42 @@ TextureRecord decodeTextureRecord(std::span<const std::byte, kTextureRecordBytes
 /// thread; the file's bytes must outlive the view.
 class FaceView final {
  public:
-  /// Copies and validates the header, both tables (CRCs), and that every node's and tile's blob
-  /// lies inside the blob area. Errors are CorruptData naming `context` and the offset.
+  /// Copies and validates the header, both tables (CRCs), the shape of both bintrees and of the
+  /// texture quadtree (each tree's records in ascending heap order from its root, every node a
+  /// leaf or followed in order by all its children, no level deeper than the header's), and that
+  /// every node's and tile's blob lies inside the blob area. Errors are CorruptData naming
+  /// `context` and the offset.
   static Result<FaceView> open(std::span<const std::byte> file, std::string context);
 
   const FaceHeader& header() const noexcept { return header_; }
   const std::string& context() const noexcept { return context_; }
-  std::uint64_t nodesPerTree() const noexcept { return header_.nodeCount / 2; }
-  /// Node `heapIndex` of tree `tree` (0 or 1).
+  /// Whether both bintrees are complete to the header's depth (every leaf at depth D).
+  bool completeForest() const noexcept;
+  /// Table index of tree `tree`'s root (0 or header().tree1FirstNode).
+  std::uint64_t treeFirstNode(std::uint32_t tree) const noexcept {
+    return tree == 0 ? 0 : header_.tree1FirstNode;
+  }
+  /// Table index of node `heapIndex` of tree `tree`, if the tree has it.
+  std::optional<std::uint64_t> findNode(std::uint32_t tree, std::uint64_t heapIndex) const noexcept;
+  /// Node `heapIndex` of tree `tree` (0 or 1); the node must exist (findNode).
   NodeRecord node(std::uint32_t tree, std::uint64_t heapIndex) const noexcept;
   NodeRecord nodeAt(std::uint64_t tableIndex) const noexcept;
+  /// Table index of the first child of the node at `tableIndex` (the second follows it); the
+  /// node must not be a leaf.
+  std::uint64_t firstChildOf(std::uint64_t tableIndex) const noexcept {
+    return firstChild_[tableIndex];
+  }
   /// Copies the patch blob of a node into `buffer` (resized to fit) and returns it (empty when
   /// the node has none). CorruptData naming the file and offset when the blob's bytes cannot be
   /// read (the file was truncated under its mapping, or its disk failed). The blob's own CRC is
   /// for its decoder to check.
   Result<std::span<const std::byte>> readPatchBlob(const NodeRecord& node,
                                                    std::vector<std::byte>& buffer) const;
+  /// Table index of tile `heapIndex`, if the quadtree has it.
+  std::optional<std::uint64_t> findTexture(std::uint64_t heapIndex) const noexcept;
+  /// Tile `heapIndex`; the tile must exist (findTexture).
   TextureRecord textureNode(std::uint64_t heapIndex) const noexcept;
+  TextureRecord textureAt(std::uint64_t tableIndex) const noexcept;
   /// The same for a tile blob.
   Result<std::span<const std::byte>> readTextureBlob(const TextureRecord& record,
                                                      std::vector<std::byte>& buffer) const;
@@ -123,12 +158,20 @@ class FaceView final {
  private:
   Result<std::span<const std::byte>> readBlob(std::uint64_t offset, std::uint32_t bytes,
                                               std::vector<std::byte>& buffer) const;
+  Result<void> checkNodes();
+  Result<void> checkTextures();
   FaceHeader header_;
   std::span<const std::byte> file_;
   std::string context_;
-  std::vector<std::byte> nodeTable_;     ///< copied and CRC-checked at open
-  std::vector<std::byte> textureTable_;  ///< copied and CRC-checked at open
+  std::vector<std::byte> nodeTable_;       ///< copied and CRC-checked at open
+  std::vector<std::byte> textureTable_;    ///< copied and CRC-checked at open
+  std::vector<std::uint64_t> firstChild_;  ///< per node: table index of its first child (or 0)
 };
+
+/// The level of texture heap index `heapIndex` (0 for the root, 1 for 1..4, …).
+inline std::uint32_t textureLevelOfHeap(std::uint64_t heapIndex) noexcept {
+  return static_cast<std::uint32_t>((std::bit_width(3 * heapIndex + 1) - 1) / 2);
+}
 
 /// Heap index of texture quadtree node (level, qi, qj): (4^level − 1)/3 + qj·2^level + qi.
 inline std::uint64_t textureHeapIndex(std::uint32_t level, std::uint32_t qi,

@@ -67,9 +67,15 @@ class DatasetView final {
     return faces_[static_cast<std::size_t>(f)];
   }
   std::uint32_t latticeCells() const noexcept { return manifest_.latticeCells; }
+  /// The deepest level of any leaf (leaves may be shallower elsewhere: NodeRecord::leaf()).
   int depth() const noexcept { return static_cast<int>(manifest_.depth); }
   std::uint32_t textureLevels() const noexcept { return manifest_.textureLevels; }
 
+  /// Whether the dataset has node `key`.
+  bool hasNode(const NodeKey& key) const noexcept {
+    return faces_[key.face].findNode(key.tree, key.heap).has_value();
+  }
+  /// Node `key`, which must exist (every key of a cut does).
   formats::NodeRecord node(const NodeKey& key) const noexcept {
     return faces_[key.face].node(key.tree, key.heap);
   }
@@ -80,10 +86,12 @@ class DatasetView final {
     return faces_[key.face].textureNode(key.heap);
   }
 
-  /// The texture level drawn with a patch of geometry level `level`: the finest tile level
-  /// whose square contains every level-`level` triangle, min(level/2, textureLevels − 1).
+  /// The texture level of the refinement's texture term for geometry level `level`: the finest
+  /// tile level whose square contains every level-`level` triangle, min(level/2,
+  /// textureLevels − 1).
   std::uint32_t textureLevelOf(int level) const noexcept;
-  /// The tile that patch `key` is drawn with and the lattice origin and side of its square.
+  /// The tile that patch `key` is drawn with: the finest tile that exists among those of levels
+  /// up to textureLevelOf(its level) whose square contains it.
   TileKey tileOf(const NodeKey& key) const noexcept;
 
   /// The largest texture error of any tile of texture level `t` on any face (metres): the

@@ -1,7 +1,8 @@
 // View-dependent refinement (docs/architecture.md "Refinement and drawing", paper 004 §4.3): a
 // stateless top-down walk of the 12 bintrees that yields the cut — the patches to draw, each with
 // the texture tile it is drawn with. A node is split while its screen-space error exceeds the
-// tolerance and it is not a leaf; nodes whose bounding sphere is outside the frustum are dropped.
+// tolerance and it is not a leaf (a flag of its record: leaves may lie at any level); nodes whose
+// bounding sphere is outside the frustum are dropped.
 //
 // The error of a node is max(geometry error, texture term). The geometry error is the builder's
 // saturated error (equal for both triangles of a diamond, parent ≥ child) and the bounding

@@ -148,7 +148,7 @@ struct CheckpointState final {
 };
 
 /// The first line of the state file.
-inline constexpr std::string_view kCheckpointStateHeader = "pbdam-build-checkpoint 2";
+inline constexpr std::string_view kCheckpointStateHeader = "pbdam-build-checkpoint 3";
 /// Parses the text of a state file; CorruptData naming `where` and the bad line otherwise.
 formats::Result<CheckpointState> parseCheckpointState(std::string_view text,
                                                       const std::string& where);
@@ -211,7 +211,7 @@ class Checkpoint final {
   std::filesystem::path dir_;
 };
 
-// ---- The trailer of the part files: magic PBDAMCKP, u32 version 3, u32 kind, i32 level, u32
+// ---- The trailer of the part files: magic PBDAMCKP, u32 version 4, u32 kind, i32 level, u32
 // part, u32 parts, u32 0, u64 payload bytes; then the CRC-32 of payload and trailer.
 inline constexpr std::size_t kPartTrailerBytes = 8 + 4 + 4 + 4 + 4 + 4 + 4 + 8;
 /// The trailer of a part file whose payload has `payloadBytes` bytes (the CRC follows it).
