@@ -597,6 +597,10 @@ void describeCrs(const OGRSpatialReference* crs, GridSource& source) {
   const double inverseFlattening = crs->GetInvFlattening(&err);
   source.flattening = inverseFlattening > 0.0 ? 1.0 / inverseFlattening : 0.0;
   source.body = bodyForSemiMajor(source.semiMajorMeters);
+  // A compound CRS names its heights' vertical datum (EGM96, NAVD88, a Mars areoid, ...).
+  if (const char* vertical = crs->GetAttrValue("VERT_CS"); vertical != nullptr) {
+    source.verticalDatum = vertical;
+  }
 }
 
 /// The grid's corner-based geographic georeference: exact for geographic and equirectangular

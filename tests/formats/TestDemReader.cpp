@@ -474,5 +474,36 @@ TEST(DemReader, RawOptionParsingRejectsNonsense) {
   EXPECT_TRUE(parseRawBounds("-90,-180,90,180", layout));
 }
 
+TEST(DemReader, ACompoundCrsNamesTheVerticalDatum) {
+  test::TempDir dir;
+  GDALAllRegister();
+  GDALDriverH gtiff = GDALGetDriverByName("GTiff");
+  ASSERT_NE(gtiff, nullptr);
+  const auto write = [&](const fs::path& path, const char* crsText) {
+    GDALDatasetH ds = GDALCreate(gtiff, path.c_str(), 20, 10, 1, GDT_Int16, nullptr);
+    ASSERT_NE(ds, nullptr);
+    double gt[6] = {6.0, 0.01, 0.0, 50.0, 0.0, -0.01};
+    GDALSetGeoTransform(ds, gt);
+    OGRSpatialReferenceH crs = OSRNewSpatialReference(nullptr);
+    ASSERT_EQ(OSRSetFromUserInput(crs, crsText), OGRERR_NONE);
+    GDALSetSpatialRef(ds, crs);
+    std::vector<std::int16_t> values(200, 300);
+    ASSERT_EQ(GDALRasterIO(GDALGetRasterBand(ds, 1), GF_Write, 0, 0, 20, 10, values.data(), 20, 10,
+                           GDT_Int16, 0, 0),
+              CE_None);
+    OSRDestroySpatialReference(crs);
+    GDALClose(ds);
+  };
+  write(dir / "egm96.tif", "EPSG:4326+5773");  // WGS 84 + EGM96 height
+  write(dir / "plain.tif", "EPSG:4326");
+  auto withDatum = readDem(dir / "egm96.tif");
+  ASSERT_TRUE(withDatum.ok()) << withDatum.error().message;
+  EXPECT_EQ(withDatum->source().verticalDatum, "EGM96 height");
+  EXPECT_EQ(withDatum->source().body, "earth");
+  auto without = readDem(dir / "plain.tif");
+  ASSERT_TRUE(without.ok()) << without.error().message;
+  EXPECT_EQ(without->source().verticalDatum, "");
+}
+
 }  // namespace
 }  // namespace pbdam::formats

@@ -47,6 +47,7 @@ struct GridSource final {
   std::string body;       ///< "mars", "earth", "moon", or "" when the CRS does not say
   double semiMajorMeters = 0.0;  ///< of the CRS's ellipsoid; 0 when there is no CRS
   double flattening = 0.0;       ///< of the CRS's ellipsoid
+  std::string verticalDatum;     ///< the vertical CRS of a compound CRS, else empty
   std::string units = "m";       ///< heights are converted to metres; this is what the file said
   std::optional<double> noDataValue;  ///< the file's nodata value, if it declares one
   bool warped = false;                ///< true when a projected CRS was warped to geographic

@@ -1,0 +1,96 @@
+// The one surface a hybrid dataset is built from (docs/builder.md "Insets"): a global base DEM
+// and local high-resolution insets, each read through GDAL in any format and projection. One
+// function of position: inside an inset's footprint (its valid samples) the inset's heights, in
+// a transition band just inside the footprint's edge a blend to what lies below, outside it the
+// base unchanged; where insets overlap, the finer wins. Patch errors are measured against the
+// composite's own samples (forEachSample): base samples where no inset lies, each inset's samples
+// where it is the finest, with their blended heights in its band. Thread-safety: immutable after
+// make(); const members are safe from any thread.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "pbdam/formats/HeightGrid.h"
+#include "pbdam/formats/Result.h"
+
+namespace pbdam::builder {
+
+/// An inset as the command line names it.
+struct InsetSpec final {
+  std::filesystem::path path;
+  /// Added to the inset's heights (metres), for an inset on another vertical datum.
+  std::optional<double> offsetMeters;
+};
+
+/// The transition band's width in inset samples: at least 16, and at least one base sample
+/// spacing, so the blend spans several inset samples and a whole base cell (wider would eat
+/// small insets: two ETOPO5 spacings leave 30 of Luxembourg's samples outside the band).
+std::int64_t transitionBandSamples(const formats::HeightGrid& base,
+                                   const formats::HeightGrid& inset) noexcept;
+
+/// Checks an inset read from `spec.path` against the base and the planet: on the same body
+/// (when its CRS says), on the same vertical datum as the base when both declare one (or
+/// `offsetMeters` given), finer than the base, with valid samples. InvalidArgument naming the
+/// file and what is wrong.
+formats::Result<void> checkInset(const InsetSpec& spec, const formats::HeightGrid& inset,
+                                 const formats::HeightGrid& base, const std::string& planetSpec);
+
+/// Which source defines the composite at a point.
+struct SourceAt final {
+  int inset = -1;       ///< index into the composite's insets, −1 for the base
+  double weight = 0.0;  ///< of that inset there: 1 inside its band, 0 < w < 1 in the band
+};
+
+class CompositeSurface final {
+ public:
+  /// One inset: its grid, its height offset and its band.
+  struct Inset final {
+    formats::HeightGrid grid;
+    double offsetMeters = 0.0;
+    std::int64_t bandSamples = 16;
+    /// Per sample, the inset weight before smoothing: 0 on the footprint's outer ring (valid
+    /// samples next to nodata or the grid's edge), rising by 1/band per sample inward, 1 beyond
+    /// the band (Chebyshev distance to the nearest sample outside the footprint, minus 1).
+    std::vector<std::uint16_t> edgeDistance;
+  };
+
+  /// The composite of `base` and `insets` (any order: they are sorted from coarsest to finest,
+  /// ties by the order given). Index i of sourceAt() and forEachSample() is the position in
+  /// insets() (that order).
+  static CompositeSurface make(formats::HeightGrid base, std::vector<InsetSpec> specs,
+                               std::vector<formats::HeightGrid> insets);
+
+  const formats::HeightGrid& base() const noexcept { return base_; }
+  const std::vector<Inset>& insets() const noexcept { return insets_; }
+  /// The spec each inset came from (same order as insets()).
+  const std::vector<InsetSpec>& specs() const noexcept { return specs_; }
+
+  /// The composite height at (lat, lon): the base's bicubic height, then for each inset from
+  /// coarsest to finest w·(inset's bicubic height + offset) + (1 − w)·(what lies below), w the
+  /// inset's weight there. nullopt where the base has no data and no inset has weight 1.
+  std::optional<double> heightAt(double latDegrees, double lonDegrees) const noexcept;
+  /// The weight of inset `i` at (lat, lon): 0 outside its footprint, smoothstep of the
+  /// bilinear blend of its samples' band weights inside (C¹ across the band's edges).
+  double weightOf(std::size_t i, double latDegrees, double lonDegrees) const noexcept;
+  /// The finest inset with a weight above 0 at (lat, lon), or the base.
+  SourceAt sourceAt(double latDegrees, double lonDegrees) const noexcept;
+  /// Every sample that defines the composite, with its composite height: the base's samples
+  /// where no inset has a weight, each inset's samples where no finer inset has one (their
+  /// heights blended with what lies below in the band). `source` is −1 for the base.
+  void forEachSample(
+      const std::function<void(int source, double lat, double lon, double height)>& fn) const;
+
+ private:
+  formats::HeightGrid base_;
+  std::vector<Inset> insets_;
+  std::vector<InsetSpec> specs_;
+  /// heightAt restricted to the base and insets [0, upTo).
+  std::optional<double> heightBelow(std::size_t upTo, double lat, double lon) const noexcept;
+};
+
+}  // namespace pbdam::builder

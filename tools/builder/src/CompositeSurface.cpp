@@ -1,0 +1,201 @@
+// The composite of a base DEM and insets (CompositeSurface.h).
+#include "pbdam/builder/CompositeSurface.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+using namespace pbdam::formats;
+
+namespace pbdam::builder {
+namespace {
+
+double spacingOf(const HeightGrid& grid) noexcept {
+  return std::max(grid.geometry().latSpacingDegrees, grid.geometry().lonSpacingDegrees);
+}
+
+Error invalid(const std::string& what) { return makeError(ErrorCode::InvalidArgument, what); }
+
+/// Per sample, the Chebyshev distance (in samples) to the nearest sample that is nodata or
+/// beyond the grid's edge, capped at `cap`: two passes of the 3 × 3 distance transform.
+std::vector<std::uint16_t> edgeDistances(const HeightGrid& grid, std::uint16_t cap) {
+  const std::int64_t w = grid.width(), h = grid.height();
+  std::vector<std::uint16_t> d(static_cast<std::size_t>(w * h));
+  const auto at = [&](std::int64_t r, std::int64_t c) -> std::uint16_t& {
+    return d[static_cast<std::size_t>(r * w + c)];
+  };
+  // Beyond the edge counts as outside (distance 0).
+  const auto get = [&](std::int64_t r, std::int64_t c) -> std::uint16_t {
+    return r < 0 || r >= h || c < 0 || c >= w ? std::uint16_t{0} : at(r, c);
+  };
+  for (std::int64_t r = 0; r < h; ++r) {
+    for (std::int64_t c = 0; c < w; ++c) at(r, c) = std::isnan(grid.at(r, c)) ? 0 : cap;
+  }
+  const auto relax = [&](std::int64_t r, std::int64_t c, std::int64_t dr) {
+    std::uint16_t& v = at(r, c);
+    if (v == 0) return;
+    const std::uint16_t m =
+        std::min({get(r - dr, c - 1), get(r - dr, c), get(r - dr, c + 1), get(r, c - dr)});
+    v = std::min<std::uint16_t>(v, static_cast<std::uint16_t>(std::min<int>(m + 1, cap)));
+  };
+  for (std::int64_t r = 0; r < h; ++r) {
+    for (std::int64_t c = 0; c < w; ++c) relax(r, c, 1);
+  }
+  for (std::int64_t r = h; r-- > 0;) {
+    for (std::int64_t c = w; c-- > 0;) relax(r, c, -1);
+  }
+  return d;
+}
+
+double smoothstep(double x) noexcept {
+  const double t = std::clamp(x, 0.0, 1.0);
+  return t * t * (3.0 - 2.0 * t);
+}
+
+}  // namespace
+
+std::int64_t transitionBandSamples(const HeightGrid& base, const HeightGrid& inset) noexcept {
+  const double ratio = spacingOf(base) / spacingOf(inset);
+  return std::max<std::int64_t>(16, static_cast<std::int64_t>(std::ceil(ratio - 1e-9)));
+}
+
+Result<void> checkInset(const InsetSpec& spec, const HeightGrid& inset, const HeightGrid& base,
+                        const std::string& planetSpec) {
+  const std::string name = spec.path.string();
+  const std::string& body = inset.source().body;
+  if (!body.empty() && planetSpec.rfind(body, 0) != 0 && planetSpec.rfind("sphere", 0) != 0 &&
+      planetSpec.rfind("ellipsoid", 0) != 0) {
+    return invalid(name + ": the inset's CRS is on " + body + " but --planet is " + planetSpec);
+  }
+  const std::string& datum = inset.source().verticalDatum;
+  const std::string& baseDatum = base.source().verticalDatum;
+  if (!datum.empty() && !baseDatum.empty() && datum != baseDatum && !spec.offsetMeters) {
+    return invalid(name + ": the inset's heights are on the vertical datum '" + datum +
+                   "', the base's on '" + baseDatum +
+                   "'; give --inset-offset (metres added to the inset's heights)");
+  }
+  if (spec.offsetMeters && !std::isfinite(*spec.offsetMeters)) {
+    return invalid(name + ": --inset-offset must be a finite number of metres");
+  }
+  if (spacingOf(inset) >= spacingOf(base)) {
+    return invalid(name + ": its samples (" + std::to_string(spacingOf(inset)) +
+                   "°) are not finer than the base's (" + std::to_string(spacingOf(base)) +
+                   "°); an inset adds detail the base lacks");
+  }
+  if (inset.computeStats().validCount == 0) return invalid(name + ": has no valid samples");
+  return {};
+}
+
+CompositeSurface CompositeSurface::make(HeightGrid base, std::vector<InsetSpec> specs,
+                                        std::vector<HeightGrid> insets) {
+  // Coarsest first, so that each finer inset is blended over what lies below it.
+  std::vector<std::size_t> order(insets.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return spacingOf(insets[a]) > spacingOf(insets[b]);
+  });
+  CompositeSurface s;
+  for (const std::size_t k : order) {
+    Inset inset;
+    inset.offsetMeters = specs[k].offsetMeters.value_or(0.0);
+    inset.bandSamples = transitionBandSamples(base, insets[k]);
+    inset.edgeDistance = edgeDistances(insets[k], static_cast<std::uint16_t>(std::min<std::int64_t>(
+                                                      inset.bandSamples + 1, 65535)));
+    inset.grid = std::move(insets[k]);
+    s.insets_.push_back(std::move(inset));
+    s.specs_.push_back(std::move(specs[k]));
+  }
+  s.base_ = std::move(base);
+  return s;
+}
+
+double CompositeSurface::weightOf(std::size_t i, double lat, double lon) const noexcept {
+  const Inset& inset = insets_[i];
+  const GridGeometry& g = inset.grid.geometry();
+  const double row = (g.firstLatDegrees - lat) / g.latSpacingDegrees;
+  double dl = std::fmod(lon - g.firstLonDegrees, 360.0);
+  if (dl < 0.0) dl += 360.0;
+  const double col = dl / g.lonSpacingDegrees;
+  // Outside the hull of the sample centres the inset has no weight.
+  if (!(row >= 0.0 && col >= 0.0 && row <= static_cast<double>(g.height - 1) &&
+        col <= static_cast<double>(g.width - 1))) {
+    return 0.0;
+  }
+  const auto r0 = std::min(static_cast<std::int64_t>(row), g.height - 1);
+  const auto c0 = std::min(static_cast<std::int64_t>(col), g.width - 1);
+  const std::int64_t r1 = std::min(r0 + 1, g.height - 1), c1 = std::min(c0 + 1, g.width - 1);
+  const double fr = row - static_cast<double>(r0), fc = col - static_cast<double>(c0);
+  const auto band = static_cast<double>(inset.bandSamples);
+  const auto sampleWeight = [&](std::int64_t r, std::int64_t c) {
+    const double d = inset.edgeDistance[static_cast<std::size_t>(r * g.width + c)];
+    return std::clamp((d - 1.0) / band, 0.0, 1.0);
+  };
+  const double top = (1.0 - fc) * sampleWeight(r0, c0) + fc * sampleWeight(r0, c1);
+  const double bottom = (1.0 - fc) * sampleWeight(r1, c0) + fc * sampleWeight(r1, c1);
+  return smoothstep((1.0 - fr) * top + fr * bottom);
+}
+
+std::optional<double> CompositeSurface::heightBelow(std::size_t upTo, double lat,
+                                                    double lon) const noexcept {
+  std::optional<double> h = base_.sampleBicubic(lat, lon);
+  for (std::size_t i = 0; i < upTo; ++i) {
+    const double w = weightOf(i, lat, lon);
+    if (w <= 0.0) continue;
+    // A weight above 0 means the four samples around the point are valid (their band weights
+    // are 0 next to nodata), so the inset has a height here.
+    const std::optional<double> own = insets_[i].grid.sampleBicubic(lat, lon);
+    if (!own) continue;
+    const double mine = *own + insets_[i].offsetMeters;
+    h = (w >= 1.0 || !h) ? mine : w * mine + (1.0 - w) * *h;
+  }
+  return h;
+}
+
+std::optional<double> CompositeSurface::heightAt(double lat, double lon) const noexcept {
+  return heightBelow(insets_.size(), lat, lon);
+}
+
+SourceAt CompositeSurface::sourceAt(double lat, double lon) const noexcept {
+  for (std::size_t i = insets_.size(); i-- > 0;) {
+    const double w = weightOf(i, lat, lon);
+    if (w > 0.0) return SourceAt{static_cast<int>(i), w};
+  }
+  return SourceAt{};
+}
+
+void CompositeSurface::forEachSample(
+    const std::function<void(int, double, double, double)>& fn) const {
+  const auto finestFrom = [&](std::size_t from, double lat, double lon) {
+    for (std::size_t j = insets_.size(); j-- > from;) {
+      if (weightOf(j, lat, lon) > 0.0) return true;
+    }
+    return false;
+  };
+  for (std::int64_t r = 0; r < base_.height(); ++r) {
+    const double lat = base_.latOfRowDegrees(r);
+    for (std::int64_t c = 0; c < base_.width(); ++c) {
+      const float v = base_.at(r, c);
+      if (std::isnan(v)) continue;
+      const double lon = base_.lonOfColumnDegrees(c);
+      if (!finestFrom(0, lat, lon)) fn(-1, lat, lon, static_cast<double>(v));
+    }
+  }
+  for (std::size_t i = 0; i < insets_.size(); ++i) {
+    const HeightGrid& g = insets_[i].grid;
+    for (std::int64_t r = 0; r < g.height(); ++r) {
+      const double lat = g.latOfRowDegrees(r);
+      for (std::int64_t c = 0; c < g.width(); ++c) {
+        if (std::isnan(g.at(r, c))) continue;
+        const double lon = g.lonOfColumnDegrees(c);
+        const double w = weightOf(i, lat, lon);
+        if (w <= 0.0 || finestFrom(i + 1, lat, lon)) continue;
+        const double mine = static_cast<double>(g.at(r, c)) + insets_[i].offsetMeters;
+        const std::optional<double> below = heightBelow(i, lat, lon);
+        fn(static_cast<int>(i), lat, lon,
+           (w >= 1.0 || !below) ? mine : w * mine + (1.0 - w) * *below);
+      }
+    }
+  }
+}
+
+}  // namespace pbdam::builder
