@@ -4,6 +4,8 @@
 // the cube map's canonical keys (docs/builder.md "Errors", "Lattice and bintrees").
 #include <gtest/gtest.h>
 
+#include <map>
+
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -207,6 +209,74 @@ TEST(PatchBuilder, LeavesOfOneShapeAreTranslates) {
     }
   }
   EXPECT_GT(pairs, 0);
+}
+
+/// Checks that `patch` tiles the triangle `t` exactly: counter-clockwise triangles (in (u, v))
+/// whose areas
+/// add up to t's, every edge inside used by two triangles and on the outline by one (no
+/// T-junction), and returns the vertices on each side of t: apex–left, apex–right, left–right.
+std::array<std::size_t, 3> expectTiles(const BinTriangle& t, const WorkPatch& patch) {
+  std::int64_t area = 0;
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> edges;
+  for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
+    const std::array<std::uint32_t, 3> v{patch.indices[k], patch.indices[k + 1],
+                                         patch.indices[k + 2]};
+    const std::int64_t a = doubleArea(patch.points[v[0]], patch.points[v[1]], patch.points[v[2]]);
+    EXPECT_GT(a, 0) << "triangle " << k / 3;  // counter-clockwise in (u, v)
+    area += a;
+    for (int e = 0; e < 3; ++e) {
+      const std::uint32_t p = v[static_cast<std::size_t>(e)],
+                          q = v[static_cast<std::size_t>((e + 1) % 3)];
+      ++edges[{std::min(p, q), std::max(p, q)}];
+    }
+  }
+  EXPECT_EQ(area, std::abs(doubleArea(t.apex, t.left, t.right)));
+  const auto onSide = [](LatticeXY a, LatticeXY b, LatticeXY p) {
+    return doubleArea(a, b, p) == 0 && glm::min(a, b) == glm::min(glm::min(a, b), p) &&
+           glm::max(a, b) == glm::max(glm::max(a, b), p);
+  };
+  for (const auto& [edge, uses] : edges) {
+    const LatticeXY p = patch.points[edge.first], q = patch.points[edge.second];
+    const bool outline = (onSide(t.apex, t.left, p) && onSide(t.apex, t.left, q)) ||
+                         (onSide(t.apex, t.right, p) && onSide(t.apex, t.right, q)) ||
+                         (onSide(t.left, t.right, p) && onSide(t.left, t.right, q));
+    EXPECT_EQ(uses, outline ? 1 : 2);
+  }
+  std::array<std::size_t, 3> sides{};
+  for (const LatticeXY& p : patch.points) {
+    sides[0] += onSide(t.apex, t.left, p) ? 1U : 0U;
+    sides[1] += onSide(t.apex, t.right, p) ? 1U : 0U;
+    sides[2] += onSide(t.left, t.right, p) ? 1U : 0U;
+  }
+  return sides;
+}
+
+TEST(PatchBuilder, LeavesOfAnySpacingAndTheCoarseHypotenuseOfABorderLeaf) {
+  const Lattice lattice(64);
+  // A level-3 triangle: diagonal legs of 16 × 16 cells, an axis-aligned hypotenuse of 32.
+  const BinTriangle odd = lattice.triangle(0, 0, 3, Lattice::firstIndexOfLevel(3) + 5);
+  // At spacing 2: 8 steps along each leg, 16 along the hypotenuse; all points on the grid.
+  const WorkPatch regular = makeLeafPatch(odd, 2);
+  EXPECT_EQ(regular.indices.size(), 3u * 2u * 8u * 8u);
+  for (const LatticeXY& p : regular.points) EXPECT_TRUE(p.x % 2 == 0 && p.y % 2 == 0);
+  const auto regularSides = expectTiles(odd, regular);
+  EXPECT_EQ(regularSides[0], 9u);
+  EXPECT_EQ(regularSides[1], 9u);
+  EXPECT_EQ(regularSides[2], 17u);
+  // With a coarse hypotenuse: every other point of it, the legs unchanged, still a tiling.
+  const WorkPatch border = makeLeafPatch(odd, 2, true);
+  const auto borderSides = expectTiles(odd, border);
+  EXPECT_EQ(borderSides[0], 9u);
+  EXPECT_EQ(borderSides[1], 9u);
+  EXPECT_EQ(borderSides[2], 9u);
+  EXPECT_EQ(border.points.size(), regular.points.size() - 8u);
+  // Spacing 1 is the single-cell leaf of the uniform forest.
+  const BinTriangle even = lattice.triangle(0, 0, 4, Lattice::firstIndexOfLevel(4) + 3);
+  const WorkPatch cells = makeLeafPatch(even, 1);
+  EXPECT_EQ(cells.indices.size(), 3u * 16u * 16u);
+  const auto cellSides = expectTiles(even, cells);
+  EXPECT_EQ(cellSides[0], 17u);
+  EXPECT_EQ(cellSides[2], 17u);
 }
 
 TEST(Lattice, PointKeysAreTheCubeMapsCanonicalKeys) {

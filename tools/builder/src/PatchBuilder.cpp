@@ -27,23 +27,39 @@ WorkPatch compact(const std::vector<LatticeXY>& points, const std::vector<std::u
 
 namespace {
 
-void bisectToCells(const BinTriangle& t, IndexedPatch& out) {
+/// Bisects `t` down to axis-aligned legs of `spacing` cells; a triangle whose hypotenuse lies
+/// on the line of `keep` (the leaf's hypotenuse, when it is to stay coarse) and spans two
+/// spacings is kept whole.
+void bisectToCells(const BinTriangle& t, std::int32_t spacing, const BinTriangle* keep,
+                   IndexedPatch& out) {
   const LatticeXY leg = t.left - t.apex;
-  if (std::abs(leg.x) + std::abs(leg.y) == 1) {  // an axis-aligned unit leg: one grid half-cell
+  if (std::abs(leg.x) + std::abs(leg.y) == spacing) {  // an axis-aligned leg of one spacing
     out.addTriangle(t.apex, t.left, t.right);
     return;
   }
-  for (const BinTriangle& c : Lattice::children(t)) bisectToCells(c, out);
+  if (keep != nullptr) {
+    const LatticeXY hyp = t.right - t.left;
+    const bool onLine = doubleArea(keep->left, keep->right, t.left) == 0 &&
+                        doubleArea(keep->left, keep->right, t.right) == 0;
+    if (onLine && std::abs(hyp.x) + std::abs(hyp.y) == 2 * spacing) {
+      out.addTriangle(t.apex, t.left, t.right);
+      return;
+    }
+  }
+  for (const BinTriangle& c : Lattice::children(t)) bisectToCells(c, spacing, keep, out);
 }
 
 }  // namespace
 
-WorkPatch makeLeafPatch(const BinTriangle& triangle) {
-  // The bisection depends only on the triangle's shape (its legs as vectors): leaves of one
-  // shape are translates of each other, so each thread builds each shape once and translates it.
+WorkPatch makeLeafPatch(const BinTriangle& triangle, std::int32_t spacing, bool coarseHypotenuse) {
+  // The bisection depends only on the triangle's shape (its legs as vectors) and how it is cut:
+  // leaves of one shape are translates of each other, so each thread builds each shape once
+  // and translates it.
   struct Shape {
     LatticeXY toLeft;
     LatticeXY toRight;
+    std::int32_t spacing;
+    bool coarseHypotenuse;
     WorkPatch relative;  // points relative to the apex
   };
   thread_local std::vector<Shape> shapes;
@@ -51,14 +67,17 @@ WorkPatch makeLeafPatch(const BinTriangle& triangle) {
   const LatticeXY toRight = triangle.right - triangle.apex;
   const Shape* shape = nullptr;
   for (const Shape& s : shapes) {
-    if (s.toLeft == toLeft && s.toRight == toRight) shape = &s;
+    if (s.toLeft == toLeft && s.toRight == toRight && s.spacing == spacing &&
+        s.coarseHypotenuse == coarseHypotenuse) {
+      shape = &s;
+    }
   }
   if (shape == nullptr) {
     IndexedPatch mesh;
-    bisectToCells(triangle, mesh);
+    bisectToCells(triangle, spacing, coarseHypotenuse ? &triangle : nullptr, mesh);
     WorkPatch patch = compact(mesh.points, mesh.indices);
     for (LatticeXY& p : patch.points) p -= triangle.apex;
-    shapes.push_back(Shape{toLeft, toRight, std::move(patch)});
+    shapes.push_back(Shape{toLeft, toRight, spacing, coarseHypotenuse, std::move(patch)});
     shape = &shapes.back();
   }
   WorkPatch out;

@@ -24,9 +24,15 @@ struct WorkPatch final {
   std::vector<std::uint32_t> indices;
 };
 
-/// The regular triangulation of a leaf triangle: its longest-edge bisection down to single
-/// lattice cells; every lattice point inside or on the triangle is a vertex.
-WorkPatch makeLeafPatch(const runtime::BinTriangle& triangle);
+/// The regular triangulation of a leaf triangle: its longest-edge bisection down to triangles
+/// with axis-aligned legs of `spacing` lattice cells (a power of two; 1: single cells), so every
+/// point of the lattice of that spacing inside or on the triangle is a vertex. With
+/// `coarseHypotenuse` the triangles whose hypotenuse lies on the leaf's hypotenuse and spans
+/// two spacings are not split: the hypotenuse keeps every other point, the vertices of the
+/// coarser leaf's leg it lies on (an odd-level leaf of an adaptive forest whose diamond partner
+/// does not exist; docs/builder.md "Insets: leaves at the border").
+WorkPatch makeLeafPatch(const runtime::BinTriangle& triangle, std::int32_t spacing = 1,
+                        bool coarseHypotenuse = false);
 
 /// What happened in one block.
 struct BlockStats final {
