@@ -1,5 +1,6 @@
 // Forests whose depth varies (dataset format 3: sparse node and texture tables with leaf flags):
-// MOLA's test dataset pruned to full depth only around Olympus Mons and to level 2 elsewhere.
+// MOLA's test dataset pruned to the builder's closed forest shape for a box on Olympus Mons: full
+// depth there, level 2 far away.
 // The runtime refines such a forest to the same cut as the complete one stopped at the pruned
 // leaves, the cut is watertight, every tile it names exists, height queries end at leaves of any
 // level, and face files whose tables are not a forest are rejected with a clear error.
@@ -9,11 +10,13 @@
 
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <set>
 
 #include "ClosedManifold.h"
 #include "SparseForest.h"
 #include "TestData.h"
+#include "pbdam/builder/ForestShape.h"
 #include "pbdam/formats/DemReader.h"
 #include "pbdam/runtime/CubeMap.h"
 #include "pbdam/runtime/SurfaceQuery.h"
@@ -29,40 +32,29 @@ namespace {
 constexpr double kLat = 18.65, kLon = -133.8;  // Olympus Mons
 constexpr double kRadius = 0.03;               // on the unit sphere: ~100 km on Mars
 
-glm::dvec3 pointDirection(std::uint32_t n, int face, LatticeXY p) {
-  const CubeLatticePoint c = CubeMap::canonicalLatticePoint(
-      {cubeFaceFromIndex(face), static_cast<std::uint32_t>(p.x), static_cast<std::uint32_t>(p.y)},
-      n);
-  return CubeMap::faceUvToDirection(c.face, glm::dvec2(c.i, c.j) / static_cast<double>(n));
-}
-
 // Keeps every tile (a pruned quadtree changes the per-level texture term, and with it the cut).
 test::PruneRules withAllTiles(test::PruneRules rules) {
   rules.splitTile = [](int, std::uint32_t, std::uint32_t, std::uint32_t) { return true; };
   return rules;
 }
 
-// Splits a node when its diamond's centre (the hypotenuse midpoint, through its canonical alias,
-// so both triangles of a diamond decide alike) is within the radius plus two hypotenuses of the
-// target: a split diamond's parents, whose centres are about 0.35 of their hypotenuse away while
-// their hypotenuse is about 1.41 of the child's, are then split too (0.35 < 2 · 0.41, with room
-// for the cube map's distortion). Levels 0 and 1 always split. A tile splits when its square's
-// centre is within the radius plus its side: only Olympus Mons's face keeps more than its root.
-test::PruneRules aroundOlympus(std::uint32_t n) {
+// Full depth over a 3° box on Olympus Mons, level 2 elsewhere: the builder's closed forest shape
+// (ForestShape). A tile splits when its square's centre is within the radius plus its side:
+// only Olympus Mons's face keeps more than its root.
+test::PruneRules aroundOlympus(std::uint32_t n, int depth) {
   const glm::dvec3 target = CubeMap::faceUvToDirection(CubeMap::latLonToFaceUv(kLat, kLon));
+  auto shape = std::make_shared<const builder::ForestShape>(builder::ForestShape::make(
+      builder::Lattice(n), 2,
+      {builder::DeepRegion{{kLat - 1.5, 360.0 + kLon - 1.5, kLat + 1.5, 360.0 + kLon + 1.5},
+                           depth}}));
   test::PruneRules rules;
-  rules.splitNode = [n, target](const BinTriangle& t) {
-    if (t.level < 2) return true;
-    const glm::dvec3 l = pointDirection(n, t.face, t.left);
-    const glm::dvec3 r = pointDirection(n, t.face, t.right);
-    const glm::dvec3 m = pointDirection(n, t.face, (t.left + t.right) / 2);
-    return glm::length(m - target) < kRadius + 2.0 * glm::length(l - r);
+  rules.splitNode = [shape](const BinTriangle& t) {
+    return shape->isSplit(t.level, builder::nodeId(t, shape->depth()));
   };
-  rules.splitTile = [n, target](int face, std::uint32_t level, std::uint32_t qi, std::uint32_t qj) {
+  rules.splitTile = [target](int face, std::uint32_t level, std::uint32_t qi, std::uint32_t qj) {
     const double side = 1.0 / static_cast<double>(1U << level);
     const glm::dvec3 c =
         CubeMap::faceUvToDirection(cubeFaceFromIndex(face), glm::dvec2(qi + 0.5, qj + 0.5) * side);
-    (void)n;
     return glm::length(c - target) < kRadius + side;
   };
   return rules;
@@ -77,7 +69,7 @@ class SparseForest : public ::testing::Test {
                  ("pbdam-sparse-forest-" + std::to_string(::getpid()));
     auto manifest = readManifest(complete);
     ASSERT_TRUE(manifest.ok());
-    rules_ = aroundOlympus(manifest->latticeCells);
+    rules_ = aroundOlympus(manifest->latticeCells, static_cast<int>(manifest->depth));
     test::writePrunedDataset(complete, prunedDir_, withAllTiles(rules_));
     auto full = MappedDataset::open(complete);
     auto pruned = MappedDataset::open(prunedDir_);

@@ -16,8 +16,10 @@
 #include <tuple>
 #include <utility>
 
+#include "SparseForest.h"
 #include "TestData.h"
 #include "pbdam/builder/Builder.h"
+#include "pbdam/builder/ForestShape.h"
 #include "pbdam/builder/Lattice.h"
 #include "pbdam/builder/PatchBuilder.h"
 #include "pbdam/builder/SampleGrid.h"
@@ -141,6 +143,43 @@ TEST(Builder, MolaBuildPassesVerifyAgainstTheDem) {
   EXPECT_EQ(manifest->planetSpec, "mars");
   EXPECT_NEAR(manifest->maxHeightMeters, 21000.0, 500.0);  // Olympus Mons, resampled
   EXPECT_NEAR(manifest->minHeightMeters, -8000.0, 500.0);  // Hellas
+}
+
+// Verify walks forests of any shape (dataset format 3): the small MOLA build pruned to full depth
+// only near a box (ForestShape's closed set of split diamonds) passes against the DEM; with a
+// rule that splits one tree of a face but not its neighbour across the face's diagonal, verify
+// names the diamonds split on one side.
+TEST(Builder, VerifyWalksAPrunedForestAndNamesAnUnclosedOne) {
+  PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
+  test::TempDir dir;
+  ASSERT_TRUE(buildDataset(smallMola(dem, dir / "mola")));
+  // Leaves of level 6 (the build's depth) over a box on Mars, level 2 elsewhere, closed.
+  const Lattice lattice(128);
+  const ForestShape shape =
+      ForestShape::make(lattice, 2, {DeepRegion{{10.0, 60.0, 20.0, 75.0}, 6}});
+  ASSERT_EQ(shape.depth(), 6);
+  test::PruneRules closed;
+  closed.splitNode = [&](const BinTriangle& t) {
+    return shape.isSplit(t.level, nodeId(t, shape.depth()));
+  };
+  closed.splitTile = [](int face, std::uint32_t, std::uint32_t, std::uint32_t) {
+    return face == 2;
+  };
+  test::writePrunedDataset(dir / "mola", dir / "pruned", closed);
+  const VerifyReport r = verify(dir / "pruned", dem);
+  EXPECT_TRUE(r.ok()) << describe(r);
+  EXPECT_LT(r.patchesDecoded, 12u * 127u / 2);
+  EXPECT_GT(r.edgesCompared, 100u);
+
+  test::PruneRules oneSided = closed;
+  oneSided.splitNode = [](const BinTriangle& t) {
+    return t.level < 1 || (t.face == 0 && t.tree == 0 && t.level < 3);
+  };
+  test::writePrunedDataset(dir / "mola", dir / "unclosed", oneSided);
+  const VerifyReport bad = verify(dir / "unclosed");
+  EXPECT_FALSE(bad.ok());
+  const std::string all = describe(bad);
+  EXPECT_NE(all.find("split, but its diamond partner does not exist"), std::string::npos) << all;
 }
 
 TEST(Builder, Etopo5BuildPassesVerifyAgainstTheDem) {

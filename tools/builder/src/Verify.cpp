@@ -123,8 +123,10 @@ class DatasetVerifier final {
   void openFaces();
   /// The source DEM, resampled and bucketed like the builder does.
   Result<void> openDemGrid();
+  /// The nodes the face tables hold, by dataset-wide id (ascending), with their table rows.
+  void listNodes();
   void checkNodes();
-  void checkNode(std::uint64_t id);
+  void checkNode(std::size_t k);
   /// The node's vertices as lattice points, or nothing (a violation) when one is not on it.
   std::optional<std::vector<LatticeXY>> latticePoints(const BinTriangle& t, const PatchMesh& mesh,
                                                       const std::string& where);
@@ -158,7 +160,10 @@ class DatasetVerifier final {
   std::array<MappedFile, 6> files_;
   std::array<std::optional<FaceView>, 6> views_;
   std::optional<SampleGrid> grid_;
-  std::vector<DecodedNode> nodes_;
+  std::vector<std::uint64_t> ids_;   ///< nodeId of every node that exists, ascending
+  std::vector<std::uint64_t> rows_;  ///< its row in its face's node table
+  std::vector<DecodedNode> nodes_;   ///< same order
+  std::vector<std::vector<std::size_t>> levelNodes_;  ///< per level, indices into ids_
   std::atomic<std::uint64_t> demSamples_{0};
   std::mutex ratioMutex_;
   double worstRatio_ = 0.0;
@@ -207,14 +212,6 @@ void DatasetVerifier::openFaces() {
         h.leafCells != manifest_.leafCells || h.depth != manifest_.depth ||
         h.textureLevels != manifest_.textureLevels) {
       violations_.add(path.string() + ": header disagrees with the manifest");
-      continue;
-    }
-    const std::uint64_t completeTiles = ((std::uint64_t{1} << (2 * h.textureLevels)) - 1) / 3;
-    if (!view->completeForest() || h.textureNodeCount != completeTiles) {
-      // The builder makes complete forests; the checks below walk them by heap index.
-      violations_.add(path.string() + ": its bintrees or texture quadtree are not complete to " +
-                      "depth " + std::to_string(h.depth) + " and " +
-                      std::to_string(h.textureLevels) + " texture levels");
       continue;
     }
     views_[f] = std::move(view).value();
@@ -381,12 +378,11 @@ void DatasetVerifier::checkAgainstDem(const BinTriangle& t, const NodeRecord& re
   if (stored > 0.0) worstRatio_ = std::max(worstRatio_, worst / stored);
 }
 
-void DatasetVerifier::checkNode(std::uint64_t id) {
-  const BinTriangle t = triangleOfNode(lattice_, id, depth_);
+void DatasetVerifier::checkNode(std::size_t k) {
+  const BinTriangle t = triangleOfNode(lattice_, ids_[k], depth_);
   const FaceView& view = *views_[static_cast<std::size_t>(t.face)];
-  const std::uint64_t tableIndex = static_cast<std::uint64_t>(t.tree) * perTree_ + t.index;
-  DecodedNode& node = nodes_[id];
-  node.record = view.nodeAt(tableIndex);
+  DecodedNode& node = nodes_[k];
+  node.record = view.nodeAt(rows_[k]);
   const std::string where = view.context() + " " + nodeName(t);
   PatchMesh mesh;
   const std::string context = view.context() + " offset " + std::to_string(node.record.blobOffset);
@@ -416,8 +412,22 @@ void DatasetVerifier::checkNode(std::uint64_t id) {
   }
 }
 
+void DatasetVerifier::listNodes() {
+  levelNodes_.assign(static_cast<std::size_t>(depth_) + 1, {});
+  for (std::size_t f = 0; f < 6; ++f) {
+    const FaceView& view = *views_[f];
+    for (std::uint64_t row = 0; row < view.header().nodeCount; ++row) {
+      const std::uint64_t heap = view.nodeAt(row).heapIndex;
+      const std::uint64_t tree = row >= view.treeFirstNode(1) ? 1 : 0;
+      ids_.push_back((f * 2 + tree) * perTree_ + heap);
+      rows_.push_back(row);
+      levelNodes_[static_cast<std::size_t>(bintreeLevel(heap))].push_back(ids_.size() - 1);
+    }
+  }
+}
+
 void DatasetVerifier::checkNodes() {
-  const std::uint64_t totalNodes = 12 * perTree_;
+  const std::size_t totalNodes = ids_.size();
   nodes_.assign(totalNodes, DecodedNode{});
   // RSS bound: the face files' and the scratch grid's pages are dropped from this process every
   // 250 ms while the nodes are checked (they stay in the page cache), as the builder does.
@@ -426,7 +436,7 @@ void DatasetVerifier::checkNodes() {
     for (const MappedFile& f : files_) (void)f.releaseResident();
     if (grid_) grid_->releaseResident();
   });
-  tbb::parallel_for(std::uint64_t{0}, totalNodes, [&](std::uint64_t id) { checkNode(id); });
+  tbb::parallel_for(std::size_t{0}, totalNodes, [&](std::size_t k) { checkNode(k); });
   trimmer.reset();
   report_.patchesDecoded = done_.load();
   report_.nodesChecked = totalNodes;
@@ -437,9 +447,10 @@ void DatasetVerifier::checkNodes() {
 void DatasetVerifier::checkSharedEdges() {
   std::unordered_map<EdgeKey, std::pair<std::uint64_t, std::uint64_t>, EdgeKeyHash> firstSeen;
   firstSeen.reserve(nodes_.size());
-  for (std::uint64_t id = 0; id < nodes_.size(); ++id) {
-    const DecodedNode& node = nodes_[id];
+  for (std::size_t k = 0; k < nodes_.size(); ++k) {
+    const DecodedNode& node = nodes_[k];
     if (!node.valid) continue;
+    const std::uint64_t id = ids_[k];
     const BinTriangle t = triangleOfNode(lattice_, id, depth_);
     const std::array<EdgeKey, 3> keys = {lattice_.edgeKey(t.face, t.apex, t.left),
                                          lattice_.edgeKey(t.face, t.apex, t.right),
@@ -458,47 +469,65 @@ void DatasetVerifier::checkSharedEdges() {
 }
 
 void DatasetVerifier::checkDiamondLevel(int level) {
-  const auto diamonds = diamondsOfLevel(lattice_, depth_, level);
-  std::map<EdgeKey, Diamond> childBySpine;
+  // The level's nodes by spine: two for a diamond, one for a leaf whose partner does not exist
+  // (its hypotenuse lies on a coarser leaf's leg).
+  const auto spineOf = [&](std::size_t k) {
+    const BinTriangle t = triangleOfNode(lattice_, ids_[k], depth_);
+    return lattice_.edgeKey(t.face, t.left, t.right);
+  };
+  std::map<EdgeKey, std::vector<std::size_t>> bySpine;
+  for (const std::size_t k : levelNodes_[static_cast<std::size_t>(level)]) {
+    bySpine[spineOf(k)].push_back(k);
+  }
+  std::map<EdgeKey, std::size_t> childBySpine;
   if (level < depth_) {
-    for (const Diamond& dm : diamondsOfLevel(lattice_, depth_, level + 1)) {
-      const BinTriangle t = triangleOfNode(lattice_, dm[0], depth_);
-      childBySpine.emplace(lattice_.edgeKey(t.face, t.left, t.right), dm);
+    for (const std::size_t k : levelNodes_[static_cast<std::size_t>(level) + 1]) {
+      childBySpine.emplace(spineOf(k), k);
     }
   }
-  for (const Diamond& dm : diamonds) {
-    const NodeRecord& a = nodes_[dm[0]].record;
-    const NodeRecord& b = nodes_[dm[1]].record;
-    const BinTriangle ta = triangleOfNode(lattice_, dm[0], depth_);
-    if (a.errorMeters != b.errorMeters || a.sphereCenter != b.sphereCenter ||
-        a.sphereRadiusMeters != b.sphereRadiusMeters) {
-      violations_.add(nodeName(ta) + ": diamond partners differ in error or sphere");
+  for (const auto& [spine, members] : bySpine) {
+    const NodeRecord& a = nodes_[members[0]].record;
+    const BinTriangle ta = triangleOfNode(lattice_, ids_[members[0]], depth_);
+    if (members.size() == 2) {
+      const NodeRecord& b = nodes_[members[1]].record;
+      if (a.errorMeters != b.errorMeters || a.sphereCenter != b.sphereCenter ||
+          a.sphereRadiusMeters != b.sphereRadiusMeters) {
+        violations_.add(nodeName(ta) + ": diamond partners differ in error or sphere");
+      }
+      if (a.leaf() != b.leaf()) {
+        violations_.add(nodeName(ta) + ": a diamond is split on one side only");
+      }
+    } else if (!a.leaf()) {
+      violations_.add(nodeName(ta) + ": split, but its diamond partner does not exist");
     }
-    if (a.errorMeters < a.measuredErrorMeters || b.errorMeters < b.measuredErrorMeters) {
-      violations_.add(nodeName(ta) + ": saturated error below its own measured error");
+    for (const std::size_t k : members) {
+      const NodeRecord& r = nodes_[k].record;
+      if (r.errorMeters < r.measuredErrorMeters) {
+        violations_.add(nodeName(ta) + ": saturated error below its own measured error");
+      }
     }
-    if (level == depth_) continue;
-    const BinTriangle tb = triangleOfNode(lattice_, dm[1], depth_);
-    const std::array<EdgeKey, 4> legs = {
-        lattice_.edgeKey(ta.face, ta.apex, ta.left), lattice_.edgeKey(ta.face, ta.apex, ta.right),
-        lattice_.edgeKey(tb.face, tb.apex, tb.left), lattice_.edgeKey(tb.face, tb.apex, tb.right)};
+    if (a.leaf()) continue;
     const glm::dvec3 pc{a.sphereCenter[0], a.sphereCenter[1], a.sphereCenter[2]};
-    for (const EdgeKey& leg : legs) {
-      const auto it = childBySpine.find(leg);
-      if (it == childBySpine.end()) {
-        violations_.add(nodeName(ta) + ": a child diamond is missing");
-        continue;
-      }
-      const NodeRecord& child = nodes_[it->second[0]].record;
-      if (child.errorMeters > a.errorMeters) {
-        violations_.add(nodeName(ta) + ": error " + std::to_string(a.errorMeters) +
-                        " m is below a child diamond's " + std::to_string(child.errorMeters) +
-                        " m (nesting)");
-      }
-      const glm::dvec3 cc{child.sphereCenter[0], child.sphereCenter[1], child.sphereCenter[2]};
-      if (glm::length(cc - pc) + static_cast<double>(child.sphereRadiusMeters) >
-          static_cast<double>(a.sphereRadiusMeters) * (1.0 + 1e-7) + 1e-3) {
-        violations_.add(nodeName(ta) + ": sphere does not contain a child diamond's sphere");
+    for (const std::size_t k : members) {
+      const BinTriangle t = triangleOfNode(lattice_, ids_[k], depth_);
+      for (const EdgeKey& leg :
+           {lattice_.edgeKey(t.face, t.apex, t.left), lattice_.edgeKey(t.face, t.apex, t.right)}) {
+        const auto it = childBySpine.find(leg);
+        if (it == childBySpine.end()) {
+          violations_.add(nodeName(ta) + ": a child diamond is missing");
+          continue;
+        }
+        const NodeRecord& child = nodes_[it->second].record;
+        if (child.errorMeters > a.errorMeters) {
+          violations_.add(nodeName(ta) + ": error " + std::to_string(a.errorMeters) +
+                          " m is below a child diamond's " + std::to_string(child.errorMeters) +
+                          " m (nesting)");
+        }
+        const glm::dvec3 cc{child.sphereCenter[0], child.sphereCenter[1], child.sphereCenter[2]};
+        if (glm::length(cc - pc) + static_cast<double>(child.sphereRadiusMeters) >
+            static_cast<double>(a.sphereRadiusMeters) * (1.0 + 1e-7) + 1e-3) {
+          violations_.add(nodeName(ta) + ": sphere does not contain a child diamond's sphere");
+        }
       }
     }
   }
@@ -512,35 +541,33 @@ void DatasetVerifier::checkTextures() {
   std::vector<std::byte> blob;
   for (std::size_t f = 0; f < 6; ++f) {
     const FaceView& view = *views_[f];
-    const std::uint32_t levels = view.header().textureLevels;
-    for (std::uint32_t level = 0; level < levels; ++level) {
-      for (std::uint32_t qj = 0; qj < (1U << level); ++qj) {
-        for (std::uint32_t qi = 0; qi < (1U << level); ++qi) {
-          const TextureRecord r = view.textureNode(textureHeapIndex(level, qi, qj));
-          auto bytes = view.readTextureBlob(r, blob);
-          if (!bytes) {
-            violations_.add(bytes.error().message);
-            continue;
-          }
-          auto tile =
-              decodeTextureTile(*bytes, view.context() + " offset " + std::to_string(r.blobOffset));
-          if (!tile) {
-            violations_.add(tile.error().message);
-            continue;
-          }
-          ++report_.tilesDecoded;
-          if (tile->sizeTexels != view.header().textureTileTexels) {
-            violations_.add(view.context() + ": texture tile of the wrong size");
-          }
-          if (level > 0) {
-            const TextureRecord parent =
-                view.textureNode(textureHeapIndex(level - 1, qi / 2, qj / 2));
-            if (parent.errorMeters < r.errorMeters) {
-              violations_.add(view.context() + ": texture error not nested at level " +
-                              std::to_string(level));
-            }
-          }
-        }
+    for (std::uint64_t row = 0; row < view.header().textureNodeCount; ++row) {
+      const TextureRecord r = view.textureAt(row);
+      auto bytes = view.readTextureBlob(r, blob);
+      if (!bytes) {
+        violations_.add(bytes.error().message);
+        continue;
+      }
+      auto tile =
+          decodeTextureTile(*bytes, view.context() + " offset " + std::to_string(r.blobOffset));
+      if (!tile) {
+        violations_.add(tile.error().message);
+        continue;
+      }
+      ++report_.tilesDecoded;
+      if (tile->sizeTexels != view.header().textureTileTexels) {
+        violations_.add(view.context() + ": texture tile of the wrong size");
+      }
+      const std::uint32_t level = textureLevelOfHeap(r.heapIndex);
+      if (level == 0) continue;
+      // The parent exists (FaceView::open checked the quadtree's shape).
+      const std::uint64_t inLevel = r.heapIndex - textureHeapIndex(level, 0, 0);
+      const auto qi = static_cast<std::uint32_t>(inLevel & ((std::uint64_t{1} << level) - 1));
+      const auto qj = static_cast<std::uint32_t>(inLevel >> level);
+      if (view.textureNode(textureHeapIndex(level - 1, qi / 2, qj / 2)).errorMeters <
+          r.errorMeters) {
+        violations_.add(view.context() + ": texture error not nested at level " +
+                        std::to_string(level));
       }
     }
   }
@@ -559,6 +586,7 @@ Result<VerifyReport> DatasetVerifier::run() {
     if (auto r = openDemGrid(); !r) return std::move(r).error();
   }
   // ---- Every node: decode, coverage, orientation, sphere, edges, error against the DEM.
+  listNodes();
   checkNodes();
   // ---- Shared edges: every patch bordering an edge has the same vertices there (and the same
   // heights), so every conforming cut is crack-free.
