@@ -12,6 +12,7 @@
 #include <iterator>
 #include <memory>
 #include <optional>
+#include <set>
 #include <span>
 #include <tuple>
 #include <utility>
@@ -180,6 +181,50 @@ TEST(Builder, VerifyWalksAPrunedForestAndNamesAnUnclosedOne) {
   EXPECT_FALSE(bad.ok());
   const std::string all = describe(bad);
   EXPECT_NE(all.find("split, but its diamond partner does not exist"), std::string::npos) << all;
+}
+
+// An adaptive forest built directly: MOLA at depth 2 with leaves of level 6 over a box (the
+// lattice of the deepest leaves everywhere). Verify against the DEM passes: errors bound every
+// sample, diamonds are closed, every shared edge agrees — at the border too, where an odd leaf
+// without a partner keeps its hypotenuse coarse.
+TEST(Builder, AnAdaptiveForestPassesVerifyAgainstTheDem) {
+  PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
+  test::TempDir dir;
+  BuildOptions o = smallMola(dem, dir / "adaptive");
+  o.depth = 2;
+  o.deepRegions = {DeepRegion{{10.0, 60.0, 20.0, 75.0}, 6}};
+  auto summary = buildDataset(o);
+  ASSERT_TRUE(summary) << summary.error().message;
+  EXPECT_EQ(summary->latticeCells, 128u);
+  EXPECT_EQ(summary->depth, 6u);
+  EXPECT_LT(summary->patches, 12u * 127u / 2);
+  const VerifyReport r = verify(dir / "adaptive", dem);
+  EXPECT_TRUE(r.ok()) << describe(r);
+  EXPECT_EQ(r.patchesDecoded, summary->patches);
+  EXPECT_GT(r.edgesCompared, 100u);
+  EXPECT_LE(r.worstErrorRatio, 1.0);
+  // Leaves at several levels, odd ones among them, some without a diamond partner.
+  std::set<int> leafLevels;
+  std::size_t oddLeaves = 0;
+  auto manifest = readManifest(dir / "adaptive");
+  ASSERT_TRUE(manifest) << manifest.error().message;
+  for (const ManifestFace& f : manifest->faces) {
+    const std::string bytes = readFile(dir / "adaptive" / f.file);
+    auto view =
+        FaceView::open(std::as_bytes(std::span<const char>(bytes.data(), bytes.size())), f.file);
+    ASSERT_TRUE(view) << view.error().message;
+    for (std::uint64_t k = 0; k < view->header().nodeCount; ++k) {
+      const NodeRecord n = view->nodeAt(k);
+      if (!n.leaf()) continue;
+      const int level = bintreeLevel(n.heapIndex);
+      leafLevels.insert(level);
+      oddLeaves += level % 2 == 1 ? 1U : 0U;
+    }
+  }
+  EXPECT_GE(leafLevels.size(), 4u);
+  EXPECT_TRUE(leafLevels.contains(2));
+  EXPECT_TRUE(leafLevels.contains(6));
+  EXPECT_GT(oddLeaves, 0u);
 }
 
 TEST(Builder, Etopo5BuildPassesVerifyAgainstTheDem) {

@@ -35,13 +35,14 @@ WorkPatch patchWithin(std::int32_t maxCoordinate) {
 }
 
 TEST(CheckpointFormat, LevelFooterRoundTrips) {
-  const LevelPartFooter footer{48, 96, 3, 1, 123456789, 2.5};
+  const LevelPartFooter footer{48, 96, 191, 3, 1, 123456789, 2.5};
   const auto bytes = encodeLevelPartFooter(footer);
   ASSERT_EQ(bytes.size(), LevelPartFooter::kBytes);
   auto decoded = decodeLevelPartFooter(bytes, "f");
   ASSERT_TRUE(decoded) << decoded.error().message;
   EXPECT_EQ(decoded->firstDiamond, 48u);
   EXPECT_EQ(decoded->diamonds, 96u);
+  EXPECT_EQ(decoded->nodes, 191u);
   EXPECT_EQ(decoded->insertedPoints, 3u);
   EXPECT_EQ(decoded->halvesOverTarget, 1u);
   EXPECT_EQ(decoded->patchBytesRaw, 123456789u);
@@ -58,7 +59,7 @@ TEST(CheckpointFormat, NodeEntriesRoundTripThroughALevelPart) {
   ByteWriter w;
   putNodeEntry(w, 7, recordA, blobA);
   putNodeEntry(w, 8, recordB, blobB);
-  const auto payload = concat(w.take(), encodeLevelPartFooter(LevelPartFooter{0, 1, 0, 0, 0, 0}));
+  const auto payload = concat(w.take(), encodeLevelPartFooter(LevelPartFooter{0, 1, 2, 0, 0, 0, 0}));
   auto view = LevelPartView::parse(payload, "level-04.part-0.nodes");
   ASSERT_TRUE(view) << view.error().message;
   std::vector<std::uint64_t> ids;
@@ -86,14 +87,14 @@ TEST(CheckpointFormat, RejectsADamagedLevelPart) {
   EXPECT_NE(shortPayload.error().message.find("a.nodes: truncated"), std::string::npos);
   // The footer promises more nodes than the entries hold.
   const auto cut = concat(std::vector<std::byte>(entries.begin(), entries.end() - 3),
-                          encodeLevelPartFooter(LevelPartFooter{0, 1, 0, 0, 0, 0}));
+                          encodeLevelPartFooter(LevelPartFooter{0, 1, 2, 0, 0, 0, 0}));
   auto view = LevelPartView::parse(cut, "b.nodes");
   ASSERT_TRUE(view);
   auto walked = view->forEachNode([](const NodeEntry&, std::size_t) { return true; });
   ASSERT_FALSE(walked);
   EXPECT_EQ(walked.error().message, "b.nodes: truncated");
   // Bytes left over after the entries the footer names.
-  const auto extra = concat(entries, encodeLevelPartFooter(LevelPartFooter{0, 0, 0, 0, 0, 0}));
+  const auto extra = concat(entries, encodeLevelPartFooter(LevelPartFooter{0, 0, 0, 0, 0, 0, 0}));
   auto extraView = LevelPartView::parse(extra, "c.nodes");
   ASSERT_TRUE(extraView);
   EXPECT_FALSE(extraView->forEachNode([](const NodeEntry&, std::size_t) { return true; }));

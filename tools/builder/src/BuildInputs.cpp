@@ -111,6 +111,17 @@ Result<BuildInputs> prepareInputs(const BuildOptions& o) {
         std::max(in.leafCells, std::bit_ceil(static_cast<std::uint32_t>(std::ceil(across - 1e-9))));
     in.depth = 2 * static_cast<std::uint32_t>(std::countr_zero(in.n / in.leafCells));
   }
+  in.baseDepth = in.depth;
+  for (const DeepRegion& r : o.deepRegions) {
+    if (r.leafLevel % 2 != 0 || r.leafLevel <= static_cast<int>(in.baseDepth) ||
+        !(r.bounds.southDegrees < r.bounds.northDegrees) ||
+        !(r.bounds.westDegrees < r.bounds.eastDegrees)) {
+      return invalid("a deep region needs an even leaf level above the depth " +
+                     std::to_string(in.baseDepth) + " and a non-empty box");
+    }
+    in.depth = std::max(in.depth, static_cast<std::uint32_t>(r.leafLevel));
+  }
+  in.n = in.leafCells << (in.depth / 2);
   if (in.n > 16384) {
     return invalid("the lattice would have " + std::to_string(in.n) +
                    " cells per face side; at most 16384 (choose --levels or larger leaves)");
@@ -151,6 +162,12 @@ std::vector<std::pair<std::string, std::string>> fingerprintOf(const BuildOption
   f.emplace_back("texture", texture);
   f.emplace_back("planet", in.planet->name());
   f.emplace_back("levels", std::to_string(in.depth));
+  for (const DeepRegion& r : o.deepRegions) {
+    f.emplace_back("deep-region", exact(r.bounds.southDegrees) + "," + exact(r.bounds.westDegrees) +
+                                      "," + exact(r.bounds.northDegrees) + "," +
+                                      exact(r.bounds.eastDegrees) + "@" +
+                                      std::to_string(r.leafLevel));
+  }
   f.emplace_back("lattice", std::to_string(in.n));
   f.emplace_back("leaf-vertices", std::to_string(o.leafVertices));
   f.emplace_back("min-patch-triangles", std::to_string(o.minPatchTriangles));

@@ -25,8 +25,9 @@ struct BuildInputs final {
   formats::GridSource demSource;
   std::optional<formats::GeoImage> imagery;
   std::uint32_t leafCells = 0;
-  std::uint32_t depth = 0;
-  std::uint32_t n = 0;  ///< lattice cells per face side
+  std::uint32_t depth = 0;      ///< the deepest leaves' level
+  std::uint32_t baseDepth = 0;  ///< the leaves' level outside deep regions (= depth without)
+  std::uint32_t n = 0;          ///< lattice cells per face side (of the deepest leaves)
 };
 
 /// How the builder reads the DEM: a large one goes to an unnamed scratch file on the output's

@@ -27,12 +27,14 @@
 #include <functional>
 #include <limits>
 #include <mutex>
+#include <span>
 #include <stop_token>
 #include <thread>
 
 #include "BuildInputs.h"
 #include "DatasetAssembly.h"
 #include "DiamondBuilder.h"
+#include "ForestPlan.h"
 #include "pbdam/builder/Checkpoint.h"
 #include "pbdam/builder/Lattice.h"
 #include "pbdam/builder/PatchBuilder.h"
@@ -111,6 +113,14 @@ struct StartPoint {
   bool textureComplete = false;
 };
 
+/// The nodes of a level's diamonds (a leaf without partner is a diamond of one).
+std::uint64_t nodesOf(std::span<const Diamond> diamonds) {
+  return static_cast<std::uint64_t>(
+             std::count_if(diamonds.begin(), diamonds.end(),
+                           [](const Diamond& d) { return d[1] != ForestPlan::kNoNode; })) +
+         diamonds.size();
+}
+
 std::string rangeText(std::uint64_t begin, std::uint64_t end) {
   char text[48];
   std::snprintf(text, sizeof text, "[%llu, %llu)", static_cast<unsigned long long>(begin),
@@ -127,6 +137,11 @@ class DistributedBuild {
         lattice_(in.n),
         d_(static_cast<int>(in.depth)),
         nodesPerTree_(Lattice::nodesPerTree(d_)),
+        plan_(o.deepRegions.empty()
+                  ? ForestPlan(lattice_, d_, in.leafCells)
+                  : ForestPlan(lattice_, in.leafCells,
+                               ForestShape::make(lattice_, static_cast<int>(in.baseDepth),
+                                                 o.deepRegions))),
         checkpoint_(o.outDir) {}
 
   Result<BuildSummary> run();
@@ -207,7 +222,7 @@ class DistributedBuild {
   Result<void> finishLevel(const LevelPartFooter& footer, LevelFiles& files);
   /// Rank 0 records `level` as complete in the checkpoint state; every rank waits for it.
   Result<void> recordLevel(int level);
-  void logLevel(int level, std::size_t diamonds,
+  void logLevel(int level, const std::vector<Diamond>& diamonds,
                 const std::vector<std::vector<std::byte>>& gathered, Clock::time_point t0);
   TextureSource textureSource() const;
   /// Tile `k` (face-major, heap order within a face) as its blob and rounded-up error.
@@ -222,6 +237,7 @@ class DistributedBuild {
   Lattice lattice_;
   int d_;
   std::uint64_t nodesPerTree_;
+  ForestPlan plan_;
   Checkpoint checkpoint_;
   CheckpointState state_;
   std::optional<SampleGrid> grid_;
@@ -415,7 +431,9 @@ Result<void> DistributedBuild::appendBatch(const std::vector<DiamondBytes>& batc
     if (files.carry) {
       const Diamond& diamond = first[j];
       files.carryIndex.emplace_back(diamond[0], files.carry->size());
-      files.carryIndex.emplace_back(diamond[1], files.carry->size() + bytes.firstCarryBytes);
+      if (diamond[1] != ForestPlan::kNoNode) {
+        files.carryIndex.emplace_back(diamond[1], files.carry->size() + bytes.firstCarryBytes);
+      }
       if (auto r = files.carry->append(bytes.carry); !r) return r;
     }
   }
@@ -431,19 +449,20 @@ Result<LevelPartFooter> DistributedBuild::buildShare(int level,
   const auto threads =
       static_cast<std::uint64_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
   const std::uint64_t batch = 256 * threads;
-  DiamondBuilder builder(DiamondLevel{*grid_, lattice_, d_, level, level < d_ ? &below_ : nullptr,
-                                      o_.minPatchTriangles, o_.errorMargin, o_.heightStepMeters,
-                                      files.carry.has_value(), level > 0 && level < d_});
+  DiamondBuilder builder(DiamondLevel{
+      *grid_, lattice_, plan_, d_, level, level < d_ ? &below_ : nullptr, o_.minPatchTriangles,
+      o_.errorMargin, o_.heightStepMeters, files.carry.has_value()});
   std::vector<DiamondBytes> out;
   files.carryIndex.reserve(files.carry ? 2 * mine : 0);
   LevelPartFooter footer;
   footer.firstDiamond = begin;
   footer.diamonds = mine;
+  footer.nodes = nodesOf(std::span<const Diamond>(diamonds).subspan(begin, mine));
   std::atomic<std::uint64_t> done{0};
   const auto caller = std::this_thread::get_id();
   auto lastReport = Clock::now();
-  const std::uint64_t total = 12 * nodesPerTree_;
-  const std::uint64_t levelPatches = 2 * diamonds.size();
+  const std::uint64_t total = plan_.nodeCount();
+  const std::uint64_t levelPatches = nodesOf(diamonds);
   for (std::uint64_t first = 0; first < mine && !builder.failed(); first += batch) {
     const std::uint64_t count = std::min(batch, mine - first);
     out.assign(count, DiamondBytes{});
@@ -499,11 +518,11 @@ Result<void> DistributedBuild::recordLevel(int level) {
   return {};
 }
 
-void DistributedBuild::logLevel(int level, std::size_t diamonds,
+void DistributedBuild::logLevel(int level, const std::vector<Diamond>& diamonds,
                                 const std::vector<std::vector<std::byte>>& gathered,
                                 Clock::time_point t0) {
-  const std::uint64_t total = 12 * nodesPerTree_;
-  std::string line = "level " + std::to_string(level) + ": " + std::to_string(diamonds) +
+  const std::uint64_t total = plan_.nodeCount();
+  std::string line = "level " + std::to_string(level) + ": " + std::to_string(diamonds.size()) +
                      (level == d_ ? " leaf diamonds" : " blocks");
   char buf[200];
   for (std::size_t r = 0; r < gathered.size(); ++r) {
@@ -522,7 +541,7 @@ void DistributedBuild::logLevel(int level, std::size_t diamonds,
   // Blocks cost ~10x what leaves do: the ETA extrapolates the block levels' rate only.
   if (level < d_) {
     blockSeconds_ += std::chrono::duration<double>(Clock::now() - t0).count();
-    blockPatchesDone_ += 2 * diamonds;
+    blockPatchesDone_ += nodesOf(diamonds);
     std::snprintf(buf, sizeof buf, ", ETA %.0f s",
                   blockSeconds_ / static_cast<double>(blockPatchesDone_) *
                       static_cast<double>(total - patchesDone_));
@@ -533,7 +552,7 @@ void DistributedBuild::logLevel(int level, std::size_t diamonds,
 }
 
 Result<void> DistributedBuild::buildLevel(int level) {
-  const auto diamonds = diamondsOfLevel(lattice_, d_, level);
+  const auto diamonds = plan_.diamondsOfLevel(level);
   const auto [begin, end] = shareOf(diamonds.size(), comm_.rank(), comm_.size());
   const std::string item = "building level " + std::to_string(level) + " diamonds " +
                            rangeText(begin, end) + " of " + std::to_string(diamonds.size());
@@ -569,7 +588,7 @@ Result<void> DistributedBuild::buildLevel(int level) {
   // rank goes on before it has (otherwise a rank failing early in the next level could stop the
   // job while rank 0 writes, and a level every rank completed would be built again on resume).
   auto gathered = comm_.allGather(encodeLevelPartFooter(*footer));
-  patchesDone_ += 2 * diamonds.size();
+  patchesDone_ += nodesOf(diamonds);
   const std::uint32_t previousParts = belowParts_;
   belowParts_ = static_cast<std::uint32_t>(comm_.size());
   if (auto r = recordLevel(level); !r) return r;
@@ -577,7 +596,7 @@ Result<void> DistributedBuild::buildLevel(int level) {
   if (level < d_) checkpoint_.removeFile(Checkpoint::Kind::Carry, level + 1, previousParts);
 
   // 4. Report: per-rank throughput and the ETA of the simplification.
-  logLevel(level, diamonds.size(), gathered, t0);
+  logLevel(level, diamonds, gathered, t0);
   return {};
 }
 
@@ -754,6 +773,7 @@ Result<void> DistributedBuild::buildTextures() {
 /// Rank 0: the face files and the manifest from the checkpointed levels and tiles.
 Result<void> DistributedBuild::assemble(BuildSummary& summary) {
   const AssemblyInputs inputs{o_,
+                              plan_,
                               checkpoint_,
                               state_,
                               *in_.planet,
@@ -838,7 +858,7 @@ Result<BuildSummary> DistributedBuild::run() {
   int next = d_;
   if (start.completeLevel) {
     for (int level = d_; level >= *start.completeLevel; --level) {
-      patchesDone_ += 2 * diamondsOfLevel(lattice_, d_, level).size();
+      patchesDone_ += nodesOf(plan_.diamondsOfLevel(level));
     }
     next = *start.completeLevel - 1;
     belowParts_ = start.completeLevelParts;

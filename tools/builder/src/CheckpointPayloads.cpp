@@ -16,7 +16,7 @@ namespace pbdam::builder {
 namespace {
 
 constexpr std::array<char, 8> kMagic = {'P', 'B', 'D', 'A', 'M', 'C', 'K', 'P'};
-constexpr std::uint32_t kFileVersion = 4;
+constexpr std::uint32_t kFileVersion = 5;
 
 }  // namespace
 
@@ -139,6 +139,7 @@ std::vector<std::byte> encodeLevelPartFooter(const LevelPartFooter& footer) {
   ByteWriter w;
   w.put(footer.firstDiamond);
   w.put(footer.diamonds);
+  w.put(footer.nodes);
   w.put(footer.insertedPoints);
   w.put(footer.halvesOverTarget);
   w.put(footer.patchBytesRaw);
@@ -155,6 +156,7 @@ Result<LevelPartFooter> decodeLevelPartFooter(std::span<const std::byte> bytes,
   LevelPartFooter footer;
   footer.firstDiamond = r.get<std::uint64_t>();
   footer.diamonds = r.get<std::uint64_t>();
+  footer.nodes = r.get<std::uint64_t>();
   footer.insertedPoints = r.get<std::uint64_t>();
   footer.halvesOverTarget = r.get<std::uint64_t>();
   footer.patchBytesRaw = r.get<std::uint64_t>();

@@ -47,6 +47,7 @@ class Assembly final {
         summary_(summary),
         d_(static_cast<int>(in.depth)),
         nodesPerTree_(Lattice::nodesPerTree(d_)),
+        ids_(in.plan.nodeIds()),
         textureLevels_(textureLevelCount(in.latticeCells, in.options.textureTileTexels,
                                          kTextureBorderTexels)) {}
   Assembly(const Assembly&) = delete;
@@ -74,8 +75,25 @@ class Assembly final {
 
   const AssemblyInputs& in_;
   BuildSummary& summary_;
+  /// Where node `id` is in located_: its index among the ids that exist (the id itself for a
+  /// complete forest).
+  std::uint64_t slotOf(std::uint64_t id) const noexcept {
+    if (ids_.empty()) return id;
+    const auto it = std::lower_bound(ids_.begin(), ids_.end(), id);
+    return it != ids_.end() && *it == id ? static_cast<std::uint64_t>(it - ids_.begin())
+                                         : located_.size();
+  }
+  /// The first slot of an id at least `id`.
+  std::uint64_t slotFrom(std::uint64_t id) const noexcept {
+    if (ids_.empty()) return id;
+    return static_cast<std::uint64_t>(std::lower_bound(ids_.begin(), ids_.end(), id) -
+                                      ids_.begin());
+  }
+  std::uint64_t idAt(std::uint64_t slot) const noexcept { return ids_.empty() ? slot : ids_[slot]; }
+
   int d_;
   std::uint64_t nodesPerTree_;
+  std::vector<std::uint64_t> ids_;  ///< the node ids that exist, ascending (empty: complete)
   std::uint32_t textureLevels_;
   std::vector<std::unique_ptr<MappedFile>> mappings_;
   std::vector<Located> located_;
@@ -83,16 +101,16 @@ class Assembly final {
 };
 
 Result<void> Assembly::locateNodes() {
-  located_.assign(12 * nodesPerTree_, Located{});
+  located_.assign(ids_.empty() ? 12 * nodesPerTree_ : ids_.size(), Located{});
   for (int level = 0; level <= d_; ++level) {
     for (std::uint32_t part = 0; part < levelParts(level); ++part) {
       if (auto r = locateLevelPart(level, part); !r) return r;
     }
   }
-  for (std::uint64_t id = 0; id < located_.size(); ++id) {
-    if (located_[id].record == nullptr) {
+  for (std::uint64_t slot = 0; slot < located_.size(); ++slot) {
+    if (located_[slot].record == nullptr) {
       return makeError(ErrorCode::CorruptData, in_.checkpoint.directory().string() + ": node " +
-                                                   std::to_string(id) + " is missing");
+                                                   std::to_string(idAt(slot)) + " is missing");
     }
   }
   return {};
@@ -116,14 +134,15 @@ Result<void> Assembly::locateLevelPart(int level, std::uint32_t part) {
   summary_.patchBytesRaw += view->footer().patchBytesRaw;
   std::size_t releasedUpTo = 0;
   auto walked = view->forEachNode([&](const NodeEntry& node, std::size_t readBytes) {
-    if (node.id >= located_.size()) return false;
+    const std::uint64_t slot = slotOf(node.id);
+    if (slot >= located_.size()) return false;
     if (readBytes - releasedUpTo >= kReleaseEvery) {
       (void)nodesFile.releaseResident();
       releasedUpTo = readBytes;
     }
-    located_[node.id] = Located{node.record.data(), node.blob};
+    located_[slot] = Located{node.record.data(), node.blob};
     const NodeRecord rec = decodeNodeRecord(node.record);
-    if (level == d_) {
+    if (in_.plan.isLeaf(level, node.id)) {
       summary_.leafMaxErrorMeters =
           std::max(summary_.leafMaxErrorMeters, static_cast<double>(rec.errorMeters));
     }
@@ -208,9 +227,13 @@ Result<ManifestFace> Assembly::writeFace(int face) {
   h.textureLevels = textureLevels_;
   h.textureTileTexels = in_.options.textureTileTexels;
   h.textureBorderTexels = kTextureBorderTexels;
-  // Complete trees and quadtree: every leaf at depth D, every tile down to the last level.
-  h.nodeCount = 2 * nodesPerTree_;
-  h.tree1FirstNode = nodesPerTree_;
+  // The face's nodes: slots [firstSlot, endSlot) of located_, tree 0 then tree 1 in heap order.
+  const std::uint64_t faceFirst = static_cast<std::uint64_t>(face) * 2 * nodesPerTree_;
+  const std::uint64_t firstSlot = slotFrom(faceFirst);
+  const std::uint64_t tree1Slot = slotFrom(faceFirst + nodesPerTree_);
+  const std::uint64_t endSlot = slotFrom(faceFirst + 2 * nodesPerTree_);
+  h.nodeCount = endSlot - firstSlot;
+  h.tree1FirstNode = tree1Slot - firstSlot;
   h.nodeTableOffset = kFaceHeaderBytes;
   h.textureNodeCount = tiles_.perFace;
   h.textureTableOffset = h.nodeTableOffset + h.nodeCount * kNodeRecordBytes;
@@ -219,15 +242,15 @@ Result<ManifestFace> Assembly::writeFace(int face) {
   std::uint64_t at = h.blobsOffset;
   std::vector<std::byte> nodeTable(h.nodeCount * kNodeRecordBytes);
   std::vector<std::span<const std::byte>> blobs;
-  const std::uint64_t firstNode = static_cast<std::uint64_t>(face) * 2 * nodesPerTree_;
   for (std::uint64_t k = 0; k < h.nodeCount; ++k) {
-    const Located& node = located_[firstNode + k];
+    const Located& node = located_[firstSlot + k];
     NodeRecord record = decodeNodeRecord(
         std::span<const std::byte, kNodeRecordBytes>(node.record, kNodeRecordBytes));
     record.blobOffset = at;
     record.blobBytes = static_cast<std::uint32_t>(node.blob.size());
-    record.heapIndex = k % nodesPerTree_;
-    const bool leaf = record.heapIndex >= Lattice::firstIndexOfLevel(d_);
+    const std::uint64_t id = idAt(firstSlot + k);
+    record.heapIndex = id % nodesPerTree_;
+    const bool leaf = in_.plan.isLeaf(runtime::bintreeLevel(record.heapIndex), id);
     record.flags = leaf ? kRecordLeaf : 0;
     at += node.blob.size();
     blobs.emplace_back(node.blob);

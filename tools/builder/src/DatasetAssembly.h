@@ -3,6 +3,8 @@
 // so that the blobs are never all in memory at once. Private to the builder.
 #pragma once
 
+#include "ForestPlan.h"
+
 #include <cstdint>
 #include <functional>
 #include <mutex>
@@ -49,6 +51,7 @@ class AssemblyMappings final {
 /// What the assembly needs from the build.
 struct AssemblyInputs final {
   const BuildOptions& options;
+  const ForestPlan& plan;  ///< which nodes exist and which are leaves
   const Checkpoint& checkpoint;
   const CheckpointState& state;  ///< the part counts of the levels and the textures
   const runtime::Planet& planet;

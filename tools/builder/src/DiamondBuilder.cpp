@@ -105,12 +105,13 @@ bool DiamondBuilder::readChildren(const std::array<BinTriangle, 2>& tri,
                                   std::array<Saturated, 4>& saturated,
                                   std::array<std::array<WorkPatch, 2>, 2>& children) {
   // The four child diamonds are those whose spines are this diamond's legs: the diamonds of
-  // the triangles' children (first child: leg apex–left, second: apex–right).
-  const bool leaf = level_.level + 1 == level_.depth;
+  // the triangles' children (first child: leg apex–left, second: apex–right). Leaves are made
+  // again rather than carried.
   for (std::size_t s = 0; s < 2; ++s) {
     const auto kids = Lattice::children(tri[s]);
     for (std::size_t c = 0; c < 2; ++c) {
       const std::uint64_t kid = nodeId(kids[c], level_.depth);
+      const bool leaf = level_.plan.isLeaf(level_.level + 1, kid);
       CarrySaturation carried;
       if (!level_.below->find(kid, carried, leaf ? nullptr : &children[s][c])) {
         noteFailure(makeError(ErrorCode::Internal,
@@ -122,19 +123,20 @@ bool DiamondBuilder::readChildren(const std::array<BinTriangle, 2>& tri,
           Saturated{static_cast<double>(carried.errorMeters),
                     Sphere{carried.sphereCenter, static_cast<double>(carried.sphereRadiusMeters)},
                     static_cast<double>(carried.floorMeters)};
-      if (leaf) children[s][c] = makeLeafPatch(kids[c]);
+      if (leaf) children[s][c] = level_.plan.leafPatch(kids[c]);
     }
   }
   return true;
 }
 
-bool DiamondBuilder::makeNodes(const std::array<BinTriangle, 2>& tri, std::array<Node, 2>& nodes,
-                               std::array<WorkPatch, 2>& made,
+bool DiamondBuilder::makeNodes(const std::array<BinTriangle, 2>& tri, std::size_t count, bool leaf,
+                               std::array<Node, 2>& nodes, std::array<WorkPatch, 2>& made,
                                std::array<Saturated, 4>& childSaturated) {
-  if (level_.level == level_.depth) {
+  if (leaf) {
     bool ok = true;
-    for (std::size_t s = 0; s < 2; ++s)
-      ok = makeNode(tri[s], makeLeafPatch(tri[s]), nodes[s]) && ok;
+    for (std::size_t s = 0; s < count; ++s) {
+      ok = makeNode(tri[s], level_.plan.leafPatch(tri[s]), nodes[s]) && ok;
+    }
     return ok;
   }
   std::array<std::array<WorkPatch, 2>, 2> children;
@@ -162,13 +164,18 @@ bool DiamondBuilder::makeNodes(const std::array<BinTriangle, 2>& tri, std::array
 }
 
 DiamondBuilder::Saturated DiamondBuilder::saturate(
-    const std::array<Node, 2>& nodes, const std::array<Saturated, 4>& childSaturated) const {
+    const std::array<Node, 2>& nodes, std::size_t count, bool leaf,
+    const std::array<Saturated, 4>& childSaturated) const {
   // Saturate over the diamond DAG, with the margin: at least (1 + r) times every child
   // diamond's error, so that the errors of consecutive levels never come closer than that.
-  double e = std::max(nodes[0].measuredError, nodes[1].measuredError);
+  double e = nodes[0].measuredError;
+  Sphere sphere = nodes[0].sphere;
+  if (count == 2) {
+    e = std::max(e, nodes[1].measuredError);
+    sphere = merge(sphere, nodes[1].sphere);
+  }
   double floor = e;  // a leaf diamond's floor is its error
-  Sphere sphere = merge(nodes[0].sphere, nodes[1].sphere);
-  if (level_.level < level_.depth) {
+  if (!leaf) {
     floor = 0.0;
     for (const Saturated& child : childSaturated) {
       e = std::max(e, (1.0 + level_.errorMargin) * child.error);
@@ -183,11 +190,13 @@ DiamondBuilder::Saturated DiamondBuilder::saturate(
                    static_cast<double>(roundUpToFloat(floor))};
 }
 
-void DiamondBuilder::serialise(std::array<Node, 2>& nodes, const Saturated& saturated,
-                               const std::array<WorkPatch, 2>& made, DiamondBytes& out) const {
+void DiamondBuilder::serialise(std::array<Node, 2>& nodes, std::size_t count, bool leaf,
+                               const Saturated& saturated, const std::array<WorkPatch, 2>& made,
+                               DiamondBytes& out) const {
   ByteWriter w;
   std::array<std::byte, kNodeRecordBytes> record{};
-  for (Node& node : nodes) {
+  for (std::size_t s = 0; s < count; ++s) {
+    Node& node = nodes[s];
     node.record.errorMeters = static_cast<float>(saturated.error);
     node.record.sphereRadiusMeters = static_cast<float>(saturated.sphere.radius);
     node.record.sphereCenter = {saturated.sphere.center.x, saturated.sphere.center.y,
@@ -201,28 +210,33 @@ void DiamondBuilder::serialise(std::array<Node, 2>& nodes, const Saturated& satu
   const CarrySaturation carried{static_cast<float>(saturated.error), saturated.sphere.center,
                                 static_cast<float>(saturated.sphere.radius),
                                 static_cast<float>(saturated.floor)};
-  // The parent's block keeps only what a patch has on its hypotenuse.
+  // The parent's block keeps only what a patch has on its hypotenuse; a leaf's is made again.
   std::array<WorkPatch, 2> kept;
-  if (level_.keepPatches) {
-    for (std::size_t s = 0; s < 2; ++s) {
+  if (!leaf) {
+    for (std::size_t s = 0; s < count; ++s) {
       kept[s].points = hypotenusePoints(nodes[s].triangle, made[s]);
     }
   }
   ByteWriter c;
-  putCarryRecord(c, carried, level_.keepPatches ? &kept[0] : nullptr);
+  putCarryRecord(c, carried, leaf ? nullptr : &kept[0]);
   out.firstCarryBytes = c.bytes().size();
-  putCarryRecord(c, carried, level_.keepPatches ? &kept[1] : nullptr);
+  if (count == 2) putCarryRecord(c, carried, leaf ? nullptr : &kept[1]);
   out.carry = c.take();
 }
 
 bool DiamondBuilder::build(const Diamond& diamond, DiamondBytes& out) {
-  const std::array<BinTriangle, 2> tri = {triangleOfNode(level_.lattice, diamond[0], level_.depth),
-                                          triangleOfNode(level_.lattice, diamond[1], level_.depth)};
+  const std::size_t count = diamond[1] == ForestPlan::kNoNode ? 1 : 2;
+  std::array<BinTriangle, 2> tri{};
+  for (std::size_t s = 0; s < count; ++s) {
+    tri[s] = triangleOfNode(level_.lattice, diamond[s], level_.depth);
+  }
+  // Both triangles of a diamond are split alike (a closed forest); one alone is a leaf.
+  const bool leaf = level_.plan.isLeaf(level_.level, diamond[0]);
   std::array<Node, 2> nodes;
   std::array<WorkPatch, 2> made;
   std::array<Saturated, 4> childSaturated;
-  if (!makeNodes(tri, nodes, made, childSaturated) || failed_) return false;
-  serialise(nodes, saturate(nodes, childSaturated), made, out);
+  if (!makeNodes(tri, count, leaf, nodes, made, childSaturated) || failed_) return false;
+  serialise(nodes, count, leaf, saturate(nodes, count, leaf, childSaturated), made, out);
   return true;
 }
 

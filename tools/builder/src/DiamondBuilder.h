@@ -10,6 +10,7 @@
 #include <mutex>
 #include <vector>
 
+#include "ForestPlan.h"
 #include "pbdam/builder/Checkpoint.h"
 #include "pbdam/builder/Lattice.h"
 #include "pbdam/builder/SampleGrid.h"
@@ -32,15 +33,15 @@ struct DiamondBytes final {
 struct DiamondLevel final {
   const SampleGrid& grid;
   const Lattice& lattice;
-  int depth = 0;  ///< the bintree depth (the leaf level)
+  const ForestPlan& plan;  ///< which nodes exist and which are leaves
+  int depth = 0;           ///< the bintree depth (the deepest leaves' level)
   int level = 0;
   /// The carry of level + 1 (nothing at the leaf level).
   const CarryReader* below = nullptr;
   std::uint32_t minPatchTriangles = 0;
   double errorMargin = 0.25;
   double heightStepMeters = 0.0;
-  bool writeCarry = false;   ///< the level writes a carry (every level but 0)
-  bool keepPatches = false;  ///< its carry holds the working patches (level − 1 is a block level)
+  bool writeCarry = false;  ///< the level writes a carry (every level but 0)
 };
 
 /// Builds the diamonds of one level. Thread-safe: build() runs concurrently on different
@@ -49,8 +50,9 @@ class DiamondBuilder final {
  public:
   explicit DiamondBuilder(const DiamondLevel& level) : level_(level) {}
 
-  /// Builds `diamond` into `out`. False on failure (then `out` is incomplete and failure()
-  /// says why, for the first failure of any thread).
+  /// Builds `diamond` (a leaf without partner: its second node ForestPlan::kNoNode) into `out`.
+  /// False on failure (then `out` is incomplete and failure() says why, for the first failure
+  /// of any thread).
   bool build(const Diamond& diamond, DiamondBytes& out);
 
   bool failed() const noexcept { return failed_; }
@@ -67,12 +69,15 @@ class DiamondBuilder final {
   bool readChildren(const std::array<runtime::BinTriangle, 2>& tri,
                     std::array<Saturated, 4>& saturated,
                     std::array<std::array<WorkPatch, 2>, 2>& children);
-  bool makeNodes(const std::array<runtime::BinTriangle, 2>& tri, std::array<Node, 2>& nodes,
-                 std::array<WorkPatch, 2>& made, std::array<Saturated, 4>& childSaturated);
-  Saturated saturate(const std::array<Node, 2>& nodes,
+  /// The diamond's `count` nodes (1: a leaf without partner), leaves or from the block.
+  bool makeNodes(const std::array<runtime::BinTriangle, 2>& tri, std::size_t count, bool leaf,
+                 std::array<Node, 2>& nodes, std::array<WorkPatch, 2>& made,
+                 std::array<Saturated, 4>& childSaturated);
+  Saturated saturate(const std::array<Node, 2>& nodes, std::size_t count, bool leaf,
                      const std::array<Saturated, 4>& childSaturated) const;
-  void serialise(std::array<Node, 2>& nodes, const Saturated& saturated,
-                 const std::array<WorkPatch, 2>& made, DiamondBytes& out) const;
+  void serialise(std::array<Node, 2>& nodes, std::size_t count, bool leaf,
+                 const Saturated& saturated, const std::array<WorkPatch, 2>& made,
+                 DiamondBytes& out) const;
 
   DiamondLevel level_;
   std::mutex failureMutex_;

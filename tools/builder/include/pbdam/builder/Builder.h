@@ -15,6 +15,7 @@
 #include <string_view>
 
 #include "pbdam/builder/Communicator.h"
+#include "pbdam/builder/ForestShape.h"
 #include "pbdam/formats/DemReader.h"
 #include "pbdam/formats/Result.h"
 #include "pbdam/formats/TextureTile.h"
@@ -34,6 +35,10 @@ struct BuildOptions final {
   double errorMargin = 0.25;
   std::uint32_t textureTileTexels = 256;  ///< texture tile side, border included
   std::optional<std::uint32_t> depth;     ///< bintree depth (even); auto from the DEM density
+  /// Regions that want deeper leaves (even levels above the depth): the forest's shape is then
+  /// ForestShape's closed set over a lattice of the deepest region's density, the depth being
+  /// the base's (docs/builder.md "Insets: the forest's shape").
+  std::vector<DeepRegion> deepRegions;
   formats::TexelFormat textureFormat = formats::TexelFormat::Bc1;
   formats::Bc1Quality bc1Quality = formats::Bc1Quality::Fast;
   double heightStepMeters = 1.0 / 64.0;

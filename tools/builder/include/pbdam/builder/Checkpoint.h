@@ -148,7 +148,7 @@ struct CheckpointState final {
 };
 
 /// The first line of the state file.
-inline constexpr std::string_view kCheckpointStateHeader = "pbdam-build-checkpoint 3";
+inline constexpr std::string_view kCheckpointStateHeader = "pbdam-build-checkpoint 4";
 /// Parses the text of a state file; CorruptData naming `where` and the bad line otherwise.
 formats::Result<CheckpointState> parseCheckpointState(std::string_view text,
                                                       const std::string& where);
@@ -211,7 +211,7 @@ class Checkpoint final {
   std::filesystem::path dir_;
 };
 
-// ---- The trailer of the part files: magic PBDAMCKP, u32 version 4, u32 kind, i32 level, u32
+// ---- The trailer of the part files: magic PBDAMCKP, u32 version 5, u32 kind, i32 level, u32
 // part, u32 parts, u32 0, u64 payload bytes; then the CRC-32 of payload and trailer.
 inline constexpr std::size_t kPartTrailerBytes = 8 + 4 + 4 + 4 + 4 + 4 + 4 + 8;
 /// The trailer of a part file whose payload has `payloadBytes` bytes (the CRC follows it).
@@ -237,9 +237,10 @@ formats::Result<std::span<const std::byte>> partPayload(std::span<const std::byt
 /// The footer of a level's nodes part file: what the rank's share of the level did. The same
 /// bytes are what the ranks all-gather after the level for the log.
 struct LevelPartFooter final {
-  static constexpr std::size_t kBytes = std::size_t{6} * 8;  ///< six 8-byte fields
+  static constexpr std::size_t kBytes = std::size_t{7} * 8;  ///< seven 8-byte fields
   std::uint64_t firstDiamond = 0;  ///< the rank's first diamond of the level
-  std::uint64_t diamonds = 0;      ///< how many it built (two nodes each)
+  std::uint64_t diamonds = 0;      ///< how many it built
+  std::uint64_t nodes = 0;         ///< their nodes (two a diamond, one a leaf without partner)
   std::uint64_t insertedPoints = 0;
   std::uint64_t halvesOverTarget = 0;
   std::uint64_t patchBytesRaw = 0;  ///< 8 bytes a vertex and 6 a triangle, uncompressed
@@ -271,13 +272,13 @@ class LevelPartView final {
   static formats::Result<LevelPartView> parse(std::span<const std::byte> payload,
                                               std::string where);
   const LevelPartFooter& footer() const noexcept { return footer_; }
-  /// Calls `visit(entry, bytesReadSoFar)` for each of the footer's 2 × diamonds entries, in
+  /// Calls `visit(entry, bytesReadSoFar)` for each of the footer's `nodes` entries, in
   /// file order, stopping early when `visit` returns false. Errors: the entries do not fill
   /// the payload exactly ("truncated").
   template <typename Visit>
   formats::Result<void> forEachNode(Visit&& visit) const {
     ByteReader r(entries_);
-    for (std::uint64_t k = 0; k < 2 * footer_.diamonds; ++k) {
+    for (std::uint64_t k = 0; k < footer_.nodes; ++k) {
       const std::optional<NodeEntry> entry = nextEntry(r);
       if (!entry) break;
       if (!visit(*entry, r.offset())) break;

@@ -1,0 +1,85 @@
+// The forest a build makes (ForestPlan.h).
+#include "ForestPlan.h"
+
+#include <algorithm>
+#include <bit>
+#include <utility>
+
+using namespace pbdam::runtime;
+
+namespace pbdam::builder {
+
+ForestPlan::ForestPlan(const Lattice& lattice, int depth, std::uint32_t leafCells)
+    : lattice_(lattice), depth_(depth), leafCells_(leafCells) {}
+
+ForestPlan::ForestPlan(const Lattice& lattice, std::uint32_t leafCells, ForestShape shape)
+    : lattice_(lattice), depth_(shape.depth()), leafCells_(leafCells), shape_(std::move(shape)) {
+  partnerless_.resize(static_cast<std::size_t>(depth_) + 1);
+  for (int level = 0; level <= depth_; ++level) {
+    for (const Diamond& d : diamondsOfLevel(level)) {
+      if (d[1] == kNoNode) partnerless_[static_cast<std::size_t>(level)].push_back(d[0]);
+    }
+    std::sort(partnerless_[static_cast<std::size_t>(level)].begin(),
+              partnerless_[static_cast<std::size_t>(level)].end());
+  }
+}
+
+std::uint64_t ForestPlan::nodeCount() const noexcept {
+  return shape_ ? shape_->nodeCount() : 12 * Lattice::nodesPerTree(depth_);
+}
+
+std::vector<std::uint64_t> ForestPlan::nodeIds() const {
+  std::vector<std::uint64_t> ids;
+  if (!shape_) return ids;
+  ids.reserve(shape_->nodeCount());
+  for (int level = 0; level <= depth_; ++level) {
+    const auto& nodes = shape_->nodesOfLevel(level);
+    ids.insert(ids.end(), nodes.begin(), nodes.end());
+  }
+  std::sort(ids.begin(), ids.end());
+  return ids;
+}
+
+std::vector<Diamond> ForestPlan::diamondsOfLevel(int level) const {
+  if (!shape_) return builder::diamondsOfLevel(lattice_, depth_, level);
+  const auto& nodes = shape_->nodesOfLevel(level);
+  std::vector<std::pair<EdgeKey, std::uint64_t>> keyed(nodes.size());
+  for (std::size_t k = 0; k < nodes.size(); ++k) {
+    const BinTriangle t = triangleOfNode(lattice_, nodes[k], depth_);
+    keyed[k] = {lattice_.edgeKey(t.face, t.left, t.right), nodes[k]};
+  }
+  std::sort(keyed.begin(), keyed.end());
+  std::vector<Diamond> diamonds;
+  diamonds.reserve(keyed.size() / 2 + 1);
+  for (std::size_t k = 0; k < keyed.size();) {
+    if (k + 1 < keyed.size() && keyed[k + 1].first == keyed[k].first) {
+      diamonds.push_back({keyed[k].second, keyed[k + 1].second});
+      k += 2;
+    } else {
+      diamonds.push_back({keyed[k].second, kNoNode});
+      ++k;
+    }
+  }
+  return diamonds;
+}
+
+bool ForestPlan::isLeaf(int level, std::uint64_t id) const noexcept {
+  return shape_ ? !shape_->isSplit(level, id) : level == depth_;
+}
+
+std::int32_t ForestPlan::leafSpacing(int level) const noexcept {
+  const int shift = std::countr_zero(leafCells_) + (level + 1) / 2;
+  return static_cast<std::int32_t>(lattice_.sideCells() >> shift);
+}
+
+WorkPatch ForestPlan::leafPatch(const BinTriangle& t) const {
+  if (!shape_) return makeLeafPatch(t);
+  // Only an odd leaf without a partner lies on a leg with half its hypotenuse's points (an even
+  // one's hypotenuse lies on an odd leaf's leg of the same spacing; docs/builder.md).
+  const auto& singles = partnerless_[static_cast<std::size_t>(t.level)];
+  const bool coarse =
+      t.level % 2 == 1 && std::binary_search(singles.begin(), singles.end(), nodeId(t, depth_));
+  return makeLeafPatch(t, leafSpacing(t.level), coarse);
+}
+
+}  // namespace pbdam::builder
