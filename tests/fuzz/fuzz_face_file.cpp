@@ -5,8 +5,9 @@
 // faces 0 and 4 of a depth-0 build of a synthetic DEM: an 8 × 4
 // int16le global grid of 1000·sin(0.7·i) + 500·cos(1.3·j), built with `pbdam build --raw-size
 // 8,4 --raw-type int16le --bounds -90,-180,90,180 --planet mars --levels 0 --leaf-vertices 3
-// --texture-tile 16 --texture-format rgba8`; tests/fuzz/make_seeds.sh rewrites them when the face
-// format version changes).
+// --texture-tile 16 --texture-format rgba8`, and face 0 of the same with `--deep-region
+// -2,-36,2,-32@6`, a sparse forest; tests/fuzz/make_seeds.sh rewrites them when the face format
+// version changes).
 #include <cstddef>
 #include <cstdint>
 #include <span>

@@ -29,6 +29,11 @@ EOF
   --out "$work/tiny" --quiet
 cp "$work/tiny/face0.pbdam" "$corpus/face_file/mars_face0.bin"
 cp "$work/tiny/face4.pbdam" "$corpus/face_file/mars_face4.bin"
+# And a sparse forest: leaves of level 6 over a small box on face 0, shallower elsewhere.
+"$pbdam" build --dem "$work/grid.raw" --raw-size 8,4 --raw-type int16le --bounds -90,-180,90,180 \
+  --planet mars --levels 0 --deep-region -2,-36,2,-32@6 --leaf-vertices 3 --texture-tile 16 \
+  --texture-format rgba8 --out "$work/sparse" --quiet
+cp "$work/sparse/face0.pbdam" "$corpus/face_file/mars_sparse_face0.bin"
 
 # A manifest: MOLA at two levels with BC1 tiles.
 "$pbdam" build --dem "$mola" --planet mars --levels 2 --leaf-vertices 9 --min-patch-triangles 16 \

@@ -169,6 +169,12 @@ TEST(Cli, BadInputGivesOneLineAndExitCode2) {
                  "missing.lbl");
   expectBadInput("build --dem x --planet mars --out y --levels seven", "--levels 'seven'");
   expectBadInput("build --dem x --planet mars --out y --texture-format png", "png");
+  expectBadInput("build --dem x --planet mars --out y --deep-region 10,60,20@8",
+                 "--deep-region '10,60,20@8'");
+  expectBadInput("build --dem x --planet mars --out y --deep-region 20,60,10,75@8",
+                 "--deep-region '20,60,10,75@8'");
+  expectBadInput("build --dem x --planet mars --out y --deep-region 10,60,20,75@x",
+                 "--deep-region '10,60,20,75@x'");
   expectBadInput("info '" + (dir / "nothing").string() + "'", "no manifest");
   expectBadInput("verify '" + (dir / "nothing").string() + "'", "no manifest");
   expectBadInput("height '" + (dir / "nothing").string() + "' --at 0,0", "nothing");

@@ -33,6 +33,7 @@ struct BuildCliOptions {
   double errorMargin = 0.25;
   std::uint32_t textureTile = 256;
   std::string levels = "auto";
+  std::vector<std::string> deepRegions;  ///< "S,W,N,E@LEVEL"
   std::string textureFormat = "bc1";
   std::string textureQuality = "fast";
   int threads = 0;
@@ -96,6 +97,32 @@ builder::BuildOptions::FaultInjection faultFromEnvironment() {
   return f;
 }
 
+/// Parses every --deep-region "S,W,N,E@LEVEL" into `o`; an error names the bad one.
+Result<void> parseDeepRegions(const std::vector<std::string>& texts, builder::BuildOptions& o) {
+  for (const std::string& text : texts) {
+    const auto at = text.find('@');
+    const auto bad = [&text] {
+      return makeError(ErrorCode::InvalidArgument,
+                       "--deep-region '" + text +
+                           "': expected S,W,N,E@LEVEL (degrees, -90 <= S < N <= 90, W < E; an "
+                           "even bintree level deeper than --levels)");
+    };
+    if (at == std::string::npos) return bad();
+    RawLayout box;
+    if (!parseRawBounds(std::string_view(text).substr(0, at), box)) return bad();
+    try {
+      std::size_t used = 0;
+      const std::string level = text.substr(at + 1);
+      const int leafLevel = std::stoi(level, &used);
+      if (used != level.size() || leafLevel <= 0 || leafLevel > 28) return bad();
+      o.deepRegions.push_back(builder::DeepRegion{box.bounds, leafLevel});
+    } catch (const std::exception&) {
+      return bad();
+    }
+  }
+  return {};
+}
+
 int runBuild(const BuildCliOptions& c) {
   // Past the file-size limit (ulimit -f) a write fails with EFBIG, which the builder reports
   // (exit code 2, the file and the bytes) like a full disk, instead of the signal killing it.
@@ -139,6 +166,9 @@ int runBuild(const BuildCliOptions& c) {
         std::cerr << "pbdam: --levels '" << c.levels << "': expected 'auto' or an even depth\n";
       return kExitBadInput;
     }
+  }
+  if (auto r = parseDeepRegions(c.deepRegions, o); !r) {
+    return root ? reportError(r.error()) : exitCodeOf(r.error());
   }
   if (c.textureFormat == "bc1") {
     o.textureFormat = TexelFormat::Bc1;
@@ -239,6 +269,10 @@ void addBuildCommand(CLI::App& app, CommandStatus& status) {
       ->capture_default_str();
   cmd->add_option("--levels", c->levels, "Bintree depth (even) or 'auto' from the DEM density")
       ->capture_default_str();
+  cmd->add_option("--deep-region", c->deepRegions,
+                  "S,W,N,E@LEVEL: leaves of this even level (deeper than --levels) over the box, "
+                  "the forest closed around it (repeatable; the lattice is that of the deepest)")
+      ->type_name("BOX@LEVEL");
   cmd->add_option("--threads", c->threads, "Worker threads (0: all cores)")
       ->check(CLI::Range(0, 1024))
       ->capture_default_str();
