@@ -225,6 +225,11 @@ TEST(Builder, AnAdaptiveForestPassesVerifyAgainstTheDem) {
   EXPECT_TRUE(leafLevels.contains(2));
   EXPECT_TRUE(leafLevels.contains(6));
   EXPECT_GT(oddLeaves, 0u);
+  // Tiles only as deep as the leaves under them: fewer than the complete quadtree's.
+  EXPECT_EQ(r.tilesDecoded, summary->textureTiles);
+  EXPECT_LT(summary->textureTiles,
+            6 * ((std::uint64_t{1} << (2 * manifest->textureLevels)) - 1) / 3);
+  EXPECT_GT(manifest->textureLevels, 1u);
 }
 
 TEST(Builder, Etopo5BuildPassesVerifyAgainstTheDem) {

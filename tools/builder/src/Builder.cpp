@@ -644,11 +644,11 @@ TextureSource DistributedBuild::textureSource() const {
   return source;
 }
 
-bool DistributedBuild::buildTile(const TextureSource& source, std::uint64_t k,
+bool DistributedBuild::buildTile(const TextureSource& source, std::uint64_t key,
                                  std::uint64_t tilesPerFace, std::vector<std::byte>& blob,
                                  float& errorMeters) const {
-  const auto face = static_cast<int>(k / tilesPerFace);
-  const std::uint64_t heap = k % tilesPerFace;
+  const auto face = static_cast<int>(key / tilesPerFace);
+  const std::uint64_t heap = key % tilesPerFace;
   std::uint32_t level = 0;
   while (((std::uint64_t{1} << (2 * (level + 1))) - 1) / 3 <= heap) ++level;
   const std::uint64_t within = heap - ((std::uint64_t{1} << (2 * level)) - 1) / 3;
@@ -701,7 +701,9 @@ Result<void> DistributedBuild::buildTextures() {
   const std::uint32_t textureLevels =
       textureLevelCount(in_.n, o_.textureTileTexels, kTextureBorderTexels);
   const std::uint64_t tilesPerFace = ((std::uint64_t{1} << (2 * textureLevels)) - 1) / 3;
-  const std::uint64_t tiles = 6 * tilesPerFace;
+  // The tiles that exist (face · tilesPerFace + heap index); all of them for a complete forest.
+  const std::vector<std::uint64_t> keys = plan_.tiles(textureLevels);
+  const std::uint64_t tiles = keys.empty() ? 6 * tilesPerFace : keys.size();
   // Named copies, not a structured binding: the tile lambda below captures `begin`.
   const auto share = shareOf(tiles, comm_.rank(), comm_.size());
   const std::uint64_t begin = share.first;
@@ -734,7 +736,7 @@ Result<void> DistributedBuild::buildTextures() {
     errors.assign(count, 0.0f);
     tbb::parallel_for(std::uint64_t{0}, count, [&](std::uint64_t j) {
       const std::uint64_t k = begin + first + j;
-      if (!buildTile(source, k, tilesPerFace, blobs[j], errors[j])) {
+      if (!buildTile(source, keys.empty() ? k : keys[k], tilesPerFace, blobs[j], errors[j])) {
         failedTile = static_cast<std::int64_t>(k);
         return;
       }

@@ -98,6 +98,7 @@ class Assembly final {
   std::vector<std::unique_ptr<MappedFile>> mappings_;
   std::vector<Located> located_;
   Tiles tiles_;
+  std::vector<std::uint64_t> tileKeys_;  ///< the tiles that exist (empty: all), ascending
 };
 
 Result<void> Assembly::locateNodes() {
@@ -159,8 +160,10 @@ Result<void> Assembly::locateLevelPart(int level, std::uint32_t part) {
 
 Result<void> Assembly::locateTiles() {
   tiles_.perFace = ((std::uint64_t{1} << (2 * textureLevels_)) - 1) / 3;
-  tiles_.blobs.assign(6 * tiles_.perFace, {});
-  tiles_.errors.assign(6 * tiles_.perFace, 0.0f);
+  tileKeys_ = in_.plan.tiles(textureLevels_);
+  const std::uint64_t count = tileKeys_.empty() ? 6 * tiles_.perFace : tileKeys_.size();
+  tiles_.blobs.assign(count, {});
+  tiles_.errors.assign(count, 0.0f);
   std::uint64_t seen = 0;
   const Checkpoint& checkpoint = in_.checkpoint;
   for (std::uint32_t part = 0; part < std::max(1u, in_.state.textureParts); ++part) {
@@ -235,9 +238,17 @@ Result<ManifestFace> Assembly::writeFace(int face) {
   h.nodeCount = endSlot - firstSlot;
   h.tree1FirstNode = tree1Slot - firstSlot;
   h.nodeTableOffset = kFaceHeaderBytes;
-  h.textureNodeCount = tiles_.perFace;
+  // The face's tiles: [firstTile, endTile) of tiles_ (all of a complete quadtree).
+  const std::uint64_t faceTiles = static_cast<std::uint64_t>(face) * tiles_.perFace;
+  const auto tileSlot = [&](std::uint64_t key) -> std::uint64_t {
+    if (tileKeys_.empty()) return key;
+    return static_cast<std::uint64_t>(std::lower_bound(tileKeys_.begin(), tileKeys_.end(), key) -
+                                      tileKeys_.begin());
+  };
+  const std::uint64_t firstTile = tileSlot(faceTiles);
+  h.textureNodeCount = tileSlot(faceTiles + tiles_.perFace) - firstTile;
   h.textureTableOffset = h.nodeTableOffset + h.nodeCount * kNodeRecordBytes;
-  const std::uint64_t tablesEnd = h.textureTableOffset + tiles_.perFace * kTextureRecordBytes;
+  const std::uint64_t tablesEnd = h.textureTableOffset + h.textureNodeCount * kTextureRecordBytes;
   h.blobsOffset = (tablesEnd + 4095) / 4096 * 4096;  // page-aligned blob area
   std::uint64_t at = h.blobsOffset;
   std::vector<std::byte> nodeTable(h.nodeCount * kNodeRecordBytes);
@@ -260,12 +271,23 @@ Result<ManifestFace> Assembly::writeFace(int face) {
     summary_.totalTriangles += record.triangleCount;
     if (leaf) summary_.leafTriangles += record.triangleCount;
   }
-  std::vector<std::byte> textureTable(tiles_.perFace * kTextureRecordBytes);
-  for (std::uint64_t k = 0; k < tiles_.perFace; ++k) {
-    const std::size_t tile = static_cast<std::size_t>(face) * tiles_.perFace + k;
+  std::vector<std::byte> textureTable(h.textureNodeCount * kTextureRecordBytes);
+  for (std::uint64_t k = 0; k < h.textureNodeCount; ++k) {
+    const std::size_t tile = firstTile + k;
+    const std::uint64_t heap = tileKeys_.empty() ? k : tileKeys_[tile] - faceTiles;
     const auto& blob = tiles_.blobs[tile];
-    TextureRecord t{at, static_cast<std::uint32_t>(blob.size()), tiles_.errors[tile], k,
-                    textureLevelOfHeap(k) + 1 == textureLevels_ ? kRecordLeaf : 0};
+    const std::uint32_t level = textureLevelOfHeap(heap);
+    // A tile with children has all four (ForestPlan::tiles); the first one tells.
+    bool leaf = level + 1 == textureLevels_;
+    if (!leaf && !tileKeys_.empty()) {
+      const std::uint64_t inLevel = heap - textureHeapIndex(level, 0, 0);
+      const auto qi = static_cast<std::uint32_t>(inLevel & ((std::uint64_t{1} << level) - 1));
+      const auto qj = static_cast<std::uint32_t>(inLevel >> level);
+      leaf = !std::binary_search(tileKeys_.begin(), tileKeys_.end(),
+                                 faceTiles + textureHeapIndex(level + 1, 2 * qi, 2 * qj));
+    }
+    TextureRecord t{at, static_cast<std::uint32_t>(blob.size()), tiles_.errors[tile], heap,
+                    leaf ? kRecordLeaf : 0};
     at += blob.size();
     blobs.emplace_back(blob);
     encodeTextureRecord(t, std::span<std::byte, kTextureRecordBytes>(
@@ -298,7 +320,7 @@ Result<void> Assembly::run() {
   if (auto r = locateNodes(); !r) return r;
   summary_.textureLevels = textureLevels_;
   if (auto r = locateTiles(); !r) return r;
-  summary_.textureTiles = 6 * tiles_.perFace;
+  summary_.textureTiles = tiles_.blobs.size();
 
   Manifest manifest = makeManifest();
   for (int face = 0; face < 6; ++face) {

@@ -5,6 +5,8 @@
 #include <bit>
 #include <utility>
 
+#include "pbdam/formats/DatasetFormat.h"
+
 using namespace pbdam::runtime;
 
 namespace pbdam::builder {
@@ -80,6 +82,45 @@ WorkPatch ForestPlan::leafPatch(const BinTriangle& t) const {
   const bool coarse =
       t.level % 2 == 1 && std::binary_search(singles.begin(), singles.end(), nodeId(t, depth_));
   return makeLeafPatch(t, leafSpacing(t.level), coarse);
+}
+
+}  // namespace pbdam::builder
+
+namespace pbdam::builder {
+
+std::vector<std::uint64_t> ForestPlan::tiles(std::uint32_t textureLevels) const {
+  std::vector<std::uint64_t> keys;
+  if (!shape_) return keys;
+  const std::uint64_t perFace = ((std::uint64_t{1} << (2 * textureLevels)) - 1) / 3;
+  const auto finest = static_cast<int>(textureLevels) - 1;
+  for (std::uint64_t face = 0; face < 6; ++face) keys.push_back(face * perFace);  // the roots
+  for (int level = 0; level <= depth_; ++level) {
+    const auto& nodes = shape_->nodesOfLevel(level);
+    const auto& split = shape_->splitOfLevel(level);
+    // A leaf of level d wants tiles down to level finest − ⌊(depth − d)/2⌋ over its square (an
+    // odd leaf samples the next even level's lattice).
+    const int deepest = std::min(finest - (depth_ - level) / 2, level / 2);
+    for (std::size_t k = 0; k < nodes.size(); ++k) {
+      if (split[k]) continue;
+      const BinTriangle t = triangleOfNode(lattice_, nodes[k], depth_);
+      const std::int32_t minX = std::min({t.apex.x, t.left.x, t.right.x});
+      const std::int32_t minY = std::min({t.apex.y, t.left.y, t.right.y});
+      for (int tl = 0; tl <= deepest; ++tl) {
+        const auto side = static_cast<std::int32_t>(lattice_.sideCells() >> tl);
+        const auto qi = static_cast<std::uint32_t>(minX / side);
+        const auto qj = static_cast<std::uint32_t>(minY / side);
+        for (std::uint32_t c = 0; c < 4; ++c) {  // the square and its siblings
+          const std::uint32_t si = tl == 0 ? 0 : (qi & ~1U) + (c & 1U);
+          const std::uint32_t sj = tl == 0 ? 0 : (qj & ~1U) + (c >> 1);
+          keys.push_back(static_cast<std::uint64_t>(t.face) * perFace +
+                         formats::textureHeapIndex(static_cast<std::uint32_t>(tl), si, sj));
+        }
+      }
+    }
+  }
+  std::sort(keys.begin(), keys.end());
+  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+  return keys;
 }
 
 }  // namespace pbdam::builder

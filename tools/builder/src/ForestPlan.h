@@ -44,6 +44,13 @@ class ForestPlan final {
   /// The regular patch of leaf `t`, with a coarse hypotenuse when its partner does not exist.
   WorkPatch leafPatch(const runtime::BinTriangle& t) const;
 
+  /// The texture tiles that exist, as face · tilesPerFace + heap index, ascending, for a
+  /// quadtree of `textureLevels` levels; empty for a complete forest, whose quadtree is complete.
+  /// A tile of level t exists where a leaf of level d with t ≤ textureLevels − 1 −
+  /// ⌊(depth − d)/2⌋ lies in its square (texels as dense as the leaves under it), with its three
+  /// siblings (a tile has none or four children) and its ancestors; every face has its root.
+  std::vector<std::uint64_t> tiles(std::uint32_t textureLevels) const;
+
  private:
   const Lattice& lattice_;
   int depth_;
