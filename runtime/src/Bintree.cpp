@@ -39,6 +39,15 @@ std::array<BinTriangle, 2> bintreeChildren(const BinTriangle& t) noexcept {
   return {first, second};
 }
 
+int bintreeChildContaining(const BinTriangle& t, const glm::dvec2& xy) noexcept {
+  const glm::dvec2 a(t.apex), l(t.left);
+  const glm::dvec2 m = 0.5 * (glm::dvec2(t.left) + glm::dvec2(t.right));
+  const auto side = [&](const glm::dvec2& q) {
+    return (m.x - a.x) * (q.y - a.y) - (m.y - a.y) * (q.x - a.x);
+  };
+  return side(xy) * side(l) >= 0.0 ? 0 : 1;
+}
+
 BinTriangle bintreeTriangle(std::uint32_t sideCells, int face, int tree,
                             std::uint64_t index) noexcept {
   BinTriangle t = bintreeRoot(sideCells, face, tree);

@@ -16,11 +16,6 @@ using namespace pbdam::formats;
 namespace pbdam::runtime {
 namespace {
 
-// Twice the signed area of (a, b, p) in lattice coordinates.
-double side(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& p) {
-  return (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x);
-}
-
 // The leaf containing lattice position (x, y) of `face`.
 NodeKey leafAt(const DatasetView& view, int face, const glm::dvec2& xy) {
   const std::uint32_t n = view.latticeCells();
@@ -29,12 +24,9 @@ NodeKey leafAt(const DatasetView& view, int face, const glm::dvec2& xy) {
   BinTriangle t = bintreeRoot(n, face, key.tree);
   const FaceView& file = view.face(face);
   for (std::uint64_t row = file.treeFirstNode(key.tree); !file.nodeAt(row).leaf();) {
-    const auto kids = bintreeChildren(t);
-    // First child (m, left, apex) lies on the left's side of the line apex–m.
-    const glm::dvec2 apex(t.apex), m(kids[0].apex), left(t.left);
-    const bool first = side(apex, m, xy) * side(apex, m, left) >= 0.0;
-    row = file.firstChildOf(row) + (first ? 0 : 1);
-    t = kids[first ? 0 : 1];
+    const int child = bintreeChildContaining(t, xy);
+    row = file.firstChildOf(row) + static_cast<std::uint64_t>(child);
+    t = bintreeChildren(t)[static_cast<std::size_t>(child)];
   }
   key.heap = t.index;
   return key;

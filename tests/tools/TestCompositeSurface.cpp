@@ -171,8 +171,7 @@ TEST(CompositeSurface, InsetsThatCannotBeJoinedAreRefusedByName) {
 // The real pair: ETOPO5 (5′) with the Luxembourg GeoTIFF (30″) on it.
 TEST(CompositeSurface, LuxembourgOnEtopo5) {
   PBDAM_REQUIRE_DATA(luxembourgPath, test::dataDir() / "geotiff/terra_elev_luxembourg.tif");
-  const std::filesystem::path etopoPath = "/usr/share/ferret-vis/data/etopo5.cdf";
-  if (!std::filesystem::exists(etopoPath)) GTEST_SKIP() << etopoPath << " is missing";
+  PBDAM_REQUIRE_DATA(etopoPath, PBDAM_ETOPO5_PATH);
   auto etopo = readDem(etopoPath);
   auto luxembourg = readDem(luxembourgPath);
   ASSERT_TRUE(etopo.ok()) << etopo.error().message;

@@ -53,12 +53,7 @@ int leafLevelAt(const Lattice& lattice, const ForestShape& shape, double lat, do
   const glm::dvec2 xy = fuv.uv * static_cast<double>(lattice.sideCells());
   BinTriangle t = lattice.root(cubeFaceIndex(fuv.face), xy.x >= xy.y ? 0 : 1);
   while (shape.isSplit(t.level, nodeId(t, shape.depth()))) {
-    const auto kids = Lattice::children(t);
-    const glm::dvec2 a(t.apex), m(kids[0].apex), l(t.left);
-    const auto side = [&](const glm::dvec2& q) {
-      return (m.x - a.x) * (q.y - a.y) - (m.y - a.y) * (q.x - a.x);
-    };
-    t = kids[side(xy) * side(l) >= 0.0 ? 0 : 1];
+    t = Lattice::children(t)[static_cast<std::size_t>(bintreeChildContaining(t, xy))];
   }
   return t.level;
 }

@@ -107,13 +107,7 @@ class ShapeBuilder {
       const auto& level = split_[static_cast<std::size_t>(t.level)];
       const auto it = level.find(id(t));
       if (it == level.end() || !it->second) return t;
-      const auto kids = Lattice::children(t);
-      // The first child (m, left, apex) lies on the left's side of the line apex–m.
-      const glm::dvec2 a(t.apex), m(kids[0].apex), l(t.left);
-      const auto side = [&](const glm::dvec2& q) {
-        return (m.x - a.x) * (q.y - a.y) - (m.y - a.y) * (q.x - a.x);
-      };
-      t = kids[side(xy) * side(l) >= 0.0 ? 0 : 1];
+      t = Lattice::children(t)[static_cast<std::size_t>(bintreeChildContaining(t, xy))];
     }
   }
 

@@ -8,6 +8,7 @@
 #include <array>
 #include <bit>
 #include <cstdint>
+#include <glm/ext/vector_double2.hpp>
 #include <glm/vec2.hpp>
 
 #include "pbdam/runtime/CubeMap.h"
@@ -42,6 +43,10 @@ BinTriangle bintreeRoot(std::uint32_t sideCells, int face, int tree) noexcept;
 /// The two children: first (m, left, apex), second (m, apex, right), m = hypotenuse midpoint.
 /// The triangle's legs must be at least 2 cells long (axis-aligned) or 1 cell (diagonal).
 std::array<BinTriangle, 2> bintreeChildren(const BinTriangle& t) noexcept;
+
+/// Which child of `t` (0: first, 1: second; bintreeChildren) contains lattice position `xy`:
+/// the first (m, left, apex) lies on the left's side of the line apex–m (points on it go first).
+int bintreeChildContaining(const BinTriangle& t, const glm::dvec2& xy) noexcept;
 
 /// The level of heap index `index` (0 for the root, 1 for 1 and 2, …).
 inline int bintreeLevel(std::uint64_t index) noexcept {
