@@ -59,7 +59,8 @@ TEST(CheckpointFormat, NodeEntriesRoundTripThroughALevelPart) {
   ByteWriter w;
   putNodeEntry(w, 7, recordA, blobA);
   putNodeEntry(w, 8, recordB, blobB);
-  const auto payload = concat(w.take(), encodeLevelPartFooter(LevelPartFooter{0, 1, 2, 0, 0, 0, 0}));
+  const auto payload =
+      concat(w.take(), encodeLevelPartFooter(LevelPartFooter{0, 1, 2, 0, 0, 0, 0}));
   auto view = LevelPartView::parse(payload, "level-04.part-0.nodes");
   ASSERT_TRUE(view) << view.error().message;
   std::vector<std::uint64_t> ids;
