@@ -67,7 +67,9 @@ std::vector<Error> NoStallPolicy::preloadCoarseLevels() const {
     }
     const TextureRecord root = view.textureNode(TileKey{static_cast<std::uint8_t>(f), 0});
     touch(file, root.blobOffset, root.blobBytes);
-    (void)file.releaseResident();
+    // The tables stay mapped: refinement reads them every frame, and mapped pages the render
+    // thread keeps referencing are the last the kernel reclaims. Only the blobs leave the RSS.
+    (void)file.releaseResident(h.blobsOffset, file.size() - h.blobsOffset);
   }
   return unreadable;
 }

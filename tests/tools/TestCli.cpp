@@ -28,6 +28,11 @@ struct CliRun {
   std::string err;
 };
 
+std::string readText(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
 /// Runs pbdam with `args` (a shell-quoted string), capturing stdout and stderr.
 CliRun runPbdam(const std::string& args) {
   test::TempDir dir;
@@ -41,8 +46,7 @@ CliRun runPbdam(const std::string& args) {
   while ((n = std::fread(buf.data(), 1, buf.size(), pipe)) > 0) run.out.append(buf.data(), n);
   const int status = ::pclose(pipe);
   run.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  std::ifstream in(errFile);
-  run.err.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  run.err = readText(errFile);
   return run;
 }
 
@@ -361,7 +365,8 @@ TEST(Cli, NoStallBenchNeverFaultsOnTheRenderThread) {
   for (const auto& run : summary["runs"]) {
     EXPECT_EQ(run["frames"], 11);  // 2 s at 5 fps
     EXPECT_EQ(run["mode"], "no-stall");
-    EXPECT_EQ(run["render_thread_major_faults"], 0);
+    EXPECT_EQ(run["render_thread_major_faults"], 0) << "frames.csv:\n"
+                                                    << readText(dir / "r" / "frames.csv");
   }
 }
 

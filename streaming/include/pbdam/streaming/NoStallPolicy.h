@@ -33,8 +33,10 @@ class NoStallPolicy final {
   /// an empty range is.
   static bool rangeResident(const MappedFile& file, std::uint64_t offset, std::uint64_t bytes);
 
-  /// Brings every node table, the patches of levels 0-2 and the root tiles into the page cache
-  /// (and out of the process's RSS again): no-stall refinement must not fault on node records,
+  /// Brings every node table, the patches of levels 0-2 and the root tiles into the page cache;
+  /// the tables stay mapped, the blobs leave the process's RSS again (a caller that drops page
+  /// tables each frame should keep the tables' too): no-stall refinement must not fault on
+  /// node records,
   /// and with the coarsest levels resident there is always a conforming cut to draw. Blocks on
   /// the reads: call it before the first frame. Ranges that cannot be read (a truncated file,
   /// a failing disk) are skipped; their errors, naming the file and offset, are returned (empty
