@@ -198,6 +198,10 @@ TEST(Builder, AnAdaptiveForestPassesVerifyAgainstTheDem) {
   EXPECT_EQ(summary->latticeCells, 128u);
   EXPECT_EQ(summary->depth, 6u);
   EXPECT_LT(summary->patches, 12u * 127u / 2);
+  // The lattice is dense only where the deep leaves are. Its tiles are the base's squares
+  // (here a quarter face each); those away from the region keep every 4th point of each row
+  // and column (the base leaves' spacing).
+  EXPECT_LT(summary->latticeSamples, 6u * 129u * 129u / 2u);
   const VerifyReport r = verify(dir / "adaptive", dem);
   EXPECT_TRUE(r.ok()) << describe(r);
   EXPECT_EQ(r.patchesDecoded, summary->patches);

@@ -142,6 +142,7 @@ class DistributedBuild {
                   : ForestPlan(lattice_, in.leafCells,
                                ForestShape::make(lattice_, static_cast<int>(in.baseDepth),
                                                  o.deepRegions))),
+        tiles_(plan_.latticeTiles()),
         checkpoint_(o.outDir) {}
 
   Result<BuildSummary> run();
@@ -238,6 +239,7 @@ class DistributedBuild {
   int d_;
   std::uint64_t nodesPerTree_;
   ForestPlan plan_;
+  LatticeTiles tiles_;  // the lattice points the patches use
   Checkpoint checkpoint_;
   CheckpointState state_;
   std::optional<SampleGrid> grid_;
@@ -338,16 +340,17 @@ void DistributedBuild::releaseResident() {
 Result<void> DistributedBuild::resample() {
   // Each rank resamples a share of the lattice rows into the one heights file and buckets a
   // share of the DEM rows into its own samples file; after a barrier every rank maps them all.
-  const std::size_t n1 = std::size_t{in_.n} + 1;
-  const auto [begin, end] = shareOf(6 * n1, comm_.rank(), comm_.size());
+  const std::uint64_t rows = tiles_.rowCount();
+  const auto [begin, end] = shareOf(rows, comm_.rank(), comm_.size());
   const std::string item =
-      "resampling lattice rows " + rangeText(begin, end) + " of " + std::to_string(6 * n1);
-  announce("resampling", "lattice rows", 6 * n1);
+      "resampling lattice rows " + rangeText(begin, end) + " of " + std::to_string(rows);
+  announce("resampling", "lattice rows", rows);
   const auto t0 = Clock::now();
   const std::uint32_t bucketCells = SampleGrid::defaultBucketCells(lattice_);
   auto stats = SampleGrid::writeHeightRows(
-      *in_.dem, *in_.planet, lattice_, checkpoint_.heightsFile(), static_cast<std::size_t>(begin),
-      static_cast<std::size_t>(end), [&](std::size_t done, std::size_t total) {
+      *in_.dem, *in_.planet, lattice_, tiles_, checkpoint_.heightsFile(),
+      static_cast<std::size_t>(begin), static_cast<std::size_t>(end),
+      [&](std::size_t done, std::size_t total) {
         report("resample",
                static_cast<double>(done) / static_cast<double>(std::max<std::size_t>(total, 1)));
       });
@@ -380,7 +383,7 @@ Result<void> DistributedBuild::resample() {
   for (std::uint32_t k = 0; k < static_cast<std::uint32_t>(comm_.size()); ++k) {
     samples.push_back(checkpoint_.samplesFile(k));
   }
-  auto grid = SampleGrid::open(lattice_, *in_.planet, checkpoint_.heightsFile(), samples,
+  auto grid = SampleGrid::open(lattice_, tiles_, *in_.planet, checkpoint_.heightsFile(), samples,
                                bucketCells, total);
   if (!grid) return fail(item, grid.error());
   {
@@ -389,8 +392,17 @@ Result<void> DistributedBuild::resample() {
   }
   const double s = std::chrono::duration<double>(Clock::now() - t0).count();
   char line[160];
-  std::snprintf(line, sizeof line, "resample: %zu lattice rows over %d rank(s) in %.1f s", 6 * n1,
-                comm_.size(), s);
+  if (tiles_.isDense()) {
+    std::snprintf(line, sizeof line, "resample: %llu lattice rows over %d rank(s) in %.1f s",
+                  static_cast<unsigned long long>(rows), comm_.size(), s);
+  } else {
+    std::snprintf(line, sizeof line,
+                  "resample: %llu lattice rows of %llu tiles (%llu points) over %d rank(s) in "
+                  "%.1f s",
+                  static_cast<unsigned long long>(rows),
+                  static_cast<unsigned long long>(tiles_.tileCount()),
+                  static_cast<unsigned long long>(tiles_.pointCount()), comm_.size(), s);
+  }
   log(line);
   return {};
 }
@@ -847,7 +859,7 @@ Result<BuildSummary> DistributedBuild::run() {
   // every rank then maps).
   if (auto r = resample(); !r) return std::move(r).error();
   summary.sourceSamples = grid_->sourceSampleCount();
-  summary.latticeSamples = 6ULL * (in_.n + 1ULL) * (in_.n + 1ULL);
+  summary.latticeSamples = tiles_.pointCount();
   summary.noDataPoints = grid_->noDataPoints();
 
   // RSS bound: the levels read the lattice and the bucketed samples only, so the DEM (the

@@ -88,6 +88,33 @@ WorkPatch ForestPlan::leafPatch(const BinTriangle& t) const {
 
 namespace pbdam::builder {
 
+LatticeTiles ForestPlan::latticeTiles() const {
+  const std::uint32_t n = lattice_.sideCells();
+  if (!shape_) return LatticeTiles::dense(n);
+  const std::uint32_t cells = n >> (shape_->baseDepth() / 2);
+  const std::uint32_t perSide = n / cells;
+  // Start every tile at the base leaves' spacing, then refine to the finest leaf in it.
+  const auto log2Of = [](std::int32_t spacing) {
+    return static_cast<std::uint8_t>(std::countr_zero(static_cast<std::uint32_t>(spacing)));
+  };
+  std::vector<std::uint8_t> spacing(6 * std::size_t{perSide} * perSide,
+                                    log2Of(leafSpacing(shape_->baseDepth())));
+  for (int level = shape_->baseDepth(); level <= depth_; ++level) {
+    const auto& nodes = shape_->nodesOfLevel(level);
+    const auto& split = shape_->splitOfLevel(level);
+    const std::uint8_t s = log2Of(leafSpacing(level));
+    for (std::size_t k = 0; k < nodes.size(); ++k) {
+      if (split[k]) continue;
+      const BinTriangle t = triangleOfNode(lattice_, nodes[k], depth_);
+      const auto tx = static_cast<std::uint32_t>(std::min({t.apex.x, t.left.x, t.right.x})) / cells;
+      const auto ty = static_cast<std::uint32_t>(std::min({t.apex.y, t.left.y, t.right.y})) / cells;
+      std::uint8_t& at = spacing[(static_cast<std::size_t>(t.face) * perSide + ty) * perSide + tx];
+      at = std::min(at, s);
+    }
+  }
+  return LatticeTiles(n, cells, std::move(spacing));
+}
+
 std::vector<std::uint64_t> ForestPlan::tiles(std::uint32_t textureLevels) const {
   std::vector<std::uint64_t> keys;
   if (!shape_) return keys;

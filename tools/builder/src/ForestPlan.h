@@ -11,6 +11,7 @@
 
 #include "pbdam/builder/ForestShape.h"
 #include "pbdam/builder/Lattice.h"
+#include "pbdam/builder/LatticeTiles.h"
 #include "pbdam/builder/PatchBuilder.h"
 
 namespace pbdam::builder {
@@ -43,6 +44,11 @@ class ForestPlan final {
   std::int32_t leafSpacing(int level) const noexcept;
   /// The regular patch of leaf `t`, with a coarse hypotenuse when its partner does not exist.
   WorkPatch leafPatch(const runtime::BinTriangle& t) const;
+
+  /// The lattice points the forest's patches use: every point for a complete forest; for an
+  /// adaptive one, squares of N / 2^⌊baseDepth/2⌋ cells (every leaf lies in one), each at the
+  /// spacing of the finest leaves in it.
+  LatticeTiles latticeTiles() const;
 
   /// The texture tiles that exist, as face · tilesPerFace + heap index, ascending, for a
   /// quadtree of `textureLevels` levels; empty for a complete forest, whose quadtree is complete.

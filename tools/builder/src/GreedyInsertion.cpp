@@ -514,14 +514,13 @@ void Triangulation::scan(std::uint32_t t) {
     if (first > last) continue;
     if (excluded(LatticeXY{static_cast<std::int32_t>(first), y})) first += step;
     if (first <= last && excluded(LatticeXY{static_cast<std::int32_t>(last), y})) last -= step;
-    const float* row = heights + static_cast<std::size_t>(y) * rowLength;
     const double ry = static_cast<double>(y - p[0].y);
     const double gyry = gy * ry;
     const double dcy = ry - ccy;
     const double dcy2 = dcy * dcy;
-    for (std::int64_t x = first; x <= last; x += step) {
+    const auto visit = [&](std::int64_t x, float height) {
       const double rx = static_cast<double>(x - p[0].x);
-      const double dev = std::abs(static_cast<double>(row[x]) - (z[0] + gx * rx + gyry));
+      const double dev = std::abs(static_cast<double>(height) - (z[0] + gx * rx + gyry));
       const double dcx = rx - ccx;
       const double sag = sagPerCell2_ * std::max(0.0, rc2 - (dcx * dcx + dcy2));
       worstHeight = std::max(worstHeight, dev);
@@ -529,7 +528,16 @@ void Triangulation::scan(std::uint32_t t) {
         worstScore = dev + sag;
         worst = LatticeXY{static_cast<std::int32_t>(x), y};
       }
+    };
+    if (heights_.tiles != nullptr) {
+      // A sparse lattice: the points stored, each tile at its own spacing.
+      heights_.tiles->forEachInRow(
+          heights_.face, y, first, last, step,
+          [&](std::int64_t x, std::uint64_t at) { visit(x, heights[at]); });
+      continue;
     }
+    const float* row = heights + static_cast<std::size_t>(y) * rowLength;
+    for (std::int64_t x = first; x <= last; x += step) visit(x, row[x]);
   }
   tri.error = worstScore < 0.0 ? -1.0 : worstHeight + chordBound;
   tri.candidate = worst;

@@ -18,19 +18,10 @@
 #include <span>
 #include <vector>
 
+#include "pbdam/builder/LatticeTiles.h"
 #include "pbdam/builder/PatchBuilder.h"
 
 namespace pbdam::builder {
-
-/// The heights of one face's lattice points: row-major by j, (N + 1) per row.
-struct FaceHeights final {
-  const float* data = nullptr;
-  std::uint32_t sideCells = 0;
-  float at(runtime::LatticeXY p) const noexcept {
-    return data[static_cast<std::size_t>(p.y) * (std::size_t{sideCells} + 1) +
-                static_cast<std::size_t>(p.x)];
-  }
-};
 
 /// The sag of flat triangles below the planet's surface, in metres: a triangle with
 /// circumradius rc (lattice cells) lies (rc² − d²)·metresPerCell²/(2·radius) below the sphere

@@ -81,6 +81,41 @@ double triangleLatticeDeviation(const float* heights, std::size_t rowLength, Lat
   return worst;
 }
 
+/// triangleLatticeDeviation over the points a sparse lattice stores (each tile at its spacing).
+double triangleTiledDeviation(const FaceHeights& heights, LatticeXY a, LatticeXY b, LatticeXY c,
+                              double ha, double hb, double hc, std::int64_t total) noexcept {
+  const int x0 = std::min({a.x, b.x, c.x});
+  const int x1 = std::max({a.x, b.x, c.x});
+  const int y0 = std::min({a.y, b.y, c.y});
+  const int y1 = std::max({a.y, b.y, c.y});
+  const double sum = static_cast<double>(total);
+  const std::int64_t d0 = -static_cast<std::int64_t>(c.y - b.y);
+  const std::int64_t d1 = -static_cast<std::int64_t>(a.y - c.y);
+  const std::int64_t d2 = -static_cast<std::int64_t>(b.y - a.y);
+  double worst = 0.0;
+  for (int y = y0; y <= y1; ++y) {
+    std::int64_t lo = x0;
+    std::int64_t hi = x1;
+    clipSpan(d0, doubleArea(b, c, LatticeXY{0, y}), lo, hi);
+    clipSpan(d1, doubleArea(c, a, LatticeXY{0, y}), lo, hi);
+    clipSpan(d2, doubleArea(a, b, LatticeXY{0, y}), lo, hi);
+    if (lo > hi) continue;
+    const LatticeXY first{static_cast<int>(lo), y};
+    const std::int64_t w0 = doubleArea(b, c, first);
+    const std::int64_t w1 = doubleArea(c, a, first);
+    const std::int64_t w2 = doubleArea(a, b, first);
+    heights.tiles->forEachInRow(heights.face, y, lo, hi, 1, [&](std::int64_t x, std::uint64_t at) {
+      const std::int64_t dx = x - lo;
+      const double hp =
+          (static_cast<double>(w0 + d0 * dx) * ha + static_cast<double>(w1 + d1 * dx) * hb +
+           static_cast<double>(w2 + d2 * dx) * hc) /
+          sum;
+      worst = std::max(worst, std::abs(hp - static_cast<double>(heights.data[at])));
+    });
+  }
+  return worst;
+}
+
 /// Calls f(k, a, b, c) for every triangle k of `patch` with positive area, (a, b, c) its
 /// corners and `total` its doubled area.
 template <class F>
@@ -97,6 +132,17 @@ void forEachTriangle(const WorkPatch& patch, F&& f) {
 /// The largest |patch − lattice| over the lattice points of triangle k, for every k.
 void latticeDeviations(const SampleGrid& grid, int face, const WorkPatch& patch,
                        std::vector<double>& error) {
+  if (!grid.tiles().isDense()) {
+    const FaceHeights heights = grid.heightsOf(face);
+    forEachTriangle(
+        patch, [&](std::size_t k, LatticeXY a, LatticeXY b, LatticeXY c, std::int64_t total) {
+          error[k] = std::max(
+              error[k], triangleTiledDeviation(heights, a, b, c, static_cast<double>(heights.at(a)),
+                                               static_cast<double>(heights.at(b)),
+                                               static_cast<double>(heights.at(c)), total));
+        });
+    return;
+  }
   const float* heights = grid.faceHeights(face);
   const std::size_t rowLength = std::size_t{grid.lattice().sideCells()} + 1;
   forEachTriangle(

@@ -14,15 +14,15 @@ using namespace pbdam::runtime;
 namespace pbdam::builder {
 namespace {
 
-/// The lattice points of the segment from → to, evenly spaced one lattice step apart.
+/// The lattice points of the segment from → to, evenly spaced `spacing` lattice steps apart.
 struct LatticeSegment {
   std::vector<LatticeXY> points;
   double stepCells = 1.0;
 };
 
-LatticeSegment latticeSegment(LatticeXY from, LatticeXY to) {
+LatticeSegment latticeSegment(LatticeXY from, LatticeXY to, std::int32_t spacing) {
   const LatticeXY d = to - from;
-  const int steps = std::gcd(std::abs(d.x), std::abs(d.y));
+  const int steps = std::gcd(std::abs(d.x), std::abs(d.y)) / spacing;
   assert(steps > 0);
   const LatticeXY step = d / steps;
   LatticeSegment s;
@@ -40,6 +40,24 @@ ChordModel chordModel(const SampleGrid& grid) {
       0.5 * std::numbers::pi * planet.equatorialRadiusMeters() /
           static_cast<double>(grid.lattice().sideCells()),
       std::max(1.0, planet.polarRadiusMeters() + static_cast<double>(grid.minHeightMeters()))};
+}
+
+/// The coarsest spacing of the tiles a triangle's box reaches: the diagonal of a diamond takes
+/// the points both its triangles' tiles store (1 on a dense lattice).
+std::int32_t coarsestSpacing(const LatticeTiles& tiles, const BinTriangle& t) {
+  if (tiles.isDense()) return 1;
+  const std::int32_t x0 = std::min({t.apex.x, t.left.x, t.right.x});
+  const std::int32_t x1 = std::max({t.apex.x, t.left.x, t.right.x});
+  const std::int32_t y0 = std::min({t.apex.y, t.left.y, t.right.y});
+  const std::int32_t y1 = std::max({t.apex.y, t.left.y, t.right.y});
+  const auto cells = static_cast<std::int32_t>(tiles.tileCells());
+  std::int32_t coarsest = 1;
+  for (std::int32_t y = y0; y < y1; y += cells - (y % cells)) {
+    for (std::int32_t x = x0; x < x1; x += cells - (x % cells)) {
+      coarsest = std::max(coarsest, tiles.spacingAt(t.face, LatticeXY{x, y}));
+    }
+  }
+  return coarsest;
 }
 
 }  // namespace
@@ -66,8 +84,10 @@ BlockResult simplifyBlock(const SampleGrid& grid, const std::array<BinTriangle, 
   const BinTriangle& tb = triangles[1];
   // The diagonal: ta's left–right is tb's right–left (the same lattice points, maybe on another
   // face, where they have the same heights).
-  const LatticeSegment da = latticeSegment(ta.left, ta.right);
-  const LatticeSegment db = latticeSegment(tb.left, tb.right);
+  const std::int32_t spacing =
+      std::max(coarsestSpacing(grid.tiles(), ta), coarsestSpacing(grid.tiles(), tb));
+  const LatticeSegment da = latticeSegment(ta.left, ta.right, spacing);
+  const LatticeSegment db = latticeSegment(tb.left, tb.right, spacing);
   assert(da.points.size() == db.points.size());
   assert(grid.lattice().key(ta.face, da.points.front()) ==
          grid.lattice().key(tb.face, db.points.back()));
@@ -95,7 +115,7 @@ BlockResult simplifyBlock(const SampleGrid& grid, const std::array<BinTriangle, 
       const std::vector<LatticeXY> leg = hypotenusePoints(kids[c], *children[s][c]);
       boundary.insert(boundary.end(), leg.begin(), leg.end());
     }
-    const FaceHeights heightsOfFace{grid.faceHeights(t.face), grid.lattice().sideCells()};
+    const FaceHeights heightsOfFace = grid.heightsOf(t.face);
     InsertionResult half =
         insertGreedily(heightsOfFace, {t.apex, t.left, t.right}, boundary, limits, chord);
     result.stats.insertedPoints += half.insertedPoints;

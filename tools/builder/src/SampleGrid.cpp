@@ -43,16 +43,15 @@ Error ioError(const fs::path& path, const std::string& what) {
                    path.string() + ": " + what + " (" + std::strerror(errno) + ")");
 }
 
-/// Resamples lattice row j of `face` into `out` ((N+1) heights); returns its no-data count.
+/// Resamples one storage row into `out` (row.points heights); returns its no-data count.
 std::uint64_t resampleRow(const HeightGrid& dem, const Planet& planet, const Lattice& lattice,
-                          int face, std::size_t j, float* out) {
-  const std::size_t n1 = std::size_t{lattice.sideCells()} + 1;
+                          const LatticeTiles::Row& row, float* out) {
   std::uint64_t missing = 0;
-  for (std::size_t i = 0; i < n1; ++i) {
+  for (std::uint32_t i = 0; i < row.points; ++i) {
     // Shared edge/corner points are computed from their canonical direction, so every face
-    // stores the same value.
+    // (and every tile) stores the same value.
     const glm::dvec3 d = lattice.direction(
-        face, LatticeXY{static_cast<std::int32_t>(i), static_cast<std::int32_t>(j)});
+        row.face, LatticeXY{row.first.x + static_cast<std::int32_t>(i) * row.spacing, row.first.y});
     const GeodeticPosition g = planet.directionToGeodetic(d);
     auto h = dem.sampleBicubic(g.latDegrees, g.lonDegrees);
     if (!h) h = dem.sampleBilinear(g.latDegrees, g.lonDegrees);
@@ -135,24 +134,29 @@ void SampleGrid::releaseResident() const noexcept {
 SampleGrid SampleGrid::build(const HeightGrid& dem, const Planet& planet, const Lattice& lattice,
                              std::uint32_t bucketCells,
                              const std::function<void(std::size_t, std::size_t)>& progress) {
-  SampleGrid grid(lattice, planet);
+  return build(dem, planet, lattice, LatticeTiles::dense(lattice.sideCells()), bucketCells,
+               progress);
+}
+
+SampleGrid SampleGrid::build(const HeightGrid& dem, const Planet& planet, const Lattice& lattice,
+                             const LatticeTiles& tiles, std::uint32_t bucketCells,
+                             const std::function<void(std::size_t, std::size_t)>& progress) {
+  SampleGrid grid(lattice, tiles, planet);
   const std::uint32_t n = lattice.sideCells();
-  const std::size_t n1 = static_cast<std::size_t>(n) + 1;
-  grid.heights_.assign(6 * n1 * n1, 0.0f);
-  for (std::size_t face = 0; face < 6; ++face) {
-    grid.faceHeights_[face] = grid.heights_.data() + face * n1 * n1;
-  }
+  grid.heights_.assign(static_cast<std::size_t>(tiles.pointCount()), 0.0f);
+  grid.setFacePointers(grid.heights_.data());
   std::atomic<std::uint64_t> noData{0};
 
-  // 1. Heights at lattice points.
-  std::atomic<std::size_t> rowsDone{0};
-  for (int face = 0; face < 6; ++face) {
-    float* heights = grid.heights_.data() + static_cast<std::size_t>(face) * n1 * n1;
-    tbb::parallel_for(std::size_t{0}, n1, [&](std::size_t j) {
-      noData += resampleRow(dem, planet, lattice, face, j, heights + j * n1);
-      ++rowsDone;
+  // 1. Heights at lattice points, a chunk of storage rows at a time.
+  const std::size_t rows = static_cast<std::size_t>(tiles.rowCount());
+  const std::size_t chunk = std::max<std::size_t>(1, rows / 6);
+  for (std::size_t first = 0; first < rows; first += chunk) {
+    const std::size_t last = std::min(rows, first + chunk);
+    tbb::parallel_for(first, last, [&](std::size_t r) {
+      const LatticeTiles::Row row = tiles.row(r);
+      noData += resampleRow(dem, planet, lattice, row, grid.heights_.data() + row.offset);
     });
-    if (progress) progress(rowsDone.load(), 6 * n1);
+    if (progress) progress(last, rows);
   }
   grid.noDataPoints_ = noData.load();
   const auto [mn, mx] = std::minmax_element(grid.heights_.begin(), grid.heights_.end());
@@ -192,14 +196,24 @@ Result<HeightRowStats> SampleGrid::writeHeightRows(
     const HeightGrid& dem, const Planet& planet, const Lattice& lattice,
     const fs::path& heightsFile, std::size_t beginRow, std::size_t endRow,
     const std::function<void(std::size_t, std::size_t)>& progress) {
-  const std::size_t n1 = std::size_t{lattice.sideCells()} + 1;
+  return writeHeightRows(dem, planet, lattice, LatticeTiles::dense(lattice.sideCells()),
+                         heightsFile, beginRow, endRow, progress);
+}
+
+Result<HeightRowStats> SampleGrid::writeHeightRows(
+    const HeightGrid& dem, const Planet& planet, const Lattice& lattice, const LatticeTiles& tiles,
+    const fs::path& heightsFile, std::size_t beginRow, std::size_t endRow,
+    const std::function<void(std::size_t, std::size_t)>& progress) {
   const int fd = ::open(heightsFile.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
   if (fd < 0) return ioError(heightsFile, "cannot open for writing");
-  const std::size_t rowBytes = n1 * sizeof(float);
+  const auto byteOf = [&](std::size_t r) {
+    return r == tiles.rowCount() ? tiles.pointCount() * sizeof(float)
+                                 : tiles.row(r).offset * sizeof(float);
+  };
+  const std::uint64_t firstByte = byteOf(beginRow);
+  const std::uint64_t rangeBytes = byteOf(endRow) - firstByte;
   // This rank's rows get their blocks first: a full disk stops the build here, naming the bytes.
-  if (auto r =
-          reserveFileSpace(fd, beginRow * rowBytes, (endRow - beginRow) * rowBytes, heightsFile);
-      !r) {
+  if (auto r = reserveFileSpace(fd, firstByte, rangeBytes, heightsFile); !r) {
     ::close(fd);
     return std::move(r).error();
   }
@@ -217,17 +231,17 @@ Result<HeightRowStats> SampleGrid::writeHeightRows(
     const std::size_t last = std::min(endRow, first + chunk);
     tbb::parallel_for(first, last, [&](std::size_t row) {
       if (failed) return;
-      std::vector<float> heights(n1);
-      const auto face = static_cast<int>(row / n1);
-      noData += resampleRow(dem, planet, lattice, face, row % n1, heights.data());
+      const LatticeTiles::Row at = tiles.row(row);
+      std::vector<float> heights(at.points);
+      noData += resampleRow(dem, planet, lattice, at, heights.data());
       const auto [mn, mx] = std::minmax_element(heights.begin(), heights.end());
       {
         std::lock_guard lock(statsMutex);
         stats.minHeightMeters = std::min(stats.minHeightMeters, *mn);
         stats.maxHeightMeters = std::max(stats.maxHeightMeters, *mx);
       }
-      auto written = pwriteFully(fd, std::as_bytes(std::span<const float>(heights)), row * rowBytes,
-                                 heightsFile);
+      auto written = pwriteFully(fd, std::as_bytes(std::span<const float>(heights)),
+                                 at.offset * sizeof(float), heightsFile);
       if (!written) {
         std::lock_guard lock(statsMutex);
         if (!writeError) writeError = std::move(written).error();
@@ -242,7 +256,7 @@ Result<HeightRowStats> SampleGrid::writeHeightRows(
     ::close(fd);
     return std::move(*writeError);
   }
-  if (auto r = syncFile(fd, (endRow - beginRow) * rowBytes, heightsFile); !r) {
+  if (auto r = syncFile(fd, rangeBytes, heightsFile); !r) {
     ::close(fd);
     return std::move(r).error();
   }
@@ -426,18 +440,25 @@ Result<SampleGrid> SampleGrid::open(const Lattice& lattice, const Planet& planet
                                     const fs::path& heightsFile,
                                     const std::vector<fs::path>& samplesFiles,
                                     std::uint32_t bucketCells, const HeightRowStats& stats) {
-  SampleGrid grid(lattice, planet);
-  const std::size_t n1 = std::size_t{lattice.sideCells()} + 1;
+  return open(lattice, LatticeTiles::dense(lattice.sideCells()), planet, heightsFile, samplesFiles,
+              bucketCells, stats);
+}
+
+Result<SampleGrid> SampleGrid::open(const Lattice& lattice, const LatticeTiles& tiles,
+                                    const Planet& planet, const fs::path& heightsFile,
+                                    const std::vector<fs::path>& samplesFiles,
+                                    std::uint32_t bucketCells, const HeightRowStats& stats) {
+  SampleGrid grid(lattice, tiles, planet);
   auto heights = MappedFile::open(heightsFile);
   if (!heights) return std::move(heights).error();
-  if (heights->size() != 6 * n1 * n1 * sizeof(float)) {
-    return makeError(ErrorCode::CorruptData,
-                     heightsFile.string() + ": " + std::to_string(heights->size()) +
-                         " bytes, expected " + std::to_string(6 * n1 * n1 * sizeof(float)));
+  const std::uint64_t expected = tiles.pointCount() * sizeof(float);
+  if (heights->size() != expected) {
+    return makeError(ErrorCode::CorruptData, heightsFile.string() + ": " +
+                                                 std::to_string(heights->size()) +
+                                                 " bytes, expected " + std::to_string(expected));
   }
   grid.heightsMapping_ = std::move(heights).value();
-  const auto* base = reinterpret_cast<const float*>(grid.heightsMapping_.bytes().data());
-  for (std::size_t face = 0; face < 6; ++face) grid.faceHeights_[face] = base + face * n1 * n1;
+  grid.setFacePointers(reinterpret_cast<const float*>(grid.heightsMapping_.bytes().data()));
   grid.noDataPoints_ = stats.noDataPoints;
   grid.minHeight_ = stats.minHeightMeters;
   grid.maxHeight_ = stats.maxHeightMeters;

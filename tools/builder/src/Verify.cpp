@@ -8,6 +8,7 @@
 #include <stdlib.h>  // mkdtemp
 
 #include <algorithm>
+#include <bit>
 #include <filesystem>
 #include <map>
 #include <mutex>
@@ -248,9 +249,14 @@ Result<void> DatasetVerifier::openDemGrid() {
     }
   } removeScratch{scratch};
   const std::uint32_t bucketCells = SampleGrid::defaultBucketCells(lattice_);
-  const std::size_t latticeRows = 6 * (std::size_t{lattice_.sideCells()} + 1);
+  // Patches are checked against the source samples only, never against lattice heights, so
+  // the lattice is reduced to each face's corners (one tile per face at the face's spacing):
+  // a deep adaptive forest's lattice would otherwise be resampled densely for nothing.
+  const std::uint32_t n = lattice_.sideCells();
+  const LatticeTiles corners(
+      n, n, std::vector<std::uint8_t>(6, static_cast<std::uint8_t>(std::countr_zero(n))));
   auto stats = SampleGrid::writeHeightRows(
-      *dem, planet_, lattice_, scratch / "heights.f32", 0, latticeRows,
+      *dem, planet_, lattice_, corners, scratch / "heights.f32", 0, corners.rowCount(),
       [&](std::size_t doneRows, std::size_t total) {
         progress("resample", static_cast<double>(doneRows) /
                                  static_cast<double>(std::max<std::size_t>(total, 1)));
@@ -262,7 +268,7 @@ Result<void> DatasetVerifier::openDemGrid() {
       !r) {
     return std::move(r).error();
   }
-  auto opened = SampleGrid::open(lattice_, planet_, scratch / "heights.f32",
+  auto opened = SampleGrid::open(lattice_, corners, planet_, scratch / "heights.f32",
                                  {scratch / "samples.bin"}, bucketCells, *stats);
   if (!opened) return std::move(opened).error();
   grid_.emplace(std::move(opened).value());

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -21,6 +22,7 @@
 #include <vector>
 
 #include "pbdam/builder/Lattice.h"
+#include "pbdam/builder/LatticeTiles.h"
 #include "pbdam/formats/HeightGrid.h"
 #include "pbdam/formats/Result.h"
 #include "pbdam/runtime/Planet.h"
@@ -51,6 +53,11 @@ class SampleGrid final {
   static SampleGrid build(const formats::HeightGrid& dem, const runtime::Planet& planet,
                           const Lattice& lattice, std::uint32_t bucketCells,
                           const std::function<void(std::size_t, std::size_t)>& progress = {});
+  /// The same at the lattice points of `tiles` only.
+  static SampleGrid build(const formats::HeightGrid& dem, const runtime::Planet& planet,
+                          const Lattice& lattice, const LatticeTiles& tiles,
+                          std::uint32_t bucketCells,
+                          const std::function<void(std::size_t, std::size_t)>& progress = {});
 
   /// Out of core, step 1: resamples the lattice rows [beginRow, endRow) of the 6·(N+1) rows
   /// (face-major: row r is row r mod (N+1) of face r / (N+1)) as build() does and writes them
@@ -61,6 +68,12 @@ class SampleGrid final {
       const formats::HeightGrid& dem, const runtime::Planet& planet, const Lattice& lattice,
       const std::filesystem::path& heightsFile, std::size_t beginRow, std::size_t endRow,
       const std::function<void(std::size_t, std::size_t)>& progress = {});
+  /// The same for the storage rows [beginRow, endRow) of `tiles` (LatticeTiles::row), written
+  /// at their offsets; the dense layout's rows are the rows above.
+  static formats::Result<HeightRowStats> writeHeightRows(
+      const formats::HeightGrid& dem, const runtime::Planet& planet, const Lattice& lattice,
+      const LatticeTiles& tiles, const std::filesystem::path& heightsFile, std::size_t beginRow,
+      std::size_t endRow, const std::function<void(std::size_t, std::size_t)>& progress = {});
 
   /// Out of core, step 2: the valid DEM samples of the DEM rows [beginRow, endRow), bucketed
   /// into `bucketCells`-sized squares of each face (counting sort: within a bucket in DEM row
@@ -77,6 +90,12 @@ class SampleGrid final {
   /// Out of core, step 3: maps the complete heights file and the bucket files (in row order)
   /// read-only. `stats` are the totals over all rows. Errors: missing, short or damaged files.
   static formats::Result<SampleGrid> open(const Lattice& lattice, const runtime::Planet& planet,
+                                          const std::filesystem::path& heightsFile,
+                                          const std::vector<std::filesystem::path>& samplesFiles,
+                                          std::uint32_t bucketCells, const HeightRowStats& stats);
+  /// The same for a heights file of `tiles`.
+  static formats::Result<SampleGrid> open(const Lattice& lattice, const LatticeTiles& tiles,
+                                          const runtime::Planet& planet,
                                           const std::filesystem::path& heightsFile,
                                           const std::vector<std::filesystem::path>& samplesFiles,
                                           std::uint32_t bucketCells, const HeightRowStats& stats);
@@ -98,15 +117,31 @@ class SampleGrid final {
   const Lattice& lattice() const noexcept { return lattice_; }
   const runtime::Planet& planet() const noexcept { return planet_; }
 
-  /// The heights of `face`'s lattice points, (N + 1)² row-major by j.
+  /// The lattice points stored.
+  const LatticeTiles& tiles() const noexcept { return tiles_; }
+  /// The heights of `face`'s lattice points, (N + 1)² row-major by j: of a dense lattice only.
   const float* faceHeights(int face) const noexcept {
+    assert(tiles_.isDense());
     return faceHeights_[static_cast<std::size_t>(face)];
   }
-  /// Height of lattice point p of `face` (equal on every face sharing the point).
+  /// The heights of `face` as the insertion reads them (dense or tiled).
+  FaceHeights heightsOf(int face) const noexcept {
+    if (tiles_.isDense()) {
+      return FaceHeights{faceHeights_[static_cast<std::size_t>(face)], lattice_.sideCells()};
+    }
+    return FaceHeights{faceHeights_[0], lattice_.sideCells(), &tiles_, face};
+  }
+  /// Height of lattice point p of `face` (equal on every face sharing the point), which must be
+  /// stored.
   float height(int face, runtime::LatticeXY p) const noexcept {
-    const auto n1 = static_cast<std::size_t>(lattice_.sideCells()) + 1;
-    return faceHeights_[static_cast<std::size_t>(face)]
-                       [static_cast<std::size_t>(p.y) * n1 + static_cast<std::size_t>(p.x)];
+    if (tiles_.isDense()) {
+      const auto n1 = static_cast<std::size_t>(lattice_.sideCells()) + 1;
+      return faceHeights_[static_cast<std::size_t>(face)]
+                         [static_cast<std::size_t>(p.y) * n1 + static_cast<std::size_t>(p.x)];
+    }
+    const std::uint64_t at = tiles_.index(face, p);
+    assert(at != LatticeTiles::kAbsent);
+    return faceHeights_[0][at];
   }
   /// The terrain point (planetocentric, metres) of lattice point p: the surface point of its
   /// direction raised by its height along the surface normal. Bit-identical on every face:
@@ -364,11 +399,20 @@ class SampleGrid final {
     const std::uint64_t* start = nullptr;  // 6·B² + 1 entries
     const SourceSample* samples = nullptr;
   };
-  SampleGrid(const Lattice& lattice, const runtime::Planet& planet)
-      : lattice_(lattice), planet_(planet) {}
+  SampleGrid(const Lattice& lattice, const LatticeTiles& tiles, const runtime::Planet& planet)
+      : lattice_(lattice), tiles_(tiles), planet_(planet) {}
+  /// Points faceHeights_ into `storage` (per face when dense; [0] = all when tiled).
+  void setFacePointers(const float* storage) noexcept {
+    const std::size_t n1 = std::size_t{lattice_.sideCells()} + 1;
+    for (std::size_t face = 0; face < 6; ++face) {
+      faceHeights_[face] = tiles_.isDense() ? storage + face * n1 * n1 : storage;
+    }
+  }
   Lattice lattice_;
+  LatticeTiles tiles_;
   runtime::Planet planet_;
-  std::array<const float*, 6> faceHeights_{};  // per face, (N+1)² row-major by j
+  // Dense: per face, (N+1)² row-major by j. Tiled: [0] is the whole storage.
+  std::array<const float*, 6> faceHeights_{};
   std::uint32_t bucketCells_ = 1;
   std::uint32_t bucketsPerSide_ = 1;
   std::vector<BucketTable> tables_;
