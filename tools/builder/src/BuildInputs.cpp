@@ -121,11 +121,18 @@ Result<BuildInputs> prepareInputs(const BuildOptions& o) {
     }
     in.depth = std::max(in.depth, static_cast<std::uint32_t>(r.leafLevel));
   }
-  in.n = in.leafCells << (in.depth / 2);
-  if (in.n > 16384) {
-    return invalid("the lattice would have " + std::to_string(in.n) +
-                   " cells per face side; at most 16384 (choose --levels or larger leaves)");
+  // A uniform lattice is stored densely (6·(N+1)² heights: 6.4 GB at 16384); an adaptive one
+  // only where its deep leaves are, up to the 2^15 cells that patch barycentrics (1/2^15 of a
+  // leg) address exactly at every level.
+  const std::uint64_t maxCells = o.deepRegions.empty() ? 16384 : 32768;
+  if (std::uint64_t{in.leafCells} << (in.depth / 2) > maxCells) {
+    return invalid("the lattice would have " +
+                   std::to_string(std::uint64_t{in.leafCells} << (in.depth / 2)) +
+                   " cells per face side; at most " + std::to_string(maxCells) +
+                   (o.deepRegions.empty() ? " (choose --levels or larger leaves)"
+                                          : " with deep regions (a shallower --deep-region level)"));
   }
+  in.n = in.leafCells << (in.depth / 2);
   in.dem = std::move(dem).value();
   in.demSource = in.dem->source();
   return in;
