@@ -126,11 +126,11 @@ Result<BuildInputs> prepareInputs(const BuildOptions& o) {
   // leg) address exactly at every level.
   const std::uint64_t maxCells = o.deepRegions.empty() ? 16384 : 32768;
   if (std::uint64_t{in.leafCells} << (in.depth / 2) > maxCells) {
-    return invalid("the lattice would have " +
-                   std::to_string(std::uint64_t{in.leafCells} << (in.depth / 2)) +
-                   " cells per face side; at most " + std::to_string(maxCells) +
-                   (o.deepRegions.empty() ? " (choose --levels or larger leaves)"
-                                          : " with deep regions (a shallower --deep-region level)"));
+    return invalid(
+        "the lattice would have " + std::to_string(std::uint64_t{in.leafCells} << (in.depth / 2)) +
+        " cells per face side; at most " + std::to_string(maxCells) +
+        (o.deepRegions.empty() ? " (choose --levels or larger leaves)"
+                               : " with deep regions (a shallower --deep-region level)"));
   }
   in.n = in.leafCells << (in.depth / 2);
   in.dem = std::move(dem).value();

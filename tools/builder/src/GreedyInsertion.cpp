@@ -487,7 +487,12 @@ void Triangulation::scan(std::uint32_t t) {
   const int yMax = std::max({p[0].y, p[1].y, p[2].y});
   const int xMinBox = std::min({p[0].x, p[1].x, p[2].x});
   const int xMaxBox = std::max({p[0].x, p[1].x, p[2].x});
-  const int step = stride_;  // a power of two
+  // A power of two. On a sparse lattice, at least the finest spacing stored under the
+  // triangle: no row or column between its multiples holds a stored point.
+  const int step = heights_.tiles == nullptr
+                       ? stride_
+                       : std::max(stride_, heights_.tiles->finestSpacingIn(heights_.face, xMinBox,
+                                                                           yMin, xMaxBox, yMax));
   // Lattice coordinates are never negative.
   const auto roundUp = [step](std::int64_t v) { return (v + step - 1) & ~std::int64_t{step - 1}; };
   const auto roundDown = [step](std::int64_t v) { return v & ~std::int64_t{step - 1}; };

@@ -57,10 +57,6 @@ std::uint64_t LatticeTiles::index(int face, LatticeXY p) const noexcept {
            static_cast<std::uint64_t>(p.x);
   }
   // The tile of p's cell, and on a border the tiles to its left and below, which also hold it.
-  const auto below = [this](std::int32_t c) {
-    const auto u = static_cast<std::uint32_t>(c);
-    return u % tileCells_ == 0 && u > 0 ? u / tileCells_ - 1 : clampTile(c);
-  };
   const std::uint32_t txs[2] = {clampTile(p.x), below(p.x)};
   const std::uint32_t tys[2] = {clampTile(p.y), below(p.y)};
   for (const std::uint32_t ty : tys) {

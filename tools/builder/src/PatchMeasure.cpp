@@ -92,8 +92,10 @@ double triangleTiledDeviation(const FaceHeights& heights, LatticeXY a, LatticeXY
   const std::int64_t d0 = -static_cast<std::int64_t>(c.y - b.y);
   const std::int64_t d1 = -static_cast<std::int64_t>(a.y - c.y);
   const std::int64_t d2 = -static_cast<std::int64_t>(b.y - a.y);
+  // Rows between multiples of the finest spacing stored under the triangle hold no point.
+  const int rowStep = heights.tiles->finestSpacingIn(heights.face, x0, y0, x1, y1);
   double worst = 0.0;
-  for (int y = y0; y <= y1; ++y) {
+  for (int y = (y0 + rowStep - 1) / rowStep * rowStep; y <= y1; y += rowStep) {
     std::int64_t lo = x0;
     std::int64_t hi = x1;
     clipSpan(d0, doubleArea(b, c, LatticeXY{0, y}), lo, hi);

@@ -68,6 +68,20 @@ class LatticeTiles final {
     return spacing(tileOf(face, clampTile(p.x), clampTile(p.y)));
   }
 
+  /// The finest spacing of the tiles whose squares meet the closed box [x0, x1] × [y0, y1] of
+  /// `face`: every stored point of the box lies on rows (and columns) that are multiples of it.
+  std::int32_t finestSpacingIn(int face, std::int32_t x0, std::int32_t y0, std::int32_t x1,
+                               std::int32_t y1) const noexcept {
+    if (dense_) return 1;
+    std::uint8_t finest = 255;
+    for (std::uint32_t ty = below(y0); ty <= clampTile(y1); ++ty) {
+      for (std::uint32_t tx = below(x0); tx <= clampTile(x1); ++tx) {
+        finest = std::min(finest, spacingLog2_[tileOf(face, tx, ty)]);
+      }
+    }
+    return std::int32_t{1} << finest;
+  }
+
   /// Calls fn(x, index) for each stored point (x, y) of `face` with lo ≤ x ≤ hi and x a multiple
   /// of `stride` (a power of two), in ascending x, each once.
   template <typename Fn>
@@ -121,6 +135,11 @@ class LatticeTiles final {
   static constexpr std::size_t kNoTile = std::numeric_limits<std::size_t>::max();
   std::uint32_t clampTile(std::int32_t c) const noexcept {
     return std::min(static_cast<std::uint32_t>(c) / tileCells_, tilesPerSide_ - 1);
+  }
+  /// The tile column (row) of coordinate c, or the one before it when c lies on a border.
+  std::uint32_t below(std::int32_t c) const noexcept {
+    const auto u = static_cast<std::uint32_t>(c);
+    return u % tileCells_ == 0 && u > 0 ? u / tileCells_ - 1 : clampTile(c);
   }
   std::size_t tileOf(int face, std::uint32_t tx, std::uint32_t ty) const noexcept {
     return (static_cast<std::size_t>(face) * tilesPerSide_ + ty) * tilesPerSide_ + tx;
