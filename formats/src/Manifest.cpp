@@ -37,6 +37,19 @@ std::string manifestToJson(const Manifest& m) {
                  {"samples", m.sourceSamples},
                  {"min_height_m", m.minHeightMeters},
                  {"max_height_m", m.maxHeightMeters}};
+  if (!m.insets.empty()) {
+    nlohmann::ordered_json insets = nlohmann::ordered_json::array();
+    for (const ManifestInset& i : m.insets) {
+      insets.push_back({{"file", i.file},
+                        {"format", i.format},
+                        {"samples", i.samples},
+                        {"bounds", {i.southDegrees, i.westDegrees, i.northDegrees, i.eastDegrees}},
+                        {"leaf_level", i.leafLevel},
+                        {"band_samples", i.bandSamples},
+                        {"offset_m", i.offsetMeters}});
+    }
+    j["insets"] = insets;
+  }
   nlohmann::ordered_json faces = nlohmann::ordered_json::array();
   for (const ManifestFace& f : m.faces) {
     faces.push_back({{"file", f.file}, {"bytes", f.bytes}, {"crc32", f.crc32}});
@@ -120,6 +133,35 @@ Result<Manifest> parseManifest(std::string_view text, std::string_view context) 
     m.sourceSamples = unsignedField<std::uint64_t>(s, "samples");
     m.minHeightMeters = finiteField(s, "min_height_m");
     m.maxHeightMeters = finiteField(s, "max_height_m");
+    if (j.contains("insets")) {
+      const auto& insets = j.at("insets");
+      if (!insets.is_array() || insets.size() > 64) return fail("'insets' must list up to 64");
+      for (const auto& e : insets) {
+        ManifestInset i;
+        i.file = e.at("file").get<std::string>();
+        i.format = e.at("format").get<std::string>();
+        i.samples = unsignedField<std::uint64_t>(e, "samples");
+        const auto& b = e.at("bounds");
+        if (!b.is_array() || b.size() != 4) return fail("an inset's 'bounds' must be S, W, N, E");
+        for (std::size_t k = 0; k < 4; ++k) {
+          if (!b[k].is_number() || !std::isfinite(b[k].get<double>())) {
+            return fail("an inset's 'bounds' must be finite numbers");
+          }
+        }
+        i.southDegrees = b[0].get<double>();
+        i.westDegrees = b[1].get<double>();
+        i.northDegrees = b[2].get<double>();
+        i.eastDegrees = b[3].get<double>();
+        i.leafLevel = unsignedField<std::uint32_t>(e, "leaf_level");
+        i.bandSamples = unsignedField<std::uint32_t>(e, "band_samples");
+        i.offsetMeters = finiteField(e, "offset_m");
+        if (i.file.empty() || i.file.find('/') != std::string::npos ||
+            !(i.southDegrees <= i.northDegrees) || i.leafLevel > kMaxBintreeDepth) {
+          return fail("inset '" + i.file + "' is malformed");
+        }
+        m.insets.push_back(std::move(i));
+      }
+    }
     const auto& faces = j.at("faces");
     if (!faces.is_array() || faces.size() != 6) return fail("'faces' must list 6 files");
     for (std::size_t f = 0; f < 6; ++f) {

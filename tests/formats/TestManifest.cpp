@@ -81,3 +81,41 @@ TEST(Manifest, NumbersOfTheWrongKindAreRejectedByName) {
         << m.error().message;
   }
 }
+
+TEST(Manifest, InsetsAreWrittenOnlyWhenThereAreSomeAndReadBack) {
+  Manifest m = sampleManifest();
+  EXPECT_EQ(manifestToJson(m).find("insets"), std::string::npos);
+  ManifestInset inset;
+  inset.file = "terra_elev_luxembourg.tif";
+  inset.format = "GTiff (GeoTIFF)";
+  inset.samples = 4608;
+  inset.southDegrees = 49.44;
+  inset.westDegrees = 5.74;
+  inset.northDegrees = 50.19;
+  inset.eastDegrees = 6.53;
+  inset.leafLevel = 20;
+  inset.bandSamples = 16;
+  inset.offsetMeters = -1.5;
+  m.insets.push_back(inset);
+  const std::string text = manifestToJson(m);
+  const auto back = parseManifest(text, "test");
+  ASSERT_TRUE(back) << back.error().message;
+  ASSERT_EQ(back->insets.size(), 1u);
+  EXPECT_EQ(back->insets[0].file, inset.file);
+  EXPECT_EQ(back->insets[0].samples, 4608u);
+  EXPECT_EQ(back->insets[0].northDegrees, 50.19);
+  EXPECT_EQ(back->insets[0].leafLevel, 20u);
+  EXPECT_EQ(back->insets[0].offsetMeters, -1.5);
+  EXPECT_EQ(manifestToJson(*back), text);
+  // Malformed ones are refused by name.
+  for (const auto& [pointer, value] :
+       std::vector<std::pair<std::string, std::string>>{{"/insets/0/bounds", "[1, 2, 3]"},
+                                                        {"/insets/0/bounds", "[50, 2, 49, 3]"},
+                                                        {"/insets/0/file", "\"../etc/passwd\""},
+                                                        {"/insets/0/leaf_level", "99"},
+                                                        {"/insets/0/samples", "-1"},
+                                                        {"/insets", "{}"}}) {
+    const auto bad = parseManifest(withField(text, pointer, value), "test");
+    EXPECT_FALSE(bad) << pointer << " = " << value;
+  }
+}

@@ -20,6 +20,7 @@
 #include "SparseForest.h"
 #include "TestData.h"
 #include "pbdam/builder/Builder.h"
+#include "pbdam/builder/CompositeSurface.h"
 #include "pbdam/builder/ForestShape.h"
 #include "pbdam/builder/Lattice.h"
 #include "pbdam/builder/PatchBuilder.h"
@@ -29,6 +30,8 @@
 #include "pbdam/formats/Manifest.h"
 #include "pbdam/formats/PatchCodec.h"
 #include "pbdam/formats/TextureTile.h"
+#include "pbdam/runtime/SurfaceQuery.h"
+#include "pbdam/streaming/MappedDataset.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
@@ -247,6 +250,69 @@ TEST(Builder, Etopo5BuildPassesVerifyAgainstTheDem) {
   const VerifyReport r = verify(dir / "earth", dem);
   EXPECT_TRUE(r.ok()) << describe(r);
   EXPECT_GT(r.demSamplesChecked, 9000000u);
+}
+
+// ETOPO5 (5′) with the Luxembourg GeoTIFF (30″) joined to it: the forest goes to the inset's
+// density only around it, the stored errors bound the composite's samples (verify with the
+// inset), and inside the inset beyond its band the terrain is the GeoTIFF's within the leaf's
+// stored error.
+TEST(Builder, Etopo5WithTheLuxembourgInsetVerifiesAndAnswersTheInsetsHeights) {
+  PBDAM_REQUIRE_DATA(dem, PBDAM_ETOPO5_PATH);
+  PBDAM_REQUIRE_DATA(luxembourg, test::dataDir() / "geotiff/terra_elev_luxembourg.tif");
+  test::TempDir dir;
+  BuildOptions o = smallMola(dem, dir / "lux");
+  o.planetSpec = "earth";
+  o.insets = {InsetSpec{luxembourg, {}}};
+  auto summary = buildDataset(o);
+  ASSERT_TRUE(summary) << summary.error().message;
+  // 30″ needs 10800 cells across 90°: 16384, leaves of 16 cells at level 20.
+  EXPECT_EQ(summary->latticeCells, 16384u);
+  EXPECT_EQ(summary->depth, 20u);
+  EXPECT_LT(summary->latticeSamples, 6u * 16385u * 16385u / 100u);
+  auto manifest = readManifest(dir / "lux");
+  ASSERT_TRUE(manifest) << manifest.error().message;
+  ASSERT_EQ(manifest->insets.size(), 1u);
+  EXPECT_EQ(manifest->insets[0].file, "terra_elev_luxembourg.tif");
+  EXPECT_EQ(manifest->insets[0].leafLevel, 20u);
+  EXPECT_EQ(manifest->insets[0].bandSamples, 16u);
+  EXPECT_NEAR(manifest->insets[0].northDegrees, 50.19, 0.01);
+  VerifyOptions v;
+  v.datasetDir = dir / "lux";
+  v.demPath = dem;
+  v.insets = o.insets;
+  auto report = verifyDataset(v);
+  ASSERT_TRUE(report) << report.error().message;
+  EXPECT_TRUE(report->ok()) << describe(*report);
+  EXPECT_LE(report->worstErrorRatio, 1.0);
+
+  auto etopo = readDem(dem);
+  auto lux = readDem(luxembourg);
+  ASSERT_TRUE(etopo && lux);
+  const HeightGrid grid = *lux;
+  const CompositeSurface composite =
+      CompositeSurface::make(*etopo, o.insets, {std::move(lux).value()});
+  auto dataset = streaming::MappedDataset::open(dir / "lux");
+  ASSERT_TRUE(dataset) << dataset.error().message;
+  std::size_t checked = 0;
+  double worst = 0.0;  // of |height − GeoTIFF| / stored leaf error
+  for (std::int64_t r = 0; r < grid.height(); r += 3) {
+    for (std::int64_t c = 0; c < grid.width(); c += 3) {
+      // Between samples, where bilinear interpolation differs from the samples.
+      const double lat = grid.latOfRowDegrees(r) + 0.3 * grid.geometry().latSpacingDegrees;
+      const double lon = grid.lonOfColumnDegrees(c) + 0.6 * grid.geometry().lonSpacingDegrees;
+      if (composite.weightOf(0, lat, lon) < 1.0) continue;
+      const auto expected = grid.sampleBilinear(lat, lon);
+      auto h = runtime::surfaceHeightAt((*dataset)->view(), lat, lon);
+      ASSERT_TRUE(h && expected);
+      EXPECT_LE(std::abs(h->heightMeters - *expected), h->leafErrorMeters + 1e-3)
+          << lat << ", " << lon;
+      worst = std::max(worst, std::abs(h->heightMeters - *expected) / h->leafErrorMeters);
+      ++checked;
+    }
+  }
+  std::printf("%zu points inside Luxembourg, worst at %.0f%% of the leaf error\n", checked,
+              100.0 * worst);
+  EXPECT_GT(checked, 20u);
 }
 
 TEST(Builder, SameInputsGiveIdenticalBytesForAnyThreadCountAndDemStorage) {

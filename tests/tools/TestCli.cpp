@@ -199,8 +199,25 @@ TEST(Cli, BadInputGivesOneLineAndExitCode2) {
   expectBadInput("bench x --path " + csv + " --out y --prefetch maybe", "--prefetch 'maybe'");
   expectBadInput("bench x --path " + csv + " --out y --mode fast", "--mode 'fast'");
   expectBadInput("bench x --path '" + (dir / "none.csv").string() + "' --out y", "none.csv");
+  expectBadInput(
+      "build --dem x --planet earth --out y --inset a --inset b --inset-offset 1 "
+      "--inset-offset 2 --inset-offset 3",
+      "3 --inset-offset values for 2 --inset files");
+  expectBadInput("verify x --inset a", "pass --dem FILE too");
   PBDAM_REQUIRE_DATA(tif, test::dataDir() / "geotiff/terra_elev_luxembourg.tif");
   expectBadInput("dem info '" + tif.string() + "' --at 0,0", "outside the grid");
+  // An inset on another body than --planet, and one no finer than the base.
+  PBDAM_REQUIRE_DATA(etopo, PBDAM_ETOPO5_PATH);
+  PBDAM_REQUIRE_DATA(mola, test::dataDir() / "mars/megt90n000cb.lbl");
+  expectBadInput("build --dem '" + mola.string() + "' --planet mars --out '" +
+                     (dir / "o1").string() + "' --inset '" + tif.string() + "'",
+                 "the inset's CRS is on earth but --planet is mars");
+  expectBadInput("build --dem '" + tif.string() + "' --planet earth --out '" +
+                     (dir / "o2").string() + "' --inset '" + etopo.string() + "'",
+                 "are not finer than the base's");
+  expectBadInput("build --dem '" + etopo.string() + "' --planet earth --out '" +
+                     (dir / "o3").string() + "' --inset '" + (dir / "junk.tif").string() + "'",
+                 "junk.tif");
 }
 
 /// The files of dataset `dir` other than its manifest (which names the DEM file it was built from).

@@ -34,6 +34,8 @@ struct BuildCliOptions {
   std::uint32_t textureTile = 256;
   std::string levels = "auto";
   std::vector<std::string> deepRegions;  ///< "S,W,N,E@LEVEL"
+  std::vector<std::string> insets;
+  std::vector<double> insetOffsets;
   std::string textureFormat = "bc1";
   std::string textureQuality = "fast";
   int threads = 0;
@@ -170,6 +172,9 @@ int runBuild(const BuildCliOptions& c) {
   if (auto r = parseDeepRegions(c.deepRegions, o); !r) {
     return root ? reportError(r.error()) : exitCodeOf(r.error());
   }
+  auto insets = insetSpecsOf(c.insets, c.insetOffsets);
+  if (!insets) return root ? reportError(insets.error()) : exitCodeOf(insets.error());
+  o.insets = std::move(insets).value();
   if (c.textureFormat == "bc1") {
     o.textureFormat = TexelFormat::Bc1;
   } else if (c.textureFormat == "rgba8") {
@@ -273,6 +278,7 @@ void addBuildCommand(CLI::App& app, CommandStatus& status) {
                   "S,W,N,E@LEVEL: leaves of this even level (deeper than --levels) over the box, "
                   "the forest closed around it (repeatable; the lattice is that of the deepest)")
       ->type_name("BOX@LEVEL");
+  addInsetOptions(*cmd, c->insets, c->insetOffsets);
   cmd->add_option("--threads", c->threads, "Worker threads (0: all cores)")
       ->check(CLI::Range(0, 1024))
       ->capture_default_str();

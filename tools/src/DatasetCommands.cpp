@@ -99,6 +99,20 @@ int runInfo(const std::string& dir, bool json) {
     j["texture_format"] = m.textureFormat;
     j["texture_source"] = m.textureSource;
     j["source_dem"] = m.sourceDem;
+    if (!m.insets.empty()) {
+      nlohmann::ordered_json insets = nlohmann::ordered_json::array();
+      for (const ManifestInset& i : m.insets) {
+        insets.push_back(
+            {{"file", i.file},
+             {"format", i.format},
+             {"samples", i.samples},
+             {"bounds", {i.southDegrees, i.westDegrees, i.northDegrees, i.eastDegrees}},
+             {"leaf_level", i.leafLevel},
+             {"band_samples", i.bandSamples},
+             {"offset_m", i.offsetMeters}});
+      }
+      j["insets"] = insets;
+    }
     j["nodes"] = total.nodes;
     j["patches"] = total.nodes;
     j["vertices"] = total.vertices;
@@ -133,6 +147,14 @@ int runInfo(const std::string& dir, bool json) {
               m.equatorialRadiusMeters, m.flattening);
   std::printf("source    %s (%s), heights %.0f .. %.0f m\n", m.sourceDem.c_str(),
               m.sourceFormat.c_str(), m.minHeightMeters, m.maxHeightMeters);
+  for (const ManifestInset& i : m.insets) {
+    std::printf(
+        "inset     %s (%s), %llu samples over %.4f..%.4f°N %.4f..%.4f°E, leaves at level "
+        "%u, band %u samples, offset %g m\n",
+        i.file.c_str(), i.format.c_str(), static_cast<unsigned long long>(i.samples),
+        i.southDegrees, i.northDegrees, i.westDegrees, i.eastDegrees, i.leafLevel, i.bandSamples,
+        i.offsetMeters);
+  }
   std::printf("lattice   %u cells per face side, leaves of %u cells, bintree levels 0..%u\n",
               m.latticeCells, m.leafCells, m.depth);
   std::printf("patches   %llu (%llu vertices, %llu triangles)\n",
@@ -166,6 +188,8 @@ int runInfo(const std::string& dir, bool json) {
 struct VerifyCliOptions {
   std::string dir;
   std::string dem;
+  std::vector<std::string> insets;
+  std::vector<double> insetOffsets;
   bool json = false;
   bool quiet = false;
   RawGridOptions raw;
@@ -184,6 +208,13 @@ int runVerify(const VerifyCliOptions& c) {
   }
   o.rawLayout = *raw;
   if (!c.dem.empty() && !o.rawLayout) noteDemLabel(c.dem);
+  auto insets = insetSpecsOf(c.insets, c.insetOffsets);
+  if (!insets) return reportError(insets.error());
+  if (!insets->empty() && c.dem.empty()) {
+    return reportError(makeError(ErrorCode::InvalidArgument,
+                                 "--inset joins an inset to the --dem base: pass --dem FILE too"));
+  }
+  o.insets = std::move(insets).value();
   Progress progress(c.quiet || c.json);
   o.progress = [&](std::string_view stage, double f) { progress.update(stage, f); };
   auto report = builder::verifyDataset(o);
@@ -240,6 +271,7 @@ void addDatasetCommands(CLI::App& app, CommandStatus& status) {
   verify->add_option("DIR", v->dir, "Dataset directory")->required();
   verify->add_option("--dem", v->dem, "Also check stored errors against this source DEM");
   addRawGridOptions(*verify, v->raw);
+  addInsetOptions(*verify, v->insets, v->insetOffsets);
   verify->add_flag("--json", v->json, "Machine-readable JSON report");
   verify->add_flag("--quiet", v->quiet, "No progress output");
   verify->callback([v, &status] { status.exitCode = runVerify(*v); });

@@ -39,4 +39,39 @@ void noteDemLabel(const std::filesystem::path& demPath) {
   }
 }
 
+Result<std::vector<builder::InsetSpec>> insetSpecsOf(const std::vector<std::string>& paths,
+                                                     const std::vector<double>& offsets) {
+  if (!offsets.empty() && offsets.size() != 1 && offsets.size() != paths.size()) {
+    return makeError(ErrorCode::InvalidArgument,
+                     std::to_string(offsets.size()) + " --inset-offset values for " +
+                         std::to_string(paths.size()) +
+                         " --inset files: give one for all, or one per inset in order");
+  }
+  if (!offsets.empty() && paths.empty()) {
+    return makeError(ErrorCode::InvalidArgument, "--inset-offset needs --inset FILE");
+  }
+  std::vector<builder::InsetSpec> specs;
+  for (std::size_t i = 0; i < paths.size(); ++i) {
+    builder::InsetSpec spec;
+    spec.path = paths[i];
+    if (!offsets.empty()) spec.offsetMeters = offsets[offsets.size() == 1 ? 0 : i];
+    specs.push_back(std::move(spec));
+  }
+  return specs;
+}
+
+void addInsetOptions(CLI::App& command, std::vector<std::string>& paths,
+                     std::vector<double>& offsets) {
+  command
+      .add_option("--inset", paths,
+                  "A local high-resolution DEM joined to the base (repeatable; any format "
+                  "`pbdam dem info` reads; the finest wins where insets overlap)")
+      ->type_name("FILE");
+  command
+      .add_option("--inset-offset", offsets,
+                  "Metres added to the insets' heights (one for all, or one per --inset): "
+                  "required when an inset declares another vertical datum than the base")
+      ->type_name("METRES");
+}
+
 }  // namespace pbdam::tools

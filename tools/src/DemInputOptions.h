@@ -9,7 +9,9 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
+#include "pbdam/builder/CompositeSurface.h"
 #include "pbdam/formats/DemReader.h"
 #include "pbdam/formats/Result.h"
 
@@ -36,6 +38,14 @@ void addRawGridOptions(CLI::App& command, RawGridOptions& options);
 /// The layout the options describe: nullopt when none was given; an error when only some of
 /// --raw-size, --raw-type and --bounds were given or one of them does not parse.
 formats::Result<std::optional<formats::RawLayout>> rawLayoutOf(const RawGridOptions& options);
+
+/// --inset FILE (repeatable) and --inset-offset METRES: no offset, one for every inset, or one
+/// per inset in the same order. An error names the mismatch.
+formats::Result<std::vector<builder::InsetSpec>> insetSpecsOf(const std::vector<std::string>& paths,
+                                                              const std::vector<double>& offsets);
+/// Adds --inset and --inset-offset to `command`, parsed into `paths` and `offsets`.
+void addInsetOptions(CLI::App& command, std::vector<std::string>& paths,
+                     std::vector<double>& offsets);
 
 /// Prints a note on stderr when `demPath` names an image that will be read through the PDS
 /// label beside it (pdsLabelFor), naming the label.

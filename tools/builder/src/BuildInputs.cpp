@@ -106,13 +106,25 @@ Result<BuildInputs> prepareInputs(const BuildOptions& o) {
     in.depth = *o.depth;
     in.n = in.leafCells << (in.depth / 2);
   } else {
-    const double across = 90.0 / dem->geometry().lonSpacingDegrees;
-    in.n =
-        std::max(in.leafCells, std::bit_ceil(static_cast<std::uint32_t>(std::ceil(across - 1e-9))));
-    in.depth = 2 * static_cast<std::uint32_t>(std::countr_zero(in.n / in.leafCells));
+    in.depth = levelOfDensity(*dem, in.leafCells);
   }
   in.baseDepth = in.depth;
-  for (const DeepRegion& r : o.deepRegions) {
+  in.deepRegions = o.deepRegions;
+  std::vector<HeightGrid> insets;
+  for (const InsetSpec& inset : o.insets) {
+    auto grid = readDem(inset.path, demReadOptions(o));
+    if (!grid) return std::move(grid).error();
+    if (auto ok = checkInset(inset, *grid, *dem, planet->name()); !ok) return std::move(ok).error();
+    const LatLonBounds b = grid->bounds();
+    if (!(b.southDegrees >= -90.0 && b.northDegrees <= 90.0)) {
+      return invalid(inset.path.string() + ": its samples reach latitudes beyond ±90°");
+    }
+    // At least one level (two bintree levels) below the base, so the inset adds leaves.
+    const auto level = std::max(levelOfDensity(*grid, in.leafCells), in.baseDepth + 2);
+    in.deepRegions.push_back(DeepRegion{b, static_cast<int>(level)});
+    insets.push_back(std::move(grid).value());
+  }
+  for (const DeepRegion& r : in.deepRegions) {
     if (r.leafLevel % 2 != 0 || r.leafLevel <= static_cast<int>(in.baseDepth) ||
         !(r.bounds.southDegrees < r.bounds.northDegrees) ||
         !(r.bounds.westDegrees < r.bounds.eastDegrees)) {
@@ -124,18 +136,27 @@ Result<BuildInputs> prepareInputs(const BuildOptions& o) {
   // A uniform lattice is stored densely (6·(N+1)² heights: 6.4 GB at 16384); an adaptive one
   // only where its deep leaves are, up to the 2^15 cells that patch barycentrics (1/2^15 of a
   // leg) address exactly at every level.
-  const std::uint64_t maxCells = o.deepRegions.empty() ? 16384 : 32768;
+  const std::uint64_t maxCells = in.deepRegions.empty() ? 16384 : 32768;
   if (std::uint64_t{in.leafCells} << (in.depth / 2) > maxCells) {
-    return invalid(
-        "the lattice would have " + std::to_string(std::uint64_t{in.leafCells} << (in.depth / 2)) +
-        " cells per face side; at most " + std::to_string(maxCells) +
-        (o.deepRegions.empty() ? " (choose --levels or larger leaves)"
-                               : " with deep regions (a shallower --deep-region level)"));
+    return invalid("the lattice would have " +
+                   std::to_string(std::uint64_t{in.leafCells} << (in.depth / 2)) +
+                   " cells per face side; at most " + std::to_string(maxCells) +
+                   (in.deepRegions.empty() ? " (choose --levels or larger leaves)"
+                                           : " with insets or deep regions (coarser insets, a "
+                                             "shallower --deep-region level or larger leaves)"));
   }
   in.n = in.leafCells << (in.depth / 2);
   in.dem = std::move(dem).value();
   in.demSource = in.dem->source();
+  if (!insets.empty()) in.composite = CompositeSurface::make(*in.dem, o.insets, std::move(insets));
   return in;
+}
+
+std::uint32_t levelOfDensity(const HeightGrid& grid, std::uint32_t leafCells) {
+  const double across = 90.0 / grid.geometry().lonSpacingDegrees;
+  const std::uint32_t n =
+      std::max(leafCells, std::bit_ceil(static_cast<std::uint32_t>(std::ceil(across - 1e-9))));
+  return 2 * static_cast<std::uint32_t>(std::countr_zero(n / leafCells));
 }
 
 std::string demCrc32(const HeightGrid& dem) {
@@ -169,7 +190,17 @@ std::vector<std::pair<std::string, std::string>> fingerprintOf(const BuildOption
   f.emplace_back("texture", texture);
   f.emplace_back("planet", in.planet->name());
   f.emplace_back("levels", std::to_string(in.depth));
-  for (const DeepRegion& r : o.deepRegions) {
+  for (const InsetSpec& inset : o.insets) {
+    const auto& grids = in.composite->insets();
+    const auto& specs = in.composite->specs();
+    for (std::size_t i = 0; i < specs.size(); ++i) {
+      if (specs[i].path != inset.path) continue;
+      f.emplace_back("inset", inset.path.filename().string() + "/crc32:" + demCrc32(grids[i].grid) +
+                                  "/offset:" + exact(inset.offsetMeters.value_or(0.0)));
+      break;
+    }
+  }
+  for (const DeepRegion& r : in.deepRegions) {
     f.emplace_back("deep-region", exact(r.bounds.southDegrees) + "," + exact(r.bounds.westDegrees) +
                                       "," + exact(r.bounds.northDegrees) + "," +
                                       exact(r.bounds.eastDegrees) + "@" +

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "pbdam/builder/Builder.h"
+#include "pbdam/builder/CompositeSurface.h"
 #include "pbdam/formats/DemReader.h"
 #include "pbdam/formats/HeightGrid.h"
 #include "pbdam/formats/Image.h"
@@ -28,7 +29,15 @@ struct BuildInputs final {
   std::uint32_t depth = 0;      ///< the deepest leaves' level
   std::uint32_t baseDepth = 0;  ///< the leaves' level outside deep regions (= depth without)
   std::uint32_t n = 0;          ///< lattice cells per face side (of the deepest leaves)
+  /// The options' deep regions, then one per inset (over its grid, at its density's level).
+  std::vector<DeepRegion> deepRegions;
+  /// With insets: the base and the insets as one surface (sharing the base's heights).
+  std::optional<CompositeSurface> composite;
 };
+
+/// The even leaf level whose lattice is at least as dense as `grid`'s samples, for leaves of
+/// `leafCells` cells.
+std::uint32_t levelOfDensity(const formats::HeightGrid& grid, std::uint32_t leafCells);
 
 /// How the builder reads the DEM: a large one goes to an unnamed scratch file on the output's
 /// filesystem (the nearest existing directory of --out) and is mapped, so it is not held in

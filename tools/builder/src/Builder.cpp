@@ -137,11 +137,11 @@ class DistributedBuild {
         lattice_(in.n),
         d_(static_cast<int>(in.depth)),
         nodesPerTree_(Lattice::nodesPerTree(d_)),
-        plan_(o.deepRegions.empty()
+        plan_(in.deepRegions.empty()
                   ? ForestPlan(lattice_, d_, in.leafCells)
                   : ForestPlan(lattice_, in.leafCells,
                                ForestShape::make(lattice_, static_cast<int>(in.baseDepth),
-                                                 o.deepRegions))),
+                                                 in.deepRegions))),
         tiles_(plan_.latticeTiles()),
         checkpoint_(o.outDir) {}
 
@@ -197,12 +197,16 @@ class DistributedBuild {
   void releaseResident();
   /// Lets the DEM go (memory, or its scratch mapping), under the trimmer's lock.
   void releaseDem() {
+    // The composite shares the base's heights and keeps the insets: with insets the DEM stays
+    // (its pages are still dropped by the trimmer when it is mapped).
+    if (in_.composite) return;
     std::lock_guard lock(residentMutex_);
     in_.dem.reset();
   }
   /// Reads the DEM again (for the textures) and checks it is the one the build started with.
   Result<void> rereadDem();
   Result<void> assemble(BuildSummary& summary);
+  std::vector<formats::ManifestInset> manifestInsets() const;
 
   /// The part files one rank writes for a level, and the index of its carry records.
   struct LevelFiles {
@@ -346,23 +350,54 @@ Result<void> DistributedBuild::resample() {
       "resampling lattice rows " + rangeText(begin, end) + " of " + std::to_string(rows);
   announce("resampling", "lattice rows", rows);
   const auto t0 = Clock::now();
-  const std::uint32_t bucketCells = SampleGrid::defaultBucketCells(lattice_);
-  auto stats = SampleGrid::writeHeightRows(
-      *in_.dem, *in_.planet, lattice_, tiles_, checkpoint_.heightsFile(),
-      static_cast<std::size_t>(begin), static_cast<std::size_t>(end),
-      [&](std::size_t done, std::size_t total) {
-        report("resample",
-               static_cast<double>(done) / static_cast<double>(std::max<std::size_t>(total, 1)));
-      });
+  const auto progress = [&](std::size_t done, std::size_t total) {
+    report("resample",
+           static_cast<double>(done) / static_cast<double>(std::max<std::size_t>(total, 1)));
+  };
+  auto stats =
+      in_.composite
+          ? SampleGrid::writeHeightRows(
+                [this](double lat, double lon) { return in_.composite->heightAt(lat, lon); },
+                *in_.planet, lattice_, tiles_, checkpoint_.heightsFile(),
+                static_cast<std::size_t>(begin), static_cast<std::size_t>(end), progress)
+          : SampleGrid::writeHeightRows(*in_.dem, *in_.planet, lattice_, tiles_,
+                                        checkpoint_.heightsFile(), static_cast<std::size_t>(begin),
+                                        static_cast<std::size_t>(end), progress);
   if (!stats) return fail(item, stats.error());
-  const auto demRows = static_cast<std::uint64_t>(in_.dem->height());
-  const auto [rowBegin, rowEnd] = shareOf(demRows, comm_.rank(), comm_.size());
   const auto part = static_cast<std::uint32_t>(comm_.rank());
-  if (auto r = SampleGrid::writeSourceBuckets(
-          *in_.dem, *in_.planet, lattice_, bucketCells, checkpoint_.samplesFile(part),
-          static_cast<std::size_t>(rowBegin), static_cast<std::size_t>(rowEnd));
-      !r) {
-    return fail("bucketing DEM rows " + rangeText(rowBegin, rowEnd), r.error());
+  // A complete forest's buckets are a few lattice cells wide; a sparse lattice's are sized by
+  // the samples instead (SampleGrid::bucketCellsFor).
+  std::uint64_t sampleCount = 0;
+  if (in_.composite) {
+    in_.composite->forEachSample([&sampleCount](int, double, double, double) { ++sampleCount; });
+  } else {
+    sampleCount = static_cast<std::uint64_t>(in_.dem->width() * in_.dem->height());
+  }
+  const std::uint32_t bucketCells = tiles_.isDense()
+                                        ? SampleGrid::defaultBucketCells(lattice_)
+                                        : SampleGrid::bucketCellsFor(lattice_, sampleCount);
+  if (in_.composite) {
+    // The composite's samples (the base's where no inset lies, each inset's where it is the
+    // finest), shared out by their order.
+    const SampleEnumerator samples = [this](const std::function<void(double, double, double)>& fn) {
+      in_.composite->forEachSample(
+          [&fn](int, double lat, double lon, double height) { fn(lat, lon, height); });
+    };
+    const auto [first, last] = shareOf(sampleCount, comm_.rank(), comm_.size());
+    if (auto r = SampleGrid::writeSourceBuckets(samples, first, last, *in_.planet, lattice_,
+                                                bucketCells, checkpoint_.samplesFile(part));
+        !r) {
+      return fail("bucketing composite samples " + rangeText(first, last), r.error());
+    }
+  } else {
+    const auto demRows = static_cast<std::uint64_t>(in_.dem->height());
+    const auto [rowBegin, rowEnd] = shareOf(demRows, comm_.rank(), comm_.size());
+    if (auto r = SampleGrid::writeSourceBuckets(
+            *in_.dem, *in_.planet, lattice_, bucketCells, checkpoint_.samplesFile(part),
+            static_cast<std::size_t>(rowBegin), static_cast<std::size_t>(rowEnd));
+        !r) {
+      return fail("bucketing DEM rows " + rangeText(rowBegin, rowEnd), r.error());
+    }
   }
 
   // Barrier: every rank's rows and samples are on disk; totals of the statistics.
@@ -643,7 +678,15 @@ TextureSource DistributedBuild::textureSource() const {
   const SampleGrid& grid = *grid_;
   TextureSource source;
   source.planet = *in_.planet;
-  source.heightMeters = heightFunctionFromGrid(*in_.dem, true);
+  if (in_.composite) {
+    // Shaded relief of the composite: the insets' texels at their own density.
+    const CompositeSurface* composite = &*in_.composite;
+    source.heightMeters = [composite](double lat, double lon) {
+      return composite->heightAt(lat, lon);
+    };
+  } else {
+    source.heightMeters = heightFunctionFromGrid(*in_.dem, true);
+  }
   source.ramp.hasOcean = grid.minHeightMeters() < 0.0f && in_.demSource.body == "earth";
   if (!source.ramp.hasOcean && in_.planet->name() == "earth") source.ramp.hasOcean = true;
   source.ramp.minMeters = static_cast<double>(grid.minHeightMeters());
@@ -784,6 +827,35 @@ Result<void> DistributedBuild::buildTextures() {
   return recordTextures(gathered, tiles);
 }
 
+/// The manifest's record of each inset, in the order of the options.
+std::vector<ManifestInset> DistributedBuild::manifestInsets() const {
+  std::vector<ManifestInset> out;
+  if (!in_.composite) return out;
+  const auto& insets = in_.composite->insets();
+  const auto& specs = in_.composite->specs();
+  for (std::size_t k = 0; k < o_.insets.size(); ++k) {
+    for (std::size_t i = 0; i < specs.size(); ++i) {
+      if (specs[i].path != o_.insets[k].path) continue;
+      const HeightGrid& g = insets[i].grid;
+      const DeepRegion& region = in_.deepRegions[o_.deepRegions.size() + k];
+      ManifestInset m;
+      m.file = specs[i].path.filename().string();
+      m.format = g.source().format;
+      m.samples = static_cast<std::uint64_t>(g.computeStats().validCount);
+      m.southDegrees = region.bounds.southDegrees;
+      m.westDegrees = region.bounds.westDegrees;
+      m.northDegrees = region.bounds.northDegrees;
+      m.eastDegrees = region.bounds.eastDegrees;
+      m.leafLevel = static_cast<std::uint32_t>(region.leafLevel);
+      m.bandSamples = static_cast<std::uint32_t>(insets[i].bandSamples);
+      m.offsetMeters = insets[i].offsetMeters;
+      out.push_back(std::move(m));
+      break;
+    }
+  }
+  return out;
+}
+
 /// Rank 0: the face files and the manifest from the checkpointed levels and tiles.
 Result<void> DistributedBuild::assemble(BuildSummary& summary) {
   const AssemblyInputs inputs{o_,
@@ -798,6 +870,7 @@ Result<void> DistributedBuild::assemble(BuildSummary& summary) {
                               in_.demSource.format,
                               static_cast<double>(grid_->minHeightMeters()),
                               static_cast<double>(grid_->maxHeightMeters()),
+                              manifestInsets(),
                               assembling_,
                               [this](double fraction) { report("write", fraction); }};
   return assembleDataset(inputs, summary);

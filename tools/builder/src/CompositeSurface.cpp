@@ -137,13 +137,16 @@ double CompositeSurface::weightOf(std::size_t i, double lat, double lon) const n
 
 std::optional<double> CompositeSurface::heightBelow(std::size_t upTo, double lat,
                                                     double lon) const noexcept {
+  // Bicubic, bilinear where bicubic lacks data: what a base-only build resamples.
   std::optional<double> h = base_.sampleBicubic(lat, lon);
+  if (!h) h = base_.sampleBilinear(lat, lon);
   for (std::size_t i = 0; i < upTo; ++i) {
     const double w = weightOf(i, lat, lon);
     if (w <= 0.0) continue;
     // A weight above 0 means the four samples around the point are valid (their band weights
     // are 0 next to nodata), so the inset has a height here.
-    const std::optional<double> own = insets_[i].grid.sampleBicubic(lat, lon);
+    std::optional<double> own = insets_[i].grid.sampleBicubic(lat, lon);
+    if (!own) own = insets_[i].grid.sampleBilinear(lat, lon);
     if (!own) continue;
     const double mine = *own + insets_[i].offsetMeters;
     h = (w >= 1.0 || !h) ? mine : w * mine + (1.0 - w) * *h;

@@ -218,6 +218,7 @@ Manifest Assembly::makeManifest() const {
   manifest.sourceSamples = summary_.sourceSamples;
   manifest.minHeightMeters = in_.minHeightMeters;
   manifest.maxHeightMeters = in_.maxHeightMeters;
+  manifest.insets = in_.insets;
   return manifest;
 }
 

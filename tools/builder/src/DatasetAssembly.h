@@ -3,6 +3,8 @@
 // so that the blobs are never all in memory at once. Private to the builder.
 #pragma once
 
+#include "pbdam/formats/Manifest.h"
+
 #include "ForestPlan.h"
 
 #include <cstdint>
@@ -62,6 +64,7 @@ struct AssemblyInputs final {
   std::string sourceFormat;
   double minHeightMeters = 0.0;
   double maxHeightMeters = 0.0;
+  std::vector<formats::ManifestInset> insets;  ///< in the order of the options
   /// Where the assembly registers its mappings while it reads them (cleared before it returns).
   AssemblyMappings& mappings;
   /// Called with the fraction of the face files written.

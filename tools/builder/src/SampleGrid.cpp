@@ -44,7 +44,9 @@ Error ioError(const fs::path& path, const std::string& what) {
 }
 
 /// Resamples one storage row into `out` (row.points heights); returns its no-data count.
-std::uint64_t resampleRow(const HeightGrid& dem, const Planet& planet, const Lattice& lattice,
+/// `heightAt(lat, lon)` is the surface's height there, or nullopt.
+template <typename HeightAt>
+std::uint64_t resampleRow(const HeightAt& heightAt, const Planet& planet, const Lattice& lattice,
                           const LatticeTiles::Row& row, float* out) {
   std::uint64_t missing = 0;
   for (std::uint32_t i = 0; i < row.points; ++i) {
@@ -53,8 +55,7 @@ std::uint64_t resampleRow(const HeightGrid& dem, const Planet& planet, const Lat
     const glm::dvec3 d = lattice.direction(
         row.face, LatticeXY{row.first.x + static_cast<std::int32_t>(i) * row.spacing, row.first.y});
     const GeodeticPosition g = planet.directionToGeodetic(d);
-    auto h = dem.sampleBicubic(g.latDegrees, g.lonDegrees);
-    if (!h) h = dem.sampleBilinear(g.latDegrees, g.lonDegrees);
+    const std::optional<double> h = heightAt(g.latDegrees, g.lonDegrees);
     if (!h) ++missing;
     out[i] = h ? static_cast<float>(*h) : 0.0f;
   }
@@ -67,15 +68,22 @@ struct Placed {
   SourceSample sample;
 };
 
-/// Places DEM sample (row, col) (see Placed).
-Placed place(const HeightGrid& dem, const Planet& planet, double n, std::uint32_t bucketCells,
-             std::uint32_t bucketsPerSide, std::size_t row, std::size_t col) {
+/// The DEM's height at (lat, lon): bicubic, bilinear where bicubic lacks data.
+struct DemHeightAt final {
+  const HeightGrid& dem;
+  std::optional<double> operator()(double lat, double lon) const noexcept {
+    auto h = dem.sampleBicubic(lat, lon);
+    if (!h) h = dem.sampleBilinear(lat, lon);
+    return h;
+  }
+};
+
+/// Places a sample of height `value` at (lat, lon) (see Placed).
+Placed placeAt(const Planet& planet, double n, std::uint32_t bucketCells,
+               std::uint32_t bucketsPerSide, double lat, double lon, float value) {
   Placed p;
   p.bucket = std::numeric_limits<std::uint32_t>::max();
-  const double lat = dem.latOfRowDegrees(static_cast<std::int64_t>(row));
-  const float value = dem.at(static_cast<std::int64_t>(row), static_cast<std::int64_t>(col));
   if (std::isnan(value) || lat < -90.0 || lat > 90.0) return p;
-  const double lon = dem.lonOfColumnDegrees(static_cast<std::int64_t>(col));
   const glm::dvec3 d = planet.geodeticToDirection(lat, lon);
   const FaceUv fuv = CubeMap::directionToFaceUv(d);
   // The bucket of the stored (float) position, which the inside tests use: bucketing the double
@@ -92,6 +100,20 @@ Placed place(const HeightGrid& dem, const Planet& planet, double n, std::uint32_
              static_cast<std::uint32_t>(bx);
   p.sample = sample;
   return p;
+}
+
+/// Places DEM sample (row, col) (see Placed).
+Placed place(const HeightGrid& dem, const Planet& planet, double n, std::uint32_t bucketCells,
+             std::uint32_t bucketsPerSide, std::size_t row, std::size_t col) {
+  const double lat = dem.latOfRowDegrees(static_cast<std::int64_t>(row));
+  const float value = dem.at(static_cast<std::int64_t>(row), static_cast<std::int64_t>(col));
+  if (std::isnan(value) || lat < -90.0 || lat > 90.0) {
+    Placed none;
+    none.bucket = std::numeric_limits<std::uint32_t>::max();
+    return none;
+  }
+  return placeAt(planet, n, bucketCells, bucketsPerSide, lat,
+                 dem.lonOfColumnDegrees(static_cast<std::int64_t>(col)), value);
 }
 
 std::uint32_t bucketsPerSideOf(const Lattice& lattice, std::uint32_t bucketCells) {
@@ -154,7 +176,8 @@ SampleGrid SampleGrid::build(const HeightGrid& dem, const Planet& planet, const 
     const std::size_t last = std::min(rows, first + chunk);
     tbb::parallel_for(first, last, [&](std::size_t r) {
       const LatticeTiles::Row row = tiles.row(r);
-      noData += resampleRow(dem, planet, lattice, row, grid.heights_.data() + row.offset);
+      noData +=
+          resampleRow(DemHeightAt{dem}, planet, lattice, row, grid.heights_.data() + row.offset);
     });
     if (progress) progress(last, rows);
   }
@@ -204,6 +227,22 @@ Result<HeightRowStats> SampleGrid::writeHeightRows(
     const HeightGrid& dem, const Planet& planet, const Lattice& lattice, const LatticeTiles& tiles,
     const fs::path& heightsFile, std::size_t beginRow, std::size_t endRow,
     const std::function<void(std::size_t, std::size_t)>& progress) {
+  return writeRows(DemHeightAt{dem}, planet, lattice, tiles, heightsFile, beginRow, endRow,
+                   progress);
+}
+
+Result<HeightRowStats> SampleGrid::writeHeightRows(
+    const HeightFunction& heightAt, const Planet& planet, const Lattice& lattice,
+    const LatticeTiles& tiles, const fs::path& heightsFile, std::size_t beginRow,
+    std::size_t endRow, const std::function<void(std::size_t, std::size_t)>& progress) {
+  return writeRows(heightAt, planet, lattice, tiles, heightsFile, beginRow, endRow, progress);
+}
+
+template <typename HeightAt>
+Result<HeightRowStats> SampleGrid::writeRows(
+    const HeightAt& heightAt, const Planet& planet, const Lattice& lattice,
+    const LatticeTiles& tiles, const fs::path& heightsFile, std::size_t beginRow,
+    std::size_t endRow, const std::function<void(std::size_t, std::size_t)>& progress) {
   const int fd = ::open(heightsFile.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
   if (fd < 0) return ioError(heightsFile, "cannot open for writing");
   const auto byteOf = [&](std::size_t r) {
@@ -233,7 +272,7 @@ Result<HeightRowStats> SampleGrid::writeHeightRows(
       if (failed) return;
       const LatticeTiles::Row at = tiles.row(row);
       std::vector<float> heights(at.points);
-      noData += resampleRow(dem, planet, lattice, at, heights.data());
+      noData += resampleRow(heightAt, planet, lattice, at, heights.data());
       const auto [mn, mx] = std::minmax_element(heights.begin(), heights.end());
       {
         std::lock_guard lock(statsMutex);
@@ -335,6 +374,59 @@ Result<void> SampleGrid::writeSourceBuckets(const HeightGrid& dem, const Planet&
     }
     (void)map->releaseResident();  // RSS bound: the written pages live on in the page cache
   }
+  if (auto synced = map->sync(); !synced) return synced;
+  std::error_code ec;
+  fs::rename(tmp, samplesFile, ec);
+  if (ec) {
+    return makeError(ErrorCode::IoError,
+                     samplesFile.string() + ": rename failed (" + ec.message() + ")");
+  }
+  return {};
+}
+
+Result<void> SampleGrid::writeSourceBuckets(const SampleEnumerator& samples,
+                                            std::uint64_t beginSample, std::uint64_t endSample,
+                                            const Planet& planet, const Lattice& lattice,
+                                            std::uint32_t bucketCells,
+                                            const fs::path& samplesFile) {
+  const std::uint32_t cells =
+      std::max<std::uint32_t>(1, std::min(bucketCells, lattice.sideCells()));
+  const std::uint32_t perSide = bucketsPerSideOf(lattice, bucketCells);
+  const std::size_t buckets = 6 * static_cast<std::size_t>(perSide) * perSide;
+  const double n = static_cast<double>(lattice.sideCells());
+  constexpr auto kInvalid = std::numeric_limits<std::uint32_t>::max();
+  // This share's samples placed, in enumeration order (16 bytes each).
+  std::vector<Placed> placed;
+  std::uint64_t ordinal = 0;
+  samples([&](double lat, double lon, double height) {
+    if (ordinal >= beginSample && ordinal < endSample) {
+      const Placed p = placeAt(planet, n, cells, perSide, lat, lon, static_cast<float>(height));
+      if (p.bucket != kInvalid) placed.push_back(p);
+    }
+    ++ordinal;
+  });
+  std::vector<std::uint64_t> start(buckets + 1, 0);
+  for (const Placed& p : placed) ++start[p.bucket + 1];
+  for (std::size_t b = 0; b < buckets; ++b) start[b + 1] += start[b];
+  const std::uint64_t total = start[buckets];
+  const std::size_t startBytes = (buckets + 1) * sizeof(std::uint64_t);
+  const std::size_t fileBytes =
+      kSamplesHeaderBytes + startBytes + static_cast<std::size_t>(total) * sizeof(SourceSample);
+  std::string tmpName = ".";
+  tmpName += samplesFile.filename().string();
+  tmpName += ".tmp";
+  const fs::path tmp = samplesFile.parent_path() / tmpName;
+  auto map = MemoryMapping::create(tmp, fileBytes);
+  if (!map) return std::move(map).error();
+  std::byte* at = map->writableBytes().data();
+  std::memcpy(at, kSamplesMagic.data(), 8);
+  std::memcpy(at + 8, &kSamplesVersion, 4);
+  std::memcpy(at + 12, &perSide, 4);
+  std::memcpy(at + 16, &total, 8);
+  std::memcpy(at + kSamplesHeaderBytes, start.data(), startBytes);
+  auto* out = reinterpret_cast<SourceSample*>(at + kSamplesHeaderBytes + startBytes);
+  std::vector<std::uint64_t> cursor(start.begin(), start.end() - 1);
+  for (const Placed& p : placed) out[cursor[p.bucket]++] = p.sample;
   if (auto synced = map->sync(); !synced) return synced;
   std::error_code ec;
   fs::rename(tmp, samplesFile, ec);

@@ -248,7 +248,9 @@ Result<void> DatasetVerifier::openDemGrid() {
       fs::remove_all(dir, ec);
     }
   } removeScratch{scratch};
-  const std::uint32_t bucketCells = SampleGrid::defaultBucketCells(lattice_);
+  // Buckets sized by the samples (which samples a triangle tests does not depend on it).
+  const std::uint32_t bucketCells = SampleGrid::bucketCellsFor(
+      lattice_, static_cast<std::uint64_t>(dem->width() * dem->height()));
   // Patches are checked against the source samples only, never against lattice heights, so
   // the lattice is reduced to each face's corners (one tile per face at the face's spacing):
   // a deep adaptive forest's lattice would otherwise be resampled densely for nothing.
@@ -262,11 +264,35 @@ Result<void> DatasetVerifier::openDemGrid() {
                                  static_cast<double>(std::max<std::size_t>(total, 1)));
       });
   if (!stats) return std::move(stats).error();
-  if (auto r = SampleGrid::writeSourceBuckets(*dem, planet_, lattice_, bucketCells,
-                                              scratch / "samples.bin", 0,
-                                              static_cast<std::size_t>(dem->height()));
-      !r) {
-    return std::move(r).error();
+  if (o_.insets.empty()) {
+    if (auto r = SampleGrid::writeSourceBuckets(*dem, planet_, lattice_, bucketCells,
+                                                scratch / "samples.bin", 0,
+                                                static_cast<std::size_t>(dem->height()));
+        !r) {
+      return std::move(r).error();
+    }
+  } else {
+    // The composite's samples, as the builder measured its errors against them.
+    std::vector<HeightGrid> insets;
+    for (const InsetSpec& spec : o_.insets) {
+      auto grid = readDem(spec.path, readOptions);
+      if (!grid) return std::move(grid).error();
+      if (auto ok = checkInset(spec, *grid, *dem, planet_.name()); !ok) {
+        return std::move(ok).error();
+      }
+      insets.push_back(std::move(grid).value());
+    }
+    const CompositeSurface composite = CompositeSurface::make(*dem, o_.insets, std::move(insets));
+    const SampleEnumerator samples =
+        [&composite](const std::function<void(double, double, double)>& fn) {
+          composite.forEachSample(
+              [&fn](int, double lat, double lon, double height) { fn(lat, lon, height); });
+        };
+    if (auto r = SampleGrid::writeSourceBuckets(samples, 0, ~std::uint64_t{0}, planet_, lattice_,
+                                                bucketCells, scratch / "samples.bin");
+        !r) {
+      return std::move(r).error();
+    }
   }
   auto opened = SampleGrid::open(lattice_, corners, planet_, scratch / "heights.f32",
                                  {scratch / "samples.bin"}, bucketCells, *stats);

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "pbdam/formats/Result.h"
 
@@ -21,6 +22,17 @@ struct ManifestFace final {
   std::string file;  ///< name inside the dataset directory, e.g. "face0.pbdam"
   std::uint64_t bytes = 0;
   std::uint32_t crc32 = 0;  ///< CRC-32 of the whole file
+};
+
+/// A local high-resolution DEM the dataset joins to its base (docs/builder.md "Insets").
+struct ManifestInset final {
+  std::string file;           ///< file name (no directories)
+  std::string format;         ///< GDAL driver
+  std::uint64_t samples = 0;  ///< its valid samples
+  double southDegrees = 0.0, westDegrees = 0.0, northDegrees = 0.0, eastDegrees = 0.0;
+  std::uint32_t leafLevel = 0;    ///< the level of the leaves over it
+  std::uint32_t bandSamples = 0;  ///< the transition band's width inside its footprint
+  double offsetMeters = 0.0;      ///< added to its heights
 };
 
 struct Manifest final {
@@ -47,6 +59,8 @@ struct Manifest final {
   double minHeightMeters = 0.0;  ///< over the lattice
   double maxHeightMeters = 0.0;
   std::array<ManifestFace, 6> faces;
+  /// Insets joined to the source DEM; written (as "insets") only when there are some.
+  std::vector<ManifestInset> insets;
 };
 
 /// The manifest as pretty-printed JSON (stable key order: byte-identical for equal manifests).

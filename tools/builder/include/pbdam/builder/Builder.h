@@ -15,6 +15,7 @@
 #include <string_view>
 
 #include "pbdam/builder/Communicator.h"
+#include "pbdam/builder/CompositeSurface.h"
 #include "pbdam/builder/ForestShape.h"
 #include "pbdam/formats/DemReader.h"
 #include "pbdam/formats/Result.h"
@@ -39,6 +40,10 @@ struct BuildOptions final {
   /// ForestShape's closed set over a lattice of the deepest region's density, the depth being
   /// the base's (docs/builder.md "Insets: the forest's shape").
   std::vector<DeepRegion> deepRegions;
+  /// Local high-resolution DEMs joined to the base (--inset): each makes a deep region over its
+  /// grid at the level of its density, and the lattice and errors follow the composite surface
+  /// (CompositeSurface.h; docs/builder.md "Insets").
+  std::vector<InsetSpec> insets;
   formats::TexelFormat textureFormat = formats::TexelFormat::Bc1;
   formats::Bc1Quality bc1Quality = formats::Bc1Quality::Fast;
   double heightStepMeters = 1.0 / 64.0;

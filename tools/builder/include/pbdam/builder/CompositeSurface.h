@@ -70,9 +70,10 @@ class CompositeSurface final {
   /// The spec each inset came from (same order as insets()).
   const std::vector<InsetSpec>& specs() const noexcept { return specs_; }
 
-  /// The composite height at (lat, lon): the base's bicubic height, then for each inset from
-  /// coarsest to finest w·(inset's bicubic height + offset) + (1 − w)·(what lies below), w the
-  /// inset's weight there. nullopt where the base has no data and no inset has weight 1.
+  /// The composite height at (lat, lon): the base's bicubic height (bilinear where bicubic
+  /// lacks data), then for each inset from coarsest to finest w·(the inset's height, read the
+  /// same way, + offset) + (1 − w)·(what lies below), w the inset's weight there. nullopt where
+  /// the base has no data and no inset has weight 1.
   std::optional<double> heightAt(double latDegrees, double lonDegrees) const noexcept;
   /// The weight of inset `i` at (lat, lon): 0 outside its footprint, smoothstep of the
   /// bilinear blend of its samples' band weights inside (C¹ across the band's edges).

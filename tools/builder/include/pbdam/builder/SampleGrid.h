@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cassert>
 #include <cmath>
 #include <cstdint>
@@ -44,6 +45,12 @@ struct HeightRowStats final {
   float maxHeightMeters = 0.0f;
 };
 
+/// What a lattice can be resampled from: the height (metres) at (lat, lon) in degrees, or
+/// nullopt where nothing is known there.
+using HeightFunction = std::function<std::optional<double>(double, double)>;
+/// Calls its argument fn(lat, lon, height) for every sample of a source, in a fixed order.
+using SampleEnumerator = std::function<void(const std::function<void(double, double, double)>&)>;
+
 class SampleGrid final {
  public:
   /// Resamples `dem` (bicubic, bilinear where bicubic lacks data, 0 m where the DEM has none) at
@@ -75,6 +82,13 @@ class SampleGrid final {
       const LatticeTiles& tiles, const std::filesystem::path& heightsFile, std::size_t beginRow,
       std::size_t endRow, const std::function<void(std::size_t, std::size_t)>& progress = {});
 
+  /// writeHeightRows from any surface: `heightAt` in place of the DEM's bicubic (bilinear
+  /// where bicubic lacks data) height.
+  static formats::Result<HeightRowStats> writeHeightRows(
+      const HeightFunction& heightAt, const runtime::Planet& planet, const Lattice& lattice,
+      const LatticeTiles& tiles, const std::filesystem::path& heightsFile, std::size_t beginRow,
+      std::size_t endRow, const std::function<void(std::size_t, std::size_t)>& progress = {});
+
   /// Out of core, step 2: the valid DEM samples of the DEM rows [beginRow, endRow), bucketed
   /// into `bucketCells`-sized squares of each face (counting sort: within a bucket in DEM row
   /// order), written to `samplesFile` (a new file, through a temporary name). The DEM is read
@@ -86,6 +100,16 @@ class SampleGrid final {
                                                   const Lattice& lattice, std::uint32_t bucketCells,
                                                   const std::filesystem::path& samplesFile,
                                                   std::size_t beginRow, std::size_t endRow);
+
+  /// Step 2 for any source: the samples [beginSample, endSample) of those `samples`
+  /// enumerates (in its order), bucketed as writeSourceBuckets does a DEM's. Held in memory
+  /// while bucketed (16 bytes a sample).
+  static formats::Result<void> writeSourceBuckets(const SampleEnumerator& samples,
+                                                  std::uint64_t beginSample,
+                                                  std::uint64_t endSample,
+                                                  const runtime::Planet& planet,
+                                                  const Lattice& lattice, std::uint32_t bucketCells,
+                                                  const std::filesystem::path& samplesFile);
 
   /// Out of core, step 3: maps the complete heights file and the bucket files (in row order)
   /// read-only. `stats` are the totals over all rows. Errors: missing, short or damaged files.
@@ -112,6 +136,17 @@ class SampleGrid final {
   /// its leaf level 1.9× and the whole dataset 1.2× slower than with 2-cell ones.
   static std::uint32_t defaultBucketCells(const Lattice& lattice) noexcept {
     return std::max<std::uint32_t>(1, lattice.sideCells() / 4096);
+  }
+  /// The same, but no finer than about one source sample per bucket: a sparse lattice's side
+  /// follows its densest inset, and buckets of a few of its cells over the whole planet would
+  /// cost 8 bytes each for mostly empty buckets (805 MB at 16384 cells for ETOPO5's 9 M
+  /// samples). Which samples a triangle tests does not depend on the bucket size.
+  static std::uint32_t bucketCellsFor(const Lattice& lattice,
+                                      std::uint64_t sourceSamples) noexcept {
+    const double perFace = static_cast<double>(sourceSamples) / 6.0;
+    const auto side = static_cast<std::uint32_t>(std::min(4096.0, std::ceil(std::sqrt(perFace))));
+    const std::uint32_t buckets = std::min(lattice.sideCells(), std::bit_ceil(std::max(side, 1U)));
+    return std::max(defaultBucketCells(lattice), lattice.sideCells() / buckets);
   }
 
   const Lattice& lattice() const noexcept { return lattice_; }
@@ -401,6 +436,11 @@ class SampleGrid final {
   };
   SampleGrid(const Lattice& lattice, const LatticeTiles& tiles, const runtime::Planet& planet)
       : lattice_(lattice), tiles_(tiles), planet_(planet) {}
+  template <typename HeightAt>
+  static formats::Result<HeightRowStats> writeRows(
+      const HeightAt& heightAt, const runtime::Planet& planet, const Lattice& lattice,
+      const LatticeTiles& tiles, const std::filesystem::path& heightsFile, std::size_t beginRow,
+      std::size_t endRow, const std::function<void(std::size_t, std::size_t)>& progress);
   /// Points faceHeights_ into `storage` (per face when dense; [0] = all when tiled).
   void setFacePointers(const float* storage) noexcept {
     const std::size_t n1 = std::size_t{lattice_.sideCells()} + 1;

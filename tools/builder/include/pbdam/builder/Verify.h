@@ -15,6 +15,7 @@
 #include <string_view>
 #include <vector>
 
+#include "pbdam/builder/CompositeSurface.h"
 #include "pbdam/formats/DemReader.h"
 #include "pbdam/formats/Result.h"
 
@@ -24,6 +25,9 @@ struct VerifyOptions final {
   std::filesystem::path datasetDir;
   std::filesystem::path demPath;  ///< empty: skip the error-against-DEM check
   std::optional<formats::RawLayout> rawLayout;
+  /// The insets the dataset was built with: errors are then checked against the composite's
+  /// samples (CompositeSurface.h), as the builder measured them.
+  std::vector<InsetSpec> insets;
   std::size_t maxViolations = 20;  ///< stop collecting after this many
   std::function<void(std::string_view stage, double fraction)> progress;
 };
