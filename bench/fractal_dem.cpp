@@ -5,9 +5,10 @@
 // across the 0/360° meridian and at the poles) with octaves from the source spacing down to the
 // output spacing. The same arguments always give the same bytes, for any thread count.
 // Writes a tiled, uncompressed int16 GeoTIFF through GDAL in strips (memory: the source plus one
-// strip), georeferenced in degrees on the source body's ellipsoid, pixel-is-area.
+// strip), georeferenced in degrees on the source body's ellipsoid, pixel-is-area. With --bounds
+// it covers that box only (an inset for a hybrid dataset), W columns across it.
 //   pbdam_fractal_dem --dem IN --out OUT.tif --width W [--seed S] [--amplitude-m A]
-//                     [--hurst H] [--planet-radius-m R]
+//                     [--hurst H] [--planet-radius-m R] [--bounds S,W,N,E]
 #include <cpl_conv.h>
 #include <gdal_priv.h>
 #include <libnoise/noise.h>
@@ -39,15 +40,20 @@ struct Options {
   double amplitudeMeters = 120.0;  ///< fBm amplitude at the source's sample spacing
   double hurst = 0.8;              ///< roughness: amplitude ∝ wavelength^H
   double radiusMeters = 0.0;       ///< 0: the source CRS's semi-major axis (or Mars)
+  /// A regional output (an inset): S, W, N, E in degrees, --width columns across W..E; empty:
+  /// the whole globe.
+  std::vector<double> bounds;
 };
 
 [[noreturn]] void usage(const char* why) {
   std::fprintf(stderr,
                "pbdam_fractal_dem: %s\n"
                "usage: pbdam_fractal_dem --dem IN --out OUT.tif --width W [--seed S]\n"
-               "       [--amplitude-m A] [--hurst H] [--planet-radius-m R]\n"
+               "       [--amplitude-m A] [--hurst H] [--planet-radius-m R] [--bounds S,W,N,E]\n"
                "  W: output columns over 360 degrees (rows = W/2); must be even and > the "
-               "source's width\n",
+               "source's width\n"
+               "  --bounds: a regional grid (an inset) of W columns across W..E, as many rows "
+               "at the same spacing\n",
                why);
   std::exit(2);
 }
@@ -85,6 +91,24 @@ Options parse(int argc, char** argv) {
       o.hurst = number(0.05, 1.0);
     } else if (a == "--planet-radius-m") {
       o.radiusMeters = number(1, 1e8);
+    } else if (a == "--bounds") {
+      const std::string v = value();
+      std::size_t at = 0;
+      for (int k = 0; k < 4; ++k) {
+        const std::size_t comma = v.find(',', at);
+        const std::string part =
+            v.substr(at, comma == std::string::npos ? std::string::npos : comma - at);
+        char* end = nullptr;
+        const double d = std::strtod(part.c_str(), &end);
+        if (part.empty() || *end != '\0' || !std::isfinite(d)) usage("--bounds: expected S,W,N,E");
+        o.bounds.push_back(d);
+        if (comma == std::string::npos) break;
+        at = comma + 1;
+      }
+      if (o.bounds.size() != 4 || !(o.bounds[0] < o.bounds[2]) || !(o.bounds[1] < o.bounds[3]) ||
+          o.bounds[0] < -90.0 || o.bounds[2] > 90.0) {
+        usage("--bounds: expected S,W,N,E with -90 <= S < N <= 90 and W < E");
+      }
     } else if (a == "--help" || a == "-h") {
       usage("help");
     } else {
@@ -92,7 +116,7 @@ Options parse(int argc, char** argv) {
     }
   }
   if (o.dem.empty() || o.out.empty() || o.width == 0) usage("--dem, --out and --width are needed");
-  if (o.width % 2 != 0) usage("--width must be even");
+  if (o.bounds.empty() && o.width % 2 != 0) usage("--width must be even");
   return o;
 }
 
@@ -100,6 +124,7 @@ Options parse(int argc, char** argv) {
 /// null (after a message) when GDAL cannot.
 std::unique_ptr<GDALDataset> createGeoTiff(const std::string& tmp, std::int64_t width,
                                            std::int64_t height, double spacingDegrees,
+                                           double westDegrees, double northDegrees,
                                            const pbdam::formats::HeightGrid& dem) {
   GDALAllRegister();
   GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
@@ -121,7 +146,7 @@ std::unique_ptr<GDALDataset> createGeoTiff(const std::string& tmp, std::int64_t 
   }
   const double semiMajor =
       dem.source().semiMajorMeters > 0.0 ? dem.source().semiMajorMeters : 3396190.0;
-  double geoTransform[6] = {0.0, spacingDegrees, 0.0, 90.0, 0.0, -spacingDegrees};
+  double geoTransform[6] = {westDegrees, spacingDegrees, 0.0, northDegrees, 0.0, -spacingDegrees};
   out->SetGeoTransform(geoTransform);
   OGRSpatialReference srs;
   const double flattening = dem.source().semiMajorMeters > 0.0 ? dem.source().flattening : 0.0;
@@ -143,13 +168,22 @@ int run(int argc, char** argv) {
                  o.dem.c_str());
     return 2;
   }
-  if (o.width <= dem->width()) usage("--width must exceed the source's width (this upsamples)");
+  const bool regional = !o.bounds.empty();
+  const double west = regional ? o.bounds[1] : 0.0;
+  const double north = regional ? o.bounds[2] : 90.0;
+  const double spacingDegrees =
+      (regional ? o.bounds[3] - o.bounds[1] : 360.0) / static_cast<double>(o.width);
+  if (spacingDegrees >= dem->geometry().lonSpacingDegrees) {
+    usage("--width must give a finer spacing than the source's (this upsamples)");
+  }
   const std::int64_t width = o.width;
-  const std::int64_t height = o.width / 2;
+  const std::int64_t height =
+      regional
+          ? static_cast<std::int64_t>(std::llround((o.bounds[2] - o.bounds[0]) / spacingDegrees))
+          : o.width / 2;
   const double semiMajor =
       dem->source().semiMajorMeters > 0.0 ? dem->source().semiMajorMeters : 3396190.0;
   const double radius = o.radiusMeters > 0.0 ? o.radiusMeters : semiMajor;
-  const double spacingDegrees = 360.0 / static_cast<double>(width);
 
   // fBm: octave 0 at the source's spacing; each octave halves the wavelength down to the output
   // spacing. libnoise's Perlin takes the frequency in cycles per unit of its input coordinates,
@@ -169,7 +203,8 @@ int run(int argc, char** argv) {
   perlin.SetNoiseQuality(noise::QUALITY_STD);
 
   const std::string tmp = o.out + ".tmp.tif";
-  std::unique_ptr<GDALDataset> out = createGeoTiff(tmp, width, height, spacingDegrees, *dem);
+  std::unique_ptr<GDALDataset> out =
+      createGeoTiff(tmp, width, height, spacingDegrees, west, north, *dem);
   if (!out) return 1;
   GDALRasterBand* band = out->GetRasterBand(1);
   band->SetNoDataValue(-32768.0);
@@ -182,10 +217,10 @@ int run(int argc, char** argv) {
   for (std::int64_t row0 = 0; row0 < height; row0 += kStripRows) {
     const std::int64_t rows = std::min(kStripRows, height - row0);
     tbb::parallel_for(std::int64_t{0}, rows, [&](std::int64_t r) {
-      const double lat = 90.0 - (static_cast<double>(row0 + r) + 0.5) * spacingDegrees;
+      const double lat = north - (static_cast<double>(row0 + r) + 0.5) * spacingDegrees;
       const double phi = lat * std::numbers::pi / 180.0;
       for (std::int64_t c = 0; c < width; ++c) {
-        const double lon = (static_cast<double>(c) + 0.5) * spacingDegrees;
+        const double lon = west + (static_cast<double>(c) + 0.5) * spacingDegrees;
         const double lambda = lon * std::numbers::pi / 180.0;
         const double base = dem->sampleBicubic(lat, lon).value_or(0.0);
         const double detail =

@@ -110,6 +110,14 @@ ex mpirun-build "mpirun ${root_flag}-np 2 pbdam build --dem $mola --planet mars 
     --out mars-mpi --threads 1"
 ex mpirun-build "for f in mars/*; do cmp \"\$f\" \"mars-mpi/\${f#mars/}\"; done && echo identical"
 
+etopo=/usr/share/ferret-vis/data/etopo5.cdf
+lux=../shared/data/geotiff/terra_elev_luxembourg.tif
+ex inset "pbdam build --dem $etopo --planet earth --levels 8 --leaf-vertices 17 \\
+    --inset $lux --out luxembourg --quiet"
+ex inset "pbdam info luxembourg | head -5"
+ex inset "pbdam verify luxembourg --dem $etopo --inset $lux"
+ex inset "pbdam height luxembourg --at 49.6,6.13"
+
 ex info "pbdam info mars"
 ex verify "pbdam verify mars --dem $mola"
 

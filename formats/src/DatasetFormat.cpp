@@ -211,6 +211,7 @@ void encodeNodeRecord(const NodeRecord& n, std::span<std::byte, kNodeRecordBytes
   w.put(n.triangleCount);
   w.put(n.flags);
   w.put(n.heapIndex);
+  w.put(n.sources);
 }
 
 NodeRecord decodeNodeRecord(std::span<const std::byte, kNodeRecordBytes> bytes) noexcept {
@@ -230,6 +231,7 @@ NodeRecord decodeNodeRecord(std::span<const std::byte, kNodeRecordBytes> bytes) 
   n.triangleCount = r.get<std::uint32_t>();
   n.flags = r.get<std::uint32_t>();
   n.heapIndex = r.get<std::uint64_t>();
+  n.sources = r.get<std::uint32_t>();
   return n;
 }
 
@@ -315,6 +317,7 @@ Result<void> FaceView::checkNodes() {
       };
       if (k == first && n.heapIndex != 0) return where("a tree does not start at its root");
       if ((n.flags & ~kRecordLeaf) != 0) return where("unknown flags");
+      if (n.sources != 0 && !n.leaf()) return where("sources on a node that is not a leaf");
       if (n.blobBytes != 0 && (n.blobOffset < h.blobsOffset || n.blobOffset > h.fileBytes ||
                                n.blobBytes > h.fileBytes - n.blobOffset)) {
         return where("points outside the blob area");

@@ -110,7 +110,7 @@ Result<SurfaceHeight> surfaceHeightAt(const DatasetView& view, double lat, doubl
       // The outermost hit: where the line meets the surface coming from above.
       if (hit && (!best || *hit > best->heightMeters)) {
         best = SurfaceHeight{*hit, key, static_cast<double>(record.errorMeters),
-                             static_cast<double>(record.measuredErrorMeters)};
+                             static_cast<double>(record.measuredErrorMeters), record.sources};
       }
     }
   }

@@ -35,6 +35,24 @@ cp "$work/tiny/face4.pbdam" "$corpus/face_file/mars_face4.bin"
   --texture-format rgba8 --out "$work/sparse" --quiet
 cp "$work/sparse/face0.pbdam" "$corpus/face_file/mars_sparse_face0.bin"
 
+# And an inset: an 8 × 8 ASCII grid at 4° (with its WGS 84 .prj) joined to that grid on Earth:
+# leaves carry their sources, the manifest lists the inset.
+python3 - "$work/inset.asc" <<'EOF'
+import math, sys
+with open(sys.argv[1], "w") as f:
+    f.write("ncols 8\nnrows 8\nxllcorner 20\nyllcorner 10\ncellsize 4\nNODATA_value -9999\n")
+    for j in range(8):
+        f.write(" ".join(str(int(round(800 * math.sin(0.9 * i) * math.cos(0.5 * j)))) for i in range(8)) + "\n")
+with open(sys.argv[1][:-4] + ".prj", "w") as f:
+    f.write('GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563]],'
+            'PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433]]')
+EOF
+"$pbdam" build --dem "$work/grid.raw" --raw-size 8,4 --raw-type int16le --bounds -90,-180,90,180 \
+  --planet earth --levels 0 --inset "$work/inset.asc" --leaf-vertices 3 --texture-tile 16 \
+  --texture-format rgba8 --out "$work/inset" --quiet
+cp "$work/inset/face0.pbdam" "$corpus/face_file/earth_inset_face0.bin"
+cp "$work/inset/manifest.json" "$corpus/manifest/earth_inset.json"
+
 # A manifest: MOLA at two levels with BC1 tiles.
 "$pbdam" build --dem "$mola" --planet mars --levels 2 --leaf-vertices 9 --min-patch-triangles 16 \
   --texture-tile 16 --out "$work/levels2" --quiet

@@ -236,6 +236,8 @@ TEST_F(SparseForest, TablesThatAreNotAForestAreRejected) {
       {"is not the child of a node before it",
        [&](std::vector<NodeRecord>& n) { n[lastInner(n)].flags = kRecordLeaf; }},
       {"unknown flags", [](std::vector<NodeRecord>& n) { n[5].flags = 4; }},
+      {"sources on a node that is not a leaf",
+       [](std::vector<NodeRecord>& n) { n[0].sources = 1; }},
       {"does not start at its root", [](std::vector<NodeRecord>& n) { n[0].heapIndex = 1; }},
   };
   for (const auto& [message, edit] : cases) {

@@ -307,12 +307,17 @@ TEST(Builder, Etopo5WithTheLuxembourgInsetVerifiesAndAnswersTheInsetsHeights) {
       EXPECT_LE(std::abs(h->heightMeters - *expected), h->leafErrorMeters + 1e-3)
           << lat << ", " << lon;
       worst = std::max(worst, std::abs(h->heightMeters - *expected) / h->leafErrorMeters);
+      EXPECT_NE(h->leafSources & 2U, 0U) << "the answer names the inset as its source";
       ++checked;
     }
   }
   std::printf("%zu points inside Luxembourg, worst at %.0f%% of the leaf error\n", checked,
               100.0 * worst);
   EXPECT_GT(checked, 20u);
+  // Far from it, only the base.
+  auto paris = runtime::surfaceHeightAt((*dataset)->view(), 48.85, 2.35);
+  ASSERT_TRUE(paris);
+  EXPECT_EQ(paris->leafSources, 1U);
 }
 
 TEST(Builder, SameInputsGiveIdenticalBytesForAnyThreadCountAndDemStorage) {

@@ -41,11 +41,15 @@ int runHeight(const HeightCliOptions& o) {
   auto h = surfaceHeightAt(view, latLon[0], latLon[1]);
   if (!h) return reportError(h.error());
   if (o.json) {
-    std::cout << surfaceHeightJson(latLon[0], latLon[1], *h, view.manifest().planetSpec).dump(2)
-              << "\n";
+    std::cout << surfaceHeightJson(latLon[0], latLon[1], *h, view.manifest()).dump(2) << "\n";
   } else {
-    std::printf("%.3f m at %.6f, %.6f (%s; leaf error <= %.1f m)\n", h->heightMeters, latLon[0],
-                latLon[1], view.manifest().planetSpec.c_str(), h->leafErrorMeters);
+    std::string sources;
+    for (const std::string& name : heightSources(*h, view.manifest())) {
+      sources += (sources.empty() ? "" : " + ") + name;
+    }
+    std::printf("%.3f m at %.6f, %.6f (%s; leaf error <= %.1f m; from %s)\n", h->heightMeters,
+                latLon[0], latLon[1], view.manifest().planetSpec.c_str(), h->leafErrorMeters,
+                sources.c_str());
   }
   return kExitOk;
 }

@@ -4,22 +4,37 @@
 
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
+#include "pbdam/formats/Manifest.h"
 #include "pbdam/runtime/SurfaceQuery.h"
 
 namespace pbdam::tools {
 
-/// {lat, lon, height_m, error_m, measured_error_m, planet, face, tree, node}.
+/// The sources an answer comes from: the file names of the base DEM and of the manifest's
+/// insets whose bits the leaf carries (the base alone in a dataset without insets).
+inline std::vector<std::string> heightSources(const runtime::SurfaceHeight& h,
+                                              const formats::Manifest& manifest) {
+  std::vector<std::string> names;
+  if (h.leafSources == 0 || (h.leafSources & 1U) != 0) names.push_back(manifest.sourceDem);
+  for (std::size_t i = 0; i < manifest.insets.size() && i < 31; ++i) {
+    if ((h.leafSources >> (i + 1) & 1U) != 0) names.push_back(manifest.insets[i].file);
+  }
+  return names;
+}
+
+/// {lat, lon, height_m, error_m, measured_error_m, sources, planet, face, tree, node}.
 inline nlohmann::ordered_json surfaceHeightJson(double latDegrees, double lonDegrees,
                                                 const runtime::SurfaceHeight& h,
-                                                const std::string& planetSpec) {
+                                                const formats::Manifest& manifest) {
   nlohmann::ordered_json j;
   j["lat"] = latDegrees;
   j["lon"] = lonDegrees;
   j["height_m"] = h.heightMeters;
   j["error_m"] = h.leafErrorMeters;
   j["measured_error_m"] = h.leafMeasuredErrorMeters;
-  j["planet"] = planetSpec;
+  j["sources"] = heightSources(h, manifest);
+  j["planet"] = manifest.planetSpec;
   j["face"] = h.leaf.face;
   j["tree"] = h.leaf.tree;
   j["node"] = h.leaf.heap;

@@ -473,8 +473,7 @@ void FrameServer::Impl::handleHeight(const httplib::Request& req, httplib::Respo
   const DatasetView& view = g->dataset->view();
   auto h = surfaceHeightAt(view, query->latDegrees, query->lonDegrees);
   if (!h) return sendError(res, statusFor(h.error()), h.error().message);
-  sendJson(res, 200,
-           surfaceHeightJson(query->latDegrees, query->lonDegrees, *h, view.manifest().planetSpec));
+  sendJson(res, 200, surfaceHeightJson(query->latDegrees, query->lonDegrees, *h, view.manifest()));
 }
 
 void FrameServer::Impl::handleReload(const httplib::Request& req, httplib::Response& res) {

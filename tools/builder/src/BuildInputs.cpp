@@ -111,8 +111,10 @@ Result<BuildInputs> prepareInputs(const BuildOptions& o) {
   in.baseDepth = in.depth;
   in.deepRegions = o.deepRegions;
   std::vector<HeightGrid> insets;
+  DemReadOptions insetOptions = demReadOptions(o);
+  insetOptions.raw.reset();  // the raw-grid options describe --dem only
   for (const InsetSpec& inset : o.insets) {
-    auto grid = readDem(inset.path, demReadOptions(o));
+    auto grid = readDem(inset.path, insetOptions);
     if (!grid) return std::move(grid).error();
     if (auto ok = checkInset(inset, *grid, *dem, planet->name()); !ok) return std::move(ok).error();
     const LatLonBounds b = grid->bounds();

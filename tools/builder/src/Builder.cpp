@@ -207,6 +207,7 @@ class DistributedBuild {
   Result<void> rereadDem();
   Result<void> assemble(BuildSummary& summary);
   std::vector<formats::ManifestInset> manifestInsets() const;
+  std::function<std::uint32_t(const runtime::BinTriangle&)> leafSources() const;
 
   /// The part files one rank writes for a level, and the index of its carry records.
   struct LevelFiles {
@@ -856,6 +857,33 @@ std::vector<ManifestInset> DistributedBuild::manifestInsets() const {
   return out;
 }
 
+/// With insets: a leaf's sources, from which source defines the composite at each point of its
+/// regular patch (an inset's bit where it has a weight, the base's where it has less than 1).
+std::function<std::uint32_t(const BinTriangle&)> DistributedBuild::leafSources() const {
+  if (!in_.composite) return {};
+  // The composite orders its insets coarsest first; the manifest as the options do.
+  std::vector<std::uint32_t> bitOf(in_.composite->specs().size(), 0);
+  for (std::size_t i = 0; i < bitOf.size(); ++i) {
+    for (std::size_t k = 0; k < o_.insets.size(); ++k) {
+      if (in_.composite->specs()[i].path == o_.insets[k].path) {
+        bitOf[i] = std::uint32_t{2} << k;
+        break;
+      }
+    }
+  }
+  return [this, bitOf](const BinTriangle& t) {
+    std::uint32_t sources = 0;
+    for (const LatticeXY p : plan_.leafPatch(t).points) {
+      const runtime::GeodeticPosition g =
+          in_.planet->directionToGeodetic(lattice_.direction(t.face, p));
+      const SourceAt s = in_.composite->sourceAt(g.latDegrees, g.lonDegrees);
+      if (s.inset >= 0) sources |= bitOf[static_cast<std::size_t>(s.inset)];
+      if (s.inset < 0 || s.weight < 1.0) sources |= 1U;
+    }
+    return sources;
+  };
+}
+
 /// Rank 0: the face files and the manifest from the checkpointed levels and tiles.
 Result<void> DistributedBuild::assemble(BuildSummary& summary) {
   const AssemblyInputs inputs{o_,
@@ -871,6 +899,7 @@ Result<void> DistributedBuild::assemble(BuildSummary& summary) {
                               static_cast<double>(grid_->minHeightMeters()),
                               static_cast<double>(grid_->maxHeightMeters()),
                               manifestInsets(),
+                              leafSources(),
                               assembling_,
                               [this](double fraction) { report("write", fraction); }};
   return assembleDataset(inputs, summary);

@@ -264,6 +264,11 @@ Result<ManifestFace> Assembly::writeFace(int face) {
     record.heapIndex = id % nodesPerTree_;
     const bool leaf = in_.plan.isLeaf(runtime::bintreeLevel(record.heapIndex), id);
     record.flags = leaf ? kRecordLeaf : 0;
+    record.sources = 0;
+    if (leaf && in_.leafSources) {
+      record.sources = in_.leafSources(
+          triangleOfNode(Lattice(in_.latticeCells), id, static_cast<int>(in_.depth)));
+    }
     at += node.blob.size();
     blobs.emplace_back(node.blob);
     encodeNodeRecord(record, std::span<std::byte, kNodeRecordBytes>(

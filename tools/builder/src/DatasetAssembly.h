@@ -65,6 +65,8 @@ struct AssemblyInputs final {
   double minHeightMeters = 0.0;
   double maxHeightMeters = 0.0;
   std::vector<formats::ManifestInset> insets;  ///< in the order of the options
+  /// With insets: a leaf's sources (NodeRecord::sources) from its triangle.
+  std::function<std::uint32_t(const runtime::BinTriangle&)> leafSources;
   /// Where the assembly registers its mappings while it reads them (cleared before it returns).
   AssemblyMappings& mappings;
   /// Called with the fraction of the face files written.

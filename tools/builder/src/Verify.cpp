@@ -275,7 +275,9 @@ Result<void> DatasetVerifier::openDemGrid() {
     // The composite's samples, as the builder measured its errors against them.
     std::vector<HeightGrid> insets;
     for (const InsetSpec& spec : o_.insets) {
-      auto grid = readDem(spec.path, readOptions);
+      DemReadOptions insetOptions = readOptions;
+      insetOptions.raw.reset();  // the raw-grid options describe --dem only
+      auto grid = readDem(spec.path, insetOptions);
       if (!grid) return std::move(grid).error();
       if (auto ok = checkInset(spec, *grid, *dem, planet_.name()); !ok) {
         return std::move(ok).error();

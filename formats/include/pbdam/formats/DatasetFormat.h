@@ -71,6 +71,9 @@ struct NodeRecord final {
   std::uint32_t triangleCount = 0;
   std::uint32_t flags = 0;      ///< kRecordLeaf
   std::uint64_t heapIndex = 0;  ///< within its tree
+  /// Of a leaf of a dataset with insets: the sources its stored error was measured against,
+  /// bit 0 the base DEM, bit 1 + i the manifest's inset i; 0 otherwise.
+  std::uint32_t sources = 0;
   bool leaf() const noexcept { return (flags & kRecordLeaf) != 0; }
 };
 

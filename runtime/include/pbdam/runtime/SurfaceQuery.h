@@ -16,6 +16,8 @@ struct SurfaceHeight final {
   NodeKey leaf;                  ///< the leaf patch whose triangle was hit
   double leafErrorMeters = 0.0;  ///< its saturated stored error
   double leafMeasuredErrorMeters = 0.0;
+  /// The leaf's sources (formats::NodeRecord::sources): 0 when the dataset has no insets.
+  std::uint32_t leafSources = 0;
 };
 
 /// The rendered surface height at geodetic (lat, lon) in degrees. InvalidArgument for

@@ -1,0 +1,78 @@
+#!/usr/bin/env bash
+# What an inset costs (hybrid datasets): MOLA alone, then MOLA with a synthetic inset of
+# 8192 × 8192 samples at 256 px/deg (32° × 32° under the Mars flight's last leg, fractal detail
+# from pbdam_fractal_dem), built one after the other with the same threads. Prints the extra
+# build CPU-seconds and extra dataset bytes over the base-only build, each as a multiple of
+# (inset samples × the base build's CPU-seconds or bytes per source sample): the target is 2 at
+# most. Then replays the Mars flight cold through both datasets (pbdam bench, prefetch on and
+# off) and prints the render-thread major faults and data stalls of each, and their ratio.
+#   bench/inset_cost.sh [OUTDIR] [PBDAM]
+#     OUTDIR  where the inset, datasets and reports go (default build/inset; kept)
+#     PBDAM   the pbdam binary (default build/release/tools/pbdam)
+# Environment: PBDAM_DATA_DIR (default ../shared/data), INSET_THREADS (default 2).
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+out=${1:-"$root/build/inset"}
+pbdam=${2:-"$root/build/release/tools/pbdam"}
+fractal="$(dirname "$pbdam")/../bench/pbdam_fractal_dem"
+data=${PBDAM_DATA_DIR:-"$root/../shared/data"}
+mola="$data/mars/megt90n000cb.lbl"
+threads=${INSET_THREADS:-2}
+flight="$root/bench/paths/mars_flight.csv"
+mkdir -p "$out"
+inset="$out/olympus_256.tif"
+if [ ! -f "$inset" ]; then
+  "$fractal" --dem "$mola" --out "$inset" --width 8192 --bounds 2,210,34,242 --seed 7
+fi
+
+build() {  # NAME [ARGS...]
+  local name=$1
+  shift
+  rm -rf "${out:?}/$name"
+  /usr/bin/time -f "%e %U %S %M" -o "$out/$name.time" \
+    "$pbdam" build --dem "$mola" --planet mars --threads "$threads" --out "$out/$name" "$@" \
+    >"$out/$name.log" 2>&1
+  read -r wall user sys rss <"$out/$name.time"
+  bytes=$(du -sb --exclude=.build-checkpoint "$out/$name" | cut -f1)
+  echo "$name: wall $wall s, cpu $(awk -v u="$user" -v s="$sys" 'BEGIN{print u+s}') s, peak RSS $((rss / 1024)) MiB, $bytes bytes"
+}
+build base
+build inset --inset "$inset"
+"$pbdam" verify "$out/inset" --dem "$mola" --inset "$inset" --quiet
+
+base_samples=$(( 1440 * 720 ))
+inset_samples=$(( 8192 * 8192 ))
+read -r _ bu bs _ <"$out/base.time"
+read -r _ iu is _ <"$out/inset.time"
+bb=$(du -sb --exclude=.build-checkpoint "$out/base" | cut -f1)
+ib=$(du -sb --exclude=.build-checkpoint "$out/inset" | cut -f1)
+awk -v bu="$bu" -v bs="$bs" -v iu="$iu" -v is="$is" -v bb="$bb" -v ib="$ib" \
+    -v n="$base_samples" -v m="$inset_samples" 'BEGIN {
+  base = bu + bs; with = iu + is
+  printf "extra CPU   %.1f s = %.2f x (inset samples x base CPU-s per sample = %.1f s); target <= 2\n",
+         with - base, (with - base) / (m * base / n), m * base / n
+  printf "extra bytes %.1f MB = %.2f x (inset samples x base bytes per sample = %.1f MB); target <= 2\n",
+         (ib - bb) / 1e6, (ib - bb) / (m * bb / n), m * bb / n / 1e6
+}'
+
+for name in base inset; do
+  rm -rf "$out/$name-flight"
+  "$pbdam" bench "$out/$name" --path "$flight" --out "$out/$name-flight" --cold --quiet \
+    >"$out/$name-flight.log" 2>&1
+done
+python3 - "$out" <<'EOF'
+import json, sys
+out = sys.argv[1]
+runs = {}
+for name in ("base", "inset"):
+    with open(f"{out}/{name}-flight/summary.json") as f:
+        for run in json.load(f)["runs"]:
+            runs[(name, run["prefetch"])] = run
+for prefetch in ("off", "on"):
+    b, i = runs[("base", prefetch)], runs[("inset", prefetch)]
+    for key in ("render_thread_major_faults", "data_stalls"):
+        if key not in b:
+            continue
+        ratio = i[key] / b[key] if b[key] else float("nan")
+        print(f"flight prefetch {prefetch}: {key} base {b[key]}, inset {i[key]}, ratio {ratio:.2f} (target <= 1.2)")
+EOF
