@@ -84,14 +84,15 @@ class TerrainRendererTest : public test::GpuTest {
     return TerrainRenderer::create(context(), view, options);
   }
 
-  void expectNoHoles(const std::filesystem::path& dir, double lowAltitude) {
+  void expectNoHoles(const std::filesystem::path& dir, double lowAltitude,
+                     std::vector<CameraPose> poses = {}) {
     const auto dataset = test::openDataset(dir);
     ASSERT_NE(dataset, nullptr);
     const DatasetView& view = dataset->view();
     auto renderer = makeRenderer(view, std::uint64_t{256} << 20);
     ASSERT_TRUE(renderer.ok()) << renderer.error().message;
-    const std::vector<CameraPose> poses =
-        crackTestCameras(view.planet().equatorialRadiusMeters(), lowAltitude);
+    if (poses.empty())
+      poses = crackTestCameras(view.planet().equatorialRadiusMeters(), lowAltitude);
     ASSERT_GE(poses.size(), 20u);
     std::uint64_t inside = 0;
     for (const CameraPose& pose : poses) {
@@ -129,6 +130,21 @@ TEST_F(TerrainRendererTest, NoBackgroundInsideTheSilhouetteOfMars) {
 TEST_F(TerrainRendererTest, NoBackgroundInsideTheSilhouetteOfEarth) {
   PBDAM_REQUIRE_DATASET(dir, "earth");
   expectNoHoles(dir, 10000.0);  // above Everest
+}
+
+// Oblique frames across the Luxembourg inset's border, where leaves of level 20 meet the
+// base's: no background shows through.
+TEST_F(TerrainRendererTest, NoBackgroundAcrossAnInsetsBorder) {
+  PBDAM_REQUIRE_DATASET(dir, "luxembourg");
+  std::vector<CameraPose> poses;
+  for (int k = 0; k < 24; ++k) {
+    const double t = static_cast<double>(k) / 24.0;
+    // Around the country (49.45–50.18°N, 5.73–6.53°E), looking inwards and outwards.
+    poses.push_back({49.8 + 0.6 * std::sin(6.283185307 * t), 6.1 + 0.7 * std::cos(6.283185307 * t),
+                     2000.0 * std::pow(100.0, static_cast<double>(k % 4) / 3.0),
+                     360.0 * t + (k % 2 == 0 ? 0.0 : 180.0), -8.0 - 10.0 * (k % 3), 0.0});
+  }
+  expectNoHoles(dir, 10000.0, poses);
 }
 
 TEST_F(TerrainRendererTest, TheSilhouetteCheckFindsAMissingPatch) {

@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <random>
 #include <string>
@@ -44,19 +45,16 @@ std::unique_ptr<MappedDataset> openDataset(const std::filesystem::path& dir) {
   return dataset.ok() ? std::move(dataset).value() : nullptr;
 }
 
-void expectWatertight(const std::filesystem::path& dir, const std::filesystem::path& demPath,
-                      int cameras, std::uint64_t seed) {
-  auto dataset = openDataset(dir);
-  ASSERT_TRUE(dataset);
-  const DatasetView& view = dataset->view();
-  auto dem = readDem(demPath);
-  ASSERT_TRUE(dem.ok()) << dem.error().message;
+/// Cuts for each of `cameras` poses from pose(rng) are closed 2-manifolds (Euler 2), capped ones
+/// too, and culling only drops subtrees.
+void expectWatertightFor(const DatasetView& view, int cameras, std::uint64_t seed,
+                         const std::function<CameraPose(std::mt19937_64&)>& nextPose) {
   test::PatchStore store(view);
   std::mt19937_64 rng(seed);
   const Viewport viewport{320, 180, 60.0};
   std::size_t totalTriangles = 0;
   for (int c = 0; c < cameras; ++c) {
-    const CameraPose pose = randomPose(rng, *dem, view.planet().equatorialRadiusMeters());
+    const CameraPose pose = nextPose(rng);
     SCOPED_TRACE("camera " + std::to_string(c) + ": " + std::to_string(pose.latDegrees) + "," +
                  std::to_string(pose.lonDegrees) + "," + std::to_string(pose.altitudeMeters));
     const Camera camera = Camera::fromPose(view.planet(), pose, viewport);
@@ -87,6 +85,17 @@ void expectWatertight(const std::filesystem::path& dir, const std::filesystem::p
   std::printf("%d cameras, %zu triangles checked\n", cameras, totalTriangles);
 }
 
+void expectWatertight(const std::filesystem::path& dir, const std::filesystem::path& demPath,
+                      int cameras, std::uint64_t seed) {
+  auto dataset = openDataset(dir);
+  ASSERT_TRUE(dataset);
+  auto dem = readDem(demPath);
+  ASSERT_TRUE(dem.ok()) << dem.error().message;
+  const double radius = dataset->view().planet().equatorialRadiusMeters();
+  expectWatertightFor(dataset->view(), cameras, seed,
+                      [&](std::mt19937_64& rng) { return randomPose(rng, *dem, radius); });
+}
+
 // ≥ 200 cameras over both planets; sanitizer builds check fewer (they look for memory errors,
 // not for more camera positions).
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
@@ -105,6 +114,25 @@ TEST(Refinement, EarthCutsAreWatertightForRandomCameras) {
   PBDAM_REQUIRE_DATASET(dir, "earth");
   PBDAM_REQUIRE_DATA(dem, PBDAM_ETOPO5_PATH);
   expectWatertight(dir, dem, kWatertightCameras, 1123);
+}
+
+// ETOPO5 with the Luxembourg inset: leaves of level 20 over the inset meet leaves of level 6
+// across the closure around it. Oblique cameras across its border, from 1 to 300 km up.
+TEST(Refinement, CutsAcrossAnInsetsBorderAreWatertight) {
+  PBDAM_REQUIRE_DATASET(dir, "luxembourg");
+  auto dataset = openDataset(dir);
+  ASSERT_TRUE(dataset);
+  ASSERT_EQ(dataset->view().manifest().insets.size(), 1u);
+  expectWatertightFor(dataset->view(), kWatertightCameras / 2, 77, [](std::mt19937_64& rng) {
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    CameraPose p;
+    p.latDegrees = 49.2 + 1.2 * u(rng);
+    p.lonDegrees = 5.5 + 1.3 * u(rng);
+    p.altitudeMeters = 1000.0 * std::pow(300.0, u(rng));
+    p.headingDegrees = 360.0 * u(rng);
+    p.pitchDegrees = -5.0 - 55.0 * u(rng);
+    return p;
+  });
 }
 
 }  // namespace

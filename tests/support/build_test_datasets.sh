@@ -29,4 +29,13 @@ build() {  # name, input file, build arguments...
 data=${PBDAM_DATA_DIR:-$data}
 build mola "$data/mars/megt90n000cb.lbl" --planet mars
 build earth /usr/share/ferret-vis/data/etopo5.cdf --planet earth --levels 8
+# A hybrid: ETOPO5 with the Luxembourg GeoTIFF joined to it (leaves at level 20 over it).
+luxembourg="$data/geotiff/terra_elev_luxembourg.tif"
+if [[ -r "$luxembourg" ]]; then
+  build luxembourg /usr/share/ferret-vis/data/etopo5.cdf --planet earth --levels 6 \
+    --leaf-vertices 17 --inset "$luxembourg"
+else
+  echo "test dataset 'luxembourg' not built: input $luxembourg is missing (set PBDAM_DATA_DIR)"
+  [[ "${CI:-}" == "true" ]] && status=1
+fi
 exit $status
