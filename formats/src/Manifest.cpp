@@ -13,6 +13,26 @@
 
 namespace pbdam::formats {
 
+namespace {
+
+nlohmann::ordered_json insetsJson(const Manifest& m) {
+  nlohmann::ordered_json insets = nlohmann::ordered_json::array();
+  for (const ManifestInset& i : m.insets) {
+    insets.push_back({{"file", i.file},
+                      {"format", i.format},
+                      {"samples", i.samples},
+                      {"bounds", {i.southDegrees, i.westDegrees, i.northDegrees, i.eastDegrees}},
+                      {"leaf_level", i.leafLevel},
+                      {"band_samples", i.bandSamples},
+                      {"offset_m", i.offsetMeters}});
+  }
+  return insets;
+}
+
+}  // namespace
+
+std::string manifestInsetsJson(const Manifest& manifest) { return insetsJson(manifest).dump(); }
+
 std::string manifestToJson(const Manifest& m) {
   nlohmann::ordered_json j;
   j["format"] = kManifestFormatName;
@@ -37,19 +57,7 @@ std::string manifestToJson(const Manifest& m) {
                  {"samples", m.sourceSamples},
                  {"min_height_m", m.minHeightMeters},
                  {"max_height_m", m.maxHeightMeters}};
-  if (!m.insets.empty()) {
-    nlohmann::ordered_json insets = nlohmann::ordered_json::array();
-    for (const ManifestInset& i : m.insets) {
-      insets.push_back({{"file", i.file},
-                        {"format", i.format},
-                        {"samples", i.samples},
-                        {"bounds", {i.southDegrees, i.westDegrees, i.northDegrees, i.eastDegrees}},
-                        {"leaf_level", i.leafLevel},
-                        {"band_samples", i.bandSamples},
-                        {"offset_m", i.offsetMeters}});
-    }
-    j["insets"] = insets;
-  }
+  if (!m.insets.empty()) j["insets"] = insetsJson(m);
   nlohmann::ordered_json faces = nlohmann::ordered_json::array();
   for (const ManifestFace& f : m.faces) {
     faces.push_back({{"file", f.file}, {"bytes", f.bytes}, {"crc32", f.crc32}});

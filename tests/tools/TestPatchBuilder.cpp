@@ -10,6 +10,7 @@
 #include <cmath>
 #include <vector>
 
+#include "RoughDem.h"
 #include "pbdam/builder/Lattice.h"
 #include "pbdam/builder/PatchBuilder.h"
 #include "pbdam/builder/SampleGrid.h"
@@ -22,22 +23,7 @@ namespace pbdam::builder {
 namespace {
 
 /// A whole-planet DEM of 3° cells with rough, deterministic relief (no two neighbours alike).
-HeightGrid roughDem() {
-  GridGeometry g;
-  g.width = 120;
-  g.height = 60;
-  g.firstLatDegrees = 88.5;
-  g.firstLonDegrees = 1.5;
-  g.latSpacingDegrees = 3.0;
-  g.lonSpacingDegrees = 3.0;
-  g.pixelIsArea = true;
-  std::vector<float> heights(static_cast<std::size_t>(g.width * g.height));
-  for (std::size_t k = 0; k < heights.size(); ++k) {
-    const double x = static_cast<double>(k);
-    heights[k] = static_cast<float>(3000.0 * std::sin(0.37 * x) + 1700.0 * std::cos(1.91 * x));
-  }
-  return HeightGrid(g, std::move(heights), GridSource{});
-}
+using test::roughDem;
 
 /// maxLatticeDeviation by its definition: every lattice point of each triangle's bounding box
 /// tested for being inside or on it.

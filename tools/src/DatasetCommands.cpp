@@ -99,20 +99,7 @@ int runInfo(const std::string& dir, bool json) {
     j["texture_format"] = m.textureFormat;
     j["texture_source"] = m.textureSource;
     j["source_dem"] = m.sourceDem;
-    if (!m.insets.empty()) {
-      nlohmann::ordered_json insets = nlohmann::ordered_json::array();
-      for (const ManifestInset& i : m.insets) {
-        insets.push_back(
-            {{"file", i.file},
-             {"format", i.format},
-             {"samples", i.samples},
-             {"bounds", {i.southDegrees, i.westDegrees, i.northDegrees, i.eastDegrees}},
-             {"leaf_level", i.leafLevel},
-             {"band_samples", i.bandSamples},
-             {"offset_m", i.offsetMeters}});
-      }
-      j["insets"] = insets;
-    }
+    if (!m.insets.empty()) j["insets"] = nlohmann::ordered_json::parse(manifestInsetsJson(m));
     j["nodes"] = total.nodes;
     j["patches"] = total.nodes;
     j["vertices"] = total.vertices;

@@ -563,7 +563,7 @@ InsertionResult insertGreedily(const FaceHeights& heights, const std::array<Latt
   // The big early triangles are thus never scanned in full, and the final pass at stride 1
   // decides the stop exactly as a single pass would.
   const double points = 0.5 * static_cast<double>(std::abs(doubleArea(ccw[0], ccw[1], ccw[2])));
-  int stride = 1;
+  int stride = std::max(1, limits.spacing);
   while (points / (4.0 * stride * stride) >= kCoarseCandidates) stride *= 2;
   tin.setStride(stride);
   tin.start(ccw, boundary);
@@ -578,9 +578,10 @@ InsertionResult insertGreedily(const FaceHeights& heights, const std::array<Latt
       tin.rescanDirty();
       ++result.insertedPoints;
     }
-    if (tin.stride() == 1) break;
+    const int last = std::max(1, limits.spacing);
+    if (tin.stride() <= last) break;
     // At the vertex cap only the exact error is left to know.
-    tin.refineStride(tin.vertexCount() >= limits.maxVertices ? 1 : tin.stride() / 2);
+    tin.refineStride(tin.vertexCount() >= limits.maxVertices ? last : tin.stride() / 2);
   }
   result.maxErrorMeters = tin.top(best) ? std::max(0.0, best.error) : 0.0;
   result.patch.points = tin.points();

@@ -38,6 +38,9 @@ struct InsertionLimits final {
   double targetMeters = 0.0;
   std::uint32_t minTriangles = 0;
   std::uint32_t maxVertices = 65535;
+  /// Candidates are the lattice points whose coordinates are multiples of this (a power of
+  /// two): the last pass scans at this stride instead of every point.
+  std::int32_t spacing = 1;
 };
 
 struct InsertionResult final {

@@ -4,6 +4,8 @@
 #include <glm/common.hpp>
 
 #include <algorithm>
+#include <array>
+#include <bit>
 #include <cassert>
 #include <cmath>
 #include <limits>
@@ -35,6 +37,35 @@ void clipSpan(std::int64_t coefX, std::int64_t rest, std::int64_t& lo, std::int6
   }
 }
 
+/// Calls row(y, lo, hi, w) for every `rowStep`-th row y (multiples of it) holding lattice points
+/// inside or on the counter-clockwise triangle (a, b, c): those of x in [lo, hi], where all three
+/// edge functions doubleArea(edge, p) are ≥ 0 (each is linear in x along the row), and w their
+/// values at lo (the integer barycentric weights); along the row they change by `step`.
+template <class Row>
+void forEachTriangleRow(LatticeXY a, LatticeXY b, LatticeXY c, int rowStep, Row&& row) {
+  const int x0 = std::min({a.x, b.x, c.x});
+  const int x1 = std::max({a.x, b.x, c.x});
+  const int y0 = std::min({a.y, b.y, c.y});
+  const int y1 = std::max({a.y, b.y, c.y});
+  // doubleArea(q, r, p) grows by −(r.y − q.y) per step in x.
+  const std::array<std::int64_t, 3> step = {-static_cast<std::int64_t>(c.y - b.y),
+                                            -static_cast<std::int64_t>(a.y - c.y),
+                                            -static_cast<std::int64_t>(b.y - a.y)};
+  for (int y = (y0 + rowStep - 1) / rowStep * rowStep; y <= y1; y += rowStep) {
+    std::int64_t lo = x0;
+    std::int64_t hi = x1;
+    clipSpan(step[0], doubleArea(b, c, LatticeXY{0, y}), lo, hi);
+    clipSpan(step[1], doubleArea(c, a, LatticeXY{0, y}), lo, hi);
+    clipSpan(step[2], doubleArea(a, b, LatticeXY{0, y}), lo, hi);
+    if (lo > hi) continue;
+    const LatticeXY first{static_cast<int>(lo), y};
+    row(y, lo, hi,
+        std::array<std::int64_t, 3>{doubleArea(b, c, first), doubleArea(c, a, first),
+                                    doubleArea(a, b, first)},
+        step);
+  }
+}
+
 /// The largest |patch − lattice| over the lattice points inside or on triangle (a, b, c)
 /// (counter-clockwise, positive doubled area `total`), whose corner heights are ha, hb, hc: the
 /// patch's height at p is (w0·ha + w1·hb + w2·hc) / total with w the integer barycentric weights
@@ -43,78 +74,52 @@ void clipSpan(std::int64_t coefX, std::int64_t rest, std::int64_t& lo, std::int6
 double triangleLatticeDeviation(const float* heights, std::size_t rowLength, LatticeXY a,
                                 LatticeXY b, LatticeXY c, double ha, double hb, double hc,
                                 std::int64_t total) noexcept {
-  const int x0 = std::min({a.x, b.x, c.x});
-  const int x1 = std::max({a.x, b.x, c.x});
-  const int y0 = std::min({a.y, b.y, c.y});
-  const int y1 = std::max({a.y, b.y, c.y});
   const double sum = static_cast<double>(total);
-  // doubleArea(q, r, p) grows by −(r.y − q.y) per step in x.
-  const std::int64_t d0 = -static_cast<std::int64_t>(c.y - b.y);
-  const std::int64_t d1 = -static_cast<std::int64_t>(a.y - c.y);
-  const std::int64_t d2 = -static_cast<std::int64_t>(b.y - a.y);
   double worst = 0.0;
-  for (int y = y0; y <= y1; ++y) {
-    // The lattice points of this row inside or on the triangle: where all three edge
-    // functions doubleArea(edge, p) are ≥ 0 (each is linear in x along the row).
-    std::int64_t lo = x0;
-    std::int64_t hi = x1;
-    clipSpan(d0, doubleArea(b, c, LatticeXY{0, y}), lo, hi);
-    clipSpan(d1, doubleArea(c, a, LatticeXY{0, y}), lo, hi);
-    clipSpan(d2, doubleArea(a, b, LatticeXY{0, y}), lo, hi);
-    if (lo > hi) continue;
-    const LatticeXY first{static_cast<int>(lo), y};
-    std::int64_t w0 = doubleArea(b, c, first);
-    std::int64_t w1 = doubleArea(c, a, first);
-    std::int64_t w2 = doubleArea(a, b, first);
-    const float* row = heights + static_cast<std::size_t>(y) * rowLength;
-    for (std::int64_t x = lo; x <= hi; ++x) {
-      assert(w0 >= 0 && w1 >= 0 && w2 >= 0 && w0 + w1 + w2 == total);
-      const double hp = (static_cast<double>(w0) * ha + static_cast<double>(w1) * hb +
-                         static_cast<double>(w2) * hc) /
-                        sum;
-      worst = std::max(worst, std::abs(hp - static_cast<double>(row[x])));
-      w0 += d0;
-      w1 += d1;
-      w2 += d2;
-    }
-  }
+  forEachTriangleRow(a, b, c, 1,
+                     [&](int y, std::int64_t lo, std::int64_t hi, std::array<std::int64_t, 3> w,
+                         const std::array<std::int64_t, 3>& step) {
+                       const float* row = heights + static_cast<std::size_t>(y) * rowLength;
+                       for (std::int64_t x = lo; x <= hi; ++x) {
+                         assert(w[0] >= 0 && w[1] >= 0 && w[2] >= 0 && w[0] + w[1] + w[2] == total);
+                         const double hp =
+                             (static_cast<double>(w[0]) * ha + static_cast<double>(w[1]) * hb +
+                              static_cast<double>(w[2]) * hc) /
+                             sum;
+                         worst = std::max(worst, std::abs(hp - static_cast<double>(row[x])));
+                         w[0] += step[0];
+                         w[1] += step[1];
+                         w[2] += step[2];
+                       }
+                     });
   return worst;
 }
 
-/// triangleLatticeDeviation over the points a sparse lattice stores (each tile at its spacing).
+/// triangleLatticeDeviation over the points a sparse lattice stores (each tile at its spacing;
+/// rows between multiples of the finest spacing under the triangle hold none).
 double triangleTiledDeviation(const FaceHeights& heights, LatticeXY a, LatticeXY b, LatticeXY c,
-                              double ha, double hb, double hc, std::int64_t total) noexcept {
-  const int x0 = std::min({a.x, b.x, c.x});
-  const int x1 = std::max({a.x, b.x, c.x});
-  const int y0 = std::min({a.y, b.y, c.y});
-  const int y1 = std::max({a.y, b.y, c.y});
+                              double ha, double hb, double hc, std::int64_t total,
+                              std::int32_t spacing) noexcept {
   const double sum = static_cast<double>(total);
-  const std::int64_t d0 = -static_cast<std::int64_t>(c.y - b.y);
-  const std::int64_t d1 = -static_cast<std::int64_t>(a.y - c.y);
-  const std::int64_t d2 = -static_cast<std::int64_t>(b.y - a.y);
-  // Rows between multiples of the finest spacing stored under the triangle hold no point.
-  const int rowStep = heights.tiles->finestSpacingIn(heights.face, x0, y0, x1, y1);
+  const int rowStep =
+      std::max(spacing, heights.tiles->finestSpacingIn(
+                            heights.face, std::min({a.x, b.x, c.x}), std::min({a.y, b.y, c.y}),
+                            std::max({a.x, b.x, c.x}), std::max({a.y, b.y, c.y})));
   double worst = 0.0;
-  for (int y = (y0 + rowStep - 1) / rowStep * rowStep; y <= y1; y += rowStep) {
-    std::int64_t lo = x0;
-    std::int64_t hi = x1;
-    clipSpan(d0, doubleArea(b, c, LatticeXY{0, y}), lo, hi);
-    clipSpan(d1, doubleArea(c, a, LatticeXY{0, y}), lo, hi);
-    clipSpan(d2, doubleArea(a, b, LatticeXY{0, y}), lo, hi);
-    if (lo > hi) continue;
-    const LatticeXY first{static_cast<int>(lo), y};
-    const std::int64_t w0 = doubleArea(b, c, first);
-    const std::int64_t w1 = doubleArea(c, a, first);
-    const std::int64_t w2 = doubleArea(a, b, first);
-    heights.tiles->forEachInRow(heights.face, y, lo, hi, 1, [&](std::int64_t x, std::uint64_t at) {
-      const std::int64_t dx = x - lo;
-      const double hp =
-          (static_cast<double>(w0 + d0 * dx) * ha + static_cast<double>(w1 + d1 * dx) * hb +
-           static_cast<double>(w2 + d2 * dx) * hc) /
-          sum;
-      worst = std::max(worst, std::abs(hp - static_cast<double>(heights.data[at])));
-    });
-  }
+  forEachTriangleRow(
+      a, b, c, rowStep,
+      [&](int y, std::int64_t lo, std::int64_t hi, const std::array<std::int64_t, 3>& w,
+          const std::array<std::int64_t, 3>& step) {
+        heights.tiles->forEachInRow(
+            heights.face, y, lo, hi, spacing, [&](std::int64_t x, std::uint64_t at) {
+              const std::int64_t dx = x - lo;
+              const double hp = (static_cast<double>(w[0] + step[0] * dx) * ha +
+                                 static_cast<double>(w[1] + step[1] * dx) * hb +
+                                 static_cast<double>(w[2] + step[2] * dx) * hc) /
+                                sum;
+              worst = std::max(worst, std::abs(hp - static_cast<double>(heights.data[at])));
+            });
+      });
   return worst;
 }
 
@@ -133,7 +138,7 @@ void forEachTriangle(const WorkPatch& patch, F&& f) {
 
 /// The largest |patch − lattice| over the lattice points of triangle k, for every k.
 void latticeDeviations(const SampleGrid& grid, int face, const WorkPatch& patch,
-                       std::vector<double>& error) {
+                       std::vector<double>& error, std::int32_t spacing = 1) {
   if (!grid.tiles().isDense()) {
     const FaceHeights heights = grid.heightsOf(face);
     forEachTriangle(
@@ -141,7 +146,7 @@ void latticeDeviations(const SampleGrid& grid, int face, const WorkPatch& patch,
           error[k] = std::max(
               error[k], triangleTiledDeviation(heights, a, b, c, static_cast<double>(heights.at(a)),
                                                static_cast<double>(heights.at(b)),
-                                               static_cast<double>(heights.at(c)), total));
+                                               static_cast<double>(heights.at(c)), total, spacing));
         });
     return;
   }
@@ -158,6 +163,15 @@ void latticeDeviations(const SampleGrid& grid, int face, const WorkPatch& patch,
 }
 
 }  // namespace
+
+std::int32_t candidateSpacing(const SampleGrid& grid, const BinTriangle& t) {
+  if (grid.tiles().isDense()) return 1;
+  const std::int32_t extent = std::max(
+      std::max({t.apex.x, t.left.x, t.right.x}) - std::min({t.apex.x, t.left.x, t.right.x}),
+      std::max({t.apex.y, t.left.y, t.right.y}) - std::min({t.apex.y, t.left.y, t.right.y}));
+  return static_cast<std::int32_t>(
+      std::bit_floor(static_cast<std::uint32_t>(std::max(1, extent / 512))));
+}
 
 double maxLatticeDeviation(const SampleGrid& grid, int face, const WorkPatch& patch) {
   std::vector<double> error(patch.indices.size() / 3, 0.0);
@@ -320,7 +334,7 @@ std::vector<double> sampleErrors(const SampleGrid& grid, const BinTriangle& t,
                   patch.points[patch.indices[3 * k + 2]]};
     unitTriangles = unitTriangles && doubleArea(corners[k][0], corners[k][1], corners[k][2]) == 1;
   }
-  if (!unitTriangles) latticeDeviations(grid, face, patch, error);
+  if (!unitTriangles) latticeDeviations(grid, face, patch, error, candidateSpacing(grid, t));
   std::vector<std::array<double, 3>> heights(count);
   for (std::size_t k = 0; k < count; ++k) {
     for (std::size_t c = 0; c < 3; ++c)

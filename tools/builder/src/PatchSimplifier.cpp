@@ -84,8 +84,9 @@ BlockResult simplifyBlock(const SampleGrid& grid, const std::array<BinTriangle, 
   const BinTriangle& tb = triangles[1];
   // The diagonal: ta's left–right is tb's right–left (the same lattice points, maybe on another
   // face, where they have the same heights).
+  const std::int32_t candidates = candidateSpacing(grid, ta);
   const std::int32_t spacing =
-      std::max(coarsestSpacing(grid.tiles(), ta), coarsestSpacing(grid.tiles(), tb));
+      std::max({coarsestSpacing(grid.tiles(), ta), coarsestSpacing(grid.tiles(), tb), candidates});
   const LatticeSegment da = latticeSegment(ta.left, ta.right, spacing);
   const LatticeSegment db = latticeSegment(tb.left, tb.right, spacing);
   assert(da.points.size() == db.points.size());
@@ -102,7 +103,7 @@ BlockResult simplifyBlock(const SampleGrid& grid, const std::array<BinTriangle, 
 
   const std::size_t last = db.points.size() - 1;
   const InsertionLimits limits{targets.latticeErrorMeters, targets.minTriangles,
-                               targets.maxVertices};
+                               targets.maxVertices, candidates};
   std::array<WorkPatch*, 2> out = {&result.first, &result.second};
   for (std::size_t s = 0; s < 2; ++s) {
     const BinTriangle& t = triangles[s];

@@ -116,6 +116,41 @@ Placed place(const HeightGrid& dem, const Planet& planet, double n, std::uint32_
                  dem.lonOfColumnDegrees(static_cast<std::int64_t>(col)), value);
 }
 
+/// Where a bucket file is written before it is renamed into place.
+fs::path temporaryBucketPath(const fs::path& samplesFile) {
+  std::string name = ".";
+  name += samplesFile.filename().string();
+  name += ".tmp";
+  return samplesFile.parent_path() / name;
+}
+
+/// A new bucket file of `bytes` at `tmp`, mapped writable, its header written (magic, version,
+/// buckets per side, sample count).
+Result<MemoryMapping> createBucketFile(const fs::path& tmp, std::size_t bytes,
+                                       std::uint32_t perSide, std::uint64_t total) {
+  auto map = MemoryMapping::create(tmp, bytes);
+  if (!map) return std::move(map).error();
+  std::byte* at = map->writableBytes().data();
+  std::memcpy(at, kSamplesMagic.data(), 8);
+  std::memcpy(at + 8, &kSamplesVersion, 4);
+  std::memcpy(at + 12, &perSide, 4);
+  std::memcpy(at + 16, &total, 8);
+  return map;
+}
+
+/// Syncs a written bucket file and renames it into place.
+Result<void> publishBucketFile(const MemoryMapping& map, const fs::path& tmp,
+                               const fs::path& samplesFile) {
+  if (auto synced = map.sync(); !synced) return synced;
+  std::error_code ec;
+  fs::rename(tmp, samplesFile, ec);
+  if (ec) {
+    return makeError(ErrorCode::IoError,
+                     samplesFile.string() + ": rename failed (" + ec.message() + ")");
+  }
+  return {};
+}
+
 std::uint32_t bucketsPerSideOf(const Lattice& lattice, std::uint32_t bucketCells) {
   const std::uint32_t cells =
       std::max<std::uint32_t>(1, std::min(bucketCells, lattice.sideCells()));
@@ -335,17 +370,10 @@ Result<void> SampleGrid::writeSourceBuckets(const HeightGrid& dem, const Planet&
   const std::size_t startBytes = (buckets + 1) * sizeof(std::uint64_t);
   const std::size_t fileBytes =
       kSamplesHeaderBytes + startBytes + static_cast<std::size_t>(total) * sizeof(SourceSample);
-  std::string tmpName = ".";
-  tmpName += samplesFile.filename().string();
-  tmpName += ".tmp";
-  const fs::path tmp = samplesFile.parent_path() / tmpName;
-  auto map = MemoryMapping::create(tmp, fileBytes);
+  const fs::path tmp = temporaryBucketPath(samplesFile);
+  auto map = createBucketFile(tmp, fileBytes, perSide, total);
   if (!map) return std::move(map).error();
   std::byte* at = map->writableBytes().data();
-  std::memcpy(at, kSamplesMagic.data(), 8);
-  std::memcpy(at + 8, &kSamplesVersion, 4);
-  std::memcpy(at + 12, &perSide, 4);
-  std::memcpy(at + 16, &total, 8);
   auto* start = reinterpret_cast<std::uint64_t*>(at + kSamplesHeaderBytes);
   start[0] = 0;
   for (std::size_t b = 0; b < buckets; ++b) {
@@ -374,14 +402,7 @@ Result<void> SampleGrid::writeSourceBuckets(const HeightGrid& dem, const Planet&
     }
     (void)map->releaseResident();  // RSS bound: the written pages live on in the page cache
   }
-  if (auto synced = map->sync(); !synced) return synced;
-  std::error_code ec;
-  fs::rename(tmp, samplesFile, ec);
-  if (ec) {
-    return makeError(ErrorCode::IoError,
-                     samplesFile.string() + ": rename failed (" + ec.message() + ")");
-  }
-  return {};
+  return publishBucketFile(*map, tmp, samplesFile);
 }
 
 Result<void> SampleGrid::writeSourceBuckets(const SampleEnumerator& samples,
@@ -412,29 +433,15 @@ Result<void> SampleGrid::writeSourceBuckets(const SampleEnumerator& samples,
   const std::size_t startBytes = (buckets + 1) * sizeof(std::uint64_t);
   const std::size_t fileBytes =
       kSamplesHeaderBytes + startBytes + static_cast<std::size_t>(total) * sizeof(SourceSample);
-  std::string tmpName = ".";
-  tmpName += samplesFile.filename().string();
-  tmpName += ".tmp";
-  const fs::path tmp = samplesFile.parent_path() / tmpName;
-  auto map = MemoryMapping::create(tmp, fileBytes);
+  const fs::path tmp = temporaryBucketPath(samplesFile);
+  auto map = createBucketFile(tmp, fileBytes, perSide, total);
   if (!map) return std::move(map).error();
   std::byte* at = map->writableBytes().data();
-  std::memcpy(at, kSamplesMagic.data(), 8);
-  std::memcpy(at + 8, &kSamplesVersion, 4);
-  std::memcpy(at + 12, &perSide, 4);
-  std::memcpy(at + 16, &total, 8);
   std::memcpy(at + kSamplesHeaderBytes, start.data(), startBytes);
   auto* out = reinterpret_cast<SourceSample*>(at + kSamplesHeaderBytes + startBytes);
   std::vector<std::uint64_t> cursor(start.begin(), start.end() - 1);
   for (const Placed& p : placed) out[cursor[p.bucket]++] = p.sample;
-  if (auto synced = map->sync(); !synced) return synced;
-  std::error_code ec;
-  fs::rename(tmp, samplesFile, ec);
-  if (ec) {
-    return makeError(ErrorCode::IoError,
-                     samplesFile.string() + ": rename failed (" + ec.message() + ")");
-  }
-  return {};
+  return publishBucketFile(*map, tmp, samplesFile);
 }
 
 SampleGrid::TriangleBins SampleGrid::binTriangles(

@@ -66,6 +66,10 @@ struct Manifest final {
 /// The manifest as pretty-printed JSON (stable key order: byte-identical for equal manifests).
 std::string manifestToJson(const Manifest& manifest);
 
+/// The manifest's "insets" array as JSON text (what manifestToJson writes under that key; "[]"
+/// when there are none), for commands that print it.
+std::string manifestInsetsJson(const Manifest& manifest);
+
 /// Parses and checks a manifest: format name, version, six faces, positive sizes. `context`
 /// names the file in errors.
 Result<Manifest> parseManifest(std::string_view json, std::string_view context);

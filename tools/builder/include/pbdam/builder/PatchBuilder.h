@@ -106,6 +106,13 @@ struct MeasuredPatch final {
 MeasuredPatch measurePatch(const SampleGrid& grid, const runtime::BinTriangle& triangle,
                            const WorkPatch& patch, double heightStepMeters);
 
+/// The coarsest lattice spacing a patch of node `triangle` considers: 1 on a dense lattice; on a
+/// sparse one the power of two at most 1/512 of the triangle's extent, so that a coarse patch
+/// over an inset does not scan the inset's every point at every level (its candidates stay
+/// about 512 per leg, as a complete build's patch of a 512-cell leg has). The stored error
+/// still bounds every source sample: those are measured in full.
+std::int32_t candidateSpacing(const SampleGrid& grid, const runtime::BinTriangle& triangle);
+
 /// The height of the patch surface (piecewise-linear over (u,v) in the vertices' lattice
 /// heights) at every lattice point it covers is compared with the grid; this is the maximum.
 /// Exposed for verify.
