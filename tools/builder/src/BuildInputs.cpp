@@ -2,6 +2,8 @@
 // docs/builder.md "Checkpoints" for the fingerprint).
 #include "BuildInputs.h"
 
+#include "ForestPlan.h"
+
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -217,6 +219,65 @@ std::vector<std::pair<std::string, std::string>> fingerprintOf(const BuildOption
   f.emplace_back("texture-quality", o.bc1Quality == Bc1Quality::High ? "high" : "fast");
   f.emplace_back("height-step", exact(o.heightStepMeters));
   return f;
+}
+
+/// The manifest's record of each inset, in the order of the options.
+std::vector<ManifestInset> manifestInsets(const BuildOptions& o, const BuildInputs& in) {
+  std::vector<ManifestInset> out;
+  if (!in.composite) return out;
+  const auto& insets = in.composite->insets();
+  const auto& specs = in.composite->specs();
+  for (std::size_t k = 0; k < o.insets.size(); ++k) {
+    for (std::size_t i = 0; i < specs.size(); ++i) {
+      if (specs[i].path != o.insets[k].path) continue;
+      const HeightGrid& g = insets[i].grid;
+      const DeepRegion& region = in.deepRegions[o.deepRegions.size() + k];
+      ManifestInset m;
+      m.file = specs[i].path.filename().string();
+      m.format = g.source().format;
+      m.samples = static_cast<std::uint64_t>(g.computeStats().validCount);
+      m.southDegrees = region.bounds.southDegrees;
+      m.westDegrees = region.bounds.westDegrees;
+      m.northDegrees = region.bounds.northDegrees;
+      m.eastDegrees = region.bounds.eastDegrees;
+      m.leafLevel = static_cast<std::uint32_t>(region.leafLevel);
+      m.bandSamples = static_cast<std::uint32_t>(insets[i].bandSamples);
+      m.offsetMeters = insets[i].offsetMeters;
+      out.push_back(std::move(m));
+      break;
+    }
+  }
+  return out;
+}
+
+/// With insets: a leaf's sources, from which source defines the composite at each point of its
+/// regular patch (an inset's bit where it has a weight, the base's where it has less than 1).
+std::function<std::uint32_t(const BinTriangle&)> leafSources(const BuildOptions& o,
+                                                             const BuildInputs& in,
+                                                             const ForestPlan& plan,
+                                                             const Lattice& lattice) {
+  if (!in.composite) return {};
+  // The composite orders its insets coarsest first; the manifest as the options do.
+  std::vector<std::uint32_t> bitOf(in.composite->specs().size(), 0);
+  for (std::size_t i = 0; i < bitOf.size(); ++i) {
+    for (std::size_t k = 0; k < o.insets.size(); ++k) {
+      if (in.composite->specs()[i].path == o.insets[k].path) {
+        bitOf[i] = std::uint32_t{2} << k;
+        break;
+      }
+    }
+  }
+  return [&in, &plan, &lattice, bitOf](const BinTriangle& t) {
+    std::uint32_t sources = 0;
+    for (const LatticeXY p : plan.leafPatch(t).points) {
+      const runtime::GeodeticPosition g =
+          in.planet->directionToGeodetic(lattice.direction(t.face, p));
+      const SourceAt s = in.composite->sourceAt(g.latDegrees, g.lonDegrees);
+      if (s.inset >= 0) sources |= bitOf[static_cast<std::size_t>(s.inset)];
+      if (s.inset < 0 || s.weight < 1.0) sources |= 1U;
+    }
+    return sources;
+  };
 }
 
 }  // namespace pbdam::builder

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <utility>
@@ -12,9 +13,11 @@
 
 #include "pbdam/builder/Builder.h"
 #include "pbdam/builder/CompositeSurface.h"
+#include "pbdam/builder/Lattice.h"
 #include "pbdam/formats/DemReader.h"
 #include "pbdam/formats/HeightGrid.h"
 #include "pbdam/formats/Image.h"
+#include "pbdam/formats/Manifest.h"
 #include "pbdam/runtime/Planet.h"
 
 namespace pbdam::builder {
@@ -34,6 +37,19 @@ struct BuildInputs final {
   /// With insets: the base and the insets as one surface (sharing the base's heights).
   std::optional<CompositeSurface> composite;
 };
+
+class ForestPlan;
+
+/// The manifest's record of each inset, in the order of the options (empty without insets).
+std::vector<formats::ManifestInset> manifestInsets(const BuildOptions& o, const BuildInputs& in);
+
+/// With insets: a leaf's sources (formats::NodeRecord::sources) from which source defines the
+/// composite at each point of its regular patch: an inset's bit where it has a weight, the
+/// base's where it has less than 1. Null without insets. Keeps references to its arguments.
+std::function<std::uint32_t(const runtime::BinTriangle&)> leafSources(const BuildOptions& o,
+                                                                      const BuildInputs& in,
+                                                                      const ForestPlan& plan,
+                                                                      const Lattice& lattice);
 
 /// The even leaf level whose lattice is at least as dense as `grid`'s samples, for leaves of
 /// `leafCells` cells.

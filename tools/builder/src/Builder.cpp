@@ -206,8 +206,6 @@ class DistributedBuild {
   /// Reads the DEM again (for the textures) and checks it is the one the build started with.
   Result<void> rereadDem();
   Result<void> assemble(BuildSummary& summary);
-  std::vector<formats::ManifestInset> manifestInsets() const;
-  std::function<std::uint32_t(const runtime::BinTriangle&)> leafSources() const;
 
   /// The part files one rank writes for a level, and the index of its carry records.
   struct LevelFiles {
@@ -828,62 +826,6 @@ Result<void> DistributedBuild::buildTextures() {
   return recordTextures(gathered, tiles);
 }
 
-/// The manifest's record of each inset, in the order of the options.
-std::vector<ManifestInset> DistributedBuild::manifestInsets() const {
-  std::vector<ManifestInset> out;
-  if (!in_.composite) return out;
-  const auto& insets = in_.composite->insets();
-  const auto& specs = in_.composite->specs();
-  for (std::size_t k = 0; k < o_.insets.size(); ++k) {
-    for (std::size_t i = 0; i < specs.size(); ++i) {
-      if (specs[i].path != o_.insets[k].path) continue;
-      const HeightGrid& g = insets[i].grid;
-      const DeepRegion& region = in_.deepRegions[o_.deepRegions.size() + k];
-      ManifestInset m;
-      m.file = specs[i].path.filename().string();
-      m.format = g.source().format;
-      m.samples = static_cast<std::uint64_t>(g.computeStats().validCount);
-      m.southDegrees = region.bounds.southDegrees;
-      m.westDegrees = region.bounds.westDegrees;
-      m.northDegrees = region.bounds.northDegrees;
-      m.eastDegrees = region.bounds.eastDegrees;
-      m.leafLevel = static_cast<std::uint32_t>(region.leafLevel);
-      m.bandSamples = static_cast<std::uint32_t>(insets[i].bandSamples);
-      m.offsetMeters = insets[i].offsetMeters;
-      out.push_back(std::move(m));
-      break;
-    }
-  }
-  return out;
-}
-
-/// With insets: a leaf's sources, from which source defines the composite at each point of its
-/// regular patch (an inset's bit where it has a weight, the base's where it has less than 1).
-std::function<std::uint32_t(const BinTriangle&)> DistributedBuild::leafSources() const {
-  if (!in_.composite) return {};
-  // The composite orders its insets coarsest first; the manifest as the options do.
-  std::vector<std::uint32_t> bitOf(in_.composite->specs().size(), 0);
-  for (std::size_t i = 0; i < bitOf.size(); ++i) {
-    for (std::size_t k = 0; k < o_.insets.size(); ++k) {
-      if (in_.composite->specs()[i].path == o_.insets[k].path) {
-        bitOf[i] = std::uint32_t{2} << k;
-        break;
-      }
-    }
-  }
-  return [this, bitOf](const BinTriangle& t) {
-    std::uint32_t sources = 0;
-    for (const LatticeXY p : plan_.leafPatch(t).points) {
-      const runtime::GeodeticPosition g =
-          in_.planet->directionToGeodetic(lattice_.direction(t.face, p));
-      const SourceAt s = in_.composite->sourceAt(g.latDegrees, g.lonDegrees);
-      if (s.inset >= 0) sources |= bitOf[static_cast<std::size_t>(s.inset)];
-      if (s.inset < 0 || s.weight < 1.0) sources |= 1U;
-    }
-    return sources;
-  };
-}
-
 /// Rank 0: the face files and the manifest from the checkpointed levels and tiles.
 Result<void> DistributedBuild::assemble(BuildSummary& summary) {
   const AssemblyInputs inputs{o_,
@@ -898,8 +840,8 @@ Result<void> DistributedBuild::assemble(BuildSummary& summary) {
                               in_.demSource.format,
                               static_cast<double>(grid_->minHeightMeters()),
                               static_cast<double>(grid_->maxHeightMeters()),
-                              manifestInsets(),
-                              leafSources(),
+                              manifestInsets(o_, in_),
+                              leafSources(o_, in_, plan_, lattice_),
                               assembling_,
                               [this](double fraction) { report("write", fraction); }};
   return assembleDataset(inputs, summary);

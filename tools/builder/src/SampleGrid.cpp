@@ -124,10 +124,12 @@ fs::path temporaryBucketPath(const fs::path& samplesFile) {
   return samplesFile.parent_path() / name;
 }
 
-/// A new bucket file of `bytes` at `tmp`, mapped writable, its header written (magic, version,
-/// buckets per side, sample count).
-Result<MemoryMapping> createBucketFile(const fs::path& tmp, std::size_t bytes,
+/// A new bucket file at `tmp` for `buckets` buckets and `total` samples (header, CSR offsets,
+/// samples), mapped writable, its header written (magic, version, buckets per side, count).
+Result<MemoryMapping> createBucketFile(const fs::path& tmp, std::size_t buckets,
                                        std::uint32_t perSide, std::uint64_t total) {
+  const std::size_t bytes = kSamplesHeaderBytes + (buckets + 1) * sizeof(std::uint64_t) +
+                            static_cast<std::size_t>(total) * sizeof(SourceSample);
   auto map = MemoryMapping::create(tmp, bytes);
   if (!map) return std::move(map).error();
   std::byte* at = map->writableBytes().data();
@@ -368,10 +370,8 @@ Result<void> SampleGrid::writeSourceBuckets(const HeightGrid& dem, const Planet&
 
   // The file: header, CSR offsets, samples; written through a temporary name.
   const std::size_t startBytes = (buckets + 1) * sizeof(std::uint64_t);
-  const std::size_t fileBytes =
-      kSamplesHeaderBytes + startBytes + static_cast<std::size_t>(total) * sizeof(SourceSample);
   const fs::path tmp = temporaryBucketPath(samplesFile);
-  auto map = createBucketFile(tmp, fileBytes, perSide, total);
+  auto map = createBucketFile(tmp, buckets, perSide, total);
   if (!map) return std::move(map).error();
   std::byte* at = map->writableBytes().data();
   auto* start = reinterpret_cast<std::uint64_t*>(at + kSamplesHeaderBytes);
@@ -431,10 +431,8 @@ Result<void> SampleGrid::writeSourceBuckets(const SampleEnumerator& samples,
   for (std::size_t b = 0; b < buckets; ++b) start[b + 1] += start[b];
   const std::uint64_t total = start[buckets];
   const std::size_t startBytes = (buckets + 1) * sizeof(std::uint64_t);
-  const std::size_t fileBytes =
-      kSamplesHeaderBytes + startBytes + static_cast<std::size_t>(total) * sizeof(SourceSample);
   const fs::path tmp = temporaryBucketPath(samplesFile);
-  auto map = createBucketFile(tmp, fileBytes, perSide, total);
+  auto map = createBucketFile(tmp, buckets, perSide, total);
   if (!map) return std::move(map).error();
   std::byte* at = map->writableBytes().data();
   std::memcpy(at + kSamplesHeaderBytes, start.data(), startBytes);
