@@ -91,25 +91,42 @@ namespace pbdam::builder {
 LatticeTiles ForestPlan::latticeTiles() const {
   const std::uint32_t n = lattice_.sideCells();
   if (!shape_) return LatticeTiles::dense(n);
-  const std::uint32_t cells = n >> (shape_->baseDepth() / 2);
+  // Tiles of 8 base-leaf spacings (a base tile stores 9 × 9 points for 64 cells), at most 256 a
+  // face side, at most a base leaf's square: a deep region's finest spacing then reaches at most
+  // a tile beyond its leaves, not a whole base square.
+  const auto baseSpacing = static_cast<std::uint32_t>(leafSpacing(shape_->baseDepth()));
+  const std::uint32_t cells =
+      std::min(n >> (shape_->baseDepth() / 2), std::max(8 * baseSpacing, n >> 8));
   const std::uint32_t perSide = n / cells;
-  // Start every tile at the base leaves' spacing, then refine to the finest leaf in it.
+  // Start every tile at the base leaves' spacing, then refine to the finest leaf that reaches it.
   const auto log2Of = [](std::int32_t spacing) {
     return static_cast<std::uint8_t>(std::countr_zero(static_cast<std::uint32_t>(spacing)));
   };
   std::vector<std::uint8_t> spacing(6 * std::size_t{perSide} * perSide,
                                     log2Of(leafSpacing(shape_->baseDepth())));
-  for (int level = shape_->baseDepth(); level <= depth_; ++level) {
+  for (int level = shape_->baseDepth() + 1; level <= depth_; ++level) {
     const auto& nodes = shape_->nodesOfLevel(level);
     const auto& split = shape_->splitOfLevel(level);
     const std::uint8_t s = log2Of(leafSpacing(level));
     for (std::size_t k = 0; k < nodes.size(); ++k) {
       if (split[k]) continue;
       const BinTriangle t = triangleOfNode(lattice_, nodes[k], depth_);
-      const auto tx = static_cast<std::uint32_t>(std::min({t.apex.x, t.left.x, t.right.x})) / cells;
-      const auto ty = static_cast<std::uint32_t>(std::min({t.apex.y, t.left.y, t.right.y})) / cells;
-      std::uint8_t& at = spacing[(static_cast<std::size_t>(t.face) * perSide + ty) * perSide + tx];
-      at = std::min(at, s);
+      // Every tile whose square shares area with the leaf's box.
+      const auto lo = [cells](std::int32_t c) { return static_cast<std::uint32_t>(c) / cells; };
+      const auto hi = [cells](std::int32_t c) {
+        return (static_cast<std::uint32_t>(c) - 1) / cells;
+      };
+      const std::uint32_t tx0 = lo(std::min({t.apex.x, t.left.x, t.right.x}));
+      const std::uint32_t tx1 = hi(std::max({t.apex.x, t.left.x, t.right.x}));
+      const std::uint32_t ty0 = lo(std::min({t.apex.y, t.left.y, t.right.y}));
+      const std::uint32_t ty1 = hi(std::max({t.apex.y, t.left.y, t.right.y}));
+      for (std::uint32_t ty = ty0; ty <= ty1; ++ty) {
+        for (std::uint32_t tx = tx0; tx <= tx1; ++tx) {
+          std::uint8_t& at =
+              spacing[(static_cast<std::size_t>(t.face) * perSide + ty) * perSide + tx];
+          at = std::min(at, s);
+        }
+      }
     }
   }
   return LatticeTiles(n, cells, std::move(spacing));

@@ -46,8 +46,8 @@ class ForestPlan final {
   WorkPatch leafPatch(const runtime::BinTriangle& t) const;
 
   /// The lattice points the forest's patches use: every point for a complete forest; for an
-  /// adaptive one, squares of N / 2^⌊baseDepth/2⌋ cells (every leaf lies in one), each at the
-  /// spacing of the finest leaves in it.
+  /// adaptive one, squares of 8 base-leaf spacings (at least N/256, at most a base leaf's
+  /// square), each at the spacing of the finest leaf whose box shares area with it.
   LatticeTiles latticeTiles() const;
 
   /// The texture tiles that exist, as face · tilesPerFace + heap index, ascending, for a
