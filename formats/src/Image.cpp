@@ -4,6 +4,7 @@
 #include <OpenImageIO/imageio.h>
 #include <cpl_conv.h>
 #include <gdal.h>
+#include <gdal_utils.h>
 #include <ogr_srs_api.h>
 
 #include <algorithm>
@@ -66,32 +67,120 @@ std::optional<std::array<float, 4>> GeoImage::sampleBilinear(double latDegrees,
 
 namespace {
 
-/// The file's geographic bounds when GDAL finds a north-up geographic georeference in it.
-std::optional<LatLonBounds> georeference(const std::filesystem::path& path) {
+void registerGdal() {
   static const bool registered = [] {
     GDALAllRegister();
     return true;
   }();
   (void)registered;
+}
+
+/// What GDAL finds in the file: a north-up geographic georeference (its bounds), a projected
+/// one (the image must be warped), or none.
+struct Georeference final {
+  std::optional<LatLonBounds> bounds;
+  bool projected = false;
+};
+
+Georeference georeference(const std::filesystem::path& path) {
+  registerGdal();
   CPLPushErrorHandler(CPLQuietErrorHandler);
   CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", "NO");
-  std::optional<LatLonBounds> bounds;
+  Georeference found;
   if (GDALDatasetH ds =
           GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr);
       ds != nullptr) {
     double gt[6] = {};
     OGRSpatialReferenceH srs = GDALGetSpatialRef(ds);
-    if (srs != nullptr && OSRIsGeographic(srs) != 0 && GDALGetGeoTransform(ds, gt) == CE_None &&
-        gt[2] == 0.0 && gt[4] == 0.0 && gt[5] < 0.0) {
+    const bool transform = GDALGetGeoTransform(ds, gt) == CE_None;
+    if (srs != nullptr && OSRIsGeographic(srs) != 0 && transform && gt[2] == 0.0 && gt[4] == 0.0 &&
+        gt[5] < 0.0) {
       const double w = GDALGetRasterXSize(ds);
       const double h = GDALGetRasterYSize(ds);
-      bounds = LatLonBounds{gt[3] + h * gt[5], gt[0], gt[3], gt[0] + w * gt[1]};
+      found.bounds = LatLonBounds{gt[3] + h * gt[5], gt[0], gt[3], gt[0] + w * gt[1]};
+    } else if (srs != nullptr && OSRIsProjected(srs) != 0 && transform) {
+      found.projected = true;
     }
     GDALClose(ds);
   }
   CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", nullptr);
   CPLPopErrorHandler();
-  return bounds;
+  return found;
+}
+
+/// A projected image warped by GDAL's warper to the geographic CRS of its own datum (bilinear,
+/// GDAL's default resolution), its bytes as RGBA8 with alpha 0 where the warp has no source.
+Result<GeoImage> readWarpedImage(const std::filesystem::path& path) {
+  registerGdal();
+  const auto fail = [&path](const std::string& why) -> Result<GeoImage> {
+    return makeError(
+        ErrorCode::UnsupportedFormat,
+        path.string() + ": a projected image that cannot be warped to geographic (" + why + ")");
+  };
+  CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", "NO");
+  GDALDatasetH source =
+      GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr);
+  CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", nullptr);
+  if (source == nullptr) return fail("GDAL cannot open it");
+  const int bands = GDALGetRasterCount(source);
+  if (bands < 1 || GDALGetRasterDataType(GDALGetRasterBand(source, 1)) != GDT_Byte) {
+    GDALClose(source);
+    return fail("it needs 8-bit bands");
+  }
+  OGRSpatialReferenceH geographic = OSRCloneGeogCS(GDALGetSpatialRef(source));
+  char* wkt = nullptr;
+  if (geographic != nullptr) OSRExportToWkt(geographic, &wkt);
+  std::string target = wkt != nullptr ? wkt : "";
+  CPLFree(wkt);
+  OSRDestroySpatialReference(geographic);
+  if (target.empty()) {
+    GDALClose(source);
+    return fail("its CRS has no geographic base");
+  }
+  // An alpha band of the source is carried as such; otherwise the warper adds one.
+  const bool hasAlpha =
+      GDALGetRasterColorInterpretation(GDALGetRasterBand(source, bands)) == GCI_AlphaBand;
+  std::vector<std::string> args = {"-of", "MEM", "-t_srs", target, "-r", "bilinear"};
+  if (!hasAlpha) args.emplace_back("-dstalpha");
+  std::vector<char*> argv;
+  argv.reserve(args.size() + 1);
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  CPLPushErrorHandler(CPLQuietErrorHandler);
+  GDALWarpAppOptions* options = GDALWarpAppOptionsNew(argv.data(), nullptr);
+  int usageError = 0;
+  GDALDatasetH inputs[1] = {source};
+  GDALDatasetH warped = GDALWarp("", nullptr, 1, inputs, options, &usageError);
+  GDALWarpAppOptionsFree(options);
+  CPLPopErrorHandler();
+  GDALClose(source);
+  if (warped == nullptr) return fail("GDAL's warper failed");
+  double gt[6] = {};
+  const std::int64_t width = GDALGetRasterXSize(warped);
+  const std::int64_t height = GDALGetRasterYSize(warped);
+  const int out = GDALGetRasterCount(warped);  // colour bands, then alpha
+  if (GDALGetGeoTransform(warped, gt) != CE_None || gt[2] != 0.0 || gt[4] != 0.0 || gt[5] >= 0.0 ||
+      width < 1 || height < 1 || out < 2) {
+    GDALClose(warped);
+    return fail("the warp is not a north-up grid");
+  }
+  std::vector<std::uint8_t> rgba(static_cast<std::size_t>(width * height * 4));
+  // Colour bands 1..3 (grey: band 1 thrice), alpha the last band.
+  const int colours = out - 1;
+  bool read = true;
+  for (int c = 0; c < 4 && read; ++c) {
+    const int band = c == 3 ? out : std::min(c + 1, colours);
+    read =
+        GDALRasterIO(GDALGetRasterBand(warped, band), GF_Read, 0, 0, static_cast<int>(width),
+                     static_cast<int>(height), rgba.data() + c, static_cast<int>(width),
+                     static_cast<int>(height), GDT_Byte, 4, static_cast<int>(width * 4)) == CE_None;
+  }
+  GDALClose(warped);
+  if (!read) return fail("GDAL could not read the warped pixels");
+  return GeoImage(width, height, std::move(rgba),
+                  LatLonBounds{gt[3] + static_cast<double>(height) * gt[5], gt[0], gt[3],
+                               gt[0] + static_cast<double>(width) * gt[1]},
+                  true);
 }
 
 }  // namespace
@@ -139,9 +228,11 @@ Result<GeoImage> readImage(const std::filesystem::path& path) {
     }
     dst[3] = channels == 4 ? src[3] : (channels == 2 ? src[1] : 255);
   }
-  const auto geo = georeference(path);
+  const Georeference geo = georeference(path);
+  if (geo.projected) return readWarpedImage(path);
   return GeoImage(width, height, std::move(rgba),
-                  geo.value_or(LatLonBounds{-90.0, -180.0, 90.0, 180.0}), geo.has_value());
+                  geo.bounds.value_or(LatLonBounds{-90.0, -180.0, 90.0, 180.0}),
+                  geo.bounds.has_value());
 }
 
 }  // namespace pbdam::formats

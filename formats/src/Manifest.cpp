@@ -24,7 +24,8 @@ nlohmann::ordered_json insetsJson(const Manifest& m) {
                       {"bounds", {i.southDegrees, i.westDegrees, i.northDegrees, i.eastDegrees}},
                       {"leaf_level", i.leafLevel},
                       {"band_samples", i.bandSamples},
-                      {"offset_m", i.offsetMeters}});
+                      {"offset_m", i.offsetMeters},
+                      {"texture", i.texture}});
   }
   return insets;
 }
@@ -163,8 +164,13 @@ Result<Manifest> parseManifest(std::string_view text, std::string_view context) 
         i.leafLevel = unsignedField<std::uint32_t>(e, "leaf_level");
         i.bandSamples = unsignedField<std::uint32_t>(e, "band_samples");
         i.offsetMeters = finiteField(e, "offset_m");
+        if (e.contains("texture")) {
+          if (!e.at("texture").is_string()) return fail("an inset's 'texture' must be a string");
+          i.texture = e.at("texture").get<std::string>();
+        }
         if (i.file.empty() || i.file.find('/') != std::string::npos ||
-            !(i.southDegrees <= i.northDegrees) || i.leafLevel > kMaxBintreeDepth) {
+            !(i.southDegrees <= i.northDegrees) || i.leafLevel > kMaxBintreeDepth ||
+            i.texture.empty() || i.texture.find('/') != std::string::npos) {
           return fail("inset '" + i.file + "' is malformed");
         }
         m.insets.push_back(std::move(i));

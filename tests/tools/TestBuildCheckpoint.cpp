@@ -13,6 +13,7 @@
 #include "pbdam/builder/Builder.h"
 #include "pbdam/builder/Checkpoint.h"
 #include "pbdam/builder/Communicator.h"
+#include "pbdam/formats/Manifest.h"
 
 using namespace pbdam::formats;
 
@@ -267,6 +268,62 @@ TEST(DistributedBuild, ResumeWithoutACheckpointBuildsFromTheStart) {
   EXPECT_FALSE(r->resumedAfterLevel);
   ASSERT_FALSE(lines.empty());
   EXPECT_EQ(lines[0].rfind("resume: no checkpoint in ", 0), 0u) << lines[0];
+}
+
+// ETOPO20 with the Luxembourg GeoTIFF and an image for it (a plain PPM, so it takes the
+// inset's footprint): the sparse forest, the composite's samples and the inset's texture come out
+// byte-identical on any rank count and after a resume; a resume with another inset texture is
+// refused.
+TEST(DistributedBuild, AnInsetBuildIsTheSameBytesOnAnyRankCountAndAfterAResume) {
+  const fs::path etopo20 = "/usr/share/ferret-vis/data/etopo20.cdf";
+  PBDAM_REQUIRE_DATA(dem, etopo20);
+  PBDAM_REQUIRE_DATA(luxembourg, test::dataDir() / "geotiff/terra_elev_luxembourg.tif");
+  test::TempDir dir;
+  const auto writePpm = [&](const fs::path& path, int red) {
+    std::ofstream out(path, std::ios::binary);
+    out << "P6\n8 8\n255\n";
+    for (int k = 0; k < 64; ++k) out << static_cast<char>(red) << '\x40' << '\x20';
+  };
+  writePpm(dir / "lux.ppm", 200);
+  writePpm(dir / "other.ppm", 100);
+  const auto options = [&](const fs::path& out) {
+    BuildOptions o = smallMola(dem, out);
+    o.planetSpec = "earth";
+    o.insets = {InsetSpec{luxembourg, {}, dir / "lux.ppm"}};
+    return o;
+  };
+  auto plain = buildDataset(options(dir / "plain"));
+  ASSERT_TRUE(plain) << plain.error().message;
+  EXPECT_EQ(plain->depth, 20u);
+  auto manifest = readManifest(dir / "plain");
+  ASSERT_TRUE(manifest) << manifest.error().message;
+  ASSERT_EQ(manifest->insets.size(), 1u);
+  EXPECT_EQ(manifest->insets[0].texture, "lux.ppm");
+
+  BuildOptions ranks = options(dir / "ranks");
+  ranks.threads = 2;
+  auto two = buildOnRanks(ranks, 2);
+  ASSERT_TRUE(two) << two.error().message;
+  expectSameDataset(dir / "plain", dir / "ranks");
+
+  BuildOptions cut = options(dir / "cut");
+  cut.fault.failRank = 0;
+  cut.fault.failLevel = 12;
+  cut.fault.failByKill = false;
+  ASSERT_FALSE(buildDataset(cut));
+  cut.fault = {};
+  cut.resume = true;
+  BuildOptions otherTexture = cut;
+  otherTexture.insets[0].texturePath = dir / "other.ppm";
+  auto refused = buildDataset(otherTexture);
+  ASSERT_FALSE(refused);
+  EXPECT_NE(refused.error().message.find("inset-texture"), std::string::npos)
+      << refused.error().message;
+  cut.threads = 2;
+  auto resumed = buildOnRanks(cut, 2);
+  ASSERT_TRUE(resumed) << resumed.error().message;
+  EXPECT_EQ(resumed->resumedAfterLevel, 13);
+  expectSameDataset(dir / "plain", dir / "cut");
 }
 
 }  // namespace

@@ -262,7 +262,7 @@ TEST(Builder, Etopo5WithTheLuxembourgInsetVerifiesAndAnswersTheInsetsHeights) {
   test::TempDir dir;
   BuildOptions o = smallMola(dem, dir / "lux");
   o.planetSpec = "earth";
-  o.insets = {InsetSpec{luxembourg, {}}};
+  o.insets = {InsetSpec{luxembourg, {}, {}}};
   auto summary = buildDataset(o);
   ASSERT_TRUE(summary) << summary.error().message;
   // 30″ needs 10800 cells across 90°: 16384, leaves of 16 cells at level 20.

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -203,6 +204,8 @@ TEST(Cli, BadInputGivesOneLineAndExitCode2) {
       "build --dem x --planet earth --out y --inset a --inset b --inset-offset 1 "
       "--inset-offset 2 --inset-offset 3",
       "3 --inset-offset values for 2 --inset files");
+  expectBadInput("build --dem x --planet earth --out y --inset a --inset b --inset-texture t",
+                 "1 --inset-texture values for 2 --inset files");
   expectBadInput("verify x --inset a", "pass --dem FILE too");
   PBDAM_REQUIRE_DATA(tif, test::dataDir() / "geotiff/terra_elev_luxembourg.tif");
   expectBadInput("dem info '" + tif.string() + "' --at 0,0", "outside the grid");
@@ -218,6 +221,16 @@ TEST(Cli, BadInputGivesOneLineAndExitCode2) {
   expectBadInput("build --dem '" + etopo.string() + "' --planet earth --out '" +
                      (dir / "o3").string() + "' --inset '" + (dir / "junk.tif").string() + "'",
                  "junk.tif");
+  // Inset imagery georeferenced elsewhere (a 1° square over Norway for Luxembourg).
+  const std::string far = (dir / "far.tif").string();
+  ASSERT_EQ(std::system(("gdal_translate -q -a_srs EPSG:4326 -a_ullr 10 60 11 59 -ot Byte '" +
+                         tif.string() + "' '" + far + "'")
+                            .c_str()),
+            0);
+  expectBadInput("build --dem '" + etopo.string() + "' --planet earth --out '" +
+                     (dir / "o4").string() + "' --inset '" + tif.string() + "' --inset-texture '" +
+                     far + "'",
+                 "does not overlap its inset terra_elev_luxembourg.tif");
 }
 
 /// The files of dataset `dir` other than its manifest (which names the DEM file it was built from).

@@ -38,10 +38,10 @@ CompositeSurface flatPair(std::vector<HeightGrid> more = {}) {
   HeightGrid base = grid(360, 181, 90.0, 0.0, 1.0, [](double, double) { return 0.0; });
   std::vector<HeightGrid> insets;
   insets.push_back(grid(101, 101, 20.0, 30.0, 0.1, [](double, double) { return 100.0; }));
-  std::vector<InsetSpec> specs{InsetSpec{"a.tif", {}}};
+  std::vector<InsetSpec> specs{InsetSpec{"a.tif", {}, {}}};
   for (HeightGrid& g : more) {
     insets.push_back(std::move(g));
-    specs.push_back(InsetSpec{"b.tif", {}});
+    specs.push_back(InsetSpec{"b.tif", {}, {}});
   }
   return CompositeSurface::make(std::move(base), std::move(specs), std::move(insets));
 }
@@ -100,7 +100,7 @@ TEST(CompositeSurface, NodataHolesFallBackToWhatLiesBelow) {
                                                     : 100.0;
   }));
   const CompositeSurface s =
-      CompositeSurface::make(std::move(base), {InsetSpec{"hole.tif", {}}}, std::move(insets));
+      CompositeSurface::make(std::move(base), {InsetSpec{"hole.tif", {}, {}}}, std::move(insets));
   EXPECT_DOUBLE_EQ(*s.heightAt(15.0, 35.0), -5.0);
   EXPECT_EQ(s.sourceAt(15.0, 35.0).inset, -1);
   // Around the hole the band rises again: 0.7° (7 samples) from its nearest nodata sample the
@@ -148,24 +148,24 @@ TEST(CompositeSurface, InsetsThatCannotBeJoinedAreRefusedByName) {
   const HeightGrid fine = grid(
       11, 11, 20.0, 30.0, 0.1, [](double, double) { return 1.0; }, earth);
   const HeightGrid coarse = grid(11, 11, 20.0, 30.0, 2.0, [](double, double) { return 1.0; });
-  const auto onMars = check(fine, {"usgs.tif", 3.0}, "mars");
+  const auto onMars = check(fine, {"usgs.tif", 3.0, {}}, "mars");
   ASSERT_FALSE(onMars.ok());
   EXPECT_NE(
       onMars.error().message.find("usgs.tif: the inset's CRS is on earth but --planet is mars"),
       std::string::npos)
       << onMars.error().message;
-  const auto datum = check(fine, {"usgs.tif", {}}, "earth");
+  const auto datum = check(fine, {"usgs.tif", {}, {}}, "earth");
   ASSERT_FALSE(datum.ok());
   EXPECT_NE(datum.error().message.find("--inset-offset"), std::string::npos);
   EXPECT_NE(datum.error().message.find("NAVD88 height"), std::string::npos);
-  EXPECT_TRUE(check(fine, {"usgs.tif", 0.7}, "earth").ok());
-  const auto notFiner = check(coarse, {"coarse.tif", {}}, "earth");
+  EXPECT_TRUE(check(fine, {"usgs.tif", 0.7, {}}, "earth").ok());
+  const auto notFiner = check(coarse, {"coarse.tif", {}, {}}, "earth");
   ASSERT_FALSE(notFiner.ok());
   EXPECT_NE(notFiner.error().message.find("not finer than the base"), std::string::npos);
   const HeightGrid empty = grid(11, 11, 20.0, 30.0, 0.1, [](double, double) {
     return std::numeric_limits<double>::quiet_NaN();
   });
-  EXPECT_FALSE(check(empty, {"empty.tif", {}}, "earth").ok());
+  EXPECT_FALSE(check(empty, {"empty.tif", {}, {}}, "earth").ok());
 }
 
 // The real pair: ETOPO5 (5′) with the Luxembourg GeoTIFF (30″) on it.
@@ -176,7 +176,7 @@ TEST(CompositeSurface, LuxembourgOnEtopo5) {
   auto luxembourg = readDem(luxembourgPath);
   ASSERT_TRUE(etopo.ok()) << etopo.error().message;
   ASSERT_TRUE(luxembourg.ok()) << luxembourg.error().message;
-  const InsetSpec spec{luxembourgPath, {}};
+  const InsetSpec spec{luxembourgPath, {}, {}};
   ASSERT_TRUE(checkInset(spec, *luxembourg, *etopo, "earth").ok());
   EXPECT_FALSE(checkInset(spec, *luxembourg, *etopo, "mars").ok());
   const HeightGrid lux = *luxembourg;

@@ -468,5 +468,51 @@ TEST(TextureBuilder, ImageryOverThePacificIsBlue) {
   EXPECT_LT(dark[0], plain[0] - 10.0);
 }
 
+TEST(TextureBuilder, ImageryLayersBlendOverTheReliefByTheirWeightAndAlpha) {
+  // A flat grey base tint under a local red image over 10..20°N 10..20°E, whose west half has
+  // alpha 0 (no source there, as a warped image's corners).
+  const int w = 64;
+  std::vector<std::uint8_t> rgba(static_cast<std::size_t>(w * w * 4), 0);
+  for (int y = 0; y < w; ++y) {
+    for (int x = 0; x < w; ++x) {
+      std::uint8_t* p = &rgba[(static_cast<std::size_t>(y) * static_cast<std::size_t>(w) +
+                               static_cast<std::size_t>(x)) *
+                              4];
+      p[0] = 255;
+      p[3] = x < w / 2 ? 0 : 255;
+    }
+  }
+  const GeoImage image(w, w, std::move(rgba), LatLonBounds{10.0, 10.0, 20.0, 20.0}, true);
+  TextureSource source;
+  source.planet = Planet::earthWgs84();
+  source.heightMeters = [](double, double) { return std::optional<double>(100.0); };
+  source.ramp = {false, 0.0, 200.0};
+  source.shading.strength = 0.0;
+  const TextureTileRequest east = locate(15.0, 18.0, 6, 16).request;
+  const TextureTileRequest west = locate(15.0, 12.0, 6, 16).request;
+  const Colour tint = meanInnerColour(buildOrDie(source, east));
+
+  double weight = 1.0;
+  source.layers.push_back({&image, [&weight](double lat, double lon) {
+                             return lat > 10.0 && lat < 20.0 && lon > 10.0 && lon < 20.0 ? weight
+                                                                                         : 0.0;
+                           }});
+  const Colour full = meanInnerColour(buildOrDie(source, east));
+  EXPECT_NEAR(full[0], 255.0, 0.5);
+  EXPECT_NEAR(full[1], 0.0, 0.5);
+  // Where the image has alpha 0, what lies below shows unchanged.
+  const Colour hidden = meanInnerColour(buildOrDie(source, west));
+  for (std::size_t c = 0; c < 3; ++c) EXPECT_NEAR(hidden[c], tint[c], 0.5);
+  // Half the weight: halfway between the tint and the image.
+  weight = 0.5;
+  const Colour half = meanInnerColour(buildOrDie(source, east));
+  for (std::size_t c = 0; c < 3; ++c) {
+    EXPECT_NEAR(half[c], 0.5 * (tint[c] + (c == 0 ? 255.0 : 0.0)), 1.0) << c;
+  }
+  // Outside the layer's weight, the tint.
+  const Colour outside = meanInnerColour(buildOrDie(source, locate(30.0, 18.0, 6, 16).request));
+  for (std::size_t c = 0; c < 3; ++c) EXPECT_NEAR(outside[c], tint[c], 0.5);
+}
+
 }  // namespace
 }  // namespace pbdam::builder

@@ -36,6 +36,7 @@ struct BuildCliOptions {
   std::vector<std::string> deepRegions;  ///< "S,W,N,E@LEVEL"
   std::vector<std::string> insets;
   std::vector<double> insetOffsets;
+  std::vector<std::string> insetTextures;
   std::string textureFormat = "bc1";
   std::string textureQuality = "fast";
   int threads = 0;
@@ -172,7 +173,7 @@ int runBuild(const BuildCliOptions& c) {
   if (auto r = parseDeepRegions(c.deepRegions, o); !r) {
     return root ? reportError(r.error()) : exitCodeOf(r.error());
   }
-  auto insets = insetSpecsOf(c.insets, c.insetOffsets);
+  auto insets = insetSpecsOf(c.insets, c.insetOffsets, c.insetTextures);
   if (!insets) return root ? reportError(insets.error()) : exitCodeOf(insets.error());
   o.insets = std::move(insets).value();
   if (c.textureFormat == "bc1") {
@@ -279,6 +280,7 @@ void addBuildCommand(CLI::App& app, CommandStatus& status) {
                   "the forest closed around it (repeatable; the lattice is that of the deepest)")
       ->type_name("BOX@LEVEL");
   addInsetOptions(*cmd, c->insets, c->insetOffsets);
+  addInsetTextureOption(*cmd, c->insetTextures);
   cmd->add_option("--threads", c->threads, "Worker threads (0: all cores)")
       ->check(CLI::Range(0, 1024))
       ->capture_default_str();

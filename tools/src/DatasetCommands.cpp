@@ -137,10 +137,10 @@ int runInfo(const std::string& dir, bool json) {
   for (const ManifestInset& i : m.insets) {
     std::printf(
         "inset     %s (%s), %llu samples over %.4f..%.4f°N %.4f..%.4f°E, leaves at level "
-        "%u, band %u samples, offset %g m\n",
+        "%u, band %u samples, offset %g m, texture %s\n",
         i.file.c_str(), i.format.c_str(), static_cast<unsigned long long>(i.samples),
         i.southDegrees, i.northDegrees, i.westDegrees, i.eastDegrees, i.leafLevel, i.bandSamples,
-        i.offsetMeters);
+        i.offsetMeters, i.texture.c_str());
   }
   std::printf("lattice   %u cells per face side, leaves of %u cells, bintree levels 0..%u\n",
               m.latticeCells, m.leafCells, m.depth);

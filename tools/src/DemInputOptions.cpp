@@ -40,7 +40,14 @@ void noteDemLabel(const std::filesystem::path& demPath) {
 }
 
 Result<std::vector<builder::InsetSpec>> insetSpecsOf(const std::vector<std::string>& paths,
-                                                     const std::vector<double>& offsets) {
+                                                     const std::vector<double>& offsets,
+                                                     const std::vector<std::string>& textures) {
+  if (!textures.empty() && textures.size() != paths.size()) {
+    return makeError(ErrorCode::InvalidArgument,
+                     std::to_string(textures.size()) + " --inset-texture values for " +
+                         std::to_string(paths.size()) +
+                         " --inset files: give one per inset in order ('-' for shaded relief)");
+  }
   if (!offsets.empty() && offsets.size() != 1 && offsets.size() != paths.size()) {
     return makeError(ErrorCode::InvalidArgument,
                      std::to_string(offsets.size()) + " --inset-offset values for " +
@@ -55,6 +62,7 @@ Result<std::vector<builder::InsetSpec>> insetSpecsOf(const std::vector<std::stri
     builder::InsetSpec spec;
     spec.path = paths[i];
     if (!offsets.empty()) spec.offsetMeters = offsets[offsets.size() == 1 ? 0 : i];
+    if (!textures.empty() && textures[i] != "-") spec.texturePath = textures[i];
     specs.push_back(std::move(spec));
   }
   return specs;
@@ -72,6 +80,15 @@ void addInsetOptions(CLI::App& command, std::vector<std::string>& paths,
                   "Metres added to the insets' heights (one for all, or one per --inset): "
                   "required when an inset declares another vertical datum than the base")
       ->type_name("METRES");
+}
+
+void addInsetTextureOption(CLI::App& command, std::vector<std::string>& textures) {
+  command
+      .add_option("--inset-texture", textures,
+                  "Imagery for each --inset, in order ('-' keeps its shaded relief): any image "
+                  "`--texture` reads; georeferenced (projected ones warped), or else taken to "
+                  "cover its inset's footprint. Blended into the base across the band")
+      ->type_name("FILE");
 }
 
 }  // namespace pbdam::tools

@@ -39,13 +39,17 @@ void addRawGridOptions(CLI::App& command, RawGridOptions& options);
 /// --raw-size, --raw-type and --bounds were given or one of them does not parse.
 formats::Result<std::optional<formats::RawLayout>> rawLayoutOf(const RawGridOptions& options);
 
-/// --inset FILE (repeatable) and --inset-offset METRES: no offset, one for every inset, or one
-/// per inset in the same order. An error names the mismatch.
-formats::Result<std::vector<builder::InsetSpec>> insetSpecsOf(const std::vector<std::string>& paths,
-                                                              const std::vector<double>& offsets);
+/// --inset FILE (repeatable), --inset-offset METRES (none, one for every inset, or one per inset
+/// in the same order) and --inset-texture FILE (none, or one per inset in order, '-' for shaded
+/// relief). An error names the mismatch.
+formats::Result<std::vector<builder::InsetSpec>> insetSpecsOf(
+    const std::vector<std::string>& paths, const std::vector<double>& offsets,
+    const std::vector<std::string>& textures = {});
 /// Adds --inset and --inset-offset to `command`, parsed into `paths` and `offsets`.
 void addInsetOptions(CLI::App& command, std::vector<std::string>& paths,
                      std::vector<double>& offsets);
+/// Adds --inset-texture (build only), parsed into `textures`.
+void addInsetTextureOption(CLI::App& command, std::vector<std::string>& textures);
 
 /// Prints a note on stderr when `demPath` names an image that will be read through the PDS
 /// label beside it (pdsLabelFor), naming the label.

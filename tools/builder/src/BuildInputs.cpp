@@ -152,8 +152,46 @@ Result<BuildInputs> prepareInputs(const BuildOptions& o) {
   in.n = in.leafCells << (in.depth / 2);
   in.dem = std::move(dem).value();
   in.demSource = in.dem->source();
-  if (!insets.empty()) in.composite = CompositeSurface::make(*in.dem, o.insets, std::move(insets));
+  if (!insets.empty()) {
+    in.composite = CompositeSurface::make(*in.dem, o.insets, std::move(insets));
+    auto imagery = readInsetImagery(*in.composite);
+    if (!imagery) return std::move(imagery).error();
+    in.insetImagery = std::move(imagery).value();
+  }
   return in;
+}
+
+Result<std::vector<std::optional<GeoImage>>> readInsetImagery(const CompositeSurface& composite) {
+  std::vector<std::optional<GeoImage>> out;
+  for (std::size_t i = 0; i < composite.specs().size(); ++i) {
+    const InsetSpec& spec = composite.specs()[i];
+    if (spec.texturePath.empty()) {
+      out.emplace_back();
+      continue;
+    }
+    auto image = readImage(spec.texturePath);
+    if (!image) return std::move(image).error();
+    const LatLonBounds footprint = composite.insets()[i].grid.bounds();
+    if (!image->georeferenced()) {
+      // An image without a georeference is taken to cover its inset's footprint exactly.
+      const std::int64_t w = image->width();
+      const std::int64_t h = image->height();
+      std::vector<std::uint8_t> rgba = image->rgba();
+      out.emplace_back(GeoImage(w, h, std::move(rgba), footprint, true));
+      continue;
+    }
+    const LatLonBounds& b = image->bounds();
+    if (!(b.southDegrees < footprint.northDegrees && b.northDegrees > footprint.southDegrees &&
+          b.westDegrees < footprint.eastDegrees && b.eastDegrees > footprint.westDegrees)) {
+      char box[160];
+      std::snprintf(box, sizeof box, "%.4f..%.4f°N %.4f..%.4f°E", b.southDegrees, b.northDegrees,
+                    b.westDegrees, b.eastDegrees);
+      return invalid(spec.texturePath.string() + ": its georeference (" + box +
+                     ") does not overlap its inset " + spec.path.filename().string());
+    }
+    out.emplace_back(std::move(image).value());
+  }
+  return out;
 }
 
 std::uint32_t levelOfDensity(const HeightGrid& grid, std::uint32_t leafCells) {
@@ -201,6 +239,10 @@ std::vector<std::pair<std::string, std::string>> fingerprintOf(const BuildOption
       if (specs[i].path != inset.path) continue;
       f.emplace_back("inset", inset.path.filename().string() + "/crc32:" + demCrc32(grids[i].grid) +
                                   "/offset:" + exact(inset.offsetMeters.value_or(0.0)));
+      if (const auto& image = in.insetImagery[i]) {
+        f.emplace_back("inset-texture", inset.texturePath.filename().string() + "/crc32:" +
+                                            hex32(crc32(std::as_bytes(std::span(image->rgba())))));
+      }
       break;
     }
   }
@@ -243,6 +285,7 @@ std::vector<ManifestInset> manifestInsets(const BuildOptions& o, const BuildInpu
       m.leafLevel = static_cast<std::uint32_t>(region.leafLevel);
       m.bandSamples = static_cast<std::uint32_t>(insets[i].bandSamples);
       m.offsetMeters = insets[i].offsetMeters;
+      if (!specs[i].texturePath.empty()) m.texture = specs[i].texturePath.filename().string();
       out.push_back(std::move(m));
       break;
     }

@@ -36,6 +36,8 @@ struct BuildInputs final {
   std::vector<DeepRegion> deepRegions;
   /// With insets: the base and the insets as one surface (sharing the base's heights).
   std::optional<CompositeSurface> composite;
+  /// Per inset of the composite (its order): its imagery, or nullopt for shaded relief.
+  std::vector<std::optional<formats::GeoImage>> insetImagery;
 };
 
 class ForestPlan;
@@ -50,6 +52,12 @@ std::function<std::uint32_t(const runtime::BinTriangle&)> leafSources(const Buil
                                                                       const BuildInputs& in,
                                                                       const ForestPlan& plan,
                                                                       const Lattice& lattice);
+
+/// Each inset's imagery (InsetSpec::texturePath), in the composite's order: nullopt for shaded
+/// relief; an image without a georeference takes its inset's footprint. Errors: unreadable
+/// images, a georeferenced one that does not overlap its inset.
+formats::Result<std::vector<std::optional<formats::GeoImage>>> readInsetImagery(
+    const CompositeSurface& composite);
 
 /// The even leaf level whose lattice is at least as dense as `grid`'s samples, for leaves of
 /// `leafCells` cells.

@@ -691,10 +691,16 @@ TextureSource DistributedBuild::textureSource() const {
   source.ramp.minMeters = static_cast<double>(grid.minHeightMeters());
   source.ramp.maxMeters =
       std::max(static_cast<double>(grid.maxHeightMeters()), source.ramp.minMeters + 1.0);
-  if (in_.imagery) {
-    source.imagery = &*in_.imagery;
-    source.imageryShadingStrength = 0.35;
+  if (in_.imagery) source.imagery = &*in_.imagery;
+  // Insets with imagery draw it over what lies below, with the weight their heights blend by.
+  for (std::size_t i = 0; i < in_.insetImagery.size(); ++i) {
+    if (!in_.insetImagery[i]) continue;
+    const CompositeSurface* composite = &*in_.composite;
+    source.layers.push_back({&*in_.insetImagery[i], [composite, i](double lat, double lon) {
+                               return composite->weightOf(i, lat, lon);
+                             }});
   }
+  if (source.imagery != nullptr || !source.layers.empty()) source.imageryShadingStrength = 0.35;
   return source;
 }
 

@@ -321,6 +321,41 @@ ImagePixelSize imagePixelSize(const GeoImage& image, const Planet& planet) noexc
               kDegrees * radius};
 }
 
+/// An image's colour over one texel: the mean of k×k bilinear subsamples spread over the
+/// texel's footprint in (u, v), k = clamp(⌈texel spacing / pixel size⌉, 1, 8); nullopt when no
+/// subsample falls inside the image.
+struct SeenColour final {
+  std::array<double, 3> colour{};
+  double alpha = 0.0;  ///< mean alpha, 0..255
+};
+
+std::optional<SeenColour> supersample(const GeoImage& image, const ImagePixelSize& pixel,
+                                      const Planet& planet, CubeFace face, glm::dvec2 centreUv,
+                                      double texelUv, double spacing, double latDegrees) noexcept {
+  const double pixelMeters = std::min(
+      pixel.latMeters, pixel.lonMetersAtEquator * std::max(std::cos(latDegrees * kDegrees), 1e-6));
+  const int k =
+      std::clamp(static_cast<int>(std::ceil(spacing / pixelMeters)), 1, kMaxImageSupersampling);
+  SeenColour seen;
+  int count = 0;
+  for (int b = 0; b < k; ++b) {
+    for (int a = 0; a < k; ++a) {
+      const glm::dvec2 offset((a + 0.5) / k - 0.5, (b + 0.5) / k - 0.5);
+      const glm::dvec3 direction = CubeMap::faceUvToDirection(face, centreUv + texelUv * offset);
+      const GeodeticPosition p = planet.directionToGeodetic(direction);
+      if (const auto rgba = image.sampleBilinear(p.latDegrees, p.lonDegrees)) {
+        for (std::size_t c = 0; c < 3; ++c) seen.colour[c] += static_cast<double>((*rgba)[c]);
+        seen.alpha += static_cast<double>((*rgba)[3]);
+        ++count;
+      }
+    }
+  }
+  if (count == 0) return std::nullopt;
+  for (double& c : seen.colour) c /= count;
+  seen.alpha /= count;
+  return seen;
+}
+
 }  // namespace
 
 // ---- public functions ---------------------------------------------------------------------
@@ -421,6 +456,10 @@ Result<TextureTileResult> buildTextureTile(const TextureSource& source,
   const double reliefStrength = std::clamp(source.shading.strength, 0.0, 1.0);
   const ImagePixelSize pixel =
       source.imagery != nullptr ? imagePixelSize(*source.imagery, source.planet) : ImagePixelSize{};
+  std::vector<ImagePixelSize> layerPixels;
+  for (const TextureSource::ImageryLayer& layer : source.layers) {
+    layerPixels.push_back(imagePixelSize(*layer.image, source.planet));
+  }
 
   for (int y = 0; y < size; ++y) {
     for (int x = 0; x < size; ++x) {
@@ -438,31 +477,11 @@ Result<TextureTileResult> buildTextureTile(const TextureSource& source,
 
       std::optional<std::array<double, 3>> colour;
       double strength = reliefStrength;
+      const glm::dvec2 centreUv = textureTexelFaceUv(request, x, y);
       if (source.imagery != nullptr) {
-        // k×k subsamples spread over the texel's footprint in (u, v).
-        const double pixelMeters =
-            std::min(pixel.latMeters, pixel.lonMetersAtEquator *
-                                          std::max(std::cos(position.latDegrees * kDegrees), 1e-6));
-        const int k = std::clamp(static_cast<int>(std::ceil(spacing / pixelMeters)), 1,
-                                 kMaxImageSupersampling);
-        const glm::dvec2 centreUv = textureTexelFaceUv(request, x, y);
-        std::array<double, 3> sum{0.0, 0.0, 0.0};
-        int count = 0;
-        for (int b = 0; b < k; ++b) {
-          for (int a = 0; a < k; ++a) {
-            const glm::dvec2 offset((a + 0.5) / k - 0.5, (b + 0.5) / k - 0.5);
-            const glm::dvec3 direction =
-                CubeMap::faceUvToDirection(face, centreUv + texelUv * offset);
-            const GeodeticPosition p = source.planet.directionToGeodetic(direction);
-            if (const auto rgba = source.imagery->sampleBilinear(p.latDegrees, p.lonDegrees)) {
-              for (std::size_t c = 0; c < 3; ++c) sum[c] += static_cast<double>((*rgba)[c]);
-              ++count;
-            }
-          }
-        }
-        if (count > 0) {
-          for (double& c : sum) c /= count;
-          colour = sum;
+        if (const auto seen = supersample(*source.imagery, pixel, source.planet, face, centreUv,
+                                          texelUv, spacing, position.latDegrees)) {
+          colour = seen->colour;
           strength = imageryStrength;
           if (source.ramp.hasOcean && reliefSample.valid && reliefSample.tintHeightMeters < 0.0) {
             strength *= 0.5;
@@ -476,6 +495,22 @@ Result<TextureTileResult> buildTextureTile(const TextureSource& source,
         colour = toDouble(hypsometricTint(reliefSample.tintHeightMeters, source.ramp));
         // Water is shaded more softly than land: bathymetry reads as depth, not as mountains.
         if (source.ramp.hasOcean && reliefSample.tintHeightMeters < 0.0) strength *= 0.5;
+      }
+      for (std::size_t i = 0; i < source.layers.size(); ++i) {
+        const TextureSource::ImageryLayer& layer = source.layers[i];
+        const double w = layer.weight(position.latDegrees, position.lonDegrees);
+        if (!(w > 0.0)) continue;
+        const auto seen = supersample(*layer.image, layerPixels[i], source.planet, face, centreUv,
+                                      texelUv, spacing, position.latDegrees);
+        if (!seen) continue;
+        const double a = std::clamp(w * seen->alpha / 255.0, 0.0, 1.0);
+        if (!colour) {
+          if (a < 1.0) continue;  // nothing below to blend with
+          colour = seen->colour;
+        } else {
+          for (std::size_t c = 0; c < 3; ++c) (*colour)[c] += a * (seen->colour[c] - (*colour)[c]);
+        }
+        strength += a * (imageryStrength - strength);
       }
       std::uint8_t* texel =
           result.image.data.data() +

@@ -1,7 +1,8 @@
 // Imagery ingest: equirectangular colour images (JPEG/PNG/TIFF) read through OpenImageIO into
 // RGBA8, with their lat/lon bounds (GDAL's georeference where the file has one, else the whole
-// globe from −180° to 180°). Thread-safety: immutable after loading; const members are safe from
-// any thread.
+// globe from −180° to 180°); images georeferenced in a projected CRS are warped by GDAL to the
+// geographic CRS of their datum, alpha 0 outside their footprint. Thread-safety: immutable after
+// loading; const members are safe from any thread.
 #pragma once
 
 #include <array>
@@ -48,7 +49,9 @@ class GeoImage final {
 };
 
 /// Reads an image (JPEG, PNG, TIFF, ... anything OpenImageIO reads) as RGBA8. Grey images are
-/// expanded, alpha defaults to 255. Errors name the file: missing, unreadable, truncated.
+/// expanded, alpha defaults to 255. A projected GeoTIFF (8-bit bands) is warped to geographic
+/// (bilinear, GDAL's default resolution) with alpha 0 where it has no source pixel. Errors name the
+/// file: missing, unreadable, truncated.
 Result<GeoImage> readImage(const std::filesystem::path& path);
 
 }  // namespace pbdam::formats

@@ -30,9 +30,10 @@ struct ManifestInset final {
   std::string format;         ///< GDAL driver
   std::uint64_t samples = 0;  ///< its valid samples
   double southDegrees = 0.0, westDegrees = 0.0, northDegrees = 0.0, eastDegrees = 0.0;
-  std::uint32_t leafLevel = 0;    ///< the level of the leaves over it
-  std::uint32_t bandSamples = 0;  ///< the transition band's width inside its footprint
-  double offsetMeters = 0.0;      ///< added to its heights
+  std::uint32_t leafLevel = 0;            ///< the level of the leaves over it
+  std::uint32_t bandSamples = 0;          ///< the transition band's width inside its footprint
+  double offsetMeters = 0.0;              ///< added to its heights
+  std::string texture = "shaded-relief";  ///< its imagery's file name, or "shaded-relief"
 };
 
 struct Manifest final {

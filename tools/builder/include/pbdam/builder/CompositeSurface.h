@@ -25,6 +25,9 @@ struct InsetSpec final {
   std::filesystem::path path;
   /// Added to the inset's heights (metres), for an inset on another vertical datum.
   std::optional<double> offsetMeters;
+  /// Imagery for the inset's texels (any image readImage reads: georeferenced, or else taken
+  /// to cover the inset's footprint); empty for shaded relief.
+  std::filesystem::path texturePath;
 };
 
 /// The transition band's width in inset samples: at least 16, and at least one base sample

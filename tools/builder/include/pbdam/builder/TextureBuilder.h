@@ -11,6 +11,7 @@
 #include <functional>
 #include <glm/vec2.hpp>
 #include <optional>
+#include <vector>
 
 #include "pbdam/builder/HypsometricTint.h"
 #include "pbdam/formats/HeightGrid.h"
@@ -66,6 +67,15 @@ struct TextureSource final {
   const formats::GeoImage* imagery = nullptr;
   /// Shading applied on top of imagery, 0..1 (0: the image as is). Needs heightMeters.
   double imageryShadingStrength = 0.0;
+  /// Local images drawn over the result, in order (coarsest inset first): where layer i's
+  /// weight w (times the image's alpha / 255) is above 0, the texel becomes w·(the layer's
+  /// colour) + (1 − w)·(what lies below), supersampled as `imagery` is and shaded with
+  /// imageryShadingStrength. Weights must be safe to call from several threads.
+  struct ImageryLayer final {
+    const formats::GeoImage* image = nullptr;
+    std::function<double(double latDegrees, double lonDegrees)> weight;
+  };
+  std::vector<ImageryLayer> layers;
   runtime::Planet planet = runtime::Planet::mars();
   HypsometricRamp ramp;
   ReliefShading shading;
