@@ -4,8 +4,9 @@
 # from pbdam_fractal_dem), built one after the other with the same threads. Prints the extra
 # build CPU-seconds and extra dataset bytes over the base-only build, each as a multiple of
 # (inset samples × the base build's CPU-seconds or bytes per source sample): the target is 2 at
-# most. Then replays the Mars flight cold through both datasets (pbdam bench, prefetch on and
-# off) and prints the render-thread major faults and data stalls of each, and their ratio.
+# most. Then replays the Mars flight cold through both datasets (pbdam bench: paging mode with
+# prefetch on and off, and no-stall mode) and prints the render-thread major faults and data
+# stalls of each, their ratio, and how many no-stall frames were drawn under a level cap.
 #   bench/inset_cost.sh [OUTDIR] [PBDAM]
 #     OUTDIR  where the inset, datasets and reports go (default build/inset; kept)
 #     PBDAM   the pbdam binary (default build/release/tools/pbdam)
@@ -60,23 +61,38 @@ awk -v bu="$bu" -v bs="$bs" -v iu="$iu" -v is="$is" -v bb="$bb" -v ib="$ib" \
 }'
 
 for name in base inset; do
-  rm -rf "$out/$name-flight"
+  rm -rf "${out:?}/$name-flight" "${out:?}/$name-nostall"
   "$pbdam" bench "$out/$name" --path "$flight" --out "$out/$name-flight" --cold --quiet \
     >"$out/$name-flight.log" 2>&1
+  # No-stall mode: the render thread never waits on disk; it draws the finest conforming cut
+  # whose data is resident (a global level cap) while the prefetcher loads the rest.
+  "$pbdam" bench "$out/$name" --path "$flight" --out "$out/$name-nostall" --cold --quiet \
+    --mode no-stall --prefetch on >"$out/$name-nostall.log" 2>&1
 done
 python3 - "$out" <<'EOF'
-import json, sys
+import csv, json, sys
 out = sys.argv[1]
 runs = {}
 for name in ("base", "inset"):
-    with open(f"{out}/{name}-flight/summary.json") as f:
-        for run in json.load(f)["runs"]:
-            runs[(name, run["prefetch"])] = run
-for prefetch in ("off", "on"):
-    b, i = runs[("base", prefetch)], runs[("inset", prefetch)]
+    for kind in ("flight", "nostall"):
+        with open(f"{out}/{name}-{kind}/summary.json") as f:
+            for run in json.load(f)["runs"]:
+                runs[(name, run["mode"], run["prefetch"])] = run
+for mode, prefetch in (("paging", "off"), ("paging", "on"), ("no-stall", "on")):
+    b, i = runs[("base", mode, prefetch)], runs[("inset", mode, prefetch)]
     for key in ("render_thread_major_faults", "data_stalls"):
-        if key not in b:
-            continue
         ratio = i[key] / b[key] if b[key] else float("nan")
-        print(f"flight prefetch {prefetch}: {key} base {b[key]}, inset {i[key]}, ratio {ratio:.2f} (target <= 1.2)")
+        print(f"flight {mode} prefetch {prefetch}: {key} base {b[key]}, inset {i[key]}, "
+              f"ratio {ratio:.2f} (target <= 1.2)")
+    print(f"flight {mode} prefetch {prefetch}: triangles per frame base "
+          f"{b['triangles_per_frame_mean']:.0f}, inset {i['triangles_per_frame_mean']:.0f}")
+# What no-stall mode gives up for it: frames drawn under a level cap below the dataset's depth.
+for name in ("base", "inset"):
+    with open(f"{out}/{name}/manifest.json") as f:
+        depth = json.load(f)["depth"]
+    with open(f"{out}/{name}-nostall/frames.csv") as f:
+        caps = [int(r["level_cap"]) for r in csv.DictReader(f)]
+    capped = sum(1 for c in caps if c < depth)
+    print(f"no-stall {name}: {capped} of {len(caps)} frames capped below depth {depth}, "
+          f"lowest cap {min(caps)}")
 EOF

@@ -221,6 +221,12 @@ TEST(Cli, BadInputGivesOneLineAndExitCode2) {
   expectBadInput("build --dem '" + etopo.string() + "' --planet earth --out '" +
                      (dir / "o3").string() + "' --inset '" + (dir / "junk.tif").string() + "'",
                  "junk.tif");
+  // An inset without georeferencing (a plain image).
+  const std::string plain = (dir / "plain.pgm").string();
+  std::ofstream(plain, std::ios::binary) << "P5\n4 4\n255\n" << std::string(16, '\x40');
+  expectBadInput("build --dem '" + etopo.string() + "' --planet earth --out '" +
+                     (dir / "o5").string() + "' --inset '" + plain + "'",
+                 "has no georeferencing");
   // Inset imagery georeferenced elsewhere (a 1° square over Norway for Luxembourg).
   const std::string far = (dir / "far.tif").string();
   ASSERT_EQ(std::system(("gdal_translate -q -a_srs EPSG:4326 -a_ullr 10 60 11 59 -ot Byte '" +
