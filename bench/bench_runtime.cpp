@@ -14,11 +14,13 @@
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "pbdam/formats/CameraPath.h"
 #include "pbdam/runtime/Camera.h"
+#include "pbdam/runtime/CutReuse.h"
 #include "pbdam/runtime/Refinement.h"
 #include "pbdam/streaming/DecodeScheduler.h"
 #include "pbdam/streaming/MappedDataset.h"
@@ -94,6 +96,40 @@ void BM_RefineFlightFrame(benchmark::State& state) {
   state.SetLabel(std::to_string(f.cameras.size()) + " poses");
 }
 BENCHMARK(BM_RefineFlightFrame)->Unit(benchmark::kMicrosecond);
+
+// The same flight with the refinement tree kept from frame to frame (IncrementalRefiner: the
+// same cuts): time per frame, and split/cull decisions per frame against the stateless ones.
+void BM_IncrementalFlightFrame(benchmark::State& state) {
+  const Flight& f = flight();
+  if (!f.error.empty()) {
+    state.SkipWithError(f.error.c_str());
+    return;
+  }
+  RefinementOptions options;
+  options.tolerancePixels = 3.0;
+  std::size_t frame = 0;
+  std::uint64_t decisions = 0;
+  std::uint64_t stateless = 0;
+  std::uint64_t frames = 0;
+  std::optional<IncrementalRefiner> incremental;
+  for (auto _ : state) {
+    if (frame == 0) incremental.emplace(f.dataset->view());  // each pass starts cold
+    const Cut cut = incremental->update(f.cameras[frame], options);
+    decisions += incremental->lastStats().decisions;
+    benchmark::DoNotOptimize(cut.patches.data());
+    state.PauseTiming();
+    stateless += refine(f.dataset->view(), f.cameras[frame], options).nodesVisited;
+    state.ResumeTiming();
+    ++frames;
+    frame = (frame + 1) % f.cameras.size();
+  }
+  state.counters["decisions/frame"] =
+      benchmark::Counter(static_cast<double>(decisions), benchmark::Counter::kAvgIterations);
+  state.counters["stateless/frame"] =
+      benchmark::Counter(static_cast<double>(stateless), benchmark::Counter::kAvgIterations);
+  state.SetLabel(std::to_string(f.cameras.size()) + " poses");
+}
+BENCHMARK(BM_IncrementalFlightFrame)->Unit(benchmark::kMicrosecond);
 
 // Every leaf patch of the dataset decoded into the GPU cache's layout (vertices, then indices)
 // on one thread, as a cache miss does: LZO and the byte planes, then the GPU vertex of each

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <glm/geometric.hpp>
 #include <limits>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -98,9 +99,22 @@ void Camera::setNearMeters(double nearMeters) noexcept {
   updatePlanes();
 }
 
+Camera Camera::withFrustumMargin(double marginDegrees) const noexcept {
+  Camera wider = *this;
+  wider.marginRadians_ = radians(marginDegrees);
+  wider.updatePlanes();
+  return wider;
+}
+
 void Camera::updatePlanes() noexcept {
-  const double halfY = std::atan(static_cast<double>(viewport_.height) / (2.0 * pixelScale_));
-  const double halfX = std::atan(static_cast<double>(viewport_.width) / (2.0 * pixelScale_));
+  // A widened half-angle stops at 90°: the plane through the camera facing forward.
+  const double quarter = 0.5 * std::numbers::pi;
+  const double halfY = std::min(
+      std::atan(static_cast<double>(viewport_.height) / (2.0 * pixelScale_)) + marginRadians_,
+      quarter);
+  const double halfX = std::min(
+      std::atan(static_cast<double>(viewport_.width) / (2.0 * pixelScale_)) + marginRadians_,
+      quarter);
   const auto plane = [&](const glm::dvec3& normal) {
     const glm::dvec3 n = glm::normalize(normal);
     return glm::dvec4(n, -glm::dot(n, position_));

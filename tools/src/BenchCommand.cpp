@@ -29,6 +29,7 @@
 #include "pbdam/formats/CameraPath.h"
 #include "pbdam/gpu/TerrainRenderer.h"
 #include "pbdam/gpu/VulkanContext.h"
+#include "pbdam/runtime/CutReuse.h"
 #include "pbdam/streaming/MappedDataset.h"
 #include "pbdam/streaming/NoStallPolicy.h"
 #include "pbdam/streaming/PageCache.h"
@@ -49,6 +50,7 @@ struct BenchCliOptions {
   std::string prefetch = "both";
   double lookahead = 0.5;
   std::string mode = "paging";
+  std::string cutReuse = "on";
   double fovDegrees = 60.0;
   double gpuCacheMiB = 64.0;
   int device = -1;
@@ -96,6 +98,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   BenchRun run;
   run.prefetch = prefetch ? "on" : "off";
   run.mode = o.mode;
+  run.cutReuse = o.cutReuse == "on" && o.mode == "paging";
   run.cold = o.cold;
   if (o.cold) {
     auto evicted = evictDataset(o.dir);
@@ -127,6 +130,9 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   }
   RefinementOptions refinement;
   refinement.tolerancePixels = o.tolerance;
+  // Paging mode keeps the refinement tree from frame to frame (the same cuts, fewer decisions);
+  // no-stall mode's level cap changes from frame to frame and refines from the roots.
+  IncrementalRefiner incremental(view);
   std::optional<Prefetcher> prefetcher;
   if (prefetch || noStall) {
     // No-stall always has a loader thread; without prefetch it fetches the current camera's cut
@@ -158,10 +164,13 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
       NoStallCut capped = noStallPolicy.cut(camera, refinement);
       cut = std::move(capped.cut);
       f.drawnLevelCap = capped.levelCap;
+    } else if (run.cutReuse) {
+      cut = incremental.update(camera, refinement);
     } else {
       cut = refine(view, camera, refinement);
     }
     f.traversalMs = msSince(t0);
+    f.decisions = cut.nodesVisited;
     auto frame = renderer->render(cut, camera);
     if (!frame) return frame.error();
     f.rssFileBytes = rssFileBytes();
@@ -210,6 +219,9 @@ int runBench(const BenchCliOptions& o) {
   };
   if (o.prefetch != "on" && o.prefetch != "off" && o.prefetch != "both") {
     return bad("--prefetch '" + o.prefetch + "': expected on, off or both");
+  }
+  if (o.cutReuse != "on" && o.cutReuse != "off") {
+    return bad("--cut-reuse '" + o.cutReuse + "': expected on or off");
   }
   if (o.mode != "paging" && o.mode != "no-stall") {
     return bad("--mode '" + o.mode + "': expected paging or no-stall");
@@ -290,6 +302,11 @@ void addBenchCommand(CLI::App& app, CommandStatus& status) {
   cmd->add_option("--mode", o->mode,
                   "paging: missing pages fault in on the render thread; no-stall: draw the "
                   "finest resident conforming cut")
+      ->capture_default_str();
+  cmd->add_option("--cut-reuse", o->cutReuse,
+                  "on: keep the refinement tree from frame to frame and re-evaluate only the "
+                  "decisions the camera's movement may have changed (paging mode; the same "
+                  "cuts); off: refine every frame from the roots")
       ->capture_default_str();
   cmd->add_option("--fov-deg", o->fovDegrees, "Vertical field of view in degrees")
       ->capture_default_str();

@@ -27,7 +27,7 @@ double percentile(std::vector<double> v, double p) {
 
 nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   std::vector<double> ms;
-  double total = 0.0, traversal = 0.0, peakTps = 0.0, triangles = 0.0, draws = 0.0;
+  double total = 0.0, traversal = 0.0, peakTps = 0.0, triangles = 0.0, draws = 0.0, decisions = 0.0;
   std::uint64_t faults = 0, maxPatches = 0, maxTiles = 0, peakRss = 0, hits = 0, misses = 0,
                 paged = 0, peakDatasetRss = 0, peakPool = 0;
   for (const BenchFrame& f : run.frames) {
@@ -36,6 +36,7 @@ nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
     traversal += f.traversalMs;
     triangles += static_cast<double>(f.triangles);
     draws += static_cast<double>(f.patches);  // one indexed draw per patch
+    decisions += static_cast<double>(f.decisions);
     if (f.frameMs > 0.0)
       peakTps = std::max(peakTps, static_cast<double>(f.triangles) / f.frameMs * 1e3);
     faults += f.renderThreadMajorFaults;
@@ -65,6 +66,7 @@ nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   nlohmann::ordered_json j;
   j["prefetch"] = run.prefetch;
   j["mode"] = run.mode;
+  j["cut_reuse"] = run.cutReuse;
   j["cold"] = run.cold;
   if (run.cold) {
     j["resident_after_evict_pages"] = run.residentAfterEvictPages;
@@ -83,6 +85,7 @@ nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   const double frames = std::max<double>(1.0, static_cast<double>(run.frames.size()));
   j["triangles_per_frame_mean"] = triangles / frames;
   j["draws_per_frame_mean"] = draws / frames;
+  j["decisions_per_frame_mean"] = decisions / frames;
   j["max_patches_per_frame"] = maxPatches;
   j["max_tiles_per_frame"] = maxTiles;
   j["traversal_fraction"] = total > 0.0 ? traversal / total : 0.0;
@@ -171,7 +174,7 @@ Result<std::string> writeBenchReport(const std::filesystem::path& dir, const Ben
     std::ofstream csv(dir / "frames.csv");
     csv << "prefetch,mode,frame,t,frame_ms,traversal_ms,decode_ms,upload_ms,draw_ms,triangles,"
            "patches,tiles,level_cap,render_thread_major_faults,bytes_paged_in,gpu_hits,"
-           "gpu_misses,gpu_evictions,rss_bytes,gpu_pool_bytes,rss_file_bytes\n";
+           "gpu_misses,gpu_evictions,rss_bytes,gpu_pool_bytes,rss_file_bytes,decisions\n";
     for (const BenchRun& r : runs) {
       for (const BenchFrame& f : r.frames) {
         csv << r.prefetch << ',' << r.mode << ',' << f.frame << ',' << f.pathSeconds << ','
@@ -179,7 +182,7 @@ Result<std::string> writeBenchReport(const std::filesystem::path& dir, const Ben
             << f.drawMs << ',' << f.triangles << ',' << f.patches << ',' << f.tiles << ','
             << f.drawnLevelCap << ',' << f.renderThreadMajorFaults << ',' << f.bytesPagedIn << ','
             << f.gpuHits << ',' << f.gpuMisses << ',' << f.gpuEvictions << ',' << f.rssBytes << ','
-            << f.gpuPoolBytes << ',' << f.rssFileBytes << '\n';
+            << f.gpuPoolBytes << ',' << f.rssFileBytes << ',' << f.decisions << '\n';
       }
     }
     if (!csv)
@@ -223,12 +226,13 @@ Result<std::string> writeBenchReport(const std::filesystem::path& dir, const Ben
         100.0 * r["rss_dataset_ratio"].get<double>(), r["dataset_mib"].get<double>(),
         100.0 * r["gpu_cache_hit_rate"].get<double>());
     text << line;
-    std::snprintf(line, sizeof line,
-                  "  per frame: %.0f triangles in %.0f draws on average (one per patch; at most "
-                  "%llu)\n",
-                  r["triangles_per_frame_mean"].get<double>(),
-                  r["draws_per_frame_mean"].get<double>(),
-                  static_cast<unsigned long long>(r["max_patches_per_frame"].get<std::uint64_t>()));
+    std::snprintf(
+        line, sizeof line,
+        "  per frame: %.0f triangles in %.0f draws on average (one per patch; at most "
+        "%llu); %.1f split/cull decisions (cut reuse %s)\n",
+        r["triangles_per_frame_mean"].get<double>(), r["draws_per_frame_mean"].get<double>(),
+        static_cast<unsigned long long>(r["max_patches_per_frame"].get<std::uint64_t>()),
+        r["decisions_per_frame_mean"].get<double>(), r["cut_reuse"].get<bool>() ? "on" : "off");
     text << line;
     std::snprintf(line, sizeof line,
                   "  data stalls (time outside the draw > median frame) %lld; dataset pages in "

@@ -33,12 +33,15 @@ struct BenchFrame final {
   /// File-backed resident bytes of the process at the end of the frame, before the dataset
   /// mappings are released: shared libraries (constant) plus the dataset pages the frame touched.
   std::uint64_t rssFileBytes = 0;
+  /// Split and cull decisions the refinement evaluated (Cut::nodesVisited).
+  std::uint64_t decisions = 0;
 };
 
 /// One replay of the path with one prefetch setting.
 struct BenchRun final {
-  std::string prefetch;  ///< "on" or "off"
-  std::string mode;      ///< "paging" or "no-stall"
+  std::string prefetch;   ///< "on" or "off"
+  std::string mode;       ///< "paging" or "no-stall"
+  bool cutReuse = false;  ///< the refinement tree kept from frame to frame (IncrementalRefiner)
   bool cold = false;
   double residentAfterEvictFraction = 0.0;  ///< pages left in the page cache after eviction
   std::uint64_t residentAfterEvictPages = 0;

@@ -28,6 +28,7 @@
 #include "pbdam/gpu/TerrainRenderer.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/runtime/Camera.h"
+#include "pbdam/runtime/CutReuse.h"
 #include "pbdam/runtime/Refinement.h"
 #include "pbdam/streaming/MappedDataset.h"
 
@@ -235,13 +236,16 @@ int renderFrames(const RenderCliOptions& c, const DatasetView& view, const Viewp
 
   RefinementOptions refinement;
   refinement.tolerancePixels = c.tolerancePixels;
+  // The refinement tree is kept from frame to frame: a path's frames re-evaluate only the
+  // decisions the camera's movement may change (IncrementalRefiner: the same cuts as refine()).
+  IncrementalRefiner incremental(view);
   // One statistics line per frame on a terminal; in logs at most one a second (and the last).
   Progress frameLines(c.quiet, stdout, Progress::OnTerminal::Scroll);
   for (std::size_t i = 0; i < plan.jobs.size(); ++i) {
     const FrameJob& job = plan.jobs[i];
     const Camera camera = Camera::fromPose(view.planet(), job.pose, viewport);
     const auto traversalStart = std::chrono::steady_clock::now();
-    const Cut cut = refine(view, camera, refinement);
+    const Cut cut = incremental.update(camera, refinement);
     const double traversalMs =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - traversalStart)
             .count();

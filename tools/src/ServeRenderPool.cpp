@@ -6,6 +6,7 @@
 #include <future>
 #include <string>
 
+#include "pbdam/runtime/CutReuse.h"
 #include "pbdam/runtime/Refinement.h"
 
 using namespace pbdam::formats;
@@ -129,6 +130,9 @@ FrameOutcome RenderPool::render(const FrameRequest& request, Clock::time_point d
 void RenderPool::workerLoop(std::uint32_t index) {
   gpu::TerrainRenderer& renderer = renderers_[index];
   const DatasetView& view = dataset_.view();
+  // Each worker keeps its refinement tree between frames: a viewer's consecutive requests
+  // re-evaluate only the decisions its movement may change (the same cuts as refine()).
+  IncrementalRefiner incremental(view);
   for (;;) {
     std::shared_ptr<Job> job;
     {
@@ -157,7 +161,7 @@ void RenderPool::workerLoop(std::uint32_t index) {
         const Camera camera = Camera::fromPose(view.planet(), r.pose, r.viewport);
         RefinementOptions refinement;
         refinement.tolerancePixels = r.tolerancePixels;
-        const Cut cut = refine(view, camera, refinement);
+        const Cut cut = incremental.update(camera, refinement);
         const double traversalMs = millisecondsBetween(start, Clock::now());
         Result<gpu::RenderedFrame> drawn = renderer.render(cut, camera);
         if (!drawn) {

@@ -74,6 +74,12 @@ class Camera final {
 
   /// False when the sphere lies wholly outside one of the frustum's side or near planes.
   bool sphereInFrustum(const glm::dvec3& centre, double radius) const noexcept;
+  /// The frustum's planes: inward unit normals (xyz) and offsets (w), a point x inside when
+  /// dot(normal, x) + w ≥ 0 for all five (left, right, bottom, top side planes, then near).
+  const std::array<glm::dvec4, 5>& frustumPlanes() const noexcept { return planes_; }
+  /// This camera with its side planes turned outward by `marginDegrees` each (the culling of a
+  /// view that may turn that far); its screen error, projection and near plane are unchanged.
+  Camera withFrustumMargin(double marginDegrees) const noexcept;
 
   /// World-to-view rotation for camera-relative positions (view looks along −z, y up), and the
   /// infinite reversed-Z Vulkan projection (depth 1 at the near plane, → 0 at infinity, y down).
@@ -91,6 +97,7 @@ class Camera final {
   Viewport viewport_;
   double pixelScale_ = 1.0;
   double nearMeters_ = 0.1;
+  double marginRadians_ = 0.0;          ///< added to the side planes' half-angles (culling only)
   std::array<glm::dvec4, 5> planes_{};  ///< inward normals (xyz) and offsets (w), world space
 };
 
