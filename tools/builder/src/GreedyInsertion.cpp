@@ -3,9 +3,11 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cassert>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <queue>
 
 using namespace pbdam::runtime;
@@ -509,6 +511,12 @@ void Triangulation::scan(std::uint32_t t) {
   RowSpans spans(p, tri.n, firstRow, step);
   const float* heights = heights_.data;
   const std::size_t rowLength = std::size_t{heights_.sideCells} + 1;
+  // On a sparse lattice, a triangle inside one tile (no finer tile touching it) reads that
+  // tile's grid directly, as a dense lattice's rows: the same points, without the row walk.
+  std::optional<LatticeTiles::Window> window;
+  if (heights_.tiles != nullptr) {
+    window = heights_.tiles->windowHolding(heights_.face, xMinBox, yMin, xMaxBox, yMax);
+  }
   for (int y = firstRow; y <= yMax; y += step) {
     std::int64_t lo = xMinBox;
     std::int64_t hi = xMaxBox;
@@ -534,6 +542,14 @@ void Triangulation::scan(std::uint32_t t) {
         worst = LatticeXY{static_cast<std::int32_t>(x), y};
       }
     };
+    if (window) {
+      const int shift = std::countr_zero(static_cast<std::uint32_t>(window->spacing));
+      const float* row =
+          heights + window->offset +
+          static_cast<std::uint64_t>((y - window->y0) >> shift) * window->pointsPerRow;
+      for (std::int64_t x = first; x <= last; x += step) visit(x, row[(x - window->x0) >> shift]);
+      continue;
+    }
     if (heights_.tiles != nullptr) {
       // A sparse lattice: the points stored, each tile at its own spacing.
       heights_.tiles->forEachInRow(

@@ -9,6 +9,7 @@
 #include <cassert>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "pbdam/builder/PatchBuilder.h"
 #include "pbdam/runtime/PatchDraw.h"
@@ -106,10 +107,31 @@ double triangleTiledDeviation(const FaceHeights& heights, LatticeXY a, LatticeXY
                             heights.face, std::min({a.x, b.x, c.x}), std::min({a.y, b.y, c.y}),
                             std::max({a.x, b.x, c.x}), std::max({a.y, b.y, c.y})));
   double worst = 0.0;
+  // A triangle inside one tile reads its grid directly (the same points; LatticeTiles.h).
+  const std::optional<LatticeTiles::Window> window = heights.tiles->windowHolding(
+      heights.face, std::min({a.x, b.x, c.x}), std::min({a.y, b.y, c.y}), std::max({a.x, b.x, c.x}),
+      std::max({a.y, b.y, c.y}));
   forEachTriangleRow(
       a, b, c, rowStep,
       [&](int y, std::int64_t lo, std::int64_t hi, const std::array<std::int64_t, 3>& w,
           const std::array<std::int64_t, 3>& step) {
+        if (window) {
+          const int shift = std::countr_zero(static_cast<std::uint32_t>(window->spacing));
+          const float* row =
+              heights.data + window->offset +
+              static_cast<std::uint64_t>((y - window->y0) >> shift) * window->pointsPerRow;
+          const std::int64_t stride = std::max<std::int64_t>(spacing, window->spacing);
+          for (std::int64_t x = (lo + stride - 1) & ~(stride - 1); x <= hi; x += stride) {
+            const std::int64_t dx = x - lo;
+            const double hp = (static_cast<double>(w[0] + step[0] * dx) * ha +
+                               static_cast<double>(w[1] + step[1] * dx) * hb +
+                               static_cast<double>(w[2] + step[2] * dx) * hc) /
+                              sum;
+            worst =
+                std::max(worst, std::abs(hp - static_cast<double>(row[(x - window->x0) >> shift])));
+          }
+          return;
+        }
         heights.tiles->forEachInRow(
             heights.face, y, lo, hi, spacing, [&](std::int64_t x, std::uint64_t at) {
               const std::int64_t dx = x - lo;

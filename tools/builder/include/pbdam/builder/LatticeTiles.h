@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include "pbdam/runtime/Bintree.h"
@@ -80,6 +81,28 @@ class LatticeTiles final {
       }
     }
     return std::int32_t{1} << finest;
+  }
+
+  /// One tile's stored grid, read directly: the point (x, y) of the tile at index
+  /// offset + ((y − y0) / spacing) · pointsPerRow + (x − x0) / spacing.
+  struct Window final {
+    std::int64_t x0 = 0, y0 = 0;  ///< the tile's lower corner
+    std::int32_t spacing = 1;
+    std::uint64_t offset = 0;
+    std::uint64_t pointsPerRow = 0;
+  };
+  /// The tile whose closed square holds the box [x0, x1] × [y0, y1] of `face`, when one does
+  /// and no tile the box touches (finestSpacingIn) is finer: then the points forEachInRow visits
+  /// in the box are exactly that tile's grid points there.
+  std::optional<Window> windowHolding(int face, std::int32_t x0, std::int32_t y0, std::int32_t x1,
+                                      std::int32_t y1) const noexcept {
+    const std::uint32_t tx = clampTile(x0);
+    const std::uint32_t ty = clampTile(y0);
+    const std::int64_t cells = tileCells_;
+    if (x1 > (tx + 1) * cells || y1 > (ty + 1) * cells) return std::nullopt;
+    const std::size_t tile = tileOf(face, tx, ty);
+    if (finestSpacingIn(face, x0, y0, x1, y1) != spacing(tile)) return std::nullopt;
+    return Window{tx * cells, ty * cells, spacing(tile), offset_[tile], pointsPerRow(tile)};
   }
 
   /// Calls fn(x, index) for each stored point (x, y) of `face` with lo ≤ x ≤ hi and x a multiple
