@@ -14,6 +14,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <map>
+#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -404,6 +406,51 @@ TEST(Cli, NoStallBenchNeverFaultsOnTheRenderThread) {
     EXPECT_EQ(run["render_thread_major_faults"], 0) << "frames.csv:\n"
                                                     << readText(dir / "r" / "frames.csv");
   }
+}
+
+// Cut reuse changes the decisions, not the cuts: the same triangles every frame with it on and
+// off, far fewer decisions with it on; --popping measures each frame against the previous cut.
+TEST(Cli, BenchCutReuseKeepsTheCutsAndPoppingIsMeasured) {
+  PBDAM_REQUIRE_DATASET(dataset, "mola");
+  test::TempDir dir;
+  const std::string path = (dir / "flight.csv").string();
+  ASSERT_EQ(runPbdam("path waypoints --via=0,-60,3000e3 --via=-8,-75,50e3 --duration 2 --fps 10 "
+                     "--planet mars --out '" +
+                     path + "'")
+                .exitCode,
+            0);
+  std::map<std::string, std::vector<std::string>> triangles;
+  std::map<std::string, double> decisions;
+  for (const std::string reuse : {"on", "off"}) {
+    const std::filesystem::path out = dir / ("r-" + reuse);
+    const CliRun bench = runPbdam("bench '" + dataset.string() + "' --path '" + path + "' --out '" +
+                                  out.string() + "' --prefetch off --cut-reuse " + reuse +
+                                  " --popping --width 320 --height 240 --quiet");
+    ASSERT_EQ(bench.exitCode, 0) << bench.err;
+    EXPECT_NE(bench.out.find("popping (the previous frame's cut"), std::string::npos) << bench.out;
+    std::ifstream in(out / "summary.json");
+    const auto run = nlohmann::json::parse(in)["runs"][0];
+    EXPECT_EQ(run["cut_reuse"], reuse == "on");
+    decisions[reuse] = run["decisions_per_frame_mean"].get<double>();
+    EXPECT_GE(run["popping_rms_p99"].get<double>(), 0.0);
+    EXPECT_GE(run["popping_max_max"].get<double>(), run["popping_max_p50"].get<double>());
+    std::istringstream csv(readText(out / "frames.csv"));
+    std::string line;
+    std::getline(csv, line);
+    EXPECT_NE(line.find(",decisions,popping_rms,popping_max"), std::string::npos) << line;
+    for (int frame = 0; std::getline(csv, line); ++frame) {
+      std::vector<std::string> cells;
+      std::istringstream row(line);
+      for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+      ASSERT_EQ(cells.size(), 24u) << line;
+      triangles[reuse].push_back(cells[9]);
+      // The first frame has no previous cut to compare with.
+      EXPECT_EQ(std::stod(cells[22]) < 0.0, frame == 0) << line;
+    }
+  }
+  EXPECT_EQ(triangles["on"], triangles["off"]);
+  EXPECT_EQ(triangles["on"].size(), 21u);
+  EXPECT_LT(2.0 * decisions["on"], decisions["off"]);
 }
 
 // Progress in logs: with stderr a pipe (as under CI or `2>log`), a long bench prints at most one

@@ -14,6 +14,7 @@
 
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -22,6 +23,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "BenchReport.h"
 #include "Commands.h"
@@ -51,11 +53,54 @@ struct BenchCliOptions {
   double lookahead = 0.5;
   std::string mode = "paging";
   std::string cutReuse = "on";
+  bool popping = false;
   double fovDegrees = 60.0;
   double gpuCacheMiB = 64.0;
   int device = -1;
   bool quiet = false;
 };
+
+/// RMS and largest difference over every R, G and B value of two images of one size (0–255).
+std::pair<double, double> imageDifference(const gpu::RgbaImage& a, const gpu::RgbaImage& b) {
+  double sum = 0.0;
+  int largest = 0;
+  std::size_t values = 0;
+  for (std::size_t i = 0; i + 3 < a.rgba.size() && i + 3 < b.rgba.size(); i += 4) {
+    for (std::size_t c = 0; c < 3; ++c) {
+      const int d = std::abs(int{a.rgba[i + c]} - int{b.rgba[i + c]});
+      sum += static_cast<double>(d * d);
+      largest = std::max(largest, d);
+      ++values;
+    }
+  }
+  return {values > 0 ? std::sqrt(sum / static_cast<double>(values)) : 0.0,
+          static_cast<double>(largest)};
+}
+
+/// With a previous cut: draws it with `camera` and records its difference from `image` (this
+/// frame's) as the frame's popping.
+Result<void> measurePopping(gpu::TerrainRenderer& renderer, const std::optional<Cut>& previous,
+                            const Camera& camera, const gpu::RgbaImage& image, BenchFrame& f) {
+  if (!previous) return {};
+  auto before = renderer.render(*previous, camera);
+  if (!before) return before.error();
+  const auto [rms, max] = imageDifference(image, before->image);
+  f.poppingRms = rms;
+  f.poppingMax = max;
+  return {};
+}
+
+void copyRenderStats(const gpu::FrameStats& stats, BenchFrame& f) {
+  f.decodeMs = stats.decodeMs;
+  f.uploadMs = stats.uploadMs;
+  f.drawMs = stats.drawMs;
+  f.triangles = stats.triangles;
+  f.patches = stats.patches;
+  f.tiles = stats.tiles;
+  f.gpuHits = stats.hits;
+  f.gpuMisses = stats.misses;
+  f.gpuEvictions = stats.evictions;
+}
 
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0) {
@@ -99,6 +144,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   run.prefetch = prefetch ? "on" : "off";
   run.mode = o.mode;
   run.cutReuse = o.cutReuse == "on" && o.mode == "paging";
+  run.popping = o.popping;
   run.cold = o.cold;
   if (o.cold) {
     auto evicted = evictDataset(o.dir);
@@ -143,6 +189,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     prefetcher.emplace(**dataset, po);
   }
   const Viewport viewport{o.width, o.height, o.fovDegrees};
+  std::optional<Cut> previousCut;  // --popping
   run.baselineRssFileBytes = rssFileBytes();
   Progress progress(o.quiet);
   std::uint64_t residentBefore = residentDatasetPages(**dataset);
@@ -183,15 +230,15 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     }
     f.frameMs = msSince(t0);
     f.renderThreadMajorFaults = threadMajorFaults() - faults0;
-    f.decodeMs = frame->stats.decodeMs;
-    f.uploadMs = frame->stats.uploadMs;
-    f.drawMs = frame->stats.drawMs;
-    f.triangles = frame->stats.triangles;
-    f.patches = frame->stats.patches;
-    f.tiles = frame->stats.tiles;
-    f.gpuHits = frame->stats.hits;
-    f.gpuMisses = frame->stats.misses;
-    f.gpuEvictions = frame->stats.evictions;
+    if (o.popping) {
+      // After the frame's own figures: the previous cut drawn with this camera, compared.
+      if (auto measured = measurePopping(*renderer, previousCut, camera, frame->image, f);
+          !measured) {
+        return measured.error();
+      }
+      previousCut = cut;
+    }
+    copyRenderStats(frame->stats, f);
     const std::uint64_t residentAfter = residentDatasetPages(**dataset);
     f.bytesPagedIn = residentAfter > residentBefore ? (residentAfter - residentBefore) * page : 0;
     residentBefore = residentAfter;
@@ -308,6 +355,10 @@ void addBenchCommand(CLI::App& app, CommandStatus& status) {
                   "decisions the camera's movement may have changed (paging mode; the same "
                   "cuts); off: refine every frame from the roots")
       ->capture_default_str();
+  cmd->add_flag("--popping", o->popping,
+                "Also draw each frame with the previous frame's cut and report the difference "
+                "(RMS and largest, 0-255): the popping the change of cut causes (doubles the "
+                "rendering; its timings are not comparable with a run without it)");
   cmd->add_option("--fov-deg", o->fovDegrees, "Vertical field of view in degrees")
       ->capture_default_str();
   cmd->add_option("--gpu-cache-mib,--gpu-cache-mb", o->gpuCacheMiB,

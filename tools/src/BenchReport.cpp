@@ -100,6 +100,20 @@ nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   j["peak_dataset_rss_mib"] = datasetRssMb;
   j["dataset_rss_ratio"] = datasetMb > 0.0 ? datasetRssMb / datasetMb : 0.0;
   j["peak_gpu_pool_mib"] = static_cast<double>(peakPool) / 1048576.0;
+  if (run.popping) {
+    std::vector<double> rms, max;
+    for (const BenchFrame& f : run.frames) {
+      if (f.poppingRms < 0.0) continue;
+      rms.push_back(f.poppingRms);
+      max.push_back(f.poppingMax);
+    }
+    j["popping_rms_p50"] = percentile(rms, 0.5);
+    j["popping_rms_p99"] = percentile(rms, 0.99);
+    j["popping_rms_max"] = rms.empty() ? 0.0 : *std::max_element(rms.begin(), rms.end());
+    j["popping_max_p50"] = percentile(max, 0.5);
+    j["popping_max_p99"] = percentile(max, 0.99);
+    j["popping_max_max"] = max.empty() ? 0.0 : *std::max_element(max.begin(), max.end());
+  }
   j["gpu_cache_hit_rate"] =
       hits + misses > 0 ? static_cast<double>(hits) / static_cast<double>(hits + misses) : 0.0;
   return j;
@@ -174,7 +188,8 @@ Result<std::string> writeBenchReport(const std::filesystem::path& dir, const Ben
     std::ofstream csv(dir / "frames.csv");
     csv << "prefetch,mode,frame,t,frame_ms,traversal_ms,decode_ms,upload_ms,draw_ms,triangles,"
            "patches,tiles,level_cap,render_thread_major_faults,bytes_paged_in,gpu_hits,"
-           "gpu_misses,gpu_evictions,rss_bytes,gpu_pool_bytes,rss_file_bytes,decisions\n";
+           "gpu_misses,gpu_evictions,rss_bytes,gpu_pool_bytes,rss_file_bytes,decisions,popping_rms,"
+           "popping_max\n";
     for (const BenchRun& r : runs) {
       for (const BenchFrame& f : r.frames) {
         csv << r.prefetch << ',' << r.mode << ',' << f.frame << ',' << f.pathSeconds << ','
@@ -182,7 +197,8 @@ Result<std::string> writeBenchReport(const std::filesystem::path& dir, const Ben
             << f.drawMs << ',' << f.triangles << ',' << f.patches << ',' << f.tiles << ','
             << f.drawnLevelCap << ',' << f.renderThreadMajorFaults << ',' << f.bytesPagedIn << ','
             << f.gpuHits << ',' << f.gpuMisses << ',' << f.gpuEvictions << ',' << f.rssBytes << ','
-            << f.gpuPoolBytes << ',' << f.rssFileBytes << ',' << f.decisions << '\n';
+            << f.gpuPoolBytes << ',' << f.rssFileBytes << ',' << f.decisions << ',' << f.poppingRms
+            << ',' << f.poppingMax << '\n';
       }
     }
     if (!csv)
@@ -242,6 +258,15 @@ Result<std::string> writeBenchReport(const std::filesystem::path& dir, const Ben
                   100.0 * r["dataset_rss_ratio"].get<double>(),
                   r["peak_gpu_pool_mib"].get<double>());
     text << line;
+    if (r.contains("popping_rms_p99")) {
+      std::snprintf(line, sizeof line,
+                    "  popping (the previous frame's cut drawn with this camera, 0-255): RMS p50 "
+                    "%.3f p99 %.3f max %.3f; largest value difference p50 %.0f p99 %.0f max %.0f\n",
+                    r["popping_rms_p50"].get<double>(), r["popping_rms_p99"].get<double>(),
+                    r["popping_rms_max"].get<double>(), r["popping_max_p50"].get<double>(),
+                    r["popping_max_p99"].get<double>(), r["popping_max_max"].get<double>());
+      text << line;
+    }
     if (r["cold"].get<bool>()) {
       std::snprintf(
           line, sizeof line, "  cold start: %llu pages (%.2f%%) resident after eviction\n",

@@ -35,6 +35,11 @@ struct BenchFrame final {
   std::uint64_t rssFileBytes = 0;
   /// Split and cull decisions the refinement evaluated (Cut::nodesVisited).
   std::uint64_t decisions = 0;
+  /// With --popping: this frame's image against the previous frame's cut drawn with this
+  /// frame's camera, over every RGB value of every pixel (0–255): the popping the change of
+  /// cut alone causes. −1 when not measured (no --popping, or the first frame).
+  double poppingRms = -1.0;
+  double poppingMax = -1.0;
 };
 
 /// One replay of the path with one prefetch setting.
@@ -42,6 +47,7 @@ struct BenchRun final {
   std::string prefetch;   ///< "on" or "off"
   std::string mode;       ///< "paging" or "no-stall"
   bool cutReuse = false;  ///< the refinement tree kept from frame to frame (IncrementalRefiner)
+  bool popping = false;   ///< frames drawn twice for the popping measure
   bool cold = false;
   double residentAfterEvictFraction = 0.0;  ///< pages left in the page cache after eviction
   std::uint64_t residentAfterEvictPages = 0;
