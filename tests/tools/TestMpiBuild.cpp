@@ -1,5 +1,6 @@
 // The distributed build as a user runs it (docs/builder.md "Distributed build"):
-// `mpirun -np N pbdam build` on MOLA gives the plain build's bytes for N = 1, 2, 3; a rank that
+// `mpirun -np N pbdam build` on MOLA gives the plain build's bytes for N = 1, 2, 3 (and a hybrid
+// ETOPO20 + Luxembourg build on 2 ranks); a rank that
 // dies (SIGKILL, by the fault-injection hook or by a real `kill -9` from outside) or reports an
 // error stops the job promptly with a message naming the rank and its work item; `--resume`
 // then completes the dataset to the same bytes, also with another rank count; a checkpoint of
@@ -116,6 +117,30 @@ TEST(MpiBuild, AnyRankCountGivesThePlainBuildsBytes) {
   }
   const ShellRun verify = runShell(std::string("'") + PBDAM_EXE + "' verify '" +
                                    (dir / "np3").string() + "' --dem '" + dem.string() + "'");
+  EXPECT_EQ(verify.exitCode, 0) << verify.out << verify.err;
+}
+
+// A hybrid build under mpirun: ETOPO20 with the Luxembourg GeoTIFF joined to it (a sparse
+// forest down to level 20 around it) gives the plain build's bytes on 2 ranks, and verifies
+// against both sources.
+TEST(MpiBuild, AnInsetBuildOnTwoRanksGivesThePlainBuildsBytes) {
+  PBDAM_REQUIRE_DATA(dem, fs::path("/usr/share/ferret-vis/data/etopo20.cdf"));
+  PBDAM_REQUIRE_DATA(lux, test::dataDir() / "geotiff/terra_elev_luxembourg.tif");
+  test::TempDir dir;
+  const auto args = [&](const fs::path& out) {
+    return std::string("'") + PBDAM_EXE + "' build --dem '" + dem.string() +
+           "' --planet earth --levels 4 --leaf-vertices 17 --min-patch-triangles 128 "
+           "--texture-tile 64 --texture-format rgba8 --threads 1 --inset '" +
+           lux.string() + "' --quiet --out '" + out.string() + "'";
+  };
+  const ShellRun plain = runShell(args(dir / "plain"));
+  ASSERT_EQ(plain.exitCode, 0) << plain.err;
+  const ShellRun two = runShell(mpirun(2) + args(dir / "np2"));
+  ASSERT_EQ(two.exitCode, 0) << two.err;
+  expectSameDataset(dir / "plain", dir / "np2");
+  const ShellRun verify =
+      runShell(std::string("'") + PBDAM_EXE + "' verify '" + (dir / "np2").string() + "' --dem '" +
+               dem.string() + "' --inset '" + lux.string() + "' --quiet");
   EXPECT_EQ(verify.exitCode, 0) << verify.out << verify.err;
 }
 
