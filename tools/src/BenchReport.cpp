@@ -155,7 +155,9 @@ void plotReport(const std::filesystem::path& png, const BenchSetup& setup,
   plscol0(15, 0, 0, 0);
   plscol0(1, 220, 50, 32);  // run 0: red
   plscol0(9, 30, 90, 200);  // run 1: blue
-  plssub(1, 4);
+  const bool popping =
+      std::any_of(runs.begin(), runs.end(), [](const BenchRun& r) { return r.popping; });
+  plssub(1, popping ? 5 : 4);
   plinit();
   std::string legend;
   static const char* names[] = {"red", "blue", "green", "grey"};
@@ -172,6 +174,10 @@ void plotReport(const std::filesystem::path& png, const BenchSetup& setup,
         [](const BenchFrame& f) { return static_cast<double>(f.patches); });
   panel(runs, "render-thread major page faults per frame", "faults",
         [](const BenchFrame& f) { return static_cast<double>(f.renderThreadMajorFaults); });
+  if (popping) {
+    panel(runs, "popping: RMS difference from the previous frame's cut (0-255)", "RMS",
+          [](const BenchFrame& f) { return std::max(0.0, f.poppingRms); });
+  }
   plend();
 }
 
