@@ -10,7 +10,10 @@
 #   bench/inset_cost.sh [OUTDIR] [PBDAM]
 #     OUTDIR  where the inset, datasets and reports go (default build/inset; kept)
 #     PBDAM   the pbdam binary (default build/release/tools/pbdam)
-# Environment: PBDAM_DATA_DIR (default ../shared/data), INSET_THREADS (default 2), INSET_VERIFY=1
+# Environment: PBDAM_DATA_DIR (default ../shared/data), INSET_THREADS (default 2),
+# INSET_GPU_CACHE_MIB (the flights' GPU cache budget, default 256: the inset's last leg draws
+# twice the base's triangles, which a 64 MiB cache keeps re-decoding), INSET_REUSE=1 (replay the
+# flights over the datasets of an earlier run instead of building them again), INSET_VERIFY=1
 # to verify the inset dataset against MOLA and the inset too (slow).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -20,6 +23,7 @@ fractal="$(dirname "$pbdam")/../bench/pbdam_fractal_dem"
 data=${PBDAM_DATA_DIR:-"$root/../shared/data"}
 mola="$data/mars/megt90n000cb.lbl"
 threads=${INSET_THREADS:-2}
+gpu_cache=${INSET_GPU_CACHE_MIB:-256}
 flight="$root/bench/paths/mars_flight.csv"
 mkdir -p "$out"
 inset="$out/olympus_256.tif"
@@ -30,6 +34,10 @@ fi
 build() {  # NAME [ARGS...]
   local name=$1
   shift
+  if [ "${INSET_REUSE:-0}" = 1 ] && [ -f "$out/$name/manifest.json" ] && [ -f "$out/$name.time" ]; then
+    echo "$name: reusing $out/$name"
+    return
+  fi
   rm -rf "${out:?}/$name"
   /usr/bin/time -f "%e %U %S %M" -o "$out/$name.time" \
     "$pbdam" build --dem "$mola" --planet mars --threads "$threads" --out "$out/$name" "$@" \
@@ -63,10 +71,12 @@ awk -v bu="$bu" -v bs="$bs" -v iu="$iu" -v is="$is" -v bb="$bb" -v ib="$ib" \
 for name in base inset; do
   rm -rf "${out:?}/$name-flight" "${out:?}/$name-nostall"
   "$pbdam" bench "$out/$name" --path "$flight" --out "$out/$name-flight" --cold --quiet \
+    --gpu-cache-mib "$gpu_cache" \
     >"$out/$name-flight.log" 2>&1
   # No-stall mode: the render thread never waits on disk; it draws the finest conforming cut
   # whose data is resident (a global level cap) while the prefetcher loads the rest.
   "$pbdam" bench "$out/$name" --path "$flight" --out "$out/$name-nostall" --cold --quiet \
+    --gpu-cache-mib "$gpu_cache" \
     --mode no-stall --prefetch on >"$out/$name-nostall.log" 2>&1
 done
 python3 - "$out" <<'EOF'

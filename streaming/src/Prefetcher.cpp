@@ -80,10 +80,16 @@ void Prefetcher::run() {
       batch.swap(pending_);
     }
     for (const auto& [t, camera] : batch) predictor_.observe(t, camera);
-    const auto predicted = predictor_.predict(*predictor_.lastTime() + options_.lookaheadSeconds);
-    if (!predicted) continue;
+    const double last = *predictor_.lastTime();
+    if (!predictor_.predict(last)) continue;
     ++cycle_;
-    prefetch(refine(dataset_.view(), *predicted, options_.refinement));
+    // A quarter, a half and the whole look-ahead, nearest first: what the next frames need is
+    // asked for before what the look-ahead needs, and a turn the extrapolation misses at the
+    // far horizon is still caught near. A range asked for at one horizon is not asked again.
+    for (const double share : {0.125, 0.25, 0.5, 1.0}) {
+      const auto predicted = predictor_.predict(last + share * options_.lookaheadSeconds);
+      prefetch(refine(dataset_.view(), *predicted, options_.refinement));
+    }
     predictions_.fetch_add(1, std::memory_order_relaxed);
   }
 }
