@@ -69,28 +69,28 @@ Totals flyAndCompare(const std::filesystem::path& datasetDir, const std::filesys
   return totals;
 }
 
-TEST(CutReuse, MarsFlightCutsAreTheStatelessOnesWithFewerDecisions) {
-  PBDAM_REQUIRE_DATASET(dir, "mola");
+/// Replays a recorded flight, prints its decision counts and expects far fewer with reuse.
+void flyReplayed(const char* name, const std::filesystem::path& datasetDir, const char* pathFile,
+                 const RefinementOptions& options) {
   const Totals t =
-      flyAndCompare(dir, std::filesystem::path(PBDAM_PATHS_DIR) / "mars_flight.csv", {});
-  std::printf("Mars flight: %llu stateless decisions, %llu incremental (%.1fx fewer)\n",
+      flyAndCompare(datasetDir, std::filesystem::path(PBDAM_PATHS_DIR) / pathFile, options);
+  std::printf("%s: %llu stateless decisions, %llu incremental (%.1fx fewer)\n", name,
               static_cast<unsigned long long>(t.stateless),
               static_cast<unsigned long long>(t.incremental),
               static_cast<double>(t.stateless) / static_cast<double>(t.incremental));
   EXPECT_LT(2 * t.incremental, t.stateless);
 }
 
+TEST(CutReuse, MarsFlightCutsAreTheStatelessOnesWithFewerDecisions) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  flyReplayed("Mars flight", dir, "mars_flight.csv", {});
+}
+
 TEST(CutReuse, EarthFlightCutsAreTheStatelessOnesWithFewerDecisions) {
   PBDAM_REQUIRE_DATASET(dir, "earth");
   RefinementOptions options;
   options.tolerancePixels = 2.0;
-  const Totals t =
-      flyAndCompare(dir, std::filesystem::path(PBDAM_PATHS_DIR) / "earth_himalayas.csv", options);
-  std::printf("Earth flight: %llu stateless decisions, %llu incremental (%.1fx fewer)\n",
-              static_cast<unsigned long long>(t.stateless),
-              static_cast<unsigned long long>(t.incremental),
-              static_cast<double>(t.stateless) / static_cast<double>(t.incremental));
-  EXPECT_LT(2 * t.incremental, t.stateless);
+  flyReplayed("Earth flight", dir, "earth_himalayas.csv", options);
 }
 
 TEST(CutReuse, TurningStandingStillJumpingAndNewOptionsStayExact) {
