@@ -18,7 +18,7 @@ bool NoStallPolicy::rangeResident(const MappedFile& file, std::uint64_t offset,
 
 NoStallCut NoStallPolicy::cut(const Camera& camera, RefinementOptions options) const {
   const DatasetView& view = dataset_->view();
-  int level = view.depth();
+  int level = options.maxLevel < 0 ? view.depth() : std::min(options.maxLevel, view.depth());
   for (;;) {
     options.maxLevel = level;
     Cut cut = refine(view, camera, options);

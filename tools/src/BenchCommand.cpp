@@ -90,6 +90,18 @@ Result<void> measurePopping(gpu::TerrainRenderer& renderer, const std::optional<
   return {};
 }
 
+/// No-stall mode's cut, its cap recorded in `f` and `previousCap`: the cap rises by at most one
+/// diamond level (two bintree levels) over the previous frame's, so that when a level's data
+/// arrives its patches are decoded over a few frames instead of all in one.
+Cut noStallCut(const NoStallPolicy& policy, const Camera& camera, RefinementOptions options,
+               int& previousCap, BenchFrame& f) {
+  if (previousCap >= 0) options.maxLevel = previousCap + 2;
+  NoStallCut capped = policy.cut(camera, options);
+  previousCap = capped.levelCap;
+  f.drawnLevelCap = capped.levelCap;
+  return std::move(capped.cut);
+}
+
 void copyRenderStats(const gpu::FrameStats& stats, BenchFrame& f) {
   f.decodeMs = stats.decodeMs;
   f.uploadMs = stats.uploadMs;
@@ -190,6 +202,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   }
   const Viewport viewport{o.width, o.height, o.fovDegrees};
   std::optional<Cut> previousCut;  // --popping
+  int lastCap = -1;                // no-stall: the previous frame's level cap
   run.baselineRssFileBytes = rssFileBytes();
   Progress progress(o.quiet);
   std::uint64_t residentBefore = residentDatasetPages(**dataset);
@@ -208,9 +221,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     const auto t0 = Clock::now();
     Cut cut;
     if (noStall) {
-      NoStallCut capped = noStallPolicy.cut(camera, refinement);
-      cut = std::move(capped.cut);
-      f.drawnLevelCap = capped.levelCap;
+      cut = noStallCut(noStallPolicy, camera, refinement, lastCap, f);
     } else if (run.cutReuse) {
       cut = incremental.update(camera, refinement);
     } else {

@@ -43,8 +43,9 @@ class NoStallPolicy final {
   /// when everything was read).
   std::vector<formats::Error> preloadCoarseLevels() const;
 
-  /// The finest level-capped cut for `camera` (refined with `options`, whose maxLevel it
-  /// replaces) whose patch and tile byte ranges are all resident. Faults in node records only.
+  /// The finest level-capped cut for `camera` (refined with `options`; its maxLevel, when set,
+  /// is the highest cap tried) whose patch and tile byte ranges are all resident. Faults in node
+  /// records only.
   NoStallCut cut(const runtime::Camera& camera, runtime::RefinementOptions options) const;
 
  private:
