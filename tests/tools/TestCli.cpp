@@ -423,9 +423,10 @@ TEST(Cli, BenchCutReuseKeepsTheCutsAndPoppingIsMeasured) {
   std::map<std::string, double> decisions;
   for (const std::string reuse : {"on", "off"}) {
     const std::filesystem::path out = dir / ("r-" + reuse);
-    const CliRun bench = runPbdam("bench '" + dataset.string() + "' --path '" + path + "' --out '" +
-                                  out.string() + "' --prefetch off --cut-reuse " + reuse +
-                                  " --popping --width 320 --height 240 --quiet");
+    std::string command = "bench '" + dataset.string() + "' --path '" + path + "' --out '";
+    command += out.string() + "' --prefetch off --cut-reuse " + reuse;
+    command += " --popping --width 320 --height 240 --quiet";
+    const CliRun bench = runPbdam(command);
     ASSERT_EQ(bench.exitCode, 0) << bench.err;
     EXPECT_NE(bench.out.find("popping (the previous frame's cut"), std::string::npos) << bench.out;
     std::ifstream in(out / "summary.json");
