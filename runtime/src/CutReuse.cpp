@@ -20,10 +20,6 @@ namespace {
 
 constexpr int kBuckets = 64;  ///< distance buckets of the cull keys: node at ≤ 2^b metres
 
-std::uint64_t treeKey(const NodeKey& k) noexcept {
-  return (std::uint64_t{k.face} << 61) | (std::uint64_t{k.tree} << 60) | k.heap;
-}
-
 /// A slack made safe against the rounding of the decision it bounds: the decisions compare
 /// doubles computed from the same inputs, so a relative 1e-9 of the magnitudes involved (and a
 /// micrometre) covers every difference between this bound and the comparison itself.
@@ -38,12 +34,6 @@ struct Entry final {
   bool operator>(const Entry& o) const noexcept { return key > o.key; }
 };
 using Queue = std::priority_queue<Entry, std::vector<Entry>, std::greater<>>;
-
-struct TileKeyHash {
-  std::size_t operator()(const TileKey& k) const noexcept {
-    return std::hash<std::uint64_t>{}(k.heap * 8 + k.face);
-  }
-};
 
 }  // namespace
 
@@ -135,7 +125,7 @@ class IncrementalRefiner::Tree final {
     std::sort(drawn.begin(), drawn.end(),
               [](const Drawn& a, const Drawn& b) { return a.order < b.order; });
     Cut cut;
-    std::unordered_set<TileKey, TileKeyHash> seen;
+    std::unordered_set<std::uint64_t> seen;  // packKey() of the tiles listed
     for (const Drawn& d : drawn) {
       const NodeState& n = *d.node;
       CutPatch patch;
@@ -147,7 +137,7 @@ class IncrementalRefiner::Tree final {
       cut.patches.push_back(patch);
       cut.triangles += n.triangles;
       cut.vertices += n.vertices;
-      if (seen.insert(patch.tile).second) cut.tiles.push_back(patch.tile);
+      if (seen.insert(packKey(patch.tile)).second) cut.tiles.push_back(patch.tile);
     }
     cut.nodesVisited = decisions_;
     cut.nodesCulled = culled_;
@@ -182,7 +172,7 @@ class IncrementalRefiner::Tree final {
   /// Evaluates a node's cull and split decisions at the current camera, creating it if new, and
   /// queues it for when they may change.
   void evaluate(const NodeKey& key, std::uint64_t row, int level) {
-    const std::uint64_t packed = treeKey(key);
+    const std::uint64_t packed = packKey(key);
     auto [it, created] = nodes_.try_emplace(packed);
     NodeState& n = it->second;
     if (created) {
@@ -249,14 +239,14 @@ class IncrementalRefiner::Tree final {
     const int bucket = std::clamp(static_cast<int>(std::ceil(std::log2(std::max(distance, 1.0)))),
                                   0, kBuckets - 1);
     cull_[static_cast<std::size_t>(bucket)].push(
-        {path_ + std::ldexp(turn_, bucket) + std::max(slack, 0.0), treeKey(n.key), n.stamp});
+        {path_ + std::ldexp(turn_, bucket) + std::max(slack, 0.0), packKey(n.key), n.stamp});
   }
 
   void removeChildren(const NodeState& n) {
     if (n.kind != Kind::Split) return;
     for (std::uint64_t c = 1; c <= 2; ++c) {
       const NodeKey child{n.key.face, n.key.tree, 2 * n.key.heap + c};
-      const auto it = nodes_.find(treeKey(child));
+      const auto it = nodes_.find(packKey(child));
       if (it == nodes_.end()) continue;
       removeChildren(it->second);
       nodes_.erase(it);

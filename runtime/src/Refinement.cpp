@@ -9,12 +9,6 @@ using namespace pbdam::formats;
 namespace pbdam::runtime {
 namespace {
 
-struct TileKeyHash {
-  std::size_t operator()(const TileKey& k) const noexcept {
-    return std::hash<std::uint64_t>{}(k.heap * 8 + k.face);
-  }
-};
-
 class Refiner {
  public:
   Refiner(const DatasetView& dataset, const Camera& camera, const RefinementOptions& options)
@@ -52,7 +46,7 @@ class Refiner {
     cut_.patches.push_back(patch);
     cut_.triangles += node.triangleCount;
     cut_.vertices += node.vertexCount;
-    if (seenTiles_.insert(patch.tile).second) cut_.tiles.push_back(patch.tile);
+    if (seenTiles_.insert(packKey(patch.tile)).second) cut_.tiles.push_back(patch.tile);
   }
 
   Cut take() { return std::move(cut_); }
@@ -63,7 +57,7 @@ class Refiner {
   const RefinementOptions& options_;
   int maxLevel_;
   Cut cut_;
-  std::unordered_set<TileKey, TileKeyHash> seenTiles_;
+  std::unordered_set<std::uint64_t> seenTiles_;  // packKey() of the tiles listed
 };
 
 }  // namespace

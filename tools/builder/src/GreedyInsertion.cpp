@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <array>
-#include <bit>
 #include <cassert>
 #include <cmath>
 #include <limits>
@@ -543,11 +542,7 @@ void Triangulation::scan(std::uint32_t t) {
       }
     };
     if (window) {
-      const int shift = std::countr_zero(static_cast<std::uint32_t>(window->spacing));
-      const float* row =
-          heights + window->offset +
-          static_cast<std::uint64_t>((y - window->y0) >> shift) * window->pointsPerRow;
-      for (std::int64_t x = first; x <= last; x += step) visit(x, row[(x - window->x0) >> shift]);
+      for (std::int64_t x = first; x <= last; x += step) visit(x, window->at(heights, x, y));
       continue;
     }
     if (heights_.tiles != nullptr) {

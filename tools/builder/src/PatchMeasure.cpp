@@ -116,10 +116,6 @@ double triangleTiledDeviation(const FaceHeights& heights, LatticeXY a, LatticeXY
       [&](int y, std::int64_t lo, std::int64_t hi, const std::array<std::int64_t, 3>& w,
           const std::array<std::int64_t, 3>& step) {
         if (window) {
-          const int shift = std::countr_zero(static_cast<std::uint32_t>(window->spacing));
-          const float* row =
-              heights.data + window->offset +
-              static_cast<std::uint64_t>((y - window->y0) >> shift) * window->pointsPerRow;
           const std::int64_t stride = std::max<std::int64_t>(spacing, window->spacing);
           for (std::int64_t x = (lo + stride - 1) & ~(stride - 1); x <= hi; x += stride) {
             const std::int64_t dx = x - lo;
@@ -128,7 +124,7 @@ double triangleTiledDeviation(const FaceHeights& heights, LatticeXY a, LatticeXY
                                static_cast<double>(w[2] + step[2] * dx) * hc) /
                               sum;
             worst =
-                std::max(worst, std::abs(hp - static_cast<double>(row[(x - window->x0) >> shift])));
+                std::max(worst, std::abs(hp - static_cast<double>(window->at(heights.data, x, y))));
           }
           return;
         }

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <algorithm>
+#include <bit>
 #include <cstdint>
 #include <limits>
 #include <optional>
@@ -90,6 +91,13 @@ class LatticeTiles final {
     std::int32_t spacing = 1;
     std::uint64_t offset = 0;
     std::uint64_t pointsPerRow = 0;
+    /// The height of point (x, y) in `data` (the storage of these tiles); (x, y) must be a
+    /// multiple of the spacing inside the tile's square.
+    float at(const float* data, std::int64_t x, std::int64_t y) const noexcept {
+      const int shift = std::countr_zero(static_cast<std::uint32_t>(spacing));
+      return data[offset + static_cast<std::uint64_t>((y - y0) >> shift) * pointsPerRow +
+                  static_cast<std::uint64_t>((x - x0) >> shift)];
+    }
   };
   /// The tile whose closed square holds the box [x0, x1] × [y0, y1] of `face`, when one does
   /// and no tile the box touches (finestSpacingIn) is finer: then the points forEachInRow visits
