@@ -10,6 +10,7 @@
 #include <functional>
 
 #include "TestData.h"
+#include "Utm32GeoTiff.h"
 #include "pbdam/formats/DemReader.h"
 
 using namespace pbdam::formats;
@@ -306,50 +307,29 @@ TEST(DemReader, SrtmTileHasItsSizeVoidsAndCorners) {
 TEST(DemReader, ProjectedUtmGeoTiffIsWarpedToItsLatLonBounds) {
   test::TempDir dir;
   const fs::path path = dir / "utm32.tif";
-  GDALAllRegister();
-  GDALDriverH gtiff = GDALGetDriverByName("GTiff");
-  ASSERT_NE(gtiff, nullptr);
+  // 200 km × 150 km on the rotated UTM 32N grid of Utm32GeoTiff.h.
   const int w = 200;
   const int h = 150;
-  GDALDatasetH ds = GDALCreate(gtiff, path.c_str(), w, h, 1, GDT_Int16, nullptr);
-  ASSERT_NE(ds, nullptr);
-  // 200 km × 150 km at 1 km in UTM zone 32N, west of the central meridian (9°E), so the grid is
-  // visibly rotated and curved in latitude/longitude.
-  double gt[6] = {300000.0, 1000.0, 0.0, 5600000.0, 0.0, -1000.0};
-  GDALSetGeoTransform(ds, gt);
-  OGRSpatialReferenceH utm = OSRNewSpatialReference(nullptr);
-  OSRImportFromEPSG(utm, 32632);
-  GDALSetSpatialRef(ds, utm);
-  std::vector<std::int16_t> values(static_cast<std::size_t>(w * h), 700);
-  ASSERT_EQ(GDALRasterIO(GDALGetRasterBand(ds, 1), GF_Write, 0, 0, w, h, values.data(), w, h,
-                         GDT_Int16, 0, 0),
-            CE_None);
-  GDALClose(ds);
+  ASSERT_TRUE(
+      test::writeUtm32GeoTiff(path, w, h, GDT_Int16,
+                              std::vector<std::vector<std::int16_t>>{std::vector<std::int16_t>(
+                                  static_cast<std::size_t>(w * h), 700)}));
 
   // The expected footprint: the UTM inverse of points along the grid's outline.
-  OGRSpatialReferenceH wgs84 = OSRNewSpatialReference(nullptr);
-  OSRImportFromEPSG(wgs84, 4326);
-  OSRSetAxisMappingStrategy(wgs84, OAMS_TRADITIONAL_GIS_ORDER);
-  OSRSetAxisMappingStrategy(utm, OAMS_TRADITIONAL_GIS_ORDER);
-  OGRCoordinateTransformationH toGeo = OCTNewCoordinateTransformation(utm, wgs84);
+  const auto& gt = test::kUtm32Transform;
   LatLonBounds expected{90.0, 360.0, -90.0, -360.0};
   for (int k = 0; k <= 400; ++k) {
     const double t = k / 400.0;
-    const double xs[4] = {gt[0] + t * w * gt[1], gt[0] + t * w * gt[1], gt[0], gt[0] + w * gt[1]};
-    const double ys[4] = {gt[3], gt[3] + h * gt[5], gt[3] + t * h * gt[5], gt[3] + t * h * gt[5]};
+    double xs[4] = {gt[0] + t * w * gt[1], gt[0] + t * w * gt[1], gt[0], gt[0] + w * gt[1]};
+    double ys[4] = {gt[3], gt[3] + h * gt[5], gt[3] + t * h * gt[5], gt[3] + t * h * gt[5]};
+    ASSERT_TRUE(test::utm32ToLonLat(xs, ys, 4));
     for (int e = 0; e < 4; ++e) {
-      double x = xs[e];
-      double y = ys[e];
-      ASSERT_TRUE(OCTTransform(toGeo, 1, &x, &y, nullptr));
-      expected.westDegrees = std::min(expected.westDegrees, x);
-      expected.eastDegrees = std::max(expected.eastDegrees, x);
-      expected.southDegrees = std::min(expected.southDegrees, y);
-      expected.northDegrees = std::max(expected.northDegrees, y);
+      expected.westDegrees = std::min(expected.westDegrees, xs[e]);
+      expected.eastDegrees = std::max(expected.eastDegrees, xs[e]);
+      expected.southDegrees = std::min(expected.southDegrees, ys[e]);
+      expected.northDegrees = std::max(expected.northDegrees, ys[e]);
     }
   }
-  OCTDestroyCoordinateTransformation(toGeo);
-  OSRDestroySpatialReference(wgs84);
-  OSRDestroySpatialReference(utm);
 
   auto grid = readDem(path);
   ASSERT_TRUE(grid) << grid.error().message;

@@ -1,12 +1,10 @@
 // Imagery ingest through OpenImageIO: the Debian-packaged Earth map and rejection of bad files.
 #include <gtest/gtest.h>
 
-#include <gdal.h>
-#include <ogr_srs_api.h>
-
 #include <fstream>
 
 #include "TestData.h"
+#include "Utm32GeoTiff.h"
 #include "pbdam/formats/Image.h"
 
 using namespace pbdam::formats;
@@ -58,50 +56,27 @@ TEST(Image, RejectsTruncatedAndNonImageFiles) {
 TEST(Image, AProjectedGeoTiffIsWarpedToGeographicWithAlphaOutsideItsFootprint) {
   test::TempDir dir;
   const auto path = dir / "utm32.tif";
-  GDALAllRegister();
-  GDALDriverH gtiff = GDALGetDriverByName("GTiff");
-  ASSERT_NE(gtiff, nullptr);
-  // 100 km × 80 km at 1 km in UTM zone 32N, west of its central meridian (so rotated in
-  // latitude/longitude): the western half red, the eastern half blue.
+  // 100 km × 80 km on the rotated UTM 32N grid of Utm32GeoTiff.h: the western half red, the
+  // eastern half blue.
   const int w = 100;
   const int h = 80;
-  GDALDatasetH ds = GDALCreate(gtiff, path.c_str(), w, h, 3, GDT_Byte, nullptr);
-  ASSERT_NE(ds, nullptr);
-  double gt[6] = {300000.0, 1000.0, 0.0, 5600000.0, 0.0, -1000.0};
-  GDALSetGeoTransform(ds, gt);
-  OGRSpatialReferenceH utm = OSRNewSpatialReference(nullptr);
-  OSRImportFromEPSG(utm, 32632);
-  GDALSetSpatialRef(ds, utm);
-  for (int band = 1; band <= 3; ++band) {
-    std::vector<std::uint8_t> values(static_cast<std::size_t>(w * h), 0);
-    for (int y = 0; y < h; ++y) {
-      for (int x = 0; x < w; ++x) {
-        const bool west = x < w / 2;
-        values[static_cast<std::size_t>(y) * static_cast<std::size_t>(w) +
-               static_cast<std::size_t>(x)] = (band == 1 && west) || (band == 3 && !west) ? 255 : 0;
-      }
+  std::vector<std::vector<std::uint8_t>> bands(3, std::vector<std::uint8_t>(std::size_t{w} * h, 0));
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const auto at = static_cast<std::size_t>(y) * w + static_cast<std::size_t>(x);
+      (x < w / 2 ? bands[0] : bands[2])[at] = 255;
     }
-    ASSERT_EQ(GDALRasterIO(GDALGetRasterBand(ds, band), GF_Write, 0, 0, w, h, values.data(), w, h,
-                           GDT_Byte, 0, 0),
-              CE_None);
   }
-  GDALClose(ds);
+  ASSERT_TRUE(test::writeUtm32GeoTiff(path, w, h, GDT_Byte, bands));
 
   auto image = readImage(path);
   ASSERT_TRUE(image) << image.error().message;
   EXPECT_TRUE(image->georeferenced());
   // Points a quarter of the way in from the west and east edges, in latitude/longitude.
-  OGRSpatialReferenceH wgs84 = OSRNewSpatialReference(nullptr);
-  OSRImportFromEPSG(wgs84, 4326);
-  OSRSetAxisMappingStrategy(wgs84, OAMS_TRADITIONAL_GIS_ORDER);
-  OSRSetAxisMappingStrategy(utm, OAMS_TRADITIONAL_GIS_ORDER);
-  OGRCoordinateTransformationH toGeo = OCTNewCoordinateTransformation(utm, wgs84);
+  const auto& gt = test::kUtm32Transform;
   double x[2] = {gt[0] + 0.25 * w * gt[1], gt[0] + 0.75 * w * gt[1]};
   double y[2] = {gt[3] + 0.5 * h * gt[5], gt[3] + 0.5 * h * gt[5]};
-  ASSERT_TRUE(OCTTransform(toGeo, 2, x, y, nullptr));
-  OCTDestroyCoordinateTransformation(toGeo);
-  OSRDestroySpatialReference(wgs84);
-  OSRDestroySpatialReference(utm);
+  ASSERT_TRUE(test::utm32ToLonLat(x, y, 2));
   const auto west = image->sampleBilinear(y[0], x[0]);
   const auto east = image->sampleBilinear(y[1], x[1]);
   ASSERT_TRUE(west && east);
