@@ -212,6 +212,7 @@ void encodeNodeRecord(const NodeRecord& n, std::span<std::byte, kNodeRecordBytes
   w.put(n.flags);
   w.put(n.heapIndex);
   w.put(n.sources);
+  w.put(n.morphBytes);
 }
 
 NodeRecord decodeNodeRecord(std::span<const std::byte, kNodeRecordBytes> bytes) noexcept {
@@ -232,6 +233,7 @@ NodeRecord decodeNodeRecord(std::span<const std::byte, kNodeRecordBytes> bytes) 
   n.flags = r.get<std::uint32_t>();
   n.heapIndex = r.get<std::uint64_t>();
   n.sources = r.get<std::uint32_t>();
+  n.morphBytes = r.get<std::uint32_t>();
   return n;
 }
 
@@ -318,10 +320,12 @@ Result<void> FaceView::checkNodes() {
       if (k == first && n.heapIndex != 0) return where("a tree does not start at its root");
       if ((n.flags & ~kRecordLeaf) != 0) return where("unknown flags");
       if (n.sources != 0 && !n.leaf()) return where("sources on a node that is not a leaf");
-      if (n.blobBytes != 0 && (n.blobOffset < h.blobsOffset || n.blobOffset > h.fileBytes ||
-                               n.blobBytes > h.fileBytes - n.blobOffset)) {
+      const std::uint64_t blobs = std::uint64_t{n.blobBytes} + n.morphBytes;
+      if (blobs != 0 && (n.blobOffset < h.blobsOffset || n.blobOffset > h.fileBytes ||
+                         blobs > h.fileBytes - n.blobOffset)) {
         return where("points outside the blob area");
       }
+      if (n.morphBytes != 0 && n.blobBytes == 0) return where("morph targets without a patch");
       if (n.leaf()) continue;
       if (n.heapIndex >= (std::uint64_t{1} << h.depth) - 1) {
         return where("has children below the face's depth " + std::to_string(h.depth));
@@ -412,6 +416,13 @@ Result<std::span<const std::byte>> FaceView::readBlob(std::uint64_t offset, std:
 Result<std::span<const std::byte>> FaceView::readPatchBlob(const NodeRecord& n,
                                                            std::vector<std::byte>& buffer) const {
   return readBlob(n.blobOffset, n.blobBytes, buffer);
+}
+
+Result<PatchBlobs> FaceView::readPatchBlobs(const NodeRecord& n,
+                                            std::vector<std::byte>& buffer) const {
+  auto both = readBlob(n.blobOffset, n.blobBytes + n.morphBytes, buffer);
+  if (!both) return std::move(both).error();
+  return PatchBlobs{both->first(n.blobBytes), both->subspan(n.blobBytes)};
 }
 
 TextureRecord FaceView::textureAt(std::uint64_t tableIndex) const noexcept {

@@ -21,6 +21,9 @@ namespace {
 
 constexpr std::array<std::byte, 4> kMagic = {std::byte{'P'}, std::byte{'B'}, std::byte{'P'},
                                              std::byte{'T'}};
+constexpr std::array<std::byte, 4> kMorphMagic = {std::byte{'P'}, std::byte{'B'}, std::byte{'M'},
+                                                  std::byte{'T'}};
+constexpr std::size_t kMorphCrcOffset = 12;
 constexpr std::size_t kCrcOffset = 28;
 constexpr std::size_t kBytesPerVertex = 8;  // b1, b2 (2 + 2) and heightSteps (4)
 constexpr unsigned kIndexEscape = 15;       // nibble value: the code is in the wide stream
@@ -425,6 +428,112 @@ Result<void> decodePatch(std::span<const std::byte> blob, PatchMesh& out,
   if (indexCount % 2 == 1) indices[indexCount - 1] = decodeOne(nibbles[pairs] & 0x0FU);
   if (badIndex != 0) {
     return corrupt(context, "patch index out of range for " + std::to_string(n) + " vertices");
+  }
+  return {};
+}
+
+// ---- morph targets (PatchBlob.md, "Morph targets") ------------------------------------------
+
+namespace {
+
+std::uint32_t morphBlobCrc(std::span<const std::byte> blob) noexcept {
+  const std::uint32_t head = crc32(blob.first(kMorphCrcOffset));
+  return crc32(blob.subspan(kMorphBlobHeaderBytes), head);
+}
+
+}  // namespace
+
+Result<std::vector<std::byte>> encodeMorphTargets(const PatchMesh& mesh,
+                                                  std::span<const std::int32_t> targets) {
+  const std::size_t n = mesh.vertices.size();
+  if (targets.size() != n) {
+    return makeError(ErrorCode::InvalidArgument, std::to_string(targets.size()) +
+                                                     " morph targets for a patch of " +
+                                                     std::to_string(n) + " vertices");
+  }
+  if (n > kPatchMaxVertices) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "patch has " + std::to_string(n) + " vertices; at most " +
+                         std::to_string(kPatchMaxVertices) + " are allowed");
+  }
+  if (!lzoReady()) return makeError(ErrorCode::Internal, "lzo_init failed");
+  thread_local std::vector<unsigned char> raw;
+  thread_local std::vector<unsigned char> workMemory(LZO1X_1_MEM_COMPRESS);
+  raw.assign(4 * n, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint32_t z = zigzag32(static_cast<std::uint32_t>(targets[i]) -
+                                     static_cast<std::uint32_t>(mesh.vertices[i].heightSteps));
+    for (std::size_t plane = 0; plane < 4; ++plane) {
+      raw[plane * n + i] = static_cast<unsigned char>((z >> (8 * plane)) & 0xFFU);
+    }
+  }
+  std::vector<std::byte> blob(kMorphBlobHeaderBytes + lzoBound(raw.size()));
+  auto* dst = reinterpret_cast<unsigned char*>(blob.data() + kMorphBlobHeaderBytes);
+  lzo_uint compressed = blob.size() - kMorphBlobHeaderBytes;
+  if (const int rc = lzo1x_1_compress(raw.data(), raw.size(), dst, &compressed, workMemory.data());
+      rc != LZO_E_OK) {
+    return makeError(ErrorCode::Internal, "LZO compression failed with " + std::to_string(rc));
+  }
+  blob.resize(kMorphBlobHeaderBytes + compressed);
+  std::byte* h = blob.data();
+  std::memcpy(h, kMorphMagic.data(), kMorphMagic.size());
+  putU16(h + 4, kMorphBlobVersion);
+  putU16(h + 6, 0);
+  putU32(h + 8, static_cast<std::uint32_t>(n));
+  putU32(h + kMorphCrcOffset, morphBlobCrc(blob));
+  return blob;
+}
+
+Result<void> decodeMorphTargets(std::span<const std::byte> blob, const PatchMesh& mesh,
+                                std::vector<std::int32_t>& out, std::string_view context) {
+  const std::size_t n = mesh.vertices.size();
+  out.resize(n);
+  if (blob.empty()) {
+    for (std::size_t i = 0; i < n; ++i) out[i] = mesh.vertices[i].heightSteps;
+    return {};
+  }
+  if (blob.size() < kMorphBlobHeaderBytes) {
+    return corrupt(context, "morph-target blob of " + std::to_string(blob.size()) +
+                                " bytes is shorter than its 16-byte header");
+  }
+  const std::byte* p = blob.data();
+  if (std::memcmp(p, kMorphMagic.data(), kMorphMagic.size()) != 0) {
+    return corrupt(context, "morph-target blob has a bad magic number");
+  }
+  if (const std::uint16_t version = getU16(p + 4); version != kMorphBlobVersion) {
+    return corrupt(context, "morph-target blob version " + std::to_string(version) +
+                                " is not the supported version " +
+                                std::to_string(kMorphBlobVersion));
+  }
+  if (getU16(p + 6) != 0) return corrupt(context, "morph-target blob has unknown flags set");
+  if (const std::uint32_t count = getU32(p + 8); count != n) {
+    return corrupt(context, "morph-target blob holds " + std::to_string(count) +
+                                " targets for a patch of " + std::to_string(n) + " vertices");
+  }
+  const std::size_t compressedBytes = blob.size() - kMorphBlobHeaderBytes;
+  if (compressedBytes > lzoBound(4 * n)) {
+    return corrupt(context, "morph-target blob exceeds the LZO bound of its raw size");
+  }
+  if (getU32(p + kMorphCrcOffset) != morphBlobCrc(blob)) {
+    return corrupt(context, "morph-target blob CRC-32 mismatch");
+  }
+  if (!lzoReady()) return makeError(ErrorCode::Internal, "lzo_init failed");
+  thread_local std::vector<unsigned char> raw;
+  raw.resize(4 * n);
+  lzo_uint produced = raw.size();
+  const auto* src = reinterpret_cast<const unsigned char*>(p + kMorphBlobHeaderBytes);
+  const int rc = lzo1x_decompress_safe(src, compressedBytes, raw.data(), &produced, nullptr);
+  if (rc != LZO_E_OK || produced != raw.size()) {
+    return corrupt(context, "morph-target LZO block does not decompress to its " +
+                                std::to_string(raw.size()) + " bytes (lzo error " +
+                                std::to_string(rc) + ")");
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint32_t z = std::uint32_t{raw[i]} | (std::uint32_t{raw[n + i]} << 8) |
+                            (std::uint32_t{raw[2 * n + i]} << 16) |
+                            (std::uint32_t{raw[3 * n + i]} << 24);
+    out[i] = static_cast<std::int32_t>(static_cast<std::uint32_t>(mesh.vertices[i].heightSteps) +
+                                       unzigzag32(z));
   }
   return {};
 }

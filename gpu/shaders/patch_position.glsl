@@ -9,7 +9,7 @@
 // bit-identical positions there, and the CPU mirror reproduces them (tests/gpu/
 // TestPatchShader.cpp). Keep this file, PatchDraw.cpp and PatchDrawRecord (PatchDraw.h) in step.
 
-// std430: 25 vec4, 400 bytes (static_assert in PatchDraw.h). The texture fields are read by
+// std430: 27 vec4, 432 bytes (static_assert in PatchDraw.h). The texture fields are read by
 // patch_texcoord.glsl; the position code below never reads them nor the w of corner[].
 struct PatchDrawRecord {
   vec4 corner[3];           // xyz: float(P_k - camera), w: 0 layer, 1 equatorial, 2 polar radius
@@ -25,6 +25,9 @@ struct PatchDrawRecord {
   vec4 normalDelta2;        // xyz: dN2
   vec4 texCenter;           // xyz: float(Q - camera), w: k = d(tc)/d(face u)
   vec4 texPlane;            // x, y: Q's plane coordinates on the face, z: Q . n_face, w: face
+  vec4 morph;               // x, y: 1 - f for interior/leg and hypotenuse vertices,
+                            // z: weight of the coarser tile, w: its layer
+  vec4 morphTexture;        // the coarser tile's tc = z * tc + xy
 };
 
 layout(std430, set = 0, binding = 0) readonly buffer PatchDrawRecords {
@@ -45,8 +48,11 @@ vec4 pick(vec4 a, vec4 b, vec4 c, int k) {
 }
 
 // T - camera for a vertex of the patch drawn with record `r`, its displacement h along the
-// interpolated normal and its decoded sideways offset o (see PatchDraw.h for the corner, edge
-// and interior cases): the displaced point P(w, h) - camera, then + o.
+// interpolated normal (heights.x; heights.y: its morph target's) and its decoded sideways offset
+// o (see PatchDraw.h for the corner, edge and interior cases): the displaced point P(w, h) -
+// camera, then + o. The geomorph first moves h towards the target by the record's 1 - f of the
+// diamond that governs the vertex: the grandparent's on the hypotenuse (w0 = 0), else the
+// parent's (docs/architecture.md "Geomorphing").
 //
 // shaderVertexPosition evaluates one of three formulas:
 //   corner k:  (C_k + h N_k) + o
@@ -61,9 +67,11 @@ vec4 pick(vec4 a, vec4 b, vec4 c, int k) {
 // instead of three divergent branches with dynamically indexed loads: with the record index
 // uniform (a push constant), lavapipe's SIMD vertex stage runs about twice as fast
 // (docs/decisions.md).
-precise vec3 patchVertexPosition(uint r, uvec2 bary, float h, vec3 offset) {
+precise vec3 patchVertexPosition(uint r, uvec2 bary, vec2 heights, vec3 offset) {
   precise vec3 w = patchVertexWeights(bary);
   const PatchDrawRecord d = draws.records[r];
+  const float g = w.x == 0.0 ? d.morph.y : d.morph.x;
+  precise float h = heights.x - g * (heights.x - heights.y);
 
   // The case: corner k (w_k == 1), else the first edge k with w_k == 0, else interior.
   const int corner = w.x == 1.0 ? 0 : (w.y == 1.0 ? 1 : (w.z == 1.0 ? 2 : -1));

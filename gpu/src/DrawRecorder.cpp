@@ -23,6 +23,7 @@ void DrawRecorder::record(VkCommandBuffer cmd, const OffscreenTarget& target,
                      push.data());
   std::uint32_t boundChunk = std::numeric_limits<std::uint32_t>::max();
   std::uint32_t boundPage = std::numeric_limits<std::uint32_t>::max();
+  std::uint32_t boundMorphPage = std::numeric_limits<std::uint32_t>::max();
   for (const DrawItem& item : items) {
     const PoolLocation patch = patches_->locate(item.patchSlot);
     const PoolLocation tile = tiles_->locate(item.tileSlot);
@@ -38,6 +39,13 @@ void DrawRecorder::record(VkCommandBuffer cmd, const OffscreenTarget& target,
       vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 1, 1, &set,
                               0, nullptr);
       boundPage = tile.chunk;
+    }
+    const PoolLocation morphTile = tiles_->locate(item.morphTileSlot);
+    if (morphTile.chunk != boundMorphPage) {
+      VkDescriptorSet set = tiles_->descriptorSet(morphTile.chunk);
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 2, 1, &set,
+                              0, nullptr);
+      boundMorphPage = morphTile.chunk;
     }
     vkCmdPushConstants(cmd, pipeline.layout(), kStages, kRecordIndexOffset, sizeof item.recordIndex,
                        &item.recordIndex);

@@ -20,8 +20,9 @@ namespace pbdam::gpu {
 struct DrawItem final {
   std::uint32_t patchSlot = 0;
   std::uint32_t tileSlot = 0;
-  std::uint32_t recordIndex = 0;  ///< index of its PatchDrawRecord in the records buffer
-  std::uint32_t indexCount = 0;   ///< 3 × triangles
+  std::uint32_t morphTileSlot = 0;  ///< the coarser tile it blends in (tileSlot when none)
+  std::uint32_t recordIndex = 0;    ///< index of its PatchDrawRecord in the records buffer
+  std::uint32_t indexCount = 0;     ///< 3 × triangles
 };
 
 /// How the pass sits in its frame.

@@ -73,7 +73,8 @@ Result<std::shared_ptr<GpuCache>> GpuCache::create(VulkanContext& context,
     return makeError(ErrorCode::CorruptData,
                      "dataset has no drawable patches or an invalid texture tile size");
   }
-  const std::uint64_t minimum = state->patchSlot + state->texture.slotBytes;
+  // One patch and two tiles: its own and the coarser one it may blend in (texture morph).
+  const std::uint64_t minimum = state->patchSlot + 2 * state->texture.slotBytes;
   if (options.budgetBytes < minimum) {
     return makeError(ErrorCode::InvalidArgument,
                      "GPU cache budget of " + std::to_string(options.budgetBytes) + " bytes (" +
@@ -122,7 +123,9 @@ Result<std::shared_ptr<GpuCache>> GpuCache::create(VulkanContext& context,
 
 std::uint64_t GpuCache::minimumBytes(const VulkanContext& context, const DatasetView& dataset,
                                      bool forceRgba8Textures) {
-  return patchSlotBytes(dataset) + chooseTexture(context, dataset, forceRgba8Textures).slotBytes;
+  // One patch and two tiles: its own and the coarser one it may blend in (texture morph).
+  return patchSlotBytes(dataset) +
+         2 * chooseTexture(context, dataset, forceRgba8Textures).slotBytes;
 }
 
 GpuCache::GpuCache(std::unique_ptr<State> state) noexcept : state_(std::move(state)) {}

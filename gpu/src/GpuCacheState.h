@@ -28,7 +28,7 @@ struct TextureChoice final {
 /// BC1 where the dataset and the device have it (and it is not refused), RGBA8 otherwise.
 TextureChoice chooseTexture(const VulkanContext& context, const runtime::DatasetView& dataset,
                             bool forceRgba8);
-/// Bytes of one patch slot: the dataset's largest patch, 20-byte vertices and 16-bit indices.
+/// Bytes of one patch slot: the dataset's largest patch, 24-byte vertices and 16-bit indices.
 std::uint64_t patchSlotBytes(const runtime::DatasetView& dataset);
 
 struct GpuCache::State {

@@ -23,7 +23,7 @@ struct PoolLocation final {
   std::uint32_t local = 0;
 };
 
-/// Patch slots of `maxVertices` 20-byte vertices (streaming::PatchGpuVertex) and `maxIndices`
+/// Patch slots of `maxVertices` 24-byte vertices (streaming::PatchGpuVertex) and `maxIndices`
 /// 16-bit indices, in chunks of one vertex buffer and one index buffer each.
 class PatchPool final {
  public:

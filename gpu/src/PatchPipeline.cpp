@@ -60,9 +60,10 @@ Result<UniqueSampler> createTilesSampler(VkDevice device) {
   return UniqueSampler(device, rawSampler);
 }
 
-/// The pipeline layout: the two descriptor sets and the per-draw push constants.
+/// The pipeline layout: the three descriptor sets (records, the patch's tile page, the page of
+/// the coarser tile it blends in) and the per-draw push constants.
 Result<UniquePipelineLayout> createPatchLayout(
-    VkDevice device, const std::array<VkDescriptorSetLayout, 2>& setLayouts) {
+    VkDevice device, const std::array<VkDescriptorSetLayout, 3>& setLayouts) {
   VkPushConstantRange range{};
   range.stageFlags = VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
   range.offset = 0;
@@ -110,7 +111,7 @@ Result<UniquePipeline> createPatchGraphicsPipeline(VkDevice device, VkPipelineLa
   attributes[0].offset = 0;
   attributes[1].location = 1;
   attributes[1].binding = 0;
-  attributes[1].format = VK_FORMAT_R32_SFLOAT;
+  attributes[1].format = VK_FORMAT_R32G32_SFLOAT;
   attributes[1].offset = offsetof(PatchGpuVertex, heightMeters);
   attributes[2].location = 2;
   attributes[2].binding = 0;
@@ -209,8 +210,9 @@ Result<PatchPipeline> PatchPipeline::create(const VulkanContext& context, VkForm
   auto sampler = createTilesSampler(device);
   if (!sampler) return std::move(sampler).error();
   result.sampler_ = std::move(*sampler);
-  auto layout =
-      createPatchLayout(device, {result.recordsSetLayout_.get(), result.tilesSetLayout_.get()});
+  auto layout = createPatchLayout(
+      device,
+      {result.recordsSetLayout_.get(), result.tilesSetLayout_.get(), result.tilesSetLayout_.get()});
   if (!layout) return std::move(layout).error();
   result.layout_ = std::move(*layout);
   auto pipeline =

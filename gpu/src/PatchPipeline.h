@@ -29,7 +29,8 @@ inline constexpr std::uint32_t kRecordIndexOffset = 80;
 static_assert(offsetof(PatchPush, recordIndex) == kRecordIndexOffset);
 
 // The vertex layout of the patch pools is PatchGpuVertex (streaming/DecodeScheduler.h): b1, b2 as
-// R16G16_UINT, h (metres) as R32_SFLOAT, then the offset o (metres) as R32G32B32_SFLOAT.
+// R16G16_UINT, h and the morph target's h (metres) as R32G32_SFLOAT, then the offset o (metres) as
+// R32G32B32_SFLOAT.
 
 class PatchPipeline final {
  public:

@@ -114,13 +114,18 @@ std::vector<DecodeJob> passEntries(const PassInput& in) {
     entries.push_back(entry);
   }
   std::unordered_set<std::uint64_t> seenTiles;
-  for (std::size_t i = in.begin; i < in.end; ++i) {
-    const ResidentKey tile = ResidentKey::tile(in.cut.patches[i].tile);
-    if (!drawable(in.nodes[i]) || !seenTiles.insert(tile.packed).second) continue;
+  const auto addTile = [&](const TileKey& key) {
+    const ResidentKey tile = ResidentKey::tile(key);
+    if (!seenTiles.insert(tile.packed).second) return;
     DecodeJob entry;
     entry.key = tile;
-    entry.tile = in.cut.patches[i].tile;
+    entry.tile = key;
     entries.push_back(entry);
+  };
+  for (std::size_t i = in.begin; i < in.end; ++i) {
+    if (!drawable(in.nodes[i])) continue;
+    addTile(in.cut.patches[i].tile);
+    if (in.cut.patches[i].blendsTile()) addTile(in.cut.patches[i].morphTile);
   }
   return entries;
 }
@@ -312,10 +317,11 @@ Result<void> TerrainRenderer::Impl::reservePass(CacheLease& lease, const PassInp
     DrawItem item;
     item.patchSlot = *lru.find(ResidentKey::patch(in.cut.patches[i].node));
     item.tileSlot = *lru.find(ResidentKey::tile(in.cut.patches[i].tile));
+    item.morphTileSlot = *lru.find(ResidentKey::tile(in.cut.patches[i].morphTile));
     item.recordIndex = static_cast<std::uint32_t>(i);
     item.indexCount = 3 * in.nodes[i].triangleCount;
     patchSlotCount = std::max(patchSlotCount, item.patchSlot + 1);
-    tileSlotCount = std::max(tileSlotCount, item.tileSlot + 1);
+    tileSlotCount = std::max({tileSlotCount, item.tileSlot + 1, item.morphTileSlot + 1});
     work.draws.push_back(item);
   }
   lastPassEntries.clear();
@@ -343,6 +349,12 @@ Result<void> TerrainRenderer::Impl::stagePass(const PassInput& in, PassWork& wor
     input.node = in.cut.patches[item.recordIndex].node;
     input.record = in.nodes[item.recordIndex];
     input.textureLayer = shared->tiles.locate(item.tileSlot).local;
+    const CutPatch& patch = in.cut.patches[item.recordIndex];
+    input.morph = patch.morph;
+    if (patch.blendsTile()) {
+      input.morphTile = patch.morphTile;
+      input.morphTextureLayer = shared->tiles.locate(item.morphTileSlot).local;
+    }
     const PatchDrawRecord record = makePatchDrawRecord(*dataset, input, in.camera.position());
     std::memcpy(recordBytes.data() + std::size_t{item.recordIndex} * sizeof(PatchDrawRecord),
                 &record, sizeof record);
@@ -556,15 +568,22 @@ std::vector<std::size_t> planPasses(const GpuCache::State& c, const Cut& cut,
   for (std::size_t i = 0; i < nodes.size(); ++i) {
     if (!drawable(nodes[i])) continue;
     const std::uint64_t tile = ResidentKey::tile(cut.patches[i].tile).packed;
-    std::uint64_t need = c.patchSlot + (passTiles.count(tile) != 0 ? 0 : c.texture.slotBytes);
+    const std::uint64_t morphTile = ResidentKey::tile(cut.patches[i].morphTile).packed;
+    const auto tileBytes = [&] {
+      std::uint64_t b = passTiles.count(tile) != 0 ? 0 : c.texture.slotBytes;
+      if (morphTile != tile && passTiles.count(morphTile) == 0) b += c.texture.slotBytes;
+      return b;
+    };
+    std::uint64_t need = c.patchSlot + tileBytes();
     if (bytes > 0 && bytes + need > budget) {
       passEnds.push_back(i);
       bytes = 0;
       passTiles.clear();
-      need = c.patchSlot + c.texture.slotBytes;
+      need = c.patchSlot + tileBytes();
     }
     bytes += need;
     passTiles.insert(tile);
+    passTiles.insert(morphTile);
   }
   passEnds.push_back(nodes.size());
   return passEnds;

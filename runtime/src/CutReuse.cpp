@@ -59,8 +59,9 @@ class IncrementalRefiner::Tree final {
   bool matches(const Camera& camera, const RefinementOptions& o) const noexcept {
     const Viewport& v = camera.viewport();
     return o.tolerancePixels == options_.tolerancePixels && o.maxLevel == options_.maxLevel &&
-           o.frustumCulling && v.width == viewport_.width && v.height == viewport_.height &&
-           v.fovYDegrees == viewport_.fovYDegrees && camera.nearMeters() == camera_.nearMeters();
+           o.morphRange == options_.morphRange && o.frustumCulling && v.width == viewport_.width &&
+           v.height == viewport_.height && v.fovYDegrees == viewport_.fovYDegrees &&
+           camera.nearMeters() == camera_.nearMeters();
   }
 
   /// Moves to `camera`: re-evaluates the nodes that may have changed.
@@ -134,10 +135,25 @@ class IncrementalRefiner::Tree final {
       patch.tile = n.tile;
       patch.screenErrorPixels =
           static_cast<float>(camera_.screenError(n.error, n.centre, n.radius));
+      // The morph factors are per-frame work over the cut: the parent's and grandparent's
+      // screen errors, from their states in the tree (split, so present).
+      constexpr double kNone = std::numeric_limits<double>::infinity();
+      std::array<double, 2> up{kNone, kNone};
+      NodeKey ancestor = n.key;
+      for (std::size_t k = 0; k < 2 && ancestor.heap > 0; ++k) {
+        ancestor.heap = (ancestor.heap - 1) / 2;
+        const auto it = nodes_.find(packKey(ancestor));
+        if (it == nodes_.end()) break;
+        up[k] = camera_.screenError(it->second.error, it->second.centre, it->second.radius);
+      }
+      setPatchMorph(dataset_, options_, up[0], up[1], patch);
       cut.patches.push_back(patch);
       cut.triangles += n.triangles;
       cut.vertices += n.vertices;
       if (seen.insert(packKey(patch.tile)).second) cut.tiles.push_back(patch.tile);
+      if (patch.blendsTile() && seen.insert(packKey(patch.morphTile)).second) {
+        cut.tiles.push_back(patch.morphTile);
+      }
     }
     cut.nodesVisited = decisions_;
     cut.nodesCulled = culled_;

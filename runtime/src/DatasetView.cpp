@@ -65,6 +65,17 @@ Result<DatasetView> DatasetView::open(const Manifest& manifest,
     }
     view.faces_[fi] = std::move(face).value();
   }
+  const auto depth = static_cast<int>(manifest.depth);
+  view.textureTerm_.assign(static_cast<std::size_t>(depth) + 1, 0.0);
+  for (int level = depth; level >= 0; --level) {
+    const std::uint32_t t = view.textureLevelOf(level);
+    double term = t + 1 < manifest.textureLevels ? view.textureErrorOfLevel_[t] : 0.0;
+    if (level < depth) {
+      term = std::max(term, (1.0 + manifest.errorMargin) *
+                                view.textureTerm_[static_cast<std::size_t>(level) + 1]);
+    }
+    view.textureTerm_[static_cast<std::size_t>(level)] = term;
+  }
   return view;
 }
 

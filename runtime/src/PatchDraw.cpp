@@ -137,6 +137,34 @@ PatchDrawRecord makePatchDrawRecord(const DatasetView& dataset, const PatchDrawI
                                    static_cast<std::uint32_t>(qi), static_cast<std::uint32_t>(qj),
                                    m.textureTileTexels, m.textureBorderTexels, input.textureLayer),
                   cam);
+
+  // Geomorph weights, and the coarser tile's texture coordinates as an affine map of the
+  // tile's: a lattice point x has tc = (border + ((x − q·side)/side)·inner)/size on either tile,
+  // so tc' = a·tc + b with a = side/side' and b = (border·(1 − a) + inner·(q·side −
+  // q'·side')/side')/size per axis.
+  d.morph = {input.morph[0], input.morph[1], 0.0f, 0.0f};
+  d.morphTexture = {0.0f, 0.0f, 1.0f, 0.0f};
+  if (input.morphTile) {
+    const std::uint64_t heap = input.morphTile->heap;
+    const std::uint32_t pl = textureLevelOfHeap(heap);
+    const std::uint64_t inLevel = heap - textureHeapIndex(pl, 0, 0);
+    const double pqi = static_cast<double>(inLevel & ((std::uint64_t{1} << pl) - 1));
+    const double pqj = static_cast<double>(inLevel >> pl);
+    const double side = static_cast<double>(sideCells);
+    const double parentSide = static_cast<double>(dataset.latticeCells() >> pl);
+    const double size = static_cast<double>(m.textureTileTexels);
+    const double border = static_cast<double>(m.textureBorderTexels);
+    const double inner = size - 2.0 * border;
+    const double a = side / parentSide;
+    const auto offset = [&](double q, double pq) {
+      return static_cast<float>(
+          (border * (1.0 - a) + inner * (q * side - pq * parentSide) / parentSide) / size);
+    };
+    d.morph[2] = input.morph[0];
+    d.morph[3] = static_cast<float>(input.morphTextureLayer);
+    d.morphTexture = {offset(static_cast<double>(qi), pqi), offset(static_cast<double>(qj), pqj),
+                      static_cast<float>(a), 0.0f};
+  }
   return d;
 }
 
@@ -167,7 +195,7 @@ PatchVertexDisplacement patchVertexDisplacement(const PatchVertexBase& base,
   const glm::dvec3 d = terrain - base.flat;
   const float h = static_cast<float>(toHeightGrid(
       glm::dot(d, base.normal) / glm::dot(base.normal, base.normal), heightStepMeters));
-  return {h, glm::vec3(d - static_cast<double>(h) * base.normal)};
+  return {h, h, glm::vec3(d - static_cast<double>(h) * base.normal)};
 }
 
 PatchVertexPlacement::PatchVertexPlacement(const DatasetView& dataset, const NodeKey& node,
@@ -312,12 +340,15 @@ glm::vec2 shaderTexCoord(const PatchDrawRecord& d, const glm::vec3& cameraRelati
 glm::vec3 shaderVertexPosition(const PatchDrawRecord& d, std::uint16_t b1, std::uint16_t b2,
                                const PatchVertexDisplacement& v) noexcept {
   // Mirrors patch_position.glsl: every line is one float operation in the same order.
-  const float h = v.heightMeters;
   const glm::vec3 o = v.offsetMeters;
   const float unit = 1.0f / 32768.0f;
   const float w1 = static_cast<float>(b1) * unit;
   const float w2 = static_cast<float>(b2) * unit;
   const float w0 = (1.0f - w1) - w2;
+  // The geomorph: the hypotenuse's vertices (w0 = 0) by the grandparent's diamond, the others
+  // by the parent's.
+  const float g = w0 == 0.0f ? d.morph[1] : d.morph[0];
+  const float h = v.heightMeters - g * (v.heightMeters - v.targetHeightMeters);
   const float w[3] = {w0, w1, w2};
   for (std::size_t k = 0; k < 3; ++k) {
     if (w[k] == 1.0f) return (xyz(d.corner[k]) + h * xyz(d.normal[k])) + o;

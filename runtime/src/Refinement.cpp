@@ -2,6 +2,8 @@
 #include "pbdam/runtime/Refinement.h"
 
 #include <algorithm>
+#include <limits>
+#include <sstream>
 #include <unordered_set>
 
 using namespace pbdam::formats;
@@ -18,8 +20,9 @@ class Refiner {
         maxLevel_(options.maxLevel < 0 ? dataset.depth()
                                        : std::min(options.maxLevel, dataset.depth())) {}
 
-  // `row` is the node's table index in its face file.
-  void visit(const NodeKey& key, std::uint64_t row, int level) {
+  // `row` is the node's table index in its face file; `up` the screen errors of its parent
+  // and grandparent (infinite where it has none).
+  void visit(const NodeKey& key, std::uint64_t row, int level, std::array<double, 2> up) {
     ++cut_.nodesVisited;
     const FaceView& face = dataset_.face(key.face);
     const NodeRecord node = face.nodeAt(row);
@@ -34,8 +37,8 @@ class Refiner {
     const double screen = camera_.screenError(error, centre, radius);
     if (screen > options_.tolerancePixels && level < maxLevel_ && !node.leaf()) {
       const std::uint64_t first = face.firstChildOf(row);
-      visit(NodeKey{key.face, key.tree, 2 * key.heap + 1}, first, level + 1);
-      visit(NodeKey{key.face, key.tree, 2 * key.heap + 2}, first + 1, level + 1);
+      visit(NodeKey{key.face, key.tree, 2 * key.heap + 1}, first, level + 1, {screen, up[0]});
+      visit(NodeKey{key.face, key.tree, 2 * key.heap + 2}, first + 1, level + 1, {screen, up[0]});
       return;
     }
     CutPatch patch;
@@ -43,10 +46,14 @@ class Refiner {
     patch.level = level;
     patch.tile = dataset_.tileOf(key);
     patch.screenErrorPixels = static_cast<float>(screen);
+    setPatchMorph(dataset_, options_, up[0], up[1], patch);
     cut_.patches.push_back(patch);
     cut_.triangles += node.triangleCount;
     cut_.vertices += node.vertexCount;
     if (seenTiles_.insert(packKey(patch.tile)).second) cut_.tiles.push_back(patch.tile);
+    if (patch.blendsTile() && seenTiles_.insert(packKey(patch.morphTile)).second) {
+      cut_.tiles.push_back(patch.morphTile);
+    }
   }
 
   Cut take() { return std::move(cut_); }
@@ -64,16 +71,85 @@ class Refiner {
 
 double refinementErrorMeters(const DatasetView& dataset, int level,
                              double geometryErrorMeters) noexcept {
-  const std::uint32_t t = dataset.textureLevelOf(level);
-  const double texture = t + 1 < dataset.textureLevels() ? dataset.textureErrorOfLevel(t) : 0.0;
-  return std::max(geometryErrorMeters, texture);
+  return std::max(geometryErrorMeters, dataset.textureTermOfLevel(level));
+}
+
+float morphWeight(double screenErrorPixels, double tolerancePixels, double range) noexcept {
+  if (!(range > 0.0)) return 0.0f;
+  const double f = std::clamp((screenErrorPixels / tolerancePixels - 1.0) / range, 0.0, 1.0);
+  return static_cast<float>(1.0 - f);
+}
+
+void setPatchMorph(const DatasetView& dataset, const RefinementOptions& options,
+                   double parentScreenError, double grandparentScreenError, CutPatch& patch) {
+  patch.morph = {morphWeight(parentScreenError, options.tolerancePixels, options.morphRange),
+                 morphWeight(grandparentScreenError, options.tolerancePixels, options.morphRange)};
+  patch.morphTile = patch.tile;
+  if (patch.morph[0] > 0.0f && patch.level > 0) {
+    const TileKey parentTile =
+        dataset.tileOf(NodeKey{patch.node.face, patch.node.tree, (patch.node.heap - 1) / 2});
+    patch.morphTile = parentTile;
+  }
+}
+
+void refreshMorph(const DatasetView& dataset, const Camera& camera,
+                  const RefinementOptions& options, Cut& cut) {
+  constexpr double kNone = std::numeric_limits<double>::infinity();
+  cut.tiles.clear();
+  std::unordered_set<std::uint64_t> seen;
+  for (CutPatch& patch : cut.patches) {
+    std::array<double, 2> up{kNone, kNone};
+    NodeKey ancestor = patch.node;
+    for (std::size_t k = 0; k < 2 && ancestor.heap > 0; ++k) {
+      ancestor.heap = (ancestor.heap - 1) / 2;
+      const NodeRecord record = dataset.node(ancestor);
+      const glm::dvec3 centre(record.sphereCenter[0], record.sphereCenter[1],
+                              record.sphereCenter[2]);
+      up[k] =
+          camera.screenError(refinementErrorMeters(dataset, patch.level - 1 - static_cast<int>(k),
+                                                   static_cast<double>(record.errorMeters)),
+                             centre, static_cast<double>(record.sphereRadiusMeters));
+    }
+    setPatchMorph(dataset, options, up[0], up[1], patch);
+    if (seen.insert(packKey(patch.tile)).second) cut.tiles.push_back(patch.tile);
+    if (patch.blendsTile() && seen.insert(packKey(patch.morphTile)).second) {
+      cut.tiles.push_back(patch.morphTile);
+    }
+  }
+}
+
+CutMorphSummary summarizeMorph(const Cut& cut) noexcept {
+  CutMorphSummary s;
+  for (const CutPatch& p : cut.patches) {
+    const float largest = std::max(p.morph[0], p.morph[1]);
+    const bool partWay =
+        (p.morph[0] > 0.0f && p.morph[0] < 1.0f) || (p.morph[1] > 0.0f && p.morph[1] < 1.0f);
+    s.morphingPatches += static_cast<std::uint64_t>(partWay);
+    s.blendingPatches += static_cast<std::uint64_t>(p.blendsTile());
+    s.largestWeight = std::max(s.largestWeight, static_cast<double>(largest));
+  }
+  return s;
+}
+
+Result<void> checkMorphRange(const DatasetView& dataset, double range) {
+  const double margin = dataset.manifest().errorMargin;
+  if (!(range >= 0.0 && range <= margin)) {
+    std::ostringstream what;
+    what << "--morph-range " << range << " is outside [0, " << margin
+         << "], the dataset's error margin: beyond it the morph windows of successive levels "
+            "overlap (rebuild with a larger --error-margin)";
+    return makeError(ErrorCode::InvalidArgument, what.str());
+  }
+  return {};
 }
 
 Cut refine(const DatasetView& dataset, const Camera& camera, const RefinementOptions& options) {
   Refiner refiner(dataset, camera, options);
   for (std::uint8_t face = 0; face < 6; ++face) {
     for (std::uint8_t tree = 0; tree < 2; ++tree) {
-      refiner.visit(NodeKey{face, tree, 0}, dataset.face(face).treeFirstNode(tree), 0);
+      constexpr double kNone = std::numeric_limits<double>::infinity();
+      refiner.visit(NodeKey{face, tree, 0}, dataset.face(face).treeFirstNode(tree), 0,
+                    {kNone, kNone});
     }
   }
   return refiner.take();

@@ -83,10 +83,14 @@ Result<void> DecodeScheduler::decodePatch(const NodeKey& key, std::span<std::byt
   const FaceView& face = dataset_->face(key.face);
   const NodeRecord record = dataset_->node(key);
   const std::string context = blobContext(face, record.blobOffset);
-  thread_local std::vector<std::byte> blob;  // the blob copied out of the mapping, guarded
-  auto bytes = face.readPatchBlob(record, blob);
+  thread_local std::vector<std::byte> blob;  // the blobs copied out of the mapping, guarded
+  thread_local std::vector<std::int32_t> targets;
+  auto bytes = face.readPatchBlobs(record, blob);
   if (!bytes) return std::move(bytes).error();
-  if (Result<void> r = pbdam::formats::decodePatch(*bytes, mesh, context); !r) {
+  if (Result<void> r = pbdam::formats::decodePatch(bytes->patch, mesh, context); !r) {
+    return std::move(r).error();
+  }
+  if (Result<void> r = decodeMorphTargets(bytes->morph, mesh, targets, context); !r) {
     return std::move(r).error();
   }
   if (mesh.vertices.size() != record.vertexCount || mesh.triangleCount() != record.triangleCount) {
@@ -107,8 +111,16 @@ Result<void> DecodeScheduler::decodePatch(const NodeKey& key, std::span<std::byt
                            std::to_string(pv.b1) + ", b2 " + std::to_string(pv.b2) +
                            ") is not a lattice point of its node's triangle");
     }
+    // The target's displacement over the same base (so that both patches on an edge get the
+    // same float); most vertices are their coarser surface's too.
+    float target = d.heightMeters;
+    if (targets[v] != pv.heightSteps) {
+      PatchVertexDisplacement t;
+      (void)placement.displacement(PatchVertex{pv.b1, pv.b2, targets[v]}, t);
+      target = t.heightMeters;
+    }
     const glm::vec3& o = d.offsetMeters;
-    const PatchGpuVertex gpu{pv.b1, pv.b2, d.heightMeters, {o.x, o.y, o.z}};
+    const PatchGpuVertex gpu{pv.b1, pv.b2, d.heightMeters, target, {o.x, o.y, o.z}};
     std::memcpy(dst, &gpu, sizeof gpu);
     dst += sizeof gpu;
   }

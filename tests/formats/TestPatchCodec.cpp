@@ -407,5 +407,72 @@ TEST(PatchCodec, OptimizeKeepsTrianglesAndImprovesVertexCache) {
   }
 }
 
+// ---- morph targets ------------------------------------------------------------------------
+
+std::vector<std::int32_t> someTargets(const PatchMesh& mesh) {
+  std::vector<std::int32_t> targets;
+  std::mt19937 random(11);
+  std::uniform_int_distribution<std::int32_t> step(-300, 300);
+  for (const PatchVertex& v : mesh.vertices) {
+    targets.push_back(random() % 3 == 0 ? v.heightSteps : v.heightSteps + step(random));
+  }
+  if (!targets.empty()) targets.back() = std::numeric_limits<std::int32_t>::min();
+  return targets;
+}
+
+TEST(MorphTargets, RoundTripAndAreDeterministic) {
+  const PatchMesh mesh = optimized(simplifiedPatch(128, 1000, 3));
+  const std::vector<std::int32_t> targets = someTargets(mesh);
+  auto blob = encodeMorphTargets(mesh, targets);
+  ASSERT_TRUE(blob) << blob.error().message;
+  auto again = encodeMorphTargets(mesh, targets);
+  ASSERT_TRUE(again);
+  EXPECT_EQ(*blob, *again);
+  std::vector<std::int32_t> decoded;
+  ASSERT_TRUE(decodeMorphTargets(*blob, mesh, decoded, "t"));
+  EXPECT_EQ(decoded, targets);
+  // Targets equal to the own heights (vertices the coarser surface passes through) cost
+  // almost nothing.
+  std::vector<std::int32_t> own;
+  for (const PatchVertex& v : mesh.vertices) own.push_back(v.heightSteps);
+  auto flat = encodeMorphTargets(mesh, own);
+  ASSERT_TRUE(flat);
+  EXPECT_LT(flat->size(), blob->size() / 4);
+}
+
+TEST(MorphTargets, AnEmptyBlobMeansTheOwnHeights) {
+  const PatchMesh mesh = optimized(gridPatch(8, 1));
+  std::vector<std::int32_t> decoded;
+  ASSERT_TRUE(decodeMorphTargets({}, mesh, decoded, "t"));
+  ASSERT_EQ(decoded.size(), mesh.vertices.size());
+  for (std::size_t v = 0; v < decoded.size(); ++v) {
+    EXPECT_EQ(decoded[v], mesh.vertices[v].heightSteps);
+  }
+}
+
+TEST(MorphTargets, RejectCorruptionTruncationAndAnotherPatch) {
+  const PatchMesh mesh = optimized(simplifiedPatch(64, 300, 5));
+  auto blob = encodeMorphTargets(mesh, someTargets(mesh));
+  ASSERT_TRUE(blob);
+  std::vector<std::int32_t> out;
+  for (std::size_t k = 0; k < blob->size(); ++k) {
+    std::vector<std::byte> bad = *blob;
+    bad[k] ^= std::byte{0x5A};
+    const auto r = decodeMorphTargets(bad, mesh, out, "face0.pbdam@42");
+    ASSERT_FALSE(r) << "byte " << k;
+    EXPECT_EQ(r.error().code, ErrorCode::CorruptData);
+    EXPECT_NE(r.error().message.find("face0.pbdam@42: morph-target"), std::string::npos)
+        << r.error().message;
+  }
+  for (std::size_t n = 1; n < blob->size(); ++n) {
+    EXPECT_FALSE(decodeMorphTargets(std::span(*blob).first(n), mesh, out, "t")) << n;
+  }
+  const PatchMesh other = optimized(gridPatch(4, 2));
+  const auto wrong = decodeMorphTargets(*blob, other, out, "t");
+  ASSERT_FALSE(wrong);
+  EXPECT_NE(wrong.error().message.find("targets for a patch of"), std::string::npos);
+  EXPECT_FALSE(encodeMorphTargets(mesh, std::vector<std::int32_t>(3, 0)));
+}
+
 }  // namespace
 }  // namespace pbdam::formats

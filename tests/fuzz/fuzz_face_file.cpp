@@ -22,6 +22,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (!view) return 0;
   pbdam::formats::PatchMesh mesh;
   std::vector<std::byte> buffer;
+  std::vector<std::int32_t> targets;
   for (std::uint64_t k = 0; k < view->header().nodeCount; ++k) {
     const pbdam::formats::NodeRecord node = view->nodeAt(k);
     // An accepted table is a forest: every record is found by its key, inner nodes have their
@@ -36,9 +37,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         __builtin_trap();
       }
     }
-    const auto blob = view->readPatchBlob(node, buffer);
-    if (!blob || blob->size() != node.blobBytes) __builtin_trap();
-    (void)pbdam::formats::decodePatch(*blob, mesh, "fuzz");
+    const auto blobs = view->readPatchBlobs(node, buffer);
+    if (!blobs || blobs->patch.size() != node.blobBytes || blobs->morph.size() != node.morphBytes) {
+      __builtin_trap();
+    }
+    if (pbdam::formats::decodePatch(blobs->patch, mesh, "fuzz")) {
+      (void)pbdam::formats::decodeMorphTargets(blobs->morph, mesh, targets, "fuzz");
+    }
   }
   for (std::uint64_t k = 0; k < view->header().textureNodeCount; ++k) {
     const auto record = view->textureAt(k);

@@ -45,9 +45,10 @@ struct CaptureVertex {
   std::uint16_t b1;
   std::uint16_t b2;
   float heightMeters;
+  float targetHeightMeters;
   std::array<float, 3> offsetMeters;
 };
-static_assert(sizeof(CaptureVertex) == 20);
+static_assert(sizeof(CaptureVertex) == 24);
 
 /// A point-list pipeline with rasterization discarded that runs patch_capture.vert.
 class CapturePipeline {
@@ -96,8 +97,8 @@ class CapturePipeline {
     VkVertexInputBindingDescription binding{0, sizeof(CaptureVertex), VK_VERTEX_INPUT_RATE_VERTEX};
     std::array<VkVertexInputAttributeDescription, 3> attributes{};
     attributes[0] = {0, 0, VK_FORMAT_R16G16_UINT, 0};
-    attributes[1] = {1, 0, VK_FORMAT_R32_SFLOAT, 4};
-    attributes[2] = {2, 0, VK_FORMAT_R32G32B32_SFLOAT, 8};
+    attributes[1] = {1, 0, VK_FORMAT_R32G32_SFLOAT, 4};
+    attributes[2] = {2, 0, VK_FORMAT_R32G32B32_SFLOAT, 12};
     VkPipelineVertexInputStateCreateInfo vertexInput{};
     vertexInput.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO;
     vertexInput.vertexBindingDescriptionCount = 1;
@@ -147,7 +148,8 @@ struct CapturedCut {
   std::vector<PatchDrawRecord> records;
   std::vector<std::uint32_t> firstVertex;  ///< per patch, into vertices
   std::vector<PatchVertex> vertices;
-  std::vector<PatchVertexDisplacement> decoded;    ///< decoded h and offset of each vertex
+  std::vector<PatchVertexDisplacement> decoded;    ///< decoded h, target h and offset
+  std::vector<std::int32_t> targets;               ///< each vertex's morph target
   std::vector<std::array<float, 4>> gpu;           ///< captured positions
   std::vector<std::array<float, 2>> gpuTexCoords;  ///< captured texture coordinates
 };
@@ -170,29 +172,43 @@ double recordSpan(const PatchDrawRecord& r) {
 
 class PatchShader : public test::GpuTest {
  protected:
-  // Runs every vertex of `cut` through the capture shader for `camera`.
-  void capture(const DatasetView& view, const Cut& cut, const Camera& camera, CapturedCut& out) {
+  // Decodes every patch of `cut`, with its morph targets, and makes its record for `camera`.
+  static void decodeCut(const DatasetView& view, const Cut& cut, const Camera& camera,
+                        CapturedCut& out) {
     PatchMesh mesh;
+    std::vector<std::int32_t> targets;
     std::vector<std::byte> blob;
     for (const CutPatch& patch : cut.patches) {
       const NodeRecord record = view.node(patch.node);
-      const auto bytes = view.face(patch.node.face).readPatchBlob(record, blob);
+      const auto bytes = view.face(patch.node.face).readPatchBlobs(record, blob);
       ASSERT_TRUE(bytes.ok());
-      ASSERT_TRUE(decodePatch(*bytes, mesh, "test").ok());
+      ASSERT_TRUE(decodePatch(bytes->patch, mesh, "test").ok());
+      ASSERT_TRUE(decodeMorphTargets(bytes->morph, mesh, targets, "test").ok());
       out.nodes.push_back(patch.node);
-      out.records.push_back(
-          makePatchDrawRecord(view, PatchDrawInput{patch.node, record, 0}, camera.position()));
+      PatchDrawInput input{.node = patch.node, .record = record};
+      input.morph = patch.morph;
+      out.records.push_back(makePatchDrawRecord(view, input, camera.position()));
       out.firstVertex.push_back(static_cast<std::uint32_t>(out.vertices.size()));
       const PatchVertexPlacement placement(view, patch.node, record);
-      for (const PatchVertex& v : mesh.vertices) {
-        PatchVertexDisplacement d;
+      for (std::size_t k = 0; k < mesh.vertices.size(); ++k) {
+        const PatchVertex& v = mesh.vertices[k];
+        PatchVertexDisplacement d, t;
         ASSERT_TRUE(placement.displacement(v, d));
+        ASSERT_TRUE(placement.displacement(PatchVertex{v.b1, v.b2, targets[k]}, t));
+        d.targetHeightMeters = t.heightMeters;
         out.vertices.push_back(v);
         out.decoded.push_back(d);
+        out.targets.push_back(targets[k]);
       }
     }
     out.firstVertex.push_back(static_cast<std::uint32_t>(out.vertices.size()));
     ASSERT_GT(out.vertices.size(), 0u);
+  }
+
+  // Runs every vertex of `cut` through the capture shader for `camera`.
+  void capture(const DatasetView& view, const Cut& cut, const Camera& camera, CapturedCut& out) {
+    decodeCut(view, cut, camera, out);
+    if (HasFatalFailure()) return;
 
     auto pipeline = CapturePipeline::create(context());
     ASSERT_TRUE(pipeline.ok()) << pipeline.error().message;
@@ -204,8 +220,11 @@ class PatchShader : public test::GpuTest {
     ASSERT_TRUE(vertexBuffer.ok());
     for (std::size_t i = 0; i < out.vertices.size(); ++i) {
       const glm::vec3& o = out.decoded[i].offsetMeters;
-      const CaptureVertex v{
-          out.vertices[i].b1, out.vertices[i].b2, out.decoded[i].heightMeters, {o.x, o.y, o.z}};
+      const CaptureVertex v{out.vertices[i].b1,
+                            out.vertices[i].b2,
+                            out.decoded[i].heightMeters,
+                            out.decoded[i].targetHeightMeters,
+                            {o.x, o.y, o.z}};
       std::memcpy(vertexBuffer->mappedBytes().data() + i * sizeof v, &v, sizeof v);
     }
     const VkDeviceSize recordBytes = sizeof(PatchDrawRecord) * out.records.size();
@@ -339,16 +358,9 @@ class PatchShader : public test::GpuTest {
                             << cpu.x << "," << cpu.y << "," << cpu.z;
             }
           }
-          // Drawn at its terrain point: the float sums are within a few roundings of T − cam,
-          // relative to the sizes summed (the distance, the patch's corner triangle, the
-          // displacement and the offset).
-          const glm::dvec3 truth = exactVertexPosition(placements[p], v, camera.position());
-          const double scale = glm::length(truth) + recordSpan(captured.records[p]) +
-                               std::fabs(static_cast<double>(captured.decoded[i].heightMeters)) +
-                               glm::length(glm::dvec3(captured.decoded[i].offsetMeters));
-          const double drawnError =
-              glm::length(glm::dvec3(gpu[0], gpu[1], gpu[2]) - truth) - std::ldexp(scale, -20);
-          worstDrawnError = std::max(worstDrawnError, drawnError);
+          // A vertex the geomorph does not move is drawn at its terrain point.
+          worstDrawnError = std::max(worstDrawnError,
+                                     drawnError(captured, p, i, placements[p], camera.position()));
           // Texture coordinates: the CPU mirror of the same formula, from the same position.
           const glm::vec2 tc =
               shaderTexCoord(captured.records[p], glm::vec3(gpu[0], gpu[1], gpu[2]));
@@ -406,7 +418,34 @@ class PatchShader : public test::GpuTest {
       EXPECT_EQ(sharedMismatches, 0u) << "of " << shared << " shared vertices";
       EXPECT_GT(shared, captured.records.size()) << "patches share edge vertices";
     }
+    // The cuts morph (RefinementOptions' default range): vertices strictly between their two
+    // heights were drawn, and shared ones still bit-identical from every patch.
+    EXPECT_GT(morphing_, 0u);
   }
+
+  // How far vertex i of patch p was drawn from its terrain point beyond a few roundings of the
+  // sizes summed (the distance, the patch's corner triangle, the displacement and the offset):
+  // ≤ 0 expected. A vertex the geomorph moves is not at its terrain point: it counts in
+  // morphing_ instead (-1).
+  double drawnError(const CapturedCut& captured, std::size_t p, std::size_t i,
+                    const PatchVertexPlacement& placement, const glm::dvec3& eye) {
+    const PatchVertex& v = captured.vertices[i];
+    const float g = std::uint32_t{v.b1} + v.b2 == kPatchBarycentricOne
+                        ? captured.records[p].morph[1]
+                        : captured.records[p].morph[0];
+    if (g > 0.0f && captured.targets[i] != v.heightSteps) {
+      morphing_ += static_cast<std::uint64_t>(g < 1.0f);
+      return -1.0;
+    }
+    const glm::dvec3 truth = exactVertexPosition(placement, v, eye);
+    const double scale = glm::length(truth) + recordSpan(captured.records[p]) +
+                         std::fabs(static_cast<double>(captured.decoded[i].heightMeters)) +
+                         glm::length(glm::dvec3(captured.decoded[i].offsetMeters));
+    const std::array<float, 4>& gpu = captured.gpu[i];
+    return glm::length(glm::dvec3(gpu[0], gpu[1], gpu[2]) - truth) - std::ldexp(scale, -20);
+  }
+
+  std::uint64_t morphing_ = 0;
 };
 
 TEST_F(PatchShader, GpuPositionsAreBitIdenticalToTheCpuMirrorOnMars) {

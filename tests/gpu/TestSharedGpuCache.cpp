@@ -55,7 +55,8 @@ class SharedGpuCacheTest : public test::GpuTest {
     const std::uint64_t patchSlot =
         std::uint64_t{sizeof(streaming::PatchGpuVertex)} * view.maxPatchVertices() +
         std::uint64_t{6} * view.maxPatchTriangles();
-    const std::uint64_t tileSlot = GpuCache::minimumBytes(context(), view) - patchSlot;
+    // The minimum holds one patch and two tiles (a patch's own and its parent's, texture morph).
+    const std::uint64_t tileSlot = (GpuCache::minimumBytes(context(), view) - patchSlot) / 2;
     return cut.patches.size() * patchSlot + cut.tiles.size() * tileSlot;
   }
 };

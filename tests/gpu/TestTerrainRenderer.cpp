@@ -290,7 +290,9 @@ TEST_F(TerrainRendererTest, TheCacheHitsOnRepeatAndEvictsWhenTheViewMoves) {
   const std::uint64_t patchSlot =
       std::uint64_t{sizeof(streaming::PatchGpuVertex)} * view.maxPatchVertices() +
       std::uint64_t{6} * view.maxPatchTriangles();
-  const std::uint64_t tileSlot = TerrainRenderer::minimumCacheBytes(context(), view) - patchSlot;
+  // The minimum holds one patch and two tiles (a patch's own and its parent's, texture morph).
+  const std::uint64_t tileSlot =
+      (TerrainRenderer::minimumCacheBytes(context(), view) - patchSlot) / 2;
   const auto bytesOf = [&](const Cut& cut) {
     return cut.patches.size() * patchSlot + cut.tiles.size() * tileSlot;
   };

@@ -1,5 +1,6 @@
-// Test aid: checks that a cut's triangles, at the positions the shader computes, form a closed,
-// consistently oriented 2-manifold (watertight, no T-junctions or cracks).
+// Test aid: checks that a cut's triangles, at the positions the shader computes (geomorph
+// included: each patch with its cut's morph weights and its vertices' morph targets), form a
+// closed, consistently oriented 2-manifold (watertight, no T-junctions or cracks).
 #pragma once
 
 #include <gtest/gtest.h>
@@ -21,6 +22,10 @@ namespace pbdam::test {
 struct MeshCheck {
   std::size_t vertices = 0, edges = 0, triangles = 0;
   std::size_t badEdges = 0, degenerate = 0;
+  /// Welded vertices shared by patches of different levels, one of them morphing (its
+  /// parent's weight strictly between 0 and 1, and some of its vertices moved by it): where a
+  /// morphing cut could crack.
+  std::size_t morphingSharedVertices = 0;
   long euler() const {
     return static_cast<long>(vertices) - static_cast<long>(edges) + static_cast<long>(triangles);
   }
@@ -47,20 +52,41 @@ inline MeshCheck checkClosedManifold(const runtime::DatasetView& view, const run
   std::vector<std::uint32_t> local;
   using namespace formats;
   using namespace runtime;
+  struct Welded {
+    int minLevel = 1 << 30, maxLevel = -1;
+    bool morphing = false;
+  };
+  std::vector<Welded> welded;
   for (const CutPatch& p : cut.patches) {
     const NodeRecord record = view.node(p.node);
-    const PatchDrawRecord draw = makePatchDrawRecord(view, {p.node, record, 0}, eye);
+    PatchDrawInput input{.node = p.node, .record = record};
+    input.morph = p.morph;
+    const PatchDrawRecord draw = makePatchDrawRecord(view, input, eye);
     const PatchVertexPlacement placement(view, p.node, record);
     const PatchMesh& mesh = store.mesh(p.node);
+    const std::vector<std::int32_t>& targets = store.targets(p.node);
+    bool patchMorphs = false;
+    if (p.morph[0] > 0.0f && p.morph[0] < 1.0f) {
+      for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
+        patchMorphs = patchMorphs || targets[v] != mesh.vertices[v].heightSteps;
+      }
+    }
     local.resize(mesh.vertices.size());
     for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
       const PatchVertex& pv = mesh.vertices[v];
-      PatchVertexDisplacement d;
+      PatchVertexDisplacement d, t;
       EXPECT_TRUE(placement.displacement(pv, d));
+      EXPECT_TRUE(placement.displacement(PatchVertex{pv.b1, pv.b2, targets[v]}, t));
+      d.targetHeightMeters = t.heightMeters;
       const glm::vec3 pos = shaderVertexPosition(draw, pv.b1, pv.b2, d);
       PositionKey key{};
       std::memcpy(key.bits.data(), &pos, sizeof(key.bits));
       local[v] = ids.try_emplace(key, static_cast<std::uint32_t>(ids.size())).first->second;
+      welded.resize(ids.size());
+      Welded& w = welded[local[v]];
+      w.minLevel = std::min(w.minLevel, p.level);
+      w.maxLevel = std::max(w.maxLevel, p.level);
+      w.morphing = w.morphing || patchMorphs;
     }
     for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
       const std::array<std::uint32_t, 3> c{local[mesh.indices[t]], local[mesh.indices[t + 1]],
@@ -75,6 +101,9 @@ inline MeshCheck checkClosedManifold(const runtime::DatasetView& view, const run
     }
   }
   check.vertices = ids.size();
+  for (const Welded& w : welded) {
+    check.morphingSharedVertices += static_cast<std::size_t>(w.morphing && w.minLevel < w.maxLevel);
+  }
   std::sort(directed.begin(), directed.end());
   for (std::size_t k = 0; k < directed.size(); ++k) {
     const std::uint64_t edge = directed[k];

@@ -45,28 +45,38 @@ std::unique_ptr<MappedDataset> openDataset(const std::filesystem::path& dir) {
   return dataset.ok() ? std::move(dataset).value() : nullptr;
 }
 
+constexpr std::array<double, 5> kMorphRanges = {0.0, 0.05, 0.1, 0.175, 0.25};
+
 /// Cuts for each of `cameras` poses from pose(rng) are closed 2-manifolds (Euler 2), capped ones
-/// too, and culling only drops subtrees.
+/// too, and culling only drops subtrees. Each whole cut is checked with the geomorph of five
+/// morph ranges (0: off, up to the datasets' error margin 0.25); the morphing ones must have
+/// patches of different levels meet at vertices moved part-way.
 void expectWatertightFor(const DatasetView& view, int cameras, std::uint64_t seed,
                          const std::function<CameraPose(std::mt19937_64&)>& nextPose) {
   test::PatchStore store(view);
   std::mt19937_64 rng(seed);
   const Viewport viewport{320, 180, 60.0};
   std::size_t totalTriangles = 0;
+  std::array<std::size_t, kMorphRanges.size()> morphing{};
   for (int c = 0; c < cameras; ++c) {
     const CameraPose pose = nextPose(rng);
     SCOPED_TRACE("camera " + std::to_string(c) + ": " + std::to_string(pose.latDegrees) + "," +
                  std::to_string(pose.lonDegrees) + "," + std::to_string(pose.altitudeMeters));
     const Camera camera = Camera::fromPose(view.planet(), pose, viewport);
     // The whole planet's cut for this camera's level of detail (no culling), and the culled one.
-    const Cut whole = refine(view, camera, {3.0, false, -1});
     const Cut visible = refine(view, camera, {3.0, true, -1});
-    const MeshCheck check = checkClosedManifold(view, whole, camera.position(), store);
-    totalTriangles += check.triangles;
-    EXPECT_EQ(check.badEdges, 0u);
-    EXPECT_EQ(check.degenerate, 0u);
-    EXPECT_EQ(check.euler(), 2) << check.vertices << " V, " << check.edges << " E, "
-                                << check.triangles << " F";
+    Cut whole;
+    for (std::size_t r = 0; r < kMorphRanges.size(); ++r) {
+      SCOPED_TRACE("morph range " + std::to_string(kMorphRanges[r]));
+      whole = refine(view, camera, {3.0, false, -1, kMorphRanges[r]});
+      const MeshCheck check = checkClosedManifold(view, whole, camera.position(), store);
+      totalTriangles += check.triangles;
+      morphing[r] += check.morphingSharedVertices;
+      EXPECT_EQ(check.badEdges, 0u);
+      EXPECT_EQ(check.degenerate, 0u);
+      EXPECT_EQ(check.euler(), 2) << check.vertices << " V, " << check.edges << " E, "
+                                  << check.triangles << " F";
+    }
     // Level-capped cuts (what no-stall mode draws while finer data arrives) are conforming too.
     if (c % 10 == 0) {
       const Cut capped = refine(view, camera, {3.0, false, view.depth() - 1 - c % 3});
@@ -83,6 +93,10 @@ void expectWatertightFor(const DatasetView& view, int cameras, std::uint64_t see
     }
   }
   std::printf("%d cameras, %zu triangles checked\n", cameras, totalTriangles);
+  EXPECT_EQ(morphing[0], 0u) << "morph range 0 is no morph";
+  for (std::size_t r = 1; r < kMorphRanges.size(); ++r) {
+    EXPECT_GT(morphing[r], 0u) << "morph range " << kMorphRanges[r];
+  }
 }
 
 void expectWatertight(const std::filesystem::path& dir, const std::filesystem::path& demPath,
@@ -187,7 +201,8 @@ PrecisionFigures measurePrecision(const std::filesystem::path& dir, double lat, 
     const Cut cut = refine(view, camera, {3.0, true, -1});
     for (const CutPatch& p : cut.patches) {
       const NodeRecord record = view.node(p.node);
-      const PatchDrawRecord draw = makePatchDrawRecord(view, {p.node, record, 0}, eye);
+      const PatchDrawRecord draw =
+          makePatchDrawRecord(view, PatchDrawInput{.node = p.node, .record = record}, eye);
       const PatchVertexPlacement placement(view, p.node, record);
       for (const PatchVertex& v : store.mesh(p.node).vertices) {
         // Truth: the vertex's terrain point in double. Each technique adds the decoded offset.
@@ -256,6 +271,80 @@ TEST(Refinement, CutsAreWithinTolerance) {
       EXPECT_TRUE(p.tile == view.tileOf(p.node));
     }
   }
+}
+
+// The geomorph weights (docs/architecture.md "Geomorphing"): each patch's are 1 − f of its
+// parent's and grandparent's screen errors; the windows nest, so a patch whose parent's diamond
+// is part-way has a grandparent's that is fully on (weight 0); a patch blends its parent's tile
+// exactly where the texture quadtree steps and its weight is above 0; refreshMorph of a cut
+// gives what the refinement gave for the same camera; and the texture term shrinks by the
+// dataset's margin per level.
+TEST(Refinement, MorphWeightsFollowTheAncestorsAndTheirWindowsNest) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  PBDAM_REQUIRE_DATA(demPath, test::dataDir() / "mars/megt90n000cb.lbl");
+  auto dataset = openDataset(dir);
+  ASSERT_TRUE(dataset);
+  const DatasetView& view = dataset->view();
+  const double margin = view.manifest().errorMargin;
+  for (int level = 0; level < view.depth(); ++level) {
+    EXPECT_GE(view.textureTermOfLevel(level), (1.0 + margin) * view.textureTermOfLevel(level + 1));
+  }
+  auto dem = readDem(demPath);
+  ASSERT_TRUE(dem.ok());
+  const auto screenOf = [&](const Camera& camera, const NodeKey& key, int level) {
+    const NodeRecord n = view.node(key);
+    return camera.screenError(
+        refinementErrorMeters(view, level, static_cast<double>(n.errorMeters)),
+        {n.sphereCenter[0], n.sphereCenter[1], n.sphereCenter[2]},
+        static_cast<double>(n.sphereRadiusMeters));
+  };
+  std::size_t partWay = 0, blending = 0;
+  for (const ToleranceCamera& c : toleranceCameras(view, *dem)) {
+    RefinementOptions options{c.tolerance, true, -1, 0.25};
+    const Cut cut = refine(view, c.camera, options);
+    for (const CutPatch& p : cut.patches) {
+      NodeKey up = p.node;
+      for (std::size_t k = 0; k < 2; ++k) {
+        if (up.heap == 0) {
+          EXPECT_EQ(p.morph[k], 0.0f);
+          continue;
+        }
+        up.heap = (up.heap - 1) / 2;
+        const double s = screenOf(c.camera, up, p.level - 1 - static_cast<int>(k));
+        EXPECT_EQ(p.morph[k], morphWeight(s, c.tolerance, 0.25));
+        EXPECT_GT(s, c.tolerance);  // an ancestor of a drawn patch is split
+      }
+      EXPECT_GE(p.morph[0], 0.0f);
+      EXPECT_LT(p.morph[0], 1.0f);
+      if (p.morph[0] > 0.0f) {
+        ++partWay;
+        EXPECT_EQ(p.morph[1], 0.0f) << "the grandparent's window overlaps the parent's";
+      }
+      const bool steps =
+          p.level > 0 &&
+          !(view.tileOf(NodeKey{p.node.face, p.node.tree, (p.node.heap - 1) / 2}) == p.tile);
+      EXPECT_EQ(p.blendsTile(), steps && p.morph[0] > 0.0f);
+      blending += static_cast<std::size_t>(p.blendsTile());
+    }
+    Cut again = cut;
+    for (CutPatch& p : again.patches) p.morph = {0.5f, 0.5f};
+    refreshMorph(view, c.camera, options, again);
+    for (std::size_t i = 0; i < cut.patches.size(); ++i) {
+      EXPECT_EQ(again.patches[i].morph, cut.patches[i].morph);
+      EXPECT_TRUE(again.patches[i].morphTile == cut.patches[i].morphTile);
+    }
+    EXPECT_EQ(again.tiles.size(), cut.tiles.size());
+    options.morphRange = 0.0;
+    for (const CutPatch& p : refine(view, c.camera, options).patches) {
+      EXPECT_EQ(p.morph[0], 0.0f);
+      EXPECT_FALSE(p.blendsTile());
+    }
+  }
+  EXPECT_GT(partWay, 0u);
+  EXPECT_GT(blending, 0u);
+  EXPECT_FALSE(checkMorphRange(view, margin + 0.01));
+  EXPECT_FALSE(checkMorphRange(view, -0.1));
+  EXPECT_TRUE(checkMorphRange(view, margin));
 }
 
 // Runs tests/runtime/CutWriter.cpp in a child process with `env` (shell assignments) before it

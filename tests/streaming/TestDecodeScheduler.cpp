@@ -82,17 +82,19 @@ TEST(DecodeScheduler, DecodesPatchesAndTilesIntoTheCallersMemory) {
       const NodeRecord n = view.node(job.node);
       PatchMesh mesh;
       std::vector<std::byte> blob;
-      const auto bytes = view.face(job.node.face).readPatchBlob(n, blob);
+      const auto bytes = view.face(job.node.face).readPatchBlobs(n, blob);
       ASSERT_TRUE(bytes.ok());
-      ASSERT_TRUE(decodePatch(*bytes, mesh, "test").ok());
-      ASSERT_EQ(job.vertexBytes, 20u * mesh.vertices.size());
+      ASSERT_TRUE(decodePatch(bytes->patch, mesh, "test").ok());
+      std::vector<std::int32_t> targets;
+      ASSERT_TRUE(decodeMorphTargets(bytes->morph, mesh, targets, "test").ok());
+      ASSERT_EQ(job.vertexBytes, sizeof(PatchGpuVertex) * mesh.vertices.size());
       ASSERT_EQ(job.bytes - job.vertexBytes, 2u * mesh.indices.size());
       const PatchVertexPlacement placement(view, job.node, n);
       const double step = view.manifest().heightStepMeters;
       for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
         const PatchVertex& pv = mesh.vertices[v];
         PatchGpuVertex gpu{};
-        std::memcpy(&gpu, out.data() + job.offset + 20 * v, sizeof gpu);
+        std::memcpy(&gpu, out.data() + job.offset + sizeof gpu * v, sizeof gpu);
         EXPECT_EQ(gpu.b1, pv.b1);
         EXPECT_EQ(gpu.b2, pv.b2);
         // Displacement and offset take the flat point to the vertex's terrain point: its lattice
@@ -111,6 +113,15 @@ TEST(DecodeScheduler, DecodesPatchesAndTilesIntoTheCallersMemory) {
         EXPECT_LE(glm::length(drawn - terrain), 1e-6 * glm::length(offset) + 1e-9);
         EXPECT_NEAR(glm::length(terrain) - view.planet().equatorialRadiusMeters(),
                     pv.heightSteps * step, 1e-6);  // MOLA: a sphere
+        // The morph target's displacement over the same base: on the height grid too, on the
+        // same side of the vertex's own as the target's height, the same where they agree.
+        EXPECT_EQ(std::fmod(static_cast<double>(gpu.targetHeightMeters), step), 0.0);
+        const double moved =
+            static_cast<double>(gpu.targetHeightMeters) - static_cast<double>(gpu.heightMeters);
+        EXPECT_GE(moved * static_cast<double>(targets[v] - pv.heightSteps), 0.0);
+        if (targets[v] == pv.heightSteps) {
+          EXPECT_EQ(gpu.targetHeightMeters, gpu.heightMeters);
+        }
       }
       EXPECT_EQ(std::memcmp(out.data() + job.offset + job.vertexBytes, mesh.indices.data(),
                             job.bytes - job.vertexBytes),

@@ -23,7 +23,8 @@ bool cutResident(const MappedDataset& dataset, const Cut& cut) {
   const DatasetView& view = dataset.view();
   for (const CutPatch& p : cut.patches) {
     const NodeRecord n = view.node(p.node);
-    if (!NoStallPolicy::rangeResident(dataset.faceFile(p.node.face), n.blobOffset, n.blobBytes)) {
+    if (!NoStallPolicy::rangeResident(dataset.faceFile(p.node.face), n.blobOffset,
+                                      std::uint64_t{n.blobBytes} + n.morphBytes)) {
       return false;
     }
   }
@@ -68,7 +69,10 @@ TEST(NoStallPolicy, DrawsTheFinestFullyResidentCapAndNothingCappedOnceResident) 
   // Read the full cut's bytes in: then nothing is capped and the cut is the full one.
   for (const CutPatch& p : full.patches) {
     const NodeRecord n = view.node(p.node);
-    ASSERT_TRUE((*dataset)->faceFile(p.node.face).willNeed(n.blobOffset, n.blobBytes).ok());
+    ASSERT_TRUE((*dataset)
+                    ->faceFile(p.node.face)
+                    .willNeed(n.blobOffset, std::uint64_t{n.blobBytes} + n.morphBytes)
+                    .ok());
   }
   for (const TileKey& t : full.tiles) {
     const TextureRecord r = view.textureNode(t);
@@ -83,7 +87,8 @@ TEST(NoStallPolicy, DrawsTheFinestFullyResidentCapAndNothingCappedOnceResident) 
   };
   for (const CutPatch& p : full.patches) {
     const NodeRecord n = view.node(p.node);
-    bytes((*dataset)->faceFile(p.node.face), n.blobOffset, n.blobBytes);
+    bytes((*dataset)->faceFile(p.node.face), n.blobOffset,
+          std::uint64_t{n.blobBytes} + n.morphBytes);
   }
   for (const TileKey& t : full.tiles) {
     const TextureRecord r = view.textureNode(t);

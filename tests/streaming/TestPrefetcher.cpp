@@ -74,7 +74,9 @@ TEST(Prefetcher, AdvisesThePredictedCutAndItBecomesResident) {
     resident = total = 0;
     for (const CutPatch& p : cut.patches) {
       const NodeRecord n = view.node(p.node);
-      const auto r = (*dataset)->faceFile(p.node.face).residentPages(n.blobOffset, n.blobBytes);
+      const auto r = (*dataset)
+                         ->faceFile(p.node.face)
+                         .residentPages(n.blobOffset, std::uint64_t{n.blobBytes} + n.morphBytes);
       ASSERT_TRUE(r.ok());
       resident += r->first;
       total += r->second;
@@ -119,7 +121,8 @@ TEST(Prefetcher, AsksForExactlyTheRangesOfThePredictedCut) {
   std::map<std::uint64_t, std::pair<std::uint64_t, std::uint64_t>> expected;
   for (const CutPatch& p : cut.patches) {
     const NodeRecord n = view.node(p.node);
-    if (n.blobBytes > 0) expected[packKey(p.node)] = {n.blobOffset, n.blobBytes};
+    // The patch blob and its morph targets after it: one range.
+    if (n.blobBytes > 0) expected[packKey(p.node)] = {n.blobOffset, n.blobBytes + n.morphBytes};
   }
   for (const TileKey& t : cut.tiles) {
     const TextureRecord r = view.textureNode(t);

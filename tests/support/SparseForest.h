@@ -105,7 +105,14 @@ inline std::vector<std::byte> prunedFace(const formats::FaceView& view, int face
     record.blobOffset = h.blobsOffset + blobs.size();
     if (bytes.ok()) blobs.insert(blobs.end(), bytes->begin(), bytes->end());
   };
-  for (NodeRecord& n : nodes) copyBlob(n, &FaceView::readPatchBlob);
+  for (NodeRecord& n : nodes) {  // the patch blob and its morph targets, adjacent
+    const auto both = view.readPatchBlobs(n, buffer);
+    EXPECT_TRUE(both.ok());
+    n.blobOffset = h.blobsOffset + blobs.size();
+    if (!both.ok()) continue;
+    blobs.insert(blobs.end(), both->patch.begin(), both->patch.end());
+    blobs.insert(blobs.end(), both->morph.begin(), both->morph.end());
+  }
   for (TextureRecord& t : tiles) copyBlob(t, &FaceView::readTextureBlob);
   h.fileBytes = h.blobsOffset + blobs.size();
   std::vector<std::byte> out(h.fileBytes);

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <memory>
 #include <optional>
 #include <set>
@@ -23,6 +24,7 @@
 #include "pbdam/builder/CompositeSurface.h"
 #include "pbdam/builder/ForestShape.h"
 #include "pbdam/builder/Lattice.h"
+#include "pbdam/builder/MorphTargets.h"
 #include "pbdam/builder/PatchBuilder.h"
 #include "pbdam/builder/SampleGrid.h"
 #include "pbdam/builder/Verify.h"
@@ -138,6 +140,7 @@ TEST(Builder, MolaBuildPassesVerifyAgainstTheDem) {
   const VerifyReport r = verify(dir / "mola", dem);
   EXPECT_TRUE(r.ok()) << describe(r);
   EXPECT_EQ(r.patchesDecoded, 12u * 127u);
+  EXPECT_EQ(r.morphTargetsChecked, 12u * 127u);
   EXPECT_GT(r.edgesCompared, 1000u);
   EXPECT_GT(r.demSamplesChecked, 1000000u);  // every level covers all 1,036,800 samples
   EXPECT_LE(r.worstErrorRatio, 1.0);
@@ -147,6 +150,78 @@ TEST(Builder, MolaBuildPassesVerifyAgainstTheDem) {
   EXPECT_EQ(manifest->planetSpec, "mars");
   EXPECT_NEAR(manifest->maxHeightMeters, 21000.0, 500.0);  // Olympus Mons, resampled
   EXPECT_NEAR(manifest->minHeightMeters, -8000.0, 500.0);  // Hellas
+}
+
+// Morph targets (dataset format 4, MorphTargets.h): every patch that has a vertex governed by
+// the same diamond gives it the same target, across diamond partners, levels and cube faces —
+// what keeps a morphing cut watertight — and a vertex the governing patch passes through keeps
+// its own height. Roots have none.
+TEST(Builder, MorphTargetsAgreeWherePatchesShareAVertexAndItsGoverningDiamond) {
+  PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
+  test::TempDir dir;
+  auto summary = buildDataset(smallMola(dem, dir / "mola"));
+  ASSERT_TRUE(summary) << summary.error().message;
+  EXPECT_GT(summary->morphTargetBytes, 0u);
+  auto manifest = readManifest(dir / "mola");
+  ASSERT_TRUE(manifest) << manifest.error().message;
+  const int depth = static_cast<int>(manifest->depth);
+  const Lattice lattice(manifest->latticeCells);
+  const std::uint64_t perTree = Lattice::nodesPerTree(depth);
+  // (vertex key, governing diamond's diagonal) -> (target, patches that gave it)
+  std::map<std::pair<runtime::PointKey, EdgeKey>, std::pair<std::int32_t, int>> seen;
+  std::size_t moved = 0;
+  for (std::size_t f = 0; f < 6; ++f) {
+    const std::string bytes = readFile(dir / "mola" / manifest->faces[f].file);
+    auto view = FaceView::open(std::as_bytes(std::span<const char>(bytes.data(), bytes.size())),
+                               manifest->faces[f].file);
+    ASSERT_TRUE(view) << view.error().message;
+    std::vector<std::byte> buffer;
+    PatchMesh mesh;
+    std::vector<std::int32_t> targets;
+    for (std::uint64_t row = 0; row < view->header().nodeCount; ++row) {
+      const NodeRecord record = view->nodeAt(row);
+      const std::uint64_t tree = row >= view->treeFirstNode(1) ? 1 : 0;
+      const std::uint64_t id = (f * 2 + tree) * perTree + record.heapIndex;
+      const runtime::BinTriangle t = triangleOfNode(lattice, id, depth);
+      auto blobs = view->readPatchBlobs(record, buffer);
+      ASSERT_TRUE(blobs) << blobs.error().message;
+      ASSERT_TRUE(decodePatch(blobs->patch, mesh, "patch"));
+      ASSERT_TRUE(decodeMorphTargets(blobs->morph, mesh, targets, "targets"));
+      if (t.level == 0) {
+        EXPECT_EQ(record.morphBytes, 0u);
+        continue;
+      }
+      EXPECT_GT(record.morphBytes, 0u);
+      const auto points = patchLatticePoints(t, mesh);
+      ASSERT_TRUE(points);
+      const NodeAncestors up = nodeAncestors(id, perTree);
+      for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
+        const bool hypotenuse =
+            std::uint32_t{mesh.vertices[v].b1} + mesh.vertices[v].b2 == kPatchBarycentricOne;
+        const std::optional<std::uint64_t> governing = hypotenuse ? up.grandparent : up.parent;
+        const std::int32_t own = mesh.vertices[v].heightSteps;
+        if (!governing) {
+          EXPECT_EQ(targets[v], own);
+          continue;
+        }
+        const runtime::BinTriangle g = triangleOfNode(lattice, *governing, depth);
+        const runtime::LatticeXY q = (*points)[v];
+        if (q == g.apex || q == g.left || q == g.right) {
+          EXPECT_EQ(targets[v], own);
+        }
+        moved += static_cast<std::size_t>(targets[v] != own);
+        const auto key = std::make_pair(lattice.key(static_cast<int>(f), q),
+                                        lattice.edgeKey(static_cast<int>(f), g.left, g.right));
+        const auto [it, inserted] = seen.try_emplace(key, targets[v], 0);
+        EXPECT_EQ(it->second.first, targets[v]) << "face " << f << " node " << id;
+        ++it->second.second;
+      }
+    }
+  }
+  std::size_t shared = 0;
+  for (const auto& [key, value] : seen) shared += static_cast<std::size_t>(value.second >= 2);
+  EXPECT_GT(shared, 10000u);
+  EXPECT_GT(moved, 10000u);
 }
 
 // Verify walks forests of any shape (dataset format 3): the small MOLA build pruned to full depth
@@ -363,9 +438,8 @@ TEST(Builder, ADirectoryWithoutManifestIsNotADataset) {
   EXPECT_FALSE(readManifest(dir / "d"));
 }
 
-// Version 2 changed what a vertex's stored height means (its own lattice height, drawn at its
-// terrain point; formats/FORMAT.md): a version-1 dataset is refused, naming the file, its version
-// and what to do, for the manifest and for each face file.
+// Version 4 added the morph targets (formats/FORMAT.md): a version-3 dataset is refused, naming
+// the file, its version and what to do, for the manifest and for each face file.
 TEST(Builder, AnOlderFormatVersionIsRefusedNamingTheFileAndTheRebuild) {
   PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
   test::TempDir dir;
@@ -373,16 +447,16 @@ TEST(Builder, AnOlderFormatVersionIsRefusedNamingTheFileAndTheRebuild) {
   o.depth = 2;
   const auto built = buildDataset(o);
   ASSERT_TRUE(built) << built.error().message;
-  ASSERT_EQ(kDatasetFormatVersion, 3u);
+  ASSERT_EQ(kDatasetFormatVersion, 4u);
 
-  // A face file whose header says version 2 (its header checksum made valid again): the version
-  // is read before anything whose layout version 3 changed.
+  // A face file whose header says version 3 (its header checksum made valid again): the version
+  // is read before the node records, whose last field version 4 added.
   const fs::path facePath = dir / "d" / "face4.pbdam";
   std::string face = readFile(facePath);
   const auto headerBytes = std::as_bytes(std::span(face.data(), kFaceHeaderBytes));
   auto header = decodeFaceHeader(headerBytes, face.size(), facePath.string());
   ASSERT_TRUE(header) << header.error().message;
-  header->version = 2;
+  header->version = 3;
   std::array<std::byte, kFaceHeaderBytes> patched{};
   encodeFaceHeader(*header, patched);
   std::memcpy(face.data(), patched.data(), patched.size());
@@ -391,19 +465,19 @@ TEST(Builder, AnOlderFormatVersionIsRefusedNamingTheFileAndTheRebuild) {
   ASSERT_FALSE(old);
   EXPECT_EQ(old.error().code, ErrorCode::CorruptData);
   for (const std::string& part :
-       {facePath.string(), std::string("format version 2"), std::string("reads version 3"),
+       {facePath.string(), std::string("format version 3"), std::string("reads version 4"),
         std::string("rebuild the dataset")}) {
     EXPECT_NE(old.error().message.find(part), std::string::npos) << old.error().message;
   }
 
-  // A manifest that says version 2 (its own checksum recomputed).
+  // A manifest that says version 3 (its own checksum recomputed).
   auto manifest = readManifest(dir / "d");
   ASSERT_TRUE(manifest) << manifest.error().message;
-  manifest->version = 2;
+  manifest->version = 3;
   writeFile(dir / "d" / "manifest.json", manifestToJson(*manifest));
   const auto refused = readManifest(dir / "d");
   ASSERT_FALSE(refused);
-  for (const std::string& part : {std::string("manifest.json"), std::string("format version 2"),
+  for (const std::string& part : {std::string("manifest.json"), std::string("format version 3"),
                                   std::string("rebuild the dataset")}) {
     EXPECT_NE(refused.error().message.find(part), std::string::npos) << refused.error().message;
   }

@@ -438,12 +438,16 @@ TEST(Cli, BenchCutReuseKeepsTheCutsAndPoppingIsMeasured) {
     std::istringstream csv(readText(out / "frames.csv"));
     std::string line;
     std::getline(csv, line);
-    EXPECT_NE(line.find(",decisions,popping_rms,popping_max"), std::string::npos) << line;
+    EXPECT_NE(line.find(",decisions,popping_rms,popping_max,morph,morphing_patches"),
+              std::string::npos)
+        << line;
+    EXPECT_EQ(run["morph"], "on");  // the default
     for (int frame = 0; std::getline(csv, line); ++frame) {
       std::vector<std::string> cells;
       std::istringstream row(line);
       for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
-      ASSERT_EQ(cells.size(), 24u) << line;
+      ASSERT_EQ(cells.size(), 26u) << line;
+      EXPECT_EQ(cells[24], "on");
       triangles[reuse].push_back(cells[9]);
       // The first frame has no previous cut to compare with.
       EXPECT_EQ(std::stod(cells[22]) < 0.0, frame == 0) << line;
@@ -488,12 +492,12 @@ TEST(Cli, BenchProgressInAPipeIsAtMostALineASecond) {
       continue;
     }
     // Only progress lines count: sanitizer runtimes add their own summary on stderr.
-    if (line.rfind("prefetch off: frame ", 0) == 0) lines.push_back(line);
+    if (line.rfind("morph on, prefetch off: frame ", 0) == 0) lines.push_back(line);
     line.clear();
   }
-  if (line.rfind("prefetch off: frame ", 0) == 0) lines.push_back(line);
+  if (line.rfind("morph on, prefetch off: frame ", 0) == 0) lines.push_back(line);
   ASSERT_FALSE(lines.empty()) << "no progress at all:\n" << err;
-  EXPECT_EQ(lines.back().rfind("prefetch off: frame 101/101 ", 0), 0u) << lines.back();
+  EXPECT_EQ(lines.back().rfind("morph on, prefetch off: frame 101/101 ", 0), 0u) << lines.back();
   // One line at the start, one per full second after it, and the final line.
   EXPECT_LE(static_cast<double>(lines.size()), std::floor(seconds) + 2.0)
       << lines.size() << " lines in " << seconds << " s:\n"

@@ -93,9 +93,10 @@ TEST(RenderCli, OneCameraToPngWithStats) {
   const auto statLines = lines(readFile(stats));
   ASSERT_EQ(statLines.size(), 1u);
   const auto j = nlohmann::json::parse(statLines[0]);
-  for (const char* key : {"frame", "patches", "triangles", "tiles", "traversal_ms", "decode_ms",
-                          "upload_ms", "draw_ms", "resident_bytes", "hits", "misses", "evictions",
-                          "bytes_uploaded", "budget_exceeded"}) {
+  for (const char* key :
+       {"frame", "patches", "triangles", "tiles", "traversal_ms", "decode_ms", "upload_ms",
+        "draw_ms", "resident_bytes", "hits", "misses", "evictions", "bytes_uploaded",
+        "budget_exceeded", "morphing_patches", "blending_patches", "largest_morph_weight"}) {
     EXPECT_TRUE(j.contains(key)) << key << " in " << statLines[0];
   }
   EXPECT_EQ(j["frame"], 0);
@@ -104,6 +105,21 @@ TEST(RenderCli, OneCameraToPngWithStats) {
   EXPECT_GT(j["misses"].get<int>(), 0);
   EXPECT_FALSE(j["budget_exceeded"].get<bool>());
   EXPECT_FALSE(std::filesystem::exists(tmp / "mars.partial.png"));
+  // Morph off draws the same cut with every vertex at its own height: another image where
+  // patches morph, the same triangles.
+  const auto flat = tmp / "flat.png";
+  const auto flatStats = tmp / "flat.jsonl";
+  ASSERT_EQ(runPbdam("render " + quoted(dir) + " --camera 18.65,226.2,3e6 --out " + quoted(flat) +
+                     " --stats " + quoted(flatStats) + " --morph off" + kSmall)
+                .exitCode,
+            0);
+  const auto off = nlohmann::json::parse(lines(readFile(flatStats))[0]);
+  EXPECT_EQ(off["triangles"], j["triangles"]);
+  EXPECT_EQ(off["morphing_patches"], 0);
+  EXPECT_EQ(off["largest_morph_weight"], 0.0);
+  if (j["morphing_patches"].get<int>() > 0) {
+    EXPECT_NE(readFile(flat), bytes);
+  }
 }
 
 TEST(RenderCli, OneCameraToExr) {
@@ -247,6 +263,9 @@ TEST(RenderCli, BadInputIsOneLineAndExitCode2) {
       {"render " + ds + " --path " + quoted(tmp / "bad.csv") + out, "bad.csv:3:"},
       {"render " + ds + " --path " + quoted(tmp / "far.csv") + out, "row 2"},
       {"render " + ds + " --camera 0,0,1e6", "--out"},
+      {"render " + ds + " --camera 0,0,1e6 --morph maybe" + out, "--morph 'maybe'"},
+      {"render " + ds + " --camera 0,0,1e6 --morph-range 0" + out, "--morph-range"},
+      {"render " + ds + " --camera 0,0,1e6 --morph-range 0.5" + out, "error margin"},
   };
   for (const auto& [args, expected] : cases) {
     const CliRun run = runPbdam(args);

@@ -309,6 +309,7 @@ TEST(Serve, MalformedRequestsGet4xxWithJsonError) {
       "/frame?" + ok + "&tolerance=-1",                         //
       "/frame?" + ok + "&pitch=100",                            // pitch bounds
       "/frame?" + ok + "&format=gif",                           // unknown format
+      "/frame?" + ok + "&morph=yes",                            // morph is on or off
       "/frame?" + ok + "&quality=80",                           // quality without jpeg
       "/frame?" + ok + "&format=jpeg&quality=0",                // quality bounds
       "/frame?" + ok + "&colour=red",                           // unknown parameter

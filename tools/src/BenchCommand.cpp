@@ -27,6 +27,7 @@
 
 #include "BenchReport.h"
 #include "Commands.h"
+#include "MorphOption.h"
 #include "Progress.h"
 #include "pbdam/formats/CameraPath.h"
 #include "pbdam/gpu/TerrainRenderer.h"
@@ -58,6 +59,7 @@ struct BenchCliOptions {
   double gpuCacheMiB = 64.0;
   int device = -1;
   bool quiet = false;
+  MorphCliOptions morph;
 };
 
 /// RMS and largest difference over every R, G and B value of two images of one size (0–255).
@@ -77,16 +79,31 @@ std::pair<double, double> imageDifference(const gpu::RgbaImage& a, const gpu::Rg
           static_cast<double>(largest)};
 }
 
-/// With a previous cut: draws it with `camera` and records its difference from `image` (this
-/// frame's) as the frame's popping.
-Result<void> measurePopping(gpu::TerrainRenderer& renderer, const std::optional<Cut>& previous,
+/// With a previous cut (the previous frame's level of detail over the whole planet): draws it
+/// with `camera` (its morph factors recomputed for this pose: the factor is a function of the
+/// pose) and records its difference from `image` (this frame's) as the frame's popping; then
+/// keeps this frame's level of detail in `previous` for the next frame.
+Result<void> measurePopping(gpu::TerrainRenderer& renderer, const DatasetView& view,
+                            const RefinementOptions& options, std::optional<Cut>& previous,
                             const Camera& camera, const gpu::RgbaImage& image, BenchFrame& f) {
-  if (!previous) return {};
+  // For the next frame: this frame's level of detail, not culled. Culled against this frustum
+  // it would lack what the next frame turns or moves into view, and the difference would count
+  // those holes instead of the change of level of detail.
+  RefinementOptions unculled = options;
+  unculled.frustumCulling = false;
+  if (f.drawnLevelCap >= 0) unculled.maxLevel = f.drawnLevelCap;
+  Cut next = refine(view, camera, unculled);
+  if (!previous) {
+    previous = std::move(next);
+    return {};
+  }
+  refreshMorph(view, camera, options, *previous);
   auto before = renderer.render(*previous, camera);
   if (!before) return before.error();
   const auto [rms, max] = imageDifference(image, before->image);
   f.poppingRms = rms;
   f.poppingMax = max;
+  previous = std::move(next);
   return {};
 }
 
@@ -150,24 +167,31 @@ std::uint64_t residentDatasetPages(const MappedDataset& dataset) {
   return pages;
 }
 
+/// Evicts the dataset from the page cache before a cold run and records what stayed.
+Result<void> evictForColdRun(const std::string& dir, BenchRun& run) {
+  auto evicted = evictDataset(dir);
+  if (!evicted) return evicted.error();
+  run.residentAfterEvictPages = evicted->residentPages;
+  run.datasetPages = evicted->totalPages;
+  run.residentAfterEvictFraction = evicted->residentFraction();
+  if (evicted->residentFraction() > 0.01) {
+    std::fprintf(stderr, "pbdam: warning: %.2f%% of the dataset stayed in the page cache\n",
+                 100.0 * evicted->residentFraction());
+  }
+  return {};
+}
+
 Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
-                         const std::vector<CameraPathPoint>& path, bool prefetch) {
+                         const std::vector<CameraPathPoint>& path, bool prefetch, bool morph) {
   BenchRun run;
   run.prefetch = prefetch ? "on" : "off";
+  run.morph = morph ? "on" : "off";
   run.mode = o.mode;
   run.cutReuse = o.cutReuse == "on" && o.mode == "paging";
   run.popping = o.popping;
   run.cold = o.cold;
   if (o.cold) {
-    auto evicted = evictDataset(o.dir);
-    if (!evicted) return evicted.error();
-    run.residentAfterEvictPages = evicted->residentPages;
-    run.datasetPages = evicted->totalPages;
-    run.residentAfterEvictFraction = evicted->residentFraction();
-    if (evicted->residentFraction() > 0.01) {
-      std::fprintf(stderr, "pbdam: warning: %.2f%% of the dataset stayed in the page cache\n",
-                   100.0 * evicted->residentFraction());
-    }
+    if (auto r = evictForColdRun(o.dir, run); !r) return r.error();
   }
   auto dataset = MappedDataset::open(o.dir);
   if (!dataset) return dataset.error();
@@ -188,6 +212,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   }
   RefinementOptions refinement;
   refinement.tolerancePixels = o.tolerance;
+  refinement.morphRange = morphRangeOf(o.morph, morph);
   // Paging mode keeps the refinement tree from frame to frame (the same cuts, fewer decisions);
   // no-stall mode's level cap changes from frame to frame and refines from the roots.
   IncrementalRefiner incremental(view);
@@ -229,6 +254,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     }
     f.traversalMs = msSince(t0);
     f.decisions = cut.nodesVisited;
+    f.morphingPatches = summarizeMorph(cut).morphingPatches;
     auto frame = renderer->render(cut, camera);
     if (!frame) return frame.error();
     f.rssFileBytes = rssFileBytes();
@@ -243,11 +269,11 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     f.renderThreadMajorFaults = threadMajorFaults() - faults0;
     if (o.popping) {
       // After the frame's own figures: the previous cut drawn with this camera, compared.
-      if (auto measured = measurePopping(*renderer, previousCut, camera, frame->image, f);
+      if (auto measured =
+              measurePopping(*renderer, view, refinement, previousCut, camera, frame->image, f);
           !measured) {
         return measured.error();
       }
-      previousCut = cut;
     }
     copyRenderStats(frame->stats, f);
     const std::uint64_t residentAfter = residentDatasetPages(**dataset);
@@ -257,8 +283,9 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     f.gpuPoolBytes = frame->stats.poolBytes;
     run.frames.push_back(f);
     char line[160];
-    std::snprintf(line, sizeof line, "prefetch %s: frame %zu/%zu  %.1f ms  %llu triangles",
-                  run.prefetch.c_str(), i + 1, path.size(), f.frameMs,
+    std::snprintf(line, sizeof line,
+                  "morph %s, prefetch %s: frame %zu/%zu  %.1f ms  %llu triangles",
+                  run.morph.c_str(), run.prefetch.c_str(), i + 1, path.size(), f.frameMs,
                   static_cast<unsigned long long>(f.triangles));
     progress.status(line, i + 1 == path.size());
   }
@@ -298,6 +325,8 @@ int runBench(const BenchCliOptions& o) {
   if (!path) return reportError(path.error());
   auto probe = MappedDataset::open(o.dir);
   if (!probe) return reportError(probe.error());
+  if (auto r = checkMorphOptions(o.morph, (*probe)->view(), true); !r)
+    return reportError(r.error());
   for (const CameraPathPoint& p : *path) {
     if (auto v = validateCameraPose({p.latDegrees, p.lonDegrees, p.altitudeMeters, p.headingDegrees,
                                      p.pitchDegrees, p.rollDegrees},
@@ -314,6 +343,7 @@ int runBench(const BenchCliOptions& o) {
   setup.width = o.width;
   setup.height = o.height;
   setup.tolerancePixels = o.tolerance;
+  setup.morphRange = o.morph.range;
   setup.lookaheadSeconds = o.lookahead;
   setup.gpuCacheBytes = static_cast<std::uint64_t>(o.gpuCacheMiB * 1048576.0);
   setup.datasetBytes = (*probe)->bytes();
@@ -326,11 +356,14 @@ int runBench(const BenchCliOptions& o) {
   if (!context) return reportError(context.error());
   tbb::global_control serial(tbb::global_control::max_allowed_parallelism, 1);
   std::vector<BenchRun> runs;
-  for (const bool prefetch : {false, true}) {
-    if ((prefetch && o.prefetch == "off") || (!prefetch && o.prefetch == "on")) continue;
-    auto run = runOnce(*context, o, *path, prefetch);
-    if (!run) return reportError(run.error());
-    runs.push_back(std::move(run).value());
+  for (const bool morph : {false, true}) {
+    if ((morph && o.morph.morph == "off") || (!morph && o.morph.morph == "on")) continue;
+    for (const bool prefetch : {false, true}) {
+      if ((prefetch && o.prefetch == "off") || (!prefetch && o.prefetch == "on")) continue;
+      auto run = runOnce(*context, o, *path, prefetch, morph);
+      if (!run) return reportError(run.error());
+      runs.push_back(std::move(run).value());
+    }
   }
   auto text = writeBenchReport(o.out, setup, runs);
   if (!text) return reportError(text.error());
@@ -377,6 +410,7 @@ void addBenchCommand(CLI::App& app, CommandStatus& status) {
                   "spelling, also MiB)")
       ->capture_default_str();
   cmd->add_option("--device", o->device, "Vulkan device index (default: lavapipe)");
+  addMorphOptions(*cmd, o->morph, true);
   cmd->add_flag("--quiet", o->quiet, "No per-frame progress");
   cmd->callback([o, &status] { status.exitCode = runBench(*o); });
 }

@@ -65,6 +65,7 @@ nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   const double rssMb = static_cast<double>(peakRss) / 1048576.0;
   nlohmann::ordered_json j;
   j["prefetch"] = run.prefetch;
+  j["morph"] = run.morph;
   j["mode"] = run.mode;
   j["cut_reuse"] = run.cutReuse;
   j["cold"] = run.cold;
@@ -86,6 +87,9 @@ nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   j["triangles_per_frame_mean"] = triangles / frames;
   j["draws_per_frame_mean"] = draws / frames;
   j["decisions_per_frame_mean"] = decisions / frames;
+  double morphing = 0.0;
+  for (const BenchFrame& f : run.frames) morphing += static_cast<double>(f.morphingPatches);
+  j["morphing_patches_per_frame_mean"] = morphing / frames;
   j["max_patches_per_frame"] = maxPatches;
   j["max_tiles_per_frame"] = maxTiles;
   j["traversal_fraction"] = total > 0.0 ? traversal / total : 0.0;
@@ -162,7 +166,8 @@ void plotReport(const std::filesystem::path& png, const BenchSetup& setup,
   std::string legend;
   static const char* names[] = {"red", "blue", "green", "grey"};
   for (std::size_t k = 0; k < runs.size(); ++k) {
-    legend += std::string(k ? ", " : "") + names[k % 4] + ": prefetch " + runs[k].prefetch;
+    legend += std::string(k ? "; " : "") + names[k % 4] + ": morph " + runs[k].morph +
+              ", prefetch " + runs[k].prefetch;
   }
   const std::string title = "frame rate (" + legend + ", " + std::to_string(setup.width) + "x" +
                             std::to_string(setup.height) + ")";
@@ -195,7 +200,7 @@ Result<std::string> writeBenchReport(const std::filesystem::path& dir, const Ben
     csv << "prefetch,mode,frame,t,frame_ms,traversal_ms,decode_ms,upload_ms,draw_ms,triangles,"
            "patches,tiles,level_cap,render_thread_major_faults,bytes_paged_in,gpu_hits,"
            "gpu_misses,gpu_evictions,rss_bytes,gpu_pool_bytes,rss_file_bytes,decisions,popping_rms,"
-           "popping_max\n";
+           "popping_max,morph,morphing_patches\n";
     for (const BenchRun& r : runs) {
       for (const BenchFrame& f : r.frames) {
         csv << r.prefetch << ',' << r.mode << ',' << f.frame << ',' << f.pathSeconds << ','
@@ -204,7 +209,7 @@ Result<std::string> writeBenchReport(const std::filesystem::path& dir, const Ben
             << f.drawnLevelCap << ',' << f.renderThreadMajorFaults << ',' << f.bytesPagedIn << ','
             << f.gpuHits << ',' << f.gpuMisses << ',' << f.gpuEvictions << ',' << f.rssBytes << ','
             << f.gpuPoolBytes << ',' << f.rssFileBytes << ',' << f.decisions << ',' << f.poppingRms
-            << ',' << f.poppingMax << '\n';
+            << ',' << f.poppingMax << ',' << r.morph << ',' << f.morphingPatches << '\n';
       }
     }
     if (!csv)
@@ -216,6 +221,7 @@ Result<std::string> writeBenchReport(const std::filesystem::path& dir, const Ben
   summary["width"] = setup.width;
   summary["height"] = setup.height;
   summary["tolerance_px"] = setup.tolerancePixels;
+  summary["morph_range"] = setup.morphRange;
   summary["lookahead_s"] = setup.lookaheadSeconds;
   summary["gpu_cache_mib"] = static_cast<double>(setup.gpuCacheBytes) / 1048576.0;
   summary["dataset_mib"] = static_cast<double>(setup.datasetBytes) / 1048576.0;
@@ -263,6 +269,10 @@ Result<std::string> writeBenchReport(const std::filesystem::path& dir, const Ben
                   r["peak_dataset_rss_mib"].get<double>(),
                   100.0 * r["dataset_rss_ratio"].get<double>(),
                   r["peak_gpu_pool_mib"].get<double>());
+    text << line;
+    std::snprintf(line, sizeof line, "  morph %s: %.1f patches morphing per frame\n",
+                  r["morph"].get<std::string>().c_str(),
+                  r["morphing_patches_per_frame_mean"].get<double>());
     text << line;
     if (r.contains("popping_rms_p99")) {
       std::snprintf(line, sizeof line,

@@ -40,11 +40,14 @@ struct BenchFrame final {
   /// cut alone causes. −1 when not measured (no --popping, or the first frame).
   double poppingRms = -1.0;
   double poppingMax = -1.0;
+  /// Patches whose parent's or grandparent's morph weight is strictly between 0 and 1.
+  std::uint64_t morphingPatches = 0;
 };
 
 /// One replay of the path with one prefetch setting.
 struct BenchRun final {
   std::string prefetch;   ///< "on" or "off"
+  std::string morph;      ///< "on" or "off": the geomorph (docs/architecture.md "Geomorphing")
   std::string mode;       ///< "paging" or "no-stall"
   bool cutReuse = false;  ///< the refinement tree kept from frame to frame (IncrementalRefiner)
   bool popping = false;   ///< frames drawn twice for the popping measure
@@ -64,6 +67,7 @@ struct BenchSetup final {
   std::string path;
   std::uint32_t width = 0, height = 0;
   double tolerancePixels = 0.0;
+  double morphRange = 0.0;  ///< --morph-range (runs with morph on)
   double lookaheadSeconds = 0.0;
   std::uint64_t gpuCacheBytes = 0;
   std::uint64_t datasetBytes = 0;

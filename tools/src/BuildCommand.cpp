@@ -126,6 +126,48 @@ Result<void> parseDeepRegions(const std::vector<std::string>& texts, builder::Bu
   return {};
 }
 
+/// What a build did, on stdout.
+void printBuildSummary(const std::string& out, const builder::BuildSummary& s) {
+  std::printf("built %s in %.1f s\n", out.c_str(), s.seconds);
+  if (s.ranks > 1) {
+    std::printf("  ranks       %d MPI ranks (rank 0 wrote the dataset)\n", s.ranks);
+  }
+  if (s.resumedAfterLevel) {
+    std::printf("  resumed     after level %d%s of the checkpoint\n", *s.resumedAfterLevel,
+                s.resumedAfterTexture ? " and the textures" : "");
+  }
+  std::printf("  lattice     %u cells per face side, bintree depth %u, %u texture levels\n",
+              s.latticeCells, s.depth, s.textureLevels);
+  std::printf("  input       %llu source samples -> %llu lattice samples (%.2f M samples/s)\n",
+              static_cast<unsigned long long>(s.sourceSamples),
+              static_cast<unsigned long long>(s.latticeSamples),
+              static_cast<double>(s.latticeSamples) / s.seconds / 1e6);
+  std::printf("  patches     %llu (%llu triangles, %llu at full resolution)\n",
+              static_cast<unsigned long long>(s.patches),
+              static_cast<unsigned long long>(s.totalTriangles),
+              static_cast<unsigned long long>(s.leafTriangles));
+  std::printf("  errors      leaves <= %.2f m, roots %.1f m\n", s.leafMaxErrorMeters,
+              s.rootErrorMeters);
+  std::printf(
+      "  geometry    %.1f MB compressed from %.1f MB (ratio %.2f)\n",
+      static_cast<double>(s.patchBytesCompressed) / 1e6, static_cast<double>(s.patchBytesRaw) / 1e6,
+      s.patchBytesRaw > 0
+          ? static_cast<double>(s.patchBytesCompressed) / static_cast<double>(s.patchBytesRaw)
+          : 0.0);
+  std::printf("  morphing    %.1f MB of morph targets\n",
+              static_cast<double>(s.morphTargetBytes) / 1e6);
+  std::printf("  textures    %llu tiles\n", static_cast<unsigned long long>(s.textureTiles));
+  std::printf("  dataset     %.1f MB on disk\n", static_cast<double>(s.datasetBytes) / 1e6);
+  if (s.noDataPoints > 0) {
+    std::printf("  note        %llu lattice points had no DEM data (height 0)\n",
+                static_cast<unsigned long long>(s.noDataPoints));
+  }
+  if (s.halvesOverTarget > 0) {
+    std::printf("  note        %llu patches reached 65535 vertices before their error target\n",
+                static_cast<unsigned long long>(s.halvesOverTarget));
+  }
+}
+
 int runBuild(const BuildCliOptions& c) {
   // Past the file-size limit (ulimit -f) a write fails with EFBIG, which the builder reports
   // (exit code 2, the file and the bytes) like a full disk, instead of the signal killing it.
@@ -207,43 +249,7 @@ int runBuild(const BuildCliOptions& c) {
   if (!root) return summary ? kExitOk : exitCodeOf(summary.error());
   std::signal(SIGTERM, SIG_DFL);
   if (!summary) return reportError(summary.error());
-  const auto& s = *summary;
-  std::printf("built %s in %.1f s\n", c.out.c_str(), s.seconds);
-  if (s.ranks > 1) {
-    std::printf("  ranks       %d MPI ranks (rank 0 wrote the dataset)\n", s.ranks);
-  }
-  if (s.resumedAfterLevel) {
-    std::printf("  resumed     after level %d%s of the checkpoint\n", *s.resumedAfterLevel,
-                s.resumedAfterTexture ? " and the textures" : "");
-  }
-  std::printf("  lattice     %u cells per face side, bintree depth %u, %u texture levels\n",
-              s.latticeCells, s.depth, s.textureLevels);
-  std::printf("  input       %llu source samples -> %llu lattice samples (%.2f M samples/s)\n",
-              static_cast<unsigned long long>(s.sourceSamples),
-              static_cast<unsigned long long>(s.latticeSamples),
-              static_cast<double>(s.latticeSamples) / s.seconds / 1e6);
-  std::printf("  patches     %llu (%llu triangles, %llu at full resolution)\n",
-              static_cast<unsigned long long>(s.patches),
-              static_cast<unsigned long long>(s.totalTriangles),
-              static_cast<unsigned long long>(s.leafTriangles));
-  std::printf("  errors      leaves <= %.2f m, roots %.1f m\n", s.leafMaxErrorMeters,
-              s.rootErrorMeters);
-  std::printf(
-      "  geometry    %.1f MB compressed from %.1f MB (ratio %.2f)\n",
-      static_cast<double>(s.patchBytesCompressed) / 1e6, static_cast<double>(s.patchBytesRaw) / 1e6,
-      s.patchBytesRaw > 0
-          ? static_cast<double>(s.patchBytesCompressed) / static_cast<double>(s.patchBytesRaw)
-          : 0.0);
-  std::printf("  textures    %llu tiles\n", static_cast<unsigned long long>(s.textureTiles));
-  std::printf("  dataset     %.1f MB on disk\n", static_cast<double>(s.datasetBytes) / 1e6);
-  if (s.noDataPoints > 0) {
-    std::printf("  note        %llu lattice points had no DEM data (height 0)\n",
-                static_cast<unsigned long long>(s.noDataPoints));
-  }
-  if (s.halvesOverTarget > 0) {
-    std::printf("  note        %llu patches reached 65535 vertices before their error target\n",
-                static_cast<unsigned long long>(s.halvesOverTarget));
-  }
+  printBuildSummary(c.out, *summary);
   return kExitOk;
 }
 

@@ -216,6 +216,7 @@ int runVerify(const VerifyCliOptions& c) {
     j["violations"] = r.violations;
     j["nodes_checked"] = r.nodesChecked;
     j["patches_decoded"] = r.patchesDecoded;
+    j["morph_targets_checked"] = r.morphTargetsChecked;
     j["tiles_decoded"] = r.tilesDecoded;
     j["edges_compared"] = r.edgesCompared;
     j["dem_samples_checked"] = r.demSamplesChecked;
@@ -223,10 +224,11 @@ int runVerify(const VerifyCliOptions& c) {
     std::cout << j.dump(2) << "\n";
   } else if (r.ok()) {
     std::printf(
-        "ok: %llu patches and %llu texture tiles decode; %llu shared edges agree; errors "
-        "and spheres nest over the diamond DAG",
+        "ok: %llu patches and %llu texture tiles decode; %llu patches' morph targets match "
+        "their ancestors; %llu shared edges agree; errors and spheres nest over the diamond DAG",
         static_cast<unsigned long long>(r.patchesDecoded),
         static_cast<unsigned long long>(r.tilesDecoded),
+        static_cast<unsigned long long>(r.morphTargetsChecked),
         static_cast<unsigned long long>(r.edgesCompared));
     if (r.demSamplesChecked > 0) {
       std::printf("; %llu DEM samples within stored errors (worst at %.0f%% of the bound)",

@@ -22,6 +22,7 @@
 
 #include "Commands.h"
 #include "FrameImage.h"
+#include "MorphOption.h"
 #include "Progress.h"
 #include "pbdam/formats/CameraPath.h"
 #include "pbdam/formats/NumberList.h"
@@ -57,6 +58,7 @@ struct RenderCliOptions {
   std::string stats;
   std::string clear = "0,0,0";
   bool quiet = false;
+  MorphCliOptions morph;
 };
 
 int badInput(const std::string& message) {
@@ -109,10 +111,14 @@ std::string frameName(const fs::path& prefix, std::size_t index, const std::stri
   return prefix.string() + number + ext;
 }
 
-nlohmann::ordered_json statsJson(std::size_t frame, double traversalMs, const gpu::FrameStats& s) {
+nlohmann::ordered_json statsJson(std::size_t frame, double traversalMs, const gpu::FrameStats& s,
+                                 const CutMorphSummary& morph) {
   nlohmann::ordered_json j;
   j["frame"] = frame;
   j["patches"] = s.patches;
+  j["morphing_patches"] = morph.morphingPatches;
+  j["blending_patches"] = morph.blendingPatches;
+  j["largest_morph_weight"] = morph.largestWeight;
   j["triangles"] = s.triangles;
   j["tiles"] = s.tiles;
   j["traversal_ms"] = traversalMs;
@@ -236,6 +242,7 @@ int renderFrames(const RenderCliOptions& c, const DatasetView& view, const Viewp
 
   RefinementOptions refinement;
   refinement.tolerancePixels = c.tolerancePixels;
+  refinement.morphRange = morphRangeOf(c.morph, c.morph.morph == "on");
   // The refinement tree is kept from frame to frame: a path's frames re-evaluate only the
   // decisions the camera's movement may change (IncrementalRefiner: the same cuts as refine()).
   IncrementalRefiner incremental(view);
@@ -254,7 +261,7 @@ int renderFrames(const RenderCliOptions& c, const DatasetView& view, const Viewp
     if (auto r = writeFrameImage(job.out, frame->image); !r) return reportError(r.error());
     const gpu::FrameStats& s = frame->stats;
     if (statsFile.is_open()) {
-      statsFile << statsJson(i, traversalMs, s).dump() << "\n";
+      statsFile << statsJson(i, traversalMs, s, summarizeMorph(cut)).dump() << "\n";
       statsFile.flush();
       if (!statsFile) return reportError(makeError(ErrorCode::IoError, c.stats + ": write failed"));
     }
@@ -309,6 +316,7 @@ int runRender(const RenderCliOptions& c) {
   auto dataset = MappedDataset::open(c.dir);
   if (!dataset) return reportError(dataset.error());
   const DatasetView& view = (*dataset)->view();
+  if (auto r = checkMorphOptions(c.morph, view, false); !r) return reportError(r.error());
   RenderPlan plan;
   if (const int status = planFrames(c, view, plan); status != kExitOk) return status;
 
@@ -367,6 +375,7 @@ void addRenderCommand(CLI::App& app, CommandStatus& status) {
                      "Write one JSON line of statistics per frame to this file");
   render->add_option("--clear", o->clear, "Background colour R,G,B (0..255)")
       ->capture_default_str();
+  addMorphOptions(*render, o->morph, false);
   render->add_flag("--quiet", o->quiet, "No per-frame lines on stdout");
   render->callback([o, &status] { status.exitCode = runRender(*o); });
 }

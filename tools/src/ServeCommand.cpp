@@ -18,6 +18,7 @@
 #include <thread>
 
 #include "Commands.h"
+#include "MorphOption.h"
 #include "ServeServer.h"
 #include "pbdam/formats/GuardedCopy.h"
 
@@ -29,6 +30,7 @@ namespace {
 struct ServeCliOptions {
   std::string dir;
   ServeOptions server;
+  MorphCliOptions morph;
   bool quiet = false;
 };
 
@@ -38,7 +40,9 @@ int badInput(const std::string& message) {
 }
 
 int runServe(const ServeCliOptions& c) {
-  const ServeOptions& o = c.server;
+  ServeOptions o = c.server;
+  o.morph = c.morph.morph == "on";
+  o.morphRange = c.morph.range;
   if (o.port < 0 || o.port > 65535)
     return badInput("--port must be in 0..65535 (0: any free port)");
   if (o.workers < 1 || o.workers > 64) return badInput("--workers must be in 1..64");
@@ -51,6 +55,12 @@ int runServe(const ServeCliOptions& c) {
   }
   if (o.device < -1) return badInput("--device must be a device index (pbdam devices)");
   if (o.bindAddress.empty()) return badInput("--bind must name a local address");
+  if (c.morph.morph != "on" && c.morph.morph != "off") {
+    return badInput("--morph '" + c.morph.morph + "': expected on or off");
+  }
+  if (!std::isfinite(c.morph.range) || c.morph.range <= 0.0) {
+    return badInput("--morph-range must be a positive fraction of the tolerance");
+  }
 
   // Before any thread exists (TBB, lavapipe, httplib, the render contexts), so that every
   // thread inherits the mask and only the signal thread below sees SIGTERM/SIGINT.
@@ -133,7 +143,8 @@ void addServeCommand(CLI::App& app, CommandStatus& status) {
   CLI::App* serve = app.add_subcommand(
       "serve",
       "Serve exact-mode frames over HTTP: GET /frame?lat=&lon=&alt=[&heading=&pitch=&roll="
-      "&width=&height=&fov=&tolerance=&format=png|jpeg] (PNG/JPEG), /height?lat=&lon=, /info, "
+      "&width=&height=&fov=&tolerance=&morph=on|off&format=png|jpeg] (PNG/JPEG), "
+      "/height?lat=&lon=, /info, "
       "/stats, /healthz (JSON), and a web viewer at /. SIGTERM/SIGINT stop it after the "
       "requests in flight; SIGHUP or POST /admin/reload (from loopback only) serves the dataset "
       "rebuilt in DIR without a restart");
@@ -163,6 +174,7 @@ void addServeCommand(CLI::App& app, CommandStatus& status) {
       ->capture_default_str();
   serve->add_option("--device", o->server.device,
                     "Vulkan device index (pbdam devices); default: lavapipe");
+  addMorphOptions(*serve, o->morph, false);
   serve->add_flag("--log", o->server.logRequests, "One line per request on stdout");
   serve->add_flag("--quiet", o->quiet, "No start-up and shutdown lines");
   serve->callback([o, &status] { status.exitCode = runServe(*o); });

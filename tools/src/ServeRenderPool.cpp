@@ -161,6 +161,7 @@ void RenderPool::workerLoop(std::uint32_t index) {
         const Camera camera = Camera::fromPose(view.planet(), r.pose, r.viewport);
         RefinementOptions refinement;
         refinement.tolerancePixels = r.tolerancePixels;
+        refinement.morphRange = r.morphRange;
         const Cut cut = incremental.update(camera, refinement);
         const double traversalMs = millisecondsBetween(start, Clock::now());
         Result<gpu::RenderedFrame> drawn = renderer.render(cut, camera);

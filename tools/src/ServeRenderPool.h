@@ -29,6 +29,7 @@ struct FrameRequest final {
   runtime::CameraPose pose;
   runtime::Viewport viewport;
   double tolerancePixels = 3.0;
+  double morphRange = 0.25;  ///< RefinementOptions::morphRange (0: no morph)
 };
 
 /// A drawn frame and what it cost.

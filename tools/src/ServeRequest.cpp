@@ -102,7 +102,7 @@ Result<double> inRange(Result<double> v, const std::string& name, double lo, dou
 
 Result<FrameQuery> parseFrameQuery(const QueryParams& params, const Planet& planet) {
   if (auto r = checkNames(params, {"lat", "lon", "alt", "heading", "pitch", "roll", "width",
-                                   "height", "fov", "tolerance", "format", "quality"});
+                                   "height", "fov", "tolerance", "format", "quality", "morph"});
       !r) {
     return std::move(r).error();
   }
@@ -137,6 +137,13 @@ Result<FrameQuery> parseFrameQuery(const QueryParams& params, const Planet& plan
                            kMaxTolerancePixels);
   if (!tolerance) return std::move(tolerance).error();
   q.request.tolerancePixels = *tolerance;
+
+  if (const std::optional<std::string> morph = value(params, "morph")) {
+    if (*morph != "on" && *morph != "off") {
+      return bad("parameter 'morph': '" + shown(*morph) + "' is not on or off");
+    }
+    q.morph = *morph == "on";
+  }
 
   const std::string format = value(params, "format").value_or("png");
   if (format == "png") {

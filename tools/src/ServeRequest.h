@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 
 #include "FrameImage.h"
@@ -26,6 +27,7 @@ inline constexpr double kMaxTolerancePixels = 1000.0;
 /// GET /frame, validated.
 struct FrameQuery final {
   FrameRequest request;
+  std::optional<bool> morph;  ///< morph=on|off; unset: the server's default
   FrameEncoding encoding = FrameEncoding::Png;
   int jpegQuality = 90;
 };
@@ -37,7 +39,8 @@ struct HeightQuery final {
 };
 
 /// Parses lat, lon, alt (required), heading (0), pitch (-90), roll (0), width (640), height
-/// (480), fov (60), tolerance (3), format (png|jpeg), quality (90, JPEG only). InvalidArgument
+/// (480), fov (60), tolerance (3), morph (on|off; unset: the server's), format (png|jpeg),
+/// quality (90, JPEG only). InvalidArgument
 /// naming the parameter for anything missing, unknown, repeated, not a finite number, or out of
 /// range (width/height 1..4096, fov (0, 179), tolerance 0.5..1000, the camera as
 /// validateCameraPose on `planet`, heading/roll within ±360).

@@ -218,7 +218,9 @@ Json makeInfo(const MappedDataset& dataset, const ServeOptions& options,
                      {"height", 480},
                      {"fov", 60},
                      {"tolerance", 3},
-                     {"format", "png"}}}};
+                     {"morph", options.morph ? "on" : "off"},
+                     {"format", "png"}}},
+                   {"morph_range", options.morphRange}};
   info["server"] = {{"contexts", options.workers},
                     {"queue", options.queueCapacity},
                     {"gpu_cache_mib", options.gpuCacheMiB},
@@ -246,6 +248,7 @@ Result<std::shared_ptr<Generation>> openGeneration(const std::string& directory,
   generation->number = number;
   auto dataset = MappedDataset::open(directory);
   if (!dataset) return std::move(dataset).error();
+  if (auto r = checkMorphRange((*dataset)->view(), options.morphRange); !r) return r.error();
   generation->dataset = std::move(*dataset);
   RenderPoolOptions poolOptions;
   poolOptions.workers = options.workers;
@@ -416,6 +419,7 @@ void FrameServer::Impl::handleFrame(const httplib::Request& req, httplib::Respon
   const std::shared_ptr<Generation> g = current();
   Result<FrameQuery> query = parseFrameQuery(req.params, g->dataset->view().planet());
   if (!query) return sendError(res, 400, query.error().message);
+  query->request.morphRange = query->morph.value_or(options.morph) ? options.morphRange : 0.0;
   const auto deadline = received + std::chrono::duration_cast<Clock::duration>(
                                        std::chrono::duration<double>(options.deadlineSeconds));
   FrameOutcome outcome = g->pool->render(query->request, deadline);

@@ -28,6 +28,10 @@ struct ServeOptions final {
   double deadlineSeconds = 10.0;  ///< per /frame request: queueing and drawing together
   int device = -1;                ///< Vulkan device index; -1: lavapipe
   bool logRequests = false;       ///< one line per request on stdout
+  /// The geomorph of frames whose request does not say (morph=on|off), and its window
+  /// (RefinementOptions::morphRange when on; at most the dataset's error margin).
+  bool morph = true;
+  double morphRange = 0.25;
 };
 
 class FrameServer final {

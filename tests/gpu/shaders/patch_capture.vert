@@ -14,7 +14,7 @@ layout(push_constant) uniform CapturePush {
 } pc;
 
 layout(location = 0) in uvec2 inBarycentric;
-layout(location = 1) in float inHeightMeters;
+layout(location = 1) in vec2 inHeightMeters;  // x: own, y: morph target
 layout(location = 2) in vec3 inOffsetMeters;
 
 struct CapturedVertex {

@@ -3,14 +3,21 @@
 #include "DatasetAssembly.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <initializer_list>
 #include <memory>
+#include <mutex>
+#include <optional>
+
+#include <tbb/parallel_for.h>
 
 #include "pbdam/builder/Lattice.h"
+#include "pbdam/builder/MorphTargets.h"
 #include "pbdam/formats/Checksum.h"
 #include "pbdam/formats/DatasetFormat.h"
 #include "pbdam/formats/Manifest.h"
+#include "pbdam/formats/PatchCodec.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::streaming;
@@ -72,6 +79,8 @@ class Assembly final {
   Result<void> locateTiles();
   Manifest makeManifest() const;
   Result<ManifestFace> writeFace(int face);
+  Result<std::vector<std::vector<std::byte>>> faceMorphTargets(std::uint64_t firstSlot,
+                                                               std::uint64_t count);
 
   const AssemblyInputs& in_;
   BuildSummary& summary_;
@@ -222,6 +231,65 @@ Manifest Assembly::makeManifest() const {
   return manifest;
 }
 
+Result<std::vector<std::vector<std::byte>>> Assembly::faceMorphTargets(std::uint64_t firstSlot,
+                                                                       std::uint64_t count) {
+  // Every node's targets from its own, its parent's and its grandparent's patches (decoded
+  // again here: LZO decodes at GB/s, and the checkpoint keeps no meshes).
+  std::vector<std::vector<std::byte>> blobs(count);
+  const Lattice lattice(in_.latticeCells);
+  const MorphGeometry geometry{&in_.planet, &lattice, in_.options.heightStepMeters};
+  std::mutex failedMutex;
+  std::optional<Error> failed;
+  std::atomic<std::uint64_t> missed{0};
+  const auto fail = [&](Error e) {
+    std::lock_guard lock(failedMutex);
+    if (!failed) failed = std::move(e);
+  };
+  tbb::parallel_for(std::uint64_t{0}, count, [&](std::uint64_t k) {
+    const std::uint64_t id = idAt(firstSlot + k);
+    const NodeAncestors ancestors = nodeAncestors(id, nodesPerTree_);
+    if (!ancestors.parent) return;
+    thread_local std::array<PatchMesh, 3> meshes;
+    const auto decode = [&](std::uint64_t nodeId, PatchMesh& mesh) {
+      const std::uint64_t slot = slotOf(nodeId);
+      if (slot >= located_.size()) {
+        fail(makeError(ErrorCode::CorruptData, in_.checkpoint.directory().string() + ": node " +
+                                                   std::to_string(nodeId) + " is missing"));
+        return false;
+      }
+      if (located_[slot].blob.empty()) return false;  // no patch: no targets
+      auto r = decodePatch(located_[slot].blob, mesh, "node " + std::to_string(nodeId));
+      if (r) return true;
+      fail(std::move(r).error());
+      return false;
+    };
+    if (!decode(id, meshes[0]) || !decode(*ancestors.parent, meshes[1])) return;
+    if (ancestors.grandparent && !decode(*ancestors.grandparent, meshes[2])) return;
+    std::uint64_t misses = 0;
+    auto targets = nodeMorphTargets(geometry, id, d_, meshes[0], &meshes[1],
+                                    ancestors.grandparent ? &meshes[2] : nullptr, misses);
+    if (!targets) {
+      fail(makeError(ErrorCode::CorruptData,
+                     "node " + std::to_string(id) + ": a patch vertex is not on the lattice"));
+      return;
+    }
+    missed += misses;
+    auto blob = encodeMorphTargets(meshes[0], *targets);
+    if (!blob) {
+      fail(std::move(blob).error());
+      return;
+    }
+    blobs[k] = std::move(blob).value();
+  });
+  if (failed) return std::move(*failed);
+  if (missed.load() != 0) {
+    return makeError(ErrorCode::Internal,
+                     std::to_string(missed.load()) +
+                         " patch vertices lie outside their coarser patch; no morph target");
+  }
+  return blobs;
+}
+
 Result<ManifestFace> Assembly::writeFace(int face) {
   FaceHeader h;
   h.face = static_cast<std::uint32_t>(face);
@@ -253,6 +321,8 @@ Result<ManifestFace> Assembly::writeFace(int face) {
   h.blobsOffset = (tablesEnd + 4095) / 4096 * 4096;  // page-aligned blob area
   std::uint64_t at = h.blobsOffset;
   std::vector<std::byte> nodeTable(h.nodeCount * kNodeRecordBytes);
+  auto morph = faceMorphTargets(firstSlot, h.nodeCount);
+  if (!morph) return std::move(morph).error();
   std::vector<std::span<const std::byte>> blobs;
   for (std::uint64_t k = 0; k < h.nodeCount; ++k) {
     const Located& node = located_[firstSlot + k];
@@ -269,8 +339,11 @@ Result<ManifestFace> Assembly::writeFace(int face) {
       record.sources = in_.leafSources(
           triangleOfNode(Lattice(in_.latticeCells), id, static_cast<int>(in_.depth)));
     }
-    at += node.blob.size();
+    record.morphBytes = static_cast<std::uint32_t>((*morph)[k].size());
+    at += node.blob.size() + record.morphBytes;
     blobs.emplace_back(node.blob);
+    blobs.emplace_back((*morph)[k]);
+    summary_.morphTargetBytes += record.morphBytes;
     encodeNodeRecord(record, std::span<std::byte, kNodeRecordBytes>(
                                  nodeTable.data() + k * kNodeRecordBytes, kNodeRecordBytes));
     summary_.patchBytesCompressed += node.blob.size();

@@ -17,6 +17,7 @@
 #include <unordered_map>
 
 #include "pbdam/builder/Lattice.h"
+#include "pbdam/builder/MorphTargets.h"
 #include "pbdam/builder/ResidentTrimmer.h"
 #include "pbdam/builder/SampleGrid.h"
 #include "pbdam/formats/Checksum.h"
@@ -128,6 +129,9 @@ class DatasetVerifier final {
   void listNodes();
   void checkNodes();
   void checkNode(std::size_t k);
+  /// The node's morph targets decode and are what its ancestors' patches give.
+  void checkMorphTargets(const BinTriangle& t, const FaceView& view, const PatchMesh& mesh,
+                         std::span<const std::byte> blob, const std::string& where);
   /// The node's vertices as lattice points, or nothing (a violation) when one is not on it.
   std::optional<std::vector<LatticeXY>> latticePoints(const BinTriangle& t, const PatchMesh& mesh,
                                                       const std::string& where);
@@ -169,6 +173,7 @@ class DatasetVerifier final {
   std::mutex ratioMutex_;
   double worstRatio_ = 0.0;
   std::atomic<std::uint64_t> done_{0};
+  std::atomic<std::uint64_t> morphChecked_{0};
 };
 
 void DatasetVerifier::openFaces() {
@@ -306,24 +311,8 @@ Result<void> DatasetVerifier::openDemGrid() {
 std::optional<std::vector<LatticeXY>> DatasetVerifier::latticePoints(const BinTriangle& t,
                                                                      const PatchMesh& mesh,
                                                                      const std::string& where) {
-  // Vertices as lattice points: apex + (b1·(left−apex) + b2·(right−apex)) / 2^15, exactly.
-  const LatticeXY e1 = t.left - t.apex;
-  const LatticeXY e2 = t.right - t.apex;
-  std::vector<LatticeXY> points(mesh.vertices.size());
-  bool exact = true;
-  for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
-    const std::int64_t b1 = mesh.vertices[v].b1;
-    const std::int64_t b2 = mesh.vertices[v].b2;
-    const std::int64_t x = b1 * e1.x + b2 * e2.x;
-    const std::int64_t y = b1 * e1.y + b2 * e2.y;
-    if (x % kPatchBarycentricOne != 0 || y % kPatchBarycentricOne != 0) exact = false;
-    points[v] = t.apex + LatticeXY{static_cast<std::int32_t>(x / kPatchBarycentricOne),
-                                   static_cast<std::int32_t>(y / kPatchBarycentricOne)};
-  }
-  if (!exact) {
-    violations_.add(where + ": a vertex is not on the lattice");
-    return std::nullopt;
-  }
+  auto points = patchLatticePoints(t, mesh);
+  if (!points) violations_.add(where + ": a vertex is not on the lattice");
   return points;
 }
 
@@ -412,6 +401,40 @@ void DatasetVerifier::checkAgainstDem(const BinTriangle& t, const NodeRecord& re
   if (stored > 0.0) worstRatio_ = std::max(worstRatio_, worst / stored);
 }
 
+void DatasetVerifier::checkMorphTargets(const BinTriangle& t, const FaceView& view,
+                                        const PatchMesh& mesh, std::span<const std::byte> blob,
+                                        const std::string& where) {
+  // The stored targets must be what the node's parent and grandparent patches give
+  // (MorphTargets.h): decode both again and recompute.
+  std::vector<std::int32_t> stored;
+  if (auto r = decodeMorphTargets(blob, mesh, stored, where); !r) {
+    violations_.add(r.error().message);
+    return;
+  }
+  const std::uint64_t id = nodeId(t, depth_);
+  const NodeAncestors up = nodeAncestors(id, perTree_);
+  std::array<PatchMesh, 2> ancestors;
+  std::vector<std::byte> buffer;
+  const auto decodeAncestor = [&](std::uint64_t ancestor, PatchMesh& out) {
+    const auto row = view.findNode(static_cast<std::uint32_t>(t.tree), ancestor % perTree_);
+    if (!row) return false;
+    auto bytes = view.readPatchBlob(view.nodeAt(*row), buffer);
+    return bytes && decodePatch(*bytes, out, where);
+  };
+  if (up.parent && !decodeAncestor(*up.parent, ancestors[0])) return;  // reported at its node
+  if (up.grandparent && !decodeAncestor(*up.grandparent, ancestors[1])) return;
+  std::uint64_t missed = 0;
+  const MorphGeometry geometry{&planet_, &lattice_, manifest_.heightStepMeters};
+  const auto expected =
+      nodeMorphTargets(geometry, id, depth_, mesh, up.parent ? &ancestors[0] : nullptr,
+                       up.grandparent ? &ancestors[1] : nullptr, missed);
+  if (!expected) return;  // a vertex off the lattice: reported by latticePoints
+  if (!up.parent ? !blob.empty() : (missed != 0 || stored != *expected)) {
+    violations_.add(where + ": morph targets differ from its parent's and grandparent's patches");
+  }
+  ++morphChecked_;
+}
+
 void DatasetVerifier::checkNode(std::size_t k) {
   const BinTriangle t = triangleOfNode(lattice_, ids_[k], depth_);
   const FaceView& view = *views_[static_cast<std::size_t>(t.face)];
@@ -421,16 +444,17 @@ void DatasetVerifier::checkNode(std::size_t k) {
   PatchMesh mesh;
   const std::string context = view.context() + " offset " + std::to_string(node.record.blobOffset);
   thread_local std::vector<std::byte> blob;
-  auto bytes = view.readPatchBlob(node.record, blob);
+  auto bytes = view.readPatchBlobs(node.record, blob);
   if (!bytes) {
     violations_.add(bytes.error().message + " (" + nodeName(t) + ")");
     return;
   }
-  if (auto r = decodePatch(*bytes, mesh, context); !r) {
+  if (auto r = decodePatch(bytes->patch, mesh, context); !r) {
     violations_.add(r.error().message + " (" + nodeName(t) + ")");
     return;
   }
   ++done_;
+  checkMorphTargets(t, view, mesh, bytes->morph, where);
   if (mesh.vertices.size() != node.record.vertexCount ||
       mesh.triangleCount() != node.record.triangleCount) {
     violations_.add(where + ": vertex/triangle counts differ from its node record");
@@ -473,6 +497,7 @@ void DatasetVerifier::checkNodes() {
   tbb::parallel_for(std::size_t{0}, totalNodes, [&](std::size_t k) { checkNode(k); });
   trimmer.reset();
   report_.patchesDecoded = done_.load();
+  report_.morphTargetsChecked = morphChecked_.load();
   report_.nodesChecked = totalNodes;
   report_.demSamplesChecked = demSamples_.load();
   report_.worstErrorRatio = worstRatio_;

@@ -23,7 +23,7 @@
 
 namespace pbdam::formats {
 
-inline constexpr std::uint32_t kDatasetFormatVersion = 3;
+inline constexpr std::uint32_t kDatasetFormatVersion = 4;
 inline constexpr std::size_t kFaceHeaderBytes = 128;
 inline constexpr std::size_t kNodeRecordBytes = 192;
 inline constexpr std::size_t kTextureRecordBytes = 32;
@@ -74,6 +74,9 @@ struct NodeRecord final {
   /// Of a leaf of a dataset with insets: the sources its stored error was measured against,
   /// bit 0 the base DEM, bit 1 + i the manifest's inset i; 0 otherwise.
   std::uint32_t sources = 0;
+  /// Bytes of the patch's morph-target blob (PatchCodec.h), stored right after its patch blob;
+  /// 0 for a root, whose targets are its own heights.
+  std::uint32_t morphBytes = 0;
   bool leaf() const noexcept { return (flags & kRecordLeaf) != 0; }
 };
 
@@ -105,6 +108,12 @@ Result<FaceHeader> decodeFaceHeader(std::span<const std::byte> bytes, std::uint6
                                     std::string_view context);
 NodeRecord decodeNodeRecord(std::span<const std::byte, kNodeRecordBytes> bytes) noexcept;
 TextureRecord decodeTextureRecord(std::span<const std::byte, kTextureRecordBytes> bytes) noexcept;
+
+/// A node's patch blob and its morph-target blob, read together (they are adjacent in the file).
+struct PatchBlobs final {
+  std::span<const std::byte> patch;
+  std::span<const std::byte> morph;  ///< empty when the node has none
+};
 
 /// A validated, read-only view of a whole face file held in memory or mapped. The header and
 /// both tables are copied out of the file when it opens (through guarded copies, GuardedCopy.h)
@@ -147,6 +156,9 @@ class FaceView final {
                                                    std::vector<std::byte>& buffer) const;
   /// Table index of tile `heapIndex`, if the quadtree has it.
   std::optional<std::uint64_t> findTexture(std::uint64_t heapIndex) const noexcept;
+  /// Copies a node's patch blob and morph-target blob into `buffer` in one read; errors as for
+  /// readPatchBlob.
+  Result<PatchBlobs> readPatchBlobs(const NodeRecord& node, std::vector<std::byte>& buffer) const;
   /// Tile `heapIndex`; the tile must exist (findTexture).
   TextureRecord textureNode(std::uint64_t heapIndex) const noexcept;
   TextureRecord textureAt(std::uint64_t tableIndex) const noexcept;

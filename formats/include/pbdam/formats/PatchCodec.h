@@ -90,4 +90,24 @@ struct PatchBlobInfo final {
 /// `pbdam info`. Errors as for decodePatch.
 Result<PatchBlobInfo> inspectPatchBlob(std::span<const std::byte> blob, std::string_view context);
 
+/// Size of the morph-target blob's header in bytes (PatchBlob.md, "Morph targets").
+inline constexpr std::size_t kMorphBlobHeaderBytes = 16;
+/// The morph-target blob format version this build writes and reads.
+inline constexpr std::uint16_t kMorphBlobVersion = 1;
+
+/// Encodes the morph targets of `mesh` (docs/builder.md "Morph targets"): `targets[i]` is the
+/// height, in height steps, of the coarser surface that vertex i of `mesh` morphs from. Stored
+/// as zigzag differences to the vertex's own height in byte planes, LZO1X-compressed (vertices
+/// the coarser surface passes through cost nothing). The same inputs give the same bytes.
+/// InvalidArgument when the counts differ or the mesh has more than kPatchMaxVertices vertices.
+Result<std::vector<std::byte>> encodeMorphTargets(const PatchMesh& mesh,
+                                                  std::span<const std::int32_t> targets);
+
+/// Decodes a morph-target blob of the patch `mesh` into `out` (one height per vertex, reusing
+/// its capacity). An empty blob means every target is the vertex's own height (a root patch,
+/// which has no coarser surface). Safe for untrusted input: the header, the vertex count
+/// against `mesh`, the CRC and the LZO stream are checked; CorruptData "<context>: <what>".
+Result<void> decodeMorphTargets(std::span<const std::byte> blob, const PatchMesh& mesh,
+                                std::vector<std::int32_t>& out, std::string_view context);
+
 }  // namespace pbdam::formats

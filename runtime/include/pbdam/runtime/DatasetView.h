@@ -97,6 +97,15 @@ class DatasetView final {
   /// The largest texture error of any tile of texture level `t` on any face (metres): the
   /// texture term of the refinement criterion, the same for both triangles of a diamond.
   double textureErrorOfLevel(std::uint32_t t) const noexcept { return textureErrorOfLevel_[t]; }
+  /// The texture term of the refinement criterion for bintree level `level` (≤ depth()): while
+  /// a finer tile level exists, the texture error of the level's tiles, saturated upward with
+  /// the dataset's error margin r from the deepest level, term(L) = max(T(L), (1 + r)·term(L + 1)),
+  /// so that, like the geometry errors, it shrinks by at least 1 + r per level (the two bintree
+  /// levels that share a tile level would otherwise share a term, and the morph windows of
+  /// docs/architecture.md "Geomorphing" would touch there).
+  double textureTermOfLevel(int level) const noexcept {
+    return textureTerm_[static_cast<std::size_t>(level)];
+  }
 
   /// The largest vertex and triangle counts of any patch (pool slot sizes).
   std::uint32_t maxPatchVertices() const noexcept { return maxPatchVertices_; }
@@ -107,6 +116,7 @@ class DatasetView final {
   Planet planet_ = Planet::mars();
   std::array<formats::FaceView, 6> faces_;
   std::vector<double> textureErrorOfLevel_;
+  std::vector<double> textureTerm_;  ///< per bintree level 0..depth
   std::uint32_t maxPatchVertices_ = 0;
   std::uint32_t maxPatchTriangles_ = 0;
 };

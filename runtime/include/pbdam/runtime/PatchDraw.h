@@ -56,6 +56,7 @@
 #include <cstdint>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
+#include <optional>
 #include <vector>
 
 #include "pbdam/formats/DatasetFormat.h"
@@ -88,8 +89,13 @@ struct alignas(16) PatchDrawRecord final {
   std::array<float, 4> normalDelta2;        ///< xyz: ΔN2
   std::array<float, 4> texCenter;           ///< xyz: float(Q − cam), w: k = d(tc)/d(u)
   std::array<float, 4> texPlane;            ///< x: ac, y: bc, z: Qn (metres), w: face index
+  std::array<float, 4> morph;               ///< x, y: 1 − f for interior/leg and hypotenuse
+                                            ///< vertices, z: weight of the coarser tile, w: its
+                                            ///< texture array layer (docs/architecture.md
+                                            ///< "Geomorphing")
+  std::array<float, 4> morphTexture;        ///< the coarser tile's tc = z·tc + (x, y)
 };
-static_assert(sizeof(PatchDrawRecord) == std::size_t{25} * 16);
+static_assert(sizeof(PatchDrawRecord) == std::size_t{27} * 16);
 
 /// Where a patch's texture tile lies on its cube face.
 struct PatchTextureTile final {
@@ -122,6 +128,11 @@ struct PatchDrawInput final {
   NodeKey node;
   formats::NodeRecord record;
   std::uint32_t textureLayer = 0;
+  /// The geomorph (CutPatch::morph): 1 − f of the parent's and grandparent's diamonds.
+  std::array<float, 2> morph{0.0f, 0.0f};
+  /// Where the patch blends in its parent's tile (CutPatch::blendsTile): that tile, its layer.
+  std::optional<TileKey> morphTile{};
+  std::uint32_t morphTextureLayer = 0;
 };
 
 /// Computes the per-draw record of a patch for a camera at `cameraEcef` (double precision).
@@ -147,7 +158,11 @@ PatchVertexBase patchVertexBase(const std::array<glm::dvec3, 3>& corners,
 
 /// What the GPU vertex carries besides b: the displacement along N(w) and the sideways rest.
 struct PatchVertexDisplacement final {
-  float heightMeters = 0.0f;     ///< h: the normal component of T − Pflat on the height grid
+  float heightMeters = 0.0f;  ///< h: the normal component of T − Pflat on the height grid
+  /// The same for the vertex's morph target (its coarser surface's height, dataset format 4):
+  /// the shader draws h − g·(h − target), g the record's 1 − f for the vertex.
+  /// patchVertexDisplacement sets it to h (no morph).
+  float targetHeightMeters = 0.0f;
   glm::vec3 offsetMeters{0.0f};  ///< o = float(T − Pflat − h·N)
 };
 

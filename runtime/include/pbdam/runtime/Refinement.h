@@ -12,13 +12,19 @@
 // the tile of level t = min(L/2, T−1) that contains it (DatasetView::tileOf), and while a finer
 // tile level exists its term is the largest texture error of level t over the whole dataset — a
 // function of the level only, so diamond partners agree, and it halves per tile level, so it
-// nests (docs/decisions.md "Refinement"). Thread-safety: pure; the same camera always gives the
-// same cut.
+// nests (docs/decisions.md "Refinement"); since dataset format 4 the term is per bintree level,
+// saturated with the dataset's error margin (DatasetView::textureTermOfLevel), so that every
+// parent's error is at least (1 + r) times its children's and the geomorph's windows of
+// successive levels stay apart. Each drawn patch carries the geomorph weights of its parent's
+// and grandparent's diamonds (docs/architecture.md "Geomorphing"). Thread-safety: pure; the same
+// camera always gives the same cut.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
+#include "pbdam/formats/Result.h"
 #include "pbdam/runtime/Camera.h"
 #include "pbdam/runtime/DatasetView.h"
 
@@ -30,6 +36,11 @@ struct RefinementOptions final {
   bool frustumCulling = true;
   /// Do not refine below this level (−1: the leaves). Used to draw coarser cuts.
   int maxLevel = -1;
+  /// The geomorph window (docs/architecture.md "Geomorphing"), a fraction m of the tolerance:
+  /// a diamond's children are drawn at its surface where its screen error is τ and at their
+  /// own from τ·(1 + m) on. 0 turns morphing off. At most the dataset's error margin, which
+  /// keeps the windows of successive levels apart (checkMorphRange).
+  double morphRange = 0.25;
 };
 
 /// One patch of a cut.
@@ -38,6 +49,13 @@ struct CutPatch final {
   int level = 0;
   TileKey tile;                    ///< the texture tile it is drawn with
   float screenErrorPixels = 0.0f;  ///< of max(geometry error, texture term), at its sphere
+  /// 1 − f, the weight of the coarser surface, for the vertices the patch's parent diamond
+  /// governs (interior and legs, [0]) and its grandparent's (hypotenuse, [1]); 0 without morph.
+  std::array<float, 2> morph{0.0f, 0.0f};
+  /// The parent's tile, blended in with weight morph[0] where it differs from `tile` (the
+  /// texture quadtree steps at this level); equal to `tile` otherwise.
+  TileKey morphTile;
+  bool blendsTile() const noexcept { return !(morphTile == tile); }
 };
 
 struct Cut final {
@@ -53,6 +71,34 @@ struct Cut final {
 /// `geometryErrorMeters` (see the file comment).
 double refinementErrorMeters(const DatasetView& dataset, int level,
                              double geometryErrorMeters) noexcept;
+
+/// 1 − f for a diamond with screen error `screenErrorPixels` (docs/architecture.md
+/// "Geomorphing"): f = clamp((s/τ − 1)/m, 0, 1); 0 when `range` is 0 (no morph).
+float morphWeight(double screenErrorPixels, double tolerancePixels, double range) noexcept;
+
+/// Sets the morph fields of `patch` (its node, level and tile set) from its parent's and
+/// grandparent's screen errors (infinite where it has none).
+void setPatchMorph(const DatasetView& dataset, const RefinementOptions& options,
+                   double parentScreenError, double grandparentScreenError, CutPatch& patch);
+
+/// Recomputes the morph fields of every patch of `cut` for `camera` (its parents' and
+/// grandparents' screen errors from their records) and its tiles list: the cut drawn from
+/// another pose than its own, as `pbdam bench --popping` draws the previous frame's cut.
+void refreshMorph(const DatasetView& dataset, const Camera& camera,
+                  const RefinementOptions& options, Cut& cut);
+
+/// What a cut's geomorph does: patches whose parent's or grandparent's weight is strictly
+/// between 0 and 1, patches blending their parent's tile in, and the largest weight.
+struct CutMorphSummary final {
+  std::uint64_t morphingPatches = 0;
+  std::uint64_t blendingPatches = 0;
+  double largestWeight = 0.0;
+};
+CutMorphSummary summarizeMorph(const Cut& cut) noexcept;
+
+/// InvalidArgument unless 0 ≤ `range` ≤ the dataset's error margin (manifest error_margin):
+/// beyond it, the morph windows of successive levels overlap and cuts crack.
+formats::Result<void> checkMorphRange(const DatasetView& dataset, double range);
 
 /// Computes the cut of `dataset` for `camera`.
 Cut refine(const DatasetView& dataset, const Camera& camera, const RefinementOptions& options);

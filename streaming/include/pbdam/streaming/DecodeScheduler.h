@@ -18,16 +18,18 @@
 namespace pbdam::streaming {
 
 /// One vertex as the patch pools hold it (gpu/PatchPipeline.h binds it): b1, b2 as
-/// R16G16_UINT, the displacement h along the interpolated normal as R32_SFLOAT and the sideways
-/// offset o as R32G32B32_SFLOAT, metres (runtime/PatchDraw.h PatchVertexDisplacement: computed in
-/// double here, once per residency, so that the shader draws the vertex at its terrain point).
+/// R16G16_UINT, the displacement h along the interpolated normal and that of the vertex's morph
+/// target as R32G32_SFLOAT, and the sideways offset o as R32G32B32_SFLOAT, metres
+/// (runtime/PatchDraw.h PatchVertexDisplacement: computed in double here, once per residency,
+/// so that the shader draws the vertex at its terrain point, or morphs it towards its target).
 struct PatchGpuVertex final {
   std::uint16_t b1;
   std::uint16_t b2;
   float heightMeters;
+  float targetHeightMeters;
   std::array<float, 3> offsetMeters;
 };
-static_assert(sizeof(PatchGpuVertex) == 20);
+static_assert(sizeof(PatchGpuVertex) == 24);
 
 /// One missing patch (key.kind() Patch: `node`) or tile (Tile: `tile`) and where its decoded
 /// bytes go in the output.

@@ -90,6 +90,7 @@ struct BuildSummary final {
   std::uint64_t datasetBytes = 0;
   std::uint64_t patchBytesRaw = 0;  ///< 8 bytes/vertex + 6 bytes/triangle
   std::uint64_t patchBytesCompressed = 0;
+  std::uint64_t morphTargetBytes = 0;  ///< the morph-target blobs (compressed)
   std::uint64_t noDataPoints = 0;
   std::uint64_t insertedPoints = 0;
   std::uint64_t halvesOverTarget = 0;

@@ -37,6 +37,7 @@ struct VerifyReport final {
   std::uint64_t violationCount = 0;
   std::uint64_t nodesChecked = 0;
   std::uint64_t patchesDecoded = 0;
+  std::uint64_t morphTargetsChecked = 0;  ///< patches whose targets were recomputed and matched
   std::uint64_t tilesDecoded = 0;
   std::uint64_t edgesCompared = 0;
   std::uint64_t demSamplesChecked = 0;
