@@ -12,6 +12,8 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <numbers>
+#include <random>
 #include <span>
 #include <vector>
 
@@ -71,6 +73,29 @@ std::vector<CameraPose> crackTestCameras(double radius, double low) {
   };
 }
 
+/// `crackTestCameras` and random ones up to `count` in all: anywhere, from `low` to two radii
+/// up (log-uniform), any heading, pitch from straight down to 5° below the horizon.
+std::vector<CameraPose> crackAndRandomCameras(double radius, double low, std::size_t count) {
+  std::vector<CameraPose> poses = crackTestCameras(radius, low);
+  std::mt19937_64 rng(2027);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  while (poses.size() < count) {
+    const double lat = std::asin(2.0 * unit(rng) - 1.0) * 180.0 / std::numbers::pi;
+    const double alt = low * std::pow(2.0 * radius / low, unit(rng));
+    poses.push_back(
+        {lat, 360.0 * unit(rng) - 180.0, alt, 360.0 * unit(rng), -90.0 + 85.0 * unit(rng), 0.0});
+  }
+  return poses;
+}
+
+// ≥ 100 cameras a planet, each with five morph ranges; sanitizer builds check fewer.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+constexpr std::size_t kHoleCameras = 24;
+#else
+constexpr std::size_t kHoleCameras = 100;
+#endif
+constexpr std::array<double, 5> kMorphRanges = {0.0, 0.05, 0.1, 0.175, 0.25};
+
 class TerrainRendererTest : public test::GpuTest {
  protected:
   Result<TerrainRenderer> makeRenderer(const DatasetView& view, std::uint64_t budgetBytes,
@@ -91,14 +116,20 @@ class TerrainRendererTest : public test::GpuTest {
     const DatasetView& view = dataset->view();
     auto renderer = makeRenderer(view, std::uint64_t{256} << 20);
     ASSERT_TRUE(renderer.ok()) << renderer.error().message;
-    if (poses.empty())
-      poses = crackTestCameras(view.planet().equatorialRadiusMeters(), lowAltitude);
+    if (poses.empty()) {
+      poses =
+          crackAndRandomCameras(view.planet().equatorialRadiusMeters(), lowAltitude, kHoleCameras);
+    }
     ASSERT_GE(poses.size(), 20u);
     std::uint64_t inside = 0;
-    for (const CameraPose& pose : poses) {
-      SCOPED_TRACE(test::describe(pose));
+    for (std::size_t k = 0; k < poses.size() * kMorphRanges.size(); ++k) {
+      const CameraPose& pose = poses[k / kMorphRanges.size()];
+      const double morphRange = kMorphRanges[k % kMorphRanges.size()];
+      SCOPED_TRACE(test::describe(pose) + " morph range " + std::to_string(morphRange));
       const Camera camera = test::cameraAt(view, pose, kWidth, kHeight);
-      const Cut cut = refine(view, camera, RefinementOptions{});
+      RefinementOptions options;
+      options.morphRange = morphRange;
+      const Cut cut = refine(view, camera, options);
       ASSERT_FALSE(cut.patches.empty());
       double maxError = 0.0;
       for (const CutPatch& p : cut.patches) {
@@ -118,7 +149,7 @@ class TerrainRendererTest : public test::GpuTest {
       inside += check.inside;
     }
     // The check looked at a good share of all pixels.
-    EXPECT_GT(inside, std::uint64_t{kWidth} * kHeight * poses.size() / 4);
+    EXPECT_GT(inside, std::uint64_t{kWidth} * kHeight * poses.size() * kMorphRanges.size() / 4);
   }
 };
 
