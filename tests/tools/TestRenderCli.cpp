@@ -266,6 +266,10 @@ TEST(RenderCli, BadInputIsOneLineAndExitCode2) {
       {"render " + ds + " --camera 0,0,1e6 --morph maybe" + out, "--morph 'maybe'"},
       {"render " + ds + " --camera 0,0,1e6 --morph-range 0" + out, "--morph-range"},
       {"render " + ds + " --camera 0,0,1e6 --morph-range 0.5" + out, "error margin"},
+      {"render " + ds + " --camera 0,0,1e6 --focus 10,20" + out, "--focus '10,20'"},
+      {"render " + ds + " --camera 0,0,1e6 --focus 95,0,1000" + out, "latitude"},
+      {"render " + ds + " --camera 0,0,1e6 --focus 0,0,0" + out, "radius"},
+      {"render " + ds + " --camera 0,0,1e6 --focus 0,0,1000 --focus-error-m -1" + out, "error"},
   };
   for (const auto& [args, expected] : cases) {
     const CliRun run = runPbdam(args);

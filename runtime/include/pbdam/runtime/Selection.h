@@ -1,0 +1,90 @@
+// Cuts selected by a predicate and closed upward (docs/architecture.md "Selection by
+// predicate", seed 000 §6–7): the one cut definition that any predicate — not only the
+// screen-space error the saturated errors make conforming by themselves — turns into a
+// conforming mesh.
+//
+// 1. Predicate. Every inner node above the level cap is asked whether it wants to be split: its
+//    screen error exceeds the tolerance, or its bounding sphere comes within a focus region's
+//    width of the region's centre line and its geometry error exceeds the region's error, or a
+//    caller's predicate says so.
+// 2. Closure. The split set is the smallest set that holds every node that wants to be split
+//    and, with each node, its parent and its diamond partner (the triangle across its
+//    hypotenuse, on another face for the level-1 diamonds on cube edges): the split diamonds
+//    then form a set closed under the diamond DAG's parent relation, so no split edge meets an
+//    unsplit one (no T-junction).
+// 3. The cut. From the roots down, the first node of each branch that is not split, dropped
+//    when its sphere is outside the frustum (with culling on).
+// With no focus region the predicate is refine()'s and its set is already closed (saturated
+// errors, nested shared spheres): select() then gives refine()'s cut. This is the reference the
+// data-parallel passes are to match; here it evaluates every node of the dataset on the CPU.
+// Thread-safety: CutSelector is immutable after construction; select() is const.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <glm/vec3.hpp>
+#include <vector>
+
+#include "pbdam/formats/Result.h"
+#include "pbdam/runtime/Camera.h"
+#include "pbdam/runtime/DatasetView.h"
+#include "pbdam/runtime/Refinement.h"
+
+namespace pbdam::runtime {
+
+/// Full detail near a circle (one point) or a path (a polyline) on the planet: nodes whose
+/// sphere comes within `widthMeters` of the centre line are split while their geometry error
+/// exceeds `errorMeters` (0: down to the leaves).
+struct FocusRegion final {
+  std::vector<glm::dvec3> line;  ///< planetocentric metres; consecutive points form segments
+  double widthMeters = 0.0;      ///< the circle's radius, the path's half width
+  double errorMeters = 0.0;
+};
+
+/// The focus region of the circle of `radiusMeters` around (lat, lon) on `planet`'s reference
+/// surface; InvalidArgument for a latitude outside ±90° or a radius ≤ 0 or beyond half the
+/// planet's circumference.
+formats::Result<FocusRegion> focusCircle(const Planet& planet, double latDegrees, double lonDegrees,
+                                         double radiusMeters, double errorMeters);
+
+struct SelectionOptions final {
+  RefinementOptions refinement;    ///< tolerance, culling, level cap, morph range
+  std::vector<FocusRegion> focus;  ///< any number; a node near any of them is split
+  /// Any further predicate (unset: none): a node it returns true for wants to be split. It
+  /// need not agree between diamond partners nor with a node's parent: the closure makes the
+  /// cut conforming.
+  std::function<bool(const NodeKey&, const formats::NodeRecord&)> split;
+};
+
+/// How a selection went, beside its cut.
+struct SelectionStats final {
+  std::uint64_t predicateSplits = 0;  ///< nodes the predicate split
+  std::uint64_t closureSplits = 0;    ///< nodes split by the closure only
+};
+
+class CutSelector final {
+ public:
+  /// Indexes the dataset's nodes: each node's parent and diamond partner.
+  explicit CutSelector(const DatasetView& dataset);
+
+  /// The cut of `options` for `camera` (the file comment). Patches split by a focus region or
+  /// by the closure get no geomorph from that split (their weight of it is 0): a morph window
+  /// is a range of screen errors.
+  Cut select(const Camera& camera, const SelectionOptions& options,
+             SelectionStats* stats = nullptr) const;
+
+ private:
+  struct Node final {
+    NodeKey key;
+    std::uint32_t parent = 0;   ///< index into nodes_ (the root: itself)
+    std::uint32_t partner = 0;  ///< the node across the hypotenuse (itself when none)
+    std::uint32_t firstChild = 0;
+    bool leaf = true;
+    int level = 0;
+  };
+  const DatasetView* dataset_;
+  std::vector<Node> nodes_;
+  std::vector<std::uint32_t> roots_;  ///< the 12 roots, face by face, tree 0 then 1
+};
+
+}  // namespace pbdam::runtime

@@ -1,0 +1,188 @@
+// Cuts selected by a predicate and closed upward (Selection.h).
+#include "pbdam/runtime/Selection.h"
+
+#include <algorithm>
+#include <cmath>
+#include <glm/geometric.hpp>
+#include <limits>
+#include <numbers>
+#include <unordered_map>
+#include <unordered_set>
+#include <utility>
+
+using namespace pbdam::formats;
+
+namespace pbdam::runtime {
+namespace {
+
+/// Distance from `p` to the segment a–b.
+double distanceToSegment(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b) {
+  const glm::dvec3 e = b - a;
+  const double ee = glm::dot(e, e);
+  const double t = ee > 0.0 ? std::clamp(glm::dot(p - a, e) / ee, 0.0, 1.0) : 0.0;
+  return glm::length(p - (a + t * e));
+}
+
+/// Whether a sphere comes within the region's width of its centre line.
+bool near(const FocusRegion& region, const glm::dvec3& centre, double radius) {
+  if (region.line.empty()) return false;
+  double d = glm::length(centre - region.line.front());
+  for (std::size_t k = 1; k < region.line.size(); ++k) {
+    d = std::min(d, distanceToSegment(centre, region.line[k - 1], region.line[k]));
+  }
+  return d - radius <= region.widthMeters;
+}
+
+struct EdgeKeyHash final {
+  std::size_t operator()(const std::pair<PointKey, PointKey>& k) const noexcept {
+    return static_cast<std::size_t>(k.first * 0x9E3779B97F4A7C15ULL) ^
+           static_cast<std::size_t>(k.second + 0x632BE59BD9B4E019ULL);
+  }
+};
+
+}  // namespace
+
+Result<FocusRegion> focusCircle(const Planet& planet, double latDegrees, double lonDegrees,
+                                double radiusMeters, double errorMeters) {
+  const double halfCircumference = std::numbers::pi * planet.equatorialRadiusMeters();
+  if (!(std::fabs(latDegrees) <= 90.0) || !std::isfinite(lonDegrees)) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "focus: latitude must be in [-90, 90] and "
+                     "longitude finite");
+  }
+  if (!(radiusMeters > 0.0 && radiusMeters <= halfCircumference)) {
+    return makeError(ErrorCode::InvalidArgument, "focus: the radius must be in (0, " +
+                                                     std::to_string(halfCircumference) +
+                                                     "] metres (half the planet's circumference)");
+  }
+  if (!(errorMeters >= 0.0) || !std::isfinite(errorMeters)) {
+    return makeError(ErrorCode::InvalidArgument, "focus: the error must be ≥ 0 metres");
+  }
+  FocusRegion region;
+  region.line.push_back(planet.geodeticToEcef(latDegrees, lonDegrees, 0.0));
+  region.widthMeters = radiusMeters;
+  region.errorMeters = errorMeters;
+  return region;
+}
+
+CutSelector::CutSelector(const DatasetView& dataset) : dataset_(&dataset) {
+  std::unordered_map<std::pair<PointKey, PointKey>, std::uint32_t, EdgeKeyHash> hypotenuses;
+  for (std::uint8_t face = 0; face < 6; ++face) {
+    const formats::FaceView& view = dataset.face(face);
+    const auto first = static_cast<std::uint32_t>(nodes_.size());
+    for (std::uint64_t row = 0; row < view.header().nodeCount; ++row) {
+      const NodeRecord record = view.nodeAt(row);
+      Node n;
+      n.key = NodeKey{face, static_cast<std::uint8_t>(row >= view.treeFirstNode(1) ? 1 : 0),
+                      record.heapIndex};
+      n.level = bintreeLevel(record.heapIndex);
+      n.leaf = record.leaf();
+      const auto self = static_cast<std::uint32_t>(nodes_.size());
+      n.parent = self;
+      n.partner = self;
+      if (!n.leaf) n.firstChild = first + static_cast<std::uint32_t>(view.firstChildOf(row));
+      if (record.heapIndex == 0) roots_.push_back(self);
+      const BinTriangle t = dataset.triangle(n.key);
+      PointKey a = latticePointKey(dataset.latticeCells(), face, t.left);
+      PointKey b = latticePointKey(dataset.latticeCells(), face, t.right);
+      if (b < a) std::swap(a, b);
+      const auto [it, inserted] = hypotenuses.try_emplace({a, b}, self);
+      if (!inserted) {
+        n.partner = it->second;
+        nodes_[it->second].partner = self;
+      }
+      nodes_.push_back(n);
+    }
+  }
+  for (std::uint32_t i = 0; i < nodes_.size(); ++i) {
+    if (nodes_[i].leaf) continue;
+    nodes_[nodes_[i].firstChild].parent = i;
+    nodes_[nodes_[i].firstChild + 1].parent = i;
+  }
+}
+
+Cut CutSelector::select(const Camera& camera, const SelectionOptions& options,
+                        SelectionStats* stats) const {
+  const DatasetView& dataset = *dataset_;
+  const RefinementOptions& r = options.refinement;
+  const int maxLevel = r.maxLevel < 0 ? dataset.depth() : std::min(r.maxLevel, dataset.depth());
+  constexpr double kNone = std::numeric_limits<double>::infinity();
+  const std::size_t count = nodes_.size();
+  // 1. The predicate, per node.
+  std::vector<double> screen(count, 0.0);
+  std::vector<char> bySize(count, 0);  // split because its screen error exceeds the tolerance
+  std::vector<std::uint32_t> work;
+  for (std::uint32_t i = 0; i < count; ++i) {
+    const Node& n = nodes_[i];
+    const NodeRecord record = dataset.node(n.key);
+    const glm::dvec3 centre(record.sphereCenter[0], record.sphereCenter[1], record.sphereCenter[2]);
+    const double radius = static_cast<double>(record.sphereRadiusMeters);
+    screen[i] = camera.screenError(
+        refinementErrorMeters(dataset, n.level, static_cast<double>(record.errorMeters)), centre,
+        radius);
+    if (n.leaf || n.level >= maxLevel) continue;
+    bySize[i] = static_cast<char>(screen[i] > r.tolerancePixels);
+    bool wants = bySize[i] != 0;
+    for (const FocusRegion& f : options.focus) {
+      wants = wants ||
+              (static_cast<double>(record.errorMeters) > f.errorMeters && near(f, centre, radius));
+    }
+    wants = wants || (options.split && options.split(n.key, record));
+    if (wants) work.push_back(i);
+  }
+  // 2. The closure: with a node, its parent and its diamond partner.
+  std::vector<char> split(count, 0);
+  const std::size_t wanted = work.size();
+  std::uint64_t splits = 0;
+  while (!work.empty()) {
+    const std::uint32_t i = work.back();
+    work.pop_back();
+    if (split[i] != 0 || nodes_[i].leaf) continue;
+    split[i] = 1;
+    ++splits;
+    work.push_back(nodes_[i].parent);
+    work.push_back(nodes_[i].partner);
+  }
+  if (stats != nullptr) {
+    stats->predicateSplits = wanted;
+    stats->closureSplits = splits - std::min<std::uint64_t>(splits, wanted);
+  }
+  // 3. The cut, depth-first from the roots; a split's morph window only when its size split it.
+  Cut cut;
+  std::unordered_set<std::uint64_t> seen;
+  const auto visit = [&](auto&& self, std::uint32_t i, std::array<double, 2> up) -> void {
+    const Node& n = nodes_[i];
+    ++cut.nodesVisited;
+    const NodeRecord record = dataset.node(n.key);
+    if (r.frustumCulling &&
+        !camera.sphereInFrustum(
+            {record.sphereCenter[0], record.sphereCenter[1], record.sphereCenter[2]},
+            static_cast<double>(record.sphereRadiusMeters))) {
+      ++cut.nodesCulled;
+      return;
+    }
+    if (split[i] != 0) {
+      const std::array<double, 2> down{bySize[i] != 0 ? screen[i] : kNone, up[0]};
+      self(self, n.firstChild, down);
+      self(self, n.firstChild + 1, down);
+      return;
+    }
+    CutPatch patch;
+    patch.node = n.key;
+    patch.level = n.level;
+    patch.tile = dataset.tileOf(n.key);
+    patch.screenErrorPixels = static_cast<float>(screen[i]);
+    setPatchMorph(dataset, r, up[0], up[1], patch);
+    cut.patches.push_back(patch);
+    cut.triangles += record.triangleCount;
+    cut.vertices += record.vertexCount;
+    if (seen.insert(packKey(patch.tile)).second) cut.tiles.push_back(patch.tile);
+    if (patch.blendsTile() && seen.insert(packKey(patch.morphTile)).second) {
+      cut.tiles.push_back(patch.morphTile);
+    }
+  };
+  for (const std::uint32_t root : roots_) visit(visit, root, {kNone, kNone});
+  return cut;
+}
+
+}  // namespace pbdam::runtime
