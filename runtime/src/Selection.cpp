@@ -65,6 +65,26 @@ Result<FocusRegion> focusCircle(const Planet& planet, double latDegrees, double 
   return region;
 }
 
+Result<FocusRegion> focusPath(const Planet& planet,
+                              const std::vector<std::array<double, 2>>& latLonDegrees,
+                              double halfWidthMeters, double errorMeters) {
+  if (latLonDegrees.empty()) {
+    return makeError(ErrorCode::InvalidArgument, "focus path: it has no points");
+  }
+  if (!(halfWidthMeters > 0.0) || !std::isfinite(halfWidthMeters)) {
+    return makeError(ErrorCode::InvalidArgument, "focus path: the width must be > 0 metres");
+  }
+  FocusRegion region;
+  for (const auto& [lat, lon] : latLonDegrees) {
+    auto point = focusCircle(planet, lat, lon, halfWidthMeters, errorMeters);
+    if (!point) return std::move(point).error();
+    region.line.push_back(point->line.front());
+  }
+  region.widthMeters = halfWidthMeters;
+  region.errorMeters = errorMeters;
+  return region;
+}
+
 CutSelector::CutSelector(const DatasetView& dataset) : dataset_(&dataset) {
   std::unordered_map<std::pair<PointKey, PointKey>, std::uint32_t, EdgeKeyHash> hypotenuses;
   for (std::uint8_t face = 0; face < 6; ++face) {

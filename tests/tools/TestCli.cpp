@@ -410,6 +410,77 @@ TEST(Cli, NoStallBenchNeverFaultsOnTheRenderThread) {
 
 // Cut reuse changes the decisions, not the cuts: the same triangles every frame with it on and
 // off, far fewer decisions with it on; --popping measures each frame against the previous cut.
+// `pbdam query cut`: a focus region alone gives a closed mesh of the whole planet (V = F/2 + 2
+// for a closed triangle mesh of Euler characteristic 2) with leaves in the circle, written as a
+// binary PLY of doubles; a camera's cut and a focus path too; bad selections are exit code 2.
+TEST(Cli, QueryCutWritesTheFocusMeshAsPly) {
+  PBDAM_REQUIRE_DATASET(dataset, "mola");
+  test::TempDir dir;
+  const std::string ds = "'" + dataset.string() + "'";
+  const std::string ply = (dir / "focus.ply").string();
+  const CliRun focus =
+      runPbdam("query cut " + ds + " --focus 18.65,226.2,100e3 --out '" + ply + "' --json");
+  ASSERT_EQ(focus.exitCode, 0) << focus.err;
+  const auto j = nlohmann::json::parse(focus.out);
+  const auto vertices = j["vertices"].get<std::uint64_t>();
+  const auto triangles = j["triangles"].get<std::uint64_t>();
+  EXPECT_EQ(vertices, triangles / 2 + 2) << "closed, Euler characteristic 2";
+  EXPECT_EQ(j["max_level"], 8);  // the test dataset's leaves, inside the circle
+  EXPECT_LE(j["min_level"].get<int>(), 2);
+  const std::string bytes = readText(ply);
+  const std::string header = "ply\nformat binary_little_endian 1.0\n";
+  EXPECT_EQ(bytes.rfind(header, 0), 0u);
+  const std::size_t body = bytes.find("end_header\n") + 11;
+  EXPECT_EQ(bytes.size() - body, vertices * 24 + triangles * 13);
+  EXPECT_NE(bytes.find("element vertex " + std::to_string(vertices) + "\n"), std::string::npos);
+
+  const CliRun camera = runPbdam("query cut " + ds + " --camera 18.65,226.2,600e3,0,-60,0 --out '" +
+                                 (dir / "camera.ply").string() + "'");
+  EXPECT_EQ(camera.exitCode, 0) << camera.err;
+  EXPECT_NE(camera.out.find("wrote "), std::string::npos) << camera.out;
+  {
+    std::ofstream path(dir / "path.csv");
+    path << "lat,lon\n0,-60\n-8,-75\n";
+    std::ofstream empty(dir / "empty.csv");
+    empty << "lat,lon\n";
+  }
+  const CliRun along =
+      runPbdam("query cut " + ds + " --focus-path '" + (dir / "path.csv").string() +
+               "' --focus-width-m 50e3 --out '" + (dir / "path.ply").string() + "' --json");
+  ASSERT_EQ(along.exitCode, 0) << along.err;
+  const auto p = nlohmann::json::parse(along.out);
+  EXPECT_EQ(p["vertices"].get<std::uint64_t>(), p["triangles"].get<std::uint64_t>() / 2 + 2);
+
+  const auto query = [&](const std::string& options) {
+    std::string args = "query cut ";
+    args += ds;
+    args += options;
+    args += " --out '";
+    args += (dir / "x.ply").string();
+    args += "'";
+    return args;
+  };
+  const auto pathOption = [&](const char* file) {
+    std::string option = " --focus-path '";
+    option += (dir / file).string();
+    option += "'";
+    return option;
+  };
+  for (const auto& [args, mention] : std::vector<std::pair<std::string, std::string>>{
+           {query(""), "give --camera, --focus or --focus-path"},
+           {query(" --focus 0,0"), "--focus '0,0'"},
+           {query(" --focus 0,0,-5"), "radius"},
+           {query(pathOption("empty.csv")), "no points"},
+           {query(pathOption("none.csv")), "cannot read"},
+           {query(" --camera 0,0"), "camera"},
+       }) {
+    const CliRun run = runPbdam(args);
+    EXPECT_EQ(run.exitCode, 2) << args;
+    EXPECT_NE(run.err.find(mention), std::string::npos) << args << "\n" << run.err;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "x.ply"));
+}
+
 TEST(Cli, BenchCutReuseKeepsTheCutsAndPoppingIsMeasured) {
   PBDAM_REQUIRE_DATASET(dataset, "mola");
   test::TempDir dir;

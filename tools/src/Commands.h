@@ -43,6 +43,9 @@ void addBenchCommand(CLI::App& app, CommandStatus& status);
 /// `pbdam serve DIR [--bind A] [--port N] [--workers N] [--queue N] [--gpu-cache-mb N] [...]`.
 void addServeCommand(CLI::App& app, CommandStatus& status);
 
+/// `pbdam query cut DIR (--camera POSE | --focus … | --focus-path …) --out MESH.ply [--json]`.
+void addQueryCommands(CLI::App& app, CommandStatus& status);
+
 /// Prints "pbdam: <message>" on stderr; returns the exit code for the error's kind.
 int reportError(const formats::Error& error);
 

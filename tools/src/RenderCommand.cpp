@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "Commands.h"
+#include "FocusOption.h"
 #include "FrameImage.h"
 #include "MorphOption.h"
 #include "Progress.h"
@@ -60,8 +61,7 @@ struct RenderCliOptions {
   std::string clear = "0,0,0";
   bool quiet = false;
   MorphCliOptions morph;
-  std::string focus;  ///< LAT,LON,RADIUS_M
-  double focusErrorMeters = 0.0;
+  FocusCliOptions focus;
 };
 
 int badInput(const std::string& message) {
@@ -227,21 +227,19 @@ int planFrames(const RenderCliOptions& c, const DatasetView& view, RenderPlan& p
   return kExitOk;
 }
 
-/// Renders and writes every frame of the plan, with a statistics line each (and a JSON line
-/// in `statsFile` when it is open).
-/// The cut selection: the screen error alone (refinement tree kept from frame to frame), or a
-/// focus region closed upward (Selection.h).
+/// The cut selection: the screen error alone (refinement tree kept from frame to frame), or
+/// focus regions closed upward (Selection.h).
 class FrameCuts final {
  public:
-  FrameCuts(const DatasetView& view, std::optional<FocusRegion> focus)
+  FrameCuts(const DatasetView& view, std::vector<FocusRegion> focus)
       : incremental_(view), focus_(std::move(focus)) {
-    if (focus_) selector_.emplace(view);
+    if (!focus_.empty()) selector_.emplace(view);
   }
   Cut cut(const Camera& camera, const RefinementOptions& refinement) {
     if (!selector_) return incremental_.update(camera, refinement);
     SelectionOptions options;
     options.refinement = refinement;
-    options.focus = {*focus_};
+    options.focus = focus_;
     return selector_->select(camera, options);
   }
 
@@ -249,25 +247,12 @@ class FrameCuts final {
   // The refinement tree is kept from frame to frame: a path's frames re-evaluate only the
   // decisions the camera's movement may change (IncrementalRefiner: the same cuts as refine()).
   IncrementalRefiner incremental_;
-  std::optional<FocusRegion> focus_;
+  std::vector<FocusRegion> focus_;
   std::optional<CutSelector> selector_;
 };
 
-/// --focus and --focus-error-m as a focus region of `view`'s planet (nullopt without --focus).
-Result<std::optional<FocusRegion>> focusOf(const RenderCliOptions& c, const DatasetView& view) {
-  if (c.focus.empty()) return std::optional<FocusRegion>{};
-  std::vector<double> v;
-  if (!parseNumberList(c.focus, 3, v)) {
-    return makeError(ErrorCode::InvalidArgument,
-                     "--focus '" + c.focus + "': expected LAT,LON,RADIUS_M");
-  }
-  auto region = focusCircle(view.planet(), v[0], v[1], v[2], c.focusErrorMeters);
-  if (!region) {
-    return makeError(ErrorCode::InvalidArgument, "--" + region.error().message);
-  }
-  return std::optional<FocusRegion>(std::move(*region));
-}
-
+/// Renders and writes every frame of the plan, with a statistics line each (and a JSON line
+/// in `statsFile` when it is open).
 int renderFrames(const RenderCliOptions& c, const DatasetView& view, const Viewport& viewport,
                  const gpu::FrameSettings& settings, const RenderPlan& plan,
                  std::ofstream& statsFile) {
@@ -285,7 +270,7 @@ int renderFrames(const RenderCliOptions& c, const DatasetView& view, const Viewp
   RefinementOptions refinement;
   refinement.tolerancePixels = c.tolerancePixels;
   refinement.morphRange = morphRangeOf(c.morph, c.morph.morph == "on");
-  auto focus = focusOf(c, view);
+  auto focus = focusRegions(c.focus, view.planet());
   if (!focus) return reportError(focus.error());
   FrameCuts cuts(view, std::move(*focus));
   // One statistics line per frame on a terminal; in logs at most one a second (and the last).
@@ -418,14 +403,7 @@ void addRenderCommand(CLI::App& app, CommandStatus& status) {
   render->add_option("--clear", o->clear, "Background colour R,G,B (0..255)")
       ->capture_default_str();
   addMorphOptions(*render, o->morph, false);
-  render->add_option("--focus", o->focus,
-                     "LAT,LON,RADIUS_M: full detail (down to --focus-error-m) within the circle, "
-                     "the screen-space tolerance elsewhere; the cut is closed upward so it stays "
-                     "conforming (docs/architecture.md \"Selection by predicate\")");
-  render
-      ->add_option("--focus-error-m", o->focusErrorMeters,
-                   "Geometry error in metres inside --focus (0: the leaves)")
-      ->capture_default_str();
+  addFocusOptions(*render, o->focus);
   render->add_flag("--quiet", o->quiet, "No per-frame lines on stdout");
   render->callback([o, &status] { status.exitCode = runRender(*o); });
 }

@@ -27,6 +27,7 @@ int run(int argc, char** argv) {
   pbdam::tools::addRenderCommand(app, status);
   pbdam::tools::addHeightCommand(app, status);
   pbdam::tools::addPathCommands(app, status);
+  pbdam::tools::addQueryCommands(app, status);
   pbdam::tools::addBenchCommand(app, status);
   pbdam::tools::addServeCommand(app, status);
   try {

@@ -20,6 +20,7 @@
 // Thread-safety: CutSelector is immutable after construction; select() is const.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <glm/vec3.hpp>
@@ -46,6 +47,13 @@ struct FocusRegion final {
 /// planet's circumference.
 formats::Result<FocusRegion> focusCircle(const Planet& planet, double latDegrees, double lonDegrees,
                                          double radiusMeters, double errorMeters);
+
+/// The focus region of a path: the polyline through `latLonDegrees` (lat, lon pairs) on the
+/// reference surface, `halfWidthMeters` to each side. InvalidArgument for an empty path, a
+/// latitude outside ±90°, a width ≤ 0 or an error < 0.
+formats::Result<FocusRegion> focusPath(const Planet& planet,
+                                       const std::vector<std::array<double, 2>>& latLonDegrees,
+                                       double halfWidthMeters, double errorMeters);
 
 struct SelectionOptions final {
   RefinementOptions refinement;    ///< tolerance, culling, level cap, morph range
