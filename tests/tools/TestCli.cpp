@@ -201,6 +201,7 @@ TEST(Cli, BadInputGivesOneLineAndExitCode2) {
                  "two waypoints");
   expectBadInput("bench x --path " + csv + " --out y --prefetch maybe", "--prefetch 'maybe'");
   expectBadInput("bench x --path " + csv + " --out y --mode fast", "--mode 'fast'");
+  expectBadInput("bench x --path " + csv + " --out y --selection tpu", "--selection 'tpu'");
   expectBadInput("bench x --path '" + (dir / "none.csv").string() + "' --out y", "none.csv");
   expectBadInput(
       "build --dem x --planet earth --out y --inset a --inset b --inset-offset 1 "
@@ -408,8 +409,6 @@ TEST(Cli, NoStallBenchNeverFaultsOnTheRenderThread) {
   }
 }
 
-// Cut reuse changes the decisions, not the cuts: the same triangles every frame with it on and
-// off, far fewer decisions with it on; --popping measures each frame against the previous cut.
 // `pbdam query cut`: a focus region alone gives a closed mesh of the whole planet (V = F/2 + 2
 // for a closed triangle mesh of Euler characteristic 2) with leaves in the circle, written as a
 // binary PLY of doubles; a camera's cut and a focus path too; bad selections are exit code 2.
@@ -481,6 +480,9 @@ TEST(Cli, QueryCutWritesTheFocusMeshAsPly) {
   EXPECT_FALSE(std::filesystem::exists(dir / "x.ply"));
 }
 
+// Cut reuse changes the decisions, not the cuts: the same triangles every frame with it on and
+// off, far fewer decisions with it on; --popping measures each frame against the previous cut. The
+// device's selection passes (--selection gpu) give the same cuts too.
 TEST(Cli, BenchCutReuseKeepsTheCutsAndPoppingIsMeasured) {
   PBDAM_REQUIRE_DATASET(dataset, "mola");
   test::TempDir dir;
@@ -526,6 +528,26 @@ TEST(Cli, BenchCutReuseKeepsTheCutsAndPoppingIsMeasured) {
   }
   EXPECT_EQ(triangles["on"], triangles["off"]);
   EXPECT_EQ(triangles["on"].size(), 21u);
+  {
+    const std::filesystem::path out = dir / "r-gpu";
+    std::string command = "bench '" + dataset.string() + "' --path '" + path + "' --out '";
+    command += out.string() + "' --prefetch off --selection gpu --width 320 --height 240 --quiet";
+    const CliRun bench = runPbdam(command);
+    ASSERT_EQ(bench.exitCode, 0) << bench.err;
+    std::ifstream in(out / "summary.json");
+    EXPECT_EQ(nlohmann::json::parse(in)["runs"][0]["selection"], "gpu");
+    std::istringstream csv(readText(out / "frames.csv"));
+    std::string line;
+    std::getline(csv, line);
+    std::vector<std::string> gpuTriangles;
+    while (std::getline(csv, line)) {
+      std::vector<std::string> cells;
+      std::istringstream row(line);
+      for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+      gpuTriangles.push_back(cells.at(9));
+    }
+    EXPECT_EQ(gpuTriangles, triangles["on"]);
+  }
   EXPECT_LT(2.0 * decisions["on"], decisions["off"]);
 }
 

@@ -228,6 +228,25 @@ TEST(RenderCli, ABudgetOverTheCutStillRenders) {
   EXPECT_TRUE(nlohmann::json::parse(readFile(stats))["budget_exceeded"].get<bool>());
 }
 
+// The device's selection passes draw the host's cut: byte-identical exact frames, with and
+// without a focus circle.
+TEST(RenderCli, GpuSelectionDrawsTheSameFrameAsTheCpu) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  test::TempDir tmp;
+  for (const std::string focus : {"", " --focus 18.65,226.2,100e3"}) {
+    std::string frames[2];
+    for (int k = 0; k < 2; ++k) {
+      const auto png = tmp / (std::to_string(k) + ".png");
+      const CliRun run =
+          runPbdam("render " + quoted(dir) + " --camera 18.65,226.2,600e3,0,-60,0" + focus +
+                   " --selection " + (k == 0 ? "cpu" : "gpu") + " --out " + quoted(png) + kSmall);
+      ASSERT_EQ(run.exitCode, 0) << run.err;
+      frames[k] = readFile(png);
+    }
+    EXPECT_EQ(frames[0], frames[1]) << "focus '" << focus << "'";
+  }
+}
+
 TEST(RenderCli, BadInputIsOneLineAndExitCode2) {
   PBDAM_REQUIRE_DATASET(dir, "mola");
   test::TempDir tmp;
@@ -264,6 +283,7 @@ TEST(RenderCli, BadInputIsOneLineAndExitCode2) {
       {"render " + ds + " --path " + quoted(tmp / "far.csv") + out, "row 2"},
       {"render " + ds + " --camera 0,0,1e6", "--out"},
       {"render " + ds + " --camera 0,0,1e6 --morph maybe" + out, "--morph 'maybe'"},
+      {"render " + ds + " --camera 0,0,1e6 --selection tpu" + out, "--selection 'tpu'"},
       {"render " + ds + " --camera 0,0,1e6 --morph-range 0" + out, "--morph-range"},
       {"render " + ds + " --camera 0,0,1e6 --morph-range 0.5" + out, "error margin"},
       {"render " + ds + " --camera 0,0,1e6 --focus 10,20" + out, "--focus '10,20'"},

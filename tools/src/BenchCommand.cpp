@@ -30,6 +30,7 @@
 #include "MorphOption.h"
 #include "Progress.h"
 #include "pbdam/formats/CameraPath.h"
+#include "pbdam/gpu/GpuSelector.h"
 #include "pbdam/gpu/TerrainRenderer.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/runtime/CutReuse.h"
@@ -54,6 +55,7 @@ struct BenchCliOptions {
   double lookahead = 0.5;
   std::string mode = "paging";
   std::string cutReuse = "on";
+  std::string selection = "cpu";
   bool popping = false;
   double fovDegrees = 60.0;
   double gpuCacheMiB = 64.0;
@@ -118,6 +120,34 @@ Cut noStallCut(const NoStallPolicy& policy, const Camera& camera, RefinementOpti
   f.drawnLevelCap = capped.levelCap;
   return std::move(capped.cut);
 }
+
+/// Where a paging-mode frame's cut comes from: the device's selection passes, the refinement
+/// tree kept from frame to frame, or the stateless refinement.
+class PagingCuts final {
+ public:
+  PagingCuts(const DatasetView& view, bool reuse)
+      : view_(view), incremental_(view), reuse_(reuse) {}
+  Result<void> useGpu(gpu::VulkanContext& context) {
+    auto selector = gpu::GpuSelector::create(context, view_);
+    if (!selector) return std::move(selector).error();
+    gpu_.emplace(std::move(*selector));
+    return {};
+  }
+  Result<Cut> cut(const Camera& camera, const RefinementOptions& refinement) {
+    if (gpu_) {
+      SelectionOptions selection;
+      selection.refinement = refinement;
+      return gpu_->select(camera, selection);
+    }
+    return reuse_ ? incremental_.update(camera, refinement) : refine(view_, camera, refinement);
+  }
+
+ private:
+  const DatasetView& view_;
+  IncrementalRefiner incremental_;
+  bool reuse_;
+  std::optional<gpu::GpuSelector> gpu_;
+};
 
 void copyRenderStats(const gpu::FrameStats& stats, BenchFrame& f) {
   f.decodeMs = stats.decodeMs;
@@ -187,7 +217,8 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   run.prefetch = prefetch ? "on" : "off";
   run.morph = morph ? "on" : "off";
   run.mode = o.mode;
-  run.cutReuse = o.cutReuse == "on" && o.mode == "paging";
+  run.selection = o.mode == "paging" ? o.selection : "cpu";
+  run.cutReuse = o.cutReuse == "on" && o.mode == "paging" && run.selection == "cpu";
   run.popping = o.popping;
   run.cold = o.cold;
   if (o.cold) {
@@ -213,9 +244,13 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   RefinementOptions refinement;
   refinement.tolerancePixels = o.tolerance;
   refinement.morphRange = morphRangeOf(o.morph, morph);
-  // Paging mode keeps the refinement tree from frame to frame (the same cuts, fewer decisions);
-  // no-stall mode's level cap changes from frame to frame and refines from the roots.
-  IncrementalRefiner incremental(view);
+  // Paging mode keeps the refinement tree from frame to frame (the same cuts, fewer decisions)
+  // or selects on the device; no-stall mode's level cap changes from frame to frame and
+  // refines from the roots.
+  PagingCuts pagingCuts(view, run.cutReuse);
+  if (run.selection == "gpu") {
+    if (auto r = pagingCuts.useGpu(context); !r) return r.error();
+  }
   std::optional<Prefetcher> prefetcher;
   if (prefetch || noStall) {
     // No-stall always has a loader thread; without prefetch it fetches the current camera's cut
@@ -247,10 +282,10 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     Cut cut;
     if (noStall) {
       cut = noStallCut(noStallPolicy, camera, refinement, lastCap, f);
-    } else if (run.cutReuse) {
-      cut = incremental.update(camera, refinement);
     } else {
-      cut = refine(view, camera, refinement);
+      auto paged = pagingCuts.cut(camera, refinement);
+      if (!paged) return paged.error();
+      cut = std::move(*paged);
     }
     f.traversalMs = msSince(t0);
     f.decisions = cut.nodesVisited;
@@ -307,6 +342,9 @@ int runBench(const BenchCliOptions& o) {
   }
   if (o.cutReuse != "on" && o.cutReuse != "off") {
     return bad("--cut-reuse '" + o.cutReuse + "': expected on or off");
+  }
+  if (o.selection != "cpu" && o.selection != "gpu") {
+    return bad("--selection '" + o.selection + "': expected cpu or gpu");
   }
   if (o.mode != "paging" && o.mode != "no-stall") {
     return bad("--mode '" + o.mode + "': expected paging or no-stall");
@@ -410,6 +448,10 @@ void addBenchCommand(CLI::App& app, CommandStatus& status) {
                   "spelling, also MiB)")
       ->capture_default_str();
   cmd->add_option("--device", o->device, "Vulkan device index (default: lavapipe)");
+  cmd->add_option("--selection", o->selection,
+                  "cpu: the refinement on the host; gpu: the selection's compute passes on the "
+                  "device (paging mode; the same cuts on lavapipe)")
+      ->capture_default_str();
   addMorphOptions(*cmd, o->morph, true);
   cmd->add_flag("--quiet", o->quiet, "No per-frame progress");
   cmd->callback([o, &status] { status.exitCode = runBench(*o); });

@@ -68,6 +68,7 @@ nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   j["morph"] = run.morph;
   j["mode"] = run.mode;
   j["cut_reuse"] = run.cutReuse;
+  j["selection"] = run.selection;
   j["cold"] = run.cold;
   if (run.cold) {
     j["resident_after_evict_pages"] = run.residentAfterEvictPages;
@@ -93,6 +94,7 @@ nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   j["max_patches_per_frame"] = maxPatches;
   j["max_tiles_per_frame"] = maxTiles;
   j["traversal_fraction"] = total > 0.0 ? traversal / total : 0.0;
+  j["traversal_ms_mean"] = traversal / frames;
   j["render_thread_major_faults"] = faults;
   j["bytes_paged_in"] = paged;
   j["prefetch_ranges_advised"] = run.prefetchRangesAdvised;

@@ -50,7 +50,8 @@ struct BenchRun final {
   std::string morph;      ///< "on" or "off": the geomorph (docs/architecture.md "Geomorphing")
   std::string mode;       ///< "paging" or "no-stall"
   bool cutReuse = false;  ///< the refinement tree kept from frame to frame (IncrementalRefiner)
-  bool popping = false;   ///< frames drawn twice for the popping measure
+  std::string selection = "cpu";  ///< "gpu": the cut from the device's selection passes
+  bool popping = false;           ///< frames drawn twice for the popping measure
   bool cold = false;
   double residentAfterEvictFraction = 0.0;  ///< pages left in the page cache after eviction
   std::uint64_t residentAfterEvictPages = 0;

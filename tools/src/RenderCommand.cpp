@@ -27,6 +27,7 @@
 #include "Progress.h"
 #include "pbdam/formats/CameraPath.h"
 #include "pbdam/formats/NumberList.h"
+#include "pbdam/gpu/GpuSelector.h"
 #include "pbdam/gpu/TerrainRenderer.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/runtime/Camera.h"
@@ -62,6 +63,7 @@ struct RenderCliOptions {
   bool quiet = false;
   MorphCliOptions morph;
   FocusCliOptions focus;
+  std::string selection = "cpu";
 };
 
 int badInput(const std::string& message) {
@@ -169,6 +171,9 @@ int checkRenderOptions(const RenderCliOptions& c, const Viewport& viewport,
     return badInput("--tolerance-px must be a positive number of pixels");
   }
   if (c.device < -1) return badInput("--device must be a device index (pbdam devices)");
+  if (c.selection != "cpu" && c.selection != "gpu") {
+    return badInput("--selection '" + c.selection + "': expected cpu or gpu");
+  }
   if (!std::isfinite(c.gpuCacheMiB) || c.gpuCacheMiB <= 0.0 || c.gpuCacheMiB > 1048576.0) {
     return badInput("--gpu-cache-mib (--gpu-cache-mb) must be a positive number of MiB");
   }
@@ -227,19 +232,26 @@ int planFrames(const RenderCliOptions& c, const DatasetView& view, RenderPlan& p
   return kExitOk;
 }
 
-/// The cut selection: the screen error alone (refinement tree kept from frame to frame), or
-/// focus regions closed upward (Selection.h).
+/// The cut selection: the screen error alone (refinement tree kept from frame to frame), focus
+/// regions closed upward (Selection.h), or either on the device (GpuSelector.h).
 class FrameCuts final {
  public:
   FrameCuts(const DatasetView& view, std::vector<FocusRegion> focus)
       : incremental_(view), focus_(std::move(focus)) {
     if (!focus_.empty()) selector_.emplace(view);
   }
-  Cut cut(const Camera& camera, const RefinementOptions& refinement) {
-    if (!selector_) return incremental_.update(camera, refinement);
+  Result<void> useGpu(gpu::VulkanContext& context, const DatasetView& view) {
+    auto selector = gpu::GpuSelector::create(context, view);
+    if (!selector) return std::move(selector).error();
+    gpu_.emplace(std::move(*selector));
+    return {};
+  }
+  Result<Cut> cut(const Camera& camera, const RefinementOptions& refinement) {
     SelectionOptions options;
     options.refinement = refinement;
     options.focus = focus_;
+    if (gpu_) return gpu_->select(camera, options);
+    if (!selector_) return incremental_.update(camera, refinement);
     return selector_->select(camera, options);
   }
 
@@ -249,6 +261,7 @@ class FrameCuts final {
   IncrementalRefiner incremental_;
   std::vector<FocusRegion> focus_;
   std::optional<CutSelector> selector_;
+  std::optional<gpu::GpuSelector> gpu_;
 };
 
 /// Renders and writes every frame of the plan, with a statistics line each (and a JSON line
@@ -273,13 +286,18 @@ int renderFrames(const RenderCliOptions& c, const DatasetView& view, const Viewp
   auto focus = focusRegions(c.focus, view.planet());
   if (!focus) return reportError(focus.error());
   FrameCuts cuts(view, std::move(*focus));
+  if (c.selection == "gpu") {
+    if (auto r = cuts.useGpu(*context, view); !r) return reportError(r.error());
+  }
   // One statistics line per frame on a terminal; in logs at most one a second (and the last).
   Progress frameLines(c.quiet, stdout, Progress::OnTerminal::Scroll);
   for (std::size_t i = 0; i < plan.jobs.size(); ++i) {
     const FrameJob& job = plan.jobs[i];
     const Camera camera = Camera::fromPose(view.planet(), job.pose, viewport);
     const auto traversalStart = std::chrono::steady_clock::now();
-    const Cut cut = cuts.cut(camera, refinement);
+    auto selected = cuts.cut(camera, refinement);
+    if (!selected) return reportError(selected.error());
+    const Cut& cut = *selected;
     const double traversalMs =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - traversalStart)
             .count();
@@ -404,6 +422,11 @@ void addRenderCommand(CLI::App& app, CommandStatus& status) {
       ->capture_default_str();
   addMorphOptions(*render, o->morph, false);
   addFocusOptions(*render, o->focus);
+  render
+      ->add_option("--selection", o->selection,
+                   "cpu: the cut selected on the host; gpu: by the selection's compute passes on "
+                   "the device (the same cut on lavapipe)")
+      ->capture_default_str();
   render->add_flag("--quiet", o->quiet, "No per-frame lines on stdout");
   render->callback([o, &status] { status.exitCode = runRender(*o); });
 }

@@ -1,0 +1,53 @@
+// The cut selected on the device (docs/architecture.md "Selection by predicate", seed 000 §6–7):
+// the node tables resident in a device buffer, and per frame three compute passes in one
+// submission — the predicate per node, the closure to a fixed point (2·(depth + 1) steps with
+// barriers, no host round trip per level), and the drawn flags — then a read-back of the flags
+// and screen errors from which the host lists the cut in refine()'s depth-first order, with
+// its tiles and geomorph weights. The predicate is runtime::CutSelector's (screen error, focus
+// regions, a caller's flags); the arithmetic is the CPU's operation for operation in double,
+// so on lavapipe (IEEE doubles, no contraction) the cut is the CPU's, bit for bit in its
+// screen errors. Thread-safety: one thread at a time; the
+// context and the dataset must outlive it.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+
+#include "pbdam/formats/Result.h"
+#include "pbdam/runtime/Camera.h"
+#include "pbdam/runtime/DatasetView.h"
+#include "pbdam/runtime/Refinement.h"
+#include "pbdam/runtime/Selection.h"
+
+namespace pbdam::gpu {
+
+class VulkanContext;
+
+class GpuSelector final {
+ public:
+  /// Uploads the node tables (64 bytes a node) and creates the passes. InvalidArgument when the
+  /// tables need more than `tableBudgetBytes` (naming both sizes) or the device has no 64-bit
+  /// floats in shaders; DeviceError for Vulkan failures.
+  static formats::Result<GpuSelector> create(VulkanContext& context,
+                                             const runtime::DatasetView& dataset,
+                                             std::uint64_t tableBudgetBytes = std::uint64_t{256}
+                                                                              << 20);
+  GpuSelector(GpuSelector&&) noexcept;
+  GpuSelector& operator=(GpuSelector&&) noexcept;
+  GpuSelector(const GpuSelector&) = delete;
+  GpuSelector& operator=(const GpuSelector&) = delete;
+  ~GpuSelector();
+
+  /// The cut for `camera` and `selection` (tolerance, culling, level cap, morph range, focus
+  /// regions — at most 64 with 4096 points in all — and the caller's predicate, evaluated on
+  /// the host into a flag per node): runtime::CutSelector's cut.
+  formats::Result<runtime::Cut> select(const runtime::Camera& camera,
+                                       const runtime::SelectionOptions& selection);
+
+ private:
+  struct Impl;
+  explicit GpuSelector(std::unique_ptr<Impl> impl) noexcept;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace pbdam::gpu

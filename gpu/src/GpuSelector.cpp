@@ -1,0 +1,450 @@
+// The cut selected on the device (GpuSelector.h).
+#include "pbdam/gpu/GpuSelector.h"
+
+#include <algorithm>
+#include <array>
+#include <cstring>
+#include <limits>
+#include <unordered_map>
+#include <unordered_set>
+#include <utility>
+#include <vector>
+
+#include "pbdam/gpu/GpuMemory.h"
+#include "pbdam/gpu/ShaderModule.h"
+#include "pbdam/gpu/UniqueHandle.h"
+#include "pbdam/gpu/VulkanContext.h"
+#include "pbdam/gpu/VulkanError.h"
+
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
+namespace pbdam::gpu {
+namespace {
+
+const uint32_t kSelectComp[] =
+#include "select.comp.inc"
+    ;
+
+constexpr std::uint32_t kGroupSize = 64;
+
+/// One node as select.comp reads it (std430).
+struct SelectNode final {
+  std::array<double, 4> sphere;
+  double error;
+  double geometryError;
+  std::uint32_t parent;
+  std::uint32_t partner;
+  std::uint32_t flags;
+  std::uint32_t pad1;
+};
+static_assert(sizeof(SelectNode) == 64);
+
+/// The frame's camera and options (std430).
+struct SelectFrame final {
+  std::array<double, 4> position;
+  std::array<std::array<double, 4>, 5> planes;
+  double tolerance;
+  double pad;
+  std::uint32_t maxLevel;
+  std::uint32_t culling;
+  std::uint32_t count;
+  std::uint32_t regionCount;
+};
+static_assert(sizeof(SelectFrame) == 224);
+
+/// A focus region as select.comp reads it (std430): its points are in the point buffer.
+struct SelectRegion final {
+  double width;
+  double error;
+  std::uint32_t firstPoint;
+  std::uint32_t pointCount;
+};
+static_assert(sizeof(SelectRegion) == 24);
+
+constexpr std::uint32_t kMaxRegions = 64;
+constexpr std::uint32_t kMaxPoints = 4096;
+constexpr std::uint32_t kBindings = 7;
+
+/// A node's place in the dataset, for listing the cut.
+struct NodePlace final {
+  NodeKey key;
+  std::uint32_t firstChild = 0;
+  int level = 0;
+  bool leaf = true;
+};
+
+}  // namespace
+
+struct GpuSelector::Impl {
+  VulkanContext* context = nullptr;
+  const DatasetView* dataset = nullptr;
+  std::vector<NodePlace> places;
+  std::vector<std::uint32_t> roots;
+  UniqueDescriptorSetLayout setLayout;
+  UniquePipelineLayout layout;
+  UniquePipeline pipeline;
+  UniqueDescriptorPool pool;
+  VkDescriptorSet set = VK_NULL_HANDLE;
+  GpuBuffer nodes;
+  GpuBuffer frame;
+  GpuBuffer screen;
+  GpuBuffer state;
+  GpuBuffer regions;
+  GpuBuffer points;
+  GpuBuffer wanted;
+
+  Result<void> createPipeline();
+  Result<void> createSet();
+  /// The focus regions' and the caller's predicate's inputs of one selection.
+  Result<void> upload(const SelectionOptions& selection);
+};
+
+Result<void> GpuSelector::Impl::createPipeline() {
+  VkDevice device = context->device();
+  std::array<VkDescriptorSetLayoutBinding, kBindings> bindings{};
+  for (std::uint32_t b = 0; b < bindings.size(); ++b) {
+    bindings[b].binding = b;
+    bindings[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    bindings[b].descriptorCount = 1;
+    bindings[b].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
+  }
+  VkDescriptorSetLayoutCreateInfo setInfo{};
+  setInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
+  setInfo.bindingCount = static_cast<std::uint32_t>(bindings.size());
+  setInfo.pBindings = bindings.data();
+  VkDescriptorSetLayout rawSet = VK_NULL_HANDLE;
+  if (VkResult r = vkCreateDescriptorSetLayout(device, &setInfo, nullptr, &rawSet);
+      r != VK_SUCCESS) {
+    return vulkanError(r, "selection set layout");
+  }
+  setLayout = UniqueDescriptorSetLayout(device, rawSet);
+  const VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(std::uint32_t)};
+  VkPipelineLayoutCreateInfo layoutInfo{};
+  layoutInfo.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+  layoutInfo.setLayoutCount = 1;
+  layoutInfo.pSetLayouts = &rawSet;
+  layoutInfo.pushConstantRangeCount = 1;
+  layoutInfo.pPushConstantRanges = &range;
+  VkPipelineLayout rawLayout = VK_NULL_HANDLE;
+  if (VkResult r = vkCreatePipelineLayout(device, &layoutInfo, nullptr, &rawLayout);
+      r != VK_SUCCESS) {
+    return vulkanError(r, "selection pipeline layout");
+  }
+  layout = UniquePipelineLayout(device, rawLayout);
+  auto module = createShaderModule(device, kSelectComp, "select.comp");
+  if (!module) return std::move(module).error();
+  VkComputePipelineCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
+  info.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+  info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+  info.stage.module = module->get();
+  info.stage.pName = "main";
+  info.layout = rawLayout;
+  VkPipeline rawPipeline = VK_NULL_HANDLE;
+  if (VkResult r =
+          vkCreateComputePipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &rawPipeline);
+      r != VK_SUCCESS) {
+    return vulkanError(r, "selection pipeline");
+  }
+  pipeline = UniquePipeline(device, rawPipeline);
+  return {};
+}
+
+Result<void> GpuSelector::Impl::createSet() {
+  VkDevice device = context->device();
+  const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kBindings};
+  VkDescriptorPoolCreateInfo poolInfo{};
+  poolInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+  poolInfo.maxSets = 1;
+  poolInfo.poolSizeCount = 1;
+  poolInfo.pPoolSizes = &size;
+  VkDescriptorPool rawPool = VK_NULL_HANDLE;
+  if (VkResult r = vkCreateDescriptorPool(device, &poolInfo, nullptr, &rawPool); r != VK_SUCCESS) {
+    return vulkanError(r, "selection descriptor pool");
+  }
+  pool = UniqueDescriptorPool(device, rawPool);
+  VkDescriptorSetLayout rawSetLayout = setLayout.get();
+  VkDescriptorSetAllocateInfo allocate{};
+  allocate.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+  allocate.descriptorPool = rawPool;
+  allocate.descriptorSetCount = 1;
+  allocate.pSetLayouts = &rawSetLayout;
+  if (VkResult r = vkAllocateDescriptorSets(device, &allocate, &set); r != VK_SUCCESS) {
+    return vulkanError(r, "selection descriptor set");
+  }
+  const std::array<VkDescriptorBufferInfo, kBindings> infos = {
+      VkDescriptorBufferInfo{nodes.buffer(), 0, VK_WHOLE_SIZE},
+      VkDescriptorBufferInfo{frame.buffer(), 0, VK_WHOLE_SIZE},
+      VkDescriptorBufferInfo{screen.buffer(), 0, VK_WHOLE_SIZE},
+      VkDescriptorBufferInfo{state.buffer(), 0, VK_WHOLE_SIZE},
+      VkDescriptorBufferInfo{regions.buffer(), 0, VK_WHOLE_SIZE},
+      VkDescriptorBufferInfo{points.buffer(), 0, VK_WHOLE_SIZE},
+      VkDescriptorBufferInfo{wanted.buffer(), 0, VK_WHOLE_SIZE}};
+  std::array<VkWriteDescriptorSet, kBindings> writes{};
+  for (std::uint32_t b = 0; b < writes.size(); ++b) {
+    writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+    writes[b].dstSet = set;
+    writes[b].dstBinding = b;
+    writes[b].descriptorCount = 1;
+    writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    writes[b].pBufferInfo = &infos[b];
+  }
+  vkUpdateDescriptorSets(device, static_cast<std::uint32_t>(writes.size()), writes.data(), 0,
+                         nullptr);
+  return {};
+}
+
+Result<void> GpuSelector::Impl::upload(const SelectionOptions& selection) {
+  if (selection.focus.size() > kMaxRegions) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "GPU selection: at most " + std::to_string(kMaxRegions) + " focus regions");
+  }
+  std::vector<SelectRegion> r;
+  std::vector<std::array<double, 4>> p;
+  for (const FocusRegion& region : selection.focus) {
+    if (region.line.empty()) continue;
+    r.push_back({region.widthMeters, region.errorMeters, static_cast<std::uint32_t>(p.size()),
+                 static_cast<std::uint32_t>(region.line.size())});
+    for (const glm::dvec3& x : region.line) p.push_back({x.x, x.y, x.z, 0.0});
+  }
+  if (p.size() > kMaxPoints) {
+    return makeError(ErrorCode::InvalidArgument, "GPU selection: focus paths of at most " +
+                                                     std::to_string(kMaxPoints) + " points in all");
+  }
+  std::memcpy(regions.mappedBytes().data(), r.data(), r.size() * sizeof(SelectRegion));
+  std::memcpy(points.mappedBytes().data(), p.data(), p.size() * sizeof(p[0]));
+  std::vector<std::uint32_t> w(places.size(), 0);
+  if (selection.split) {
+    for (std::size_t i = 0; i < places.size(); ++i) {
+      w[i] = selection.split(places[i].key, dataset->node(places[i].key)) ? 1U : 0U;
+    }
+  }
+  std::memcpy(wanted.mappedBytes().data(), w.data(), w.size() * sizeof(std::uint32_t));
+  for (const GpuBuffer* b : {&regions, &points, &wanted}) {
+    if (auto flushed = b->flushHostWrites(); !flushed) return flushed;
+  }
+  return {};
+}
+
+Result<GpuSelector> GpuSelector::create(VulkanContext& context, const DatasetView& dataset,
+                                        std::uint64_t tableBudgetBytes) {
+  if (!context.caps().shaderFloat64) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "GPU selection needs 64-bit floats in shaders; the device has none");
+  }
+  auto impl = std::make_unique<Impl>();
+  impl->context = &context;
+  impl->dataset = &dataset;
+  // The node tables in one index space, face by face; parents and diamond partners as in
+  // CutSelector (the partner found by the hypotenuse's canonical corner keys).
+  std::vector<SelectNode> table;
+  for (std::uint8_t face = 0; face < 6; ++face) {
+    const formats::FaceView& view = dataset.face(face);
+    const auto first = static_cast<std::uint32_t>(table.size());
+    for (std::uint64_t row = 0; row < view.header().nodeCount; ++row) {
+      const NodeRecord r = view.nodeAt(row);
+      NodePlace place;
+      place.key = NodeKey{face, static_cast<std::uint8_t>(row >= view.treeFirstNode(1) ? 1 : 0),
+                          r.heapIndex};
+      place.level = bintreeLevel(r.heapIndex);
+      place.leaf = r.leaf();
+      if (!place.leaf)
+        place.firstChild = first + static_cast<std::uint32_t>(view.firstChildOf(row));
+      const auto self = static_cast<std::uint32_t>(table.size());
+      if (r.heapIndex == 0) impl->roots.push_back(self);
+      SelectNode n{};
+      n.sphere = {r.sphereCenter[0], r.sphereCenter[1], r.sphereCenter[2],
+                  static_cast<double>(r.sphereRadiusMeters)};
+      n.error = refinementErrorMeters(dataset, place.level, static_cast<double>(r.errorMeters));
+      n.geometryError = static_cast<double>(r.errorMeters);
+      n.parent = self;
+      n.partner = self;
+      n.flags = (place.leaf ? 1U : 0U) | (static_cast<std::uint32_t>(place.level) << 8);
+      table.push_back(n);
+      impl->places.push_back(place);
+    }
+  }
+  const std::uint64_t bytes = table.size() * sizeof(SelectNode);
+  if (bytes > tableBudgetBytes) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "the node tables need " + std::to_string(bytes) +
+                         " bytes on the device, more than the budget of " +
+                         std::to_string(tableBudgetBytes));
+  }
+  // Parents, then partners by the hypotenuse's corner keys (canonical across faces).
+  struct EdgeHash final {
+    std::size_t operator()(const std::pair<PointKey, PointKey>& k) const noexcept {
+      return static_cast<std::size_t>(k.first * 0x9E3779B97F4A7C15ULL) ^
+             static_cast<std::size_t>(k.second + 0x632BE59BD9B4E019ULL);
+    }
+  };
+  std::unordered_map<std::pair<PointKey, PointKey>, std::uint32_t, EdgeHash> hypotenuses;
+  for (std::uint32_t i = 0; i < table.size(); ++i) {
+    const NodePlace& p = impl->places[i];
+    if (!p.leaf) {
+      table[p.firstChild].parent = i;
+      table[p.firstChild + 1].parent = i;
+    }
+    const BinTriangle t = dataset.triangle(p.key);
+    PointKey a = latticePointKey(dataset.latticeCells(), p.key.face, t.left);
+    PointKey b = latticePointKey(dataset.latticeCells(), p.key.face, t.right);
+    if (b < a) std::swap(a, b);
+    const auto [it, inserted] = hypotenuses.try_emplace({a, b}, i);
+    if (!inserted) {
+      table[i].partner = it->second;
+      table[it->second].partner = i;
+    }
+  }
+  auto nodes =
+      createBuffer(context, std::max<std::uint64_t>(bytes, 64), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                   MemoryUse::HostUpload, "selection nodes");
+  if (!nodes) return std::move(nodes).error();
+  std::memcpy(nodes->mappedBytes().data(), table.data(), bytes);
+  if (auto r = nodes->flushHostWrites(); !r) return std::move(r).error();
+  impl->nodes = std::move(*nodes);
+  auto frame = createBuffer(context, sizeof(SelectFrame), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                            MemoryUse::HostUpload, "selection frame");
+  if (!frame) return std::move(frame).error();
+  impl->frame = std::move(*frame);
+  auto screen = createBuffer(context, std::max<std::uint64_t>(table.size() * 8, 8),
+                             VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUse::HostReadback,
+                             "selection screen errors");
+  if (!screen) return std::move(screen).error();
+  impl->screen = std::move(*screen);
+  auto state =
+      createBuffer(context, std::max<std::uint64_t>(table.size() * 4, 4),
+                   VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, MemoryUse::HostReadback, "selection state");
+  if (!state) return std::move(state).error();
+  impl->state = std::move(*state);
+  const auto hostBuffer = [&](std::uint64_t size, const char* name,
+                              GpuBuffer& out) -> Result<void> {
+    auto made = createBuffer(context, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                             MemoryUse::HostUpload, name);
+    if (!made) return std::move(made).error();
+    out = std::move(*made);
+    return {};
+  };
+  if (auto r =
+          hostBuffer(sizeof(SelectRegion) * kMaxRegions, "selection focus regions", impl->regions);
+      !r) {
+    return std::move(r).error();
+  }
+  if (auto r = hostBuffer(std::uint64_t{32} * kMaxPoints, "selection focus points", impl->points);
+      !r) {
+    return std::move(r).error();
+  }
+  if (auto r = hostBuffer(std::max<std::uint64_t>(table.size() * 4, 4), "selection wanted",
+                          impl->wanted);
+      !r) {
+    return std::move(r).error();
+  }
+  if (auto r = impl->createPipeline(); !r) return std::move(r).error();
+  if (auto r = impl->createSet(); !r) return std::move(r).error();
+  return GpuSelector(std::move(impl));
+}
+
+Result<Cut> GpuSelector::select(const Camera& camera, const SelectionOptions& selection) {
+  Impl& m = *impl_;
+  const RefinementOptions& options = selection.refinement;
+  if (auto r = m.upload(selection); !r) return std::move(r).error();
+  const DatasetView& dataset = *m.dataset;
+  const auto count = static_cast<std::uint32_t>(m.places.size());
+  SelectFrame f{};
+  const glm::dvec3 eye = camera.position();
+  f.position = {eye.x, eye.y, eye.z, camera.pixelsPerRadian()};
+  for (std::size_t k = 0; k < 5; ++k) {
+    const glm::dvec4& p = camera.frustumPlanes()[k];
+    f.planes[k] = {p.x, p.y, p.z, p.w};
+  }
+  f.tolerance = options.tolerancePixels;
+  f.maxLevel = static_cast<std::uint32_t>(
+      options.maxLevel < 0 ? dataset.depth() : std::min(options.maxLevel, dataset.depth()));
+  f.culling = options.frustumCulling ? 1U : 0U;
+  f.count = count;
+  f.regionCount = static_cast<std::uint32_t>(selection.focus.size());
+  std::memcpy(m.frame.mappedBytes().data(), &f, sizeof f);
+  if (auto r = m.frame.flushHostWrites(); !r) return std::move(r).error();
+
+  const std::uint32_t groups = (count + kGroupSize - 1) / kGroupSize;
+  const std::uint32_t closureSteps = 2 * (static_cast<std::uint32_t>(dataset.depth()) + 1);
+  const Result<void> done = m.context->submitAndWait(
+      [&](VkCommandBuffer cmd) {
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, m.pipeline.get());
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, m.layout.get(), 0, 1, &m.set,
+                                0, nullptr);
+        VkMemoryBarrier2 between{};
+        between.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2;
+        between.srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+        between.srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+        between.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+        between.dstAccessMask =
+            VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+        VkDependencyInfo dependency{};
+        dependency.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
+        dependency.memoryBarrierCount = 1;
+        dependency.pMemoryBarriers = &between;
+        const auto dispatch = [&](std::uint32_t mode) {
+          vkCmdPushConstants(cmd, m.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof mode,
+                             &mode);
+          vkCmdDispatch(cmd, groups, 1, 1);
+          vkCmdPipelineBarrier2(cmd, &dependency);
+        };
+        dispatch(0);
+        for (std::uint32_t s = 0; s < closureSteps; ++s) dispatch(1);
+        dispatch(2);
+        VkMemoryBarrier2 toHost = between;
+        toHost.dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT;
+        toHost.dstAccessMask = VK_ACCESS_2_HOST_READ_BIT;
+        dependency.pMemoryBarriers = &toHost;
+        vkCmdPipelineBarrier2(cmd, &dependency);
+      },
+      "GPU selection");
+  if (!done) return done.error();
+  if (auto r = m.screen.invalidateForHostRead(); !r) return std::move(r).error();
+  if (auto r = m.state.invalidateForHostRead(); !r) return std::move(r).error();
+  std::vector<double> screen(count);
+  std::vector<std::uint32_t> state(count);
+  std::memcpy(screen.data(), m.screen.mappedBytes().data(), count * sizeof(double));
+  std::memcpy(state.data(), m.state.mappedBytes().data(), count * sizeof(std::uint32_t));
+
+  // The cut in refine()'s depth-first order, from the flags.
+  Cut cut;
+  std::unordered_set<std::uint64_t> seen;
+  constexpr double kNone = std::numeric_limits<double>::infinity();
+  const auto visit = [&](auto&& self, std::uint32_t i, std::array<double, 2> up) -> void {
+    const NodePlace& p = m.places[i];
+    if ((state[i] & 1U) != 0U) {
+      // A morph window only for a split by screen error (Selection.h).
+      const std::array<double, 2> down{(state[i] & 4U) != 0U ? screen[i] : kNone, up[0]};
+      self(self, p.firstChild, down);
+      self(self, p.firstChild + 1, down);
+      return;
+    }
+    if ((state[i] & 2U) == 0U) return;  // culled
+    const NodeRecord record = dataset.node(p.key);
+    CutPatch patch;
+    patch.node = p.key;
+    patch.level = p.level;
+    patch.tile = dataset.tileOf(p.key);
+    patch.screenErrorPixels = static_cast<float>(screen[i]);
+    setPatchMorph(dataset, options, up[0], up[1], patch);
+    cut.patches.push_back(patch);
+    cut.triangles += record.triangleCount;
+    cut.vertices += record.vertexCount;
+    if (seen.insert(packKey(patch.tile)).second) cut.tiles.push_back(patch.tile);
+    if (patch.blendsTile() && seen.insert(packKey(patch.morphTile)).second) {
+      cut.tiles.push_back(patch.morphTile);
+    }
+  };
+  for (const std::uint32_t root : m.roots) visit(visit, root, {kNone, kNone});
+  cut.nodesVisited = count;
+  return cut;
+}
+
+GpuSelector::GpuSelector(std::unique_ptr<Impl> impl) noexcept : impl_(std::move(impl)) {}
+GpuSelector::GpuSelector(GpuSelector&&) noexcept = default;
+GpuSelector& GpuSelector::operator=(GpuSelector&&) noexcept = default;
+GpuSelector::~GpuSelector() = default;
+
+}  // namespace pbdam::gpu
