@@ -212,8 +212,10 @@ Result<void> GpuSelector::Impl::upload(const SelectionOptions& selection) {
     return makeError(ErrorCode::InvalidArgument, "GPU selection: focus paths of at most " +
                                                      std::to_string(kMaxPoints) + " points in all");
   }
-  std::memcpy(regions.mappedBytes().data(), r.data(), r.size() * sizeof(SelectRegion));
-  std::memcpy(points.mappedBytes().data(), p.data(), p.size() * sizeof(p[0]));
+  if (!r.empty()) {  // memcpy from an empty vector's null data is undefined
+    std::memcpy(regions.mappedBytes().data(), r.data(), r.size() * sizeof(SelectRegion));
+    std::memcpy(points.mappedBytes().data(), p.data(), p.size() * sizeof(p[0]));
+  }
   std::vector<std::uint32_t> w(places.size(), 0);
   if (selection.split) {
     for (std::size_t i = 0; i < places.size(); ++i) {
