@@ -5,14 +5,15 @@
 #include <array>
 #include <cstring>
 #include <limits>
+#include <optional>
+#include <span>
 #include <unordered_map>
 #include <unordered_set>
 #include <utility>
 #include <vector>
 
+#include "ComputeProgram.h"
 #include "pbdam/gpu/GpuMemory.h"
-#include "pbdam/gpu/ShaderModule.h"
-#include "pbdam/gpu/UniqueHandle.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/gpu/VulkanError.h"
 
@@ -64,7 +65,6 @@ static_assert(sizeof(SelectRegion) == 24);
 
 constexpr std::uint32_t kMaxRegions = 64;
 constexpr std::uint32_t kMaxPoints = 4096;
-constexpr std::uint32_t kBindings = 7;
 
 /// A node's place in the dataset, for listing the cut.
 struct NodePlace final {
@@ -81,11 +81,7 @@ struct GpuSelector::Impl {
   const DatasetView* dataset = nullptr;
   std::vector<NodePlace> places;
   std::vector<std::uint32_t> roots;
-  UniqueDescriptorSetLayout setLayout;
-  UniquePipelineLayout layout;
-  UniquePipeline pipeline;
-  UniqueDescriptorPool pool;
-  VkDescriptorSet set = VK_NULL_HANDLE;
+  std::optional<ComputeProgram> program;
   GpuBuffer nodes;
   GpuBuffer frame;
   GpuBuffer screen;
@@ -94,106 +90,9 @@ struct GpuSelector::Impl {
   GpuBuffer points;
   GpuBuffer wanted;
 
-  Result<void> createPipeline();
-  Result<void> createSet();
   /// The focus regions' and the caller's predicate's inputs of one selection.
   Result<void> upload(const SelectionOptions& selection);
 };
-
-Result<void> GpuSelector::Impl::createPipeline() {
-  VkDevice device = context->device();
-  std::array<VkDescriptorSetLayoutBinding, kBindings> bindings{};
-  for (std::uint32_t b = 0; b < bindings.size(); ++b) {
-    bindings[b].binding = b;
-    bindings[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-    bindings[b].descriptorCount = 1;
-    bindings[b].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
-  }
-  VkDescriptorSetLayoutCreateInfo setInfo{};
-  setInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
-  setInfo.bindingCount = static_cast<std::uint32_t>(bindings.size());
-  setInfo.pBindings = bindings.data();
-  VkDescriptorSetLayout rawSet = VK_NULL_HANDLE;
-  if (VkResult r = vkCreateDescriptorSetLayout(device, &setInfo, nullptr, &rawSet);
-      r != VK_SUCCESS) {
-    return vulkanError(r, "selection set layout");
-  }
-  setLayout = UniqueDescriptorSetLayout(device, rawSet);
-  const VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(std::uint32_t)};
-  VkPipelineLayoutCreateInfo layoutInfo{};
-  layoutInfo.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
-  layoutInfo.setLayoutCount = 1;
-  layoutInfo.pSetLayouts = &rawSet;
-  layoutInfo.pushConstantRangeCount = 1;
-  layoutInfo.pPushConstantRanges = &range;
-  VkPipelineLayout rawLayout = VK_NULL_HANDLE;
-  if (VkResult r = vkCreatePipelineLayout(device, &layoutInfo, nullptr, &rawLayout);
-      r != VK_SUCCESS) {
-    return vulkanError(r, "selection pipeline layout");
-  }
-  layout = UniquePipelineLayout(device, rawLayout);
-  auto module = createShaderModule(device, kSelectComp, "select.comp");
-  if (!module) return std::move(module).error();
-  VkComputePipelineCreateInfo info{};
-  info.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
-  info.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
-  info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-  info.stage.module = module->get();
-  info.stage.pName = "main";
-  info.layout = rawLayout;
-  VkPipeline rawPipeline = VK_NULL_HANDLE;
-  if (VkResult r =
-          vkCreateComputePipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &rawPipeline);
-      r != VK_SUCCESS) {
-    return vulkanError(r, "selection pipeline");
-  }
-  pipeline = UniquePipeline(device, rawPipeline);
-  return {};
-}
-
-Result<void> GpuSelector::Impl::createSet() {
-  VkDevice device = context->device();
-  const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kBindings};
-  VkDescriptorPoolCreateInfo poolInfo{};
-  poolInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
-  poolInfo.maxSets = 1;
-  poolInfo.poolSizeCount = 1;
-  poolInfo.pPoolSizes = &size;
-  VkDescriptorPool rawPool = VK_NULL_HANDLE;
-  if (VkResult r = vkCreateDescriptorPool(device, &poolInfo, nullptr, &rawPool); r != VK_SUCCESS) {
-    return vulkanError(r, "selection descriptor pool");
-  }
-  pool = UniqueDescriptorPool(device, rawPool);
-  VkDescriptorSetLayout rawSetLayout = setLayout.get();
-  VkDescriptorSetAllocateInfo allocate{};
-  allocate.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
-  allocate.descriptorPool = rawPool;
-  allocate.descriptorSetCount = 1;
-  allocate.pSetLayouts = &rawSetLayout;
-  if (VkResult r = vkAllocateDescriptorSets(device, &allocate, &set); r != VK_SUCCESS) {
-    return vulkanError(r, "selection descriptor set");
-  }
-  const std::array<VkDescriptorBufferInfo, kBindings> infos = {
-      VkDescriptorBufferInfo{nodes.buffer(), 0, VK_WHOLE_SIZE},
-      VkDescriptorBufferInfo{frame.buffer(), 0, VK_WHOLE_SIZE},
-      VkDescriptorBufferInfo{screen.buffer(), 0, VK_WHOLE_SIZE},
-      VkDescriptorBufferInfo{state.buffer(), 0, VK_WHOLE_SIZE},
-      VkDescriptorBufferInfo{regions.buffer(), 0, VK_WHOLE_SIZE},
-      VkDescriptorBufferInfo{points.buffer(), 0, VK_WHOLE_SIZE},
-      VkDescriptorBufferInfo{wanted.buffer(), 0, VK_WHOLE_SIZE}};
-  std::array<VkWriteDescriptorSet, kBindings> writes{};
-  for (std::uint32_t b = 0; b < writes.size(); ++b) {
-    writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-    writes[b].dstSet = set;
-    writes[b].dstBinding = b;
-    writes[b].descriptorCount = 1;
-    writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-    writes[b].pBufferInfo = &infos[b];
-  }
-  vkUpdateDescriptorSets(device, static_cast<std::uint32_t>(writes.size()), writes.data(), 0,
-                         nullptr);
-  return {};
-}
 
 Result<void> GpuSelector::Impl::upload(const SelectionOptions& selection) {
   if (selection.focus.size() > kMaxRegions) {
@@ -341,8 +240,12 @@ Result<GpuSelector> GpuSelector::create(VulkanContext& context, const DatasetVie
       !r) {
     return std::move(r).error();
   }
-  if (auto r = impl->createPipeline(); !r) return std::move(r).error();
-  if (auto r = impl->createSet(); !r) return std::move(r).error();
+  auto program = ComputeProgram::create(context, kSelectComp, "select.comp",
+                                        {&impl->nodes, &impl->frame, &impl->screen, &impl->state,
+                                         &impl->regions, &impl->points, &impl->wanted},
+                                        sizeof(std::uint32_t));
+  if (!program) return std::move(program).error();
+  impl->program.emplace(std::move(*program));
   return GpuSelector(std::move(impl));
 }
 
@@ -372,34 +275,16 @@ Result<Cut> GpuSelector::select(const Camera& camera, const SelectionOptions& se
   const std::uint32_t closureSteps = 2 * (static_cast<std::uint32_t>(dataset.depth()) + 1);
   const Result<void> done = m.context->submitAndWait(
       [&](VkCommandBuffer cmd) {
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, m.pipeline.get());
-        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, m.layout.get(), 0, 1, &m.set,
-                                0, nullptr);
-        VkMemoryBarrier2 between{};
-        between.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2;
-        between.srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-        between.srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-        between.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-        between.dstAccessMask =
-            VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-        VkDependencyInfo dependency{};
-        dependency.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
-        dependency.memoryBarrierCount = 1;
-        dependency.pMemoryBarriers = &between;
+        m.program->bind(cmd);
         const auto dispatch = [&](std::uint32_t mode) {
-          vkCmdPushConstants(cmd, m.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof mode,
-                             &mode);
+          m.program->push(cmd, std::as_bytes(std::span(&mode, 1)));
           vkCmdDispatch(cmd, groups, 1, 1);
-          vkCmdPipelineBarrier2(cmd, &dependency);
+          computeBarrier(cmd);
         };
         dispatch(0);
         for (std::uint32_t s = 0; s < closureSteps; ++s) dispatch(1);
         dispatch(2);
-        VkMemoryBarrier2 toHost = between;
-        toHost.dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT;
-        toHost.dstAccessMask = VK_ACCESS_2_HOST_READ_BIT;
-        dependency.pMemoryBarriers = &toHost;
-        vkCmdPipelineBarrier2(cmd, &dependency);
+        computeBarrier(cmd, true);
       },
       "GPU selection");
   if (!done) return done.error();

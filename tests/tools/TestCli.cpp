@@ -480,6 +480,37 @@ TEST(Cli, QueryCutWritesTheFocusMeshAsPly) {
   EXPECT_FALSE(std::filesystem::exists(dir / "x.ply"));
 }
 
+// `pbdam query los`: JSON for a blocked and a clear line; bad points are exit code 2.
+TEST(Cli, QueryLosAnswersInJsonAndRefusesBadPoints) {
+  PBDAM_REQUIRE_DATASET(dataset, "mola");
+  const std::string ds = "'" + dataset.string() + "'";
+  // From 10 m above Olympus Mons' summit plateau towards the plains 200 km east: the plateau's
+  // rim hides them. 20 km up over the flank, 75 km apart: clear.
+  const CliRun low =
+      runPbdam("query los " + ds + " --from 18.65,226.2,10 --to 18.65,230,10 --json");
+  ASSERT_EQ(low.exitCode, 0) << low.err;
+  const auto blocked = nlohmann::json::parse(low.out);
+  EXPECT_FALSE(blocked["visible"].get<bool>());
+  EXPECT_GT(blocked["blocked_at"]["distance_m"].get<double>(), 0.0);
+  EXPECT_LT(blocked["blocked_at"]["distance_m"].get<double>(), blocked["distance_m"].get<double>());
+  const CliRun high =
+      runPbdam("query los " + ds + " --from 18.0,226.2,20000 --to 19,227,20000 --json");
+  ASSERT_EQ(high.exitCode, 0) << high.err;
+  EXPECT_TRUE(nlohmann::json::parse(high.out)["visible"].get<bool>());
+  for (const auto& [args, mention] : std::vector<std::pair<std::string, std::string>>{
+           {" --from 0,0,-1 --to 1,1,1", "underground"},
+           {" --from 0,0 --to 1,1,1", "--from '0,0'"},
+           {" --from 1,1,1 --to 1,1,1", "the same point"},
+           {" --from 95,1,1 --to 1,1,1", "latitude"},
+       }) {
+    std::string command = "query los " + ds;
+    command += args;
+    const CliRun run = runPbdam(command);
+    EXPECT_EQ(run.exitCode, 2) << args;
+    EXPECT_NE(run.err.find(mention), std::string::npos) << args << "\n" << run.err;
+  }
+}
+
 // Cut reuse changes the decisions, not the cuts: the same triangles every frame with it on and
 // off, far fewer decisions with it on; --popping measures each frame against the previous cut. The
 // device's selection passes (--selection gpu) give the same cuts too.

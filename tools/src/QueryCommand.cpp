@@ -3,13 +3,19 @@
 // outside pbdam. Vertices are the patches' terrain points in planetocentric metres (doubles:
 // floats would round Mars' radius to a quarter metre), welded across patches by their lattice
 // point; no geomorph (every vertex at its own height).
+//
+// `pbdam query los DIR --from LAT,LON,H --to LAT,LON,H [--json]`: whether the segment between
+// two points H metres above the rendered terrain crosses it, tested on the device
+// (gpu/GpuSightline.h) against the cut with leaves along the segment's ground track.
 
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <iostream>
+#include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -17,10 +23,15 @@
 #include "Commands.h"
 #include "FocusOption.h"
 #include "pbdam/builder/Checkpoint.h"
+#include "pbdam/formats/NumberList.h"
 #include "pbdam/formats/PatchCodec.h"
+#include "pbdam/gpu/GpuSightline.h"
+#include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/runtime/Camera.h"
+#include "pbdam/runtime/CutMesh.h"
 #include "pbdam/runtime/PatchDraw.h"
 #include "pbdam/runtime/Selection.h"
+#include "pbdam/runtime/SurfaceQuery.h"
 #include "pbdam/streaming/MappedDataset.h"
 
 using namespace pbdam::formats;
@@ -41,54 +52,6 @@ struct QueryCutOptions {
   FocusCliOptions focus;
   bool json = false;
 };
-
-/// A welded triangle mesh in planetocentric metres.
-struct CutMesh final {
-  std::vector<glm::dvec3> vertices;
-  std::vector<std::uint32_t> indices;
-  int minLevel = 1 << 30;
-  int maxLevel = -1;
-};
-
-Result<CutMesh> meshOfCut(const DatasetView& view, const Cut& cut) {
-  CutMesh mesh;
-  std::unordered_map<PointKey, std::uint32_t> welded;
-  PatchMesh patch;
-  std::vector<std::byte> blob;
-  std::vector<std::uint32_t> local;
-  for (const CutPatch& p : cut.patches) {
-    const NodeRecord record = view.node(p.node);
-    if (record.blobBytes == 0) continue;
-    const formats::FaceView& face = view.face(p.node.face);
-    auto bytes = face.readPatchBlob(record, blob);
-    if (!bytes) return std::move(bytes).error();
-    if (auto r =
-            decodePatch(*bytes, patch, face.context() + "@" + std::to_string(record.blobOffset));
-        !r) {
-      return std::move(r).error();
-    }
-    const PatchVertexPlacement placement(view, p.node, record);
-    local.resize(patch.vertices.size());
-    for (std::size_t v = 0; v < patch.vertices.size(); ++v) {
-      LatticeXY q{0};
-      if (!placement.latticePoint(patch.vertices[v].b1, patch.vertices[v].b2, q)) {
-        return makeError(ErrorCode::CorruptData,
-                         face.context() + "@" + std::to_string(record.blobOffset) +
-                             ": a patch vertex is not a lattice point of its node");
-      }
-      const PointKey key = latticePointKey(view.latticeCells(), p.node.face, q);
-      const auto [it, inserted] =
-          welded.try_emplace(key, static_cast<std::uint32_t>(mesh.vertices.size()));
-      if (inserted)
-        mesh.vertices.push_back(placement.terrainPoint(q, patch.vertices[v].heightSteps));
-      local[v] = it->second;
-    }
-    for (const std::uint16_t i : patch.indices) mesh.indices.push_back(local[i]);
-    mesh.minLevel = std::min(mesh.minLevel, p.level);
-    mesh.maxLevel = std::max(mesh.maxLevel, p.level);
-  }
-  return mesh;
-}
 
 Result<void> writePly(const std::string& path, const CutMesh& mesh) {
   const std::string header =
@@ -153,7 +116,7 @@ int runQueryCut(const QueryCutOptions& o) {
   const CutSelector selector(view);
   SelectionStats stats;
   const Cut cut = selector.select(camera, options, &stats);
-  auto mesh = meshOfCut(view, cut);
+  auto mesh = cutMesh(view, cut);
   if (!mesh) return reportError(mesh.error());
   if (auto w = writePly(o.out, *mesh); !w) return reportError(w.error());
   if (o.json) {
@@ -171,6 +134,69 @@ int runQueryCut(const QueryCutOptions& o) {
     std::printf("wrote %s: %zu patches (levels %d-%d), %zu vertices, %zu triangles\n",
                 o.out.c_str(), cut.patches.size(), mesh->minLevel, mesh->maxLevel,
                 mesh->vertices.size(), mesh->indices.size() / 3);
+  }
+  return kExitOk;
+}
+
+struct QueryLosOptions {
+  std::string dir;
+  std::string from;
+  std::string to;
+  int device = -1;
+  bool json = false;
+};
+
+/// `LAT,LON,H` as a point H metres above the ground.
+Result<gpu::GroundPoint> groundPoint(const std::string& option, const std::string& text) {
+  std::vector<double> v;
+  if (!parseNumberList(text, 3, v)) {
+    return makeError(ErrorCode::InvalidArgument,
+                     option + " '" + text + "': expected LAT,LON,HEIGHT_ABOVE_GROUND_M");
+  }
+  return gpu::GroundPoint{v[0], v[1], v[2]};
+}
+
+int runQueryLos(const QueryLosOptions& o) {
+  auto dataset = MappedDataset::open(o.dir);
+  if (!dataset) return reportError(dataset.error());
+  const DatasetView& view = (*dataset)->view();
+  const Planet& planet = view.planet();
+  auto from = groundPoint("--from", o.from);
+  if (!from) return reportError(from.error());
+  auto to = groundPoint("--to", o.to);
+  if (!to) return reportError(to.error());
+  gpu::ContextOptions contextOptions;
+  if (o.device >= 0) contextOptions.deviceIndex = static_cast<std::uint32_t>(o.device);
+  auto context = gpu::VulkanContext::create(contextOptions);
+  if (!context) return reportError(context.error());
+  auto line = gpu::sightlineOverTerrain(*context, view, *from, *to);
+  if (!line) return reportError(line.error());
+  const gpu::SightlineResult* sight = &line->result;
+  const double length = glm::length(line->to - line->from);
+  const glm::dvec3 blocked = line->from + sight->nearestFraction * (line->to - line->from);
+  const GeodeticPosition at = planet.ecefToGeodetic(blocked);
+  if (o.json) {
+    nlohmann::ordered_json j;
+    j["visible"] = sight->visible;
+    j["distance_m"] = length;
+    j["from_ground_m"] = line->groundFromMeters;
+    j["to_ground_m"] = line->groundToMeters;
+    j["triangles_tested"] = line->triangles;
+    j["crossings"] = sight->crossings;
+    if (!sight->visible) {
+      j["blocked_at"] = {{"lat", at.latDegrees},
+                         {"lon", at.lonDegrees},
+                         {"height_m", at.heightMeters},
+                         {"distance_m", sight->nearestFraction * length}};
+    }
+    std::cout << j.dump(2) << "\n";
+  } else if (sight->visible) {
+    std::printf("visible: %.0f m of clear line (%llu triangles tested)\n", length,
+                static_cast<unsigned long long>(line->triangles));
+  } else {
+    std::printf("blocked %.0f m from --from, at %.5f, %.5f, %.0f m (of %.0f m; %llu crossings)\n",
+                sight->nearestFraction * length, at.latDegrees, at.lonDegrees, at.heightMeters,
+                length, static_cast<unsigned long long>(sight->crossings));
   }
   return kExitOk;
 }
@@ -198,6 +224,19 @@ void addQueryCommands(CLI::App& app, CommandStatus& status) {
   addFocusOptions(*cut, o->focus);
   cut->add_flag("--json", o->json, "Print the figures as JSON");
   cut->callback([o, &status] { status.exitCode = runQueryCut(*o); });
+
+  auto los = std::make_shared<QueryLosOptions>();
+  CLI::App* sight = query->add_subcommand(
+      "los",
+      "Line of sight between two points above the terrain, tested on the device against the "
+      "mesh with leaves along the line's ground track");
+  sight->add_option("DIR", los->dir, "Dataset directory")->required();
+  sight->add_option("--from", los->from, "LAT,LON,HEIGHT_ABOVE_GROUND_M of the observer")
+      ->required();
+  sight->add_option("--to", los->to, "LAT,LON,HEIGHT_ABOVE_GROUND_M of the target")->required();
+  sight->add_option("--device", los->device, "Vulkan device index (default: lavapipe)");
+  sight->add_flag("--json", los->json, "Print the answer as JSON");
+  sight->callback([los, &status] { status.exitCode = runQueryLos(*los); });
 }
 
 }  // namespace pbdam::tools

@@ -1,0 +1,45 @@
+// One compute shader with its storage buffers bound at set 0, bindings 0..n−1, and a push
+// constant block: the set layout, pipeline layout, pipeline, descriptor pool and its one set.
+// Used by the cut selection and the line-of-sight passes. Thread-safety: immutable once made.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string_view>
+#include <vector>
+
+#include "pbdam/formats/Result.h"
+#include "pbdam/gpu/GpuMemory.h"
+#include "pbdam/gpu/UniqueHandle.h"
+
+namespace pbdam::gpu {
+
+class VulkanContext;
+
+class ComputeProgram final {
+ public:
+  /// `spirv` is the shader, `buffers` are bound in order, `pushBytes` the push constants' size.
+  static formats::Result<ComputeProgram> create(const VulkanContext& context,
+                                                std::span<const uint32_t> spirv,
+                                                std::string_view name,
+                                                const std::vector<const GpuBuffer*>& buffers,
+                                                std::uint32_t pushBytes);
+
+  /// Binds the pipeline and the set on `cmd`.
+  void bind(VkCommandBuffer cmd) const noexcept;
+  /// Push constants for the next dispatches.
+  void push(VkCommandBuffer cmd, std::span<const std::byte> bytes) const noexcept;
+
+ private:
+  UniqueDescriptorSetLayout setLayout_;
+  UniquePipelineLayout layout_;
+  UniquePipeline pipeline_;
+  UniqueDescriptorPool pool_;
+  VkDescriptorSet set_ = VK_NULL_HANDLE;
+};
+
+/// Makes one dispatch's shader-storage writes visible to the next dispatch (`toHost`: to host
+/// reads instead).
+void computeBarrier(VkCommandBuffer cmd, bool toHost = false) noexcept;
+
+}  // namespace pbdam::gpu
