@@ -316,13 +316,7 @@ Result<Cut> GpuSelector::select(const Camera& camera, const SelectionOptions& se
     patch.tile = dataset.tileOf(p.key);
     patch.screenErrorPixels = static_cast<float>(screen[i]);
     setPatchMorph(dataset, options, up[0], up[1], patch);
-    cut.patches.push_back(patch);
-    cut.triangles += record.triangleCount;
-    cut.vertices += record.vertexCount;
-    if (seen.insert(packKey(patch.tile)).second) cut.tiles.push_back(patch.tile);
-    if (patch.blendsTile() && seen.insert(packKey(patch.morphTile)).second) {
-      cut.tiles.push_back(patch.morphTile);
-    }
+    addCutPatch(cut, patch, record.triangleCount, record.vertexCount, seen);
   };
   for (const std::uint32_t root : m.roots) visit(visit, root, {kNone, kNone});
   cut.nodesVisited = count;

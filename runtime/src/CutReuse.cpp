@@ -147,13 +147,7 @@ class IncrementalRefiner::Tree final {
         up[k] = camera_.screenError(it->second.error, it->second.centre, it->second.radius);
       }
       setPatchMorph(dataset_, options_, up[0], up[1], patch);
-      cut.patches.push_back(patch);
-      cut.triangles += n.triangles;
-      cut.vertices += n.vertices;
-      if (seen.insert(packKey(patch.tile)).second) cut.tiles.push_back(patch.tile);
-      if (patch.blendsTile() && seen.insert(packKey(patch.morphTile)).second) {
-        cut.tiles.push_back(patch.morphTile);
-      }
+      addCutPatch(cut, patch, n.triangles, n.vertices, seen);
     }
     cut.nodesVisited = decisions_;
     cut.nodesCulled = culled_;

@@ -47,13 +47,7 @@ class Refiner {
     patch.tile = dataset_.tileOf(key);
     patch.screenErrorPixels = static_cast<float>(screen);
     setPatchMorph(dataset_, options_, up[0], up[1], patch);
-    cut_.patches.push_back(patch);
-    cut_.triangles += node.triangleCount;
-    cut_.vertices += node.vertexCount;
-    if (seenTiles_.insert(packKey(patch.tile)).second) cut_.tiles.push_back(patch.tile);
-    if (patch.blendsTile() && seenTiles_.insert(packKey(patch.morphTile)).second) {
-      cut_.tiles.push_back(patch.morphTile);
-    }
+    addCutPatch(cut_, patch, node.triangleCount, node.vertexCount, seenTiles_);
   }
 
   Cut take() { return std::move(cut_); }
@@ -72,6 +66,17 @@ class Refiner {
 double refinementErrorMeters(const DatasetView& dataset, int level,
                              double geometryErrorMeters) noexcept {
   return std::max(geometryErrorMeters, dataset.textureTermOfLevel(level));
+}
+
+void addCutPatch(Cut& cut, const CutPatch& patch, std::uint32_t triangles, std::uint32_t vertices,
+                 std::unordered_set<std::uint64_t>& seenTiles) {
+  cut.patches.push_back(patch);
+  cut.triangles += triangles;
+  cut.vertices += vertices;
+  if (seenTiles.insert(packKey(patch.tile)).second) cut.tiles.push_back(patch.tile);
+  if (patch.blendsTile() && seenTiles.insert(packKey(patch.morphTile)).second) {
+    cut.tiles.push_back(patch.morphTile);
+  }
 }
 
 float morphWeight(double screenErrorPixels, double tolerancePixels, double range) noexcept {

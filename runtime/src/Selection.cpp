@@ -193,13 +193,7 @@ Cut CutSelector::select(const Camera& camera, const SelectionOptions& options,
     patch.tile = dataset.tileOf(n.key);
     patch.screenErrorPixels = static_cast<float>(screen[i]);
     setPatchMorph(dataset, r, up[0], up[1], patch);
-    cut.patches.push_back(patch);
-    cut.triangles += record.triangleCount;
-    cut.vertices += record.vertexCount;
-    if (seen.insert(packKey(patch.tile)).second) cut.tiles.push_back(patch.tile);
-    if (patch.blendsTile() && seen.insert(packKey(patch.morphTile)).second) {
-      cut.tiles.push_back(patch.morphTile);
-    }
+    addCutPatch(cut, patch, record.triangleCount, record.vertexCount, seen);
   };
   for (const std::uint32_t root : roots_) visit(visit, root, {kNone, kNone});
   return cut;

@@ -22,6 +22,7 @@
 
 #include <array>
 #include <cstdint>
+#include <unordered_set>
 #include <vector>
 
 #include "pbdam/formats/Result.h"
@@ -71,6 +72,11 @@ struct Cut final {
 /// `geometryErrorMeters` (see the file comment).
 double refinementErrorMeters(const DatasetView& dataset, int level,
                              double geometryErrorMeters) noexcept;
+
+/// Appends `patch` (`triangles` and `vertices` of its node) to `cut` and lists its tile and, where
+/// it blends one in, its morph tile, each once (`seenTiles` holds the packKey()s listed).
+void addCutPatch(Cut& cut, const CutPatch& patch, std::uint32_t triangles, std::uint32_t vertices,
+                 std::unordered_set<std::uint64_t>& seenTiles);
 
 /// 1 − f for a diamond with screen error `screenErrorPixels` (docs/architecture.md
 /// "Geomorphing"): f = clamp((s/τ − 1)/m, 0, 1); 0 when `range` is 0 (no morph).
