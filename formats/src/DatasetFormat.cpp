@@ -320,7 +320,7 @@ Result<void> FaceView::checkNodes() {
       if (k == first && n.heapIndex != 0) return where("a tree does not start at its root");
       if ((n.flags & ~kRecordLeaf) != 0) return where("unknown flags");
       if (n.sources != 0 && !n.leaf()) return where("sources on a node that is not a leaf");
-      const std::uint64_t blobs = std::uint64_t{n.blobBytes} + n.morphBytes;
+      const std::uint64_t blobs = n.blobsBytes();
       if (blobs != 0 && (n.blobOffset < h.blobsOffset || n.blobOffset > h.fileBytes ||
                          blobs > h.fileBytes - n.blobOffset)) {
         return where("points outside the blob area");
@@ -406,7 +406,7 @@ std::optional<std::uint64_t> FaceView::findTexture(std::uint64_t heapIndex) cons
                        header_.textureNodeCount, heapIndex);
 }
 
-Result<std::span<const std::byte>> FaceView::readBlob(std::uint64_t offset, std::uint32_t bytes,
+Result<std::span<const std::byte>> FaceView::readBlob(std::uint64_t offset, std::uint64_t bytes,
                                                       std::vector<std::byte>& buffer) const {
   buffer.resize(bytes);
   if (auto r = readMapped(file_, offset, buffer, context_); !r) return std::move(r).error();
@@ -420,7 +420,7 @@ Result<std::span<const std::byte>> FaceView::readPatchBlob(const NodeRecord& n,
 
 Result<PatchBlobs> FaceView::readPatchBlobs(const NodeRecord& n,
                                             std::vector<std::byte>& buffer) const {
-  auto both = readBlob(n.blobOffset, n.blobBytes + n.morphBytes, buffer);
+  auto both = readBlob(n.blobOffset, n.blobsBytes(), buffer);
   if (!both) return std::move(both).error();
   return PatchBlobs{both->first(n.blobBytes), both->subspan(n.blobBytes)};
 }

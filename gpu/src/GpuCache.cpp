@@ -55,6 +55,12 @@ TextureChoice chooseTexture(const VulkanContext& context, const DatasetView& dat
   return choice;
 }
 
+/// The smallest budget that draws any patch: one patch slot and two tile slots, its own tile and
+/// the coarser one it may blend in (texture morph).
+std::uint64_t minimumOf(std::uint64_t patchSlot, std::uint64_t tileSlot) {
+  return patchSlot + 2 * tileSlot;
+}
+
 std::uint64_t patchSlotBytes(const DatasetView& dataset) {
   return std::uint64_t{sizeof(PatchGpuVertex)} * dataset.maxPatchVertices() +
          std::uint64_t{6} * dataset.maxPatchTriangles();
@@ -73,8 +79,7 @@ Result<std::shared_ptr<GpuCache>> GpuCache::create(VulkanContext& context,
     return makeError(ErrorCode::CorruptData,
                      "dataset has no drawable patches or an invalid texture tile size");
   }
-  // One patch and two tiles: its own and the coarser one it may blend in (texture morph).
-  const std::uint64_t minimum = state->patchSlot + 2 * state->texture.slotBytes;
+  const std::uint64_t minimum = minimumOf(state->patchSlot, state->texture.slotBytes);
   if (options.budgetBytes < minimum) {
     return makeError(ErrorCode::InvalidArgument,
                      "GPU cache budget of " + std::to_string(options.budgetBytes) + " bytes (" +
@@ -83,8 +88,8 @@ Result<std::shared_ptr<GpuCache>> GpuCache::create(VulkanContext& context,
                          ") that one patch slot (" + std::to_string(dataset.maxPatchVertices()) +
                          " vertices, " + std::to_string(dataset.maxPatchTriangles()) +
                          " triangles: " + std::to_string(state->patchSlot) +
-                         " bytes) and one texture tile (" +
-                         std::to_string(state->texture.slotBytes) + " bytes) need");
+                         " bytes) and two texture tiles (a patch's own and its parent's, " +
+                         std::to_string(state->texture.slotBytes) + " bytes each) need");
   }
 
   auto pipeline =
@@ -123,9 +128,8 @@ Result<std::shared_ptr<GpuCache>> GpuCache::create(VulkanContext& context,
 
 std::uint64_t GpuCache::minimumBytes(const VulkanContext& context, const DatasetView& dataset,
                                      bool forceRgba8Textures) {
-  // One patch and two tiles: its own and the coarser one it may blend in (texture morph).
-  return patchSlotBytes(dataset) +
-         2 * chooseTexture(context, dataset, forceRgba8Textures).slotBytes;
+  return minimumOf(patchSlotBytes(dataset),
+                   chooseTexture(context, dataset, forceRgba8Textures).slotBytes);
 }
 
 GpuCache::GpuCache(std::unique_ptr<State> state) noexcept : state_(std::move(state)) {}

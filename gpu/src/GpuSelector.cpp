@@ -7,15 +7,12 @@
 #include <limits>
 #include <optional>
 #include <span>
-#include <unordered_map>
 #include <unordered_set>
-#include <utility>
 #include <vector>
 
 #include "ComputeProgram.h"
 #include "pbdam/gpu/GpuMemory.h"
 #include "pbdam/gpu/VulkanContext.h"
-#include "pbdam/gpu/VulkanError.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
@@ -66,21 +63,12 @@ static_assert(sizeof(SelectRegion) == 24);
 constexpr std::uint32_t kMaxRegions = 64;
 constexpr std::uint32_t kMaxPoints = 4096;
 
-/// A node's place in the dataset, for listing the cut.
-struct NodePlace final {
-  NodeKey key;
-  std::uint32_t firstChild = 0;
-  int level = 0;
-  bool leaf = true;
-};
-
 }  // namespace
 
 struct GpuSelector::Impl {
   VulkanContext* context = nullptr;
   const DatasetView* dataset = nullptr;
-  std::vector<NodePlace> places;
-  std::vector<std::uint32_t> roots;
+  std::optional<DiamondIndex> index;
   std::optional<ComputeProgram> program;
   GpuBuffer nodes;
   GpuBuffer frame;
@@ -115,10 +103,11 @@ Result<void> GpuSelector::Impl::upload(const SelectionOptions& selection) {
     std::memcpy(regions.mappedBytes().data(), r.data(), r.size() * sizeof(SelectRegion));
     std::memcpy(points.mappedBytes().data(), p.data(), p.size() * sizeof(p[0]));
   }
-  std::vector<std::uint32_t> w(places.size(), 0);
+  std::vector<std::uint32_t> w(index->nodes.size(), 0);
   if (selection.split) {
-    for (std::size_t i = 0; i < places.size(); ++i) {
-      w[i] = selection.split(places[i].key, dataset->node(places[i].key)) ? 1U : 0U;
+    for (std::size_t i = 0; i < w.size(); ++i) {
+      const NodeKey& key = index->nodes[i].key;
+      w[i] = selection.split(key, dataset->node(key)) ? 1U : 0U;
     }
   }
   std::memcpy(wanted.mappedBytes().data(), w.data(), w.size() * sizeof(std::uint32_t));
@@ -137,34 +126,22 @@ Result<GpuSelector> GpuSelector::create(VulkanContext& context, const DatasetVie
   auto impl = std::make_unique<Impl>();
   impl->context = &context;
   impl->dataset = &dataset;
-  // The node tables in one index space, face by face; parents and diamond partners as in
-  // CutSelector (the partner found by the hypotenuse's canonical corner keys).
+  // The node tables in the index space of DiamondIndex (parents and diamond partners shared
+  // with the host's selection).
+  impl->index.emplace(dataset);
   std::vector<SelectNode> table;
-  for (std::uint8_t face = 0; face < 6; ++face) {
-    const formats::FaceView& view = dataset.face(face);
-    const auto first = static_cast<std::uint32_t>(table.size());
-    for (std::uint64_t row = 0; row < view.header().nodeCount; ++row) {
-      const NodeRecord r = view.nodeAt(row);
-      NodePlace place;
-      place.key = NodeKey{face, static_cast<std::uint8_t>(row >= view.treeFirstNode(1) ? 1 : 0),
-                          r.heapIndex};
-      place.level = bintreeLevel(r.heapIndex);
-      place.leaf = r.leaf();
-      if (!place.leaf)
-        place.firstChild = first + static_cast<std::uint32_t>(view.firstChildOf(row));
-      const auto self = static_cast<std::uint32_t>(table.size());
-      if (r.heapIndex == 0) impl->roots.push_back(self);
-      SelectNode n{};
-      n.sphere = {r.sphereCenter[0], r.sphereCenter[1], r.sphereCenter[2],
-                  static_cast<double>(r.sphereRadiusMeters)};
-      n.error = refinementErrorMeters(dataset, place.level, static_cast<double>(r.errorMeters));
-      n.geometryError = static_cast<double>(r.errorMeters);
-      n.parent = self;
-      n.partner = self;
-      n.flags = (place.leaf ? 1U : 0U) | (static_cast<std::uint32_t>(place.level) << 8);
-      table.push_back(n);
-      impl->places.push_back(place);
-    }
+  table.reserve(impl->index->nodes.size());
+  for (const DiamondIndex::Node& place : impl->index->nodes) {
+    const NodeRecord r = dataset.node(place.key);
+    SelectNode n{};
+    n.sphere = {r.sphereCenter[0], r.sphereCenter[1], r.sphereCenter[2],
+                static_cast<double>(r.sphereRadiusMeters)};
+    n.error = refinementErrorMeters(dataset, place.level, static_cast<double>(r.errorMeters));
+    n.geometryError = static_cast<double>(r.errorMeters);
+    n.parent = place.parent;
+    n.partner = place.partner;
+    n.flags = (place.leaf ? 1U : 0U) | (static_cast<std::uint32_t>(place.level) << 8);
+    table.push_back(n);
   }
   const std::uint64_t bytes = table.size() * sizeof(SelectNode);
   if (bytes > tableBudgetBytes) {
@@ -172,30 +149,6 @@ Result<GpuSelector> GpuSelector::create(VulkanContext& context, const DatasetVie
                      "the node tables need " + std::to_string(bytes) +
                          " bytes on the device, more than the budget of " +
                          std::to_string(tableBudgetBytes));
-  }
-  // Parents, then partners by the hypotenuse's corner keys (canonical across faces).
-  struct EdgeHash final {
-    std::size_t operator()(const std::pair<PointKey, PointKey>& k) const noexcept {
-      return static_cast<std::size_t>(k.first * 0x9E3779B97F4A7C15ULL) ^
-             static_cast<std::size_t>(k.second + 0x632BE59BD9B4E019ULL);
-    }
-  };
-  std::unordered_map<std::pair<PointKey, PointKey>, std::uint32_t, EdgeHash> hypotenuses;
-  for (std::uint32_t i = 0; i < table.size(); ++i) {
-    const NodePlace& p = impl->places[i];
-    if (!p.leaf) {
-      table[p.firstChild].parent = i;
-      table[p.firstChild + 1].parent = i;
-    }
-    const BinTriangle t = dataset.triangle(p.key);
-    PointKey a = latticePointKey(dataset.latticeCells(), p.key.face, t.left);
-    PointKey b = latticePointKey(dataset.latticeCells(), p.key.face, t.right);
-    if (b < a) std::swap(a, b);
-    const auto [it, inserted] = hypotenuses.try_emplace({a, b}, i);
-    if (!inserted) {
-      table[i].partner = it->second;
-      table[it->second].partner = i;
-    }
   }
   auto nodes =
       createBuffer(context, std::max<std::uint64_t>(bytes, 64), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
@@ -254,7 +207,7 @@ Result<Cut> GpuSelector::select(const Camera& camera, const SelectionOptions& se
   const RefinementOptions& options = selection.refinement;
   if (auto r = m.upload(selection); !r) return std::move(r).error();
   const DatasetView& dataset = *m.dataset;
-  const auto count = static_cast<std::uint32_t>(m.places.size());
+  const auto count = static_cast<std::uint32_t>(m.index->nodes.size());
   SelectFrame f{};
   const glm::dvec3 eye = camera.position();
   f.position = {eye.x, eye.y, eye.z, camera.pixelsPerRadian()};
@@ -300,7 +253,7 @@ Result<Cut> GpuSelector::select(const Camera& camera, const SelectionOptions& se
   std::unordered_set<std::uint64_t> seen;
   constexpr double kNone = std::numeric_limits<double>::infinity();
   const auto visit = [&](auto&& self, std::uint32_t i, std::array<double, 2> up) -> void {
-    const NodePlace& p = m.places[i];
+    const DiamondIndex::Node& p = m.index->nodes[i];
     if ((state[i] & 1U) != 0U) {
       // A morph window only for a split by screen error (Selection.h).
       const std::array<double, 2> down{(state[i] & 4U) != 0U ? screen[i] : kNone, up[0]};
@@ -318,7 +271,7 @@ Result<Cut> GpuSelector::select(const Camera& camera, const SelectionOptions& se
     setPatchMorph(dataset, options, up[0], up[1], patch);
     addCutPatch(cut, patch, record.triangleCount, record.vertexCount, seen);
   };
-  for (const std::uint32_t root : m.roots) visit(visit, root, {kNone, kNone});
+  for (const std::uint32_t root : m.index->roots) visit(visit, root, {kNone, kNone});
   cut.nodesVisited = count;
   return cut;
 }

@@ -85,11 +85,11 @@ Result<FocusRegion> focusPath(const Planet& planet,
   return region;
 }
 
-CutSelector::CutSelector(const DatasetView& dataset) : dataset_(&dataset) {
+DiamondIndex::DiamondIndex(const DatasetView& dataset) {
   std::unordered_map<std::pair<PointKey, PointKey>, std::uint32_t, EdgeKeyHash> hypotenuses;
   for (std::uint8_t face = 0; face < 6; ++face) {
     const formats::FaceView& view = dataset.face(face);
-    const auto first = static_cast<std::uint32_t>(nodes_.size());
+    const auto first = static_cast<std::uint32_t>(nodes.size());
     for (std::uint64_t row = 0; row < view.header().nodeCount; ++row) {
       const NodeRecord record = view.nodeAt(row);
       Node n;
@@ -97,11 +97,11 @@ CutSelector::CutSelector(const DatasetView& dataset) : dataset_(&dataset) {
                       record.heapIndex};
       n.level = bintreeLevel(record.heapIndex);
       n.leaf = record.leaf();
-      const auto self = static_cast<std::uint32_t>(nodes_.size());
+      const auto self = static_cast<std::uint32_t>(nodes.size());
       n.parent = self;
       n.partner = self;
       if (!n.leaf) n.firstChild = first + static_cast<std::uint32_t>(view.firstChildOf(row));
-      if (record.heapIndex == 0) roots_.push_back(self);
+      if (record.heapIndex == 0) roots.push_back(self);
       const BinTriangle t = dataset.triangle(n.key);
       PointKey a = latticePointKey(dataset.latticeCells(), face, t.left);
       PointKey b = latticePointKey(dataset.latticeCells(), face, t.right);
@@ -109,17 +109,19 @@ CutSelector::CutSelector(const DatasetView& dataset) : dataset_(&dataset) {
       const auto [it, inserted] = hypotenuses.try_emplace({a, b}, self);
       if (!inserted) {
         n.partner = it->second;
-        nodes_[it->second].partner = self;
+        nodes[it->second].partner = self;
       }
-      nodes_.push_back(n);
+      nodes.push_back(n);
     }
   }
-  for (std::uint32_t i = 0; i < nodes_.size(); ++i) {
-    if (nodes_[i].leaf) continue;
-    nodes_[nodes_[i].firstChild].parent = i;
-    nodes_[nodes_[i].firstChild + 1].parent = i;
+  for (std::uint32_t i = 0; i < nodes.size(); ++i) {
+    if (nodes[i].leaf) continue;
+    nodes[nodes[i].firstChild].parent = i;
+    nodes[nodes[i].firstChild + 1].parent = i;
   }
 }
+
+CutSelector::CutSelector(const DatasetView& dataset) : dataset_(&dataset), index_(dataset) {}
 
 Cut CutSelector::select(const Camera& camera, const SelectionOptions& options,
                         SelectionStats* stats) const {
@@ -127,13 +129,13 @@ Cut CutSelector::select(const Camera& camera, const SelectionOptions& options,
   const RefinementOptions& r = options.refinement;
   const int maxLevel = r.maxLevel < 0 ? dataset.depth() : std::min(r.maxLevel, dataset.depth());
   constexpr double kNone = std::numeric_limits<double>::infinity();
-  const std::size_t count = nodes_.size();
+  const std::size_t count = index_.nodes.size();
   // 1. The predicate, per node.
   std::vector<double> screen(count, 0.0);
   std::vector<char> bySize(count, 0);  // split because its screen error exceeds the tolerance
   std::vector<std::uint32_t> work;
   for (std::uint32_t i = 0; i < count; ++i) {
-    const Node& n = nodes_[i];
+    const DiamondIndex::Node& n = index_.nodes[i];
     const NodeRecord record = dataset.node(n.key);
     const glm::dvec3 centre(record.sphereCenter[0], record.sphereCenter[1], record.sphereCenter[2]);
     const double radius = static_cast<double>(record.sphereRadiusMeters);
@@ -157,11 +159,11 @@ Cut CutSelector::select(const Camera& camera, const SelectionOptions& options,
   while (!work.empty()) {
     const std::uint32_t i = work.back();
     work.pop_back();
-    if (split[i] != 0 || nodes_[i].leaf) continue;
+    if (split[i] != 0 || index_.nodes[i].leaf) continue;
     split[i] = 1;
     ++splits;
-    work.push_back(nodes_[i].parent);
-    work.push_back(nodes_[i].partner);
+    work.push_back(index_.nodes[i].parent);
+    work.push_back(index_.nodes[i].partner);
   }
   if (stats != nullptr) {
     stats->predicateSplits = wanted;
@@ -171,7 +173,7 @@ Cut CutSelector::select(const Camera& camera, const SelectionOptions& options,
   Cut cut;
   std::unordered_set<std::uint64_t> seen;
   const auto visit = [&](auto&& self, std::uint32_t i, std::array<double, 2> up) -> void {
-    const Node& n = nodes_[i];
+    const DiamondIndex::Node& n = index_.nodes[i];
     ++cut.nodesVisited;
     const NodeRecord record = dataset.node(n.key);
     if (r.frustumCulling &&
@@ -195,7 +197,7 @@ Cut CutSelector::select(const Camera& camera, const SelectionOptions& options,
     setPatchMorph(dataset, r, up[0], up[1], patch);
     addCutPatch(cut, patch, record.triangleCount, record.vertexCount, seen);
   };
-  for (const std::uint32_t root : roots_) visit(visit, root, {kNone, kNone});
+  for (const std::uint32_t root : index_.roots) visit(visit, root, {kNone, kNone});
   return cut;
 }
 

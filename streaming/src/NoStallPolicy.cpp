@@ -25,8 +25,7 @@ NoStallCut NoStallPolicy::cut(const Camera& camera, RefinementOptions options) c
     int worst = level + 1;
     for (const CutPatch& p : cut.patches) {
       const NodeRecord n = view.node(p.node);
-      if (!rangeResident(dataset_->faceFile(p.node.face), n.blobOffset,
-                         std::uint64_t{n.blobBytes} + n.morphBytes)) {
+      if (!rangeResident(dataset_->faceFile(p.node.face), n.blobOffset, n.blobsBytes())) {
         worst = std::min(worst, p.level);
       }
     }
@@ -63,7 +62,7 @@ std::vector<Error> NoStallPolicy::preloadCoarseLevels() const {
         const auto row = view.face(f).findNode(tree, heap);
         if (!row) continue;  // above a shallow leaf
         const NodeRecord n = view.face(f).nodeAt(*row);
-        touch(file, n.blobOffset, std::uint64_t{n.blobBytes} + n.morphBytes);
+        touch(file, n.blobOffset, n.blobsBytes());
       }
     }
     const TextureRecord root = view.textureNode(TileKey{static_cast<std::uint8_t>(f), 0});

@@ -98,7 +98,7 @@ void Prefetcher::prefetch(const Cut& cut) {
   const DatasetView& view = dataset_.view();
   for (const CutPatch& p : cut.patches) {
     const NodeRecord n = view.node(p.node);
-    adviseRange(p.node.face, n.blobOffset, n.blobBytes + n.morphBytes, ResidentKey::patch(p.node));
+    adviseRange(p.node.face, n.blobOffset, n.blobsBytes(), ResidentKey::patch(p.node));
   }
   for (const TileKey& t : cut.tiles) {
     const TextureRecord r = view.textureNode(t);

@@ -24,7 +24,7 @@ bool cutResident(const MappedDataset& dataset, const Cut& cut) {
   for (const CutPatch& p : cut.patches) {
     const NodeRecord n = view.node(p.node);
     if (!NoStallPolicy::rangeResident(dataset.faceFile(p.node.face), n.blobOffset,
-                                      std::uint64_t{n.blobBytes} + n.morphBytes)) {
+                                      n.blobsBytes())) {
       return false;
     }
   }
@@ -69,10 +69,7 @@ TEST(NoStallPolicy, DrawsTheFinestFullyResidentCapAndNothingCappedOnceResident) 
   // Read the full cut's bytes in: then nothing is capped and the cut is the full one.
   for (const CutPatch& p : full.patches) {
     const NodeRecord n = view.node(p.node);
-    ASSERT_TRUE((*dataset)
-                    ->faceFile(p.node.face)
-                    .willNeed(n.blobOffset, std::uint64_t{n.blobBytes} + n.morphBytes)
-                    .ok());
+    ASSERT_TRUE((*dataset)->faceFile(p.node.face).willNeed(n.blobOffset, n.blobsBytes()).ok());
   }
   for (const TileKey& t : full.tiles) {
     const TextureRecord r = view.textureNode(t);
@@ -87,8 +84,7 @@ TEST(NoStallPolicy, DrawsTheFinestFullyResidentCapAndNothingCappedOnceResident) 
   };
   for (const CutPatch& p : full.patches) {
     const NodeRecord n = view.node(p.node);
-    bytes((*dataset)->faceFile(p.node.face), n.blobOffset,
-          std::uint64_t{n.blobBytes} + n.morphBytes);
+    bytes((*dataset)->faceFile(p.node.face), n.blobOffset, n.blobsBytes());
   }
   for (const TileKey& t : full.tiles) {
     const TextureRecord r = view.textureNode(t);

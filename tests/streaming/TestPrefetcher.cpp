@@ -74,9 +74,7 @@ TEST(Prefetcher, AdvisesThePredictedCutAndItBecomesResident) {
     resident = total = 0;
     for (const CutPatch& p : cut.patches) {
       const NodeRecord n = view.node(p.node);
-      const auto r = (*dataset)
-                         ->faceFile(p.node.face)
-                         .residentPages(n.blobOffset, std::uint64_t{n.blobBytes} + n.morphBytes);
+      const auto r = (*dataset)->faceFile(p.node.face).residentPages(n.blobOffset, n.blobsBytes());
       ASSERT_TRUE(r.ok());
       resident += r->first;
       total += r->second;
@@ -122,7 +120,7 @@ TEST(Prefetcher, AsksForExactlyTheRangesOfThePredictedCut) {
   for (const CutPatch& p : cut.patches) {
     const NodeRecord n = view.node(p.node);
     // The patch blob and its morph targets after it: one range.
-    if (n.blobBytes > 0) expected[packKey(p.node)] = {n.blobOffset, n.blobBytes + n.morphBytes};
+    if (n.blobBytes > 0) expected[packKey(p.node)] = {n.blobOffset, n.blobsBytes()};
   }
   for (const TileKey& t : cut.tiles) {
     const TextureRecord r = view.textureNode(t);

@@ -77,6 +77,8 @@ struct NodeRecord final {
   /// Bytes of the patch's morph-target blob (PatchCodec.h), stored right after its patch blob;
   /// 0 for a root, whose targets are its own heights.
   std::uint32_t morphBytes = 0;
+  /// The bytes of its patch blob and morph-target blob together (adjacent in the file).
+  std::uint64_t blobsBytes() const noexcept { return std::uint64_t{blobBytes} + morphBytes; }
   bool leaf() const noexcept { return (flags & kRecordLeaf) != 0; }
 };
 
@@ -171,7 +173,7 @@ class FaceView final {
   }
 
  private:
-  Result<std::span<const std::byte>> readBlob(std::uint64_t offset, std::uint32_t bytes,
+  Result<std::span<const std::byte>> readBlob(std::uint64_t offset, std::uint64_t bytes,
                                               std::vector<std::byte>& buffer) const;
   Result<void> checkNodes();
   Result<void> checkTextures();

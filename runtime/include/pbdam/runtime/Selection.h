@@ -70,9 +70,27 @@ struct SelectionStats final {
   std::uint64_t closureSplits = 0;    ///< nodes split by the closure only
 };
 
+/// The dataset's nodes in one index space (face by face, in node-table order), each with its key,
+/// level, leaf flag, first child, parent and diamond partner: the partner is the node across its
+/// hypotenuse, found by the hypotenuse's canonical corner keys, so across cube faces too. What
+/// the closure walks, on the host and on the device.
+struct DiamondIndex final {
+  struct Node final {
+    NodeKey key;
+    std::uint32_t parent = 0;   ///< index into nodes (a root: itself)
+    std::uint32_t partner = 0;  ///< the node across the hypotenuse (itself when none)
+    std::uint32_t firstChild = 0;
+    bool leaf = true;
+    int level = 0;
+  };
+  explicit DiamondIndex(const DatasetView& dataset);
+  std::vector<Node> nodes;
+  std::vector<std::uint32_t> roots;  ///< the 12 roots, face by face, tree 0 then 1
+};
+
 class CutSelector final {
  public:
-  /// Indexes the dataset's nodes: each node's parent and diamond partner.
+  /// Indexes the dataset's nodes (DiamondIndex).
   explicit CutSelector(const DatasetView& dataset);
 
   /// The cut of `options` for `camera` (the file comment). Patches split by a focus region or
@@ -82,17 +100,8 @@ class CutSelector final {
              SelectionStats* stats = nullptr) const;
 
  private:
-  struct Node final {
-    NodeKey key;
-    std::uint32_t parent = 0;   ///< index into nodes_ (the root: itself)
-    std::uint32_t partner = 0;  ///< the node across the hypotenuse (itself when none)
-    std::uint32_t firstChild = 0;
-    bool leaf = true;
-    int level = 0;
-  };
   const DatasetView* dataset_;
-  std::vector<Node> nodes_;
-  std::vector<std::uint32_t> roots_;  ///< the 12 roots, face by face, tree 0 then 1
+  DiamondIndex index_;
 };
 
 }  // namespace pbdam::runtime
