@@ -128,6 +128,11 @@ ex height "pbdam height mars --at 18.4,-133.9"
 gap height
 ex height "pbdam height mars --at 18.4,-133.9 --json"
 
+ex viewshed "pbdam query viewshed mars --at 18.4,-133.9,100 --radius-m 200000 --out olympus_vs.tif \\
+    --check-dem $mola"
+ex viewshed "gdalinfo olympus_vs.tif | grep -E '^(Size|Origin|Pixel Size)|NoData'"
+ex viewshed "gdalsrsinfo -o proj4 olympus_vs.tif"
+
 ex path "pbdam path great-circle --from 0,-60,3000e3 --to -8,-75,50e3 --duration 4 --fps 10 \\
     --dataset mars --out approach.csv"
 ex path "head -3 approach.csv"
@@ -207,7 +212,9 @@ mask() {
     s/$n%( of)/#%$1/g;
     s/\b(traversal|stalls|major faults|p50|p95|p99|max) $n/$1 #/g if /frame ms/;
     s/(\) )$n(; dataset pages)/$1#$2/g;
-    s/("\w+_(?:ms|s|bytes)":)$n/$1#/g;
+    s/("\w+_(?:ms|s|bytes)":\s?)$n/$1#/g;
+    s/^(wrote \S+\.tif: \d+ x \d+ cells of \d+ m, ).*/$1#/;
+    s/^(ray march over \S+ agrees on ).*/$1#/;
     s/("http_threads":)$n/$1#/g;
     s/^(X-Pbdam-[\w-]+-Ms: )$n/$1#/;
     s/ +/ /g;

@@ -21,7 +21,8 @@ layout(push_constant) uniform Segment {
 } segment;
 
 void main() {
-  const uint t = gl_GlobalInvocationID.x;
+  // Rows of at most 65,535 groups (ComputeProgram.h dispatchLinear).
+  const uint t = gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * 64u;
   if (t >= segment.triangles) return;
   const vec3 a = vertices.v[indices.i[3u * t]].xyz;
   const vec3 b = vertices.v[indices.i[3u * t + 1u]].xyz;

@@ -1,5 +1,6 @@
 // One compute shader and its storage buffers (ComputeProgram.h).
 #include "ComputeProgram.h"
+#include <algorithm>
 
 #include "pbdam/gpu/ShaderModule.h"
 #include "pbdam/gpu/VulkanContext.h"
@@ -120,6 +121,31 @@ void computeBarrier(VkCommandBuffer cmd, bool toHost) noexcept {
   barrier.dstAccessMask =
       toHost ? VK_ACCESS_2_HOST_READ_BIT
              : (VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+  VkDependencyInfo dependency{};
+  dependency.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
+  dependency.memoryBarrierCount = 1;
+  dependency.pMemoryBarriers = &barrier;
+  vkCmdPipelineBarrier2(cmd, &dependency);
+}
+
+void dispatchLinear(VkCommandBuffer cmd, std::uint64_t invocations,
+                    std::uint32_t localSize) noexcept {
+  constexpr std::uint64_t kMaxGroups = 65535;
+  const std::uint64_t groups = (invocations + localSize - 1) / localSize;
+  if (groups == 0) return;
+  const std::uint64_t columns = std::min(groups, kMaxGroups);
+  const std::uint64_t rows = (groups + columns - 1) / columns;
+  vkCmdDispatch(cmd, static_cast<std::uint32_t>(columns), static_cast<std::uint32_t>(rows), 1);
+}
+
+void transferToComputeBarrier(VkCommandBuffer cmd) noexcept {
+  VkMemoryBarrier2 barrier{};
+  barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2;
+  barrier.srcStageMask = VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT;
+  barrier.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  barrier.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  barrier.dstAccessMask =
+      VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
   VkDependencyInfo dependency{};
   dependency.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
   dependency.memoryBarrierCount = 1;

@@ -38,8 +38,18 @@ class ComputeProgram final {
   VkDescriptorSet set_ = VK_NULL_HANDLE;
 };
 
+/// Dispatches `invocations` invocations of a shader of `localSize` × 1 × 1 in as many rows of
+/// at most 65,535 groups (the least maxComputeWorkGroupCount Vulkan guarantees) as it takes;
+/// the shader's index is gl_GlobalInvocationID.x + gl_GlobalInvocationID.y · gl_NumWorkGroups.x
+/// · localSize (see linearInvocation in the shaders).
+void dispatchLinear(VkCommandBuffer cmd, std::uint64_t invocations,
+                    std::uint32_t localSize) noexcept;
+
 /// Makes one dispatch's shader-storage writes visible to the next dispatch (`toHost`: to host
 /// reads instead).
 void computeBarrier(VkCommandBuffer cmd, bool toHost = false) noexcept;
+
+/// Makes transfer writes (vkCmdFillBuffer, copies) visible to the next dispatches.
+void transferToComputeBarrier(VkCommandBuffer cmd) noexcept;
 
 }  // namespace pbdam::gpu

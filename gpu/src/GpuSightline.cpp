@@ -91,7 +91,7 @@ Result<SightlineResult> testSightline(VulkanContext& context,
       [&](VkCommandBuffer cmd) {
         program->bind(cmd);
         program->push(cmd, std::as_bytes(std::span(&push, 1)));
-        vkCmdDispatch(cmd, (triangles + 63) / 64, 1, 1);
+        dispatchLinear(cmd, triangles, 64);
         computeBarrier(cmd, true);
       },
       "line of sight");

@@ -1,7 +1,9 @@
 // The `pbdam` command line as a user runs it: --help everywhere, --version, `dem info` output
 // in text and JSON on real data, DEM inputs (an image beside its label, raw grids) for dem info,
 // build and verify, and bad input → one clear line on stderr and exit code 2.
+#include <gdal_priv.h>
 #include <gtest/gtest.h>
+#include <ogr_spatialref.h>
 #include <sys/wait.h>
 #include <nlohmann/json.hpp>
 
@@ -15,6 +17,7 @@
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -509,6 +512,71 @@ TEST(Cli, QueryLosAnswersInJsonAndRefusesBadPoints) {
     EXPECT_EQ(run.exitCode, 2) << args;
     EXPECT_NE(run.err.find(mention), std::string::npos) << args << "\n" << run.err;
   }
+}
+
+// `pbdam query viewshed`: a GeoTIFF mask that GDAL reads back georeferenced (the observer's
+// azimuthal equidistant projection, nodata 255) with as many visible cells as the JSON says; bad
+// requests are exit code 2 naming what was wrong, and write nothing.
+TEST(Cli, QueryViewshedWritesAGeoreferencedMaskAndRefusesBadRequests) {
+  PBDAM_REQUIRE_DATASET(dataset, "mola");
+  test::TempDir dir;
+  const std::string ds = "'" + dataset.string() + "'";
+  const std::filesystem::path tif = dir / "olympus.tif";
+  const CliRun run = runPbdam("query viewshed " + ds + " --at 18.0,226.2,3000 --radius-m 300000 " +
+                              "--cell-m 5000 --out '" + tif.string() + "' --json");
+  ASSERT_EQ(run.exitCode, 0) << run.err;
+  const auto j = nlohmann::json::parse(run.out);
+  EXPECT_EQ(j["cells"].get<int>(), 121);
+  EXPECT_GT(j["visible_cells"].get<std::uint64_t>(), 0u);
+  EXPECT_LT(j["visible_cells"].get<std::uint64_t>(), j["cells_in_radius"].get<std::uint64_t>());
+  EXPECT_GT(j["visible_area_km2"].get<double>(), 0.0);
+  EXPECT_LE(j["farthest_visible"]["distance_m"].get<double>(), 300000.0);
+  GDALAllRegister();
+  std::unique_ptr<GDALDataset, decltype(&GDALClose)> mask(
+      GDALDataset::Open(tif.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY), &GDALClose);
+  ASSERT_NE(mask, nullptr);
+  EXPECT_EQ(mask->GetRasterXSize(), 121);
+  EXPECT_EQ(mask->GetRasterYSize(), 121);
+  std::array<double, 6> transform{};
+  ASSERT_EQ(mask->GetGeoTransform(transform.data()), CE_None);
+  EXPECT_DOUBLE_EQ(transform[1], 5000.0);
+  EXPECT_DOUBLE_EQ(transform[0], -60.5 * 5000.0);
+  const OGRSpatialReference* srs = mask->GetSpatialRef();
+  ASSERT_NE(srs, nullptr);
+  char* proj4 = nullptr;
+  ASSERT_EQ(srs->exportToProj4(&proj4), OGRERR_NONE);
+  const std::string projection(proj4);
+  CPLFree(proj4);
+  EXPECT_NE(projection.find("+proj=aeqd +lat_0=18 +lon_0=-133.8"), std::string::npos) << projection;
+  EXPECT_NE(projection.find("+R=3396190"), std::string::npos) << projection;
+  GDALRasterBand* band = mask->GetRasterBand(1);
+  int hasNoData = 0;
+  EXPECT_EQ(band->GetNoDataValue(&hasNoData), 255.0);
+  EXPECT_TRUE(hasNoData);
+  std::vector<std::uint8_t> cells(121 * 121);
+  ASSERT_EQ(band->RasterIO(GF_Read, 0, 0, 121, 121, cells.data(), 121, 121, GDT_Byte, 0, 0),
+            CE_None);
+  EXPECT_EQ(static_cast<std::uint64_t>(std::count(cells.begin(), cells.end(), 1)),
+            j["visible_cells"].get<std::uint64_t>());
+  EXPECT_EQ(cells[0], 255) << "the corner is outside the radius";
+  EXPECT_EQ(cells[60 * 121 + 60], 1) << "the observer's own cell is visible";
+  for (const auto& [args, mention] : std::vector<std::pair<std::string, std::string>>{
+           {" --at 0,0,-1", "underground"},
+           {" --at 0,0", "--at '0,0'"},
+           {" --at 95,0,10", "latitude"},
+           {" --at 0,0,10 --radius-m 0", "--radius-m must be a positive"},
+           {" --at 0,0,10 --radius-m -3", "--radius-m must be a positive"},
+           {" --at 0,0,10 --radius-m 5e6", "beyond the horizon of the whole planet"},
+           {" --at 0,0,10 --cell-m 0", "--cell-m must be a positive"},
+           {" --at 0,0,10 --radius-m 5e5 --cell-m 10", "cells a side"},
+       }) {
+    std::string command = "query viewshed " + ds + " --out '" + (dir / "bad.tif").string() + "'";
+    command += args;
+    const CliRun bad = runPbdam(command);
+    EXPECT_EQ(bad.exitCode, 2) << args;
+    EXPECT_NE(bad.err.find(mention), std::string::npos) << args << "\n" << bad.err;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "bad.tif"));
 }
 
 // Cut reuse changes the decisions, not the cuts: the same triangles every frame with it on and

@@ -8,6 +8,7 @@
 // two points H metres above the rendered terrain crosses it, tested on the device
 // (gpu/GpuSightline.h) against the cut with leaves along the segment's ground track.
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -16,22 +17,27 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <optional>
 #include <string>
 #include <unordered_map>
 #include <vector>
 
 #include "Commands.h"
 #include "FocusOption.h"
+#include "ViewshedOutput.h"
 #include "pbdam/builder/Checkpoint.h"
+#include "pbdam/formats/DemReader.h"
 #include "pbdam/formats/NumberList.h"
 #include "pbdam/formats/PatchCodec.h"
 #include "pbdam/gpu/GpuSightline.h"
+#include "pbdam/gpu/GpuViewshed.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/runtime/Camera.h"
 #include "pbdam/runtime/CutMesh.h"
 #include "pbdam/runtime/PatchDraw.h"
 #include "pbdam/runtime/Selection.h"
 #include "pbdam/runtime/SurfaceQuery.h"
+#include "pbdam/runtime/Viewshed.h"
 #include "pbdam/streaming/MappedDataset.h"
 
 using namespace pbdam::formats;
@@ -201,6 +207,92 @@ int runQueryLos(const QueryLosOptions& o) {
   return kExitOk;
 }
 
+struct QueryViewshedOptions {
+  std::string dir;
+  std::string at;
+  std::optional<double> radiusMeters;
+  std::optional<double> cellMeters;
+  std::string out;
+  std::string checkDem;
+  int device = -1;
+  bool json = false;
+};
+
+int runQueryViewshed(const QueryViewshedOptions& o) {
+  auto dataset = MappedDataset::open(o.dir);
+  if (!dataset) return reportError(dataset.error());
+  const DatasetView& view = (*dataset)->view();
+  auto at = groundPoint("--at", o.at);
+  if (!at) return reportError(at.error());
+  const ViewshedRequest request{at->latDegrees, at->lonDegrees, at->heightAboveGroundMeters,
+                                o.radiusMeters, o.cellMeters};
+  // A bad request is refused before the device is made.
+  if (auto grid = viewshedGrid(view, request); !grid) return reportError(grid.error());
+  std::optional<HeightGrid> dem;
+  if (!o.checkDem.empty()) {
+    auto read = readDem(o.checkDem);
+    if (!read) return reportError(read.error());
+    dem = std::move(*read);
+  }
+  gpu::ContextOptions contextOptions;
+  if (o.device >= 0) contextOptions.deviceIndex = static_cast<std::uint32_t>(o.device);
+  auto context = gpu::VulkanContext::create(contextOptions);
+  if (!context) return reportError(context.error());
+  auto viewshed = gpu::viewshedOverTerrain(*context, view, request);
+  if (!viewshed) return reportError(viewshed.error());
+  auto tiff = viewshedGeoTiff(*viewshed);
+  if (!tiff) return reportError(tiff.error());
+  std::uint32_t crc = 0;
+  if (auto w = builder::writeFileAtomically(o.out, {*tiff}, crc); !w) return reportError(w.error());
+  nlohmann::ordered_json j = viewshedJson(*viewshed, at->heightAboveGroundMeters);
+  j["out"] = o.out;
+  if (dem) {
+    // The DEM's own answer: the eye the same height above the DEM's ground.
+    const auto start = std::chrono::steady_clock::now();
+    const ViewshedGrid& grid = viewshed->grid;
+    const auto ground = demHeight(*dem, grid.latDegrees, grid.lonDegrees);
+    if (!ground) {
+      return reportError(makeError(ErrorCode::InvalidArgument,
+                                   "--check-dem " + o.checkDem + ": does not cover the observer"));
+    }
+    const glm::dvec3 eye = grid.planet.geodeticToEcef(grid.latDegrees, grid.lonDegrees,
+                                                      *ground + at->heightAboveGroundMeters);
+    const auto reference = viewshedByRayMarch(grid, *dem, eye);
+    const ViewshedAgreement agreement = compareViewsheds(viewshed->mask, reference);
+    const ViewshedStats demStats = viewshedStats(grid, reference);
+    j["check"] = {{"dem", o.checkDem},
+                  {"dem_ground_m", *ground},
+                  {"cells_compared", agreement.compared},
+                  {"agreement", agreement.fraction()},
+                  {"visible_only_on_terrain", agreement.visibleOnlyInFirst},
+                  {"visible_only_on_dem", agreement.visibleOnlyInSecond},
+                  {"dem_visible_cells", demStats.visibleCells},
+                  {"visible_agreement", agreement.visibleFraction()},
+                  {"ray_march_ms", std::chrono::duration<double, std::milli>(
+                                       std::chrono::steady_clock::now() - start)
+                                       .count()}};
+  }
+  if (o.json) {
+    std::cout << j.dump(2) << "\n";
+  } else {
+    std::printf(
+        "wrote %s: %d x %d cells of %.0f m, %.1f%% of %llu cells visible (%.0f km2), "
+        "farthest %.0f m; %.0f ms\n",
+        o.out.c_str(), viewshed->grid.cells, viewshed->grid.cells, viewshed->grid.cellMeters,
+        100.0 * j["visible_fraction"].get<double>(),
+        static_cast<unsigned long long>(viewshed->stats.cellsInRadius),
+        j["visible_area_km2"].get<double>(), viewshed->stats.farthestVisibleMeters,
+        viewshed->totalMilliseconds);
+    if (dem) {
+      std::printf(
+          "ray march over %s agrees on %.2f%% of %llu cells\n", o.checkDem.c_str(),
+          100.0 * j["check"]["agreement"].get<double>(),
+          static_cast<unsigned long long>(j["check"]["cells_compared"].get<std::uint64_t>()));
+    }
+  }
+  return kExitOk;
+}
+
 }  // namespace
 
 void addQueryCommands(CLI::App& app, CommandStatus& status) {
@@ -237,6 +329,27 @@ void addQueryCommands(CLI::App& app, CommandStatus& status) {
   sight->add_option("--device", los->device, "Vulkan device index (default: lavapipe)");
   sight->add_flag("--json", los->json, "Print the answer as JSON");
   sight->callback([los, &status] { status.exitCode = runQueryLos(*los); });
+
+  auto vs = std::make_shared<QueryViewshedOptions>();
+  CLI::App* viewshed = query->add_subcommand(
+      "viewshed",
+      "The terrain an eye above the ground sees within a radius, decided on the device over the "
+      "rendered leaves; a GeoTIFF mask (1 visible, 0 hidden, 255 nodata) in the eye's azimuthal "
+      "equidistant projection");
+  viewshed->add_option("DIR", vs->dir, "Dataset directory")->required();
+  viewshed->add_option("--at", vs->at, "LAT,LON,HEIGHT_ABOVE_GROUND_M of the eye")->required();
+  viewshed->add_option("--radius-m", vs->radiusMeters,
+                       "Radius along the surface (default: 256 cells, or the horizon limit if "
+                       "nearer)");
+  viewshed->add_option("--cell-m", vs->cellMeters,
+                       "Cell size (default: the leaf lattice's spacing)");
+  viewshed->add_option("--out", vs->out, "GeoTIFF file")->required();
+  viewshed->add_option("--check-dem", vs->checkDem,
+                       "Also decide every cell by a brute-force ray march over this DEM (the "
+                       "dataset's source) and report the agreement");
+  viewshed->add_option("--device", vs->device, "Vulkan device index (default: lavapipe)");
+  viewshed->add_flag("--json", vs->json, "Print the figures as JSON");
+  viewshed->callback([vs, &status] { status.exitCode = runQueryViewshed(*vs); });
 }
 
 }  // namespace pbdam::tools
