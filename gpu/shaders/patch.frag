@@ -4,6 +4,9 @@
 // so that the relief shows on imagery too. Ambient + Lambert diffuse; nothing view-dependent.
 // Where the texture quadtree steps, the texture morph blends the parent's coarser tile (set 2,
 // the page that holds it) in with the geometry's weight (docs/architecture.md "Geomorphing").
+// A surface overlay (set 3; a viewshed) is blended over the texel by its alpha before lighting:
+// its cells are an azimuthal equidistant grid around its centre, the fragment's place in it
+// taken on the sphere of the surface's radius of curvature there.
 #version 450
 
 layout(push_constant) uniform PatchPush {
@@ -14,6 +17,13 @@ layout(push_constant) uniform PatchPush {
 
 layout(set = 1, binding = 0) uniform sampler2DArray tiles;
 layout(set = 2, binding = 0) uniform sampler2DArray morphTiles;
+layout(set = 3, binding = 0) uniform sampler2D overlayImage;
+layout(set = 3, binding = 1) uniform Overlay {
+  vec4 origin;  // xyz: the overlay's centre on the reference surface, camera-relative; w: 1 drawn
+  vec4 east;    // xyz: unit east there; w: the surface's radius of curvature (metres)
+  vec4 north;   // xyz: unit north; w: metres per cell
+  vec4 up;      // xyz: unit up; w: cells a side
+} overlay;
 
 layout(location = 0) in vec2 inTexCoord;
 layout(location = 1) flat in float inLayer;
@@ -43,6 +53,17 @@ void main() {
     const vec3 coarser =
         textureGrad(morphTiles, vec3(inMorphTexCoord, inMorphTexture.y), morphDx, morphDy).rgb;
     texel = mix(texel, coarser, inMorphTexture.x);
+  }
+  if (overlay.origin.w > 0.0) {
+    const vec3 q = inCameraRelative - overlay.origin.xyz;
+    const vec2 en = vec2(dot(q, overlay.east.xyz), dot(q, overlay.north.xyz));
+    const float horizontal = length(en);
+    const float radius = overlay.east.w;
+    const float along = radius * atan(horizontal, radius + dot(q, overlay.up.xyz));
+    const vec2 metres = horizontal > 0.0 ? en * (along / horizontal) : vec2(0.0);
+    const vec2 uv = vec2(0.5) + vec2(metres.x, -metres.y) / (overlay.north.w * overlay.up.w);
+    const vec4 cell = texture(overlayImage, uv);
+    texel = mix(texel, cell.rgb, cell.a);
   }
   outColor = vec4(texel * (ambient + (1.0 - ambient) * diffuse), 1.0);
 }

@@ -19,6 +19,8 @@ void DrawRecorder::record(VkCommandBuffer cmd, const OffscreenTarget& target,
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.pipeline());
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 0, 1,
                           &recordsSet_, 0, nullptr);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 3, 1,
+                          &overlaySet_, 0, nullptr);
   vkCmdPushConstants(cmd, pipeline.layout(), kStages, 0, static_cast<std::uint32_t>(push.size()),
                      push.data());
   std::uint32_t boundChunk = std::numeric_limits<std::uint32_t>::max();

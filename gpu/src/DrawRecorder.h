@@ -36,8 +36,12 @@ class DrawRecorder final {
  public:
   /// Everything referenced must outlive the recorder and the command buffers it records.
   DrawRecorder(const PatchPipeline& pipeline, const PatchPool& patches, const TilePool& tiles,
-               VkDescriptorSet recordsSet) noexcept
-      : pipeline_(&pipeline), patches_(&patches), tiles_(&tiles), recordsSet_(recordsSet) {}
+               VkDescriptorSet recordsSet, VkDescriptorSet overlaySet) noexcept
+      : pipeline_(&pipeline),
+        patches_(&patches),
+        tiles_(&tiles),
+        recordsSet_(recordsSet),
+        overlaySet_(overlaySet) {}
 
   /// Records begin (or resume) rendering into `target`, the draws of `items` in order with
   /// `push` (PatchPush bytes), and the end of rendering.
@@ -49,6 +53,7 @@ class DrawRecorder final {
   const PatchPool* patches_;
   const TilePool* tiles_;
   VkDescriptorSet recordsSet_;
+  VkDescriptorSet overlaySet_;
 };
 
 }  // namespace pbdam::gpu

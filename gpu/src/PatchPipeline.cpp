@@ -60,10 +60,51 @@ Result<UniqueSampler> createTilesSampler(VkDevice device) {
   return UniqueSampler(device, rawSampler);
 }
 
-/// The pipeline layout: the three descriptor sets (records, the patch's tile page, the page of
-/// the coarser tile it blends in) and the per-draw push constants.
+/// The overlay's sampler: nearest, transparent black outside the image.
+Result<UniqueSampler> createOverlaySampler(VkDevice device) {
+  VkSamplerCreateInfo samplerInfo{};
+  samplerInfo.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
+  samplerInfo.magFilter = VK_FILTER_NEAREST;
+  samplerInfo.minFilter = VK_FILTER_NEAREST;
+  samplerInfo.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+  samplerInfo.addressModeU = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER;
+  samplerInfo.addressModeV = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER;
+  samplerInfo.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER;
+  samplerInfo.borderColor = VK_BORDER_COLOR_FLOAT_TRANSPARENT_BLACK;
+  samplerInfo.maxLod = 0.0f;
+  VkSampler rawSampler = VK_NULL_HANDLE;
+  if (VkResult r = vkCreateSampler(device, &samplerInfo, nullptr, &rawSampler); r != VK_SUCCESS) {
+    return vulkanError(r, "vkCreateSampler (surface overlay)");
+  }
+  return UniqueSampler(device, rawSampler);
+}
+
+/// Set 3: the overlay's image and uniform block, both read by the fragment shader.
+Result<UniqueDescriptorSetLayout> createOverlaySetLayout(VkDevice device) {
+  std::array<VkDescriptorSetLayoutBinding, 2> bindings{};
+  bindings[0].binding = 0;
+  bindings[0].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  bindings[0].descriptorCount = 1;
+  bindings[0].stageFlags = VK_SHADER_STAGE_FRAGMENT_BIT;
+  bindings[1].binding = 1;
+  bindings[1].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+  bindings[1].descriptorCount = 1;
+  bindings[1].stageFlags = VK_SHADER_STAGE_FRAGMENT_BIT;
+  VkDescriptorSetLayoutCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
+  info.bindingCount = static_cast<std::uint32_t>(bindings.size());
+  info.pBindings = bindings.data();
+  VkDescriptorSetLayout raw = VK_NULL_HANDLE;
+  if (VkResult r = vkCreateDescriptorSetLayout(device, &info, nullptr, &raw); r != VK_SUCCESS) {
+    return vulkanError(r, "vkCreateDescriptorSetLayout (surface overlay)");
+  }
+  return UniqueDescriptorSetLayout(device, raw);
+}
+
+/// The pipeline layout: the four descriptor sets (records, the patch's tile page, the page of
+/// the coarser tile it blends in, the surface overlay) and the per-draw push constants.
 Result<UniquePipelineLayout> createPatchLayout(
-    VkDevice device, const std::array<VkDescriptorSetLayout, 3>& setLayouts) {
+    VkDevice device, const std::array<VkDescriptorSetLayout, 4>& setLayouts) {
   VkPushConstantRange range{};
   range.stageFlags = VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
   range.offset = 0;
@@ -210,9 +251,15 @@ Result<PatchPipeline> PatchPipeline::create(const VulkanContext& context, VkForm
   auto sampler = createTilesSampler(device);
   if (!sampler) return std::move(sampler).error();
   result.sampler_ = std::move(*sampler);
-  auto layout = createPatchLayout(
-      device,
-      {result.recordsSetLayout_.get(), result.tilesSetLayout_.get(), result.tilesSetLayout_.get()});
+  auto overlayLayout = createOverlaySetLayout(device);
+  if (!overlayLayout) return std::move(overlayLayout).error();
+  result.overlaySetLayout_ = std::move(*overlayLayout);
+  auto overlaySampler = createOverlaySampler(device);
+  if (!overlaySampler) return std::move(overlaySampler).error();
+  result.overlaySampler_ = std::move(*overlaySampler);
+  auto layout =
+      createPatchLayout(device, {result.recordsSetLayout_.get(), result.tilesSetLayout_.get(),
+                                 result.tilesSetLayout_.get(), result.overlaySetLayout_.get()});
   if (!layout) return std::move(layout).error();
   result.layout_ = std::move(*layout);
   auto pipeline =

@@ -1,7 +1,7 @@
 // PatchPipeline (internal to pbdam_gpu): the graphics pipeline that draws P-BDAM patches
 // (shaders/patch.vert, shaders/patch.frag), its descriptor-set layouts (set 0: the per-draw
-// records, set 1: one texture-array page) and the tile sampler. Thread-safety: immutable after
-// creation.
+// records, sets 1 and 2: texture-array pages, set 3: the surface overlay) and the samplers.
+// Thread-safety: immutable after creation.
 #pragma once
 
 #include <vulkan/vulkan.h>
@@ -46,11 +46,17 @@ class PatchPipeline final {
   VkDescriptorSetLayout recordsSetLayout() const noexcept { return recordsSetLayout_.get(); }
   VkDescriptorSetLayout tilesSetLayout() const noexcept { return tilesSetLayout_.get(); }
   VkSampler sampler() const noexcept { return sampler_.get(); }
+  /// Set 3: the surface overlay (binding 0: its image, binding 1: its uniform block).
+  VkDescriptorSetLayout overlaySetLayout() const noexcept { return overlaySetLayout_.get(); }
+  /// Nearest, transparent black outside the image.
+  VkSampler overlaySampler() const noexcept { return overlaySampler_.get(); }
 
  private:
   UniqueDescriptorSetLayout recordsSetLayout_;
   UniqueDescriptorSetLayout tilesSetLayout_;
   UniqueSampler sampler_;
+  UniqueDescriptorSetLayout overlaySetLayout_;
+  UniqueSampler overlaySampler_;
   UniquePipelineLayout layout_;
   UniquePipeline pipeline_;
 };

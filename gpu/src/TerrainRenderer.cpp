@@ -32,6 +32,7 @@
 #include "DrawRecorder.h"
 #include "GpuCacheState.h"
 #include "StagingUploader.h"
+#include "SurfaceOverlayBinding.h"
 #include "pbdam/gpu/GpuCache.h"
 #include "pbdam/gpu/GpuMemory.h"
 #include "pbdam/gpu/OffscreenTarget.h"
@@ -148,6 +149,7 @@ struct TerrainRenderer::Impl {
   GpuBuffer records;
   UniqueDescriptorPool recordsPool;
   VkDescriptorSet recordsSet = VK_NULL_HANDLE;
+  std::optional<SurfaceOverlayBinding> overlay;
   UniqueQueryPool queries;
   std::uint64_t timestampMask = 0;
   double timestampPeriodNs = 1.0;
@@ -382,7 +384,8 @@ Result<void> TerrainRenderer::Impl::recordPass(const PassInput& in, const PassWo
         }
       });
   if (!recorded) return recorded;
-  const DrawRecorder recorder(shared->pipeline, shared->patches, shared->tiles, recordsSet);
+  const DrawRecorder recorder(shared->pipeline, shared->patches, shared->tiles, recordsSet,
+                              overlay->set());
   return recordCommands(commands[kDrawCommands], "terrain frame", [&](VkCommandBuffer cmd) {
     if (timestamps != VK_NULL_HANDLE) {
       vkCmdResetQueryPool(cmd, timestamps, 1, 2);
@@ -441,6 +444,9 @@ Result<void> TerrainRenderer::Impl::createFrameObjects() {
     return vulkanError(r, "vkAllocateDescriptorSets (patch draw records)");
   }
   if (Result<void> r = ensureRecords(1024); !r) return r;
+  auto overlayBinding = SurfaceOverlayBinding::create(*context, shared->pipeline);
+  if (!overlayBinding) return std::move(overlayBinding).error();
+  overlay.emplace(std::move(*overlayBinding));
 
   VkCommandPoolCreateInfo commandPoolInfo{};
   commandPoolInfo.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
@@ -644,6 +650,10 @@ Result<RenderedFrame> TerrainRenderer::render(const Cut& cut, const Camera& came
                  passEnds.size());
   }
   if (Result<void> r = m.ensureRecords(cut.patches.size()); !r) return std::move(r).error();
+  if (Result<void> r = m.overlay->prepare(settings.overlay, m.dataset->planet(), camera.position());
+      !r) {
+    return std::move(r).error();
+  }
 
   const PatchPush push = patchPush(camera, settings);
   const std::array<float, 4> clear = {static_cast<float>(settings.clearRgb[0]) / 255.0f,

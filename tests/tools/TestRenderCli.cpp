@@ -247,6 +247,39 @@ TEST(RenderCli, GpuSelectionDrawsTheSameFrameAsTheCpu) {
   }
 }
 
+// --viewshed drapes the eye's viewshed over the terrain: the frame changes where the disc is in
+// view, the same request draws the same bytes, and a view of the other side of the planet is
+// the plain frame byte for byte (the overlay touches nothing outside its disc).
+TEST(RenderCli, AViewshedIsDrapedOverItsDiscOnly) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  test::TempDir tmp;
+  const auto render = [&](const std::string& camera, const std::string& extra,
+                          const std::string& name) {
+    const auto png = tmp / name;
+    const CliRun run = runPbdam("render " + quoted(dir) + " --camera " + camera + extra +
+                                " --out " + quoted(png) + kSmall);
+    EXPECT_EQ(run.exitCode, 0) << run.err;
+    return readFile(png);
+  };
+  const std::string over = "16,-133.8,600e3,0,-60,0";
+  const std::string away = "-16,46.2,600e3,0,-60,0";
+  const std::string viewshed = " --viewshed 18.65,226.2,3000,300000";
+  const std::string plain = render(over, "", "plain.png");
+  const std::string draped = render(over, viewshed, "draped.png");
+  EXPECT_NE(plain, draped);
+  EXPECT_EQ(draped, render(over, viewshed, "again.png"));
+  EXPECT_EQ(render(away, "", "away.png"), render(away, viewshed, "away_draped.png"));
+  const CliRun bad = runPbdam("render " + quoted(dir) + " --camera " + over +
+                              " --viewshed 18.65,226.2 --out " + quoted(tmp / "bad.png") + kSmall);
+  EXPECT_EQ(bad.exitCode, 2);
+  EXPECT_NE(bad.err.find("--viewshed '18.65,226.2'"), std::string::npos) << bad.err;
+  const CliRun under =
+      runPbdam("render " + quoted(dir) + " --camera " + over + " --viewshed 18.65,226.2,-5 --out " +
+               quoted(tmp / "bad.png") + kSmall);
+  EXPECT_EQ(under.exitCode, 2);
+  EXPECT_NE(under.err.find("underground"), std::string::npos) << under.err;
+}
+
 TEST(RenderCli, BadInputIsOneLineAndExitCode2) {
   PBDAM_REQUIRE_DATASET(dir, "mola");
   test::TempDir tmp;

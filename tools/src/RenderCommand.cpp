@@ -25,6 +25,7 @@
 #include "FrameImage.h"
 #include "MorphOption.h"
 #include "Progress.h"
+#include "ViewshedOutput.h"
 #include "pbdam/formats/CameraPath.h"
 #include "pbdam/formats/NumberList.h"
 #include "pbdam/gpu/GpuSelector.h"
@@ -63,6 +64,7 @@ struct RenderCliOptions {
   bool quiet = false;
   MorphCliOptions morph;
   FocusCliOptions focus;
+  std::string viewshed;
   std::string selection = "cpu";
 };
 
@@ -289,6 +291,14 @@ int renderFrames(const RenderCliOptions& c, const DatasetView& view, const Viewp
   if (c.selection == "gpu") {
     if (auto r = cuts.useGpu(*context, view); !r) return reportError(r.error());
   }
+  gpu::FrameSettings frameSettings = settings;
+  if (!c.viewshed.empty()) {
+    auto request = parseViewshedSpec("--viewshed", c.viewshed);
+    if (!request) return reportError(request.error());
+    auto viewshed = gpu::viewshedOverTerrain(*context, view, *request);
+    if (!viewshed) return reportError(viewshed.error());
+    frameSettings.overlay = viewshedOverlay(*viewshed);
+  }
   // One statistics line per frame on a terminal; in logs at most one a second (and the last).
   Progress frameLines(c.quiet, stdout, Progress::OnTerminal::Scroll);
   for (std::size_t i = 0; i < plan.jobs.size(); ++i) {
@@ -301,7 +311,7 @@ int renderFrames(const RenderCliOptions& c, const DatasetView& view, const Viewp
     const double traversalMs =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - traversalStart)
             .count();
-    auto frame = renderer->render(cut, camera, settings);
+    auto frame = renderer->render(cut, camera, frameSettings);
     if (!frame) return reportError(frame.error());
     if (auto r = writeFrameImage(job.out, frame->image); !r) return reportError(r.error());
     const gpu::FrameStats& s = frame->stats;
@@ -422,6 +432,9 @@ void addRenderCommand(CLI::App& app, CommandStatus& status) {
       ->capture_default_str();
   addMorphOptions(*render, o->morph, false);
   addFocusOptions(*render, o->focus);
+  render->add_option("--viewshed", o->viewshed,
+                     "LAT,LON,HEIGHT_ABOVE_GROUND_M[,RADIUS_M]: drape this eye's viewshed over the "
+                     "terrain (visible green, hidden dark; pbdam query viewshed)");
   render
       ->add_option("--selection", o->selection,
                    "cpu: the cut selected on the host; gpu: by the selection's compute passes on "

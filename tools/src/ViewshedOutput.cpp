@@ -1,15 +1,48 @@
 // The viewshed's GeoTIFF and JSON (ViewshedOutput.h).
 #include "ViewshedOutput.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <string>
 
 #include "pbdam/formats/GeoTiffWriter.h"
+#include "pbdam/formats/NumberList.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
 
 namespace pbdam::tools {
+
+Result<ViewshedRequest> parseViewshedSpec(const std::string& option, const std::string& text) {
+  std::vector<double> v;
+  if (!parseNumberList(text, 3, v) && !parseNumberList(text, 4, v)) {
+    return makeError(ErrorCode::InvalidArgument,
+                     option + " '" + text + "': expected LAT,LON,HEIGHT_ABOVE_GROUND_M[,RADIUS_M]");
+  }
+  ViewshedRequest request{v[0], v[1], v[2], {}, {}};
+  if (v.size() == 4) request.radiusMeters = v[3];
+  return request;
+}
+
+std::shared_ptr<const gpu::SurfaceOverlay> viewshedOverlay(const gpu::TerrainViewshed& viewshed) {
+  auto overlay = std::make_shared<gpu::SurfaceOverlay>();
+  const ViewshedGrid& grid = viewshed.grid;
+  overlay->latDegrees = grid.latDegrees;
+  overlay->lonDegrees = grid.lonDegrees;
+  overlay->cellMeters = grid.cellMeters;
+  overlay->image.widthPixels = static_cast<std::uint32_t>(grid.cells);
+  overlay->image.heightPixels = static_cast<std::uint32_t>(grid.cells);
+  overlay->image.rgba.resize(viewshed.mask.size() * 4);
+  for (std::size_t i = 0; i < viewshed.mask.size(); ++i) {
+    std::array<std::uint8_t, 4> rgba{0, 0, 0, 0};
+    if (viewshed.mask[i] == kViewshedVisible) rgba = {70, 255, 90, 150};
+    if (viewshed.mask[i] == kViewshedHidden) rgba = {15, 10, 45, 150};
+    std::copy(rgba.begin(), rgba.end(),
+              overlay->image.rgba.begin() + static_cast<std::ptrdiff_t>(4 * i));
+  }
+  return overlay;
+}
 
 Result<std::vector<std::byte>> viewshedGeoTiff(const gpu::TerrainViewshed& viewshed) {
   const ViewshedGrid& grid = viewshed.grid;

@@ -3,13 +3,26 @@
 // colour table) and the figures as JSON.
 #pragma once
 
+#include <memory>
 #include <nlohmann/json.hpp>
+#include <string>
 #include <vector>
 
 #include "pbdam/formats/Result.h"
 #include "pbdam/gpu/GpuViewshed.h"
+#include "pbdam/gpu/TerrainRenderer.h"
 
 namespace pbdam::tools {
+
+/// `LAT,LON,H` or `LAT,LON,H,RADIUS_M` (`render --viewshed`, `/frame?viewshed=`); InvalidArgument
+/// naming `option` and the text otherwise. The numbers themselves are checked by
+/// runtime::viewshedGrid.
+formats::Result<runtime::ViewshedRequest> parseViewshedSpec(const std::string& option,
+                                                            const std::string& text);
+
+/// The mask as an overlay to drape over the terrain: visible cells green, hidden ones darkened,
+/// both 60% opaque; outside the radius clear.
+std::shared_ptr<const gpu::SurfaceOverlay> viewshedOverlay(const gpu::TerrainViewshed& viewshed);
 
 /// The mask's GeoTIFF file bytes.
 formats::Result<std::vector<std::byte>> viewshedGeoTiff(const gpu::TerrainViewshed& viewshed);

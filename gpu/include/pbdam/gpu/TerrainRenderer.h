@@ -45,6 +45,17 @@ struct TerrainRendererOptions final {
   bool warnWhenBudgetExceeded = true;
 };
 
+/// A raster draped over the terrain (a viewshed: `pbdam render --viewshed`, `/frame?viewshed=`):
+/// RGBA cells of an azimuthal equidistant grid centred on (lat, lon) on the reference surface,
+/// row 0 north, blended over the terrain's texels by their alpha before lighting. The image is
+/// uploaded when a frame first uses this object, so keep one object per overlay.
+struct SurfaceOverlay final {
+  RgbaImage image;  ///< cells × cells, square
+  double latDegrees = 0.0;
+  double lonDegrees = 0.0;
+  double cellMeters = 0.0;
+};
+
 /// Per-frame settings that do not change what is resident.
 struct FrameSettings final {
   /// Background colour (RGB, 0..255); tests use magenta to find holes.
@@ -54,6 +65,8 @@ struct FrameSettings final {
   std::optional<glm::dvec3> sunDirectionEcef;
   /// Fraction of the texel colour that faces away from the sun keep (0..1).
   float ambient = 0.35f;
+  /// Draped over the terrain when set.
+  std::shared_ptr<const SurfaceOverlay> overlay;
 };
 
 /// What one frame did. Times are milliseconds; uploadMs and drawMs are GPU time from timestamp
