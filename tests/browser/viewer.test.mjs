@@ -1,7 +1,7 @@
 // The pbdam serve viewer in headless Chromium (Debian's /usr/bin/chromium driven by
 // playwright-core): it loads, shows a server-rendered frame, flies with the keyboard, mouse drag
-// and wheel (the frame and camera change), asks only for frames it shows, and logs no console
-// errors. Screenshots go to ARTIFACT_DIR.
+// and wheel (the frame and camera change), drapes a viewshed (V), asks only for frames it shows,
+// and logs no console errors. Screenshots go to ARTIFACT_DIR.
 //   node viewer.test.mjs PBDAM_EXE DATASET_DIR ARTIFACT_DIR
 import { spawn } from "node:child_process";
 import { mkdtempSync, mkdirSync, rmSync, writeFileSync } from "node:fs";
@@ -114,6 +114,25 @@ try {
   check(afterMouse.camera.heading !== afterKeys.camera.heading, "dragging turned the camera");
   check(afterMouse.camera.alt > afterKeys.camera.alt, "the wheel raised the camera");
   writeFileSync(join(artifacts, "viewer_after_mouse.png"), await page.screenshot());
+
+  // V: the viewshed of an eye 10 m above the ground under the camera, draped over the terrain,
+  // with its figures in the HUD.
+  const shownBefore = (await viewer()).framesShown;
+  const plainShot = await page.screenshot();
+  await page.locator("#view").focus();
+  await page.keyboard.press("v");
+  await page.waitForFunction(() => window.pbdamViewer.viewshed &&
+                                   window.pbdamViewer.viewshed.visible_fraction !== undefined,
+                             null, { timeout: 60_000 });
+  await settledAfter(shownBefore);
+  const vs = (await viewer()).viewshed;
+  check(vs.visible_cells > 0 && vs.visible_cells < vs.cells_in_radius,
+        `V computed a viewshed (${vs.visible_cells} of ${vs.cells_in_radius} cells visible)`);
+  check(/viewshed from/.test(await page.locator("#hud").innerText()),
+        "the HUD shows the viewshed's figures");
+  const drapedShot = await page.screenshot();
+  writeFileSync(join(artifacts, "viewer_viewshed.png"), drapedShot);
+  check(Buffer.compare(plainShot, drapedShot) !== 0, "the viewshed is draped over the frame");
 
   const last = await viewer();
   check(last.errors === 0, `no failed frame requests (${last.errors})`);

@@ -20,7 +20,9 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -164,6 +166,31 @@ int runPbdam(const std::string& args) {
   const std::string command = quoted(PBDAM_EXE) + " " + args + " >/dev/null 2>&1";
   const int status = std::system(command.c_str());
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+/// What a pbdam run printed.
+struct Captured {
+  int exitCode = -1;
+  std::string out;
+  std::string err;
+};
+
+/// Runs `pbdam ARGS` capturing stdout and stderr.
+Captured capturePbdam(const std::string& args) {
+  test::TempDir dir;
+  const std::string errFile = (dir / "stderr.txt").string();
+  const std::string command = quoted(PBDAM_EXE) + " " + args + " 2>" + quoted(errFile);
+  Captured run;
+  FILE* pipe = ::popen(command.c_str(), "r");
+  if (pipe == nullptr) return run;
+  std::array<char, 4096> buf{};
+  std::size_t n = 0;
+  while ((n = std::fread(buf.data(), 1, buf.size(), pipe)) > 0) run.out.append(buf.data(), n);
+  const int status = ::pclose(pipe);
+  run.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream in(errFile);
+  run.err.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  return run;
 }
 
 /// Sends `raw` bytes on a fresh connection and returns what comes back until the server
@@ -419,6 +446,96 @@ TEST(Serve, InfoHeightStatsHealthzAndViewer) {
   EXPECT_EQ(page->get_header_value("Content-Type"), "text/html; charset=utf-8");
   EXPECT_NE(page->body.find("pbdam viewer"), std::string::npos);
   EXPECT_NE(page->body.find("/frame?"), std::string::npos);
+}
+
+// GET /los and /viewshed answer as `pbdam query los|viewshed --json` do; the viewshed comes as
+// JSON, GeoTIFF (georeferenced, byte-identical to the command's file) or an RGBA PNG, and
+// /frame?viewshed= drapes it (computed once: the frames after it are answered from the kept one).
+// Bad queries are 400 naming the parameter.
+TEST(Serve, LineOfSightAndViewshedQueries) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  START_SERVER(server, dir, {"--workers", "1"});
+  httplib::Client client = server.client();
+  test::TempDir tmp;
+  auto los = client.Get("/los?from=18.65,226.2,10&to=18.65,230,10");
+  ASSERT_TRUE(los);
+  ASSERT_EQ(los->status, 200) << los->body;
+  const auto line = nlohmann::json::parse(los->body);
+  EXPECT_FALSE(line["visible"].get<bool>());
+  const auto cliLos = capturePbdam("query los '" + dir.string() +
+                                   "' --from 18.65,226.2,10 --to 18.65,230,10 --json");
+  ASSERT_EQ(cliLos.exitCode, 0) << cliLos.err;
+  EXPECT_EQ(line, nlohmann::json::parse(cliLos.out));
+
+  const std::string at = "at=18.0,226.2,3000&radius_m=300000&cell_m=5000";
+  auto json = client.Get("/viewshed?" + at);
+  ASSERT_TRUE(json);
+  ASSERT_EQ(json->status, 200) << json->body;
+  const auto figures = nlohmann::json::parse(json->body);
+  const std::filesystem::path file = tmp / "cli.tif";
+  const auto cli = capturePbdam("query viewshed '" + dir.string() +
+                                "' --at 18.0,226.2,3000 --radius-m 300000 --cell-m 5000 --out '" +
+                                file.string() + "' --json");
+  ASSERT_EQ(cli.exitCode, 0) << cli.err;
+  const auto cliFigures = nlohmann::json::parse(cli.out);
+  for (const char* key : {"cells", "cells_in_radius", "visible_cells", "visible_area_km2",
+                          "farthest_visible", "observer"}) {
+    EXPECT_EQ(figures[key], cliFigures[key]) << key;
+  }
+  auto tiff = client.Get("/viewshed?" + at + "&format=tif");
+  ASSERT_TRUE(tiff);
+  ASSERT_EQ(tiff->status, 200);
+  EXPECT_EQ(tiff->get_header_value("Content-Type"), "image/tiff");
+  std::ifstream in(file, std::ios::binary);
+  const std::string fromFile{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  EXPECT_EQ(tiff->body, fromFile) << "the same GeoTIFF as pbdam query viewshed writes";
+  auto png = client.Get("/viewshed?" + at + "&format=png");
+  ASSERT_TRUE(png);
+  ASSERT_EQ(png->status, 200);
+  EXPECT_EQ(png->get_header_value("Content-Type"), "image/png");
+  EXPECT_EQ(png->body.substr(1, 3), "PNG");
+
+  const std::string camera = "/frame?lat=16&lon=-133.8&alt=600e3&pitch=-60&width=160&height=90";
+  auto plain = client.Get(camera);
+  auto draped = client.Get(camera + "&viewshed=18.0,226.2,3000,300000");
+  ASSERT_TRUE(plain && draped);
+  ASSERT_EQ(draped->status, 200) << draped->body;
+  EXPECT_NE(plain->body, draped->body);
+  const auto rendered = tmp / "draped.png";
+  const auto render = capturePbdam("render '" + dir.string() +
+                                   "' --camera 16,-133.8,600e3,0,-60,0 --width 160 --height 90 "
+                                   "--viewshed 18.0,226.2,3000,300000 --out '" +
+                                   rendered.string() + "' --quiet");
+  ASSERT_EQ(render.exitCode, 0) << render.err;
+  std::ifstream renderedIn(rendered, std::ios::binary);
+  EXPECT_EQ(draped->body, std::string(std::istreambuf_iterator<char>(renderedIn),
+                                      std::istreambuf_iterator<char>()))
+      << "the draped frame is pbdam render --viewshed's";
+  const auto stats = nlohmann::json::parse(client.Get("/stats")->body)["queries"];
+  EXPECT_EQ(stats["sightlines"], 1);
+  EXPECT_EQ(stats["viewsheds"], 2);  // the 5 km cells, then the default cells of the frame's
+  EXPECT_GE(stats["viewshed_hits"], 2);
+
+  for (const auto& [query, mention] : std::vector<std::pair<std::string, std::string>>{
+           {"/los?from=0,0,1", "parameter 'to' is required"},
+           {"/los?from=0,0,-1&to=1,1,1", "parameter 'from': the point is underground"},
+           {"/los?from=1,1,1&to=1,1,1", "the same point"},
+           {"/viewshed?at=0,0", "parameter 'at'"},
+           {"/viewshed?at=0,0,-1", "parameter 'at': the observer is underground"},
+           {"/viewshed?at=0,0,10&radius_m=0", "parameter 'radius_m' must be > 0"},
+           {"/viewshed?at=0,0,10&radius_m=5e6",
+            "parameter 'radius_m' 5000000 m is beyond the horizon"},
+           {"/viewshed?at=0,0,10&radius_m=5e5&cell_m=300", "the server computes at most 2049"},
+           {"/viewshed?at=0,0,10&format=gif", "parameter 'format'"},
+           {"/viewshed?at=0,0,10&colour=red", "unknown parameter 'colour'"},
+           {"/frame?lat=0&lon=0&alt=1e6&viewshed=1,2", "parameter 'viewshed'"},
+           {"/frame?lat=0&lon=0&alt=1e6&viewshed=0,0,-3", "parameter 'viewshed': parameter 'at'"},
+       }) {
+    auto res = client.Get(query);
+    expectJsonError(res, query);
+    EXPECT_EQ(res->status, 400) << query;
+    EXPECT_NE(res->body.find(mention), std::string::npos) << query << ": " << res->body;
+  }
 }
 
 TEST(Serve, RenderContextsShareOneGpuCache) {

@@ -50,8 +50,11 @@ Result<void> writeFrameImage(const std::filesystem::path& path, const gpu::RgbaI
   return {};
 }
 
-Result<std::vector<unsigned char>> encodeFrameImage(const gpu::RgbaImage& image,
-                                                    FrameEncoding encoding, int jpegQuality) {
+namespace {
+
+/// `channels` 3: RGB; 4: RGBA (PNG only).
+Result<std::vector<unsigned char>> encode(const gpu::RgbaImage& image, FrameEncoding encoding,
+                                          int jpegQuality, int channels) {
   std::vector<unsigned char> bytes;
   OIIO::Filesystem::IOVecOutput proxy(bytes);
   // The name only picks the format; nothing touches the filesystem.
@@ -61,8 +64,8 @@ Result<std::vector<unsigned char>> encodeFrameImage(const gpu::RgbaImage& image,
     return makeError(ErrorCode::Internal,
                      std::string("no ") + name + " encoder (" + OIIO::geterror() + ")");
   }
-  OIIO::ImageSpec spec(static_cast<int>(image.widthPixels), static_cast<int>(image.heightPixels), 3,
-                       OIIO::TypeDesc::UINT8);
+  OIIO::ImageSpec spec(static_cast<int>(image.widthPixels), static_cast<int>(image.heightPixels),
+                       channels, OIIO::TypeDesc::UINT8);
   if (encoding == FrameEncoding::Png) {
     spec.attribute("png:compressionLevel", 1);
   } else {
@@ -80,6 +83,17 @@ Result<std::vector<unsigned char>> encodeFrameImage(const gpu::RgbaImage& image,
                      std::string("encoding ") + name + " failed (" + out->geterror() + ")");
   }
   return bytes;
+}
+
+}  // namespace
+
+Result<std::vector<unsigned char>> encodeFrameImage(const gpu::RgbaImage& image,
+                                                    FrameEncoding encoding, int jpegQuality) {
+  return encode(image, encoding, jpegQuality, 3);
+}
+
+Result<std::vector<unsigned char>> encodeRgbaPng(const gpu::RgbaImage& image) {
+  return encode(image, FrameEncoding::Png, 90, 4);
 }
 
 }  // namespace pbdam::tools

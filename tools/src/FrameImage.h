@@ -30,4 +30,7 @@ formats::Result<std::vector<unsigned char>> encodeFrameImage(const gpu::RgbaImag
                                                              FrameEncoding encoding,
                                                              int jpegQuality = 90);
 
+/// All four channels of `image` as a PNG (an overlay with transparency).
+formats::Result<std::vector<unsigned char>> encodeRgbaPng(const gpu::RgbaImage& image);
+
 }  // namespace pbdam::tools

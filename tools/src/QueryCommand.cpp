@@ -182,20 +182,7 @@ int runQueryLos(const QueryLosOptions& o) {
   const glm::dvec3 blocked = line->from + sight->nearestFraction * (line->to - line->from);
   const GeodeticPosition at = planet.ecefToGeodetic(blocked);
   if (o.json) {
-    nlohmann::ordered_json j;
-    j["visible"] = sight->visible;
-    j["distance_m"] = length;
-    j["from_ground_m"] = line->groundFromMeters;
-    j["to_ground_m"] = line->groundToMeters;
-    j["triangles_tested"] = line->triangles;
-    j["crossings"] = sight->crossings;
-    if (!sight->visible) {
-      j["blocked_at"] = {{"lat", at.latDegrees},
-                         {"lon", at.lonDegrees},
-                         {"height_m", at.heightMeters},
-                         {"distance_m", sight->nearestFraction * length}};
-    }
-    std::cout << j.dump(2) << "\n";
+    std::cout << sightlineJson(planet, *line).dump(2) << "\n";
   } else if (sight->visible) {
     std::printf("visible: %.0f m of clear line (%llu triangles tested)\n", length,
                 static_cast<unsigned long long>(line->triangles));

@@ -164,7 +164,9 @@ void RenderPool::workerLoop(std::uint32_t index) {
         refinement.morphRange = r.morphRange;
         const Cut cut = incremental.update(camera, refinement);
         const double traversalMs = millisecondsBetween(start, Clock::now());
-        Result<gpu::RenderedFrame> drawn = renderer.render(cut, camera);
+        gpu::FrameSettings settings;
+        settings.overlay = r.overlay;
+        Result<gpu::RenderedFrame> drawn = renderer.render(cut, camera, settings);
         if (!drawn) {
           frame = std::move(drawn).error();
         } else {

@@ -30,6 +30,7 @@ struct FrameRequest final {
   runtime::Viewport viewport;
   double tolerancePixels = 3.0;
   double morphRange = 0.25;  ///< RefinementOptions::morphRange (0: no morph)
+  std::shared_ptr<const gpu::SurfaceOverlay> overlay;  ///< draped over the terrain (a viewshed)
 };
 
 /// A drawn frame and what it cost.
@@ -110,6 +111,8 @@ class RenderPool final {
 
   RenderPoolStats stats() const;
   const std::string& deviceName() const noexcept { return deviceName_; }
+  /// The contexts' Vulkan context, for compute queries (it serialises submissions).
+  gpu::VulkanContext& context() noexcept { return *context_; }
 
  private:
   struct Job;

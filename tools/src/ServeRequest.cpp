@@ -8,6 +8,11 @@
 #include <initializer_list>
 #include <optional>
 #include <string_view>
+#include <utility>
+#include <vector>
+
+#include "ViewshedOutput.h"
+#include "pbdam/formats/NumberList.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
@@ -101,8 +106,9 @@ Result<double> inRange(Result<double> v, const std::string& name, double lo, dou
 }  // namespace
 
 Result<FrameQuery> parseFrameQuery(const QueryParams& params, const Planet& planet) {
-  if (auto r = checkNames(params, {"lat", "lon", "alt", "heading", "pitch", "roll", "width",
-                                   "height", "fov", "tolerance", "format", "quality", "morph"});
+  if (auto r =
+          checkNames(params, {"lat", "lon", "alt", "heading", "pitch", "roll", "width", "height",
+                              "fov", "tolerance", "format", "quality", "morph", "viewshed"});
       !r) {
     return std::move(r).error();
   }
@@ -145,6 +151,12 @@ Result<FrameQuery> parseFrameQuery(const QueryParams& params, const Planet& plan
     q.morph = *morph == "on";
   }
 
+  if (const std::optional<std::string> viewshed = value(params, "viewshed")) {
+    auto spec = parseViewshedSpec("parameter 'viewshed'", shown(*viewshed));
+    if (!spec) return std::move(spec).error();
+    q.viewshed = *spec;
+  }
+
   const std::string format = value(params, "format").value_or("png");
   if (format == "png") {
     q.encoding = FrameEncoding::Png;
@@ -159,6 +171,61 @@ Result<FrameQuery> parseFrameQuery(const QueryParams& params, const Planet& plan
     return bad("parameter 'quality' applies to format=jpeg only");
   }
   q.jpegQuality = static_cast<int>(*quality);
+  return q;
+}
+
+namespace {
+
+Result<gpu::GroundPoint> groundPoint(const QueryParams& params, const std::string& name) {
+  const std::optional<std::string> text = value(params, name);
+  if (!text) return bad("parameter '" + name + "' is required (LAT,LON,HEIGHT_ABOVE_GROUND_M)");
+  std::vector<double> v;
+  if (!parseNumberList(*text, 3, v)) {
+    return bad("parameter '" + name + "': '" + shown(*text) +
+               "' is not LAT,LON,HEIGHT_ABOVE_GROUND_M");
+  }
+  return gpu::GroundPoint{v[0], v[1], v[2]};
+}
+
+}  // namespace
+
+Result<LosQuery> parseLosQuery(const QueryParams& params) {
+  if (auto r = checkNames(params, {"from", "to"}); !r) return std::move(r).error();
+  auto from = groundPoint(params, "from");
+  if (!from) return std::move(from).error();
+  auto to = groundPoint(params, "to");
+  if (!to) return std::move(to).error();
+  return LosQuery{*from, *to};
+}
+
+Result<ViewshedQuery> parseViewshedQuery(const QueryParams& params) {
+  if (auto r = checkNames(params, {"at", "radius_m", "cell_m", "format"}); !r) {
+    return std::move(r).error();
+  }
+  ViewshedQuery q;
+  auto at = groundPoint(params, "at");
+  if (!at) return std::move(at).error();
+  q.request.latDegrees = at->latDegrees;
+  q.request.lonDegrees = at->lonDegrees;
+  q.request.heightAboveGroundMeters = at->heightAboveGroundMeters;
+  for (const auto& [name, field] : {std::pair{"radius_m", &q.request.radiusMeters},
+                                    std::pair{"cell_m", &q.request.cellMeters}}) {
+    if (params.count(name) == 0) continue;
+    auto v = number(params, name, std::nullopt);
+    if (!v) return std::move(v).error();
+    if (!(*v > 0.0)) return bad(std::string("parameter '") + name + "' must be > 0 metres");
+    *field = *v;
+  }
+  const std::string format = value(params, "format").value_or("json");
+  if (format == "json") {
+    q.format = ViewshedFormat::Json;
+  } else if (format == "tif" || format == "tiff") {
+    q.format = ViewshedFormat::GeoTiff;
+  } else if (format == "png") {
+    q.format = ViewshedFormat::Png;
+  } else {
+    return bad("parameter 'format': '" + shown(format) + "' is not json, tif or png");
+  }
   return q;
 }
 

@@ -26,8 +26,10 @@
 
 #include "FrameImage.h"
 #include "HeightJson.h"
+#include "ServeQueries.h"
 #include "ServeRequest.h"
 #include "ServeViewerHtml.h"
+#include "ViewshedOutput.h"
 #include "pbdam/formats/DatasetFormat.h"
 #include "pbdam/formats/GuardedCopy.h"
 #include "pbdam/runtime/SurfaceQuery.h"
@@ -142,6 +144,32 @@ void sendError(httplib::Response& res, int status, const std::string& message) {
   sendJson(res, status, j);
 }
 
+/// A terrain query's error in the server's words: the command line's option names
+/// (runtime::viewshedGrid, gpu::sightlineOverTerrain) become the query's parameters.
+std::string queryMessage(std::string message) {
+  for (const auto& [option, parameter] :
+       {std::pair{"--at", "parameter 'at'"}, std::pair{"--radius-m", "parameter 'radius_m'"},
+        std::pair{"--cell-m", "parameter 'cell_m'"}, std::pair{"--from", "parameter 'from'"},
+        std::pair{"--to", "parameter 'to'"}}) {
+    for (std::size_t at = message.find(option); at != std::string::npos;
+         at = message.find(option, at + 1)) {
+      const std::size_t end = at + std::string_view(option).size();
+      if (end < message.size() &&
+          (std::isalnum(static_cast<unsigned char>(message[end])) != 0 || message[end] == '-')) {
+        continue;  // a longer option
+      }
+      message.replace(at, end - at, parameter);
+    }
+  }
+  return message;
+}
+
+/// 503 for a terrain query that found the device busy for the whole wait.
+void sendBusy(httplib::Response& res) {
+  res.set_header("Retry-After", "1");
+  sendError(res, 503, "busy: another terrain query held the device for the whole wait");
+}
+
 /// HTTP status for a library error: the client's fault (4xx) or ours (5xx).
 int statusFor(const Error& error) {
   switch (error.code) {
@@ -171,8 +199,8 @@ Json heapJson() {
           {"free_in_arenas_bytes", m.fordblks}};
 }
 
-constexpr const char* kKnownPaths[] = {"/",      "/frame",   "/height",      "/info",
-                                       "/stats", "/healthz", "/admin/reload"};
+constexpr const char* kKnownPaths[] = {"/",     "/frame", "/height",  "/los",         "/viewshed",
+                                       "/info", "/stats", "/healthz", "/admin/reload"};
 
 bool knownPath(const std::string& path) {
   for (const char* p : kKnownPaths) {
@@ -237,6 +265,7 @@ Json makeInfo(const MappedDataset& dataset, const ServeOptions& options,
 struct Generation final {
   std::unique_ptr<MappedDataset> dataset;
   std::unique_ptr<RenderPool> pool;
+  std::unique_ptr<ServeQueries> queries;  ///< on the pool's context: destroyed before it
   Json info;
   std::uint64_t number = 1;  ///< 1 at start, +1 per successful reload
 };
@@ -258,6 +287,9 @@ Result<std::shared_ptr<Generation>> openGeneration(const std::string& directory,
   auto pool = RenderPool::create(*generation->dataset, poolOptions);
   if (!pool) return std::move(pool).error();
   generation->pool = std::move(*pool);
+  generation->queries =
+      std::make_unique<ServeQueries>(generation->dataset->view(), generation->pool->context(),
+                                     std::chrono::duration<double>(options.deadlineSeconds));
   generation->info = makeInfo(*generation->dataset, options, generation->pool->deviceName());
   return generation;
 }
@@ -378,6 +410,8 @@ struct FrameServer::Impl {
   void routes();
   void handleFrame(const httplib::Request& req, httplib::Response& res) const;
   void handleHeight(const httplib::Request& req, httplib::Response& res) const;
+  void handleLos(const httplib::Request& req, httplib::Response& res) const;
+  void handleViewshed(const httplib::Request& req, httplib::Response& res) const;
   void handleReload(const httplib::Request& req, httplib::Response& res);
   std::pair<int, Json> healthJson();
   Json statsJson() const;
@@ -420,6 +454,15 @@ void FrameServer::Impl::handleFrame(const httplib::Request& req, httplib::Respon
   Result<FrameQuery> query = parseFrameQuery(req.params, g->dataset->view().planet());
   if (!query) return sendError(res, 400, query.error().message);
   query->request.morphRange = query->morph.value_or(options.morph) ? options.morphRange : 0.0;
+  if (query->viewshed) {
+    auto drape = g->queries->viewshed(*query->viewshed);
+    if (drape.busy) return sendBusy(res);
+    if (!*drape.result) {
+      return sendError(res, statusFor(drape.result->error()),
+                       "parameter 'viewshed': " + queryMessage(drape.result->error().message));
+    }
+    query->request.overlay = (**drape.result)->overlay;
+  }
   const auto deadline = received + std::chrono::duration_cast<Clock::duration>(
                                        std::chrono::duration<double>(options.deadlineSeconds));
   FrameOutcome outcome = g->pool->render(query->request, deadline);
@@ -478,6 +521,52 @@ void FrameServer::Impl::handleHeight(const httplib::Request& req, httplib::Respo
   auto h = surfaceHeightAt(view, query->latDegrees, query->lonDegrees);
   if (!h) return sendError(res, statusFor(h.error()), h.error().message);
   sendJson(res, 200, surfaceHeightJson(query->latDegrees, query->lonDegrees, *h, view.manifest()));
+}
+
+void FrameServer::Impl::handleLos(const httplib::Request& req, httplib::Response& res) const {
+  Result<LosQuery> query = parseLosQuery(req.params);
+  if (!query) return sendError(res, 400, query.error().message);
+  const std::shared_ptr<Generation> g = current();
+  auto outcome = g->queries->sightline(query->from, query->to);
+  if (outcome.busy) return sendBusy(res);
+  const Result<gpu::TerrainSightline>& line = *outcome.result;
+  if (!line) return sendError(res, statusFor(line.error()), queryMessage(line.error().message));
+  sendJson(res, 200, sightlineJson(g->dataset->view().planet(), *line));
+}
+
+void FrameServer::Impl::handleViewshed(const httplib::Request& req, httplib::Response& res) const {
+  Result<ViewshedQuery> query = parseViewshedQuery(req.params);
+  if (!query) return sendError(res, 400, query.error().message);
+  const std::shared_ptr<Generation> g = current();
+  auto outcome = g->queries->viewshed(query->request);
+  if (outcome.busy) return sendBusy(res);
+  if (!*outcome.result) {
+    return sendError(res, statusFor(outcome.result->error()),
+                     queryMessage(outcome.result->error().message));
+  }
+  const ServedViewshed& answer = ***outcome.result;
+  res.set_header("Cache-Control", "no-store");
+  switch (query->format) {
+    case ViewshedFormat::Json:
+      return sendJson(res, 200, viewshedJson(answer.viewshed, answer.heightAboveGroundMeters));
+    case ViewshedFormat::GeoTiff: {
+      auto tiff = viewshedGeoTiff(answer.viewshed);
+      if (!tiff) return sendError(res, 500, tiff.error().message);
+      res.status = 200;
+      res.body.assign(reinterpret_cast<const char*>(tiff->data()), tiff->size());
+      res.set_header("Content-Type", "image/tiff");
+      res.set_header("Content-Disposition", "attachment; filename=\"viewshed.tif\"");
+      return;
+    }
+    case ViewshedFormat::Png: {
+      auto png = encodeRgbaPng(answer.overlay->image);
+      if (!png) return sendError(res, 500, png.error().message);
+      res.status = 200;
+      res.body.assign(reinterpret_cast<const char*>(png->data()), png->size());
+      res.set_header("Content-Type", "image/png");
+      return;
+    }
+  }
 }
 
 void FrameServer::Impl::handleReload(const httplib::Request& req, httplib::Response& res) {
@@ -559,6 +648,11 @@ Json FrameServer::Impl::statsJson() const {
   }
   // Outside the counters' lock: mallinfo2 takes every arena's lock in turn.
   j["server"]["heap"] = heapJson();
+  const ServeQueryStats q = g->queries->stats();
+  j["queries"] = {{"sightlines", q.sightlines},
+                  {"viewsheds", q.viewsheds},
+                  {"viewshed_hits", q.viewshedHits},
+                  {"busy", q.busy}};
   j["queue"] = {{"capacity", s.queueCapacity},
                 {"queued", s.queued},
                 {"rendering", s.rendering},
@@ -605,6 +699,11 @@ void FrameServer::Impl::routes() {
            [this](const httplib::Request& req, httplib::Response& res) { handleFrame(req, res); });
   http.Get("/height",
            [this](const httplib::Request& req, httplib::Response& res) { handleHeight(req, res); });
+  http.Get("/los",
+           [this](const httplib::Request& req, httplib::Response& res) { handleLos(req, res); });
+  http.Get("/viewshed", [this](const httplib::Request& req, httplib::Response& res) {
+    handleViewshed(req, res);
+  });
   http.Get("/info", [this](const httplib::Request& req, httplib::Response& res) {
     if (auto r = expectNoParams(req.params); !r) return sendError(res, 400, r.error().message);
     sendJson(res, 200, current()->info);
@@ -649,8 +748,8 @@ void FrameServer::Impl::routes() {
             break;
           case 404:
             message =
-                "no such path (GET /, /frame, /height, /info, /stats, /healthz; POST "
-                "/admin/reload)";
+                "no such path (GET /, /frame, /height, /los, /viewshed, /info, /stats, "
+                "/healthz; POST /admin/reload)";
             break;
           case 413:
             message = "request body too large";

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <glm/geometric.hpp>
 #include <string>
 
 #include "pbdam/formats/GeoTiffWriter.h"
@@ -42,6 +43,27 @@ std::shared_ptr<const gpu::SurfaceOverlay> viewshedOverlay(const gpu::TerrainVie
               overlay->image.rgba.begin() + static_cast<std::ptrdiff_t>(4 * i));
   }
   return overlay;
+}
+
+nlohmann::ordered_json sightlineJson(const Planet& planet, const gpu::TerrainSightline& line) {
+  const gpu::SightlineResult& sight = line.result;
+  const double length = glm::length(line.to - line.from);
+  nlohmann::ordered_json j;
+  j["visible"] = sight.visible;
+  j["distance_m"] = length;
+  j["from_ground_m"] = line.groundFromMeters;
+  j["to_ground_m"] = line.groundToMeters;
+  j["triangles_tested"] = line.triangles;
+  j["crossings"] = sight.crossings;
+  if (!sight.visible) {
+    const glm::dvec3 blocked = line.from + sight.nearestFraction * (line.to - line.from);
+    const GeodeticPosition at = planet.ecefToGeodetic(blocked);
+    j["blocked_at"] = {{"lat", at.latDegrees},
+                       {"lon", at.lonDegrees},
+                       {"height_m", at.heightMeters},
+                       {"distance_m", sight.nearestFraction * length}};
+  }
+  return j;
 }
 
 Result<std::vector<std::byte>> viewshedGeoTiff(const gpu::TerrainViewshed& viewshed) {

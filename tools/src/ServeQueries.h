@@ -1,0 +1,76 @@
+// The terrain queries of `pbdam serve` (GET /los, /viewshed, and /frame?viewshed=): line of sight
+// and viewsheds on the render pool's Vulkan context, one query at a time (they are seconds of
+// CPU on lavapipe and would starve the frames otherwise; a request that cannot start within the
+// wait is refused as busy), and the last few viewsheds kept with their drape, so that the
+// frames that show one do not compute it again. Thread-safety: every member is thread-safe.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <list>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <utility>
+
+#include "pbdam/formats/Result.h"
+#include "pbdam/gpu/GpuSightline.h"
+#include "pbdam/gpu/GpuViewshed.h"
+#include "pbdam/gpu/TerrainRenderer.h"
+#include "pbdam/runtime/DatasetView.h"
+#include "pbdam/runtime/Viewshed.h"
+
+namespace pbdam::tools {
+
+/// The most cells a side of a served viewshed (`pbdam query viewshed` takes more).
+inline constexpr int kServeMaxViewshedCells = 2049;
+
+/// A computed viewshed and its drape.
+struct ServedViewshed final {
+  gpu::TerrainViewshed viewshed;
+  std::shared_ptr<const gpu::SurfaceOverlay> overlay;
+  double heightAboveGroundMeters = 0.0;
+};
+
+/// A query's answer, or the error that stopped it, or `busy`: another query held the device
+/// for the whole wait (503 + Retry-After).
+template <typename T>
+struct QueryOutcome final {
+  bool busy = false;
+  std::optional<formats::Result<T>> result;
+};
+
+struct ServeQueryStats final {
+  std::uint64_t sightlines = 0;
+  std::uint64_t viewsheds = 0;     ///< computed
+  std::uint64_t viewshedHits = 0;  ///< answered from the kept ones
+  std::uint64_t busy = 0;
+};
+
+class ServeQueries final {
+ public:
+  /// `view` and `context` must outlive this. `wait`: how long a query waits for the device.
+  ServeQueries(const runtime::DatasetView& view, gpu::VulkanContext& context,
+               std::chrono::duration<double> wait)
+      : view_(view), context_(context), wait_(wait) {}
+
+  /// The viewshed of `request` (kept: the last kKept distinct requests). InvalidArgument for a
+  /// bad request or a grid of more than kServeMaxViewshedCells a side.
+  QueryOutcome<std::shared_ptr<const ServedViewshed>> viewshed(
+      const runtime::ViewshedRequest& request);
+  QueryOutcome<gpu::TerrainSightline> sightline(const gpu::GroundPoint& from,
+                                                const gpu::GroundPoint& to);
+  ServeQueryStats stats() const;
+
+ private:
+  static constexpr std::size_t kKept = 4;
+  const runtime::DatasetView& view_;
+  gpu::VulkanContext& context_;
+  std::chrono::duration<double> wait_;
+  std::timed_mutex device_;   ///< one query on the device at a time
+  mutable std::mutex mutex_;  ///< the kept viewsheds and the counters
+  std::list<std::pair<std::string, std::shared_ptr<const ServedViewshed>>> kept_;  ///< newest first
+  ServeQueryStats stats_;
+};
+
+}  // namespace pbdam::tools
