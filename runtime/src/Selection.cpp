@@ -23,16 +23,6 @@ double distanceToSegment(const glm::dvec3& p, const glm::dvec3& a, const glm::dv
   return glm::length(p - (a + t * e));
 }
 
-/// Whether a sphere comes within the region's width of its centre line.
-bool near(const FocusRegion& region, const glm::dvec3& centre, double radius) {
-  if (region.line.empty()) return false;
-  double d = glm::length(centre - region.line.front());
-  for (std::size_t k = 1; k < region.line.size(); ++k) {
-    d = std::min(d, distanceToSegment(centre, region.line[k - 1], region.line[k]));
-  }
-  return d - radius <= region.widthMeters;
-}
-
 struct EdgeKeyHash final {
   std::size_t operator()(const std::pair<PointKey, PointKey>& k) const noexcept {
     return static_cast<std::size_t>(k.first * 0x9E3779B97F4A7C15ULL) ^
@@ -41,6 +31,15 @@ struct EdgeKeyHash final {
 };
 
 }  // namespace
+
+bool FocusRegion::reaches(const glm::dvec3& centre, double radius) const noexcept {
+  if (line.empty()) return false;
+  double d = glm::length(centre - line.front());
+  for (std::size_t k = 1; k < line.size(); ++k) {
+    d = std::min(d, distanceToSegment(centre, line[k - 1], line[k]));
+  }
+  return d - radius <= widthMeters;
+}
 
 Result<FocusRegion> focusCircle(const Planet& planet, double latDegrees, double lonDegrees,
                                 double radiusMeters, double errorMeters) {
@@ -146,8 +145,8 @@ Cut CutSelector::select(const Camera& camera, const SelectionOptions& options,
     bySize[i] = static_cast<char>(screen[i] > r.tolerancePixels);
     bool wants = bySize[i] != 0;
     for (const FocusRegion& f : options.focus) {
-      wants = wants ||
-              (static_cast<double>(record.errorMeters) > f.errorMeters && near(f, centre, radius));
+      wants = wants || (static_cast<double>(record.errorMeters) > f.errorMeters &&
+                        f.reaches(centre, radius));
     }
     wants = wants || (options.split && options.split(n.key, record));
     if (wants) work.push_back(i);

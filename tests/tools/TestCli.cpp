@@ -429,6 +429,10 @@ TEST(Cli, QueryCutWritesTheFocusMeshAsPly) {
   EXPECT_EQ(vertices, triangles / 2 + 2) << "closed, Euler characteristic 2";
   EXPECT_EQ(j["max_level"], 8);  // the test dataset's leaves, inside the circle
   EXPECT_LE(j["min_level"].get<int>(), 2);
+  // Every patch the circle reaches is a leaf.
+  EXPECT_GT(j["in_focus"]["patches"].get<int>(), 0);
+  EXPECT_EQ(j["in_focus"]["min_level"], 8);
+  EXPECT_EQ(j["in_focus"]["leaf_level"], 8);
   const std::string bytes = readText(ply);
   const std::string header = "ply\nformat binary_little_endian 1.0\n";
   EXPECT_EQ(bytes.rfind(header, 0), 0u);

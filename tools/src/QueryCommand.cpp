@@ -8,6 +8,7 @@
 // two points H metres above the rendered terrain crosses it, tested on the device
 // (gpu/GpuSightline.h) against the cut with leaves along the segment's ground track.
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -135,6 +136,27 @@ int runQueryCut(const QueryCutOptions& o) {
     j["max_level"] = mesh->maxLevel;
     j["predicate_splits"] = stats.predicateSplits;
     j["closure_splits"] = stats.closureSplits;
+    if (!options.focus.empty()) {
+      // The patches the focus regions reach, and how fine they are (leaves: the dataset's depth).
+      std::uint64_t reached = 0;
+      int finest = -1, coarsest = 1 << 30;
+      for (const CutPatch& patch : cut.patches) {
+        const NodeRecord record = view.node(patch.node);
+        const glm::dvec3 centre(record.sphereCenter[0], record.sphereCenter[1],
+                                record.sphereCenter[2]);
+        const auto reaches = [&](const FocusRegion& f) {
+          return f.reaches(centre, static_cast<double>(record.sphereRadiusMeters));
+        };
+        if (std::none_of(options.focus.begin(), options.focus.end(), reaches)) continue;
+        ++reached;
+        finest = std::max(finest, patch.level);
+        coarsest = std::min(coarsest, patch.level);
+      }
+      j["in_focus"] = {{"patches", reached},
+                       {"min_level", reached > 0 ? coarsest : -1},
+                       {"max_level", finest},
+                       {"leaf_level", view.depth()}};
+    }
     std::cout << j.dump(2) << "\n";
   } else {
     std::printf("wrote %s: %zu patches (levels %d-%d), %zu vertices, %zu triangles\n",

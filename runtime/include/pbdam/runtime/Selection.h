@@ -40,6 +40,9 @@ struct FocusRegion final {
   std::vector<glm::dvec3> line;  ///< planetocentric metres; consecutive points form segments
   double widthMeters = 0.0;      ///< the circle's radius, the path's half width
   double errorMeters = 0.0;
+
+  /// Whether a sphere comes within the width of the centre line (the predicate's test).
+  bool reaches(const glm::dvec3& centre, double radius) const noexcept;
 };
 
 /// The focus region of the circle of `radiusMeters` around (lat, lon) on `planet`'s reference
