@@ -2,9 +2,9 @@
 // is a request target ("/frame?lat=1&lon=2&alt=3"), split and percent-decoded by the same
 // cpp-httplib functions the server runs (path before '?', then the query's name=value pairs),
 // then routed as the server routes it: /frame to parseFrameQuery on Mars and the Earth, /height
-// to parseHeightQuery, any other path to expectNoParams. A parse must either succeed with values
-// in the documented ranges or return InvalidArgument with a message. Seeds: valid and invalid
-// targets of every endpoint (tests/fuzz/corpus/serve_query).
+// to parseHeightQuery, /los and /viewshed to theirs, any other path to expectNoParams. A parse must
+// either succeed with values in the documented ranges or return InvalidArgument with a message.
+// Seeds: valid and invalid targets of every endpoint (tests/fuzz/corpus/serve_query).
 #include <httplib.h>
 
 #include <cmath>
@@ -59,6 +59,17 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (!h) {
       checkError(h.error());
     } else if (!(std::fabs(h->latDegrees) <= 90.0 && std::fabs(h->lonDegrees) <= 360.0)) {
+      __builtin_trap();
+    }
+  } else if (path == "/los") {
+    auto q = tools::parseLosQuery(params);
+    if (!q) checkError(q.error());
+  } else if (path == "/viewshed") {
+    auto q = tools::parseViewshedQuery(params);
+    if (!q) {
+      checkError(q.error());
+    } else if ((q->request.radiusMeters && !(*q->request.radiusMeters > 0.0)) ||
+               (q->request.cellMeters && !(*q->request.cellMeters > 0.0))) {
       __builtin_trap();
     }
   } else if (auto none = tools::expectNoParams(params); !none) {

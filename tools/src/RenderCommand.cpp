@@ -26,6 +26,7 @@
 #include "MorphOption.h"
 #include "Progress.h"
 #include "ViewshedOutput.h"
+#include "ViewshedSpec.h"
 #include "pbdam/formats/CameraPath.h"
 #include "pbdam/formats/NumberList.h"
 #include "pbdam/gpu/GpuSelector.h"

@@ -11,7 +11,7 @@
 #include <utility>
 #include <vector>
 
-#include "ViewshedOutput.h"
+#include "ViewshedSpec.h"
 #include "pbdam/formats/NumberList.h"
 
 using namespace pbdam::formats;

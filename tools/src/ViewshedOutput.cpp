@@ -8,23 +8,11 @@
 #include <string>
 
 #include "pbdam/formats/GeoTiffWriter.h"
-#include "pbdam/formats/NumberList.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
 
 namespace pbdam::tools {
-
-Result<ViewshedRequest> parseViewshedSpec(const std::string& option, const std::string& text) {
-  std::vector<double> v;
-  if (!parseNumberList(text, 3, v) && !parseNumberList(text, 4, v)) {
-    return makeError(ErrorCode::InvalidArgument,
-                     option + " '" + text + "': expected LAT,LON,HEIGHT_ABOVE_GROUND_M[,RADIUS_M]");
-  }
-  ViewshedRequest request{v[0], v[1], v[2], {}, {}};
-  if (v.size() == 4) request.radiusMeters = v[3];
-  return request;
-}
 
 std::shared_ptr<const gpu::SurfaceOverlay> viewshedOverlay(const gpu::TerrainViewshed& viewshed) {
   auto overlay = std::make_shared<gpu::SurfaceOverlay>();

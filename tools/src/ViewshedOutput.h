@@ -15,12 +15,6 @@
 
 namespace pbdam::tools {
 
-/// `LAT,LON,H` or `LAT,LON,H,RADIUS_M` (`render --viewshed`, `/frame?viewshed=`); InvalidArgument
-/// naming `option` and the text otherwise. The numbers themselves are checked by
-/// runtime::viewshedGrid.
-formats::Result<runtime::ViewshedRequest> parseViewshedSpec(const std::string& option,
-                                                            const std::string& text);
-
 /// The mask as an overlay to drape over the terrain: visible cells green, hidden ones darkened,
 /// both 60% opaque; outside the radius clear.
 std::shared_ptr<const gpu::SurfaceOverlay> viewshedOverlay(const gpu::TerrainViewshed& viewshed);
