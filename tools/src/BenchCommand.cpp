@@ -141,6 +141,32 @@ class PagingCuts final {
     }
     return reuse_ ? incremental_.update(camera, refinement) : refine(view_, camera, refinement);
   }
+  /// The device's cut against the host's (untimed): whether they differ, and the largest
+  /// screen error over the tolerance of the device cut's drawn inner patches, on the host.
+  void checkAgainstHost(const Camera& camera, const RefinementOptions& refinement,
+                        const Cut& device, BenchRun& run) const {
+    if (!gpu_) return;
+    const Cut host = refine(view_, camera, refinement);
+    const bool same =
+        host.patches.size() == device.patches.size() &&
+        std::equal(host.patches.begin(), host.patches.end(), device.patches.begin(),
+                   [](const CutPatch& a, const CutPatch& b) { return a.node == b.node; });
+    if (!same) ++run.selectionFramesDiffering;
+    const int cap =
+        refinement.maxLevel < 0 ? view_.depth() : std::min(refinement.maxLevel, view_.depth());
+    for (const CutPatch& patch : device.patches) {
+      if (patch.level >= cap) continue;  // leaves and capped levels are drawn whatever their error
+      const NodeRecord record = view_.node(patch.node);
+      if (record.leaf()) continue;
+      const glm::dvec3 centre(record.sphereCenter[0], record.sphereCenter[1],
+                              record.sphereCenter[2]);
+      const double screen = camera.screenError(
+          refinementErrorMeters(view_, patch.level, static_cast<double>(record.errorMeters)),
+          centre, static_cast<double>(record.sphereRadiusMeters));
+      run.selectionMaxScreenRatio =
+          std::max(run.selectionMaxScreenRatio, screen / refinement.tolerancePixels);
+    }
+  }
 
  private:
   const DatasetView& view_;
@@ -302,6 +328,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     }
     f.frameMs = msSince(t0);
     f.renderThreadMajorFaults = threadMajorFaults() - faults0;
+    if (!noStall) pagingCuts.checkAgainstHost(camera, refinement, cut, run);
     if (o.popping) {
       // After the frame's own figures: the previous cut drawn with this camera, compared.
       if (auto measured =

@@ -69,6 +69,10 @@ nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   j["mode"] = run.mode;
   j["cut_reuse"] = run.cutReuse;
   j["selection"] = run.selection;
+  if (run.selection == "gpu") {
+    j["selection_frames_differing"] = run.selectionFramesDiffering;
+    j["selection_max_screen_error_ratio"] = run.selectionMaxScreenRatio;
+  }
   j["cold"] = run.cold;
   if (run.cold) {
     j["resident_after_evict_pages"] = run.residentAfterEvictPages;

@@ -51,7 +51,13 @@ struct BenchRun final {
   std::string mode;       ///< "paging" or "no-stall"
   bool cutReuse = false;  ///< the refinement tree kept from frame to frame (IncrementalRefiner)
   std::string selection = "cpu";  ///< "gpu": the cut from the device's selection passes
-  bool popping = false;           ///< frames drawn twice for the popping measure
+  /// With selection "gpu": frames whose device cut is not the host's (the same patches in the
+  /// same order), and the largest screen error over the tolerance among the device cut's drawn
+  /// inner patches, computed on the host in double (at most 1 + 1e-6 where the device's double
+  /// arithmetic differs from the host's; exactly ≤ 1 on lavapipe).
+  std::uint64_t selectionFramesDiffering = 0;
+  double selectionMaxScreenRatio = 0.0;
+  bool popping = false;  ///< frames drawn twice for the popping measure
   bool cold = false;
   double residentAfterEvictFraction = 0.0;  ///< pages left in the page cache after eviction
   std::uint64_t residentAfterEvictPages = 0;
