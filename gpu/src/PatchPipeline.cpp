@@ -4,6 +4,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <string>
 
 #include "pbdam/gpu/ShaderModule.h"
 #include "pbdam/gpu/VulkanContext.h"
@@ -42,39 +43,23 @@ Result<UniqueDescriptorSetLayout> createSetLayout(VkDevice device, VkDescriptorT
   return UniqueDescriptorSetLayout(device, raw);
 }
 
-/// The tiles' sampler: bilinear within a page, clamped at its edges, no mipmaps.
-Result<UniqueSampler> createTilesSampler(VkDevice device) {
+/// A sampler without mipmaps: `filter` both ways, `address` on every axis (`border` outside the
+/// image when that clamps to the border).
+Result<UniqueSampler> createSampler(VkDevice device, VkFilter filter, VkSamplerAddressMode address,
+                                    VkBorderColor border, const char* what) {
   VkSamplerCreateInfo samplerInfo{};
   samplerInfo.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
-  samplerInfo.magFilter = VK_FILTER_LINEAR;
-  samplerInfo.minFilter = VK_FILTER_LINEAR;
+  samplerInfo.magFilter = filter;
+  samplerInfo.minFilter = filter;
   samplerInfo.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
-  samplerInfo.addressModeU = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-  samplerInfo.addressModeV = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-  samplerInfo.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  samplerInfo.addressModeU = address;
+  samplerInfo.addressModeV = address;
+  samplerInfo.addressModeW = address;
+  samplerInfo.borderColor = border;
   samplerInfo.maxLod = 0.0f;
   VkSampler rawSampler = VK_NULL_HANDLE;
   if (VkResult r = vkCreateSampler(device, &samplerInfo, nullptr, &rawSampler); r != VK_SUCCESS) {
-    return vulkanError(r, "vkCreateSampler (tiles)");
-  }
-  return UniqueSampler(device, rawSampler);
-}
-
-/// The overlay's sampler: nearest, transparent black outside the image.
-Result<UniqueSampler> createOverlaySampler(VkDevice device) {
-  VkSamplerCreateInfo samplerInfo{};
-  samplerInfo.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
-  samplerInfo.magFilter = VK_FILTER_NEAREST;
-  samplerInfo.minFilter = VK_FILTER_NEAREST;
-  samplerInfo.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
-  samplerInfo.addressModeU = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER;
-  samplerInfo.addressModeV = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER;
-  samplerInfo.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER;
-  samplerInfo.borderColor = VK_BORDER_COLOR_FLOAT_TRANSPARENT_BLACK;
-  samplerInfo.maxLod = 0.0f;
-  VkSampler rawSampler = VK_NULL_HANDLE;
-  if (VkResult r = vkCreateSampler(device, &samplerInfo, nullptr, &rawSampler); r != VK_SUCCESS) {
-    return vulkanError(r, "vkCreateSampler (surface overlay)");
+    return vulkanError(r, std::string("vkCreateSampler (") + what + ")");
   }
   return UniqueSampler(device, rawSampler);
 }
@@ -248,13 +233,18 @@ Result<PatchPipeline> PatchPipeline::create(const VulkanContext& context, VkForm
     if (!tiles) return std::move(tiles).error();
     result.tilesSetLayout_ = std::move(*tiles);
   }
-  auto sampler = createTilesSampler(device);
+  // Tiles: bilinear within a page, clamped at its edges (tiles carry a filtering border).
+  auto sampler = createSampler(device, VK_FILTER_LINEAR, VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE,
+                               VK_BORDER_COLOR_FLOAT_TRANSPARENT_BLACK, "tiles");
   if (!sampler) return std::move(sampler).error();
   result.sampler_ = std::move(*sampler);
   auto overlayLayout = createOverlaySetLayout(device);
   if (!overlayLayout) return std::move(overlayLayout).error();
   result.overlaySetLayout_ = std::move(*overlayLayout);
-  auto overlaySampler = createOverlaySampler(device);
+  // The overlay: nearest, transparent outside the image.
+  auto overlaySampler =
+      createSampler(device, VK_FILTER_NEAREST, VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER,
+                    VK_BORDER_COLOR_FLOAT_TRANSPARENT_BLACK, "surface overlay");
   if (!overlaySampler) return std::move(overlaySampler).error();
   result.overlaySampler_ = std::move(*overlaySampler);
   auto layout =
