@@ -32,6 +32,16 @@ class TempDir final {
   std::filesystem::path path_;
 };
 
+/// What a shell command printed, and how it ended.
+struct CommandRun final {
+  int exitCode = -1;  ///< -1 when it did not exit normally or could not be started
+  std::string out;
+  std::string err;
+};
+
+/// Runs `command` through /bin/sh, capturing stdout (a pipe) and stderr (a temporary file).
+CommandRun runCommand(const std::string& command);
+
 }  // namespace pbdam::test
 
 /// Declares `var` as the path of a required data file; when it is missing, fails the test

@@ -28,11 +28,7 @@
 namespace pbdam::tools {
 namespace {
 
-struct CliRun {
-  int exitCode = -1;
-  std::string out;
-  std::string err;
-};
+using CliRun = test::CommandRun;
 
 std::string readText(const std::filesystem::path& file) {
   std::ifstream in(file);
@@ -41,19 +37,7 @@ std::string readText(const std::filesystem::path& file) {
 
 /// Runs pbdam with `args` (a shell-quoted string), capturing stdout and stderr.
 CliRun runPbdam(const std::string& args) {
-  test::TempDir dir;
-  const std::string errFile = (dir / "stderr.txt").string();
-  const std::string command = std::string("'") + PBDAM_EXE + "' " + args + " 2>'" + errFile + "'";
-  CliRun run;
-  FILE* pipe = ::popen(command.c_str(), "r");
-  if (pipe == nullptr) return run;
-  std::array<char, 4096> buf{};
-  std::size_t n = 0;
-  while ((n = std::fread(buf.data(), 1, buf.size(), pipe)) > 0) run.out.append(buf.data(), n);
-  const int status = ::pclose(pipe);
-  run.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  run.err = readText(errFile);
-  return run;
+  return test::runCommand(std::string("'") + PBDAM_EXE + "' " + args);
 }
 
 TEST(Cli, HelpAndVersion) {
@@ -557,7 +541,7 @@ TEST(Cli, QueryViewshedWritesAGeoreferencedMaskAndRefusesBadRequests) {
   int hasNoData = 0;
   EXPECT_EQ(band->GetNoDataValue(&hasNoData), 255.0);
   EXPECT_TRUE(hasNoData);
-  std::vector<std::uint8_t> cells(121 * 121);
+  std::vector<std::uint8_t> cells(std::size_t{121} * 121);
   ASSERT_EQ(band->RasterIO(GF_Read, 0, 0, 121, 121, cells.data(), 121, 121, GDT_Byte, 0, 0),
             CE_None);
   EXPECT_EQ(static_cast<std::uint64_t>(std::count(cells.begin(), cells.end(), 1)),

@@ -21,30 +21,12 @@
 namespace pbdam::tools {
 namespace {
 
-struct CliRun {
-  int exitCode = -1;
-  std::string out;
-  std::string err;
-};
+using CliRun = test::CommandRun;
 
 /// Runs pbdam with `args` (a shell-quoted string) after `env` (shell assignments), capturing
 /// stdout and stderr.
 CliRun runPbdam(const std::string& args, const std::string& env = "") {
-  test::TempDir dir;
-  const std::string errFile = (dir / "stderr.txt").string();
-  const std::string command =
-      env + " '" + std::string(PBDAM_EXE) + "' " + args + " 2>'" + errFile + "'";
-  CliRun run;
-  FILE* pipe = ::popen(command.c_str(), "r");
-  if (pipe == nullptr) return run;
-  std::array<char, 4096> buf{};
-  std::size_t n = 0;
-  while ((n = std::fread(buf.data(), 1, buf.size(), pipe)) > 0) run.out.append(buf.data(), n);
-  const int status = ::pclose(pipe);
-  run.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  std::ifstream in(errFile);
-  run.err.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  return run;
+  return test::runCommand(env + " '" + std::string(PBDAM_EXE) + "' " + args);
 }
 
 std::string readFile(const std::filesystem::path& path) {

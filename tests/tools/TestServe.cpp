@@ -168,29 +168,9 @@ int runPbdam(const std::string& args) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
-/// What a pbdam run printed.
-struct Captured {
-  int exitCode = -1;
-  std::string out;
-  std::string err;
-};
-
 /// Runs `pbdam ARGS` capturing stdout and stderr.
-Captured capturePbdam(const std::string& args) {
-  test::TempDir dir;
-  const std::string errFile = (dir / "stderr.txt").string();
-  const std::string command = quoted(PBDAM_EXE) + " " + args + " 2>" + quoted(errFile);
-  Captured run;
-  FILE* pipe = ::popen(command.c_str(), "r");
-  if (pipe == nullptr) return run;
-  std::array<char, 4096> buf{};
-  std::size_t n = 0;
-  while ((n = std::fread(buf.data(), 1, buf.size(), pipe)) > 0) run.out.append(buf.data(), n);
-  const int status = ::pclose(pipe);
-  run.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  std::ifstream in(errFile);
-  run.err.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  return run;
+test::CommandRun capturePbdam(const std::string& args) {
+  return test::runCommand(quoted(PBDAM_EXE) + " " + args);
 }
 
 /// Sends `raw` bytes on a fresh connection and returns what comes back until the server
