@@ -34,7 +34,6 @@ const uint32_t kVisibleComp[] =
 #include "viewshed_visible.comp.inc"
     ;
 
-constexpr double kDegrees = 180.0 / std::numbers::pi;
 /// The terrain is rasterised at this many cells a side of the mask's cell: bilinear blends of
 /// the raster lower the creases between its points by up to a quarter of its cell times the
 /// change of slope, and that lets the mask see over crests (at 2 the disagreement with the ray
@@ -102,6 +101,27 @@ RasterFrame rasterFrame(const ViewshedGrid& grid) {
   return {fineMeters, (grid.half() + 0.5) * kSupersample, grid.radiusMeters / fineMeters};
 }
 
+/// A planetocentric point's place in the projection (east and north metres). On a sphere in
+/// closed form — the great-circle distance and the azimuth of the point's direction seen from
+/// the observer's — which is what the geodesic gives there, at a tenth of the cost; on an
+/// ellipsoid through the geodesic.
+glm::dvec2 projectVertex(const ViewshedGrid& grid, const EnuFrame& observer,
+                         const glm::dvec3& ecef) {
+  if (!grid.planet.isSphere()) {
+    const GeodeticPosition g = grid.planet.ecefToGeodetic(ecef);
+    return grid.project(g.latDegrees, g.lonDegrees);
+  }
+  const glm::dvec3 up = observer.axes[2];
+  const glm::dvec3 direction = glm::normalize(ecef);
+  const double along = glm::dot(direction, up);
+  const glm::dvec3 tangent = direction - along * up;
+  const double across = glm::length(tangent);
+  if (across == 0.0) return glm::dvec2(0.0);
+  const double distance = grid.planet.equatorialRadiusMeters() * std::atan2(across, along);
+  return distance / across *
+         glm::dvec2(glm::dot(tangent, observer.axes[0]), glm::dot(tangent, observer.axes[1]));
+}
+
 /// The mesh in raster cells (snapped) and the eye's east-north-up metres, and its triangles
 /// whose box meets the disc's, none with a vertex where the projection folds (beyond a quarter
 /// meridian of the observer).
@@ -122,24 +142,22 @@ ProjectedMesh projectMesh(const ViewshedGrid& grid, const CutMesh& mesh) {
   std::vector<RasterVertex>& vertices = out.vertices;
   vertices.resize(mesh.vertices.size());
   std::vector<std::uint8_t> near(mesh.vertices.size(), 0);
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, mesh.vertices.size(), 1024),
-      [&](const tbb::blocked_range<std::size_t>& range) {
-        for (std::size_t i = range.begin(); i != range.end(); ++i) {
-          const GeodeticPosition g = planet.ecefToGeodetic(mesh.vertices[i]);
-          const GeodesicInverse s =
-              planet.geodesicInverse(grid.latDegrees, grid.lonDegrees, g.latDegrees, g.lonDegrees);
-          const double azimuth = s.azimuth1Degrees / kDegrees;
-          const double u = centre + s.distanceMeters * std::sin(azimuth) / fineMeters;
-          const double v = centre - s.distanceMeters * std::cos(azimuth) / fineMeters;
-          const glm::dvec3 enu = eye.ecefToEnu(mesh.vertices[i]);
-          vertices[i] = {{static_cast<float>(std::round(u * kSubcells) / kSubcells),
-                          static_cast<float>(std::round(v * kSubcells) / kSubcells), 0.0f, 0.0f},
-                         {static_cast<float>(enu.x), static_cast<float>(enu.y),
-                          static_cast<float>(enu.z), 0.0f}};
-          near[i] = s.distanceMeters < fold ? 1 : 0;
-        }
-      });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.vertices.size(), 1024),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                        const glm::dvec2 en = projectVertex(grid, eye, mesh.vertices[i]);
+                        const double distance = glm::length(en);
+                        const double u = centre + en.x / fineMeters;
+                        const double v = centre - en.y / fineMeters;
+                        const glm::dvec3 enu = eye.ecefToEnu(mesh.vertices[i]);
+                        vertices[i] = {
+                            {static_cast<float>(std::round(u * kSubcells) / kSubcells),
+                             static_cast<float>(std::round(v * kSubcells) / kSubcells), 0.0f, 0.0f},
+                            {static_cast<float>(enu.x), static_cast<float>(enu.y),
+                             static_cast<float>(enu.z), 0.0f}};
+                        near[i] = distance < fold ? 1 : 0;
+                      }
+                    });
   // Triangles whose box meets the disc's, none with a vertex where the projection folds.
   const double lo = centre - radiusCells - 1.0;
   const double hi = centre + radiusCells + 1.0;

@@ -6,7 +6,7 @@
 #include <glm/geometric.hpp>
 #include <limits>
 #include <numbers>
-#include <unordered_map>
+#include <tuple>
 #include <unordered_set>
 #include <utility>
 
@@ -22,13 +22,6 @@ double distanceToSegment(const glm::dvec3& p, const glm::dvec3& a, const glm::dv
   const double t = ee > 0.0 ? std::clamp(glm::dot(p - a, e) / ee, 0.0, 1.0) : 0.0;
   return glm::length(p - (a + t * e));
 }
-
-struct EdgeKeyHash final {
-  std::size_t operator()(const std::pair<PointKey, PointKey>& k) const noexcept {
-    return static_cast<std::size_t>(k.first * 0x9E3779B97F4A7C15ULL) ^
-           static_cast<std::size_t>(k.second + 0x632BE59BD9B4E019ULL);
-  }
-};
 
 }  // namespace
 
@@ -85,7 +78,14 @@ Result<FocusRegion> focusPath(const Planet& planet,
 }
 
 DiamondIndex::DiamondIndex(const DatasetView& dataset) {
-  std::unordered_map<std::pair<PointKey, PointKey>, std::uint32_t, EdgeKeyHash> hypotenuses;
+  // Diamond partners share their hypotenuse: each node's hypotenuse (its corners' canonical
+  // keys in order) is listed, the list sorted, and equal neighbours paired.
+  struct Hypotenuse {
+    PointKey a;
+    PointKey b;
+    std::uint32_t node;
+  };
+  std::vector<Hypotenuse> hypotenuses;
   for (std::uint8_t face = 0; face < 6; ++face) {
     const formats::FaceView& view = dataset.face(face);
     const auto first = static_cast<std::uint32_t>(nodes.size());
@@ -105,13 +105,20 @@ DiamondIndex::DiamondIndex(const DatasetView& dataset) {
       PointKey a = latticePointKey(dataset.latticeCells(), face, t.left);
       PointKey b = latticePointKey(dataset.latticeCells(), face, t.right);
       if (b < a) std::swap(a, b);
-      const auto [it, inserted] = hypotenuses.try_emplace({a, b}, self);
-      if (!inserted) {
-        n.partner = it->second;
-        nodes[it->second].partner = self;
-      }
+      hypotenuses.push_back({a, b, self});
       nodes.push_back(n);
     }
+  }
+  std::sort(hypotenuses.begin(), hypotenuses.end(), [](const Hypotenuse& x, const Hypotenuse& y) {
+    return std::tie(x.a, x.b, x.node) < std::tie(y.a, y.b, y.node);
+  });
+  for (std::size_t k = 0; k + 1 < hypotenuses.size(); ++k) {
+    const Hypotenuse& x = hypotenuses[k];
+    const Hypotenuse& y = hypotenuses[k + 1];
+    if (x.a != y.a || x.b != y.b) continue;
+    nodes[x.node].partner = y.node;
+    nodes[y.node].partner = x.node;
+    ++k;
   }
   for (std::uint32_t i = 0; i < nodes.size(); ++i) {
     if (nodes[i].leaf) continue;
