@@ -43,6 +43,19 @@ NoStallCut NoStallPolicy::cut(const Camera& camera, RefinementOptions options) c
   }
 }
 
+NoStallCut NoStallPolicy::cutAfter(const Camera& camera, RefinementOptions options, int previousCap,
+                                   int maxRise) const {
+  if (previousCap < 0) return cut(camera, options);
+  const int depth = dataset_->view().depth();
+  const int top = options.maxLevel < 0 ? depth : std::min(options.maxLevel, depth);
+  RefinementOptions limited = options;
+  limited.maxLevel = std::min(top, previousCap + maxRise);
+  NoStallCut step = cut(camera, limited);
+  if (step.levelCap > previousCap || step.levelCap == limited.maxLevel) return step;
+  NoStallCut finest = cut(camera, options);
+  return finest.levelCap > step.levelCap ? std::move(finest) : std::move(step);
+}
+
 std::vector<Error> NoStallPolicy::preloadCoarseLevels() const {
   const DatasetView& view = dataset_->view();
   std::vector<Error> unreadable;

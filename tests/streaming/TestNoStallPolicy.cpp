@@ -37,6 +37,27 @@ bool cutResident(const MappedDataset& dataset, const Cut& cut) {
   return true;
 }
 
+/// Reads `cut`'s patch and tile bytes into the page cache (what the loader thread does).
+void readIn(const MappedDataset& dataset, const Cut& cut) {
+  const DatasetView& view = dataset.view();
+  const auto touch = [](const MappedFile& file, std::uint64_t offset, std::uint64_t size) {
+    ASSERT_TRUE(file.willNeed(offset, size).ok());
+    volatile std::uint8_t sink = 0;
+    const auto data = file.bytes();
+    for (std::uint64_t k = offset; k < offset + size; k += 512) {
+      sink = sink + static_cast<std::uint8_t>(data[k]);
+    }
+  };
+  for (const CutPatch& p : cut.patches) {
+    const NodeRecord n = view.node(p.node);
+    touch(dataset.faceFile(p.node.face), n.blobOffset, n.blobsBytes());
+  }
+  for (const TileKey& t : cut.tiles) {
+    const TextureRecord r = view.textureNode(t);
+    touch(dataset.faceFile(t.face), r.blobOffset, r.blobBytes);
+  }
+}
+
 TEST(NoStallPolicy, DrawsTheFinestFullyResidentCapAndNothingCappedOnceResident) {
   PBDAM_REQUIRE_DATASET(shared, "mola");
   test::TempDir temp;
@@ -67,34 +88,46 @@ TEST(NoStallPolicy, DrawsTheFinestFullyResidentCapAndNothingCappedOnceResident) 
   EXPECT_FALSE(cutResident(**dataset, refine(view, camera, capped)));
 
   // Read the full cut's bytes in: then nothing is capped and the cut is the full one.
-  for (const CutPatch& p : full.patches) {
-    const NodeRecord n = view.node(p.node);
-    ASSERT_TRUE((*dataset)->faceFile(p.node.face).willNeed(n.blobOffset, n.blobsBytes()).ok());
-  }
-  for (const TileKey& t : full.tiles) {
-    const TextureRecord r = view.textureNode(t);
-    ASSERT_TRUE((*dataset)->faceFile(t.face).willNeed(r.blobOffset, r.blobBytes).ok());
-  }
-  const auto bytes = [&](const MappedFile& file, std::uint64_t offset, std::uint64_t size) {
-    volatile std::uint8_t sink = 0;
-    const auto data = file.bytes();
-    for (std::uint64_t k = offset; k < offset + size; k += 512) {
-      sink = sink + static_cast<std::uint8_t>(data[k]);
-    }
-  };
-  for (const CutPatch& p : full.patches) {
-    const NodeRecord n = view.node(p.node);
-    bytes((*dataset)->faceFile(p.node.face), n.blobOffset, n.blobsBytes());
-  }
-  for (const TileKey& t : full.tiles) {
-    const TextureRecord r = view.textureNode(t);
-    bytes((*dataset)->faceFile(t.face), r.blobOffset, r.blobBytes);
-  }
+  readIn(**dataset, full);
   ASSERT_TRUE(cutResident(**dataset, full));
   const NoStallCut warm = policy.cut(camera, options);
   EXPECT_EQ(warm.levelCap, view.depth());
   EXPECT_EQ(warm.cut.patches.size(), full.patches.size());
   EXPECT_EQ(warm.cut.triangles, full.triangles);
+}
+
+// The cap rises at most two levels a frame, but it does not wait for levels that nobody fetches:
+// the loader reads the camera's own cut, so with that resident and the levels between the
+// previous cap and it not, the next frame draws the full cut (a flight over a large dataset
+// once stayed at level 0 for the rest of its path).
+TEST(NoStallPolicy, TheCapDoesNotWaitForLevelsTheLoaderDoesNotFetch) {
+  PBDAM_REQUIRE_DATASET(shared, "mola");
+  test::TempDir temp;
+  const std::filesystem::path dir = test::privateCopy(shared, temp);
+  ASSERT_TRUE(evictDataset(dir).ok());
+  auto dataset = MappedDataset::open(dir);
+  ASSERT_TRUE(dataset.ok()) << dataset.error().message;
+  const DatasetView& view = (*dataset)->view();
+  const NoStallPolicy policy(**dataset);
+  EXPECT_TRUE(policy.preloadCoarseLevels().empty());
+  const Camera camera =
+      Camera::fromPose(view.planet(), {18.65, 226.2, 400e3, 0.0, -40.0, 0.0}, {320, 240, 60.0});
+  const RefinementOptions options;
+  readIn(**dataset, refine(view, camera, options));
+  RefinementOptions three = options;
+  three.maxLevel = 3;
+  const Cut between = refine(view, camera, three);
+  ASSERT_FALSE(cutResident(**dataset, between)) << "level 3 near the camera was meant to be cold";
+
+  const NoStallCut next = policy.cutAfter(camera, options, 1);
+  EXPECT_EQ(next.levelCap, view.depth());
+  EXPECT_TRUE(cutResident(**dataset, next.cut));
+
+  // Where the next step is resident, the rise is held to it.
+  readIn(**dataset, between);
+  EXPECT_EQ(policy.cutAfter(camera, options, 1).levelCap, 3);
+  // At the top, nothing changes.
+  EXPECT_EQ(policy.cutAfter(camera, options, view.depth()).levelCap, view.depth());
 }
 
 }  // namespace

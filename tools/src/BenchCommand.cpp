@@ -111,11 +111,11 @@ Result<void> measurePopping(gpu::TerrainRenderer& renderer, const DatasetView& v
 
 /// No-stall mode's cut, its cap recorded in `f` and `previousCap`: the cap rises by at most one
 /// diamond level (two bintree levels) over the previous frame's, so that when a level's data
-/// arrives its patches are decoded over a few frames instead of all in one.
-Cut noStallCut(const NoStallPolicy& policy, const Camera& camera, RefinementOptions options,
+/// arrives its patches are decoded over a few frames instead of all in one (NoStallPolicy's
+/// cutAfter, which takes a finer resident cut at once when none within that rise is).
+Cut noStallCut(const NoStallPolicy& policy, const Camera& camera, const RefinementOptions& options,
                int& previousCap, BenchFrame& f) {
-  if (previousCap >= 0) options.maxLevel = previousCap + 2;
-  NoStallCut capped = policy.cut(camera, options);
+  NoStallCut capped = policy.cutAfter(camera, options, previousCap);
   previousCap = capped.levelCap;
   f.drawnLevelCap = capped.levelCap;
   return std::move(capped.cut);

@@ -48,6 +48,14 @@ class NoStallPolicy final {
   /// records only.
   NoStallCut cut(const runtime::Camera& camera, runtime::RefinementOptions options) const;
 
+  /// The cut of a frame whose previous frame was drawn under `previousCap` (-1: none). The cap
+  /// rises by at most `maxRise` bintree levels a frame, so that a level whose data has just
+  /// arrived is decoded over a few frames rather than in one. But when no cut within that rise
+  /// is resident and a finer one is, it is the finer one: the loader fetches the camera's own
+  /// cut, not the levels between, so waiting for those would wait for ever.
+  NoStallCut cutAfter(const runtime::Camera& camera, runtime::RefinementOptions options,
+                      int previousCap, int maxRise = 2) const;
+
  private:
   const MappedDataset* dataset_;
 };
