@@ -565,6 +565,10 @@ TEST(Cli, QueryViewshedWritesAGeoreferencedMaskAndRefusesBadRequests) {
     EXPECT_NE(bad.err.find(mention), std::string::npos) << args << "\n" << bad.err;
   }
   EXPECT_FALSE(std::filesystem::exists(dir / "bad.tif"));
+  const CliRun nowhere = runPbdam("query viewshed " + ds + " --at 0,0,10 --out '" +
+                                  (dir / "none" / "x.tif").string() + "'");
+  EXPECT_EQ(nowhere.exitCode, 2);
+  EXPECT_NE(nowhere.err.find("does not exist"), std::string::npos) << nowhere.err;
 }
 
 // Cut reuse changes the decisions, not the cuts: the same triangles every frame with it on and

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <iostream>
 #include <limits>
 #include <memory>
@@ -60,6 +61,18 @@ struct QueryCutOptions {
   bool json = false;
 };
 
+/// InvalidArgument naming `out` when the directory it would go into does not exist: checked
+/// before any work, so that a mistyped path costs nothing.
+Result<void> checkOutputPath(const std::string& out) {
+  const std::filesystem::path parent = std::filesystem::path(out).parent_path();
+  std::error_code ec;
+  if (!parent.empty() && !std::filesystem::is_directory(parent, ec)) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "--out '" + out + "': directory " + parent.string() + " does not exist");
+  }
+  return {};
+}
+
 Result<void> writePly(const std::string& path, const CutMesh& mesh) {
   const std::string header =
       "ply\nformat binary_little_endian 1.0\ncomment pbdam query cut: planetocentric metres\n"
@@ -90,6 +103,7 @@ int runQueryCut(const QueryCutOptions& o) {
     return reportError(makeError(ErrorCode::InvalidArgument, what));
   };
   if (o.out.empty()) return bad("--out is required");
+  if (auto r = checkOutputPath(o.out); !r) return reportError(r.error());
   if (o.camera.empty() && o.focus.circle.empty() && o.focus.path.empty()) {
     return bad("give --camera, --focus or --focus-path (or a camera with focus regions)");
   }
@@ -228,6 +242,7 @@ struct QueryViewshedOptions {
 };
 
 int runQueryViewshed(const QueryViewshedOptions& o) {
+  if (auto r = checkOutputPath(o.out); !r) return reportError(r.error());
   auto dataset = MappedDataset::open(o.dir);
   if (!dataset) return reportError(dataset.error());
   const DatasetView& view = (*dataset)->view();
