@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <memory>
+#include <optional>
 
 #include "PrivateCopy.h"
 #include "TestData.h"
@@ -58,38 +60,59 @@ void readIn(const MappedDataset& dataset, const Cut& cut) {
   }
 }
 
-TEST(NoStallPolicy, DrawsTheFinestFullyResidentCapAndNothingCappedOnceResident) {
-  PBDAM_REQUIRE_DATASET(shared, "mola");
-  test::TempDir temp;
-  const std::filesystem::path dir = test::privateCopy(shared, temp);
-  ASSERT_TRUE(evictDataset(dir).ok());
-  auto dataset = MappedDataset::open(dir);
-  ASSERT_TRUE(dataset.ok()) << dataset.error().message;
-  const DatasetView& view = (*dataset)->view();
-  const NoStallPolicy policy(**dataset);
-  EXPECT_TRUE(policy.preloadCoarseLevels().empty());
+/// A private copy of the MOLA test dataset, evicted from the page cache and mapped, with its
+/// coarse levels preloaded as the bench does before the first frame; a camera over Olympus Mons.
+class NoStallPolicyTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    PBDAM_REQUIRE_DATASET(shared, "mola");
+    const std::filesystem::path dir = test::privateCopy(shared, temp_);
+    ASSERT_TRUE(evictDataset(dir).ok());
+    auto opened = MappedDataset::open(dir);
+    ASSERT_TRUE(opened.ok()) << opened.error().message;
+    dataset_ = std::move(*opened);
+    policy_.emplace(*dataset_);
+    EXPECT_TRUE(policy_->preloadCoarseLevels().empty());
+  }
+  const MappedDataset& dataset() const { return *dataset_; }
+  const DatasetView& view() const { return dataset_->view(); }
+  const NoStallPolicy& policy() const { return *policy_; }
+  Camera camera() const {
+    return Camera::fromPose(view().planet(), {18.65, 226.2, 400e3, 0.0, -40.0, 0.0},
+                            {320, 240, 60.0});
+  }
 
-  const Camera camera =
-      Camera::fromPose(view.planet(), {18.65, 226.2, 400e3, 0.0, -40.0, 0.0}, {320, 240, 60.0});
+ private:
+  test::TempDir temp_;
+  std::unique_ptr<MappedDataset> dataset_;
+  std::optional<NoStallPolicy> policy_;
+};
+
+TEST_F(NoStallPolicyTest, DrawsTheFinestFullyResidentCapAndNothingCappedOnceResident) {
+  const DatasetView& view = this->view();
+  const MappedDataset& cold = dataset();
+  const NoStallPolicy& policy = this->policy();
+
+  const Camera camera = this->camera();
   const RefinementOptions options;
   const Cut full = refine(view, camera, options);
-  ASSERT_FALSE(cutResident(**dataset, full)) << "the eviction was meant to leave the cut cold";
+  ASSERT_FALSE(cutResident(cold, full)) << "the eviction was meant to leave the cut cold";
 
   const NoStallCut chosen = policy.cut(camera, options);
   ASSERT_GE(chosen.levelCap, 0) << "the preloaded coarse levels always give a cut";
   ASSERT_LT(chosen.levelCap, view.depth());
   EXPECT_FALSE(chosen.cut.patches.empty());
-  EXPECT_TRUE(cutResident(**dataset, chosen.cut));
+  EXPECT_TRUE(cutResident(cold, chosen.cut));
   RefinementOptions capped = options;
   capped.maxLevel = chosen.levelCap;
   EXPECT_EQ(refine(view, camera, capped).patches.size(), chosen.cut.patches.size());
   // The finest: one level more needs something that is not resident.
   capped.maxLevel = chosen.levelCap + 1;
-  EXPECT_FALSE(cutResident(**dataset, refine(view, camera, capped)));
+  EXPECT_FALSE(cutResident(cold, refine(view, camera, capped)));
 
   // Read the full cut's bytes in: then nothing is capped and the cut is the full one.
-  readIn(**dataset, full);
-  ASSERT_TRUE(cutResident(**dataset, full));
+  readIn(cold, full);
+  ASSERT_TRUE(cutResident(cold, full));
   const NoStallCut warm = policy.cut(camera, options);
   EXPECT_EQ(warm.levelCap, view.depth());
   EXPECT_EQ(warm.cut.patches.size(), full.patches.size());
@@ -100,31 +123,24 @@ TEST(NoStallPolicy, DrawsTheFinestFullyResidentCapAndNothingCappedOnceResident) 
 // the loader reads the camera's own cut, so with that resident and the levels between the
 // previous cap and it not, the next frame draws the full cut (a flight over a large dataset
 // once stayed at level 0 for the rest of its path).
-TEST(NoStallPolicy, TheCapDoesNotWaitForLevelsTheLoaderDoesNotFetch) {
-  PBDAM_REQUIRE_DATASET(shared, "mola");
-  test::TempDir temp;
-  const std::filesystem::path dir = test::privateCopy(shared, temp);
-  ASSERT_TRUE(evictDataset(dir).ok());
-  auto dataset = MappedDataset::open(dir);
-  ASSERT_TRUE(dataset.ok()) << dataset.error().message;
-  const DatasetView& view = (*dataset)->view();
-  const NoStallPolicy policy(**dataset);
-  EXPECT_TRUE(policy.preloadCoarseLevels().empty());
-  const Camera camera =
-      Camera::fromPose(view.planet(), {18.65, 226.2, 400e3, 0.0, -40.0, 0.0}, {320, 240, 60.0});
+TEST_F(NoStallPolicyTest, TheCapDoesNotWaitForLevelsTheLoaderDoesNotFetch) {
+  const DatasetView& view = this->view();
+  const MappedDataset& cold = dataset();
+  const NoStallPolicy& policy = this->policy();
+  const Camera camera = this->camera();
   const RefinementOptions options;
-  readIn(**dataset, refine(view, camera, options));
+  readIn(cold, refine(view, camera, options));
   RefinementOptions three = options;
   three.maxLevel = 3;
   const Cut between = refine(view, camera, three);
-  ASSERT_FALSE(cutResident(**dataset, between)) << "level 3 near the camera was meant to be cold";
+  ASSERT_FALSE(cutResident(cold, between)) << "level 3 near the camera was meant to be cold";
 
   const NoStallCut next = policy.cutAfter(camera, options, 1);
   EXPECT_EQ(next.levelCap, view.depth());
-  EXPECT_TRUE(cutResident(**dataset, next.cut));
+  EXPECT_TRUE(cutResident(cold, next.cut));
 
   // Where the next step is resident, the rise is held to it.
-  readIn(**dataset, between);
+  readIn(cold, between);
   EXPECT_EQ(policy.cutAfter(camera, options, 1).levelCap, 3);
   // At the top, nothing changes.
   EXPECT_EQ(policy.cutAfter(camera, options, view.depth()).levelCap, view.depth());
