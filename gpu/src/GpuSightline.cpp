@@ -141,23 +141,13 @@ Result<TerrainSightline> sightlineOverTerrain(VulkanContext& context,
     return makeError(ErrorCode::InvalidArgument, "--from and --to are the same point");
   }
   const runtime::Planet& planet = view.planet();
-  const double leafLeg = std::numbers::pi / 2.0 * planet.equatorialRadiusMeters() /
-                         static_cast<double>(view.latticeCells()) *
-                         static_cast<double>(view.manifest().leafCells);
+  const double leafLeg =
+      view.latticeSpacingMeters() * static_cast<double>(view.manifest().leafCells);
   auto track = runtime::focusPath(
       planet, {{from.latDegrees, from.lonDegrees}, {to.latDegrees, to.lonDegrees}}, 2.0 * leafLeg,
       0.0);
   if (!track) return std::move(track).error();
-  runtime::SelectionOptions options;
-  options.focus = {*track};
-  options.refinement.tolerancePixels = std::numeric_limits<double>::infinity();
-  options.refinement.frustumCulling = false;
-  options.refinement.morphRange = 0.0;
-  // No screen error and no culling: the camera is a formality of select().
-  const runtime::Camera camera =
-      runtime::Camera::fromPose(planet, {from.latDegrees, from.lonDegrees, 1e7, 0.0, -90.0, 0.0},
-                                runtime::Viewport{64, 64, 60.0});
-  const runtime::Cut cut = runtime::CutSelector(view).select(camera, options);
+  const runtime::Cut cut = runtime::selectFocus(view, {*track});
   auto mesh = runtime::cutMesh(view, cut);
   if (!mesh) return std::move(mesh).error();
   line.triangles = mesh->indices.size() / 3;

@@ -300,33 +300,28 @@ Result<std::vector<std::uint8_t>> computeViewshed(VulkanContext& context, const 
 
 Result<TerrainViewshed> viewshedOverTerrain(VulkanContext& context, const DatasetView& view,
                                             const ViewshedRequest& request) {
-  const auto start = std::chrono::steady_clock::now();
-  TerrainViewshed out;
   auto grid = viewshedGrid(view, request);
   if (!grid) return std::move(grid).error();
-  out.grid = *grid;
+  return viewshedOverTerrain(context, view, *grid);
+}
+
+Result<TerrainViewshed> viewshedOverTerrain(VulkanContext& context, const DatasetView& view,
+                                            const ViewshedGrid& grid) {
+  const auto start = std::chrono::steady_clock::now();
+  TerrainViewshed out;
+  out.grid = grid;
   // Leaves over the disc and two leaf legs around it (closed upward), coarse elsewhere.
-  const Planet& planet = view.planet();
-  const double leafLeg = std::numbers::pi / 2.0 * planet.equatorialRadiusMeters() /
-                         static_cast<double>(view.latticeCells()) *
-                         static_cast<double>(view.manifest().leafCells);
-  auto disc = focusCircle(planet, grid->latDegrees, grid->lonDegrees,
-                          grid->radiusMeters + 2.0 * leafLeg, 0.0);
+  const double leafLeg =
+      view.latticeSpacingMeters() * static_cast<double>(view.manifest().leafCells);
+  auto disc = focusCircle(view.planet(), grid.latDegrees, grid.lonDegrees,
+                          grid.radiusMeters + 2.0 * leafLeg, 0.0);
   if (!disc) return std::move(disc).error();
-  SelectionOptions options;
-  options.focus = {*disc};
-  options.refinement.tolerancePixels = std::numeric_limits<double>::infinity();
-  options.refinement.frustumCulling = false;
-  options.refinement.morphRange = 0.0;
-  // No screen error and no culling: the camera is a formality of select().
-  const Camera camera = Camera::fromPose(
-      planet, {grid->latDegrees, grid->lonDegrees, 1e7, 0.0, -90.0, 0.0}, Viewport{64, 64, 60.0});
-  const Cut cut = CutSelector(view).select(camera, options);
+  const Cut cut = selectFocus(view, {*disc});
   auto mesh = cutMesh(view, cut);
   if (!mesh) return std::move(mesh).error();
   out.patches = cut.patches.size();
   out.extractMilliseconds = millisecondsSince(start);
-  auto mask = computeViewshed(context, *grid, *mesh, &out.passes);
+  auto mask = computeViewshed(context, grid, *mesh, &out.passes);
   if (!mask) return std::move(mask).error();
   out.mask = std::move(*mask);
   out.stats = viewshedStats(out.grid, out.mask);

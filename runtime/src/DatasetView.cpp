@@ -2,6 +2,7 @@
 #include "pbdam/runtime/DatasetView.h"
 
 #include <algorithm>
+#include <numbers>
 
 using namespace pbdam::formats;
 
@@ -96,6 +97,11 @@ TileKey DatasetView::tileOf(const NodeKey& key) const noexcept {
     // The root tile always exists (FaceView::open).
     if (tl == 0 || face.findTexture(heap)) return TileKey{key.face, heap};
   }
+}
+
+double DatasetView::latticeSpacingMeters() const noexcept {
+  return std::numbers::pi / 2.0 * planet().equatorialRadiusMeters() /
+         static_cast<double>(latticeCells());
 }
 
 }  // namespace pbdam::runtime

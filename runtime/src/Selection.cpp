@@ -207,4 +207,18 @@ Cut CutSelector::select(const Camera& camera, const SelectionOptions& options,
   return cut;
 }
 
+Cut selectFocus(const DatasetView& dataset, std::vector<FocusRegion> focus) {
+  SelectionOptions options;
+  options.focus = std::move(focus);
+  options.refinement.tolerancePixels = std::numeric_limits<double>::infinity();
+  options.refinement.frustumCulling = false;
+  options.refinement.morphRange = 0.0;
+  // No screen error and no culling: the camera is a formality of select().
+  const Camera camera = Camera::fromPose(
+      dataset.planet(),
+      {0.0, 0.0, 10.0 * dataset.planet().equatorialRadiusMeters(), 0.0, -90.0, 0.0},
+      Viewport{64, 64, 60.0});
+  return CutSelector(dataset).select(camera, options);
+}
+
 }  // namespace pbdam::runtime

@@ -94,9 +94,7 @@ Result<ViewshedGrid> viewshedGrid(const DatasetView& view, const ViewshedRequest
       (std::acos(std::min(1.0, low / eye)) + std::acos(std::min(1.0, low / top))) *
       grid.planet.equatorialRadiusMeters();
 
-  const double lattice = std::numbers::pi / 2.0 * grid.planet.equatorialRadiusMeters() /
-                         static_cast<double>(view.latticeCells());
-  grid.cellMeters = request.cellMeters.value_or(lattice);
+  grid.cellMeters = request.cellMeters.value_or(view.latticeSpacingMeters());
   grid.radiusMeters =
       request.radiusMeters.value_or(std::min(256.0 * grid.cellMeters, grid.horizonLimitMeters));
   if (grid.radiusMeters > grid.horizonLimitMeters) {

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <string>
 
 #include "pbdam/formats/Result.h"
 
@@ -48,5 +49,9 @@ void addQueryCommands(CLI::App& app, CommandStatus& status);
 
 /// Prints "pbdam: <message>" on stderr; returns the exit code for the error's kind.
 int reportError(const formats::Error& error);
+
+/// InvalidArgument naming `out` when the directory it would go into does not exist: checked
+/// before any work, so that a mistyped path costs nothing.
+formats::Result<void> checkOutputDirectory(const std::string& out);
 
 }  // namespace pbdam::tools

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <optional>
 #include <string>
@@ -196,6 +197,16 @@ int reportError(const Error& error) {
                  error.code == ErrorCode::DeviceError
              ? kExitFailure
              : kExitBadInput;
+}
+
+Result<void> checkOutputDirectory(const std::string& out) {
+  const std::filesystem::path parent = std::filesystem::path(out).parent_path();
+  std::error_code ec;
+  if (!parent.empty() && !std::filesystem::is_directory(parent, ec)) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "--out '" + out + "': directory " + parent.string() + " does not exist");
+  }
+  return {};
 }
 
 void addDemCommands(CLI::App& app, CommandStatus& status) {

@@ -13,7 +13,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <filesystem>
 #include <iostream>
 #include <limits>
 #include <memory>
@@ -61,18 +60,6 @@ struct QueryCutOptions {
   bool json = false;
 };
 
-/// InvalidArgument naming `out` when the directory it would go into does not exist: checked
-/// before any work, so that a mistyped path costs nothing.
-Result<void> checkOutputPath(const std::string& out) {
-  const std::filesystem::path parent = std::filesystem::path(out).parent_path();
-  std::error_code ec;
-  if (!parent.empty() && !std::filesystem::is_directory(parent, ec)) {
-    return makeError(ErrorCode::InvalidArgument,
-                     "--out '" + out + "': directory " + parent.string() + " does not exist");
-  }
-  return {};
-}
-
 Result<void> writePly(const std::string& path, const CutMesh& mesh) {
   const std::string header =
       "ply\nformat binary_little_endian 1.0\ncomment pbdam query cut: planetocentric metres\n"
@@ -103,7 +90,7 @@ int runQueryCut(const QueryCutOptions& o) {
     return reportError(makeError(ErrorCode::InvalidArgument, what));
   };
   if (o.out.empty()) return bad("--out is required");
-  if (auto r = checkOutputPath(o.out); !r) return reportError(r.error());
+  if (auto r = checkOutputDirectory(o.out); !r) return reportError(r.error());
   if (o.camera.empty() && o.focus.circle.empty() && o.focus.path.empty()) {
     return bad("give --camera, --focus or --focus-path (or a camera with focus regions)");
   }
@@ -242,7 +229,7 @@ struct QueryViewshedOptions {
 };
 
 int runQueryViewshed(const QueryViewshedOptions& o) {
-  if (auto r = checkOutputPath(o.out); !r) return reportError(r.error());
+  if (auto r = checkOutputDirectory(o.out); !r) return reportError(r.error());
   auto dataset = MappedDataset::open(o.dir);
   if (!dataset) return reportError(dataset.error());
   const DatasetView& view = (*dataset)->view();
@@ -251,7 +238,8 @@ int runQueryViewshed(const QueryViewshedOptions& o) {
   const ViewshedRequest request{at->latDegrees, at->lonDegrees, at->heightAboveGroundMeters,
                                 o.radiusMeters, o.cellMeters};
   // A bad request is refused before the device is made.
-  if (auto grid = viewshedGrid(view, request); !grid) return reportError(grid.error());
+  auto grid = viewshedGrid(view, request);
+  if (!grid) return reportError(grid.error());
   std::optional<HeightGrid> dem;
   if (!o.checkDem.empty()) {
     auto read = readDem(o.checkDem);
@@ -262,7 +250,7 @@ int runQueryViewshed(const QueryViewshedOptions& o) {
   if (o.device >= 0) contextOptions.deviceIndex = static_cast<std::uint32_t>(o.device);
   auto context = gpu::VulkanContext::create(contextOptions);
   if (!context) return reportError(context.error());
-  auto viewshed = gpu::viewshedOverTerrain(*context, view, request);
+  auto viewshed = gpu::viewshedOverTerrain(*context, view, *grid);
   if (!viewshed) return reportError(viewshed.error());
   auto tiff = viewshedGeoTiff(*viewshed);
   if (!tiff) return reportError(tiff.error());
@@ -273,17 +261,16 @@ int runQueryViewshed(const QueryViewshedOptions& o) {
   if (dem) {
     // The DEM's own answer: the eye the same height above the DEM's ground.
     const auto start = std::chrono::steady_clock::now();
-    const ViewshedGrid& grid = viewshed->grid;
-    const auto ground = demHeight(*dem, grid.latDegrees, grid.lonDegrees);
+    const auto ground = demHeight(*dem, grid->latDegrees, grid->lonDegrees);
     if (!ground) {
       return reportError(makeError(ErrorCode::InvalidArgument,
                                    "--check-dem " + o.checkDem + ": does not cover the observer"));
     }
-    const glm::dvec3 eye = grid.planet.geodeticToEcef(grid.latDegrees, grid.lonDegrees,
-                                                      *ground + at->heightAboveGroundMeters);
-    const auto reference = viewshedByRayMarch(grid, *dem, eye);
+    const glm::dvec3 eye = grid->planet.geodeticToEcef(grid->latDegrees, grid->lonDegrees,
+                                                       *ground + at->heightAboveGroundMeters);
+    const auto reference = viewshedByRayMarch(*grid, *dem, eye);
     const ViewshedAgreement agreement = compareViewsheds(viewshed->mask, reference);
-    const ViewshedStats demStats = viewshedStats(grid, reference);
+    const ViewshedStats demStats = viewshedStats(*grid, reference);
     j["check"] = {{"dem", o.checkDem},
                   {"dem_ground_m", *ground},
                   {"cells_compared", agreement.compared},

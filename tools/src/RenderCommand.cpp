@@ -194,10 +194,7 @@ int checkRenderOptions(const RenderCliOptions& c, const Viewport& viewport,
   if (!c.camera.empty() && !exr && ext != ".png" && ext != ".PNG") {
     return badInput("--out '" + c.out + "': expected a .png or .exr file name");
   }
-  if (!out.parent_path().empty() && !fs::is_directory(out.parent_path())) {
-    return badInput("--out '" + c.out + "': directory " + out.parent_path().string() +
-                    " does not exist");
-  }
+  if (auto r = checkOutputDirectory(c.out); !r) return reportError(r.error());
   return kExitOk;
 }
 

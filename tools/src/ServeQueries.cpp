@@ -22,6 +22,13 @@ std::string keyOf(const ViewshedRequest& r) {
 
 }  // namespace
 
+bool ServeQueries::takeDevice(std::unique_lock<std::timed_mutex>& lock) {
+  if (lock.try_lock_for(wait_)) return true;
+  const std::lock_guard<std::mutex> counters(mutex_);
+  ++stats_.busy;
+  return false;
+}
+
 QueryOutcome<std::shared_ptr<const ServedViewshed>> ServeQueries::viewshed(
     const ViewshedRequest& request) {
   QueryOutcome<std::shared_ptr<const ServedViewshed>> outcome;
@@ -51,13 +58,11 @@ QueryOutcome<std::shared_ptr<const ServedViewshed>> ServeQueries::viewshed(
     return outcome;
   }
   std::unique_lock<std::timed_mutex> device(device_, std::defer_lock);
-  if (!device.try_lock_for(wait_)) {
-    const std::lock_guard<std::mutex> lock(mutex_);
-    ++stats_.busy;
+  if (!takeDevice(device)) {
     outcome.busy = true;
     return outcome;
   }
-  auto computed = gpu::viewshedOverTerrain(context_, view_, request);
+  auto computed = gpu::viewshedOverTerrain(context_, view_, *grid);
   device.unlock();
   if (!computed) {
     outcome.result = std::move(computed).error();
@@ -81,9 +86,7 @@ QueryOutcome<gpu::TerrainSightline> ServeQueries::sightline(const gpu::GroundPoi
                                                             const gpu::GroundPoint& to) {
   QueryOutcome<gpu::TerrainSightline> outcome;
   std::unique_lock<std::timed_mutex> device(device_, std::defer_lock);
-  if (!device.try_lock_for(wait_)) {
-    const std::lock_guard<std::mutex> lock(mutex_);
-    ++stats_.busy;
+  if (!takeDevice(device)) {
     outcome.busy = true;
     return outcome;
   }

@@ -63,6 +63,9 @@ class ServeQueries final {
   ServeQueryStats stats() const;
 
  private:
+  /// Takes the device for `lock` within the wait; false (counted as busy) when it cannot.
+  bool takeDevice(std::unique_lock<std::timed_mutex>& lock);
+
   static constexpr std::size_t kKept = 4;
   const runtime::DatasetView& view_;
   gpu::VulkanContext& context_;

@@ -52,5 +52,9 @@ formats::Result<std::vector<std::uint8_t>> computeViewshed(VulkanContext& contex
 formats::Result<TerrainViewshed> viewshedOverTerrain(VulkanContext& context,
                                                      const runtime::DatasetView& view,
                                                      const runtime::ViewshedRequest& request);
+/// The same for a grid already made by runtime::viewshedGrid (a caller that checked it first).
+formats::Result<TerrainViewshed> viewshedOverTerrain(VulkanContext& context,
+                                                     const runtime::DatasetView& view,
+                                                     const runtime::ViewshedGrid& grid);
 
 }  // namespace pbdam::gpu

@@ -67,6 +67,10 @@ class DatasetView final {
     return faces_[static_cast<std::size_t>(f)];
   }
   std::uint32_t latticeCells() const noexcept { return manifest_.latticeCells; }
+  /// The lattice's spacing along the surface: a face's quarter meridian (on the equatorial
+  /// radius) over its cells. The cube map stretches cells towards the face corners; this is
+  /// the nominal figure, for defaults and margins.
+  double latticeSpacingMeters() const noexcept;
   /// The deepest level of any leaf (leaves may be shallower elsewhere: NodeRecord::leaf()).
   int depth() const noexcept { return static_cast<int>(manifest_.depth); }
   std::uint32_t textureLevels() const noexcept { return manifest_.textureLevels; }

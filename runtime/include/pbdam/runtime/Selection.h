@@ -107,4 +107,8 @@ class CutSelector final {
   DiamondIndex index_;
 };
 
+/// The cut of `focus` alone over the whole planet (no screen error, no culling, no geomorph),
+/// closed upward: what the terrain queries extract (line of sight, viewshed).
+Cut selectFocus(const DatasetView& dataset, std::vector<FocusRegion> focus);
+
 }  // namespace pbdam::runtime
