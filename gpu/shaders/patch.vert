@@ -11,38 +11,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 
-#include "patch_position.glsl"
-#include "patch_texcoord.glsl"
+#include "patch_vertex.glsl"
 
-layout(push_constant) uniform PatchPush {
-  mat4 viewProjection;  // projection * viewRotation (camera-relative world -> clip)
-  vec4 sunAmbient;      // xyz: unit direction towards the sun (world), w: ambient term
-  uint recordIndex;     // this draw's PatchDrawRecord
-} pc;
-
-layout(location = 0) in uvec2 inBarycentric;
-layout(location = 1) in vec2 inHeightMeters;
-layout(location = 2) in vec3 inOffsetMeters;
-
-layout(location = 0) out vec2 outTexCoord;
-layout(location = 1) flat out float outLayer;
-layout(location = 2) out vec3 outNormal;
-layout(location = 3) out vec3 outCameraRelative;
-layout(location = 4) out vec2 outMorphTexCoord;
-layout(location = 5) flat out vec2 outMorphTexture;  // x: the coarser tile's weight, y: its layer
-
-void main() {
-  const uint r = pc.recordIndex;
-  precise vec3 position = patchVertexPosition(r, inBarycentric, inHeightMeters, inOffsetMeters);
-  gl_Position = pc.viewProjection * vec4(position, 1.0);
-
-  const vec3 w = patchVertexWeights(inBarycentric);
-  outTexCoord = patchVertexTexCoord(r, position);
-  const vec4 morphTexture = draws.records[r].morphTexture;
-  outMorphTexCoord = morphTexture.z * outTexCoord + morphTexture.xy;
-  outMorphTexture = draws.records[r].morph.zw;
-  outLayer = draws.records[r].corner[0].w;
-  outNormal = w.x * draws.records[r].normal[0].xyz + w.y * draws.records[r].normal[1].xyz +
-              w.z * draws.records[r].normal[2].xyz;
-  outCameraRelative = position;
-}
+void main() { emitPatchVertex(pc.recordIndex); }

@@ -6,11 +6,13 @@
 #include <algorithm>
 #include <cstdio>
 #include <string>
+#include <unordered_set>
 
 #include "GpuCacheState.h"
 #include "pbdam/gpu/OffscreenTarget.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/gpu/VulkanError.h"
+#include "pbdam/runtime/Selection.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
@@ -19,9 +21,6 @@ using namespace pbdam::streaming;
 
 namespace pbdam::gpu {
 namespace {
-
-/// Pools grow by about this much device memory at a time.
-constexpr std::uint64_t kChunkBytes = std::uint64_t{16} << 20;
 
 std::string mebibytes(std::uint64_t bytes) {
   char text[64];
@@ -103,7 +102,7 @@ Result<std::shared_ptr<GpuCache>> GpuCache::create(VulkanContext& context,
   const std::uint32_t tileCapacity = state->lru->capacity(ResidentKind::Tile);
   state->patches = PatchPool(dataset.maxPatchVertices(), state->maxIndices, patchCapacity,
                              static_cast<std::uint32_t>(std::clamp<std::uint64_t>(
-                                 kChunkBytes / state->patchSlot, 1, patchCapacity)));
+                                 options.chunkBytes / state->patchSlot, 1, patchCapacity)));
 
   const std::uint32_t tileTexels = dataset.manifest().textureTileTexels;
   VkImageFormatProperties formatProperties{};
@@ -114,10 +113,10 @@ Result<std::shared_ptr<GpuCache>> GpuCache::create(VulkanContext& context,
       r != VK_SUCCESS) {
     return vulkanError(r, "texture tiles of " + std::to_string(tileTexels) + " texels");
   }
-  const auto layersPerPage = static_cast<std::uint32_t>(
-      std::clamp<std::uint64_t>(std::min<std::uint64_t>(kChunkBytes / state->texture.slotBytes,
-                                                        formatProperties.maxArrayLayers),
-                                1, tileCapacity));
+  const auto layersPerPage = static_cast<std::uint32_t>(std::clamp<std::uint64_t>(
+      std::min<std::uint64_t>(options.chunkBytes / state->texture.slotBytes,
+                              formatProperties.maxArrayLayers),
+      1, tileCapacity));
   auto tiles = TilePool::create(context, state->texture.format, tileTexels,
                                 state->texture.slotBytes, tileCapacity, layersPerPage,
                                 state->pipeline.tilesSetLayout(), state->pipeline.sampler());
@@ -130,6 +129,19 @@ std::uint64_t GpuCache::minimumBytes(const VulkanContext& context, const Dataset
                                      bool forceRgba8Textures) {
   return minimumOf(patchSlotBytes(dataset),
                    chooseTexture(context, dataset, forceRgba8Textures).slotBytes);
+}
+
+std::uint64_t GpuCache::bytesForEverything(const VulkanContext& context, const DatasetView& dataset,
+                                           bool forceRgba8Textures) {
+  std::uint64_t patches = 0;
+  std::unordered_set<std::uint64_t> tiles;
+  for (const DiamondIndex::Node& place : DiamondIndex(dataset).nodes) {
+    if (!drawable(dataset.node(place.key))) continue;
+    ++patches;
+    tiles.insert(packKey(dataset.tileOf(place.key)));
+  }
+  return patches * patchSlotBytes(dataset) +
+         tiles.size() * chooseTexture(context, dataset, forceRgba8Textures).slotBytes;
 }
 
 GpuCache::GpuCache(std::unique_ptr<State> state) noexcept : state_(std::move(state)) {}

@@ -12,6 +12,7 @@
 
 #include "GpuPools.h"
 #include "PatchPipeline.h"
+#include "pbdam/formats/DatasetFormat.h"
 #include "pbdam/formats/TextureTile.h"
 #include "pbdam/gpu/GpuCache.h"
 #include "pbdam/streaming/ResidencyLru.h"
@@ -30,6 +31,11 @@ TextureChoice chooseTexture(const VulkanContext& context, const runtime::Dataset
                             bool forceRgba8);
 /// Bytes of one patch slot: the dataset's largest patch, 24-byte vertices and 16-bit indices.
 std::uint64_t patchSlotBytes(const runtime::DatasetView& dataset);
+
+/// Whether a node has a patch to draw (triangles, vertices and a blob).
+inline bool drawable(const formats::NodeRecord& record) {
+  return record.triangleCount > 0 && record.vertexCount > 0 && record.blobBytes > 0;
+}
 
 struct GpuCache::State {
   VulkanContext* context = nullptr;

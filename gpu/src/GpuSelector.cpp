@@ -202,10 +202,11 @@ Result<GpuSelector> GpuSelector::create(VulkanContext& context, const DatasetVie
   return GpuSelector(std::move(impl));
 }
 
-Result<Cut> GpuSelector::select(const Camera& camera, const SelectionOptions& selection) {
+Result<void> GpuSelector::recordSelection(VkCommandBuffer cmd, const Camera& camera,
+                                          const SelectionOptions& selection) {
   Impl& m = *impl_;
   const RefinementOptions& options = selection.refinement;
-  if (auto r = m.upload(selection); !r) return std::move(r).error();
+  if (auto r = m.upload(selection); !r) return r;
   const DatasetView& dataset = *m.dataset;
   const auto count = static_cast<std::uint32_t>(m.index->nodes.size());
   SelectFrame f{};
@@ -222,24 +223,39 @@ Result<Cut> GpuSelector::select(const Camera& camera, const SelectionOptions& se
   f.count = count;
   f.regionCount = static_cast<std::uint32_t>(selection.focus.size());
   std::memcpy(m.frame.mappedBytes().data(), &f, sizeof f);
-  if (auto r = m.frame.flushHostWrites(); !r) return std::move(r).error();
+  if (auto r = m.frame.flushHostWrites(); !r) return r;
 
   const std::uint32_t groups = (count + kGroupSize - 1) / kGroupSize;
   const std::uint32_t closureSteps = 2 * (static_cast<std::uint32_t>(dataset.depth()) + 1);
+  m.program->bind(cmd);
+  const auto dispatch = [&](std::uint32_t mode) {
+    m.program->push(cmd, std::as_bytes(std::span(&mode, 1)));
+    vkCmdDispatch(cmd, groups, 1, 1);
+    computeBarrier(cmd);
+  };
+  dispatch(0);
+  for (std::uint32_t s = 0; s < closureSteps; ++s) dispatch(1);
+  dispatch(2);
+  return {};
+}
+
+const DiamondIndex& GpuSelector::index() const noexcept { return *impl_->index; }
+const GpuBuffer& GpuSelector::screenErrors() const noexcept { return impl_->screen; }
+const GpuBuffer& GpuSelector::nodeStates() const noexcept { return impl_->state; }
+
+Result<Cut> GpuSelector::select(const Camera& camera, const SelectionOptions& selection) {
+  Impl& m = *impl_;
+  const RefinementOptions& options = selection.refinement;
+  const DatasetView& dataset = *m.dataset;
+  const auto count = static_cast<std::uint32_t>(m.index->nodes.size());
+  Result<void> recorded;
   const Result<void> done = m.context->submitAndWait(
       [&](VkCommandBuffer cmd) {
-        m.program->bind(cmd);
-        const auto dispatch = [&](std::uint32_t mode) {
-          m.program->push(cmd, std::as_bytes(std::span(&mode, 1)));
-          vkCmdDispatch(cmd, groups, 1, 1);
-          computeBarrier(cmd);
-        };
-        dispatch(0);
-        for (std::uint32_t s = 0; s < closureSteps; ++s) dispatch(1);
-        dispatch(2);
+        recorded = recordSelection(cmd, camera, selection);
         computeBarrier(cmd, true);
       },
       "GPU selection");
+  if (!recorded) return recorded.error();
   if (!done) return done.error();
   if (auto r = m.screen.invalidateForHostRead(); !r) return std::move(r).error();
   if (auto r = m.state.invalidateForHostRead(); !r) return std::move(r).error();

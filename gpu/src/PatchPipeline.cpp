@@ -4,6 +4,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <string>
 
 #include "pbdam/gpu/ShaderModule.h"
@@ -20,6 +21,9 @@ namespace {
 // glslc -mfmt=c writes a braced initializer list, braces included.
 const uint32_t kPatchVert[] =
 #include "patch.vert.inc"
+    ;
+const uint32_t kPatchIndirectVert[] =
+#include "patch_indirect.vert.inc"
     ;
 const uint32_t kPatchFrag[] =
 #include "patch.frag.inc"
@@ -111,8 +115,10 @@ Result<UniquePipelineLayout> createPatchLayout(
 /// The graphics pipeline: the patch shaders and their fixed-function state (reversed-Z depth,
 /// back-face culling, dynamic viewport and scissor) for dynamic rendering to these formats.
 Result<UniquePipeline> createPatchGraphicsPipeline(VkDevice device, VkPipelineLayout layout,
-                                                   VkFormat colorFormat, VkFormat depthFormat) {
-  Result<UniqueShaderModule> vert = createShaderModule(device, kPatchVert, "patch.vert");
+                                                   VkFormat colorFormat, VkFormat depthFormat,
+                                                   std::span<const uint32_t> vertexSpirv,
+                                                   const char* vertexName) {
+  Result<UniqueShaderModule> vert = createShaderModule(device, vertexSpirv, vertexName);
   if (!vert) return std::move(vert).error();
   Result<UniqueShaderModule> frag = createShaderModule(device, kPatchFrag, "patch.frag");
   if (!frag) return std::move(frag).error();
@@ -252,10 +258,18 @@ Result<PatchPipeline> PatchPipeline::create(const VulkanContext& context, VkForm
                                  result.tilesSetLayout_.get(), result.overlaySetLayout_.get()});
   if (!layout) return std::move(layout).error();
   result.layout_ = std::move(*layout);
-  auto pipeline =
-      createPatchGraphicsPipeline(device, result.layout_.get(), colorFormat, depthFormat);
+  auto pipeline = createPatchGraphicsPipeline(device, result.layout_.get(), colorFormat,
+                                              depthFormat, kPatchVert, "patch.vert");
   if (!pipeline) return std::move(pipeline).error();
   result.pipeline_ = std::move(*pipeline);
+  const DeviceCaps& caps = context.caps();
+  if (caps.shaderDrawParameters && caps.drawIndirectCount && caps.multiDrawIndirect) {
+    auto indirect =
+        createPatchGraphicsPipeline(device, result.layout_.get(), colorFormat, depthFormat,
+                                    kPatchIndirectVert, "patch_indirect.vert");
+    if (!indirect) return std::move(indirect).error();
+    result.indirectPipeline_ = std::move(*indirect);
+  }
   return result;
 }
 

@@ -42,6 +42,10 @@ class PatchPipeline final {
                                                VkFormat depthFormat);
 
   VkPipeline pipeline() const noexcept { return pipeline_.get(); }
+  /// The same pipeline with patch_indirect.vert (the record index from gl_DrawID) for draw
+  /// lists made on the device; VK_NULL_HANDLE where the device lacks draw parameters, indirect
+  /// draw counts or multi-draw indirect.
+  VkPipeline indirectPipeline() const noexcept { return indirectPipeline_.get(); }
   VkPipelineLayout layout() const noexcept { return layout_.get(); }
   VkDescriptorSetLayout recordsSetLayout() const noexcept { return recordsSetLayout_.get(); }
   VkDescriptorSetLayout tilesSetLayout() const noexcept { return tilesSetLayout_.get(); }
@@ -59,6 +63,7 @@ class PatchPipeline final {
   UniqueSampler overlaySampler_;
   UniquePipelineLayout layout_;
   UniquePipeline pipeline_;
+  UniquePipeline indirectPipeline_;
 };
 
 }  // namespace pbdam::gpu

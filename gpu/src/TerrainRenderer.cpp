@@ -29,12 +29,14 @@
 
 #include "CacheLease.h"
 #include "DeferredDestruction.h"
+#include "DeviceDrawList.h"
 #include "DrawRecorder.h"
 #include "GpuCacheState.h"
 #include "StagingUploader.h"
 #include "SurfaceOverlayBinding.h"
 #include "pbdam/gpu/GpuCache.h"
 #include "pbdam/gpu/GpuMemory.h"
+#include "pbdam/gpu/GpuSelector.h"
 #include "pbdam/gpu/OffscreenTarget.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/gpu/VulkanError.h"
@@ -63,10 +65,6 @@ std::string mebibytes(std::uint64_t bytes) {
   char text[64];
   std::snprintf(text, sizeof text, "%.2f MiB", static_cast<double>(bytes) / (1024.0 * 1024.0));
   return text;
-}
-
-bool drawable(const NodeRecord& record) {
-  return record.triangleCount > 0 && record.vertexCount > 0 && record.blobBytes > 0;
 }
 
 /// Records `cmd` again (it was allocated from a pool that allows resetting single buffers, so
@@ -174,6 +172,12 @@ struct TerrainRenderer::Impl {
   /// The entries the last pass drew and their slots: redrawLast() pins them again, and refuses
   /// if another renderer of a shared cache has evicted one since.
   std::vector<std::pair<ResidentKey, std::uint32_t>> lastPassEntries;
+  /// renderSelected()'s draw list made on the device, the selector it reads and the records
+  /// set of its records. It records where every patch and tile is in the cache, so render()
+  /// drops it when it evicts anything.
+  std::optional<DeviceDrawList> deviceList;
+  const GpuSelector* deviceListSelector = nullptr;
+  VkDescriptorSet deviceRecordsSet = VK_NULL_HANDLE;
 
   /// Timestamp queries: 0 and 3 around the uploads, 1 and 2 around the render pass.
   static constexpr std::uint32_t kTimestampQueries = 4;
@@ -195,6 +199,15 @@ struct TerrainRenderer::Impl {
   Result<void> stagePass(const PassInput& in, PassWork& work, FrameStats& stats);
   Result<void> recordPass(const PassInput& in, const PassWork& work);
   Result<void> submitPass(CacheLease& lease);
+  /// The camera's viewport must be the renderer's size.
+  Result<void> checkViewport(const Camera& camera) const;
+  /// After every patch and tile has been made resident: the device draw list over `selector`'s
+  /// nodes, and its records set.
+  Result<void> makeDeviceList(const GpuSelector& selector, bool readableRecords);
+  /// Records renderSelected()'s frame: selection, draw list, indirect draw, readback.
+  Result<void> recordSelectedFrame(GpuSelector& selector, const Camera& camera,
+                                   const SelectionOptions& selection,
+                                   const FrameSettings& settings);
 };
 
 Result<void> TerrainRenderer::Impl::ensureRecords(std::size_t count) {
@@ -421,10 +434,10 @@ Result<void> TerrainRenderer::Impl::submitPass(CacheLease& lease) {
 Result<void> TerrainRenderer::Impl::createFrameObjects() {
   VkDescriptorPoolSize size{};
   size.type = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-  size.descriptorCount = 1;
+  size.descriptorCount = 2;  // the host's records, and renderSelected()'s made on the device
   VkDescriptorPoolCreateInfo poolInfo{};
   poolInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
-  poolInfo.maxSets = 1;
+  poolInfo.maxSets = 2;
   poolInfo.poolSizeCount = 1;
   poolInfo.pPoolSizes = &size;
   VkDescriptorPool rawPool = VK_NULL_HANDLE;
@@ -519,6 +532,7 @@ Result<TerrainRenderer> TerrainRenderer::create(VulkanContext& context, const Da
     GpuCacheOptions cacheOptions;
     cacheOptions.budgetBytes = options.gpuCacheBytes;
     cacheOptions.forceRgba8Textures = options.forceRgba8Textures;
+    cacheOptions.chunkBytes = options.poolChunkBytes;
     auto cache = GpuCache::create(context, dataset, cacheOptions);
     if (!cache) return std::move(cache).error();
     impl->cache = std::move(*cache);
@@ -617,14 +631,7 @@ Result<RenderedFrame> TerrainRenderer::render(const Cut& cut, const Camera& came
   Impl& m = *impl_;
   const auto frameStart = Clock::now();
   m.lastFrame.reset();
-  if (camera.viewport().width != m.options.widthPixels ||
-      camera.viewport().height != m.options.heightPixels) {
-    return makeError(ErrorCode::InvalidArgument,
-                     "camera viewport " + std::to_string(camera.viewport().width) + "x" +
-                         std::to_string(camera.viewport().height) +
-                         " differs from the renderer's " + std::to_string(m.options.widthPixels) +
-                         "x" + std::to_string(m.options.heightPixels));
-  }
+  if (Result<void> r = m.checkViewport(camera); !r) return std::move(r).error();
   FrameStats stats;
   stats.patches = cut.patches.size();
   stats.triangles = cut.triangles;
@@ -671,6 +678,7 @@ Result<RenderedFrame> TerrainRenderer::render(const Cut& cut, const Camera& came
     if (Result<void> r = m.drawPass(pass, stats); !r) return std::move(r).error();
     begin = passEnds[p];
   }
+  if (stats.evictions > 0) m.deviceList.reset();  // it knew where the evicted entries were
   Result<RgbaImage> image = m.target.readPixels();
   if (!image) return std::move(image).error();
   {
@@ -681,6 +689,232 @@ Result<RenderedFrame> TerrainRenderer::render(const Cut& cut, const Camera& came
   stats.frameMs = millisecondsSince(frameStart);
   m.lastFrame = stats;
   return RenderedFrame{std::move(*image), stats};
+}
+
+Result<void> TerrainRenderer::Impl::checkViewport(const Camera& camera) const {
+  if (camera.viewport().width == options.widthPixels &&
+      camera.viewport().height == options.heightPixels) {
+    return {};
+  }
+  return makeError(ErrorCode::InvalidArgument,
+                   "camera viewport " + std::to_string(camera.viewport().width) + "x" +
+                       std::to_string(camera.viewport().height) + " differs from the renderer's " +
+                       std::to_string(options.widthPixels) + "x" +
+                       std::to_string(options.heightPixels));
+}
+
+Result<void> TerrainRenderer::Impl::makeDeviceList(const GpuSelector& selector,
+                                                   bool readableRecords) {
+  const DiamondIndex& index = selector.index();
+  std::vector<ResidentDraw> residency(index.nodes.size());
+  {
+    const std::lock_guard<std::mutex> lock(shared->mutex);
+    const ResidencyLru& lru = *shared->lru;
+    const auto tileLayer = [&](const TileKey& tile) -> Result<std::uint32_t> {
+      const std::optional<std::uint32_t> slot = lru.find(ResidentKey::tile(tile));
+      if (!slot) return makeError(ErrorCode::InvalidArgument, "a tile is not resident");
+      const PoolLocation at = shared->tiles.locate(*slot);
+      if (at.chunk != 0) {
+        return makeError(ErrorCode::InvalidArgument,
+                         "the tiles do not fit one texture page (raise the pool chunk bytes)");
+      }
+      return at.local;
+    };
+    for (std::size_t i = 0; i < index.nodes.size(); ++i) {
+      const DiamondIndex::Node& place = index.nodes[i];
+      const NodeRecord record = dataset->node(place.key);
+      if (!drawable(record)) continue;
+      const std::optional<std::uint32_t> slot = lru.find(ResidentKey::patch(place.key));
+      if (!slot) return makeError(ErrorCode::InvalidArgument, "a patch is not resident");
+      const PoolLocation at = shared->patches.locate(*slot);
+      if (at.chunk != 0) {
+        return makeError(ErrorCode::InvalidArgument,
+                         "the patches do not fit one pool chunk (raise the pool chunk bytes)");
+      }
+      ResidentDraw& where = residency[i];
+      where.indexCount = 3 * record.triangleCount;
+      where.firstIndex = shared->patches.firstIndex(at.local);
+      where.vertexOffset = shared->patches.firstVertex(at.local);
+      const TileKey tile = dataset->tileOf(place.key);
+      auto layer = tileLayer(tile);
+      if (!layer) return std::move(layer).error();
+      where.textureLayer = *layer;
+      if (place.level > 0) {
+        const TileKey parentTile = dataset->tileOf(index.nodes[place.parent].key);
+        if (!(parentTile == tile)) {
+          auto parentLayer = tileLayer(parentTile);
+          if (!parentLayer) return std::move(parentLayer).error();
+          where.parentTile = parentTile;
+          where.parentTextureLayer = *parentLayer;
+        }
+      }
+    }
+  }
+  auto list = DeviceDrawList::create(*context, *dataset, selector, residency, readableRecords);
+  if (!list) return std::move(list).error();
+  deviceList.emplace(std::move(*list));
+  deviceListSelector = &selector;
+  if (deviceRecordsSet == VK_NULL_HANDLE) {
+    VkDescriptorSetLayout recordsLayout = shared->pipeline.recordsSetLayout();
+    VkDescriptorSetAllocateInfo allocate{};
+    allocate.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+    allocate.descriptorPool = recordsPool.get();
+    allocate.descriptorSetCount = 1;
+    allocate.pSetLayouts = &recordsLayout;
+    if (VkResult r = vkAllocateDescriptorSets(context->device(), &allocate, &deviceRecordsSet);
+        r != VK_SUCCESS) {
+      return vulkanError(r, "vkAllocateDescriptorSets (device draw records)");
+    }
+  }
+  VkDescriptorBufferInfo info{};
+  info.buffer = deviceList->records().buffer();
+  info.range = VK_WHOLE_SIZE;
+  VkWriteDescriptorSet write{};
+  write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+  write.dstSet = deviceRecordsSet;
+  write.dstBinding = 0;
+  write.descriptorCount = 1;
+  write.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  write.pBufferInfo = &info;
+  vkUpdateDescriptorSets(context->device(), 1, &write, 0, nullptr);
+  return {};
+}
+
+Result<void> TerrainRenderer::Impl::recordSelectedFrame(GpuSelector& selector, const Camera& camera,
+                                                        const SelectionOptions& selection,
+                                                        const FrameSettings& settings) {
+  const PatchPush push = patchPush(camera, settings);
+  const std::array<float, 4> clear = {static_cast<float>(settings.clearRgb[0]) / 255.0f,
+                                      static_cast<float>(settings.clearRgb[1]) / 255.0f,
+                                      static_cast<float>(settings.clearRgb[2]) / 255.0f, 1.0f};
+  VkQueryPool timestamps = queries.get();
+  Result<void> inner;
+  Result<void> recorded =
+      recordCommands(commands[kDrawCommands], "selected terrain frame", [&](VkCommandBuffer cmd) {
+        if (timestamps != VK_NULL_HANDLE) {
+          vkCmdResetQueryPool(cmd, timestamps, 0, kTimestampQueries);
+          vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, timestamps, 0);
+        }
+        inner = selector.recordSelection(cmd, camera, selection);
+        if (inner) inner = deviceList->record(cmd, camera, selection.refinement);
+        if (!inner) return;
+        if (timestamps != VK_NULL_HANDLE) {
+          vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, timestamps, 3);
+          vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, timestamps, 1);
+        }
+        target.recordBeginRendering(cmd, clear, OffscreenTarget::kFarDepth, false);
+        const PatchPipeline& pipeline = shared->pipeline;
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.indirectPipeline());
+        VkDescriptorSet page = shared->tiles.descriptorSet(0);
+        const std::array<VkDescriptorSet, 4> sets = {deviceRecordsSet, page, page, overlay->set()};
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 0,
+                                static_cast<std::uint32_t>(sets.size()), sets.data(), 0, nullptr);
+        vkCmdPushConstants(cmd, pipeline.layout(),
+                           VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
+                           sizeof push, &push);
+        VkBuffer vertexBuffer = shared->patches.vertexBuffer(0);
+        const VkDeviceSize zero = 0;
+        vkCmdBindVertexBuffers(cmd, 0, 1, &vertexBuffer, &zero);
+        vkCmdBindIndexBuffer(cmd, shared->patches.indexBuffer(0), 0, VK_INDEX_TYPE_UINT16);
+        vkCmdDrawIndexedIndirectCount(cmd, deviceList->commands().buffer(), 0,
+                                      deviceList->count().buffer(), 0, deviceList->capacity(),
+                                      sizeof(VkDrawIndexedIndirectCommand));
+        vkCmdEndRendering(cmd);
+        if (timestamps != VK_NULL_HANDLE) {
+          vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, timestamps, 2);
+        }
+        target.recordReadback(cmd);
+      });
+  if (!inner) return inner;
+  return recorded;
+}
+
+Result<RenderedFrame> TerrainRenderer::renderSelected(GpuSelector& selector, const Camera& camera,
+                                                      const SelectionOptions& selection,
+                                                      const FrameSettings& settings,
+                                                      bool readableRecords) {
+  Impl& m = *impl_;
+  const auto frameStart = Clock::now();
+  m.lastFrame.reset();
+  if (Result<void> r = m.checkViewport(camera); !r) return std::move(r).error();
+  if (m.shared->pipeline.indirectPipeline() == VK_NULL_HANDLE) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "draw lists made on the device need multi-draw indirect, indirect draw "
+                     "counts and shader draw parameters; the Vulkan device lacks one of them");
+  }
+  if (!m.privateCache) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "draw lists made on the device need the renderer's own GPU cache");
+  }
+  if (!m.deviceList || m.deviceListSelector != &selector) {
+    // Everything the selection may draw, made resident by drawing it once.
+    const DiamondIndex& index = selector.index();
+    Cut all;
+    std::unordered_set<std::uint64_t> seen;
+    for (const DiamondIndex::Node& place : index.nodes) {
+      const NodeRecord record = m.dataset->node(place.key);
+      if (!drawable(record)) continue;
+      CutPatch patch;
+      patch.node = place.key;
+      patch.level = place.level;
+      patch.tile = m.dataset->tileOf(place.key);
+      patch.morphTile =
+          place.level > 0 ? m.dataset->tileOf(index.nodes[place.parent].key) : patch.tile;
+      addCutPatch(all, patch, record.triangleCount, record.vertexCount, seen);
+    }
+    const std::uint64_t need =
+        all.patches.size() * m.shared->patchSlot + all.tiles.size() * m.shared->texture.slotBytes;
+    if (need > m.shared->lru->budgetBytes()) {
+      return makeError(ErrorCode::InvalidArgument,
+                       "draw lists made on the device need every patch and tile resident: " +
+                           std::to_string(all.patches.size()) + " patches and " +
+                           std::to_string(all.tiles.size()) + " tiles take " + mebibytes(need) +
+                           ", more than the GPU cache budget of " +
+                           mebibytes(m.shared->lru->budgetBytes()));
+    }
+    auto primed = render(all, camera, settings);
+    if (!primed) return std::move(primed).error();
+    if (Result<void> r = m.makeDeviceList(selector, readableRecords); !r) {
+      m.deviceList.reset();
+      return std::move(r).error();
+    }
+  }
+  if (Result<void> r = m.overlay->prepare(settings.overlay, m.dataset->planet(), camera.position());
+      !r) {
+    return std::move(r).error();
+  }
+  if (Result<void> r = m.recordSelectedFrame(selector, camera, selection, settings); !r) {
+    return std::move(r).error();
+  }
+  const std::array<VkCommandBuffer, 1> frame = {m.commands[Impl::kDrawCommands]};
+  if (Result<void> r = m.submitAndWait(frame, "selected terrain frame"); !r) {
+    return std::move(r).error();
+  }
+  FrameStats stats;
+  m.readTimestamps(true, stats);
+  // The selection and draw-list passes stand where render()'s uploads do.
+  auto totals = m.deviceList->totals();
+  if (!totals) return std::move(totals).error();
+  stats.patches = totals->draws;
+  stats.triangles = totals->triangles;
+  stats.hits = totals->draws;
+  Result<RgbaImage> image = m.target.readPixels();
+  if (!image) return std::move(image).error();
+  {
+    const std::lock_guard<std::mutex> lock(m.shared->mutex);
+    stats.residentBytes = m.shared->lru->residentBytes();
+    stats.peakResidentBytes = stats.residentBytes;
+    stats.poolBytes = m.shared->patches.allocatedBytes() + m.shared->tiles.allocatedBytes();
+  }
+  stats.frameMs = millisecondsSince(frameStart);
+  return RenderedFrame{std::move(*image), stats};
+}
+
+Result<std::vector<PatchDrawRecord>> TerrainRenderer::lastSelectedRecords() const {
+  if (!impl_->deviceList) {
+    return makeError(ErrorCode::InvalidArgument, "no draw list made on the device");
+  }
+  return impl_->deviceList->readRecords();
 }
 
 Result<void> TerrainRenderer::resize(std::uint32_t widthPixels, std::uint32_t heightPixels) {
@@ -754,6 +988,7 @@ Result<RenderedFrame> TerrainRenderer::redrawLast() {
     return std::move(submitted).error();
   }
   m.readTimestamps(false, stats);
+  if (stats.evictions > 0) m.deviceList.reset();  // it knew where the evicted entries were
   Result<RgbaImage> image = m.target.readPixels();
   if (!image) return std::move(image).error();
   {

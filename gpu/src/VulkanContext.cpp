@@ -298,10 +298,12 @@ Result<void> VulkanContext::Impl::createDevice() {
   want12.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES;
   want12.pNext = &want13;
   want12.timelineSemaphore = VK_TRUE;
+  want12.drawIndirectCount = have12.drawIndirectCount;
   VkPhysicalDeviceVulkan11Features want11{};
   want11.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_1_FEATURES;
   want11.pNext = &want12;
   want11.storageBuffer16BitAccess = have11.storageBuffer16BitAccess;
+  want11.shaderDrawParameters = have11.shaderDrawParameters;
   VkPhysicalDeviceFeatures2 want{};
   want.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
   want.pNext = &want11;
@@ -339,6 +341,8 @@ Result<void> VulkanContext::Impl::createDevice() {
   caps.storageBuffer16BitAccess = want11.storageBuffer16BitAccess == VK_TRUE;
   caps.textureCompressionBC = want.features.textureCompressionBC == VK_TRUE;
   caps.multiDrawIndirect = want.features.multiDrawIndirect == VK_TRUE;
+  caps.drawIndirectCount = want12.drawIndirectCount == VK_TRUE;
+  caps.shaderDrawParameters = want11.shaderDrawParameters == VK_TRUE;
   caps.drawIndirectFirstInstance = want.features.drawIndirectFirstInstance == VK_TRUE;
   caps.geometryShader = want.features.geometryShader == VK_TRUE;
   caps.fillModeNonSolid = want.features.fillModeNonSolid == VK_TRUE;

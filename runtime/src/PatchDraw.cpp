@@ -58,12 +58,12 @@ std::pair<std::size_t, std::size_t> edgeCorners(const std::array<PointKey, 3>& k
 
 }  // namespace
 
-PatchDrawRecord makePatchDrawRecord(const DatasetView& dataset, const PatchDrawInput& input,
-                                    const glm::dvec3& cam) noexcept {
-  const NodeRecord& n = input.record;
-  const double step = dataset.manifest().heightStepMeters;
-  const BinTriangle tri = dataset.triangle(input.node);
-  const std::array<PointKey, 3> keys = cornerKeys(dataset.latticeCells(), input.node, tri);
+PatchDrawTemplate makePatchDrawTemplate(const DatasetView& dataset, const NodeKey& node,
+                                        const NodeRecord& n, std::uint32_t textureLayer,
+                                        const std::optional<TileKey>& morphTile,
+                                        std::uint32_t morphTextureLayer) noexcept {
+  const BinTriangle tri = dataset.triangle(node);
+  const std::array<PointKey, 3> keys = cornerKeys(dataset.latticeCells(), node, tri);
   std::array<glm::dvec3, 3> p{}, nd{};
   std::array<glm::vec3, 3> nf{};
   for (int k = 0; k < 3; ++k) {
@@ -72,57 +72,41 @@ PatchDrawRecord makePatchDrawRecord(const DatasetView& dataset, const PatchDrawI
     nf[static_cast<std::size_t>(k)] = fnormalOf(n, k);
   }
 
-  PatchDrawRecord d{};
-  for (std::size_t k = 0; k < 3; ++k) {
-    d.corner[k] = vec4(glm::vec3(p[k] - cam), 0.0f);
-    d.normal[k] = vec4(nf[k], 0.0f);
-  }
+  PatchDrawTemplate t{};
+  PatchDrawRecord& d = t.record;
+  t.corner = p;
+  for (std::size_t k = 0; k < 3; ++k) d.normal[k] = vec4(nf[k], 0.0f);
 
   // Edges: computed from the edge's data only, corners in canonical key order.
   const double radius = dataset.planet().equatorialRadiusMeters();
-  const double span = dataset.manifest().maxHeightMeters - dataset.manifest().minHeightMeters;
   for (std::size_t k = 0; k < 3; ++k) {
     const auto [a, b] = edgeCorners(keys, k);
-    const glm::dvec3 e = p[b] - p[a];
-    const double tr = toBaryGrid(glm::dot(cam - p[a], e) / glm::dot(e, e));
-    const glm::dvec3 dn = glm::dvec3(nf[b] - nf[a]);
-    const glm::dvec3 nr = nd[a] + tr * dn;
-    const glm::dvec3 pr = p[a] + tr * e;
-    const double sag = glm::dot(e, e) / (8.0 * radius);
-    const double hr = toHeightGrid(
-        std::clamp(glm::dot(cam - pr, nr) / glm::dot(nr, nr), -span - 1.0, sag + span + 1.0), step);
-    d.edgeOrigin[k] = vec4(glm::vec3(pr + hr * nr - cam), static_cast<float>(tr));
-    d.edgeVector[k] = vec4(glm::vec3(e), static_cast<float>(hr));
+    PatchDrawTemplate::Edge& edge = t.edges[k];
+    edge.start = p[a];
+    edge.direction = p[b] - p[a];
+    edge.lengthSquared = glm::dot(edge.direction, edge.direction);
+    edge.normal = nd[a];
+    edge.normalDelta = glm::dvec3(nf[b] - nf[a]);
+    edge.sag = edge.lengthSquared / (8.0 * radius);
+    d.edgeVector[k] = vec4(glm::vec3(edge.direction), 0.0f);
     d.edgeNormal[k] = vec4(nf[a], static_cast<float>(b));
     d.edgeNormalDelta[k] = vec4(nf[b] - nf[a], 0.0f);
   }
 
-  // Interior: the camera's projection on the corner plane, clamped into the triangle.
-  const glm::dvec3 e1 = p[1] - p[0], e2 = p[2] - p[0], rel = cam - p[0];
-  const double a11 = glm::dot(e1, e1), a12 = glm::dot(e1, e2), a22 = glm::dot(e2, e2);
-  const double c1 = glm::dot(rel, e1), c2 = glm::dot(rel, e2);
-  const double det = a11 * a22 - a12 * a12;
-  double r1 = det > 0.0 ? (c1 * a22 - c2 * a12) / det : 0.0;
-  double r2 = det > 0.0 ? (c2 * a11 - c1 * a12) / det : 0.0;
-  r1 = std::clamp(r1, 0.0, 1.0);
-  r2 = std::clamp(r2, 0.0, 1.0);
-  if (r1 + r2 > 1.0) {
-    const double s = r1 + r2;
-    r1 /= s;
-    r2 /= s;
-  }
-  r1 = toBaryGrid(r1);
-  r2 = toBaryGrid(r2);
-  const glm::dvec3 dn1 = glm::dvec3(nf[1] - nf[0]), dn2 = glm::dvec3(nf[2] - nf[0]);
-  const glm::dvec3 nr = nd[0] + r1 * dn1 + r2 * dn2;
-  const glm::dvec3 pr = p[0] + r1 * e1 + r2 * e2;
-  const double hr = toHeightGrid(
-      std::clamp(glm::dot(cam - pr, nr) / glm::dot(nr, nr), static_cast<double>(n.minHeightMeters),
-                 static_cast<double>(n.maxHeightMeters)),
-      step);
-  d.origin = vec4(glm::vec3(pr + hr * nr - cam), static_cast<float>(r1));
-  d.axis1 = vec4(glm::vec3(e1), static_cast<float>(r2));
-  d.axis2 = vec4(glm::vec3(e2), static_cast<float>(hr));
+  // Interior: the camera's projection on the corner plane solves a 2x2 system of these.
+  t.axis1 = p[1] - p[0];
+  t.axis2 = p[2] - p[0];
+  t.a11 = glm::dot(t.axis1, t.axis1);
+  t.a12 = glm::dot(t.axis1, t.axis2);
+  t.a22 = glm::dot(t.axis2, t.axis2);
+  t.det = t.a11 * t.a22 - t.a12 * t.a12;
+  t.normal0 = nd[0];
+  t.normalDelta1 = glm::dvec3(nf[1] - nf[0]);
+  t.normalDelta2 = glm::dvec3(nf[2] - nf[0]);
+  t.minHeightMeters = static_cast<double>(n.minHeightMeters);
+  t.maxHeightMeters = static_cast<double>(n.maxHeightMeters);
+  d.axis1 = vec4(glm::vec3(t.axis1), 0.0f);
+  d.axis2 = vec4(glm::vec3(t.axis2), 0.0f);
   d.normalDelta1 = vec4(nf[1] - nf[0], 0.0f);
   d.normalDelta2 = vec4(nf[2] - nf[0], 0.0f);
 
@@ -132,20 +116,21 @@ PatchDrawRecord makePatchDrawRecord(const DatasetView& dataset, const PatchDrawI
   const std::int32_t qi = std::min({tri.apex.x, tri.left.x, tri.right.x}) / sideCells;
   const std::int32_t qj = std::min({tri.apex.y, tri.left.y, tri.right.y}) / sideCells;
   const Manifest& m = dataset.manifest();
-  setPatchTexture(d, dataset.planet(),
-                  patchTextureTile(cubeFaceFromIndex(input.node.face), dataset.latticeCells(), tl,
-                                   static_cast<std::uint32_t>(qi), static_cast<std::uint32_t>(qj),
-                                   m.textureTileTexels, m.textureBorderTexels, input.textureLayer),
-                  cam);
+  t.texCenter = setPatchTexture(
+      d, dataset.planet(),
+      patchTextureTile(cubeFaceFromIndex(node.face), dataset.latticeCells(), tl,
+                       static_cast<std::uint32_t>(qi), static_cast<std::uint32_t>(qj),
+                       m.textureTileTexels, m.textureBorderTexels, textureLayer));
 
   // Geomorph weights, and the coarser tile's texture coordinates as an affine map of the
   // tile's: a lattice point x has tc = (border + ((x − q·side)/side)·inner)/size on either tile,
   // so tc' = a·tc + b with a = side/side' and b = (border·(1 − a) + inner·(q·side −
   // q'·side')/side')/size per axis.
-  d.morph = {input.morph[0], input.morph[1], 0.0f, 0.0f};
+  d.morph = {0.0f, 0.0f, 0.0f, 0.0f};
   d.morphTexture = {0.0f, 0.0f, 1.0f, 0.0f};
-  if (input.morphTile) {
-    const std::uint64_t heap = input.morphTile->heap;
+  t.blendTexture = d.morphTexture;
+  if (morphTile) {
+    const std::uint64_t heap = morphTile->heap;
     const std::uint32_t pl = textureLevelOfHeap(heap);
     const std::uint64_t inLevel = heap - textureHeapIndex(pl, 0, 0);
     const double pqi = static_cast<double>(inLevel & ((std::uint64_t{1} << pl) - 1));
@@ -160,10 +145,76 @@ PatchDrawRecord makePatchDrawRecord(const DatasetView& dataset, const PatchDrawI
       return static_cast<float>(
           (border * (1.0 - a) + inner * (q * side - pq * parentSide) / parentSide) / size);
     };
-    d.morph[2] = input.morph[0];
-    d.morph[3] = static_cast<float>(input.morphTextureLayer);
-    d.morphTexture = {offset(static_cast<double>(qi), pqi), offset(static_cast<double>(qj), pqj),
+    t.blendTexture = {offset(static_cast<double>(qi), pqi), offset(static_cast<double>(qj), pqj),
                       static_cast<float>(a), 0.0f};
+    t.blendLayer = static_cast<float>(morphTextureLayer);
+  }
+  return t;
+}
+
+PatchDrawConstants patchDrawConstants(const DatasetView& dataset) noexcept {
+  const Manifest& m = dataset.manifest();
+  return {m.heightStepMeters, m.maxHeightMeters - m.minHeightMeters};
+}
+
+void placePatchDraw(const PatchDrawTemplate& t, const PatchDrawConstants& constants,
+                    const glm::dvec3& cam, PatchDrawRecord& d) noexcept {
+  const double step = constants.heightStepMeters;
+  const double span = constants.heightSpanMeters;
+  for (std::size_t k = 0; k < 3; ++k) {
+    d.corner[k] = vec4(glm::vec3(t.corner[k] - cam), d.corner[k][3]);
+  }
+  for (std::size_t k = 0; k < 3; ++k) {
+    const PatchDrawTemplate::Edge& edge = t.edges[k];
+    const glm::dvec3& e = edge.direction;
+    const double tr = toBaryGrid(glm::dot(cam - edge.start, e) / edge.lengthSquared);
+    const glm::dvec3 nr = edge.normal + tr * edge.normalDelta;
+    const glm::dvec3 pr = edge.start + tr * e;
+    const double hr = toHeightGrid(
+        std::clamp(glm::dot(cam - pr, nr) / glm::dot(nr, nr), -span - 1.0, edge.sag + span + 1.0),
+        step);
+    d.edgeOrigin[k] = vec4(glm::vec3(pr + hr * nr - cam), static_cast<float>(tr));
+    d.edgeVector[k][3] = static_cast<float>(hr);
+  }
+
+  // Interior: the camera's projection on the corner plane, clamped into the triangle.
+  const glm::dvec3 rel = cam - t.corner[0];
+  const double c1 = glm::dot(rel, t.axis1), c2 = glm::dot(rel, t.axis2);
+  double r1 = t.det > 0.0 ? (c1 * t.a22 - c2 * t.a12) / t.det : 0.0;
+  double r2 = t.det > 0.0 ? (c2 * t.a11 - c1 * t.a12) / t.det : 0.0;
+  r1 = std::clamp(r1, 0.0, 1.0);
+  r2 = std::clamp(r2, 0.0, 1.0);
+  if (r1 + r2 > 1.0) {
+    const double s = r1 + r2;
+    r1 /= s;
+    r2 /= s;
+  }
+  r1 = toBaryGrid(r1);
+  r2 = toBaryGrid(r2);
+  const glm::dvec3 nr = t.normal0 + r1 * t.normalDelta1 + r2 * t.normalDelta2;
+  const glm::dvec3 pr = t.corner[0] + r1 * t.axis1 + r2 * t.axis2;
+  const double hr = toHeightGrid(
+      std::clamp(glm::dot(cam - pr, nr) / glm::dot(nr, nr), t.minHeightMeters, t.maxHeightMeters),
+      step);
+  d.origin = vec4(glm::vec3(pr + hr * nr - cam), static_cast<float>(r1));
+  d.axis1[3] = static_cast<float>(r2);
+  d.axis2[3] = static_cast<float>(hr);
+  const glm::vec3 q(t.texCenter - cam);
+  d.texCenter = {q.x, q.y, q.z, d.texCenter[3]};
+}
+
+PatchDrawRecord makePatchDrawRecord(const DatasetView& dataset, const PatchDrawInput& input,
+                                    const glm::dvec3& cam) noexcept {
+  const PatchDrawTemplate t =
+      makePatchDrawTemplate(dataset, input.node, input.record, input.textureLayer, input.morphTile,
+                            input.morphTextureLayer);
+  PatchDrawRecord d = t.record;
+  placePatchDraw(t, patchDrawConstants(dataset), cam, d);
+  d.morph = {input.morph[0], input.morph[1], 0.0f, 0.0f};
+  if (input.morphTile) {
+    d.morph[2] = input.morph[0];
+    d.morph[3] = t.blendLayer;
+    d.morphTexture = t.blendTexture;
   }
   return d;
 }
@@ -288,21 +339,28 @@ PatchTextureTile patchTextureTile(CubeFace face, std::uint32_t latticeCells,
   return tile;
 }
 
-void setPatchTexture(PatchDrawRecord& d, const Planet& planet, const PatchTextureTile& tile,
-                     const glm::dvec3& cam) noexcept {
+glm::dvec3 setPatchTexture(PatchDrawRecord& d, const Planet& planet,
+                           const PatchTextureTile& tile) noexcept {
   // Q: the surface point (height 0) in the direction of the tile's centre.
   const double a = planet.equatorialRadiusMeters(), b = planet.polarRadiusMeters();
   const glm::dvec3 dir = CubeMap::faceUvToDirection(tile.face, tile.centerFaceUv);
   const glm::dvec3 q = dir / glm::length(glm::dvec3(dir.x / a, dir.y / a, dir.z / b));
   const CubeFaceFrame frame = CubeMap::faceFrame(tile.face);
   const double qn = glm::dot(q, frame.normal);
-  d.texCenter = vec4(glm::vec3(q - cam), static_cast<float>(tile.texCoordPerFaceUv));
+  d.texCenter = {0.0f, 0.0f, 0.0f, static_cast<float>(tile.texCoordPerFaceUv)};
   d.texPlane = {static_cast<float>(glm::dot(q, frame.uAxis) / qn),
                 static_cast<float>(glm::dot(q, frame.vAxis) / qn), static_cast<float>(qn),
                 static_cast<float>(cubeFaceIndex(tile.face))};
   d.corner[0][3] = static_cast<float>(tile.textureLayer);
   d.corner[1][3] = static_cast<float>(a);
   d.corner[2][3] = static_cast<float>(b);
+  return q;
+}
+
+void setPatchTexture(PatchDrawRecord& d, const Planet& planet, const PatchTextureTile& tile,
+                     const glm::dvec3& cam) noexcept {
+  const glm::vec3 q(setPatchTexture(d, planet, tile) - cam);
+  d.texCenter = {q.x, q.y, q.z, d.texCenter[3]};
 }
 
 glm::vec2 shaderTexCoord(const PatchDrawRecord& d, const glm::vec3& cameraRelative) noexcept {

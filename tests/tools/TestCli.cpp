@@ -189,6 +189,9 @@ TEST(Cli, BadInputGivesOneLineAndExitCode2) {
   expectBadInput("bench x --path " + csv + " --out y --prefetch maybe", "--prefetch 'maybe'");
   expectBadInput("bench x --path " + csv + " --out y --mode fast", "--mode 'fast'");
   expectBadInput("bench x --path " + csv + " --out y --selection tpu", "--selection 'tpu'");
+  expectBadInput("bench x --path " + csv + " --out y --draws sideways", "--draws 'sideways'");
+  expectBadInput("bench x --path " + csv + " --out y --draws indirect",
+                 "--draws indirect needs --selection gpu");
   expectBadInput("bench x --path '" + (dir / "none.csv").string() + "' --out y", "none.csv");
   expectBadInput(
       "build --dem x --planet earth --out y --inset a --inset b --inset-offset 1 "
@@ -619,20 +622,26 @@ TEST(Cli, BenchCutReuseKeepsTheCutsAndPoppingIsMeasured) {
   }
   EXPECT_EQ(triangles["on"], triangles["off"]);
   EXPECT_EQ(triangles["on"].size(), 21u);
-  {
-    const std::filesystem::path out = dir / "r-gpu";
+  // The device's draw list (--draws indirect) draws the same triangles, nothing read back.
+  for (const std::string draws : {"readback", "indirect"}) {
+    SCOPED_TRACE(draws);
+    const std::filesystem::path out = dir / ("r-gpu-" + draws);
     std::string command = "bench '" + dataset.string() + "' --path '" + path + "' --out '";
-    command += out.string() + "' --prefetch off --selection gpu --width 320 --height 240 --quiet";
+    command += out.string() + "' --prefetch off --selection gpu --draws " + draws;
+    command += " --width 320 --height 240 --quiet";
     const CliRun bench = runPbdam(command);
     ASSERT_EQ(bench.exitCode, 0) << bench.err;
     std::ifstream in(out / "summary.json");
     const auto gpuRun = nlohmann::json::parse(in)["runs"][0];
     EXPECT_EQ(gpuRun["selection"], "gpu");
+    EXPECT_EQ(gpuRun["draws"], draws);
     // Checked against the host's cut every frame: none differs on lavapipe, and no drawn inner
     // patch's screen error (on the host, in double) is over the tolerance.
     EXPECT_EQ(gpuRun["selection_frames_differing"], 0);
-    EXPECT_GT(gpuRun["selection_max_screen_error_ratio"].get<double>(), 0.0);
-    EXPECT_LE(gpuRun["selection_max_screen_error_ratio"].get<double>(), 1.0);
+    if (draws == "readback") {
+      EXPECT_GT(gpuRun["selection_max_screen_error_ratio"].get<double>(), 0.0);
+      EXPECT_LE(gpuRun["selection_max_screen_error_ratio"].get<double>(), 1.0);
+    }
     std::istringstream csv(readText(out / "frames.csv"));
     std::string line;
     std::getline(csv, line);

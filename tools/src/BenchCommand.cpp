@@ -30,6 +30,7 @@
 #include "MorphOption.h"
 #include "Progress.h"
 #include "pbdam/formats/CameraPath.h"
+#include "pbdam/gpu/GpuCache.h"
 #include "pbdam/gpu/GpuSelector.h"
 #include "pbdam/gpu/TerrainRenderer.h"
 #include "pbdam/gpu/VulkanContext.h"
@@ -56,6 +57,7 @@ struct BenchCliOptions {
   std::string mode = "paging";
   std::string cutReuse = "on";
   std::string selection = "cpu";
+  std::string draws = "readback";
   bool popping = false;
   double fovDegrees = 60.0;
   double gpuCacheMiB = 64.0;
@@ -127,6 +129,7 @@ class PagingCuts final {
  public:
   PagingCuts(const DatasetView& view, bool reuse)
       : view_(view), incremental_(view), reuse_(reuse) {}
+  gpu::GpuSelector* selector() { return gpu_ ? &*gpu_ : nullptr; }
   Result<void> useGpu(gpu::VulkanContext& context) {
     auto selector = gpu::GpuSelector::create(context, view_);
     if (!selector) return std::move(selector).error();
@@ -174,6 +177,25 @@ class PagingCuts final {
   bool reuse_;
   std::optional<gpu::GpuSelector> gpu_;
 };
+
+/// The camera of a path point.
+Camera cameraOf(const DatasetView& view, const CameraPathPoint& p, const Viewport& viewport) {
+  return Camera::fromPose(view.planet(),
+                          {p.latDegrees, p.lonDegrees, p.altitudeMeters, p.headingDegrees,
+                           p.pitchDegrees, p.rollDegrees},
+                          viewport);
+}
+
+/// Untimed: a frame drawn from the device's draw list against the host's cut, by their patch and
+/// triangle counts (the list itself is never read back).
+void checkDeviceDraws(const DatasetView& view, const Camera& camera,
+                      const RefinementOptions& refinement, const gpu::FrameStats& stats,
+                      BenchRun& run) {
+  const Cut host = refine(view, camera, refinement);
+  if (host.patches.size() != stats.patches || host.triangles != stats.triangles) {
+    ++run.selectionFramesDiffering;
+  }
+}
 
 void copyRenderStats(const gpu::FrameStats& stats, BenchFrame& f) {
   f.decodeMs = stats.decodeMs;
@@ -237,27 +259,65 @@ Result<void> evictForColdRun(const std::string& dir, BenchRun& run) {
   return {};
 }
 
-Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
-                         const std::vector<CameraPathPoint>& path, bool prefetch, bool morph) {
+/// Drops the page-table entries of the face files' blobs after a frame, so that RSS follows the
+/// working set. The node and texture tables (each file's head) stay mapped: refinement reads
+/// them every frame, and unmapped they are the page cache's first victims under memory pressure.
+void releaseBlobPages(const MappedDataset& dataset) {
+  for (int face = 0; face < 6; ++face) {
+    const MappedFile& file = dataset.faceFile(face);
+    const std::uint64_t blobs = dataset.view().face(face).header().blobsOffset;
+    (void)file.releaseResident(blobs, file.size() - blobs);
+  }
+}
+
+std::string progressLine(const BenchRun& run, std::size_t done, std::size_t frames,
+                         const BenchFrame& f) {
+  char line[160];
+  std::snprintf(line, sizeof line, "morph %s, prefetch %s: frame %zu/%zu  %.1f ms  %llu triangles",
+                run.morph.c_str(), run.prefetch.c_str(), done, frames, f.frameMs,
+                static_cast<unsigned long long>(f.triangles));
+  return line;
+}
+
+/// A run's settings (its figures are filled in as it goes).
+BenchRun describeRun(const BenchCliOptions& o, bool prefetch, bool morph) {
   BenchRun run;
   run.prefetch = prefetch ? "on" : "off";
   run.morph = morph ? "on" : "off";
   run.mode = o.mode;
   run.selection = o.mode == "paging" ? o.selection : "cpu";
   run.cutReuse = o.cutReuse == "on" && o.mode == "paging" && run.selection == "cpu";
+  run.draws = run.selection == "gpu" ? o.draws : "readback";
   run.popping = o.popping;
   run.cold = o.cold;
+  return run;
+}
+
+gpu::TerrainRendererOptions rendererOptions(const gpu::VulkanContext& context,
+                                            const DatasetView& view, const BenchCliOptions& o) {
+  gpu::TerrainRendererOptions ro;
+  ro.widthPixels = o.width;
+  ro.heightPixels = o.height;
+  ro.gpuCacheBytes = static_cast<std::uint64_t>(o.gpuCacheMiB * 1048576.0);
+  if (o.selection == "gpu" && o.mode == "paging" && o.draws == "indirect") {
+    // The device's draw list needs the whole dataset resident, in one pool chunk.
+    ro.gpuCacheBytes = gpu::GpuCache::bytesForEverything(context, view);
+    ro.poolChunkBytes = ro.gpuCacheBytes;
+  }
+  return ro;
+}
+
+Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
+                         const std::vector<CameraPathPoint>& path, bool prefetch, bool morph) {
+  BenchRun run = describeRun(o, prefetch, morph);
+  const bool indirect = run.draws == "indirect";
   if (o.cold) {
     if (auto r = evictForColdRun(o.dir, run); !r) return r.error();
   }
   auto dataset = MappedDataset::open(o.dir);
   if (!dataset) return dataset.error();
   const DatasetView& view = (*dataset)->view();
-  gpu::TerrainRendererOptions ro;
-  ro.widthPixels = o.width;
-  ro.heightPixels = o.height;
-  ro.gpuCacheBytes = static_cast<std::uint64_t>(o.gpuCacheMiB * 1048576.0);
-  auto renderer = gpu::TerrainRenderer::create(context, view, ro);
+  auto renderer = gpu::TerrainRenderer::create(context, view, rendererOptions(context, view, o));
   if (!renderer) return renderer.error();
   const bool noStall = o.mode == "no-stall";
   const NoStallPolicy noStallPolicy(**dataset);
@@ -277,6 +337,15 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   if (run.selection == "gpu") {
     if (auto r = pagingCuts.useGpu(context); !r) return r.error();
   }
+  SelectionOptions deviceSelection;
+  deviceSelection.refinement = refinement;
+  if (indirect && !path.empty()) {
+    // Untimed: the first call makes every patch and tile resident.
+    auto primed = renderer->renderSelected(
+        *pagingCuts.selector(), cameraOf(view, path.front(), {o.width, o.height, o.fovDegrees}),
+        deviceSelection);
+    if (!primed) return primed.error();
+  }
   std::optional<Prefetcher> prefetcher;
   if (prefetch || noStall) {
     // No-stall always has a loader thread; without prefetch it fetches the current camera's cut
@@ -295,10 +364,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   const auto page = static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
   for (std::size_t i = 0; i < path.size(); ++i) {
     const CameraPathPoint& p = path[i];
-    const Camera camera = Camera::fromPose(view.planet(),
-                                           {p.latDegrees, p.lonDegrees, p.altitudeMeters,
-                                            p.headingDegrees, p.pitchDegrees, p.rollDegrees},
-                                           viewport);
+    const Camera camera = cameraOf(view, p, viewport);
     if (prefetcher) prefetcher->observe(p.tSeconds, camera);
     BenchFrame f;
     f.frame = static_cast<std::uint32_t>(i);
@@ -308,27 +374,28 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     Cut cut;
     if (noStall) {
       cut = noStallCut(noStallPolicy, camera, refinement, lastCap, f);
-    } else {
+    } else if (!indirect) {
       auto paged = pagingCuts.cut(camera, refinement);
       if (!paged) return paged.error();
       cut = std::move(*paged);
     }
+    // Indirect: the selection runs inside the frame's one submission.
     f.traversalMs = msSince(t0);
-    f.decisions = cut.nodesVisited;
+    f.decisions = indirect ? pagingCuts.selector()->index().nodes.size() : cut.nodesVisited;
     f.morphingPatches = summarizeMorph(cut).morphingPatches;
-    auto frame = renderer->render(cut, camera);
+    auto frame = indirect
+                     ? renderer->renderSelected(*pagingCuts.selector(), camera, deviceSelection)
+                     : renderer->render(cut, camera);
     if (!frame) return frame.error();
     f.rssFileBytes = rssFileBytes();
-    for (int face = 0; face < 6; ++face) {
-      // The node and texture tables (the file's head) stay mapped: refinement reads them every
-      // frame, and unmapped they are the page cache's first victims under memory pressure.
-      const MappedFile& file = (*dataset)->faceFile(face);
-      const std::uint64_t blobs = view.face(face).header().blobsOffset;
-      (void)file.releaseResident(blobs, file.size() - blobs);
-    }
+    releaseBlobPages(**dataset);
     f.frameMs = msSince(t0);
     f.renderThreadMajorFaults = threadMajorFaults() - faults0;
-    if (!noStall) pagingCuts.checkAgainstHost(camera, refinement, cut, run);
+    if (indirect) {
+      checkDeviceDraws(view, camera, refinement, frame->stats, run);
+    } else if (!noStall) {
+      pagingCuts.checkAgainstHost(camera, refinement, cut, run);
+    }
     if (o.popping) {
       // After the frame's own figures: the previous cut drawn with this camera, compared.
       if (auto measured =
@@ -344,12 +411,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     f.rssBytes = rssBytes();
     f.gpuPoolBytes = frame->stats.poolBytes;
     run.frames.push_back(f);
-    char line[160];
-    std::snprintf(line, sizeof line,
-                  "morph %s, prefetch %s: frame %zu/%zu  %.1f ms  %llu triangles",
-                  run.morph.c_str(), run.prefetch.c_str(), i + 1, path.size(), f.frameMs,
-                  static_cast<unsigned long long>(f.triangles));
-    progress.status(line, i + 1 == path.size());
+    progress.status(progressLine(run, i + 1, path.size(), f), i + 1 == path.size());
   }
   progress.finish();
   if (prefetcher) {
@@ -372,6 +434,12 @@ int runBench(const BenchCliOptions& o) {
   }
   if (o.selection != "cpu" && o.selection != "gpu") {
     return bad("--selection '" + o.selection + "': expected cpu or gpu");
+  }
+  if (o.draws != "readback" && o.draws != "indirect") {
+    return bad("--draws '" + o.draws + "': expected readback or indirect");
+  }
+  if (o.draws == "indirect" && (o.selection != "gpu" || o.mode != "paging" || o.popping)) {
+    return bad("--draws indirect needs --selection gpu in paging mode, without --popping");
   }
   if (o.mode != "paging" && o.mode != "no-stall") {
     return bad("--mode '" + o.mode + "': expected paging or no-stall");
@@ -478,6 +546,12 @@ void addBenchCommand(CLI::App& app, CommandStatus& status) {
   cmd->add_option("--selection", o->selection,
                   "cpu: the refinement on the host; gpu: the selection's compute passes on the "
                   "device (paging mode; the same cuts on lavapipe)")
+      ->capture_default_str();
+  cmd->add_option("--draws", o->draws,
+                  "With --selection gpu: readback: the host lists the device's cut and computes "
+                  "each draw's record; indirect: the device makes the draw list and records and "
+                  "draws it with one indirect draw, nothing read back (the whole dataset is made "
+                  "resident first, and the GPU cache sized for it)")
       ->capture_default_str();
   addMorphOptions(*cmd, o->morph, true);
   cmd->add_flag("--quiet", o->quiet, "No per-frame progress");

@@ -70,6 +70,7 @@ nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   j["cut_reuse"] = run.cutReuse;
   j["selection"] = run.selection;
   if (run.selection == "gpu") {
+    j["draws"] = run.draws;
     j["selection_frames_differing"] = run.selectionFramesDiffering;
     j["selection_max_screen_error_ratio"] = run.selectionMaxScreenRatio;
   }

@@ -57,6 +57,10 @@ struct BenchRun final {
   /// arithmetic differs from the host's; exactly ≤ 1 on lavapipe).
   std::uint64_t selectionFramesDiffering = 0;
   double selectionMaxScreenRatio = 0.0;
+  /// With selection "gpu": "readback" (the host lists the cut and its records) or "indirect"
+  /// (the draw list made on the device, TerrainRenderer::renderSelected; then the host cut is
+  /// compared by its patch and triangle counts, and the screen ratio is not measured).
+  std::string draws = "readback";
   bool popping = false;  ///< frames drawn twice for the popping measure
   bool cold = false;
   double residentAfterEvictFraction = 0.0;  ///< pages left in the page cache after eviction

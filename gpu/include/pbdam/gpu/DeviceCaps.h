@@ -15,6 +15,9 @@ struct DeviceCaps final {
   bool textureCompressionBC = false;
   bool multiDrawIndirect = false;
   bool drawIndirectFirstInstance = false;
+  /// vkCmdDrawIndexedIndirectCount and gl_DrawID: draw lists made on the device.
+  bool drawIndirectCount = false;
+  bool shaderDrawParameters = false;
   bool geometryShader = false;
   bool fillModeNonSolid = false;  ///< wireframe debug views
   /// Storage-buffer writes from vertex shaders (the GPU tests' vertex-position capture).

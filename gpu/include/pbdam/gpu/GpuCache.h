@@ -26,6 +26,9 @@ struct GpuCacheOptions final {
   std::uint64_t budgetBytes = std::uint64_t{256} << 20;
   /// Upload BC1 tiles expanded to RGBA8 even when the device samples BC1 (tests, comparisons).
   bool forceRgba8Textures = false;
+  /// Bytes of one pool chunk (a vertex and an index buffer) and of one texture page (at most
+  /// the device's array layers).
+  std::uint64_t chunkBytes = std::uint64_t{16} << 20;
 };
 
 /// What a cache holds now, and how often renderers waited for room.
@@ -57,6 +60,12 @@ class GpuCache final {
   static std::uint64_t minimumBytes(const VulkanContext& context,
                                     const runtime::DatasetView& dataset,
                                     bool forceRgba8Textures = false);
+
+  /// The budget that holds every patch (with triangles) and every tile of `dataset` at once:
+  /// what TerrainRenderer::renderSelected needs.
+  static std::uint64_t bytesForEverything(const VulkanContext& context,
+                                          const runtime::DatasetView& dataset,
+                                          bool forceRgba8Textures = false);
 
   GpuCache(const GpuCache&) = delete;
   GpuCache& operator=(const GpuCache&) = delete;

@@ -10,10 +10,13 @@
 // context and the dataset must outlive it.
 #pragma once
 
+#include <vulkan/vulkan.h>
+
 #include <cstdint>
 #include <memory>
 
 #include "pbdam/formats/Result.h"
+#include "pbdam/gpu/GpuMemory.h"
 #include "pbdam/runtime/Camera.h"
 #include "pbdam/runtime/DatasetView.h"
 #include "pbdam/runtime/Refinement.h"
@@ -43,6 +46,16 @@ class GpuSelector final {
   /// the host into a flag per node): runtime::CutSelector's cut.
   formats::Result<runtime::Cut> select(const runtime::Camera& camera,
                                        const runtime::SelectionOptions& selection);
+
+  /// For a draw list made on the device (TerrainRenderer::renderSelected): uploads the frame's
+  /// inputs and records the three passes into `cmd`, ending with a barrier that makes their
+  /// writes visible to later compute passes. The node states (bit 1: drawn, bit 2: split for its
+  /// screen error) and screen errors stay on the device, in index() order. Errors as select().
+  formats::Result<void> recordSelection(VkCommandBuffer cmd, const runtime::Camera& camera,
+                                        const runtime::SelectionOptions& selection);
+  const runtime::DiamondIndex& index() const noexcept;
+  const GpuBuffer& screenErrors() const noexcept;
+  const GpuBuffer& nodeStates() const noexcept;
 
  private:
   struct Impl;

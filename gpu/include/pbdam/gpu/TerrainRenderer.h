@@ -21,11 +21,14 @@
 #include "pbdam/gpu/RgbaImage.h"
 #include "pbdam/runtime/Camera.h"
 #include "pbdam/runtime/DatasetView.h"
+#include "pbdam/runtime/PatchDraw.h"
 #include "pbdam/runtime/Refinement.h"
+#include "pbdam/runtime/Selection.h"
 
 namespace pbdam::gpu {
 
 class VulkanContext;
+class GpuSelector;
 
 /// How a TerrainRenderer is set up.
 struct TerrainRendererOptions final {
@@ -40,6 +43,9 @@ struct TerrainRendererOptions final {
   /// A cache shared with other renderers of the same context and dataset; unset: the renderer
   /// makes a private one from the two options above.
   std::shared_ptr<GpuCache> sharedCache;
+  /// Bytes of one pool chunk (patch vertex and index buffers) and one texture page of a private
+  /// cache; renderSelected() needs the whole dataset in one of each.
+  std::uint64_t poolChunkBytes = std::uint64_t{16} << 20;
   /// Print a warning on stderr, once per renderer, the first time a frame's cut does not fit
   /// the budget and is drawn in several passes.
   bool warnWhenBudgetExceeded = true;
@@ -149,6 +155,29 @@ class TerrainRenderer final {
   /// pass is still recorded), or when another renderer of a shared cache has evicted one of its
   /// patches or tiles since; DeviceError for Vulkan failures.
   formats::Result<RenderedFrame> redrawLast();
+
+  /// Selects the cut with `selector` (made for this renderer's context and dataset) and draws it
+  /// from a draw list made on the device — the selection passes, draw_list.comp, then one
+  /// vkCmdDrawIndexedIndirectCount — in one submission, with no read-back of the cut and no
+  /// per-draw work on the host (docs/architecture.md "Selection by predicate"). Draws are in
+  /// refine()'s order with the host's records bit for bit, so on IEEE devices the image is
+  /// render()'s of selector.select()'s cut. The first call (and the first after render() has
+  /// evicted anything) makes every patch and tile of the dataset resident by drawing them all
+  /// once, and needs them to fit the private cache's budget, in one pool chunk and one texture
+  /// page (TerrainRendererOptions::poolChunkBytes). Stats: patches and triangles drawn (read
+  /// after the frame), uploadMs the selection and draw-list passes, drawMs the render pass; no
+  /// tiles count. redrawLast() has no previous frame afterwards. `readableRecords` keeps the
+  /// records where lastSelectedRecords() can read them (tests). Errors: InvalidArgument for a
+  /// shared cache, a device without multi-draw indirect, indirect draw counts or draw
+  /// parameters, or a dataset that does not fit (the message names the bytes); the others as
+  /// render().
+  formats::Result<RenderedFrame> renderSelected(GpuSelector& selector,
+                                                const runtime::Camera& camera,
+                                                const runtime::SelectionOptions& selection,
+                                                const FrameSettings& settings = {},
+                                                bool readableRecords = false);
+  /// The records of renderSelected()'s last frame in draw order (made with readableRecords).
+  formats::Result<std::vector<runtime::PatchDrawRecord>> lastSelectedRecords() const;
 
   /// Changes the image size to `widthPixels` x `heightPixels`: a new offscreen target, while the
   /// pools and every resident patch and tile stay (so a server can serve several sizes from one

@@ -115,9 +115,12 @@ PatchTextureTile patchTextureTile(CubeFace face, std::uint32_t latticeCells,
                                   std::uint32_t textureLayer) noexcept;
 
 /// Fills the record's texture fields (texCenter, texPlane and the w of corner[]) for `tile` on
-/// `planet`, seen from `cameraEcef`. makePatchDrawRecord calls it; tests call it directly.
+/// `planet`, seen from `cameraEcef`. Tests call it directly.
 void setPatchTexture(PatchDrawRecord& draw, const Planet& planet, const PatchTextureTile& tile,
                      const glm::dvec3& cameraEcef) noexcept;
+/// The same without a camera: texCenter's xyz left zero; returns Q (planetocentric metres).
+glm::dvec3 setPatchTexture(PatchDrawRecord& draw, const Planet& planet,
+                           const PatchTextureTile& tile) noexcept;
 
 /// The vertex shader's float computation of a vertex's tile texture coordinates from its
 /// camera-relative position (patch_texcoord.glsl), on the CPU: the same formula, not bit-exact.
@@ -135,9 +138,57 @@ struct PatchDrawInput final {
   std::uint32_t morphTextureLayer = 0;
 };
 
-/// Computes the per-draw record of a patch for a camera at `cameraEcef` (double precision).
+/// Computes the per-draw record of a patch for a camera at `cameraEcef` (double precision):
+/// placePatchDraw of its template, then the geomorph of `input`.
 PatchDrawRecord makePatchDrawRecord(const DatasetView& dataset, const PatchDrawInput& input,
                                     const glm::dvec3& cameraEcef) noexcept;
+
+/// What a patch's record needs that does not depend on the camera: the record's fixed fields
+/// and the doubles placePatchDraw starts from. The host makes one per draw; a draw list made on
+/// the device (gpu/shaders/draw_list.comp) keeps one per resident patch and repeats
+/// placePatchDraw's operations, so both give the same record bit for bit.
+struct PatchDrawTemplate final {
+  struct Edge final {           ///< edge k, its corners a, b in canonical key order
+    glm::dvec3 start{0.0};      ///< P_a
+    glm::dvec3 direction{0.0};  ///< E = P_b − P_a
+    double lengthSquared = 0.0;
+    glm::dvec3 normal{0.0};       ///< N_a
+    glm::dvec3 normalDelta{0.0};  ///< float(N_b − N_a)
+    double sag = 0.0;             ///< E·E / (8 · equatorial radius): the edge's bow
+  };
+  PatchDrawRecord record;  ///< every field but the camera's: corners, origins, reference weights
+  std::array<glm::dvec3, 3> corner{};  ///< P_k
+  std::array<Edge, 3> edges{};
+  glm::dvec3 axis1{0.0}, axis2{0.0};                    ///< E1 = P_1 − P_0, E2 = P_2 − P_0
+  double a11 = 0.0, a12 = 0.0, a22 = 0.0, det = 0.0;    ///< E_i · E_j, a11·a22 − a12²
+  glm::dvec3 normal0{0.0};                              ///< N_0
+  glm::dvec3 normalDelta1{0.0}, normalDelta2{0.0};      ///< float(N_1 − N_0), float(N_2 − N_0)
+  double minHeightMeters = 0.0, maxHeightMeters = 0.0;  ///< the node's, the interior's clamp
+  glm::dvec3 texCenter{0.0};                            ///< Q of the patch's tile
+  /// The record's morphTexture and morph.w when the patch blends in `morphTile`.
+  std::array<float, 4> blendTexture{0.0f, 0.0f, 1.0f, 0.0f};
+  float blendLayer = 0.0f;
+};
+
+/// The template of `node` (record `record`) with its tile in `textureLayer`, and where it
+/// would blend in `morphTile` (its parent's tile, in `morphTextureLayer`).
+PatchDrawTemplate makePatchDrawTemplate(const DatasetView& dataset, const NodeKey& node,
+                                        const formats::NodeRecord& record,
+                                        std::uint32_t textureLayer,
+                                        const std::optional<TileKey>& morphTile,
+                                        std::uint32_t morphTextureLayer) noexcept;
+
+/// Dataset-wide numbers placePatchDraw uses.
+struct PatchDrawConstants final {
+  double heightStepMeters = 0.0;
+  double heightSpanMeters = 0.0;  ///< highest − lowest height of the dataset
+};
+PatchDrawConstants patchDrawConstants(const DatasetView& dataset) noexcept;
+
+/// Sets the camera's fields of `draw` (a copy of `t.record`): corners, edge and interior
+/// origins and reference weights, the tile centre — in double, seen from `cameraEcef`.
+void placePatchDraw(const PatchDrawTemplate& t, const PatchDrawConstants& constants,
+                    const glm::dvec3& cameraEcef, PatchDrawRecord& draw) noexcept;
 
 /// A vertex's point on its flat corner triangle and its interpolated (not normalised) normal.
 struct PatchVertexBase final {

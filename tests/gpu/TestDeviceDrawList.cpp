@@ -1,0 +1,151 @@
+// Draw lists made on the device (TerrainRenderer::renderSelected, gpu/src/DeviceDrawList.h) on
+// lavapipe with validation on: for Mars and Earth cameras, with geomorphing and with a focus
+// region, the indirect frame is byte-identical to render() of the read-back cut, the draws are
+// that cut's drawable patches with its triangles, and every record is makePatchDrawRecord's bit
+// for bit; a budget that cannot hold the whole dataset is refused naming the bytes.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <numbers>
+#include <random>
+
+#include "GpuTestSupport.h"
+#include "TerrainTestSupport.h"
+#include "TestData.h"
+#include "pbdam/gpu/GpuCache.h"
+#include "pbdam/gpu/GpuSelector.h"
+#include "pbdam/gpu/TerrainRenderer.h"
+#include "pbdam/runtime/PatchDraw.h"
+#include "pbdam/runtime/Selection.h"
+
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
+namespace pbdam::gpu {
+namespace {
+
+constexpr std::uint32_t kWidth = 320;
+constexpr std::uint32_t kHeight = 200;
+
+class DeviceDrawListTest : public test::GpuTest {
+ protected:
+  bool supported() {
+    const DeviceCaps& caps = context().caps();
+    return caps.shaderFloat64 && caps.multiDrawIndirect && caps.drawIndirectCount &&
+           caps.shaderDrawParameters;
+  }
+
+  void expectReadBackFrames(const std::filesystem::path& dir, std::uint64_t seed, bool focus) {
+    if (!supported()) GTEST_SKIP() << "no indirect draw counts or draw parameters";
+    const auto dataset = test::openDataset(dir);
+    ASSERT_NE(dataset, nullptr);
+    const DatasetView& view = dataset->view();
+    auto selector = GpuSelector::create(context(), view);
+    ASSERT_TRUE(selector.ok()) << selector.error().message;
+    TerrainRendererOptions ro;
+    ro.widthPixels = kWidth;
+    ro.heightPixels = kHeight;
+    ro.gpuCacheBytes = GpuCache::bytesForEverything(context(), view);
+    ro.poolChunkBytes = ro.gpuCacheBytes;
+    auto renderer = TerrainRenderer::create(context(), view, ro);
+    ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+    const double radius = view.planet().equatorialRadiusMeters();
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    std::uint64_t morphing = 0;
+    for (int c = 0; c < 6; ++c) {
+      const CameraPose pose{std::asin(2.0 * unit(rng) - 1.0) * 180.0 / std::numbers::pi,
+                            360.0 * unit(rng) - 180.0,
+                            2e4 * std::pow(radius / 2e4, unit(rng)),
+                            360.0 * unit(rng),
+                            -90.0 + 70.0 * unit(rng),
+                            0.0};
+      SCOPED_TRACE(test::describe(pose));
+      const Camera camera = test::cameraAt(view, pose, kWidth, kHeight);
+      SelectionOptions selection;
+      selection.refinement.tolerancePixels = 2.0 + 3.0 * unit(rng);
+      selection.refinement.morphRange = c % 3 == 2 ? 0.0 : 0.25;
+      if (focus) {
+        auto circle = focusCircle(view.planet(), pose.latDegrees, pose.lonDegrees, 300e3, 0.0);
+        ASSERT_TRUE(circle.ok()) << circle.error().message;
+        selection.focus = {*circle};
+      }
+      auto cut = selector->select(camera, selection);
+      ASSERT_TRUE(cut.ok()) << cut.error().message;
+      morphing += summarizeMorph(*cut).morphingPatches;
+      auto readBack = renderer->render(*cut, camera);
+      ASSERT_TRUE(readBack.ok()) << readBack.error().message;
+      auto device = renderer->renderSelected(*selector, camera, selection, {}, true);
+      ASSERT_TRUE(device.ok()) << device.error().message;
+      EXPECT_EQ(device->stats.patches, cut->patches.size());
+      EXPECT_EQ(device->stats.triangles, cut->triangles);
+      EXPECT_TRUE(device->image.rgba == readBack->image.rgba) << "frames differ";
+
+      auto records = renderer->lastSelectedRecords();
+      ASSERT_TRUE(records.ok()) << records.error().message;
+      ASSERT_EQ(records->size(), cut->patches.size());
+      for (std::size_t i = 0; i < records->size(); ++i) {
+        const CutPatch& patch = cut->patches[i];
+        const PatchDrawRecord& got = (*records)[i];
+        PatchDrawInput input;
+        input.node = patch.node;
+        input.record = view.node(patch.node);
+        input.textureLayer = static_cast<std::uint32_t>(got.corner[0][3]);
+        input.morph = patch.morph;
+        if (patch.blendsTile()) {
+          input.morphTile = patch.morphTile;
+          input.morphTextureLayer = static_cast<std::uint32_t>(got.morph[3]);
+        }
+        const PatchDrawRecord expected = makePatchDrawRecord(view, input, camera.position());
+        using Bits = std::array<std::uint32_t, sizeof(PatchDrawRecord) / 4>;
+        ASSERT_EQ(std::bit_cast<Bits>(got), std::bit_cast<Bits>(expected)) << "record " << i;
+      }
+    }
+    if (!focus) {
+      EXPECT_GT(morphing, 0u) << "some patches morphed part-way";
+    }
+  }
+};
+
+TEST_F(DeviceDrawListTest, MarsFramesAreTheReadBackCutsFramesOnLavapipe) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  expectReadBackFrames(dir, 11, false);
+}
+
+TEST_F(DeviceDrawListTest, EarthFramesAreTheReadBackCutsFramesOnLavapipe) {
+  PBDAM_REQUIRE_DATASET(dir, "earth");
+  expectReadBackFrames(dir, 12, false);
+}
+
+TEST_F(DeviceDrawListTest, FocusCutsAreDrawnFromTheDeviceList) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  expectReadBackFrames(dir, 13, true);
+}
+
+TEST_F(DeviceDrawListTest, ABudgetBelowTheWholeDatasetIsRefused) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  if (!supported()) GTEST_SKIP() << "no indirect draw counts or draw parameters";
+  const auto dataset = test::openDataset(dir);
+  ASSERT_NE(dataset, nullptr);
+  const DatasetView& view = dataset->view();
+  auto selector = GpuSelector::create(context(), view);
+  ASSERT_TRUE(selector.ok()) << selector.error().message;
+  TerrainRendererOptions ro;
+  ro.widthPixels = kWidth;
+  ro.heightPixels = kHeight;
+  ro.gpuCacheBytes = GpuCache::bytesForEverything(context(), view) / 2;
+  auto renderer = TerrainRenderer::create(context(), view, ro);
+  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+  const Camera camera = test::cameraAt(view, {0.0, 0.0, 4e6, 0.0, -90.0, 0.0}, kWidth, kHeight);
+  auto refused = renderer->renderSelected(*selector, camera, {});
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::InvalidArgument);
+  EXPECT_NE(refused.error().message.find("need every patch and tile resident"), std::string::npos)
+      << refused.error().message;
+}
+
+}  // namespace
+}  // namespace pbdam::gpu
