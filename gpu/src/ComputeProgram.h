@@ -45,6 +45,11 @@ class ComputeProgram final {
 void dispatchLinear(VkCommandBuffer cmd, std::uint64_t invocations,
                     std::uint32_t localSize) noexcept;
 
+/// One global memory barrier (synchronization2) from `srcStages`' `srcAccess` to `dstStages`'
+/// `dstAccess`.
+void memoryBarrier(VkCommandBuffer cmd, VkPipelineStageFlags2 srcStages, VkAccessFlags2 srcAccess,
+                   VkPipelineStageFlags2 dstStages, VkAccessFlags2 dstAccess) noexcept;
+
 /// Makes one dispatch's shader-storage writes visible to the next dispatch (`toHost`: to host
 /// reads instead).
 void computeBarrier(VkCommandBuffer cmd, bool toHost = false) noexcept;

@@ -83,6 +83,22 @@ Result<void> recordCommands(VkCommandBuffer cmd, const char* what, const Record&
   return {};
 }
 
+/// Points a records set (binding 0 of the patch pipeline's set 0) at `buffer`.
+void bindRecords(VkDevice device, VkDescriptorSet set, VkBuffer buffer) {
+  VkDescriptorBufferInfo info{};
+  info.buffer = buffer;
+  info.offset = 0;
+  info.range = VK_WHOLE_SIZE;
+  VkWriteDescriptorSet write{};
+  write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+  write.dstSet = set;
+  write.dstBinding = 0;
+  write.descriptorCount = 1;
+  write.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  write.pBufferInfo = &info;
+  vkUpdateDescriptorSets(device, 1, &write, 0, nullptr);
+}
+
 /// One pass of a frame: the cut's range [begin, end) and how it sits in the frame.
 struct PassInput {
   const Cut& cut;
@@ -223,18 +239,7 @@ Result<void> TerrainRenderer::Impl::ensureRecords(std::size_t count) {
                              MemoryUse::HostUpload, "patch draw records");
   if (!buffer) return std::move(buffer).error();
   records = std::move(*buffer);
-  VkDescriptorBufferInfo info{};
-  info.buffer = records.buffer();
-  info.offset = 0;
-  info.range = VK_WHOLE_SIZE;
-  VkWriteDescriptorSet write{};
-  write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-  write.dstSet = recordsSet;
-  write.dstBinding = 0;
-  write.descriptorCount = 1;
-  write.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-  write.pBufferInfo = &info;
-  vkUpdateDescriptorSets(context->device(), 1, &write, 0, nullptr);
+  bindRecords(context->device(), recordsSet, records.buffer());
   return {};
 }
 
@@ -766,17 +771,7 @@ Result<void> TerrainRenderer::Impl::makeDeviceList(const GpuSelector& selector,
       return vulkanError(r, "vkAllocateDescriptorSets (device draw records)");
     }
   }
-  VkDescriptorBufferInfo info{};
-  info.buffer = deviceList->records().buffer();
-  info.range = VK_WHOLE_SIZE;
-  VkWriteDescriptorSet write{};
-  write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-  write.dstSet = deviceRecordsSet;
-  write.dstBinding = 0;
-  write.descriptorCount = 1;
-  write.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-  write.pBufferInfo = &info;
-  vkUpdateDescriptorSets(context->device(), 1, &write, 0, nullptr);
+  bindRecords(context->device(), deviceRecordsSet, deviceList->records().buffer());
   return {};
 }
 

@@ -38,6 +38,16 @@ class DeviceDrawListTest : public test::GpuTest {
            caps.shaderDrawParameters;
   }
 
+  /// A renderer whose private cache holds `budgetBytes` in one pool chunk.
+  Result<TerrainRenderer> makeRenderer(const DatasetView& view, std::uint64_t budgetBytes) {
+    TerrainRendererOptions ro;
+    ro.widthPixels = kWidth;
+    ro.heightPixels = kHeight;
+    ro.gpuCacheBytes = budgetBytes;
+    ro.poolChunkBytes = budgetBytes;
+    return TerrainRenderer::create(context(), view, ro);
+  }
+
   void expectReadBackFrames(const std::filesystem::path& dir, std::uint64_t seed, bool focus) {
     if (!supported()) GTEST_SKIP() << "no indirect draw counts or draw parameters";
     const auto dataset = test::openDataset(dir);
@@ -45,12 +55,7 @@ class DeviceDrawListTest : public test::GpuTest {
     const DatasetView& view = dataset->view();
     auto selector = GpuSelector::create(context(), view);
     ASSERT_TRUE(selector.ok()) << selector.error().message;
-    TerrainRendererOptions ro;
-    ro.widthPixels = kWidth;
-    ro.heightPixels = kHeight;
-    ro.gpuCacheBytes = GpuCache::bytesForEverything(context(), view);
-    ro.poolChunkBytes = ro.gpuCacheBytes;
-    auto renderer = TerrainRenderer::create(context(), view, ro);
+    auto renderer = makeRenderer(view, GpuCache::bytesForEverything(context(), view));
     ASSERT_TRUE(renderer.ok()) << renderer.error().message;
     const double radius = view.planet().equatorialRadiusMeters();
     std::mt19937_64 rng(seed);
@@ -133,11 +138,7 @@ TEST_F(DeviceDrawListTest, ABudgetBelowTheWholeDatasetIsRefused) {
   const DatasetView& view = dataset->view();
   auto selector = GpuSelector::create(context(), view);
   ASSERT_TRUE(selector.ok()) << selector.error().message;
-  TerrainRendererOptions ro;
-  ro.widthPixels = kWidth;
-  ro.heightPixels = kHeight;
-  ro.gpuCacheBytes = GpuCache::bytesForEverything(context(), view) / 2;
-  auto renderer = TerrainRenderer::create(context(), view, ro);
+  auto renderer = makeRenderer(view, GpuCache::bytesForEverything(context(), view) / 2);
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
   const Camera camera = test::cameraAt(view, {0.0, 0.0, 4e6, 0.0, -90.0, 0.0}, kWidth, kHeight);
   auto refused = renderer->renderSelected(*selector, camera, {});
