@@ -868,6 +868,7 @@ Result<RenderedFrame> TerrainRenderer::renderSelected(GpuSelector& selector, con
                            mebibytes(m.shared->lru->budgetBytes()));
     }
     auto primed = render(all, camera, settings);
+    m.lastFrame.reset();  // the draw buffer is about to hold another kind of frame
     if (!primed) return std::move(primed).error();
     if (Result<void> r = m.makeDeviceList(selector, readableRecords); !r) {
       m.deviceList.reset();

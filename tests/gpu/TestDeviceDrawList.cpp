@@ -88,6 +88,7 @@ class DeviceDrawListTest : public test::GpuTest {
       EXPECT_EQ(device->stats.patches, cut->patches.size());
       EXPECT_EQ(device->stats.triangles, cut->triangles);
       EXPECT_TRUE(device->image.rgba == readBack->image.rgba) << "frames differ";
+      EXPECT_FALSE(renderer->redrawLast().ok()) << "no host-drawn frame to draw again";
 
       auto records = renderer->lastSelectedRecords();
       ASSERT_TRUE(records.ok()) << records.error().message;
