@@ -1,7 +1,10 @@
 // Camera prediction and madvise prefetch (Prefetcher.h).
 #include "pbdam/streaming/Prefetcher.h"
 
+#include <algorithm>
+#include <cmath>
 #include <glm/geometric.hpp>
+#include <glm/trigonometric.hpp>
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
@@ -86,12 +89,29 @@ void Prefetcher::run() {
     // A quarter, a half and the whole look-ahead, nearest first: what the next frames need is
     // asked for before what the look-ahead needs, and a turn the extrapolation misses at the
     // far horizon is still caught near. A range asked for at one horizon is not asked again.
+    RefinementOptions refinement = options_.refinement;
+    refinement.tolerancePixels *= options_.toleranceScale;
     for (const double share : {0.125, 0.25, 0.5, 1.0}) {
       const auto predicted = predictor_.predict(last + share * options_.lookaheadSeconds);
-      prefetch(refine(dataset_.view(), *predicted, options_.refinement));
+      prefetch(refine(dataset_.view(), widened(*predicted), refinement));
     }
     predictions_.fetch_add(1, std::memory_order_relaxed);
   }
+}
+
+Camera Prefetcher::widened(const Camera& camera) const {
+  if (!(options_.fovMarginDegrees > 0.0)) return camera;
+  // The same pixels per radian (so the same levels of detail) over a wider view: the image
+  // grows with the tangent of the half angle.
+  Viewport viewport = camera.viewport();
+  const double before = std::tan(glm::radians(viewport.fovYDegrees) / 2.0);
+  viewport.fovYDegrees = std::min(viewport.fovYDegrees + options_.fovMarginDegrees, 170.0);
+  const double grow = std::tan(glm::radians(viewport.fovYDegrees) / 2.0) / before;
+  viewport.width = static_cast<std::uint32_t>(std::ceil(viewport.width * grow));
+  viewport.height = static_cast<std::uint32_t>(std::ceil(viewport.height * grow));
+  Camera wide(camera.position(), camera.right(), camera.up(), camera.forward(), viewport);
+  wide.setNearMeters(camera.nearMeters());
+  return wide;
 }
 
 void Prefetcher::prefetch(const Cut& cut) {

@@ -3,9 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <mutex>
+#include <numbers>
 #include <thread>
 
 #include "PrivateCopy.h"
@@ -57,6 +59,8 @@ TEST(Prefetcher, AdvisesThePredictedCutAndItBecomesResident) {
   const DatasetView& view = (*dataset)->view();
   const Viewport vp{640, 480, 60.0};
   PrefetchOptions options;
+  options.fovMarginDegrees = 0.0;  // the predicted camera's own cut
+  options.toleranceScale = 1.0;
   Prefetcher prefetcher(**dataset, options);
   // Flying east over Tharsis at 300 km altitude, 20 km per frame at 10 frames/s.
   for (int k = 0; k < 3; ++k) {
@@ -88,7 +92,10 @@ TEST(Prefetcher, AdvisesThePredictedCutAndItBecomesResident) {
   EXPECT_EQ(resident, total);
 }
 
-TEST(Prefetcher, AsksForExactlyTheRangesOfThePredictedCut) {
+// One pose, so the predicted camera is that camera: the ranges asked for are exactly those of
+// its cut, refined at `toleranceScale` of the tolerance over a view `fovMarginDegrees` wider
+// with the same pixels per radian (the image grown with the tangent of the half angle).
+void expectTheRangesOfThePredictedCut(double fovMarginDegrees, double toleranceScale) {
   PBDAM_REQUIRE_DATASET(shared, "mola");
   test::TempDir temp;
   const std::filesystem::path dir = test::privateCopy(shared, temp);
@@ -99,11 +106,12 @@ TEST(Prefetcher, AsksForExactlyTheRangesOfThePredictedCut) {
   std::mutex mutex;
   std::vector<PrefetchRange> asked;
   PrefetchOptions options;
+  options.fovMarginDegrees = fovMarginDegrees;
+  options.toleranceScale = toleranceScale;
   options.onRange = [&](const PrefetchRange& range) {
     const std::lock_guard<std::mutex> lock(mutex);
     asked.push_back(range);
   };
-  // One pose: the predicted camera is that camera.
   const Camera camera =
       Camera::fromPose(view.planet(), {-8.0, -75.0, 150e3, 90.0, -20.0, 0.0}, {320, 240, 60.0});
   Prefetcher prefetcher(**dataset, options);
@@ -115,7 +123,16 @@ TEST(Prefetcher, AsksForExactlyTheRangesOfThePredictedCut) {
   ASSERT_EQ(prefetcher.stats().predictions, 1u);
 
   // What the cut needs: every patch and tile with bytes, keyed as the GPU cache keys them.
-  const Cut cut = refine(view, camera, options.refinement);
+  const double grow = std::tan((60.0 + fovMarginDegrees) * std::numbers::pi / 360.0) /
+                      std::tan(60.0 * std::numbers::pi / 360.0);
+  Camera wide(camera.position(), camera.right(), camera.up(), camera.forward(),
+              {static_cast<std::uint32_t>(std::ceil(320 * grow)),
+               static_cast<std::uint32_t>(std::ceil(240 * grow)), 60.0 + fovMarginDegrees});
+  wide.setNearMeters(camera.nearMeters());
+  EXPECT_NEAR(wide.pixelsPerRadian() / camera.pixelsPerRadian(), 1.0, 0.01);
+  RefinementOptions refinement = options.refinement;
+  refinement.tolerancePixels *= toleranceScale;
+  const Cut cut = refine(view, wide, refinement);
   std::map<std::uint64_t, std::pair<std::uint64_t, std::uint64_t>> expected;
   for (const CutPatch& p : cut.patches) {
     const NodeRecord n = view.node(p.node);
@@ -143,6 +160,18 @@ TEST(Prefetcher, AsksForExactlyTheRangesOfThePredictedCut) {
   EXPECT_EQ(prefetcher.stats().rangesAdvised, advised);
   EXPECT_EQ(prefetcher.stats().bytesAdvised, advisedBytes);
   EXPECT_EQ(prefetcher.stats().rangesResident, asked.size() - advised);
+}
+
+TEST(Prefetcher, AsksForExactlyTheRangesOfThePredictedCut) {
+  expectTheRangesOfThePredictedCut(0.0, 1.0);
+}
+
+// The defaults: a view 10° wider and three quarters of the tolerance.
+TEST(Prefetcher, AsksForTheWidenedAndFinerCutByDefault) {
+  const PrefetchOptions defaults;
+  EXPECT_EQ(defaults.fovMarginDegrees, 10.0);
+  EXPECT_EQ(defaults.toleranceScale, 0.75);
+  expectTheRangesOfThePredictedCut(defaults.fovMarginDegrees, defaults.toleranceScale);
 }
 
 TEST(Prefetcher, ConcurrentCameraUpdatesAndStop) {

@@ -55,6 +55,15 @@ struct PrefetchRange final {
 struct PrefetchOptions final {
   double lookaheadSeconds = 0.5;
   runtime::RefinementOptions refinement;
+  /// The predicted cameras see this much more (degrees added to the vertical field of view,
+  /// the image grown with it so that pixels per radian and so levels of detail stay the same),
+  /// so that a turn the extrapolation misses still finds its data resident.
+  double fovMarginDegrees = 10.0;
+  /// The predicted cuts are refined at this fraction of the frames' tolerance, so that a
+  /// descent faster than extrapolated still finds its finer levels resident. Measured on the
+  /// Mars flight over an inset (docs/performance.md "Insets"): with both, the render thread's
+  /// faults after the first frame drop from 48 to 3–4 for 10% more bytes advised.
+  double toleranceScale = 0.75;
   /// Called on the worker thread for every range of a predicted cut that was not advised in
   /// the last 16 predictions, after it was advised (or found resident). Unset: nothing. Lets a
   /// caller (a test) see what was fetched; must not call back into the Prefetcher.
@@ -83,6 +92,8 @@ class Prefetcher final {
   PrefetchStats stats() const;
 
  private:
+  /// `camera` with the field of view widened by options_.fovMarginDegrees.
+  runtime::Camera widened(const runtime::Camera& camera) const;
   void run();
   void prefetch(const runtime::Cut& cut);
   void adviseRange(int face, std::uint64_t offset, std::uint64_t bytes, ResidentKey key);
