@@ -89,11 +89,17 @@ void Prefetcher::run() {
     // A quarter, a half and the whole look-ahead, nearest first: what the next frames need is
     // asked for before what the look-ahead needs, and a turn the extrapolation misses at the
     // far horizon is still caught near. A range asked for at one horizon is not asked again.
-    RefinementOptions refinement = options_.refinement;
-    refinement.tolerancePixels *= options_.toleranceScale;
+    // The nearest horizon asks for exactly what the next frames need, first; the farther ones
+    // over a wider view at a finer tolerance (PrefetchOptions).
+    RefinementOptions finer = options_.refinement;
+    finer.tolerancePixels *= options_.toleranceScale;
     for (const double share : {0.125, 0.25, 0.5, 1.0}) {
       const auto predicted = predictor_.predict(last + share * options_.lookaheadSeconds);
-      prefetch(refine(dataset_.view(), widened(*predicted), refinement));
+      if (share == 0.125) {
+        prefetch(refine(dataset_.view(), *predicted, options_.refinement));
+      } else {
+        prefetch(refine(dataset_.view(), widened(*predicted), finer));
+      }
     }
     predictions_.fetch_add(1, std::memory_order_relaxed);
   }

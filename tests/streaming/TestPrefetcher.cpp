@@ -92,9 +92,10 @@ TEST(Prefetcher, AdvisesThePredictedCutAndItBecomesResident) {
   EXPECT_EQ(resident, total);
 }
 
-// One pose, so the predicted camera is that camera: the ranges asked for are exactly those of
-// its cut, refined at `toleranceScale` of the tolerance over a view `fovMarginDegrees` wider
-// with the same pixels per radian (the image grown with the tangent of the half angle).
+// One pose, so the predicted camera is that camera at every horizon: the ranges asked for are
+// exactly those of its own cut (the nearest horizon) and of its cut refined at `toleranceScale`
+// of the tolerance over a view `fovMarginDegrees` wider with the same pixels per radian (the
+// image grown with the tangent of the half angle; the farther horizons), each once.
 void expectTheRangesOfThePredictedCut(double fovMarginDegrees, double toleranceScale) {
   PBDAM_REQUIRE_DATASET(shared, "mola");
   test::TempDir temp;
@@ -130,18 +131,19 @@ void expectTheRangesOfThePredictedCut(double fovMarginDegrees, double toleranceS
                static_cast<std::uint32_t>(std::ceil(240 * grow)), 60.0 + fovMarginDegrees});
   wide.setNearMeters(camera.nearMeters());
   EXPECT_NEAR(wide.pixelsPerRadian() / camera.pixelsPerRadian(), 1.0, 0.01);
-  RefinementOptions refinement = options.refinement;
-  refinement.tolerancePixels *= toleranceScale;
-  const Cut cut = refine(view, wide, refinement);
+  RefinementOptions finer = options.refinement;
+  finer.tolerancePixels *= toleranceScale;
   std::map<std::uint64_t, std::pair<std::uint64_t, std::uint64_t>> expected;
-  for (const CutPatch& p : cut.patches) {
-    const NodeRecord n = view.node(p.node);
-    // The patch blob and its morph targets after it: one range.
-    if (n.blobBytes > 0) expected[packKey(p.node)] = {n.blobOffset, n.blobsBytes()};
-  }
-  for (const TileKey& t : cut.tiles) {
-    const TextureRecord r = view.textureNode(t);
-    if (r.blobBytes > 0) expected[packKey(t)] = {r.blobOffset, r.blobBytes};
+  for (const Cut& cut : {refine(view, camera, options.refinement), refine(view, wide, finer)}) {
+    for (const CutPatch& p : cut.patches) {
+      const NodeRecord n = view.node(p.node);
+      // The patch blob and its morph targets after it: one range.
+      if (n.blobBytes > 0) expected[packKey(p.node)] = {n.blobOffset, n.blobsBytes()};
+    }
+    for (const TileKey& t : cut.tiles) {
+      const TextureRecord r = view.textureNode(t);
+      if (r.blobBytes > 0) expected[packKey(t)] = {r.blobOffset, r.blobBytes};
+    }
   }
   ASSERT_FALSE(expected.empty());
   std::map<std::uint64_t, std::pair<std::uint64_t, std::uint64_t>> got;

@@ -55,14 +55,15 @@ struct PrefetchRange final {
 struct PrefetchOptions final {
   double lookaheadSeconds = 0.5;
   runtime::RefinementOptions refinement;
-  /// The predicted cameras see this much more (degrees added to the vertical field of view,
-  /// the image grown with it so that pixels per radian and so levels of detail stay the same),
-  /// so that a turn the extrapolation misses still finds its data resident.
+  /// Beyond the nearest horizon (which asks for exactly the predicted camera's cut, first), the
+  /// predicted cameras see this much more (degrees added to the vertical field of view, the
+  /// image grown with it so that pixels per radian and so levels of detail stay the same), so
+  /// that a turn the extrapolation misses still finds its data resident.
   double fovMarginDegrees = 10.0;
-  /// The predicted cuts are refined at this fraction of the frames' tolerance, so that a
-  /// descent faster than extrapolated still finds its finer levels resident. Measured on the
-  /// Mars flight over an inset (docs/performance.md "Insets"): with both, the render thread's
-  /// faults after the first frame drop from 48 to 3–4 for 10% more bytes advised.
+  /// Beyond the nearest horizon, the predicted cuts are refined at this fraction of the
+  /// frames' tolerance, so that a descent faster than extrapolated still finds its finer levels
+  /// resident (docs/performance.md "Insets": measured on the Mars flight over an inset and over
+  /// the large-data dataset).
   double toleranceScale = 0.75;
   /// Called on the worker thread for every range of a predicted cut that was not advised in
   /// the last 16 predictions, after it was advised (or found resident). Unset: nothing. Lets a
