@@ -250,6 +250,35 @@ Result<void> VulkanContext::Impl::choosePhysicalDevice(const ContextOptions& opt
   return {};
 }
 
+namespace {
+
+/// What createDevice enabled (each `want` is what it asked for: present features only) and the
+/// limits the renderer sizes itself by.
+DeviceCaps enabledCaps(const VkPhysicalDeviceFeatures2& want,
+                       const VkPhysicalDeviceVulkan11Features& want11,
+                       const VkPhysicalDeviceVulkan12Features& want12,
+                       const VkPhysicalDeviceLimits& limits) {
+  DeviceCaps caps;
+  caps.shaderFloat64 = want.features.shaderFloat64 == VK_TRUE;
+  caps.storageBuffer16BitAccess = want11.storageBuffer16BitAccess == VK_TRUE;
+  caps.textureCompressionBC = want.features.textureCompressionBC == VK_TRUE;
+  caps.multiDrawIndirect = want.features.multiDrawIndirect == VK_TRUE;
+  caps.drawIndirectCount = want12.drawIndirectCount == VK_TRUE;
+  caps.shaderDrawParameters = want11.shaderDrawParameters == VK_TRUE;
+  caps.drawIndirectFirstInstance = want.features.drawIndirectFirstInstance == VK_TRUE;
+  caps.geometryShader = want.features.geometryShader == VK_TRUE;
+  caps.fillModeNonSolid = want.features.fillModeNonSolid == VK_TRUE;
+  caps.vertexPipelineStoresAndAtomics = want.features.vertexPipelineStoresAndAtomics == VK_TRUE;
+  caps.maxPushConstantsBytes = limits.maxPushConstantsSize;
+  caps.maxImageDimension2DPixels = limits.maxImageDimension2D;
+  caps.maxDrawIndexedIndexValue = limits.maxDrawIndexedIndexValue;
+  caps.timestampPeriodNanoseconds = limits.timestampPeriod;
+  caps.nonCoherentAtomSizeBytes = limits.nonCoherentAtomSize;
+  return caps;
+}
+
+}  // namespace
+
 Result<void> VulkanContext::Impl::createDevice() {
   uint32_t familyCount = 0;
   vkGetPhysicalDeviceQueueFamilyProperties(physicalDevice, &familyCount, nullptr);
@@ -337,21 +366,7 @@ Result<void> VulkanContext::Impl::createDevice() {
   VkPhysicalDeviceProperties properties{};
   vkGetPhysicalDeviceProperties(physicalDevice, &properties);
   vkGetPhysicalDeviceMemoryProperties(physicalDevice, &memoryProperties);
-  caps.shaderFloat64 = want.features.shaderFloat64 == VK_TRUE;
-  caps.storageBuffer16BitAccess = want11.storageBuffer16BitAccess == VK_TRUE;
-  caps.textureCompressionBC = want.features.textureCompressionBC == VK_TRUE;
-  caps.multiDrawIndirect = want.features.multiDrawIndirect == VK_TRUE;
-  caps.drawIndirectCount = want12.drawIndirectCount == VK_TRUE;
-  caps.shaderDrawParameters = want11.shaderDrawParameters == VK_TRUE;
-  caps.drawIndirectFirstInstance = want.features.drawIndirectFirstInstance == VK_TRUE;
-  caps.geometryShader = want.features.geometryShader == VK_TRUE;
-  caps.fillModeNonSolid = want.features.fillModeNonSolid == VK_TRUE;
-  caps.vertexPipelineStoresAndAtomics = want.features.vertexPipelineStoresAndAtomics == VK_TRUE;
-  caps.maxPushConstantsBytes = properties.limits.maxPushConstantsSize;
-  caps.maxImageDimension2DPixels = properties.limits.maxImageDimension2D;
-  caps.maxDrawIndexedIndexValue = properties.limits.maxDrawIndexedIndexValue;
-  caps.timestampPeriodNanoseconds = properties.limits.timestampPeriod;
-  caps.nonCoherentAtomSizeBytes = properties.limits.nonCoherentAtomSize;
+  caps = enabledCaps(want, want11, want12, properties.limits);
 
   VkCommandPoolCreateInfo poolInfo{};
   poolInfo.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
