@@ -48,7 +48,7 @@ layout(std430, set = 0, binding = 2) readonly buffer Frame {
   double morphRange;
   double heightStep;
   double span;      // the dataset's height range (metres)
-  double radius;    // the equatorial radius (metres)
+  double pad0;
   double pad;
   uint count;       // nodes
   uint groups;      // workgroups of mode 0

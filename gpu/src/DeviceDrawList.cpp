@@ -51,7 +51,7 @@ struct DrawFrame final {
   double morphRange;
   double heightStep;
   double span;
-  double radius;
+  double pad0;
   double pad;
   std::uint32_t count;
   std::uint32_t groups;
@@ -120,7 +120,6 @@ Result<DeviceDrawList> DeviceDrawList::create(VulkanContext& context, const Data
   }
   DeviceDrawList list;
   list.constants_ = patchDrawConstants(dataset);
-  list.radius_ = dataset.planet().equatorialRadiusMeters();
   list.nodeCount_ = static_cast<std::uint32_t>(index.nodes.size());
   list.groups_ = (list.nodeCount_ + kGroupSize - 1) / kGroupSize;
 
@@ -202,7 +201,6 @@ Result<void> DeviceDrawList::record(VkCommandBuffer cmd, const Camera& camera,
   f.morphRange = refinement.morphRange;
   f.heightStep = constants_.heightStepMeters;
   f.span = constants_.heightSpanMeters;
-  f.radius = radius_;
   f.count = nodeCount_;
   f.groups = groups_;
   std::memcpy(frame_.mappedBytes().data(), &f, sizeof f);

@@ -74,7 +74,6 @@ class DeviceDrawList final {
  private:
   DeviceDrawList() = default;
   runtime::PatchDrawConstants constants_{};
-  double radius_ = 0.0;
   std::uint32_t nodeCount_ = 0;
   std::uint32_t groups_ = 0;
   std::uint32_t capacity_ = 0;
