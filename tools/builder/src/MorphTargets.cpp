@@ -28,10 +28,10 @@ struct HeightLine final {
 };
 
 HeightLine heightLine(const MorphGeometry& g, int face, LatticeXY q) {
-  const glm::dvec3 origin =
-      runtime::latticeTerrainPoint(*g.planet, g.lattice->sideCells(), face, q, 0.0);
-  const glm::dvec3 up =
-      runtime::latticeTerrainPoint(*g.planet, g.lattice->sideCells(), face, q, 1.0);
+  // latticeTerrainPoint at heights 0 and 1, with the direction computed once.
+  const glm::dvec3 d = runtime::latticeDirection(g.lattice->sideCells(), face, q);
+  const glm::dvec3 origin = runtime::terrainPointOfDirection(*g.planet, d, 0.0);
+  const glm::dvec3 up = runtime::terrainPointOfDirection(*g.planet, d, 1.0);
   return {origin, up - origin};
 }
 
@@ -74,14 +74,8 @@ CoarserSurface::CoarserSurface(const MorphGeometry& geometry, const runtime::Bin
   const std::vector<std::uint16_t>& index = mesh.indices;
   const std::size_t triangles = index.size() / 3;
   if (points_.empty() || triangles == 0) return;
-  keys_.resize(points_.size());
   terrain_.resize(points_.size());
-  for (std::size_t v = 0; v < points_.size(); ++v) {
-    keys_[v] = geometry.lattice->key(face_, points_[v]);
-    terrain_[v] = runtime::latticeTerrainPoint(
-        *geometry.planet, geometry.lattice->sideCells(), face_, points_[v],
-        static_cast<double>(mesh.vertices[v].heightSteps) * geometry.heightStepMeters);
-  }
+  hasTerrain_.assign(points_.size(), false);
   LatticeXY high = points_[0];
   low_ = points_[0];
   for (const LatticeXY& q : points_) {
@@ -123,6 +117,16 @@ CoarserSurface::CoarserSurface(const MorphGeometry& geometry, const runtime::Bin
   }
 }
 
+const glm::dvec3& CoarserSurface::terrainOf(std::size_t v) const {
+  if (!hasTerrain_[v]) {
+    terrain_[v] = runtime::latticeTerrainPoint(
+        *geometry_.planet, geometry_.lattice->sideCells(), face_, points_[v],
+        static_cast<double>(mesh_.vertices[v].heightSteps) * geometry_.heightStepMeters);
+    hasTerrain_[v] = true;
+  }
+  return terrain_[v];
+}
+
 std::optional<std::int32_t> CoarserSurface::targetAt(LatticeXY q) const {
   if (first_.empty() || q.x < low_.x || q.y < low_.y) return std::nullopt;
   const std::int64_t col = (std::int64_t{q.x} - low_.x) / cell_;
@@ -154,15 +158,16 @@ std::optional<std::int32_t> CoarserSurface::targetAt(LatticeXY q) const {
       if (w[c] != 0) continue;
       // On the edge opposite corner c: that segment alone decides, in key order.
       std::size_t a = v[(c + 1) % 3], e = v[(c + 2) % 3];
-      if (keys_[e] < keys_[a]) std::swap(a, e);
-      return steps(heightNearSegment(line, terrain_[a], terrain_[e]));
+      const Lattice& lattice = *geometry_.lattice;
+      if (lattice.key(face_, points_[e]) < lattice.key(face_, points_[a])) std::swap(a, e);
+      return steps(heightNearSegment(line, terrainOf(a), terrainOf(e)));
     }
     // Inside: where the line meets the triangle's plane.
-    const glm::dvec3 normal =
-        glm::cross(terrain_[v[1]] - terrain_[v[0]], terrain_[v[2]] - terrain_[v[0]]);
+    const glm::dvec3& t0 = terrainOf(v[0]);
+    const glm::dvec3 normal = glm::cross(terrainOf(v[1]) - t0, terrainOf(v[2]) - t0);
     const double along = glm::dot(line.normal, normal);
     if (along == 0.0) return std::nullopt;
-    return steps(glm::dot(terrain_[v[0]] - line.origin, normal) / along);
+    return steps(glm::dot(t0 - line.origin, normal) / along);
   }
   return std::nullopt;
 }

@@ -46,16 +46,20 @@ class CoarserSurface final {
   CoarserSurface(const MorphGeometry& geometry, const runtime::BinTriangle& node,
                  const formats::PatchMesh& mesh, std::vector<runtime::LatticeXY> points);
   /// The target of lattice point `q` of the node's face, in height steps; nullopt when no
-  /// triangle holds q.
+  /// triangle holds q. Not thread-safe: it fills the corners' terrain points as it meets them.
   std::optional<std::int32_t> targetAt(runtime::LatticeXY q) const;
 
  private:
+  /// Vertex v's terrain point, computed on first use: a grandparent's surface answers only a
+  /// grandchild's few hypotenuse vertices, so most of its corners are never asked for.
+  const glm::dvec3& terrainOf(std::size_t v) const;
+
   const MorphGeometry& geometry_;
   int face_ = 0;
   const formats::PatchMesh& mesh_;
   std::vector<runtime::LatticeXY> points_;
-  std::vector<runtime::PointKey> keys_;
-  std::vector<glm::dvec3> terrain_;
+  mutable std::vector<glm::dvec3> terrain_;
+  mutable std::vector<bool> hasTerrain_;
   runtime::LatticeXY low_{0};
   std::int64_t cell_ = 1;
   std::int64_t columns_ = 1;
