@@ -125,10 +125,20 @@ TexelGrid makeTexelGrid(const Planet& planet, const TextureTileRequest& request,
   grid.directions.resize(total);
   grid.surface.resize(total);
   const CubeFace face = cubeFaceFromIndex(request.face);
+  // A texel's u depends on its column only and v on its row: each plane coordinate is computed
+  // once per column or row (CubeMap::faceUvToDirection's two tangents, not two per texel).
+  std::vector<double> planeU(static_cast<std::size_t>(count));
+  std::vector<double> planeV(static_cast<std::size_t>(count));
+  for (int k = 0; k < count; ++k) {
+    const glm::dvec2 uv = textureTexelFaceUv(request, first + k, first + k);
+    planeU[static_cast<std::size_t>(k)] = CubeMap::uvToPlaneCoordinate(uv.x);
+    planeV[static_cast<std::size_t>(k)] = CubeMap::uvToPlaneCoordinate(uv.y);
+  }
   for (int y = first; y < first + count; ++y) {
     for (int x = first; x < first + count; ++x) {
-      const glm::dvec2 uv = textureTexelFaceUv(request, x, y);
-      const glm::dvec3 direction = CubeMap::faceUvToDirection(face, uv);
+      const glm::dvec3 direction =
+          CubeMap::planeToDirection(face, planeU[static_cast<std::size_t>(x - first)],
+                                    planeV[static_cast<std::size_t>(y - first)]);
       grid.directions[grid.index(x, y)] = direction;
       grid.surface[grid.index(x, y)] = planet.directionToSurfaceEcef(direction);
     }
