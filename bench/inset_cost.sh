@@ -99,7 +99,8 @@ for name in ("base", "inset"):
                 runs[(name, run["mode"], run["prefetch"])] = run
 for mode, prefetch in (("paging", "off"), ("paging", "on"), ("no-stall", "on")):
     b, i = runs[("base", mode, prefetch)], runs[("inset", mode, prefetch)]
-    for key in ("render_thread_major_faults", "data_stalls"):
+    for key in ("render_thread_major_faults", "render_thread_major_faults_after_first_frame",
+                "data_stalls"):
         ratio = i[key] / b[key] if b[key] else float("nan")
         print(f"flight {mode} prefetch {prefetch}: {key} base {b[key]}, inset {i[key]}, "
               f"ratio {ratio:.2f} (target <= 1.2)")

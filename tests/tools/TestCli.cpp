@@ -35,6 +35,14 @@ std::string readText(const std::filesystem::path& file) {
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
+/// The comma-separated cells of one CSV line (frames.csv has no quoted cells).
+std::vector<std::string> splitCsv(const std::string& line) {
+  std::vector<std::string> cells;
+  std::istringstream row(line);
+  for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+  return cells;
+}
+
 /// Runs pbdam with `args` (a shell-quoted string), capturing stdout and stderr.
 CliRun runPbdam(const std::string& args) {
   return test::runCommand(std::string("'") + PBDAM_EXE + "' " + args);
@@ -366,10 +374,29 @@ TEST(Cli, PathThenColdBenchWithAndWithoutPrefetchOnMola) {
     EXPECT_GE(run["frame_ms_p99"].get<double>(), run["frame_ms_p50"].get<double>());
   }
   EXPECT_TRUE(std::filesystem::file_size(dir / "report" / "report.png") > 10000);
-  std::ifstream frames(dir / "report" / "frames.csv");
-  const auto lines =
-      std::count(std::istreambuf_iterator<char>(frames), std::istreambuf_iterator<char>(), '\n');
-  EXPECT_EQ(lines, 1 + 2 * 7);
+  const std::string frames = readText(dir / "report" / "frames.csv");
+  EXPECT_EQ(std::count(frames.begin(), frames.end(), '\n'), 1 + 2 * 7);
+  // Each run's faults are its frames' sum, and the count after the first frame leaves out
+  // exactly the first frame's (rows are in run order, frame order within a run).
+  std::istringstream csv(frames);
+  std::string line;
+  std::getline(csv, line);
+  const std::vector<std::string> header = splitCsv(line);
+  const auto column = static_cast<std::size_t>(
+      std::find(header.begin(), header.end(), "render_thread_major_faults") - header.begin());
+  ASSERT_LT(column, header.size()) << line;
+  for (const auto& run : summary["runs"]) {
+    std::uint64_t total = 0;
+    std::uint64_t first = 0;
+    for (int k = 0; k < 7 && std::getline(csv, line); ++k) {
+      const std::uint64_t faults = std::stoull(splitCsv(line).at(column));
+      total += faults;
+      if (k == 0) first = faults;
+    }
+    EXPECT_EQ(run["render_thread_major_faults"].get<std::uint64_t>(), total);
+    EXPECT_EQ(run["render_thread_major_faults_after_first_frame"].get<std::uint64_t>(),
+              total - first);
+  }
 }
 
 TEST(Cli, NoStallBenchNeverFaultsOnTheRenderThread) {
@@ -396,6 +423,7 @@ TEST(Cli, NoStallBenchNeverFaultsOnTheRenderThread) {
     EXPECT_EQ(run["mode"], "no-stall");
     EXPECT_EQ(run["render_thread_major_faults"], 0) << "frames.csv:\n"
                                                     << readText(dir / "r" / "frames.csv");
+    EXPECT_EQ(run["render_thread_major_faults_after_first_frame"], 0);
   }
 }
 
@@ -610,9 +638,7 @@ TEST(Cli, BenchCutReuseKeepsTheCutsAndPoppingIsMeasured) {
         << line;
     EXPECT_EQ(run["morph"], "on");  // the default
     for (int frame = 0; std::getline(csv, line); ++frame) {
-      std::vector<std::string> cells;
-      std::istringstream row(line);
-      for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+      const std::vector<std::string> cells = splitCsv(line);
       ASSERT_EQ(cells.size(), 26u) << line;
       EXPECT_EQ(cells[24], "on");
       triangles[reuse].push_back(cells[9]);
@@ -646,12 +672,7 @@ TEST(Cli, BenchCutReuseKeepsTheCutsAndPoppingIsMeasured) {
     std::string line;
     std::getline(csv, line);
     std::vector<std::string> gpuTriangles;
-    while (std::getline(csv, line)) {
-      std::vector<std::string> cells;
-      std::istringstream row(line);
-      for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
-      gpuTriangles.push_back(cells.at(9));
-    }
+    while (std::getline(csv, line)) gpuTriangles.push_back(splitCsv(line).at(9));
     EXPECT_EQ(gpuTriangles, triangles["on"]);
   }
   EXPECT_LT(2.0 * decisions["on"], decisions["off"]);
