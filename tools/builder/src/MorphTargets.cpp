@@ -69,37 +69,50 @@ std::optional<std::vector<LatticeXY>> patchLatticePoints(const runtime::BinTrian
 }
 
 CoarserSurface::CoarserSurface(const MorphGeometry& geometry, const runtime::BinTriangle& node,
-                               const PatchMesh& mesh, std::vector<LatticeXY> points)
+                               const PatchMesh& mesh, std::vector<LatticeXY> points,
+                               LatticeXY regionLow, LatticeXY regionHigh)
     : geometry_(geometry), face_(node.face), mesh_(mesh), points_(std::move(points)) {
   const std::vector<std::uint16_t>& index = mesh.indices;
   const std::size_t triangles = index.size() / 3;
   if (points_.empty() || triangles == 0) return;
   terrain_.resize(points_.size());
   hasTerrain_.assign(points_.size(), false);
-  LatticeXY high = points_[0];
   low_ = points_[0];
+  high_ = points_[0];
   for (const LatticeXY& q : points_) {
     low_ = glm::min(low_, q);
-    high = glm::max(high, q);
+    high_ = glm::max(high_, q);
   }
-  // About two triangles per bucket.
-  const std::int64_t extent = std::max<std::int64_t>(
-      1, std::max(std::int64_t{high.x} - low_.x, std::int64_t{high.y} - low_.y));
-  const auto perSide = static_cast<std::int64_t>(
-      std::max(1.0, std::ceil(std::sqrt(static_cast<double>(triangles) / 2.0))));
-  cell_ = std::max<std::int64_t>(1, (extent + perSide - 1) / perSide);
-  columns_ = (std::int64_t{high.x} - low_.x) / cell_ + 1;
-  rows_ = (std::int64_t{high.y} - low_.y) / cell_ + 1;
-  const auto buckets = static_cast<std::size_t>(columns_ * rows_);
-  // Counting sort of (bucket, triangle) pairs: each triangle in every bucket its box overlaps.
-  std::vector<std::uint32_t> count(buckets + 1, 0);
-  const auto forBuckets = [&](std::size_t t, auto&& visit) {
+  low_ = glm::max(low_, regionLow);
+  high_ = glm::min(high_, regionHigh);
+  if (low_.x > high_.x || low_.y > high_.y) return;
+  // Each triangle's box clipped to the region; empty where it does not reach it.
+  std::vector<std::array<LatticeXY, 2>> boxes(triangles);
+  std::size_t reaching = 0;
+  for (std::size_t t = 0; t < triangles; ++t) {
     LatticeXY lo = points_[index[3 * t]];
     LatticeXY hi = lo;
     for (std::size_t k = 1; k < 3; ++k) {
       lo = glm::min(lo, points_[index[3 * t + k]]);
       hi = glm::max(hi, points_[index[3 * t + k]]);
     }
+    boxes[t] = {glm::max(lo, low_), glm::min(hi, high_)};
+    if (boxes[t][0].x <= boxes[t][1].x && boxes[t][0].y <= boxes[t][1].y) ++reaching;
+  }
+  // About two triangles per bucket.
+  const std::int64_t extent = std::max<std::int64_t>(
+      1, std::max(std::int64_t{high_.x} - low_.x, std::int64_t{high_.y} - low_.y));
+  const auto perSide = static_cast<std::int64_t>(std::max(
+      1.0, std::ceil(std::sqrt(static_cast<double>(std::max<std::size_t>(reaching, 1)) / 2.0))));
+  cell_ = std::max<std::int64_t>(1, (extent + perSide - 1) / perSide);
+  columns_ = (std::int64_t{high_.x} - low_.x) / cell_ + 1;
+  rows_ = (std::int64_t{high_.y} - low_.y) / cell_ + 1;
+  const auto buckets = static_cast<std::size_t>(columns_ * rows_);
+  // Counting sort of (bucket, triangle) pairs: each triangle in every bucket its box overlaps.
+  std::vector<std::uint32_t> count(buckets + 1, 0);
+  const auto forBuckets = [&](std::size_t t, auto&& visit) {
+    const auto& [lo, hi] = boxes[t];
+    if (lo.x > hi.x || lo.y > hi.y) return;  // the triangle does not reach the region
     for (std::int64_t row = (lo.y - low_.y) / cell_; row <= (hi.y - low_.y) / cell_; ++row) {
       for (std::int64_t col = (lo.x - low_.x) / cell_; col <= (hi.x - low_.x) / cell_; ++col) {
         visit(static_cast<std::size_t>(row * columns_ + col));
@@ -128,10 +141,11 @@ const glm::dvec3& CoarserSurface::terrainOf(std::size_t v) const {
 }
 
 std::optional<std::int32_t> CoarserSurface::targetAt(LatticeXY q) const {
-  if (first_.empty() || q.x < low_.x || q.y < low_.y) return std::nullopt;
+  if (first_.empty() || q.x < low_.x || q.y < low_.y || q.x > high_.x || q.y > high_.y) {
+    return std::nullopt;
+  }
   const std::int64_t col = (std::int64_t{q.x} - low_.x) / cell_;
   const std::int64_t row = (std::int64_t{q.y} - low_.y) / cell_;
-  if (col >= columns_ || row >= rows_) return std::nullopt;
   const auto b = static_cast<std::size_t>(row * columns_ + col);
   const std::vector<std::uint16_t>& index = mesh_.indices;
   const double step = geometry_.heightStepMeters;
@@ -190,18 +204,25 @@ std::optional<std::vector<std::int32_t>> nodeMorphTargets(
   const runtime::BinTriangle self = triangleOfNode(lattice, id, depth);
   const auto points = patchLatticePoints(self, mesh);
   if (!points) return std::nullopt;
-  const auto surface = [&](std::uint64_t nodeId,
-                           const PatchMesh& patch) -> std::optional<CoarserSurface> {
+  // The boxes of what each ancestor is asked: the parent the node's interior and leg vertices
+  // (its whole box), the grandparent its hypotenuse vertices (the box of its hypotenuse).
+  const LatticeXY nodeLow = glm::min(self.apex, glm::min(self.left, self.right));
+  const LatticeXY nodeHigh = glm::max(self.apex, glm::max(self.left, self.right));
+  const auto surface = [&](std::uint64_t nodeId, const PatchMesh& patch, LatticeXY low,
+                           LatticeXY high) -> std::optional<CoarserSurface> {
     const runtime::BinTriangle t = triangleOfNode(lattice, nodeId, depth);
     auto corners = patchLatticePoints(t, patch);
     if (!corners) return std::nullopt;
-    return std::optional<CoarserSurface>(std::in_place, geometry, t, patch, std::move(*corners));
+    return std::optional<CoarserSurface>(std::in_place, geometry, t, patch, std::move(*corners),
+                                         low, high);
   };
-  const std::optional<CoarserSurface> up = surface(*ancestors.parent, *parent);
+  const std::optional<CoarserSurface> up = surface(*ancestors.parent, *parent, nodeLow, nodeHigh);
   if (!up) return std::nullopt;
   const bool hasGrandparent = grandparent != nullptr && ancestors.grandparent.has_value();
   const std::optional<CoarserSurface> upUp =
-      hasGrandparent ? surface(*ancestors.grandparent, *grandparent) : std::nullopt;
+      hasGrandparent ? surface(*ancestors.grandparent, *grandparent,
+                               glm::min(self.left, self.right), glm::max(self.left, self.right))
+                     : std::nullopt;
   if (hasGrandparent && !upUp) return std::nullopt;
   std::vector<std::int32_t> targets(mesh.vertices.size());
   for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {

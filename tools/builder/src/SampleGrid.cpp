@@ -477,7 +477,7 @@ SampleGrid::TriangleBins SampleGrid::binTriangles(
   const auto binsOf = [](std::int64_t extent, std::int64_t cells) {
     return (extent + cells - 1) / cells;
   };
-  const std::int64_t most = std::max<std::int64_t>(16, 4 * std::ssize(triangles));
+  const std::int64_t most = std::max<std::int64_t>(16, 16 * std::ssize(triangles));
   while (binsOf(w, bins.binCells) * binsOf(h, bins.binCells) > most) bins.binCells *= 2;
   bins.columns = binsOf(w, bins.binCells);
   bins.rows = binsOf(h, bins.binCells);

@@ -43,10 +43,16 @@ struct MorphGeometry final {
 /// and a bucket grid over its triangles' bounding boxes to find the one that holds a point.
 class CoarserSurface final {
  public:
+  /// Only points of the box [regionLow, regionHigh] will be asked for: the grid covers the
+  /// triangles that reach it (a finer patch's own box in its parent, its hypotenuse in its
+  /// grandparent). Every triangle holding such a point reaches the box and keeps its order,
+  /// so the answers are those of a grid over the whole patch.
   CoarserSurface(const MorphGeometry& geometry, const runtime::BinTriangle& node,
-                 const formats::PatchMesh& mesh, std::vector<runtime::LatticeXY> points);
+                 const formats::PatchMesh& mesh, std::vector<runtime::LatticeXY> points,
+                 runtime::LatticeXY regionLow, runtime::LatticeXY regionHigh);
   /// The target of lattice point `q` of the node's face, in height steps; nullopt when no
-  /// triangle holds q. Not thread-safe: it fills the corners' terrain points as it meets them.
+  /// triangle holds q or q is outside the region. Not thread-safe: it fills the corners'
+  /// terrain points as it meets them.
   std::optional<std::int32_t> targetAt(runtime::LatticeXY q) const;
 
  private:
@@ -61,6 +67,7 @@ class CoarserSurface final {
   mutable std::vector<glm::dvec3> terrain_;
   mutable std::vector<bool> hasTerrain_;
   runtime::LatticeXY low_{0};
+  runtime::LatticeXY high_{0};
   std::int64_t cell_ = 1;
   std::int64_t columns_ = 1;
   std::int64_t rows_ = 1;
