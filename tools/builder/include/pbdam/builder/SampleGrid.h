@@ -265,7 +265,7 @@ class SampleGrid final {
   /// same inside test and weights, fn(k, l0, l1, l2, sample) — but each sample of the patch's
   /// buckets is read once and tested only against the triangles whose bounding boxes reach the
   /// bin it lies in (instead of by every triangle whose widened bucket box reaches it). Bins are
-  /// squares of a power-of-two number of cells, at most four per triangle. The order of the
+  /// squares of a power-of-two number of cells, at most sixteen per triangle. The order of the
   /// visits differs.
   template <typename Fn>
   void forEachSourceSampleInTriangles(int face, const std::array<runtime::LatticeXY, 3>& outline,
@@ -365,7 +365,7 @@ class SampleGrid final {
     std::uint32_t bx0 = 0, bx1 = 0, by0 = 0, by1 = 0;
   };
   /// A patch's triangles binned for forEachSourceSampleInTriangles: bins are squares of
-  /// `binCells` cells (a power of two, at most four bins per triangle) over the triangles' box
+  /// `binCells` cells (a power of two, at most sixteen bins per triangle) over the triangles' box
   /// from (x0, y0); a triangle is in the bins its own box covers (`reach`: columns and rows,
   /// first and last), listed CSR-style (`start`, `binned`). A sample passes a triangle's test
   /// only if its barycentric weights are all ≥ −1e-9, so it lies within 1e-8 of the box's
