@@ -7,16 +7,44 @@
 
 namespace pbdam::runtime {
 
+namespace {
+
+/// A coordinate strictly inside the face: a point with both has no alias on another face.
+bool insideFace(std::int32_t v, std::uint32_t latticeCells) noexcept {
+  return v > 0 && std::cmp_less(v, latticeCells);
+}
+
+double planeCoordinate(std::uint32_t v, std::uint32_t latticeCells) noexcept {
+  return CubeMap::uvToPlaneCoordinate(static_cast<double>(v) / static_cast<double>(latticeCells));
+}
+
+}  // namespace
+
 glm::dvec3 latticeDirection(std::uint32_t latticeCells, int face, LatticeXY p) noexcept {
-  const double n = static_cast<double>(latticeCells);
   CubeLatticePoint c{cubeFaceFromIndex(face), static_cast<std::uint32_t>(p.x),
                      static_cast<std::uint32_t>(p.y)};
   // A point inside the face has no alias on another face: skip the alias search.
-  const bool interior =
-      p.x > 0 && p.y > 0 && std::cmp_less(p.x, latticeCells) && std::cmp_less(p.y, latticeCells);
-  if (!interior) c = CubeMap::canonicalLatticePoint(c, latticeCells);
-  return CubeMap::faceUvToDirection(c.face,
-                                    {static_cast<double>(c.i) / n, static_cast<double>(c.j) / n});
+  if (!insideFace(p.x, latticeCells) || !insideFace(p.y, latticeCells)) {
+    c = CubeMap::canonicalLatticePoint(c, latticeCells);
+  }
+  // CubeMap::faceUvToDirection, spelled out so that LatticeRowDirections shares it.
+  return CubeMap::planeToDirection(c.face, planeCoordinate(c.i, latticeCells),
+                                   planeCoordinate(c.j, latticeCells));
+}
+
+LatticeRowDirections::LatticeRowDirections(std::uint32_t latticeCells, int face,
+                                           std::int32_t y) noexcept
+    : cells_(latticeCells),
+      face_(face),
+      y_(y),
+      planeV_(planeCoordinate(static_cast<std::uint32_t>(y), latticeCells)) {}
+
+glm::dvec3 LatticeRowDirections::at(std::int32_t x) const noexcept {
+  if (!insideFace(x, cells_) || !insideFace(y_, cells_)) {
+    return latticeDirection(cells_, face_, LatticeXY{x, y_});
+  }
+  return CubeMap::planeToDirection(cubeFaceFromIndex(face_),
+                                   planeCoordinate(static_cast<std::uint32_t>(x), cells_), planeV_);
 }
 
 glm::dvec3 terrainPointOfDirection(const Planet& planet, const glm::dvec3& d,

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "pbdam/runtime/CubeMap.h"
+#include "pbdam/runtime/TerrainPoint.h"
 
 using namespace pbdam::runtime;
 
@@ -274,6 +275,24 @@ TEST(CubeMap, TangentAdjustmentGivesNearUniformCellAreas) {
   EXPECT_GT(gnomonicRatio, 4.0);
   RecordProperty("tangentAreaRatio", std::to_string(tangentRatio));
   RecordProperty("gnomonicAreaRatio", std::to_string(gnomonicRatio));
+}
+
+// Resampling asks for a lattice row's directions through LatticeRowDirections, patches for single
+// points through latticeDirection: both must give the same doubles everywhere, face edges and
+// cube corners (the canonical alias) included.
+TEST(CubeMap, RowDirectionsAreLatticeDirectionsBitForBit) {
+  constexpr std::uint32_t cells = 16;
+  for (int face = 0; face < kCubeFaceCount; ++face) {
+    for (std::int32_t y = 0; y <= static_cast<std::int32_t>(cells); ++y) {
+      const LatticeRowDirections row(cells, face, y);
+      for (std::int32_t x = 0; x <= static_cast<std::int32_t>(cells); ++x) {
+        const glm::dvec3 a = row.at(x);
+        const glm::dvec3 b = latticeDirection(cells, face, LatticeXY{x, y});
+        EXPECT_TRUE(a.x == b.x && a.y == b.y && a.z == b.z)
+            << "face " << face << " point " << x << "," << y;
+      }
+    }
+  }
 }
 
 }  // namespace

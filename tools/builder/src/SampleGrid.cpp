@@ -6,7 +6,6 @@
 
 #include "pbdam/formats/FileWrite.h"
 #include "pbdam/formats/MemoryMapping.h"
-#include "pbdam/runtime/CubeMap.h"
 #include "pbdam/runtime/TerrainPoint.h"
 
 #include <fcntl.h>
@@ -22,7 +21,6 @@
 #include <mutex>
 #include <optional>
 #include <span>
-#include <utility>
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
@@ -51,24 +49,11 @@ template <typename HeightAt>
 std::uint64_t resampleRow(const HeightAt& heightAt, const Planet& planet, const Lattice& lattice,
                           const LatticeTiles::Row& row, float* out) {
   std::uint64_t missing = 0;
-  const std::uint32_t n = lattice.sideCells();
-  const bool interiorRow = row.first.y > 0 && std::cmp_less(row.first.y, n);
-  // Inside the face a point's direction is latticeDirection's planeToDirection of its two
-  // plane coordinates, and the row's is the same for every point: computed once.
-  const double planeV =
-      CubeMap::uvToPlaneCoordinate(static_cast<double>(row.first.y) / static_cast<double>(n));
-  const CubeFace face = cubeFaceFromIndex(row.face);
+  // Shared edge/corner points are computed from their canonical direction, so every face (and
+  // every tile) stores the same value.
+  const LatticeRowDirections directions(lattice.sideCells(), row.face, row.first.y);
   for (std::uint32_t i = 0; i < row.points; ++i) {
-    const LatticeXY p{row.first.x + static_cast<std::int32_t>(i) * row.spacing, row.first.y};
-    // Shared edge/corner points are computed from their canonical direction, so every face
-    // (and every tile) stores the same value.
-    const glm::dvec3 d =
-        interiorRow && p.x > 0 && std::cmp_less(p.x, n)
-            ? CubeMap::planeToDirection(
-                  face,
-                  CubeMap::uvToPlaneCoordinate(static_cast<double>(p.x) / static_cast<double>(n)),
-                  planeV)
-            : lattice.direction(row.face, p);
+    const glm::dvec3 d = directions.at(row.first.x + static_cast<std::int32_t>(i) * row.spacing);
     const GeodeticPosition g = planet.directionToGeodetic(d);
     const std::optional<double> h = heightAt(g.latDegrees, g.lonDegrees);
     if (!h) ++missing;

@@ -18,6 +18,22 @@ namespace pbdam::runtime {
 /// coordinates must lie in [0, latticeCells].
 glm::dvec3 latticeDirection(std::uint32_t latticeCells, int face, LatticeXY p) noexcept;
 
+/// latticeDirection for the points of one lattice row: the same doubles, with the row's plane
+/// coordinate (a tangent) computed once instead of at every point. For resampling, which asks
+/// for every point of a row in turn.
+class LatticeRowDirections final {
+ public:
+  LatticeRowDirections(std::uint32_t latticeCells, int face, std::int32_t y) noexcept;
+  /// latticeDirection(latticeCells, face, {x, y}).
+  glm::dvec3 at(std::int32_t x) const noexcept;
+
+ private:
+  std::uint32_t cells_;
+  int face_;
+  std::int32_t y_;
+  double planeV_;
+};
+
 /// The reference-surface point on the ray along `unitDirection` raised by `heightMeters` along
 /// the planet's surface normal there: (R + h)·d on a sphere; on an ellipsoid S + h·n(S) with
 /// S = d / |(dx/a, dy/a, dz/b)| and n(S) ∝ (Sx/a², Sy/a², Sz/b²), closed form (no trigonometry).
