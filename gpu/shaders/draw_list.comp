@@ -85,17 +85,32 @@ double dotOf(dvec3 a, dvec3 b) {
   return d;
 }
 
-// PatchDraw.cpp's toBaryGrid: down to the 2^-15 grid after clamping into [0, 1].
+// PatchDraw.cpp's toBaryGrid: down to the 2^-15 grid after clamping into [0, 1] (floor() is
+// exact here: its argument is at most 2^15, see truncExact).
 double toBaryGrid(double w) {
   precise double q = clamp(w, 0.0LF, 1.0LF) / (1.0LF / 32768.0LF);
   precise double r = floor(q) * (1.0LF / 32768.0LF);
   return r;
 }
 
+// trunc(q) from additions alone. lavapipe's trunc() and floor() of a double are not exact on
+// every CPU: on x86-64 without AVX-512 (its generic rounding path) they return any |q| >= 2^24
+// unchanged, as if a double's fraction ended where a float's does, which left heights 2^24
+// height steps (262 km) and more above the planet off the height grid. Adding and taking away
+// 2^52 rounds |q| to an integer exactly on every IEEE device.
+double truncExact(double q) {
+  const double big = 4503599627370496.0LF;  // 2^52: every double at or above it is an integer
+  precise double a = abs(q);
+  if (!(a < big)) return q;
+  precise double n = (a + big) - big;
+  precise double t = n > a ? n - 1.0LF : n;
+  return q < 0.0LF ? -t : t;
+}
+
 // std::round (halves away from zero) of h / step, times step.
 double toHeightGrid(double h, double step) {
   precise double q = h / step;
-  precise double t = trunc(q);
+  precise double t = truncExact(q);
   precise double rest = abs(q - t);
   precise double rounded = rest >= 0.5LF ? t + sign(q) : t;
   precise double r = rounded * step;
