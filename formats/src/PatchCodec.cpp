@@ -14,6 +14,8 @@
 #include <numeric>
 #include <string>
 
+#include "ByteOrder.h"
+#include "Lzo.h"
 #include "pbdam/formats/Checksum.h"
 
 namespace pbdam::formats {
@@ -34,28 +36,6 @@ constexpr int kCompactLevel = 4;
 // the end of the wide stream (the value is then discarded).
 constexpr std::size_t kScratchSlack = 16;
 
-// ---- little-endian header fields ---------------------------------------------------------
-
-void putU16(std::byte* p, std::uint16_t v) noexcept {
-  p[0] = static_cast<std::byte>(v & 0xFFU);
-  p[1] = static_cast<std::byte>(v >> 8);
-}
-
-void putU32(std::byte* p, std::uint32_t v) noexcept {
-  for (int i = 0; i < 4; ++i) p[i] = static_cast<std::byte>((v >> (8 * i)) & 0xFFU);
-}
-
-std::uint16_t getU16(const std::byte* p) noexcept {
-  return static_cast<std::uint16_t>(std::to_integer<unsigned>(p[0]) |
-                                    (std::to_integer<unsigned>(p[1]) << 8));
-}
-
-std::uint32_t getU32(const std::byte* p) noexcept {
-  std::uint32_t v = 0;
-  for (int i = 3; i >= 0; --i) v = (v << 8) | std::to_integer<std::uint32_t>(p[i]);
-  return v;
-}
-
 // ---- zigzag on wrapping 16/32-bit deltas ---------------------------------------------------
 
 std::uint16_t zigzag16(std::uint16_t delta) noexcept {
@@ -70,16 +50,6 @@ std::uint16_t unzigzag16(unsigned z) noexcept {
 std::uint32_t zigzag32(std::uint32_t delta) noexcept { return (delta << 1) ^ (0U - (delta >> 31)); }
 
 std::uint32_t unzigzag32(std::uint32_t z) noexcept { return (z >> 1) ^ (0U - (z & 1U)); }
-
-// ---- LZO -----------------------------------------------------------------------------------
-
-bool lzoReady() noexcept {
-  static const bool ready = lzo_init() == LZO_E_OK;
-  return ready;
-}
-
-// Worst-case LZO1X output for `n` input bytes (LZO's documented bound).
-std::size_t lzoBound(std::size_t n) noexcept { return n + n / 16 + 64 + 3; }
 
 // Payload size for the given counts (PatchBlob.md): vertex planes, the index nibble plane and
 // the two byte planes of the wide index codes.
@@ -205,7 +175,7 @@ Result<PatchBlobInfo> readHeader(std::span<const std::byte> blob, std::string_vi
     return corrupt(context, "patch compressed size " + std::to_string(info.compressedBytes) +
                                 " does not match the blob size " + std::to_string(blob.size()));
   }
-  if (info.compressedBytes > lzoBound(info.rawBytes)) {
+  if (info.compressedBytes > lzoWorstCaseBytes(info.rawBytes)) {
     return corrupt(context, "patch compressed size exceeds the LZO bound of its raw size");
   }
   return info;
@@ -261,35 +231,30 @@ void optimizePatchForRendering(PatchMesh& mesh) {
 Result<std::vector<std::byte>> encodePatch(const PatchMesh& mesh, PatchCompression compression) {
   const std::size_t n = mesh.vertices.size();
   if (n > kPatchMaxVertices) {
-    return makeError(ErrorCode::InvalidArgument,
-                     "patch has " + std::to_string(n) + " vertices; at most " +
-                         std::to_string(kPatchMaxVertices) + " fit 16-bit indices");
+    return invalidArgument("patch has " + std::to_string(n) + " vertices; at most " +
+                           std::to_string(kPatchMaxVertices) + " fit 16-bit indices");
   }
   if (mesh.indices.size() % 3 != 0) {
-    return makeError(
-        ErrorCode::InvalidArgument,
-        "patch index count " + std::to_string(mesh.indices.size()) + " is not a multiple of 3");
+    return invalidArgument("patch index count " + std::to_string(mesh.indices.size()) +
+                           " is not a multiple of 3");
   }
   const std::size_t triangles = mesh.indices.size() / 3;
   if (triangles > kPatchMaxTriangles) {
-    return makeError(ErrorCode::InvalidArgument,
-                     "patch has " + std::to_string(triangles) + " triangles; at most " +
-                         std::to_string(kPatchMaxTriangles) + " are allowed");
+    return invalidArgument("patch has " + std::to_string(triangles) + " triangles; at most " +
+                           std::to_string(kPatchMaxTriangles) + " are allowed");
   }
   for (std::size_t k = 0; k < mesh.indices.size(); ++k) {
     if (mesh.indices[k] >= n) {
-      return makeError(ErrorCode::InvalidArgument, "patch index " + std::to_string(k) + " = " +
-                                                       std::to_string(mesh.indices[k]) +
-                                                       " is out of range for " + std::to_string(n) +
-                                                       " vertices");
+      return invalidArgument("patch index " + std::to_string(k) + " = " +
+                             std::to_string(mesh.indices[k]) + " is out of range for " +
+                             std::to_string(n) + " vertices");
     }
   }
   for (std::size_t i = 0; i < n; ++i) {
     const PatchVertex& v = mesh.vertices[i];
     if (std::uint32_t{v.b1} + v.b2 > kPatchBarycentricOne) {
-      return makeError(ErrorCode::InvalidArgument,
-                       "patch vertex " + std::to_string(i) + " has b1 + b2 = " +
-                           std::to_string(std::uint32_t{v.b1} + v.b2) + " > 32768");
+      return invalidArgument("patch vertex " + std::to_string(i) + " has b1 + b2 = " +
+                             std::to_string(std::uint32_t{v.b1} + v.b2) + " > 32768");
     }
   }
   if (!lzoReady()) return makeError(ErrorCode::Internal, "lzo_init failed");
@@ -299,7 +264,7 @@ Result<std::vector<std::byte>> encodePatch(const PatchMesh& mesh, PatchCompressi
       std::max<std::size_t>(LZO1X_999_MEM_COMPRESS, LZO1X_1_MEM_COMPRESS));
   const std::size_t wide = buildPayload(mesh, raw);
 
-  std::vector<std::byte> blob(kPatchBlobHeaderBytes + lzoBound(raw.size()));
+  std::vector<std::byte> blob(kPatchBlobHeaderBytes + lzoWorstCaseBytes(raw.size()));
   auto* dst = reinterpret_cast<unsigned char*>(blob.data() + kPatchBlobHeaderBytes);
   lzo_uint compressed = blob.size() - kPatchBlobHeaderBytes;
   const int rc =
@@ -447,14 +412,12 @@ Result<std::vector<std::byte>> encodeMorphTargets(const PatchMesh& mesh,
                                                   std::span<const std::int32_t> targets) {
   const std::size_t n = mesh.vertices.size();
   if (targets.size() != n) {
-    return makeError(ErrorCode::InvalidArgument, std::to_string(targets.size()) +
-                                                     " morph targets for a patch of " +
-                                                     std::to_string(n) + " vertices");
+    return invalidArgument(std::to_string(targets.size()) + " morph targets for a patch of " +
+                           std::to_string(n) + " vertices");
   }
   if (n > kPatchMaxVertices) {
-    return makeError(ErrorCode::InvalidArgument,
-                     "patch has " + std::to_string(n) + " vertices; at most " +
-                         std::to_string(kPatchMaxVertices) + " are allowed");
+    return invalidArgument("patch has " + std::to_string(n) + " vertices; at most " +
+                           std::to_string(kPatchMaxVertices) + " are allowed");
   }
   if (!lzoReady()) return makeError(ErrorCode::Internal, "lzo_init failed");
   thread_local std::vector<unsigned char> raw;
@@ -467,7 +430,7 @@ Result<std::vector<std::byte>> encodeMorphTargets(const PatchMesh& mesh,
       raw[plane * n + i] = static_cast<unsigned char>((z >> (8 * plane)) & 0xFFU);
     }
   }
-  std::vector<std::byte> blob(kMorphBlobHeaderBytes + lzoBound(raw.size()));
+  std::vector<std::byte> blob(kMorphBlobHeaderBytes + lzoWorstCaseBytes(raw.size()));
   auto* dst = reinterpret_cast<unsigned char*>(blob.data() + kMorphBlobHeaderBytes);
   lzo_uint compressed = blob.size() - kMorphBlobHeaderBytes;
   if (const int rc = lzo1x_1_compress(raw.data(), raw.size(), dst, &compressed, workMemory.data());
@@ -511,7 +474,7 @@ Result<void> decodeMorphTargets(std::span<const std::byte> blob, const PatchMesh
                                 " targets for a patch of " + std::to_string(n) + " vertices");
   }
   const std::size_t compressedBytes = blob.size() - kMorphBlobHeaderBytes;
-  if (compressedBytes > lzoBound(4 * n)) {
+  if (compressedBytes > lzoWorstCaseBytes(4 * n)) {
     return corrupt(context, "morph-target blob exceeds the LZO bound of its raw size");
   }
   if (getU32(p + kMorphCrcOffset) != morphBlobCrc(blob)) {

@@ -11,6 +11,8 @@
 #include <cstring>
 #include <string>
 
+#include "ByteOrder.h"
+#include "Lzo.h"
 #include "pbdam/formats/Checksum.h"
 
 namespace pbdam::formats {
@@ -25,34 +27,6 @@ constexpr std::size_t kCrcOffset = 20;
 constexpr std::uint8_t kStored = 0;
 constexpr std::uint8_t kLzo1x = 1;
 
-void putU16(std::byte* out, std::uint32_t value) noexcept {
-  out[0] = static_cast<std::byte>(value & 0xFFu);
-  out[1] = static_cast<std::byte>((value >> 8) & 0xFFu);
-}
-
-void putU32(std::byte* out, std::uint32_t value) noexcept {
-  for (int i = 0; i < 4; ++i) out[i] = static_cast<std::byte>((value >> (8 * i)) & 0xFFu);
-}
-
-std::uint32_t getU16(const std::byte* in) noexcept {
-  return std::to_integer<std::uint32_t>(in[0]) | (std::to_integer<std::uint32_t>(in[1]) << 8);
-}
-
-std::uint32_t getU32(const std::byte* in) noexcept {
-  std::uint32_t value = 0;
-  for (int i = 0; i < 4; ++i) value |= std::to_integer<std::uint32_t>(in[i]) << (8 * i);
-  return value;
-}
-
-// liblzo2 must be initialised once per process; a function-local static makes that thread-safe.
-bool lzoReady() noexcept {
-  static const bool ready = lzo_init() == LZO_E_OK;
-  return ready;
-}
-
-// The most bytes LZO1X can produce for `rawBytes` of input (liblzo2's documented bound).
-std::size_t lzoWorstCase(std::size_t rawBytes) noexcept { return rawBytes + rawBytes / 16 + 67; }
-
 bool validFormat(std::uint8_t format) noexcept {
   return format == static_cast<std::uint8_t>(TexelFormat::Rgba8) ||
          format == static_cast<std::uint8_t>(TexelFormat::Bc1);
@@ -64,10 +38,6 @@ const char* formatName(TexelFormat format) noexcept {
 
 Error corrupt(std::string_view context, const std::string& what) {
   return makeError(ErrorCode::CorruptData, std::string(context) + ": " + what);
-}
-
-Error invalid(const std::string& what) {
-  return makeError(ErrorCode::InvalidArgument, "texture tile: " + what);
 }
 
 // Checks size, border and data length of an in-memory tile; empty string when consistent.
@@ -107,12 +77,12 @@ std::size_t textureTileDataBytes(std::uint32_t sizeTexels, TexelFormat format) n
 
 Result<std::vector<std::byte>> encodeTextureTile(const TextureTileImage& tile) {
   if (const std::string problem = describeInconsistency(tile); !problem.empty()) {
-    return invalid(problem);
+    return invalidArgument("texture tile: " + problem);
   }
   if (!lzoReady()) return makeError(ErrorCode::Internal, "texture tile: lzo_init failed");
 
   const std::size_t rawBytes = tile.data.size();
-  std::vector<std::byte> blob(kHeaderBytes + lzoWorstCase(rawBytes));
+  std::vector<std::byte> blob(kHeaderBytes + lzoWorstCaseBytes(rawBytes));
   // LZO1X-1 wants LZO1X_1_MEM_COMPRESS bytes of aligned scratch; per call keeps this reentrant.
   std::vector<lzo_align_t> work((LZO1X_1_MEM_COMPRESS + sizeof(lzo_align_t) - 1) /
                                 sizeof(lzo_align_t));
@@ -135,8 +105,8 @@ Result<std::vector<std::byte>> encodeTextureTile(const TextureTileImage& tile) {
   putU16(header + 4, kVersion);
   header[6] = static_cast<std::byte>(tile.format);
   header[7] = static_cast<std::byte>(compression);
-  putU16(header + 8, tile.sizeTexels);
-  putU16(header + 10, tile.borderTexels);
+  putU16(header + 8, static_cast<std::uint16_t>(tile.sizeTexels));
+  putU16(header + 10, static_cast<std::uint16_t>(tile.borderTexels));
   putU32(header + 12, static_cast<std::uint32_t>(rawBytes));
   putU32(header + 16, static_cast<std::uint32_t>(packedBytes));
   const std::span<const std::byte> bytes(blob);
@@ -204,7 +174,7 @@ Result<TextureTileImage> decodeTextureTile(std::span<const std::byte> blob,
     }
     std::memcpy(tile.data.data(), payload.data(), expected);
   } else if (compression == kLzo1x) {
-    if (payload.size() > lzoWorstCase(expected)) {
+    if (payload.size() > lzoWorstCaseBytes(expected)) {
       return corrupt(context, "texture tile LZO payload larger than any encoding of its texels");
     }
     if (!lzoReady()) return makeError(ErrorCode::Internal, "texture tile: lzo_init failed");
@@ -224,13 +194,14 @@ Result<TextureTileImage> decodeTextureTile(std::span<const std::byte> blob,
 }
 
 Result<TextureTileImage> compressBc1(const TextureTileImage& rgba, Bc1Quality quality) {
-  if (rgba.format != TexelFormat::Rgba8) return invalid("compressBc1 needs an rgba8 tile");
+  if (rgba.format != TexelFormat::Rgba8)
+    return invalidArgument("texture tile: compressBc1 needs an rgba8 tile");
   if (const std::string problem = describeInconsistency(rgba); !problem.empty()) {
-    return invalid(problem);
+    return invalidArgument("texture tile: " + problem);
   }
   if (rgba.sizeTexels % 4 != 0) {
-    return invalid("BC1 needs a size that is a multiple of 4, not " +
-                   std::to_string(rgba.sizeTexels));
+    return invalidArgument("texture tile: BC1 needs a size that is a multiple of 4, not " +
+                           std::to_string(rgba.sizeTexels));
   }
   const int flags = squish::kDxt1 | (quality == Bc1Quality::Fast ? squish::kColourRangeFit
                                                                  : squish::kColourClusterFit);
@@ -258,7 +229,7 @@ Result<TextureTileImage> compressBc1(const TextureTileImage& rgba, Bc1Quality qu
 
 Result<TextureTileImage> expandToRgba8(const TextureTileImage& tile) {
   if (const std::string problem = describeInconsistency(tile); !problem.empty()) {
-    return invalid(problem);
+    return invalidArgument("texture tile: " + problem);
   }
   if (tile.format == TexelFormat::Rgba8) return tile;
   TextureTileImage out;

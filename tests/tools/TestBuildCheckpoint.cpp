@@ -208,7 +208,7 @@ TEST(DistributedBuild, AnInterruptedBuildResumesToTheSameBytes) {
   }
 }
 
-TEST(DistributedBuild, ResumeRefusesOtherOptionsAndDamagedCheckpoints) {
+TEST(BuildCheckpoint, ResumeRefusesOtherOptionsAndDamagedCheckpoints) {
   PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
   test::TempDir dir;
   const fs::path out = dir / "out";
@@ -255,7 +255,7 @@ TEST(DistributedBuild, ResumeRefusesOtherOptionsAndDamagedCheckpoints) {
   expectSameDataset(dir / "plain", out);
 }
 
-TEST(DistributedBuild, ResumeWithoutACheckpointBuildsFromTheStart) {
+TEST(BuildCheckpoint, ResumeWithoutACheckpointBuildsFromTheStart) {
   PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
   test::TempDir dir;
   BuildOptions o = smallMola(dem, dir / "out");

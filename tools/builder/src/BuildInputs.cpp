@@ -23,8 +23,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-Error invalid(const std::string& what) { return makeError(ErrorCode::InvalidArgument, what); }
-
 std::string hex32(std::uint32_t v) {
   char s[16];
   std::snprintf(s, sizeof s, "%08x", v);
@@ -56,35 +54,39 @@ Result<BuildInputs> prepareInputs(const BuildOptions& o) {
   BuildInputs in;
   in.leafCells = o.leafVertices - 1;
   if (o.leafVertices < 3 || !std::has_single_bit(in.leafCells) || in.leafCells > 256) {
-    return invalid("--leaf-vertices " + std::to_string(o.leafVertices) +
-                   ": must be 2^k + 1 between 3 and 257 (e.g. 17 or 33)");
+    return invalidArgument("--leaf-vertices " + std::to_string(o.leafVertices) +
+                           ": must be 2^k + 1 between 3 and 257 (e.g. 17 or 33)");
   }
   if (o.minPatchTriangles < 16 || o.minPatchTriangles > kPatchMaxVertices) {
-    return invalid("--min-patch-triangles " + std::to_string(o.minPatchTriangles) +
-                   ": must be between 16 and 65535");
+    return invalidArgument("--min-patch-triangles " + std::to_string(o.minPatchTriangles) +
+                           ": must be between 16 and 65535");
   }
   if (!(o.errorMargin >= 0.25 && o.errorMargin <= 4.0)) {
-    return invalid("--error-margin " + exact(o.errorMargin) +
-                   ": must be between 0.25 and 4 (a level's error is at least 1 + r times its "
-                   "children's)");
+    return invalidArgument(
+        "--error-margin " + exact(o.errorMargin) +
+        ": must be between 0.25 and 4 (a level's error is at least 1 + r times its "
+        "children's)");
   }
   if (o.textureTileTexels < 16 || o.textureTileTexels > 4096 || o.textureTileTexels % 4 != 0) {
-    return invalid("--texture-tile " + std::to_string(o.textureTileTexels) +
-                   ": must be a multiple of 4 between 16 and 4096");
+    return invalidArgument("--texture-tile " + std::to_string(o.textureTileTexels) +
+                           ": must be a multiple of 4 between 16 and 4096");
   }
   if (o.depth && (*o.depth % 2 != 0 || *o.depth > 28)) {
-    return invalid("--levels " + std::to_string(*o.depth) + ": must be an even depth up to 28");
+    return invalidArgument("--levels " + std::to_string(*o.depth) +
+                           ": must be an even depth up to 28");
   }
-  if (!(o.heightStepMeters > 0.0) || o.threads < 0) return invalid("bad height step or threads");
+  if (!(o.heightStepMeters > 0.0) || o.threads < 0)
+    return invalidArgument("bad height step or threads");
   auto planet = Planet::fromSpec(o.planetSpec);
   if (!planet) return std::move(planet).error();
   in.planet = *planet;
   std::error_code ec;
   if (fs::exists(o.outDir, ec) && !fs::is_directory(o.outDir, ec)) {
-    return invalid(o.outDir.string() + ": exists and is not a directory");
+    return invalidArgument(o.outDir.string() + ": exists and is not a directory");
   }
   if (fs::exists(o.outDir / kManifestFileName, ec) && !o.force) {
-    return invalid(o.outDir.string() + ": already holds a dataset (use --force to replace it)");
+    return invalidArgument(o.outDir.string() +
+                           ": already holds a dataset (use --force to replace it)");
   }
 
   auto dem = readDem(o.demPath, demReadOptions(o));
@@ -93,8 +95,8 @@ Result<BuildInputs> prepareInputs(const BuildOptions& o) {
   const std::string spec = planet->name();
   if (!body.empty() && spec.rfind(body, 0) != 0 && spec.rfind("sphere", 0) != 0 &&
       spec.rfind("ellipsoid", 0) != 0) {
-    return invalid(o.demPath.string() + ": the DEM's CRS is on " + body + " but --planet is " +
-                   spec);
+    return invalidArgument(o.demPath.string() + ": the DEM's CRS is on " + body +
+                           " but --planet is " + spec);
   }
   if (!o.texturePath.empty()) {
     auto image = readImage(o.texturePath);
@@ -121,7 +123,7 @@ Result<BuildInputs> prepareInputs(const BuildOptions& o) {
     if (auto ok = checkInset(inset, *grid, *dem, planet->name()); !ok) return std::move(ok).error();
     const LatLonBounds b = grid->bounds();
     if (!(b.southDegrees >= -90.0 && b.northDegrees <= 90.0)) {
-      return invalid(inset.path.string() + ": its samples reach latitudes beyond ±90°");
+      return invalidArgument(inset.path.string() + ": its samples reach latitudes beyond ±90°");
     }
     // At least one level (two bintree levels) below the base, so the inset adds leaves.
     const auto level = std::max(levelOfDensity(*grid, in.leafCells), in.baseDepth + 2);
@@ -132,8 +134,8 @@ Result<BuildInputs> prepareInputs(const BuildOptions& o) {
     if (r.leafLevel % 2 != 0 || r.leafLevel <= static_cast<int>(in.baseDepth) ||
         !(r.bounds.southDegrees < r.bounds.northDegrees) ||
         !(r.bounds.westDegrees < r.bounds.eastDegrees)) {
-      return invalid("a deep region needs an even leaf level above the depth " +
-                     std::to_string(in.baseDepth) + " and a non-empty box");
+      return invalidArgument("a deep region needs an even leaf level above the depth " +
+                             std::to_string(in.baseDepth) + " and a non-empty box");
     }
     in.depth = std::max(in.depth, static_cast<std::uint32_t>(r.leafLevel));
   }
@@ -142,12 +144,12 @@ Result<BuildInputs> prepareInputs(const BuildOptions& o) {
   // leg) address exactly at every level.
   const std::uint64_t maxCells = in.deepRegions.empty() ? 16384 : 32768;
   if (std::uint64_t{in.leafCells} << (in.depth / 2) > maxCells) {
-    return invalid("the lattice would have " +
-                   std::to_string(std::uint64_t{in.leafCells} << (in.depth / 2)) +
-                   " cells per face side; at most " + std::to_string(maxCells) +
-                   (in.deepRegions.empty() ? " (choose --levels or larger leaves)"
-                                           : " with insets or deep regions (coarser insets, a "
-                                             "shallower --deep-region level or larger leaves)"));
+    return invalidArgument(
+        "the lattice would have " + std::to_string(std::uint64_t{in.leafCells} << (in.depth / 2)) +
+        " cells per face side; at most " + std::to_string(maxCells) +
+        (in.deepRegions.empty() ? " (choose --levels or larger leaves)"
+                                : " with insets or deep regions (coarser insets, a "
+                                  "shallower --deep-region level or larger leaves)"));
   }
   in.n = in.leafCells << (in.depth / 2);
   in.dem = std::move(dem).value();
@@ -186,8 +188,8 @@ Result<std::vector<std::optional<GeoImage>>> readInsetImagery(const CompositeSur
       char box[160];
       std::snprintf(box, sizeof box, "%.4f..%.4f°N %.4f..%.4f°E", b.southDegrees, b.northDegrees,
                     b.westDegrees, b.eastDegrees);
-      return invalid(spec.texturePath.string() + ": its georeference (" + box +
-                     ") does not overlap its inset " + spec.path.filename().string());
+      return invalidArgument(spec.texturePath.string() + ": its georeference (" + box +
+                             ") does not overlap its inset " + spec.path.filename().string());
     }
     out.emplace_back(std::move(image).value());
   }

@@ -65,8 +65,6 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-Error invalid(const std::string& what) { return makeError(ErrorCode::InvalidArgument, what); }
-
 /// Contiguous share [begin, end) of `count` items for `rank` of `ranks`.
 std::pair<std::uint64_t, std::uint64_t> shareOf(std::uint64_t count, int rank, int ranks) {
   const auto r = static_cast<std::uint64_t>(rank);
@@ -128,9 +126,12 @@ std::string rangeText(std::uint64_t begin, std::uint64_t end) {
   return text;
 }
 
-class DistributedBuild {
+/// One build of the dataset, on however many ranks `comm` has: one for a plain `pbdam build`
+/// (a LocalCommunicator), several under MPI or with thread-ranks in the tests. Every rank runs
+/// the same stages on its share; rank 0 also decides the start point and assembles the dataset.
+class DatasetBuild {
  public:
-  DistributedBuild(const BuildOptions& o, Communicator& comm, BuildInputs& in)
+  DatasetBuild(const BuildOptions& o, Communicator& comm, BuildInputs& in)
       : o_(o),
         comm_(comm),
         in_(in),
@@ -267,7 +268,7 @@ class DistributedBuild {
   double blockSeconds_ = 0.0;
 };
 
-Result<StartPoint> DistributedBuild::setUpOutput() {
+Result<StartPoint> DatasetBuild::setUpOutput() {
   std::error_code ec;
   fs::create_directories(o_.outDir, ec);
   if (ec) return makeError(ErrorCode::IoError, o_.outDir.string() + ": " + ec.message());
@@ -280,9 +281,9 @@ Result<StartPoint> DistributedBuild::setUpOutput() {
     if (!saved) return std::move(saved).error();
     if (*saved) {
       if (auto differs = fingerprintMismatch((*saved)->fingerprint, state_.fingerprint)) {
-        return invalid("--resume: " + checkpoint_.directory().string() +
-                       " belongs to another build: " + *differs +
-                       " (rerun without --resume to start over)");
+        return invalidArgument("--resume: " + checkpoint_.directory().string() +
+                               " belongs to another build: " + *differs +
+                               " (rerun without --resume to start over)");
       }
       start.completeLevel = (*saved)->completeLevel;
       start.textureComplete = (*saved)->textureComplete;
@@ -332,7 +333,7 @@ Result<StartPoint> DistributedBuild::setUpOutput() {
   return start;
 }
 
-void DistributedBuild::releaseResident() {
+void DatasetBuild::releaseResident() {
   std::lock_guard lock(residentMutex_);
   if (in_.dem) in_.dem->releaseResident();
   if (grid_) grid_->releaseResident();
@@ -340,7 +341,7 @@ void DistributedBuild::releaseResident() {
   assembling_.releaseResident();
 }
 
-Result<void> DistributedBuild::resample() {
+Result<void> DatasetBuild::resample() {
   // Each rank resamples a share of the lattice rows into the one heights file and buckets a
   // share of the DEM rows into its own samples file; after a barrier every rank maps them all.
   const std::uint64_t rows = tiles_.rowCount();
@@ -441,7 +442,7 @@ Result<void> DistributedBuild::resample() {
   return {};
 }
 
-Result<void> DistributedBuild::injectFault(int level, const std::string& item) {
+Result<void> DatasetBuild::injectFault(int level, const std::string& item) {
   if (o_.fault.failRank != comm_.rank() || o_.fault.failLevel != level) return {};
   if (o_.fault.failByKill) {
     std::fprintf(stderr, "pbdam: test: rank %d kills itself (SIGKILL) at level %d\n", comm_.rank(),
@@ -452,8 +453,7 @@ Result<void> DistributedBuild::injectFault(int level, const std::string& item) {
   return fail(item, makeError(ErrorCode::Internal, "injected failure (PBDAM_TEST_FAIL_RANK)"));
 }
 
-Result<DistributedBuild::LevelFiles> DistributedBuild::startLevel(int level,
-                                                                  const std::string& item) {
+Result<DatasetBuild::LevelFiles> DatasetBuild::startLevel(int level, const std::string& item) {
   const auto ranks = static_cast<std::uint32_t>(comm_.size());
   const auto part = static_cast<std::uint32_t>(comm_.rank());
   LevelFiles files;
@@ -469,8 +469,8 @@ Result<DistributedBuild::LevelFiles> DistributedBuild::startLevel(int level,
   return files;
 }
 
-Result<void> DistributedBuild::appendBatch(const std::vector<DiamondBytes>& batch,
-                                           const Diamond* first, LevelFiles& files) {
+Result<void> DatasetBuild::appendBatch(const std::vector<DiamondBytes>& batch, const Diamond* first,
+                                       LevelFiles& files) {
   for (std::size_t j = 0; j < batch.size(); ++j) {
     const DiamondBytes& bytes = batch[j];
     if (auto r = files.nodes.append(bytes.nodes); !r) return r;
@@ -486,10 +486,9 @@ Result<void> DistributedBuild::appendBatch(const std::vector<DiamondBytes>& batc
   return {};
 }
 
-Result<LevelPartFooter> DistributedBuild::buildShare(int level,
-                                                     const std::vector<Diamond>& diamonds,
-                                                     std::uint64_t begin, std::uint64_t end,
-                                                     LevelFiles& files, const std::string& item) {
+Result<LevelPartFooter> DatasetBuild::buildShare(int level, const std::vector<Diamond>& diamonds,
+                                                 std::uint64_t begin, std::uint64_t end,
+                                                 LevelFiles& files, const std::string& item) {
   const auto t0 = Clock::now();
   const std::uint64_t mine = end - begin;
   const auto threads =
@@ -539,7 +538,7 @@ Result<LevelPartFooter> DistributedBuild::buildShare(int level,
   return footer;
 }
 
-Result<void> DistributedBuild::finishLevel(const LevelPartFooter& footer, LevelFiles& files) {
+Result<void> DatasetBuild::finishLevel(const LevelPartFooter& footer, LevelFiles& files) {
   if (auto r = files.nodes.append(encodeLevelPartFooter(footer)); !r) return r;
   if (auto r = files.nodes.finish(); !r) return r;
   if (files.carry) {
@@ -550,7 +549,7 @@ Result<void> DistributedBuild::finishLevel(const LevelPartFooter& footer, LevelF
   return {};
 }
 
-Result<void> DistributedBuild::recordLevel(int level) {
+Result<void> DatasetBuild::recordLevel(int level) {
   const auto ranks = static_cast<std::uint32_t>(comm_.size());
   if (root()) {
     const std::string writing = "writing the level " + std::to_string(level) + " checkpoint";
@@ -564,9 +563,9 @@ Result<void> DistributedBuild::recordLevel(int level) {
   return {};
 }
 
-void DistributedBuild::logLevel(int level, const std::vector<Diamond>& diamonds,
-                                const std::vector<std::vector<std::byte>>& gathered,
-                                Clock::time_point t0) {
+void DatasetBuild::logLevel(int level, const std::vector<Diamond>& diamonds,
+                            const std::vector<std::vector<std::byte>>& gathered,
+                            Clock::time_point t0) {
   const std::uint64_t total = plan_.nodeCount();
   std::string line = "level " + std::to_string(level) + ": " + std::to_string(diamonds.size()) +
                      (level == d_ ? " leaf diamonds" : " blocks");
@@ -597,7 +596,7 @@ void DistributedBuild::logLevel(int level, const std::vector<Diamond>& diamonds,
   report("simplify", fraction);
 }
 
-Result<void> DistributedBuild::buildLevel(int level) {
+Result<void> DatasetBuild::buildLevel(int level) {
   const auto diamonds = plan_.diamondsOfLevel(level);
   const auto [begin, end] = shareOf(diamonds.size(), comm_.rank(), comm_.size());
   const std::string item = "building level " + std::to_string(level) + " diamonds " +
@@ -646,20 +645,19 @@ Result<void> DistributedBuild::buildLevel(int level) {
   return {};
 }
 
-Result<void> DistributedBuild::rereadDem() {
+Result<void> DatasetBuild::rereadDem() {
   const auto t0 = Clock::now();
   auto dem = readDem(o_.demPath, demReadOptions(o_));
   if (!dem) return std::move(dem).error();
   const std::string crc = demCrc32(*dem);
   for (const auto& [key, value] : state_.fingerprint) {
     if (key == "dem-crc32" && value != crc) {
-      return makeError(ErrorCode::InvalidArgument,
-                       o_.demPath.string()
-                           .append(": changed during the build (CRC-32 ")
-                           .append(crc)
-                           .append(", was ")
-                           .append(value)
-                           .append(" when the build started)"));
+      return invalidArgument(o_.demPath.string()
+                                 .append(": changed during the build (CRC-32 ")
+                                 .append(crc)
+                                 .append(", was ")
+                                 .append(value)
+                                 .append(" when the build started)"));
     }
   }
   {
@@ -673,7 +671,7 @@ Result<void> DistributedBuild::rereadDem() {
   return {};
 }
 
-TextureSource DistributedBuild::textureSource() const {
+TextureSource DatasetBuild::textureSource() const {
   const SampleGrid& grid = *grid_;
   TextureSource source;
   source.planet = *in_.planet;
@@ -704,9 +702,9 @@ TextureSource DistributedBuild::textureSource() const {
   return source;
 }
 
-bool DistributedBuild::buildTile(const TextureSource& source, std::uint64_t key,
-                                 std::uint64_t tilesPerFace, std::vector<std::byte>& blob,
-                                 float& errorMeters) const {
+bool DatasetBuild::buildTile(const TextureSource& source, std::uint64_t key,
+                             std::uint64_t tilesPerFace, std::vector<std::byte>& blob,
+                             float& errorMeters) const {
   const auto face = static_cast<int>(key / tilesPerFace);
   const std::uint64_t heap = key % tilesPerFace;
   std::uint32_t level = 0;
@@ -734,8 +732,8 @@ bool DistributedBuild::buildTile(const TextureSource& source, std::uint64_t key,
   return true;
 }
 
-Result<void> DistributedBuild::recordTextures(const std::vector<std::vector<std::byte>>& gathered,
-                                              std::uint64_t tiles) {
+Result<void> DatasetBuild::recordTextures(const std::vector<std::vector<std::byte>>& gathered,
+                                          std::uint64_t tiles) {
   report("texture", 1.0);
   const std::string writing = "writing the texture checkpoint";
   state_.textureComplete = true;
@@ -757,7 +755,7 @@ Result<void> DistributedBuild::recordTextures(const std::vector<std::vector<std:
   return {};
 }
 
-Result<void> DistributedBuild::buildTextures() {
+Result<void> DatasetBuild::buildTextures() {
   const std::uint32_t textureLevels =
       textureLevelCount(in_.n, o_.textureTileTexels, kTextureBorderTexels);
   const std::uint64_t tilesPerFace = ((std::uint64_t{1} << (2 * textureLevels)) - 1) / 3;
@@ -833,7 +831,7 @@ Result<void> DistributedBuild::buildTextures() {
 }
 
 /// Rank 0: the face files and the manifest from the checkpointed levels and tiles.
-Result<void> DistributedBuild::assemble(BuildSummary& summary) {
+Result<void> DatasetBuild::assemble(BuildSummary& summary) {
   const AssemblyInputs inputs{o_,
                               plan_,
                               checkpoint_,
@@ -853,7 +851,7 @@ Result<void> DistributedBuild::assemble(BuildSummary& summary) {
   return assembleDataset(inputs, summary);
 }
 
-Result<BuildSummary> DistributedBuild::run() {
+Result<BuildSummary> DatasetBuild::run() {
   BuildSummary summary;
   summary.latticeCells = in_.n;
   summary.depth = in_.depth;
@@ -963,7 +961,7 @@ Result<BuildSummary> buildDataset(const BuildOptions& o) {
   tbb::task_arena arena(o.threads > 0 ? o.threads : tbb::task_arena::automatic);
   Result<BuildSummary> result = Error{};
   arena.execute([&] {
-    DistributedBuild build(o, comm, *inputs);
+    DatasetBuild build(o, comm, *inputs);
     result = build.run();
   });
   if (!result) return withResumeHint(std::move(result).error());

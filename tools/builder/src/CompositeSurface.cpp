@@ -14,8 +14,6 @@ double spacingOf(const HeightGrid& grid) noexcept {
   return std::max(grid.geometry().latSpacingDegrees, grid.geometry().lonSpacingDegrees);
 }
 
-Error invalid(const std::string& what) { return makeError(ErrorCode::InvalidArgument, what); }
-
 /// Per sample, the Chebyshev distance (in samples) to the nearest sample that is nodata or
 /// beyond the grid's edge, capped at `cap`: two passes of the 3 × 3 distance transform.
 std::vector<std::uint16_t> edgeDistances(const HeightGrid& grid, std::uint16_t cap) {
@@ -65,24 +63,25 @@ Result<void> checkInset(const InsetSpec& spec, const HeightGrid& inset, const He
   const std::string& body = inset.source().body;
   if (!body.empty() && planetSpec.rfind(body, 0) != 0 && planetSpec.rfind("sphere", 0) != 0 &&
       planetSpec.rfind("ellipsoid", 0) != 0) {
-    return invalid(name + ": the inset's CRS is on " + body + " but --planet is " + planetSpec);
+    return invalidArgument(name + ": the inset's CRS is on " + body + " but --planet is " +
+                           planetSpec);
   }
   const std::string& datum = inset.source().verticalDatum;
   const std::string& baseDatum = base.source().verticalDatum;
   if (!datum.empty() && !baseDatum.empty() && datum != baseDatum && !spec.offsetMeters) {
-    return invalid(name + ": the inset's heights are on the vertical datum '" + datum +
-                   "', the base's on '" + baseDatum +
-                   "'; give --inset-offset (metres added to the inset's heights)");
+    return invalidArgument(name + ": the inset's heights are on the vertical datum '" + datum +
+                           "', the base's on '" + baseDatum +
+                           "'; give --inset-offset (metres added to the inset's heights)");
   }
   if (spec.offsetMeters && !std::isfinite(*spec.offsetMeters)) {
-    return invalid(name + ": --inset-offset must be a finite number of metres");
+    return invalidArgument(name + ": --inset-offset must be a finite number of metres");
   }
   if (spacingOf(inset) >= spacingOf(base)) {
-    return invalid(name + ": its samples (" + std::to_string(spacingOf(inset)) +
-                   "°) are not finer than the base's (" + std::to_string(spacingOf(base)) +
-                   "°); an inset adds detail the base lacks");
+    return invalidArgument(name + ": its samples (" + std::to_string(spacingOf(inset)) +
+                           "°) are not finer than the base's (" + std::to_string(spacingOf(base)) +
+                           "°); an inset adds detail the base lacks");
   }
-  if (inset.computeStats().validCount == 0) return invalid(name + ": has no valid samples");
+  if (inset.computeStats().validCount == 0) return invalidArgument(name + ": has no valid samples");
   return {};
 }
 

@@ -99,4 +99,10 @@ inline Error makeError(ErrorCode code, std::string message) {
   return Error{code, std::move(message)};
 }
 
+/// Builds an InvalidArgument Error (a parameter, option or request that is missing, NaN or out
+/// of range); shorthand for `makeError(ErrorCode::InvalidArgument, std::move(message))`.
+inline Error invalidArgument(std::string message) {
+  return makeError(ErrorCode::InvalidArgument, std::move(message));
+}
+
 }  // namespace pbdam::formats
