@@ -18,7 +18,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -28,6 +27,7 @@
 #include "BenchReport.h"
 #include "Commands.h"
 #include "MorphOption.h"
+#include "ProcessMemory.h"
 #include "Progress.h"
 #include "pbdam/formats/CameraPath.h"
 #include "pbdam/gpu/GpuCache.h"
@@ -220,23 +220,6 @@ std::uint64_t threadMajorFaults() {
   return static_cast<std::uint64_t>(usage.ru_majflt);
 }
 
-std::uint64_t rssBytes() {
-  std::ifstream statm("/proc/self/statm");
-  std::uint64_t size = 0, resident = 0;
-  statm >> size >> resident;
-  return resident * static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
-}
-
-/// RssFile of /proc/self/status: file-backed resident bytes (mapped dataset pages, libraries).
-std::uint64_t rssFileBytes() {
-  std::ifstream status("/proc/self/status");
-  std::string line;
-  while (std::getline(status, line)) {
-    if (line.rfind("RssFile:", 0) == 0) return std::stoull(line.substr(8)) * 1024;
-  }
-  return 0;
-}
-
 std::uint64_t residentDatasetPages(const MappedDataset& dataset) {
   std::uint64_t pages = 0;
   for (int f = 0; f < 6; ++f) {
@@ -358,7 +341,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   const Viewport viewport{o.width, o.height, o.fovDegrees};
   std::optional<Cut> previousCut;  // --popping
   int lastCap = -1;                // no-stall: the previous frame's level cap
-  run.baselineRssFileBytes = rssFileBytes();
+  run.baselineRssFileBytes = residentFileBytes();
   Progress progress(o.quiet);
   std::uint64_t residentBefore = residentDatasetPages(**dataset);
   const auto page = static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
@@ -387,7 +370,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
                      ? renderer->renderSelected(*pagingCuts.selector(), camera, deviceSelection)
                      : renderer->render(cut, camera);
     if (!frame) return frame.error();
-    f.rssFileBytes = rssFileBytes();
+    f.rssFileBytes = residentFileBytes();
     releaseBlobPages(**dataset);
     f.frameMs = msSince(t0);
     f.renderThreadMajorFaults = threadMajorFaults() - faults0;
@@ -408,7 +391,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     const std::uint64_t residentAfter = residentDatasetPages(**dataset);
     f.bytesPagedIn = residentAfter > residentBefore ? (residentAfter - residentBefore) * page : 0;
     residentBefore = residentAfter;
-    f.rssBytes = rssBytes();
+    f.rssBytes = residentSetBytes();
     f.gpuPoolBytes = frame->stats.poolBytes;
     run.frames.push_back(f);
     progress.status(progressLine(run, i + 1, path.size(), f), i + 1 == path.size());
@@ -423,9 +406,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
 }
 
 int runBench(const BenchCliOptions& o) {
-  const auto bad = [](const std::string& what) {
-    return reportError(makeError(ErrorCode::InvalidArgument, what));
-  };
+  const auto bad = [](const std::string& what) { return reportError(invalidArgument(what)); };
   if (o.prefetch != "on" && o.prefetch != "off" && o.prefetch != "both") {
     return bad("--prefetch '" + o.prefetch + "': expected on, off or both");
   }
@@ -465,9 +446,8 @@ int runBench(const BenchCliOptions& o) {
                                      p.pitchDegrees, p.rollDegrees},
                                     (*probe)->view().planet());
         !v) {
-      return reportError(
-          makeError(ErrorCode::InvalidArgument,
-                    o.path + " at t=" + std::to_string(p.tSeconds) + ": " + v.error().message));
+      return reportError(invalidArgument(o.path + " at t=" + std::to_string(p.tSeconds) + ": " +
+                                         v.error().message));
     }
   }
   BenchSetup setup;

@@ -142,12 +142,12 @@ void addServeCommand(CLI::App& app, CommandStatus& status) {
   auto o = std::make_shared<ServeCliOptions>();
   CLI::App* serve = app.add_subcommand(
       "serve",
-      "Serve exact-mode frames over HTTP: GET /frame?lat=&lon=&alt=[&heading=&pitch=&roll="
-      "&width=&height=&fov=&tolerance=&morph=on|off&format=png|jpeg] (PNG/JPEG), "
-      "/height?lat=&lon=, /info, "
-      "/stats, /healthz (JSON), and a web viewer at /. SIGTERM/SIGINT stop it after the "
-      "requests in flight; SIGHUP or POST /admin/reload (from loopback only) serves the dataset "
-      "rebuilt in DIR without a restart");
+      "Serve exact-mode frames over HTTP (" + FrameServer::routeSummary() +
+          "): GET /frame?lat=&lon=&alt=[&heading=&pitch=&roll=&width=&height=&fov=&tolerance="
+          "&morph=on|off&format=png|jpeg] draws a frame (PNG/JPEG), / is a web viewer, the "
+          "others answer JSON (/viewshed also GeoTIFF or PNG). SIGTERM/SIGINT stop it after "
+          "the requests in flight; SIGHUP or POST /admin/reload (from loopback only) serves the "
+          "dataset rebuilt in DIR without a restart");
   serve->add_option("DIR", o->dir, "Dataset directory (pbdam build --out)")->required();
   serve->add_option("--bind", o->server.bindAddress, "Address to listen on (loopback by default)")
       ->capture_default_str();

@@ -20,8 +20,6 @@ using namespace pbdam::runtime;
 namespace pbdam::tools {
 namespace {
 
-Error bad(const std::string& message) { return makeError(ErrorCode::InvalidArgument, message); }
-
 /// A short, printable echo of a client's value for error messages.
 std::string shown(std::string_view value) {
   std::string out;
@@ -42,9 +40,11 @@ Result<void> checkNames(const QueryParams& params,
         if (!list.empty()) list += ", ";
         list += name;
       }
-      return bad("unknown parameter '" + shown(it->first) + "' (expected " + list + ")");
+      return invalidArgument("unknown parameter '" + shown(it->first) + "' (expected " + list +
+                             ")");
     }
-    if (params.count(it->first) > 1) return bad("parameter '" + it->first + "' given twice");
+    if (params.count(it->first) > 1)
+      return invalidArgument("parameter '" + it->first + "' given twice");
   }
   return {};
 }
@@ -61,16 +61,16 @@ Result<double> number(const QueryParams& params, const std::string& name,
   const std::optional<std::string> text = value(params, name);
   if (!text) {
     if (fallback) return *fallback;
-    return bad("missing parameter '" + name + "'");
+    return invalidArgument("missing parameter '" + name + "'");
   }
   double v = 0.0;
   const char* begin = text->data();
   const char* end = begin + text->size();
   const auto [ptr, ec] = std::from_chars(begin, end, v);
   if (text->empty() || ec != std::errc() || ptr != end) {
-    return bad("parameter '" + name + "': '" + shown(*text) + "' is not a number");
+    return invalidArgument("parameter '" + name + "': '" + shown(*text) + "' is not a number");
   }
-  if (!std::isfinite(v)) return bad("parameter '" + name + "' must be finite");
+  if (!std::isfinite(v)) return invalidArgument("parameter '" + name + "' must be finite");
   return v;
 }
 
@@ -84,11 +84,12 @@ Result<std::uint32_t> integer(const QueryParams& params, const std::string& name
   const char* end = begin + text->size();
   const auto [ptr, ec] = std::from_chars(begin, end, v);
   if (text->empty() || ptr != end || (ec != std::errc() && ec != std::errc::result_out_of_range)) {
-    return bad("parameter '" + name + "': '" + shown(*text) + "' is not a whole number");
+    return invalidArgument("parameter '" + name + "': '" + shown(*text) +
+                           "' is not a whole number");
   }
   if (ec == std::errc::result_out_of_range || v < lo || v > hi) {
-    return bad("parameter '" + name + "' must be in " + std::to_string(lo) + ".." +
-               std::to_string(hi));
+    return invalidArgument("parameter '" + name + "' must be in " + std::to_string(lo) + ".." +
+                           std::to_string(hi));
   }
   return static_cast<std::uint32_t>(v);
 }
@@ -98,7 +99,7 @@ Result<double> inRange(Result<double> v, const std::string& name, double lo, dou
   if (*v < lo || *v > hi) {
     char text[128];
     std::snprintf(text, sizeof text, "parameter '%s' must be in [%g, %g]", name.c_str(), lo, hi);
-    return bad(text);
+    return invalidArgument(text);
   }
   return v;
 }
@@ -128,7 +129,8 @@ Result<FrameQuery> parseFrameQuery(const QueryParams& params, const Planet& plan
   if (!roll) return std::move(roll).error();
   pose = {*lat, *lon, *alt, *heading, *pitch, *roll};
   if (auto r = validateCameraPose(pose, planet); !r) {
-    return bad("parameter 'alt': " + r.error().message);  // lat, lon, angles checked above
+    return invalidArgument("parameter 'alt': " +
+                           r.error().message);  // lat, lon, angles checked above
   }
 
   auto width = integer(params, "width", 640, 1, kMaxFrameSidePixels);
@@ -137,7 +139,8 @@ Result<FrameQuery> parseFrameQuery(const QueryParams& params, const Planet& plan
   if (!height) return std::move(height).error();
   auto fov = number(params, "fov", 60.0);
   if (!fov) return std::move(fov).error();
-  if (*fov <= 0.0 || *fov >= 179.0) return bad("parameter 'fov' must be in (0, 179) degrees");
+  if (*fov <= 0.0 || *fov >= 179.0)
+    return invalidArgument("parameter 'fov' must be in (0, 179) degrees");
   q.request.viewport = {*width, *height, *fov};
   auto tolerance = inRange(number(params, "tolerance", 3.0), "tolerance", kMinTolerancePixels,
                            kMaxTolerancePixels);
@@ -146,7 +149,7 @@ Result<FrameQuery> parseFrameQuery(const QueryParams& params, const Planet& plan
 
   if (const std::optional<std::string> morph = value(params, "morph")) {
     if (*morph != "on" && *morph != "off") {
-      return bad("parameter 'morph': '" + shown(*morph) + "' is not on or off");
+      return invalidArgument("parameter 'morph': '" + shown(*morph) + "' is not on or off");
     }
     q.morph = *morph == "on";
   }
@@ -163,12 +166,12 @@ Result<FrameQuery> parseFrameQuery(const QueryParams& params, const Planet& plan
   } else if (format == "jpeg" || format == "jpg") {
     q.encoding = FrameEncoding::Jpeg;
   } else {
-    return bad("parameter 'format': '" + shown(format) + "' is not png or jpeg");
+    return invalidArgument("parameter 'format': '" + shown(format) + "' is not png or jpeg");
   }
   auto quality = integer(params, "quality", 90, 1, 100);
   if (!quality) return std::move(quality).error();
   if (q.encoding == FrameEncoding::Png && params.count("quality") != 0) {
-    return bad("parameter 'quality' applies to format=jpeg only");
+    return invalidArgument("parameter 'quality' applies to format=jpeg only");
   }
   q.jpegQuality = static_cast<int>(*quality);
   return q;
@@ -178,11 +181,12 @@ namespace {
 
 Result<gpu::GroundPoint> groundPoint(const QueryParams& params, const std::string& name) {
   const std::optional<std::string> text = value(params, name);
-  if (!text) return bad("parameter '" + name + "' is required (LAT,LON,HEIGHT_ABOVE_GROUND_M)");
+  if (!text)
+    return invalidArgument("parameter '" + name + "' is required (LAT,LON,HEIGHT_ABOVE_GROUND_M)");
   std::vector<double> v;
   if (!parseNumberList(*text, 3, v)) {
-    return bad("parameter '" + name + "': '" + shown(*text) +
-               "' is not LAT,LON,HEIGHT_ABOVE_GROUND_M");
+    return invalidArgument("parameter '" + name + "': '" + shown(*text) +
+                           "' is not LAT,LON,HEIGHT_ABOVE_GROUND_M");
   }
   return gpu::GroundPoint{v[0], v[1], v[2]};
 }
@@ -213,7 +217,8 @@ Result<ViewshedQuery> parseViewshedQuery(const QueryParams& params) {
     if (params.count(name) == 0) continue;
     auto v = number(params, name, std::nullopt);
     if (!v) return std::move(v).error();
-    if (!(*v > 0.0)) return bad(std::string("parameter '") + name + "' must be > 0 metres");
+    if (!(*v > 0.0))
+      return invalidArgument(std::string("parameter '") + name + "' must be > 0 metres");
     *field = *v;
   }
   const std::string format = value(params, "format").value_or("json");
@@ -224,7 +229,7 @@ Result<ViewshedQuery> parseViewshedQuery(const QueryParams& params) {
   } else if (format == "png") {
     q.format = ViewshedFormat::Png;
   } else {
-    return bad("parameter 'format': '" + shown(format) + "' is not json, tif or png");
+    return invalidArgument("parameter 'format': '" + shown(format) + "' is not json, tif or png");
   }
   return q;
 }
@@ -240,7 +245,8 @@ Result<HeightQuery> parseHeightQuery(const QueryParams& params) {
 
 Result<void> expectNoParams(const QueryParams& params) {
   if (params.empty()) return {};
-  return bad("unknown parameter '" + shown(params.begin()->first) + "' (this endpoint takes none)");
+  return invalidArgument("unknown parameter '" + shown(params.begin()->first) +
+                         "' (this endpoint takes none)");
 }
 
 }  // namespace pbdam::tools

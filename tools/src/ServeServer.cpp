@@ -4,7 +4,6 @@
 #include <httplib.h>
 #include <malloc.h>
 #include <sys/stat.h>
-#include <unistd.h>
 
 #include <array>
 #include <atomic>
@@ -15,17 +14,19 @@
 #include <cstdio>
 #include <cstring>
 #include <deque>
-#include <fstream>
 #include <functional>
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <span>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <vector>
 
 #include "FrameImage.h"
 #include "HeightJson.h"
+#include "ProcessMemory.h"
 #include "ServeQueries.h"
 #include "ServeRequest.h"
 #include "ServeViewerHtml.h"
@@ -182,13 +183,6 @@ int statusFor(const Error& error) {
   }
 }
 
-std::uint64_t residentSetBytes() {
-  std::ifstream statm("/proc/self/statm");
-  std::uint64_t sizePages = 0, residentPages = 0;
-  if (!(statm >> sizePages >> residentPages)) return 0;
-  return residentPages * static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
-}
-
 /// The C heap as glibc's allocator sees it, summed over its arenas: what the program holds
 /// (small blocks in arenas plus blocks mapped on their own), and what the arenas keep free
 /// without giving it back. Growth of the first is the program's; of the second, fragmentation.
@@ -197,16 +191,6 @@ Json heapJson() {
   return {{"in_use_bytes", m.uordblks + m.hblkhd},
           {"mapped_blocks_bytes", m.hblkhd},
           {"free_in_arenas_bytes", m.fordblks}};
-}
-
-constexpr const char* kKnownPaths[] = {"/",     "/frame", "/height",  "/los",         "/viewshed",
-                                       "/info", "/stats", "/healthz", "/admin/reload"};
-
-bool knownPath(const std::string& path) {
-  for (const char* p : kKnownPaths) {
-    if (path == p) return true;
-  }
-  return false;
 }
 
 /// Whether a peer address is this machine's loopback (IPv4 127/8, IPv6 ::1, or IPv4-mapped).
@@ -407,11 +391,37 @@ struct FrameServer::Impl {
     return generation;
   }
   Result<std::uint64_t> reload();
+
+  /// The one method an endpoint answers (GET answers HEAD too); any other gets a 405.
+  enum class Method { Get, Post };
+  /// Answers one request on behalf of the server.
+  using Handler = void (*)(Impl& server, const httplib::Request& req, httplib::Response& res);
+  /// One endpoint of the server.
+  struct Route final {
+    std::string_view path;
+    Method method;
+    Handler handle;
+  };
+  /// Every endpoint, in the order routeSummary() names them: what routes() registers, what
+  /// answers 405 rather than 404 for other methods, and the paths /stats counts requests by.
+  static std::span<const Route> routeTable() noexcept;
+  /// The endpoint at exactly `path`; nullptr when there is none.
+  static const Route* findRoute(std::string_view path) noexcept;
+  /// A route's handler: calls the member function `Handle` of the server.
+  template <auto Handle>
+  static void answer(Impl& server, const httplib::Request& req, httplib::Response& res) {
+    (server.*Handle)(req, res);
+  }
+
   void routes();
+  void handleViewer(const httplib::Request& req, httplib::Response& res) const;
   void handleFrame(const httplib::Request& req, httplib::Response& res) const;
   void handleHeight(const httplib::Request& req, httplib::Response& res) const;
   void handleLos(const httplib::Request& req, httplib::Response& res) const;
   void handleViewshed(const httplib::Request& req, httplib::Response& res) const;
+  void handleInfo(const httplib::Request& req, httplib::Response& res) const;
+  void handleStats(const httplib::Request& req, httplib::Response& res) const;
+  void handleHealth(const httplib::Request& req, httplib::Response& res);
   void handleReload(const httplib::Request& req, httplib::Response& res);
   std::pair<int, Json> healthJson();
   Json statsJson() const;
@@ -686,50 +696,93 @@ Json FrameServer::Impl::statsJson() const {
   return j;
 }
 
+std::span<const FrameServer::Impl::Route> FrameServer::Impl::routeTable() noexcept {
+  static constexpr auto kRoutes = std::to_array<Route>({
+      {"/", Method::Get, &answer<&Impl::handleViewer>},
+      {"/frame", Method::Get, &answer<&Impl::handleFrame>},
+      {"/height", Method::Get, &answer<&Impl::handleHeight>},
+      {"/los", Method::Get, &answer<&Impl::handleLos>},
+      {"/viewshed", Method::Get, &answer<&Impl::handleViewshed>},
+      {"/info", Method::Get, &answer<&Impl::handleInfo>},
+      {"/stats", Method::Get, &answer<&Impl::handleStats>},
+      {"/healthz", Method::Get, &answer<&Impl::handleHealth>},
+      {"/admin/reload", Method::Post, &answer<&Impl::handleReload>},
+  });
+  return kRoutes;
+}
+
+const FrameServer::Impl::Route* FrameServer::Impl::findRoute(std::string_view path) noexcept {
+  for (const Route& route : routeTable()) {
+    if (route.path == path) return &route;
+  }
+  return nullptr;
+}
+
+std::string FrameServer::routeSummary() {
+  std::string summary;
+  for (const Impl::Method method : {Impl::Method::Get, Impl::Method::Post}) {
+    std::string paths;
+    for (const Impl::Route& route : Impl::routeTable()) {
+      if (route.method != method) continue;
+      paths += paths.empty() ? (method == Impl::Method::Get ? "GET " : "POST ") : ", ";
+      paths += route.path;
+    }
+    if (paths.empty()) continue;
+    if (!summary.empty()) summary += "; ";
+    summary += paths;
+  }
+  return summary;
+}
+
+void FrameServer::Impl::handleViewer(const httplib::Request&, httplib::Response& res) const {
+  res.set_header("Cache-Control", "no-store");
+  res.set_header("Content-Security-Policy",
+                 "default-src 'none'; img-src 'self' blob: data:; connect-src 'self'; "
+                 "script-src 'unsafe-inline'; style-src 'unsafe-inline'");
+  res.set_content(reinterpret_cast<const char*>(kViewerHtml), kViewerHtmlSize,
+                  "text/html; charset=utf-8");
+}
+
+void FrameServer::Impl::handleInfo(const httplib::Request& req, httplib::Response& res) const {
+  if (auto r = expectNoParams(req.params); !r) return sendError(res, 400, r.error().message);
+  sendJson(res, 200, current()->info);
+}
+
+void FrameServer::Impl::handleStats(const httplib::Request& req, httplib::Response& res) const {
+  if (auto r = expectNoParams(req.params); !r) return sendError(res, 400, r.error().message);
+  sendJson(res, 200, statsJson());
+}
+
+void FrameServer::Impl::handleHealth(const httplib::Request& req, httplib::Response& res) {
+  if (auto r = expectNoParams(req.params); !r) return sendError(res, 400, r.error().message);
+  const auto [status, body] = healthJson();
+  sendJson(res, status, body);
+}
+
 void FrameServer::Impl::routes() {
-  http.Get("/", [](const httplib::Request&, httplib::Response& res) {
-    res.set_header("Cache-Control", "no-store");
-    res.set_header("Content-Security-Policy",
-                   "default-src 'none'; img-src 'self' blob: data:; connect-src 'self'; "
-                   "script-src 'unsafe-inline'; style-src 'unsafe-inline'");
-    res.set_content(reinterpret_cast<const char*>(kViewerHtml), kViewerHtmlSize,
-                    "text/html; charset=utf-8");
-  });
-  http.Get("/frame",
-           [this](const httplib::Request& req, httplib::Response& res) { handleFrame(req, res); });
-  http.Get("/height",
-           [this](const httplib::Request& req, httplib::Response& res) { handleHeight(req, res); });
-  http.Get("/los",
-           [this](const httplib::Request& req, httplib::Response& res) { handleLos(req, res); });
-  http.Get("/viewshed", [this](const httplib::Request& req, httplib::Response& res) {
-    handleViewshed(req, res);
-  });
-  http.Get("/info", [this](const httplib::Request& req, httplib::Response& res) {
-    if (auto r = expectNoParams(req.params); !r) return sendError(res, 400, r.error().message);
-    sendJson(res, 200, current()->info);
-  });
-  http.Get("/stats", [this](const httplib::Request& req, httplib::Response& res) {
-    if (auto r = expectNoParams(req.params); !r) return sendError(res, 400, r.error().message);
-    sendJson(res, 200, statsJson());
-  });
-  http.Get("/healthz", [this](const httplib::Request& req, httplib::Response& res) {
-    if (auto r = expectNoParams(req.params); !r) return sendError(res, 400, r.error().message);
-    const auto [status, body] = healthJson();
-    sendJson(res, status, body);
-  });
-  http.Post("/admin/reload", [this](const httplib::Request& req, httplib::Response& res) {
-    handleReload(req, res);
-  });
   // Every other method: 405 on our paths, 404 elsewhere.
   const auto notAllowed = [](const httplib::Request& req, httplib::Response& res) {
-    if (!knownPath(req.path)) return sendError(res, 404, "no such path");
-    const bool post = req.path == "/admin/reload";
+    const Route* route = findRoute(req.path);
+    if (route == nullptr) return sendError(res, 404, "no such path");
+    const bool post = route->method == Method::Post;
     res.set_header("Allow", post ? "POST" : "GET, HEAD");
     sendError(res, 405,
               "method " + req.method + " not allowed on " + req.path +
                   (post ? " (POST only)" : " (GET only)"));
   };
-  http.Get("/admin/reload", notAllowed);
+  for (const Route& route : routeTable()) {
+    const std::string path(route.path);
+    const auto handler = [this, handle = route.handle](const httplib::Request& req,
+                                                       httplib::Response& res) {
+      handle(*this, req, res);
+    };
+    if (route.method == Method::Get) {
+      http.Get(path, handler);
+    } else {
+      http.Post(path, handler);
+      http.Get(path, notAllowed);
+    }
+  }
   http.Post(".*", notAllowed);
   http.Put(".*", notAllowed);
   http.Patch(".*", notAllowed);
@@ -738,8 +791,9 @@ void FrameServer::Impl::routes() {
 
   // Statuses httplib sets itself (no route, unparsable request, URI too long, ...) get the
   // same JSON body as ours; responses that already have a body are left alone.
-  http.set_error_handler(
-      httplib::Server::HandlerWithResponse([](const httplib::Request&, httplib::Response& res) {
+  http.set_error_handler(httplib::Server::HandlerWithResponse(
+      [noSuchPath = "no such path (" + FrameServer::routeSummary() + ")"](const httplib::Request&,
+                                                                          httplib::Response& res) {
         if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
         std::string message;
         switch (res.status) {
@@ -747,9 +801,7 @@ void FrameServer::Impl::routes() {
             message = "malformed request (not HTTP/1.x, an unsupported method or bad headers)";
             break;
           case 404:
-            message =
-                "no such path (GET /, /frame, /height, /los, /viewshed, /info, /stats, "
-                "/healthz; POST /admin/reload)";
+            message = noSuchPath;
             break;
           case 413:
             message = "request body too large";
@@ -780,7 +832,7 @@ void FrameServer::Impl::routes() {
       const std::lock_guard<std::mutex> lock(countersMutex);
       ++requests;
       ++responsesByStatus[res.status];
-      ++requestsByPath[knownPath(req.path) ? req.path : std::string("other")];
+      ++requestsByPath[findRoute(req.path) != nullptr ? req.path : std::string("other")];
     }
     served.fetch_add(1, std::memory_order_relaxed);
     if (options.logRequests) {

@@ -1,11 +1,11 @@
 // The HTTP side of `pbdam serve` (docs/architecture.md "What pbdam is"): cpp-httplib (Debian's
-// libcpp-httplib) routes GET /frame, /height, /info, /stats, /healthz, POST /admin/reload and the
-// embedded viewer page at /, turns every bad request into a 4xx with a JSON body, and answers
-// overload with 503 + Retry-After. Frames come from a RenderPool over one mapping of the dataset:
-// together they are the served *generation*, which reload() replaces by a new one over the files
-// now in the directory while requests in flight finish on the old one. A dataset whose files
-// become unreadable (truncated in place, a failing disk) fails the frames that need them with a
-// 500 naming file and offset; the server goes on, and /healthz says "degraded".
+// libcpp-httplib) routes the endpoints of one route table (FrameServer::routeSummary() names
+// them; the embedded viewer page is GET /), turns every bad request into a 4xx with a JSON body,
+// and answers overload with 503 + Retry-After. Frames come from a RenderPool over one mapping of
+// the dataset: together they are the served *generation*, which reload() replaces by a new one
+// over the files now in the directory while requests in flight finish on the old one. A dataset
+// whose files become unreadable (truncated in place, a failing disk) fails the frames that need
+// them with a 500 naming file and offset; the server goes on, and /healthz says "degraded".
 // Thread-safety: stop() and reload() may be called from any thread (the signal thread); the rest
 // from the thread that owns the server.
 #pragma once
@@ -63,6 +63,9 @@ class FrameServer final {
   std::string deviceName() const;
   /// Requests answered so far.
   std::uint64_t requestsServed() const noexcept;
+  /// The server's endpoints by method, as the 404 message and `pbdam serve --help` name them:
+  /// "GET /, /frame, …; POST /admin/reload".
+  static std::string routeSummary();
 
  private:
   struct Impl;

@@ -1,0 +1,36 @@
+// This process's resident memory as Linux reports it under /proc/self: the whole resident set
+// (`pbdam bench`'s per-frame RSS, `pbdam serve`'s /stats rss_bytes) and its file-backed part
+// (mapped dataset pages and libraries, `pbdam bench`'s dataset RSS). Header-only; thread-safety:
+// free functions, no shared state.
+#pragma once
+
+#include <unistd.h>
+
+#include <cstdint>
+#include <fstream>
+#include <string>
+
+namespace pbdam::tools {
+
+/// Resident set size of this process in bytes: the resident pages of /proc/self/statm times
+/// the page size; 0 when the file cannot be read.
+inline std::uint64_t residentSetBytes() {
+  std::ifstream statm("/proc/self/statm");
+  std::uint64_t sizePages = 0;
+  std::uint64_t residentPages = 0;
+  if (!(statm >> sizePages >> residentPages)) return 0;
+  return residentPages * static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
+}
+
+/// File-backed resident bytes of this process (RssFile of /proc/self/status: mapped files such
+/// as the dataset's pages, and libraries); 0 when the field is absent.
+inline std::uint64_t residentFileBytes() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("RssFile:", 0) == 0) return std::stoull(line.substr(8)) * 1024;  // kB
+  }
+  return 0;
+}
+
+}  // namespace pbdam::tools
