@@ -1,4 +1,4 @@
-// Micro-benchmarks of the patch codec (paper 004 §4.4: LZO-compressed patches decoded while
+// Micro-benchmarks of the patch codec ([P-BDAM 2003] §4.4: LZO-compressed patches decoded while
 // paging): decode throughput in triangles/s and decoded bytes/s, encode time for lzo1x_1
 // (PatchCompression::Fast) and lzo1x_999 (Compact), and the compression ratio as a counter.
 // Run: build/release/bench/pbdam_bench_patch_codec

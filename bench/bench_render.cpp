@@ -1,4 +1,4 @@
-// Frame cost of exact-mode rendering (paper 004 §6.1, which reports 22% of frame time
+// Frame cost of exact-mode rendering ([P-BDAM 2003] §6.1, which reports 22% of frame time
 // outside the draw): for the four golden views (tests/gpu/TestGoldenFrames.cpp) it times, once
 // everything is resident, a full frame — refine() + TerrainRenderer::render() — against a raw
 // draw of the same triangles from the same static buffers (TerrainRenderer::redrawLast()), the

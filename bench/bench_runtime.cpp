@@ -1,5 +1,5 @@
 // Runtime micro-benchmarks (docs/architecture.md "Refinement and drawing", "Streaming"): the
-// stateless refinement traversal of paper 004 §4.3 over the poses of a recorded flight (µs per
+// stateless refinement traversal of [P-BDAM 2003] §4.3 over the poses of a recorded flight (µs per
 // frame), the decode of patches into GPU vertices (DecodeScheduler: LZO, then each vertex's
 // terrain point and offset in double; one thread), and the GPU cache's LRU bookkeeping
 // (ResidencyLru: touch, insert with eviction). Google

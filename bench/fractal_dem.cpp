@@ -1,5 +1,5 @@
 // A deterministic fractal upsampling of a global DEM, for the large-data benchmarks (streaming:
-// a dataset far larger than any frame's working set; the distributed build: paper 004 §6's
+// a dataset far larger than any frame's working set; the distributed build: [P-BDAM 2003] §6's
 // 1 G-sample Mars). Each output sample is the source's bicubic height plus fractional Brownian
 // motion from libnoise's Perlin module, evaluated on the unit sphere (so the detail is seamless
 // across the 0/360° meridian and at the poles) with octaves from the source spacing down to the

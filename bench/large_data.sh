@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The large-data streaming benchmark (paper 004 §6.2, Fig. 8): MOLA 4 px/deg upsampled
+# The large-data streaming benchmark ([P-BDAM 2003] §6.2, Fig. 8): MOLA 4 px/deg upsampled
 # with deterministic fractal detail (bench/fractal_dem.cpp) into a P-BDAM dataset of >= 2 GB on
 # disk — far larger than any frame's working set — then the paper-like Mars flight
 # (bench/paths/mars_flight.csv, 58 s) replayed cold, in paging mode, with prefetch off and on,

@@ -1,4 +1,4 @@
-// Mesh efficiency (issue: P-BDAM vs a right-triangulated irregular network, paper 004 §2):
+// Mesh efficiency (issue: P-BDAM vs a right-triangulated irregular network, [P-BDAM 2003] §2):
 // triangles of uniform-error cuts of a built dataset next to those of an RTIN — longest-edge
 // bisection of the same cube-map lattice samples down to single cells — at the same maximum
 // errors. Both use the exact vertical error against every lattice sample a triangle covers,

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The paper-scale distributed build (paper 004 §5-6: Mars, 6 faces of ~13,313² samples
+# The paper-scale distributed build ([P-BDAM 2003] §5-6: Mars, 6 faces of ~13,313² samples
 # built on five PCs in 6 h 10 min): MOLA 4 px/deg upsampled with deterministic fractal detail
 # (bench/fractal_dem.cpp) and built into a 16384-cell lattice per face side — 6 × 16385² =
 # 1.61 G lattice samples — once per RANKSxTHREADS configuration through mpirun. Per

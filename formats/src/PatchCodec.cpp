@@ -1,5 +1,5 @@
 // Patch codec (PatchCodec.h): delta + zigzag coding, byte planes and one LZO1X block per patch,
-// following paper 004 §4.4 (LZO-compressed patches decoded on the fly while paging) with the
+// following [P-BDAM 2003] §4.4 (LZO-compressed patches decoded on the fly while paging) with the
 // byte-plane split measured in docs/architecture.md "Measured facts". Byte layout:
 // formats/PatchBlob.md.
 #include "pbdam/formats/PatchCodec.h"

@@ -1,5 +1,5 @@
 // Texture tile codec and BC1 compression (TextureTile.h; byte layout in formats/TextureTile.md;
-// P-BDAM paper 004 §5: textures stored as DXT1 = BC1). LZO1X through liblzo2, BC1 through
+// [P-BDAM 2003] §5: textures stored as DXT1 = BC1). LZO1X through liblzo2, BC1 through
 // libsquish, one block at a time so nothing here starts threads.
 #include "pbdam/formats/TextureTile.h"
 

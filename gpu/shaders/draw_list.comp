@@ -1,7 +1,7 @@
-// The draw list made on the device (docs/architecture.md "Selection by predicate", seed 000 §8):
-// from the selection passes' node states (select.comp), the cut's indexed draws and their
-// per-draw records, in refine()'s depth-first order, without the host. Three modes picked by
-// the push constant, over the nodes in depth-first order (position j, node order[j]):
+// The draw list made on the device (docs/architecture.md "Selection by predicate",
+// [Yalçın 2011] §8): from the selection passes' node states (select.comp), the cut's indexed draws
+// and their per-draw records, in refine()'s depth-first order, without the host. Three modes picked
+// by the push constant, over the nodes in depth-first order (position j, node order[j]):
 //   0 each workgroup's exclusive prefix sum of the drawn flags into slot[j], its total into
 //     groupSums;
 //   1 one invocation turns groupSums into exclusive prefixes and writes the draw count (and the

@@ -1,6 +1,6 @@
 // The per-draw record of a patch and the camera-relative vertex position computed from it
-// (runtime/PatchDraw.h; docs/architecture.md "Precision", paper 004 §4.2). Included by patch.vert and by
-// the GPU tests' position-capture shader, so both run exactly this code.
+// (runtime/PatchDraw.h; docs/architecture.md "Precision", [P-BDAM 2003] §4.2). Included by
+// patch.vert and by the GPU tests' position-capture shader, so both run exactly this code.
 //
 // patchVertexPosition computes exactly the floats of pbdam::shaderVertexPosition
 // (runtime/src/PatchDraw.cpp): each case's operations in the same order and grouping, plus terms

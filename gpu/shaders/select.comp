@@ -1,5 +1,5 @@
-// The data-parallel selection of a cut (runtime/Selection.h, seed 000 §6–7): one invocation per
-// node of the dataset, in three modes picked by the push constant.
+// The data-parallel selection of a cut (runtime/Selection.h, [Yalçın 2011] §6–7): one invocation
+// per node of the dataset, in three modes picked by the push constant.
 //   0 predicate: the node's screen error (the CPU's Camera::screenError, operation for operation
 //     in double, never contracted) and whether it wants to be split (not a leaf, above the level
 //     cap, and: its screen error above the tolerance; or its sphere within a focus region's

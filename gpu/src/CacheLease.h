@@ -1,10 +1,11 @@
-// CacheLease (internal to pbdam_gpu): one pass's reservation in a GpuCache (GpuCache.h, design.md
-// §5) as an RAII lease. It takes the cache lock, pins the pass's resident entries (hits), gives
-// its misses slots (evicting least-recently-used entries of earlier passes, waiting while other
-// renderers' passes pin the budget) and pins them too. Whatever path leaves the pass, the
-// destructor hands everything back under the lock: pins are released, and misses whose uploads
-// were not committed (an error before their submission completed) are erased, so nothing
-// half-uploaded stays resident. Thread-safety: one thread; the cache's lock guards the state.
+// CacheLease (internal to pbdam_gpu): one pass's reservation in a GpuCache (GpuCache.h;
+// docs/architecture.md "Streaming") as an RAII lease. It takes the cache lock, pins the pass's
+// resident entries (hits), gives its misses slots (evicting least-recently-used entries of earlier
+// passes, waiting while other renderers' passes pin the budget) and pins them too. Whatever path
+// leaves the pass, the destructor hands everything back under the lock: pins are released, and
+// misses whose uploads were not committed (an error before their submission completed) are erased,
+// so nothing half-uploaded stays resident. Thread-safety: one thread; the cache's lock guards the
+// state.
 #pragma once
 
 #include <cstdint>

@@ -1,5 +1,5 @@
 // DeviceDrawList (internal to pbdam_gpu): the cut's draw list made on the device from the
-// selection passes' node states (shaders/draw_list.comp, seed 000 §8) — indexed indirect draw
+// selection passes' node states (shaders/draw_list.comp, [Yalçın 2011] §8) — indexed indirect draw
 // commands, a draw count and the per-draw records, in refine()'s depth-first order — for
 // vkCmdDrawIndexedIndirectCount, with no read-back of the cut. Each node's camera-independent
 // draw inputs (runtime::PatchDrawTemplate, and where its patch and tiles are in the GPU cache)

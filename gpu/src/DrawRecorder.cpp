@@ -1,4 +1,4 @@
-// One pass's render pass and per-patch draws (DrawRecorder.h; paper 004 §4.2).
+// One pass's render pass and per-patch draws (DrawRecorder.h; [P-BDAM 2003] §4.2).
 #include "DrawRecorder.h"
 
 #include <limits>

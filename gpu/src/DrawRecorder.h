@@ -1,4 +1,4 @@
-// DrawRecorder (internal to pbdam_gpu): records one pass of a terrain frame (paper 004 §4.2):
+// DrawRecorder (internal to pbdam_gpu): records one pass of a terrain frame ([P-BDAM 2003] §4.2):
 // the render pass into the offscreen target, the patch pipeline, and one indexed draw per patch
 // in cut order, binding a pool chunk's vertex/index buffers and a tile page's descriptor set only
 // when they change. Thread-safety: const; the command buffer is the caller's.

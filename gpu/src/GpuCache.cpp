@@ -1,5 +1,5 @@
 // GpuCache: pools, LRU and pipeline shared by the renderers of one dataset (GpuCache.h;
-// docs/architecture.md "Streaming", paper 004 §4.4). The per-pass protocol lives in
+// docs/architecture.md "Streaming", [P-BDAM 2003] §4.4). The per-pass protocol lives in
 // TerrainRenderer.cpp.
 #include "pbdam/gpu/GpuCache.h"
 

@@ -1,8 +1,8 @@
 // StagingUploader (internal to pbdam_gpu): the host-visible staging buffer a renderer decodes its
-// misses into (DecodeScheduler) and the copies from it into the GPU cache's pools (design.md §5).
-// A buffer too small for a pass is replaced by a larger one; the old one is retired to the
-// renderer's DeferredDestruction with the last submission that may read it. Thread-safety:
-// none (the render thread).
+// misses into (DecodeScheduler) and the copies from it into the GPU cache's pools
+// (docs/architecture.md "Streaming"). A buffer too small for a pass is replaced by a larger one;
+// the old one is retired to the renderer's DeferredDestruction with the last submission that may
+// read it. Thread-safety: none (the render thread).
 #pragma once
 
 #include <vulkan/vulkan.h>

@@ -1,4 +1,4 @@
-// TerrainRenderer: exact-mode frames of a P-BDAM cut (TerrainRenderer.h; paper 004 §4.2, §4.4).
+// TerrainRenderer: exact-mode frames of a P-BDAM cut (TerrainRenderer.h; [P-BDAM 2003] §4.2, §4.4).
 //
 // A frame is planned as one or more passes over consecutive ranges of the cut (one pass unless
 // the cut's slot bytes exceed the budget). Per pass: a CacheLease reserves the pass's entries in

@@ -1,5 +1,5 @@
 // Parallel decoding of a pass's missing patches and tiles into caller-provided memory
-// (DecodeScheduler.h; design.md §5).
+// (DecodeScheduler.h; docs/architecture.md "Streaming").
 #include "pbdam/streaming/DecodeScheduler.h"
 
 #include <tbb/blocked_range.h>

@@ -1,5 +1,5 @@
 // The finest fully resident level-capped cut, and the preload that guarantees one exists
-// (NoStallPolicy.h; design.md §5).
+// (NoStallPolicy.h; docs/architecture.md "Modes").
 #include "pbdam/streaming/NoStallPolicy.h"
 
 #include <algorithm>

@@ -1,6 +1,6 @@
 // Patch codec (PatchCodec.h, formats/PatchBlob.md): exact round trips, the pinned byte format,
 // rejection of every corruption and truncation, vertex-cache optimisation and the compression
-// ratio paper 004 §4.4 reports (< 50% of the raw vertex + index data).
+// ratio [P-BDAM 2003] §4.4 reports (< 50% of the raw vertex + index data).
 #include <gtest/gtest.h>
 #include <meshoptimizer.h>
 

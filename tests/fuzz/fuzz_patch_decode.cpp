@@ -1,4 +1,4 @@
-// libFuzzer target for the patch decoder (PatchCodec.h; LZO-compressed patches of paper 004
+// libFuzzer target for the patch decoder (PatchCodec.h; LZO-compressed patches of [P-BDAM 2003]
 // §4.4): untrusted blobs must decode or fail cleanly, never read or write out of bounds. Each
 // input is decoded as given and again with its size field and CRC repaired, so that mutations
 // reach the LZO stream and the payload checks behind the checksum; whatever decodes must

@@ -1,6 +1,6 @@
 // pbdam build on real data (MOLA 4 px/deg, ETOPO5) checked by verify against the source DEM,
 // determinism across thread counts, atomicity, rejection of bad options, and detection of a
-// corrupted byte in every section of a face file (paper 004 §3–5; docs/builder.md); the
+// corrupted byte in every section of a face file ([P-BDAM 2003] §3–5; docs/builder.md); the
 // out-of-core sample grid (files written in row ranges, mapped) equals the in-memory one.
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
 // `pbdam bench DIR --path FILE --out REPORTDIR …`: replays a recorded camera path through the
 // renderer, cold or warm, with and without speculative prefetch, in paging or no-stall mode, and
 // writes frames.csv, summary.json and report.png (BenchReport.h; docs/architecture.md "Streaming",
-// paper 004 §6.2).
+// [P-BDAM 2003] §6.2).
 //
 // The frame loop is the render thread: refinement, decode and upload, draw and readback all run
 // on it (TBB is limited to one thread so that decoding — where missing pages fault in — happens

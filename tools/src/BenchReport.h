@@ -1,5 +1,5 @@
 // The report of `pbdam bench`: per-frame figures (frames.csv), the summary of each run
-// (summary.json) and plots like paper 004 Fig. 8 (report.png, drawn with PLplot's cairo PNG
+// (summary.json) and plots like [P-BDAM 2003] Fig. 8 (report.png, drawn with PLplot's cairo PNG
 // driver). Thread-safety: pure functions.
 #pragma once
 

@@ -1,4 +1,4 @@
-// The P-BDAM build pipeline (Builder.h; docs/builder.md; paper 004 §5), one process or several
+// The P-BDAM build pipeline (Builder.h; docs/builder.md; [P-BDAM 2003] §5), one process or several
 // (docs/builder.md "Distributed build"): every stage's independent work — lattice rows, the
 // blocks (diamonds) of each bintree level with their error saturation, texture tiles — is split
 // into contiguous ranges per rank and run with TBB inside each rank. Out of core: the lattice

@@ -1,5 +1,5 @@
 // One diamond of a bintree level: patches, measurement, saturation and its part-file bytes
-// (DiamondBuilder.h; paper 004 §5; docs/builder.md "Saturation").
+// (DiamondBuilder.h; [P-BDAM 2003] §5; docs/builder.md "Saturation").
 #include "DiamondBuilder.h"
 
 #include <algorithm>

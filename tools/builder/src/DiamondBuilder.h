@@ -1,5 +1,5 @@
 // The per-diamond work of one bintree level of the build (docs/builder.md "Saturation",
-// "Checkpoints"; paper 004 §5): the diamond's two patches — regular at the leaves, else
+// "Checkpoints"; [P-BDAM 2003] §5): the diamond's two patches — regular at the leaves, else
 // simplified from the block of its four children read from the carry of the level below —
 // measured and encoded, their error and bounding sphere saturated over the diamond DAG, and
 // the bytes that go to the level's nodes and carry part files. Private to the builder.

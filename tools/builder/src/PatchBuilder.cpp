@@ -1,4 +1,4 @@
-// Leaf patches and node corners (PatchBuilder.h; paper 004 §4.2 displaced triangles). The
+// Leaf patches and node corners (PatchBuilder.h; [P-BDAM 2003] §4.2 displaced triangles). The
 // block simplification is in PatchSimplifier.cpp, the measurement and encoding in
 // PatchMeasure.cpp.
 #include "pbdam/builder/PatchBuilder.h"

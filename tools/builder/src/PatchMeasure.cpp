@@ -1,6 +1,6 @@
 // Patch measurement and conversion to the stored representation: exact barycentrics and the
 // lattice height quantised to the height step, the sample, representation and chord errors,
-// the bounding sphere (PatchBuilder.h; paper 004 §4.2; docs/builder.md "Errors").
+// the bounding sphere (PatchBuilder.h; [P-BDAM 2003] §4.2; docs/builder.md "Errors").
 #include <glm/common.hpp>
 
 #include <algorithm>

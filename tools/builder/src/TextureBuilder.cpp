@@ -1,6 +1,6 @@
 // Texture tile generation (TextureBuilder.h, HypsometricTint.h): shaded relief with hypsometric
 // tint, or supersampled imagery, for one node of a face's texture quadtree (docs/architecture.md
-// "Geometry"; P-BDAM paper 004 §3/§4, the texture quadtree; docs/builder.md "Textures").
+// "Geometry"; [P-BDAM 2003] §3/§4, the texture quadtree; docs/builder.md "Textures").
 #include "pbdam/builder/TextureBuilder.h"
 
 #include <algorithm>

@@ -1,5 +1,5 @@
 // Dataset verification (Verify.h): every invariant that makes stateless top-down refinement of a
-// P-BDAM produce crack-free, error-bounded cuts (paper 004 §3: nested errors and volumes, the
+// P-BDAM produce crack-free, error-bounded cuts ([P-BDAM 2003] §3: nested errors and volumes, the
 // edge error property), plus the integrity of every byte.
 #include "pbdam/builder/Verify.h"
 

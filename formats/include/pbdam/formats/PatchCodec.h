@@ -1,5 +1,5 @@
 // Patch codec: the on-disk blob of one P-BDAM patch (quantised barycentric vertices + 16-bit
-// triangle list), delta-coded, split into byte planes and LZO-compressed, as in paper 004 §4.4
+// triangle list), delta-coded, split into byte planes and LZO-compressed, as in [P-BDAM 2003] §4.4
 // ("patches are stored LZO-compressed"). Byte layout: formats/PatchBlob.md.
 #pragma once
 

@@ -1,4 +1,4 @@
-// Texture tiles of the per-face texture quadtree (docs/architecture.md "Geometry"; P-BDAM paper 004
+// Texture tiles of the per-face texture quadtree (docs/architecture.md "Geometry"; [P-BDAM 2003]
 // §3/§4, the texture quadtree, and §5: tiles stored GPU-compressed as BC1 = DXT1): the in-memory
 // image, the on-disk tile codec (header + CRC-32 + LZO1X payload; byte layout in
 // formats/TextureTile.md) and BC1 compression through libsquish. Thread-safety: every function is

@@ -1,11 +1,11 @@
-// GpuCache: the GPU-resident patch and texture cache of docs/architecture.md "Streaming" (paper 004
-// §4.4) as an object of its own — one byte budget, one LRU over patches and tiles (ResidencyLru),
-// one set of device pools and the patch pipeline — so that several TerrainRenderers, each driven by
-// its own thread, can share it: what one render context uploads, every other one draws from. A
-// TerrainRenderer created without one makes a private cache. Thread-safety: every public member
-// is thread-safe; the renderers that share a cache take its lock for the bookkeeping, decoding
-// and uploads of a pass and draw outside it, with the pass's entries pinned (never evicted while
-// a draw may read them).
+// GpuCache: the GPU-resident patch and texture cache of docs/architecture.md "Streaming"
+// ([P-BDAM 2003] §4.4) as an object of its own — one byte budget, one LRU over patches and tiles
+// (ResidencyLru), one set of device pools and the patch pipeline — so that several
+// TerrainRenderers, each driven by its own thread, can share it: what one render context uploads,
+// every other one draws from. A TerrainRenderer created without one makes a private cache.
+// Thread-safety: every public member is thread-safe; the renderers that share a cache take its lock
+// for the bookkeeping, decoding and uploads of a pass and draw outside it, with the pass's entries
+// pinned (never evicted while a draw may read them).
 #pragma once
 
 #include <cstdint>

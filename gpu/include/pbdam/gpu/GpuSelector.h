@@ -1,8 +1,8 @@
-// The cut selected on the device (docs/architecture.md "Selection by predicate", seed 000 §6–7):
-// the node tables resident in a device buffer, and per frame three compute passes in one
-// submission — the predicate per node, the closure to a fixed point (2·(depth + 1) steps with
-// barriers, no host round trip per level), and the drawn flags — then a read-back of the flags
-// and screen errors from which the host lists the cut in refine()'s depth-first order, with
+// The cut selected on the device (docs/architecture.md "Selection by predicate",
+// [Yalçın 2011] §6–7): the node tables resident in a device buffer, and per frame three compute
+// passes in one submission — the predicate per node, the closure to a fixed point (2·(depth + 1)
+// steps with barriers, no host round trip per level), and the drawn flags — then a read-back of the
+// flags and screen errors from which the host lists the cut in refine()'s depth-first order, with
 // its tiles and geomorph weights. The predicate is runtime::CutSelector's (screen error, focus
 // regions, a caller's flags); the arithmetic is the CPU's operation for operation in double,
 // so on lavapipe (IEEE doubles, no contraction) the cut is the CPU's, bit for bit in its

@@ -1,13 +1,13 @@
 // TerrainRenderer: draws a cut (runtime/Refinement.h) of a P-BDAM dataset offscreen in exact mode
-// (design.md §4 "Modes": every patch of the cut, each with its texture tile; the same camera
-// gives the same image) and reads the frame back. Patches and tiles live in GPU-resident pools
-// under one byte budget with LRU eviction (GpuCache.h, streaming/ResidencyLru.h); misses are
+// (docs/architecture.md "Modes": every patch of the cut, each with its texture tile; the same
+// camera gives the same image) and reads the frame back. Patches and tiles live in GPU-resident
+// pools under one byte budget with LRU eviction (GpuCache.h, streaming/ResidencyLru.h); misses are
 // decoded on TBB workers (streaming/DecodeScheduler.h) and uploaded through a staging buffer
-// (design.md §5). Objects it replaces are destroyed only after the submissions that used them.
-// Implements paper 004 §4.2 (camera-relative vertices, patch.vert) and §4.4 (the GPU cache).
-// Thread-safety: none — one thread renders; the decoding it starts runs in parallel inside
-// render(). Several renderers, each used by one thread, may share a VulkanContext (it serialises
-// queue submissions) and one GpuCache (TerrainRendererOptions::sharedCache).
+// (docs/architecture.md "Streaming"). Objects it replaces are destroyed only after the submissions
+// that used them. Implements [P-BDAM 2003] §4.2 (camera-relative vertices, patch.vert) and §4.4
+// (the GPU cache). Thread-safety: none — one thread renders; the decoding it starts runs in
+// parallel inside render(). Several renderers, each used by one thread, may share a VulkanContext
+// (it serialises queue submissions) and one GpuCache (TerrainRendererOptions::sharedCache).
 #pragma once
 
 #include <array>

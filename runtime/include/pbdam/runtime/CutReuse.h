@@ -1,4 +1,4 @@
-// Frame-to-frame cut reuse (docs/architecture.md "Cut reuse", seed 002 §4.3): the refinement
+// Frame-to-frame cut reuse (docs/architecture.md "Cut reuse", [Hybrid LEB] §4.3): the refinement
 // keeps the previous frame's refinement tree and re-evaluates a node's split or cull decision
 // only once the camera may have moved or turned far enough to change it.
 //
@@ -11,7 +11,7 @@
 // ≥ ‖R − I‖ over the frames since) bound both, so a node is due again when L, or L + D·Θ for a
 // node at distance at most D, passes a key fixed when it was evaluated. The nodes due are the
 // only ones evaluated; while no key is reached, the whole cut is reused with no decision at all
-// (the "sphere of validity" of seed 002 is the smallest distance slack).
+// (the "sphere of validity" of [Hybrid LEB] is the smallest distance slack).
 //
 // The tree is refined against the camera's frustum widened by a margin (Camera::
 // withFrustumMargin), so that a culled node stays culled while the view turns by less than the

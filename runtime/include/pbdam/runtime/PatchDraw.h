@@ -1,4 +1,4 @@
-// Camera-relative patch vertices (docs/architecture.md "Precision", paper 004 §4.2 and Fig. 5):
+// Camera-relative patch vertices (docs/architecture.md "Precision", [P-BDAM 2003] §4.2 and Fig. 5):
 // where a vertex is drawn, what decode computes for it once per residency in double, what the
 // host computes per draw in double, what the vertex shader then computes per vertex in float,
 // and a CPU copy of the shader's float arithmetic for tests.

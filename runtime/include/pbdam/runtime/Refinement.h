@@ -1,4 +1,4 @@
-// View-dependent refinement (docs/architecture.md "Refinement and drawing", paper 004 §4.3): a
+// View-dependent refinement (docs/architecture.md "Refinement and drawing", [P-BDAM 2003] §4.3): a
 // stateless top-down walk of the 12 bintrees that yields the cut — the patches to draw, each with
 // the texture tile it is drawn with. A node is split while its screen-space error exceeds the
 // tolerance and it is not a leaf (a flag of its record: leaves may lie at any level); nodes whose

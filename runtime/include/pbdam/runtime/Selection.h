@@ -1,5 +1,5 @@
 // Cuts selected by a predicate and closed upward (docs/architecture.md "Selection by
-// predicate", seed 000 §6–7): the one cut definition that any predicate — not only the
+// predicate", [Yalçın 2011] §6–7): the one cut definition that any predicate — not only the
 // screen-space error the saturated errors make conforming by themselves — turns into a
 // conforming mesh.
 //

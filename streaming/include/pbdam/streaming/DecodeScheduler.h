@@ -1,8 +1,8 @@
-// DecodeScheduler: decodes the patches and tiles a pass misses in the GPU cache (design.md §5,
-// paper 004 §4.4) in parallel on TBB workers, straight into host memory the caller provides
-// (the GPU cache's staging buffer), in the layout the GPU pools copy from. No Vulkan here.
-// Thread-safety: const members only; decode() may run on several threads at once for disjoint
-// outputs.
+// DecodeScheduler: decodes the patches and tiles a pass misses in the GPU cache
+// (docs/architecture.md "Streaming"; [P-BDAM 2003] §4.4) in parallel on TBB workers, straight into
+// host memory the caller provides (the GPU cache's staging buffer), in the layout the GPU pools
+// copy from. No Vulkan here. Thread-safety: const members only; decode() may run on several threads
+// at once for disjoint outputs.
 #pragma once
 
 #include <array>

@@ -1,7 +1,7 @@
-// NoStallPolicy: the no-stall mode of design.md §5 — the render thread never waits on disk; it
-// draws the finest conforming cut whose patches and tiles are all in the page cache already,
-// while a loader thread (Prefetcher) brings in what the camera needs. The cut is capped by one
-// global level (a cap applies to both triangles of every diamond, so the capped cut stays
+// NoStallPolicy: the no-stall mode (docs/architecture.md "Modes") — the render thread never waits
+// on disk; it draws the finest conforming cut whose patches and tiles are all in the page cache
+// already, while a loader thread (Prefetcher) brings in what the camera needs. The cut is capped by
+// one global level (a cap applies to both triangles of every diamond, so the capped cut stays
 // conforming). No Vulkan here. Thread-safety: const members only; any thread may call them.
 #pragma once
 

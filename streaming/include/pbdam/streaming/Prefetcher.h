@@ -1,10 +1,10 @@
-// Speculative prefetch (design.md §5, paper 004 §4.4): a worker thread predicts the camera at
-// 1/8, 1/4, 1/2 and all of a look-ahead ahead (nearest first) by linear extrapolation of the last
-// poses, runs the renderer's refinement for each predicted camera, and asks the kernel to start
-// reading (madvise(MADV_WILLNEED)) the page-aligned byte ranges of every needed patch and tile that
-// is not resident. The render path knows nothing of it: whoever drives the frames hands it the
-// camera of each frame. Thread-safety: observe() and stats() may be called from any thread while
-// the worker runs.
+// Speculative prefetch (docs/architecture.md "Streaming"; [P-BDAM 2003] §4.4): a worker thread
+// predicts the camera at 1/8, 1/4, 1/2 and all of a look-ahead ahead (nearest first) by linear
+// extrapolation of the last poses, runs the renderer's refinement for each predicted camera, and
+// asks the kernel to start reading (madvise(MADV_WILLNEED)) the page-aligned byte ranges of every
+// needed patch and tile that is not resident. The render path knows nothing of it: whoever drives
+// the frames hands it the camera of each frame. Thread-safety: observe() and stats() may be called
+// from any thread while the worker runs.
 #pragma once
 
 #include <atomic>

@@ -1,7 +1,7 @@
-// ResidencyLru: the bookkeeping of the GPU-resident patch and texture cache (design.md §5) —
-// which patches and tiles occupy which pool slot, one least-recently-used order over both kinds,
-// and a byte budget counted in slot bytes. Residency policy, not Vulkan: gpu/GpuCache owns the
-// pools the slot numbers index. Thread-safety: none; GpuCache guards it with its lock when
+// ResidencyLru: the bookkeeping of the GPU-resident patch and texture cache (docs/architecture.md
+// "Streaming") — which patches and tiles occupy which pool slot, one least-recently-used order over
+// both kinds, and a byte budget counted in slot bytes. Residency policy, not Vulkan: gpu/GpuCache
+// owns the pools the slot numbers index. Thread-safety: none; GpuCache guards it with its lock when
 // several render threads share it.
 #pragma once
 

@@ -1,7 +1,7 @@
 // `pbdam build`: a DEM (and optional imagery) into a P-BDAM dataset directory — resampling onto
 // the cube-map lattice, leaf patches, bottom-up block simplification level by level, measured and
 // saturated errors and spheres, the texture quadtree, and atomic writing of the six face files
-// and the manifest (paper 004 §3–5; docs/builder.md). Parallel with TBB and, given a
+// and the manifest ([P-BDAM 2003] §3–5; docs/builder.md). Parallel with TBB and, given a
 // Communicator of several ranks (mpirun), distributed level by level across processes; the
 // output does not depend on the thread or rank count. Checkpointed per level (--resume).
 // Thread-safety: buildDataset may run concurrently for different output directories.

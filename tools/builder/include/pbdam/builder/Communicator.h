@@ -1,5 +1,5 @@
 // The processes of a build and the few collective operations the distributed build needs
-// (paper 004 §5 "independent simplify" between per-level synchronisations; docs/builder.md
+// ([P-BDAM 2003] §5 "independent simplify" between per-level synchronisations; docs/builder.md
 // "Distributed build"). One process is the LocalCommunicator; `mpirun -np N pbdam build` gets an
 // MPI implementation (tools/mpi). The builder only ever exchanges small opaque byte buffers
 // (outcomes, per-level statistics; the bulk data goes through shared files), so it does not

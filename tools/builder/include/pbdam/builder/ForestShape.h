@@ -1,6 +1,6 @@
 // The shape of an adaptive forest (docs/builder.md "Insets: the forest's shape"): which bintree
 // nodes exist and which of them are split, when leaves lie at the base's depth everywhere except
-// near regions (insets) that want deeper ones. The set of split diamonds is closed (seed 000's
+// near regions (insets) that want deeper ones. The set of split diamonds is closed ([Yalçın 2011]'s
 // closure, at build time): both triangles of a split diamond are split, so both parents of a
 // split diamond are split; every cut a top-down refinement stopping at leaves makes is then
 // conforming. Thread-safety: immutable after make().

@@ -1,5 +1,5 @@
 // Colour ramps for the default terrain texture: hypsometric tints by height (docs/architecture.md
-// "Geometry", "shaded relief with hypsometric tint"; P-BDAM paper 004 §3/§4 texture quadtree
+// "Geometry", "shaded relief with hypsometric tint"; [P-BDAM 2003] §3/§4 texture quadtree
 // content). Two ramps: bathymetric blues + green→tan→brown→white land for bodies with oceans
 // (Earth), and a blue→green→yellow→red→white ramp spanning the dataset's height range for dry
 // bodies (Mars, the Moon). Thread-safety: pure functions.

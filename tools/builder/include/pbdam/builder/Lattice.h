@@ -1,7 +1,7 @@
-// The P-BDAM bintree forest on the cube-map lattice (docs/builder.md "Lattice and bintrees"; paper
-// 004 §3, §4.1): bintree triangles as lattice-point triples, heap numbering, canonical keys of
-// lattice points shared by several faces, and edge keys that identify diamonds across faces.
-// Thread-safety: pure functions and plain values.
+// The P-BDAM bintree forest on the cube-map lattice (docs/builder.md "Lattice and bintrees";
+// [P-BDAM 2003] §3, §4.1): bintree triangles as lattice-point triples, heap numbering, canonical
+// keys of lattice points shared by several faces, and edge keys that identify diamonds across
+// faces. Thread-safety: pure functions and plain values.
 #pragma once
 
 #include <array>

@@ -1,4 +1,4 @@
-// Patch construction for P-BDAM (paper 004 §5 "Out-of-core Geometric Simplification";
+// Patch construction for P-BDAM ([P-BDAM 2003] §5 "Out-of-core Geometric Simplification";
 // docs/builder.md "Patches"): regular leaf patches, the simplification of one block (the four
 // children of a diamond) into the diamond's two patches by greedy insertion, and the measurement
 // and encoding of a patch (exact barycentrics, quantised lattice heights,

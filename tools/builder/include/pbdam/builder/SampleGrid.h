@@ -1,4 +1,4 @@
-// The DEM resampled onto the cube-map lattice (paper 004 §5 "Data preparation and resampling"):
+// The DEM resampled onto the cube-map lattice ([P-BDAM 2003] §5 "Data preparation and resampling"):
 // one height per lattice point of every face, terrain positions and normals derived from them,
 // and the source DEM's own samples bucketed by face cell so that patch errors can be measured
 // against the original data. In memory (build()) for small users, or out of core for the builder:

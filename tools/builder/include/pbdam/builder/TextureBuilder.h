@@ -1,5 +1,5 @@
 // Texture tile generation for the per-face texture quadtree (docs/architecture.md "Geometry";
-// P-BDAM paper 004 §3/§4: one texture node per pair of level-2t geometry nodes; docs/builder.md
+// [P-BDAM 2003] §3/§4: one texture node per pair of level-2t geometry nodes; docs/builder.md
 // "Textures"): shaded relief with a hypsometric tint from the DEM by default, or an equirectangular
 // image (optionally shaded), each tile with a 2-texel border sampled across face edges, and the
 // tile's texture error (largest texel ground size). Thread-safety: buildTextureTile and
