@@ -20,11 +20,13 @@
 
 namespace pbdam::gpu {
 
-/// Whether validation is on when ContextOptions does not say: on in builds without NDEBUG.
-#ifdef NDEBUG
-inline constexpr bool kValidationByDefault = false;
-#else
+/// Whether validation is on when ContextOptions does not say: on in Debug builds
+/// (gpu/CMakeLists.txt defines PBDAM_VALIDATION_BY_DEFAULT there). Not tied to NDEBUG: the
+/// ASan build keeps its asserts without paying for the layer in every command it runs.
+#ifdef PBDAM_VALIDATION_BY_DEFAULT
 inline constexpr bool kValidationByDefault = true;
+#else
+inline constexpr bool kValidationByDefault = false;
 #endif
 
 /// How to create a VulkanContext.
