@@ -6,10 +6,16 @@
 # A dataset is rebuilt when it is missing or older than the binary that would build it.
 # Missing input data: fails under CI=true, otherwise prints why and builds nothing (the tests
 # that need it then skip with the same message).
+# Built datasets are also kept in $PBDAM_TESTDATA_CACHE (default ~/.cache/pbdam/testdata; "off"
+# keeps none), keyed by what decides their bytes: the pbdam binary's content and the shared
+# libraries it loads (path, size, time), the build arguments and the input files' content. A
+# clean clone on the same machine then copies them instead of building them again; the three
+# most recent keys of each dataset are kept.
 set -euo pipefail
 pbdam=$1 data=$2 out=$3 release=${4:-}
 if [[ -n "$release" && -x "$release" ]]; then pbdam=$release; fi
 mkdir -p "$out"
+cache=${PBDAM_TESTDATA_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/pbdam/testdata}
 status=0
 build() {  # name, input file, build arguments...
   local name=$1 input=$2
@@ -23,8 +29,34 @@ build() {  # name, input file, build arguments...
     echo "test dataset '$name' is up to date"
     return 0
   fi
+  local key="" kept=""
+  if [[ "$cache" != off ]]; then
+    key=$(datasetKey "$input" "$@")
+    kept="$cache/$name-$key"
+    if [[ -f "$kept/manifest.json" ]]; then
+      echo "test dataset '$name' copied from $kept"
+      rm -rf "$out/$name" && cp -r "$kept" "$out/$name"
+      touch "$kept"
+      return 0
+    fi
+  fi
   echo "building test dataset '$name' with $pbdam"
   "$pbdam" build --dem "$input" "$@" --out "$out/$name" --force --quiet
+  if [[ -n "$kept" ]]; then
+    mkdir -p "$cache"
+    rm -rf "$kept.tmp" && cp -r "$out/$name" "$kept.tmp" && mv "$kept.tmp" "$kept"
+    # Keep the three most recent keys of this dataset.
+    ls -dt "$cache/$name"-* 2>/dev/null | grep -v '\.tmp$' | tail -n +4 | xargs -r rm -rf
+  fi
+}
+# datasetKey ARGS...: the cache key of a build of `pbdam` with these arguments.
+datasetKey() {
+  {
+    sha256sum "$pbdam"
+    ldd "$pbdam" | awk '/=> \// { print $3 }' | sort | xargs -r stat -L -c '%n %s %Y'
+    printf '%s\n' "$@"
+    for arg in "$@"; do if [[ -f "$arg" ]]; then sha256sum "$arg"; fi; done
+  } | sha256sum | cut -c1-32
 }
 data=${PBDAM_DATA_DIR:-$data}
 build mola "$data/mars/megt90n000cb.lbl" --planet mars
