@@ -64,7 +64,7 @@ TEST_P(GoldenFrames, MatchTheCheckedInReference) {
   const RgbaImage& image = frame->image;
 
   const std::filesystem::path artifacts =
-      std::filesystem::path(PBDAM_TEST_DATASET_DIR).parent_path() / "test-artifacts";
+      pbdam::test::testDatasetDir("mola").parent_path().parent_path() / "test-artifacts";
   writePng(artifacts / (std::string(view.name) + ".png"), image);
   const std::filesystem::path golden =
       std::filesystem::path(PBDAM_GOLDEN_DIR) / (std::string(view.name) + ".png");

@@ -22,6 +22,10 @@ std::filesystem::path dataDir() {
   return PBDAM_DEFAULT_DATA_DIR;
 }
 
+std::filesystem::path testDatasetDir(const std::string& name) {
+  return std::filesystem::path(PBDAM_TEST_DATASET_DIR) / name;
+}
+
 std::string missingFileMessage(const std::filesystem::path& path) {
   std::error_code ec;
   if (std::filesystem::is_regular_file(path, ec)) return {};

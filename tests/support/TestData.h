@@ -64,9 +64,7 @@ namespace pbdam::test {
 /// The directory of a test dataset built by the `datasets` fixture (tests/CMakeLists.txt):
 /// "mola" (MOLA 4 px/deg), "earth" (ETOPO5, 512 cells per face side) or "luxembourg" (ETOPO5
 /// with the Luxembourg GeoTIFF as an inset).
-inline std::filesystem::path testDatasetDir(const std::string& name) {
-  return std::filesystem::path(PBDAM_TEST_DATASET_DIR) / name;
-}
+std::filesystem::path testDatasetDir(const std::string& name);
 }  // namespace pbdam::test
 
 /// Declares `var` as the directory of test dataset `name`; when it was not built (its input data
