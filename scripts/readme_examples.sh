@@ -52,6 +52,9 @@ mkdir -p "$work/shared" "$work/repo" "$work/bin" "$work/out"
 ln -s "$data" "$work/shared/data"
 ln -s "$pbdam" "$work/bin/pbdam"
 export PATH="$work/bin:$PATH"
+# The examples show lavapipe's output whatever devices the machine has (pbdam's default is its
+# best device).
+export PBDAM_DEVICE=lavapipe
 cd "$work/repo"
 
 # ex NAME CMD: appends "$ CMD" and CMD's output (stdout and stderr) to example NAME's transcript;

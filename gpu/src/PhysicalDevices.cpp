@@ -1,9 +1,12 @@
-// Physical device enumeration and description.
+// Physical device enumeration, description and choice.
 #include "pbdam/gpu/PhysicalDevices.h"
 
 #include "pbdam/gpu/UniqueHandle.h"
 #include "pbdam/gpu/VulkanError.h"
 
+#include <algorithm>
+#include <cctype>
+#include <cstdlib>
 #include <cstring>
 
 using namespace pbdam::formats;
@@ -70,6 +73,94 @@ PhysicalDeviceInfo queryPhysicalDeviceInfo(VkPhysicalDevice device, uint32_t ind
     info.driverInfo = driver.driverInfo;
   }
   return info;
+}
+
+int defaultDevicePreference(VkPhysicalDeviceType type) noexcept {
+  switch (type) {
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU:
+      return 0;
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU:
+      return 1;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU:
+      return 2;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU:
+      return 3;
+    default:
+      return 4;
+  }
+}
+
+namespace {
+
+/// The most preferred of `devices` that `keep` accepts, ties by index.
+template <typename Keep>
+std::optional<uint32_t> mostPreferred(const std::vector<PhysicalDeviceInfo>& devices, Keep keep) {
+  std::optional<uint32_t> best;
+  int bestRank = 0;
+  for (uint32_t i = 0; i < devices.size(); ++i) {
+    if (!keep(devices[i])) continue;
+    const int rank = defaultDevicePreference(devices[i].type);
+    if (!best || rank < bestRank) {
+      best = i;
+      bestRank = rank;
+    }
+  }
+  return best;
+}
+
+std::string lowercase(std::string_view text) {
+  std::string out(text);
+  std::transform(out.begin(), out.end(), out.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return out;
+}
+
+}  // namespace
+
+std::optional<uint32_t> defaultPhysicalDevice(const std::vector<PhysicalDeviceInfo>& devices) {
+  return mostPreferred(devices, [](const PhysicalDeviceInfo&) { return true; });
+}
+
+std::string deviceListSuffix(const std::vector<PhysicalDeviceInfo>& devices) {
+  std::string message = "; " + std::to_string(devices.size()) + " Vulkan device(s)";
+  for (const PhysicalDeviceInfo& info : devices) message += " | " + describe(info);
+  return message;
+}
+
+Result<uint32_t> selectPhysicalDevice(const std::vector<PhysicalDeviceInfo>& devices,
+                                      std::string_view selector) {
+  if (devices.empty()) {
+    return makeError(ErrorCode::NotFound,
+                     "no Vulkan device found; install a GPU driver or Mesa's lavapipe "
+                     "(mesa-vulkan-drivers), or check VK_ICD_FILENAMES");
+  }
+  if (selector.empty()) return *defaultPhysicalDevice(devices);
+  if (std::all_of(selector.begin(), selector.end(),
+                  [](unsigned char c) { return std::isdigit(c) != 0; })) {
+    if (selector.size() > 9 || std::stoul(std::string(selector)) >= devices.size()) {
+      return invalidArgument("Vulkan device index " + std::string(selector) + " is out of range" +
+                             deviceListSuffix(devices));
+    }
+    return static_cast<uint32_t>(std::stoul(std::string(selector)));
+  }
+  const std::string wanted = lowercase(selector);
+  const auto match = mostPreferred(devices, [&](const PhysicalDeviceInfo& d) {
+    return lowercase(d.name).find(wanted) != std::string::npos ||
+           lowercase(d.driverName).find(wanted) != std::string::npos ||
+           (wanted == "lavapipe" && d.isLavapipe());
+  });
+  if (!match) {
+    return invalidArgument("no Vulkan device matches '" + std::string(selector) +
+                           "' (a device index, or part of a device's or driver's name)" +
+                           deviceListSuffix(devices));
+  }
+  return *match;
+}
+
+std::string deviceSelector(std::string_view given) {
+  if (!given.empty()) return std::string(given);
+  const char* env = std::getenv(kDeviceEnvironmentVariable);
+  return env ? std::string(env) : std::string();
 }
 
 Result<std::vector<PhysicalDeviceInfo>> listPhysicalDevices(VkInstance instance) {

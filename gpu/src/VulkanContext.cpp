@@ -1,4 +1,4 @@
-// VulkanContext: headless instance + device creation, device selection (lavapipe by default)
+// VulkanContext: headless instance + device creation, device selection (PhysicalDevices.h)
 // and the Khronos validation layer wiring (docs/architecture.md "What pbdam is", "Modules").
 #include "pbdam/gpu/VulkanContext.h"
 
@@ -18,16 +18,6 @@ namespace pbdam::gpu {
 namespace {
 
 constexpr const char* kValidationLayer = "VK_LAYER_KHRONOS_validation";
-
-void appendDeviceList(std::string& message, const std::vector<PhysicalDeviceInfo>& devices) {
-  message += "; ";
-  message += std::to_string(devices.size());
-  message += " Vulkan device(s)";
-  for (const PhysicalDeviceInfo& info : devices) {
-    message += " | ";
-    message += describe(info);
-  }
-}
 
 Result<std::vector<VkLayerProperties>> instanceLayers() {
   uint32_t count = 0;
@@ -214,31 +204,8 @@ Result<void> VulkanContext::Impl::choosePhysicalDevice(const ContextOptions& opt
   std::vector<PhysicalDeviceInfo> infos;
   for (uint32_t i = 0; i < count; ++i) infos.push_back(queryPhysicalDeviceInfo(devices[i], i));
 
-  std::optional<uint32_t> chosen;
-  if (options.deviceIndex) {
-    if (*options.deviceIndex >= count) {
-      std::string message =
-          "Vulkan device index " + std::to_string(*options.deviceIndex) + " is out of range";
-      appendDeviceList(message, infos);
-      return makeError(ErrorCode::InvalidArgument, std::move(message));
-    }
-    chosen = *options.deviceIndex;
-  } else {
-    for (const PhysicalDeviceInfo& info : infos) {
-      if (info.isLavapipe()) {
-        chosen = info.index;
-        break;
-      }
-    }
-    if (!chosen) {
-      std::string message =
-          "lavapipe (Mesa's CPU Vulkan driver, pbdam's default device) was not found; install "
-          "mesa-vulkan-drivers, check VK_ICD_FILENAMES, or choose a device by index "
-          "(--device N)";
-      appendDeviceList(message, infos);
-      return makeError(ErrorCode::NotFound, std::move(message));
-    }
-  }
+  auto chosen = selectPhysicalDevice(infos, deviceSelector(options.device));
+  if (!chosen) return std::move(chosen).error();
   physicalDevice = devices[*chosen];
   physicalInfo = infos[*chosen];
   if (physicalInfo.apiVersion < VK_API_VERSION_1_3) {

@@ -11,9 +11,11 @@
 
 namespace pbdam::gpu::test {
 
-/// Options every GPU test uses: lavapipe (the default device), validation on, messages echoed.
+/// Options every GPU test uses: lavapipe, pinned by name (a machine's GPU would be its default
+/// device), validation on, messages echoed.
 inline ContextOptions lavapipeWithValidation(std::shared_ptr<ValidationLog> log) {
   ContextOptions options;
+  options.device = "lavapipe";
   options.enableValidation = true;
   options.enableSynchronizationValidation = true;
   options.validationLog = std::move(log);

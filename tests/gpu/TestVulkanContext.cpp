@@ -15,6 +15,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 using namespace pbdam::formats;
 
@@ -103,7 +104,7 @@ TEST(VulkanContext, ChoosesDeviceByExplicitIndex) {
   ASSERT_NE(lavapipe, devices->end());
   auto log = std::make_shared<ValidationLog>();
   ContextOptions options = test::lavapipeWithValidation(log);
-  options.deviceIndex = lavapipe->index;
+  options.device = std::to_string(lavapipe->index);
   {
     Result<VulkanContext> context = VulkanContext::create(options);
     ASSERT_TRUE(context.ok()) << context.error().message;
@@ -116,13 +117,118 @@ TEST(VulkanContext, ChoosesDeviceByExplicitIndex) {
 TEST(VulkanContext, RejectsAnOutOfRangeDeviceIndexAndListsTheDevices) {
   auto log = std::make_shared<ValidationLog>();
   ContextOptions options = test::lavapipeWithValidation(log);
-  options.deviceIndex = 999;
+  options.device = "999";
   Result<VulkanContext> context = VulkanContext::create(options);
   ASSERT_FALSE(context.ok());
   EXPECT_EQ(context.error().code, ErrorCode::InvalidArgument);
   EXPECT_THAT(context.error().message, HasSubstr("device index 999 is out of range"));
   EXPECT_THAT(context.error().message, HasSubstr("llvmpipe"));  // the list of devices
   EXPECT_EQ(log->count(), 0u) << log->summary();
+}
+
+TEST(VulkanContext, ChoosesDeviceByAnyCasePartOfItsName) {
+  for (const char* name : {"LavaPipe", "llvmpipe", "LLVM"}) {
+    SCOPED_TRACE(name);
+    auto log = std::make_shared<ValidationLog>();
+    ContextOptions options = test::lavapipeWithValidation(log);
+    options.device = name;
+    Result<VulkanContext> context = VulkanContext::create(options);
+    ASSERT_TRUE(context.ok()) << context.error().message;
+    EXPECT_TRUE(context->deviceInfo().isLavapipe()) << describe(context->deviceInfo());
+  }
+  auto log = std::make_shared<ValidationLog>();
+  ContextOptions options = test::lavapipeWithValidation(log);
+  options.device = "no-such-gpu";
+  Result<VulkanContext> context = VulkanContext::create(options);
+  ASSERT_FALSE(context.ok());
+  EXPECT_EQ(context.error().code, ErrorCode::InvalidArgument);
+  EXPECT_THAT(context.error().message, HasSubstr("no Vulkan device matches 'no-such-gpu'"));
+  EXPECT_THAT(context.error().message, HasSubstr("llvmpipe"));  // the list of devices
+}
+
+/// A device list as a machine with several kinds of device would report it.
+std::vector<PhysicalDeviceInfo> machine(std::initializer_list<VkPhysicalDeviceType> types) {
+  std::vector<PhysicalDeviceInfo> devices;
+  for (const VkPhysicalDeviceType type : types) {
+    PhysicalDeviceInfo d;
+    d.index = static_cast<uint32_t>(devices.size());
+    d.type = type;
+    switch (type) {
+      case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU:
+        d.name = "NVIDIA H200";
+        d.driverName = "NVIDIA";
+        break;
+      case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU:
+        d.name = "Intel(R) UHD Graphics 770";
+        d.driverName = "Intel open-source Mesa driver";
+        break;
+      case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU:
+        d.name = "Virtio-GPU Venus";
+        d.driverName = "venus";
+        break;
+      default:
+        d.name = "llvmpipe (LLVM 15.0.6, 256 bits)";
+        d.driverName = "llvmpipe";
+        d.driverId = VK_DRIVER_ID_MESA_LLVMPIPE;
+        break;
+    }
+    d.name += " #" + std::to_string(d.index);
+    devices.push_back(d);
+  }
+  return devices;
+}
+
+TEST(PhysicalDeviceChoice, TheDefaultIsDiscreteThenIntegratedThenVirtualThenCpuTiesByIndex) {
+  constexpr auto cpu = VK_PHYSICAL_DEVICE_TYPE_CPU;
+  constexpr auto virt = VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU;
+  constexpr auto integrated = VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU;
+  constexpr auto discrete = VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU;
+  EXPECT_EQ(selectPhysicalDevice(machine({cpu, integrated, discrete, discrete}), "").value(), 2u);
+  EXPECT_EQ(selectPhysicalDevice(machine({cpu, virt, integrated}), "").value(), 2u);
+  EXPECT_EQ(selectPhysicalDevice(machine({cpu, virt}), "").value(), 1u);
+  EXPECT_EQ(selectPhysicalDevice(machine({cpu, cpu}), "").value(), 0u);
+  EXPECT_EQ(defaultPhysicalDevice(machine({integrated, cpu, integrated})), 0u);
+  EXPECT_EQ(defaultPhysicalDevice({}), std::nullopt);
+  auto none = selectPhysicalDevice({}, "");
+  ASSERT_FALSE(none.ok());
+  EXPECT_EQ(none.error().code, ErrorCode::NotFound);
+}
+
+TEST(PhysicalDeviceChoice, AnIndexOrAnyCasePartOfTheDeviceOrDriverNameNamesADevice) {
+  const auto devices =
+      machine({VK_PHYSICAL_DEVICE_TYPE_CPU, VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU,
+               VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU, VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU});
+  EXPECT_EQ(selectPhysicalDevice(devices, "0").value(), 0u);
+  EXPECT_EQ(selectPhysicalDevice(devices, "3").value(), 3u);
+  EXPECT_EQ(selectPhysicalDevice(devices, "lavapipe").value(), 0u);
+  EXPECT_EQ(selectPhysicalDevice(devices, "LLVMPIPE").value(), 0u);
+  EXPECT_EQ(selectPhysicalDevice(devices, "uhd").value(), 1u);
+  EXPECT_EQ(selectPhysicalDevice(devices, "mesa").value(), 1u);    // the driver's name
+  EXPECT_EQ(selectPhysicalDevice(devices, "nvidia").value(), 2u);  // two match: the first
+  EXPECT_EQ(selectPhysicalDevice(devices, "h200 #3").value(), 3u);
+  // Of several matches the most preferred type wins: "#" is in every name.
+  EXPECT_EQ(selectPhysicalDevice(devices, "#").value(), 2u);
+  for (const char* bad : {"4", "99999999999999999999", "radeon"}) {
+    SCOPED_TRACE(bad);
+    auto refused = selectPhysicalDevice(devices, bad);
+    ASSERT_FALSE(refused.ok());
+    EXPECT_EQ(refused.error().code, ErrorCode::InvalidArgument);
+    EXPECT_THAT(refused.error().message, HasSubstr(bad));
+    EXPECT_THAT(refused.error().message, HasSubstr("4 Vulkan device(s)"));
+    EXPECT_THAT(refused.error().message, HasSubstr("3: NVIDIA H200 #3"));
+  }
+}
+
+TEST(PhysicalDeviceChoice, PbdamDeviceNamesTheDeviceWhenNoOptionDoes) {
+  const char* saved = std::getenv(kDeviceEnvironmentVariable);
+  const std::optional<std::string> restore =
+      saved ? std::optional<std::string>(saved) : std::nullopt;
+  ::setenv(kDeviceEnvironmentVariable, "nvidia", 1);
+  EXPECT_EQ(deviceSelector(""), "nvidia");
+  EXPECT_EQ(deviceSelector("lavapipe"), "lavapipe");  // the option wins
+  ::unsetenv(kDeviceEnvironmentVariable);
+  EXPECT_EQ(deviceSelector(""), "");
+  if (restore) ::setenv(kDeviceEnvironmentVariable, restore->c_str(), 1);
 }
 
 TEST(VulkanContext, MovedFromContextIsEmptyAndTheTargetWorks) {

@@ -293,6 +293,8 @@ TEST(RenderCli, BadInputIsOneLineAndExitCode2) {
       {"render " + ds + " --camera 0,0,1e6 --out " + quoted(tmp / "no/such/dir/x.png"),
        "does not exist"},
       {"render " + ds + " --camera 0,0,1e6 --device 99" + out, "device index 99"},
+      {"render " + ds + " --camera 0,0,1e6 --device no-such-gpu" + out,
+       "no Vulkan device matches 'no-such-gpu'"},
       {"render " + ds + " --path " + quoted(tmp / "none.csv") + out, "none.csv"},
       {"render " + ds + " --path " + quoted(tmp / "bad.csv") + out, "bad.csv:3:"},
       {"render " + ds + " --path " + quoted(tmp / "far.csv") + out, "row 2"},

@@ -61,7 +61,7 @@ struct BenchCliOptions {
   bool popping = false;
   double fovDegrees = 60.0;
   double gpuCacheMiB = 64.0;
-  int device = -1;
+  std::string device;
   bool quiet = false;
   MorphCliOptions morph;
 };
@@ -463,7 +463,7 @@ int runBench(const BenchCliOptions& o) {
   probe->reset();  // unmapped, so a cold run can evict every page
 
   gpu::ContextOptions co;
-  if (o.device >= 0) co.deviceIndex = static_cast<std::uint32_t>(o.device);
+  co.device = o.device;
   co.enableValidation = false;
   auto context = gpu::VulkanContext::create(co);
   if (!context) return reportError(context.error());
@@ -522,7 +522,7 @@ void addBenchCommand(CLI::App& app, CommandStatus& status) {
                   "GPU cache budget in MiB (patch and tile slots; --gpu-cache-mb is its former "
                   "spelling, also MiB)")
       ->capture_default_str();
-  cmd->add_option("--device", o->device, "Vulkan device index (default: lavapipe)");
+  cmd->add_option("--device", o->device, kDeviceOptionHelp);
   cmd->add_option("--selection", o->selection,
                   "cpu: the refinement on the host; gpu: the selection's compute passes on the "
                   "device (paging mode; the same cuts on lavapipe)")

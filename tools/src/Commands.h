@@ -12,6 +12,11 @@ namespace pbdam::tools {
 /// Exit codes: 0 success, 1 internal failure, 2 bad input (unreadable file, bad parameter).
 enum ExitCode : int { kExitOk = 0, kExitFailure = 1, kExitBadInput = 2 };
 
+/// The help of every command's --device option (gpu::selectPhysicalDevice resolves it).
+inline constexpr const char* kDeviceOptionHelp =
+    "Vulkan device: an index or a case-insensitive part of its name (pbdam devices); default: "
+    "PBDAM_DEVICE, else the best device (discrete > integrated > virtual > CPU)";
+
 /// Shared by all commands: the code `main` returns after the chosen command ran.
 struct CommandStatus final {
   int exitCode = kExitOk;

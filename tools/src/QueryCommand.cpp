@@ -171,7 +171,7 @@ struct QueryLosOptions {
   std::string dir;
   std::string from;
   std::string to;
-  int device = -1;
+  std::string device;
   bool json = false;
 };
 
@@ -195,7 +195,7 @@ int runQueryLos(const QueryLosOptions& o) {
   auto to = groundPoint("--to", o.to);
   if (!to) return reportError(to.error());
   gpu::ContextOptions contextOptions;
-  if (o.device >= 0) contextOptions.deviceIndex = static_cast<std::uint32_t>(o.device);
+  contextOptions.device = o.device;
   auto context = gpu::VulkanContext::create(contextOptions);
   if (!context) return reportError(context.error());
   auto line = gpu::sightlineOverTerrain(*context, view, *from, *to);
@@ -224,7 +224,7 @@ struct QueryViewshedOptions {
   std::optional<double> cellMeters;
   std::string out;
   std::string checkDem;
-  int device = -1;
+  std::string device;
   bool json = false;
 };
 
@@ -247,7 +247,7 @@ int runQueryViewshed(const QueryViewshedOptions& o) {
     dem = std::move(*read);
   }
   gpu::ContextOptions contextOptions;
-  if (o.device >= 0) contextOptions.deviceIndex = static_cast<std::uint32_t>(o.device);
+  contextOptions.device = o.device;
   auto context = gpu::VulkanContext::create(contextOptions);
   if (!context) return reportError(context.error());
   auto viewshed = gpu::viewshedOverTerrain(*context, view, *grid);
@@ -337,7 +337,7 @@ void addQueryCommands(CLI::App& app, CommandStatus& status) {
   sight->add_option("--from", los->from, "LAT,LON,HEIGHT_ABOVE_GROUND_M of the observer")
       ->required();
   sight->add_option("--to", los->to, "LAT,LON,HEIGHT_ABOVE_GROUND_M of the target")->required();
-  sight->add_option("--device", los->device, "Vulkan device index (default: lavapipe)");
+  sight->add_option("--device", los->device, kDeviceOptionHelp);
   sight->add_flag("--json", los->json, "Print the answer as JSON");
   sight->callback([los, &status] { status.exitCode = runQueryLos(*los); });
 
@@ -358,7 +358,7 @@ void addQueryCommands(CLI::App& app, CommandStatus& status) {
   viewshed->add_option("--check-dem", vs->checkDem,
                        "Also decide every cell by a brute-force ray march over this DEM (the "
                        "dataset's source) and report the agreement");
-  viewshed->add_option("--device", vs->device, "Vulkan device index (default: lavapipe)");
+  viewshed->add_option("--device", vs->device, kDeviceOptionHelp);
   viewshed->add_flag("--json", vs->json, "Print the figures as JSON");
   viewshed->callback([vs, &status] { status.exitCode = runQueryViewshed(*vs); });
 }

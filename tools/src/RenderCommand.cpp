@@ -59,7 +59,7 @@ struct RenderCliOptions {
   double fovDegrees = 60.0;
   double tolerancePixels = 3.0;
   double gpuCacheMiB = 256.0;
-  int device = -1;
+  std::string device;
   std::string stats;
   std::string clear = "0,0,0";
   bool quiet = false;
@@ -173,7 +173,6 @@ int checkRenderOptions(const RenderCliOptions& c, const Viewport& viewport,
   if (!std::isfinite(c.tolerancePixels) || c.tolerancePixels <= 0.0) {
     return badInput("--tolerance-px must be a positive number of pixels");
   }
-  if (c.device < -1) return badInput("--device must be a device index (pbdam devices)");
   if (c.selection != "cpu" && c.selection != "gpu") {
     return badInput("--selection '" + c.selection + "': expected cpu or gpu");
   }
@@ -278,7 +277,7 @@ int renderFrames(const RenderCliOptions& c, const DatasetView& view, const Viewp
                  const gpu::FrameSettings& settings, const RenderPlan& plan,
                  std::ofstream& statsFile) {
   gpu::ContextOptions contextOptions;
-  if (c.device >= 0) contextOptions.deviceIndex = static_cast<std::uint32_t>(c.device);
+  contextOptions.device = c.device;
   auto context = gpu::VulkanContext::create(contextOptions);
   if (!context) return reportError(context.error());
   gpu::TerrainRendererOptions rendererOptions;
@@ -430,8 +429,7 @@ void addRenderCommand(CLI::App& app, CommandStatus& status) {
                    "GPU cache budget in MiB (patch and tile slots); a cut that does not fit "
                    "is drawn in several passes. --gpu-cache-mb is its former spelling (also MiB)")
       ->capture_default_str();
-  render->add_option("--device", o->device,
-                     "Vulkan device index (pbdam devices); default: lavapipe");
+  render->add_option("--device", o->device, kDeviceOptionHelp);
   render->add_option("--stats", o->stats,
                      "Write one JSON line of statistics per frame to this file");
   render->add_option("--clear", o->clear, "Background colour R,G,B (0..255)")

@@ -53,7 +53,6 @@ int runServe(const ServeCliOptions& c) {
   if (!std::isfinite(o.deadlineSeconds) || o.deadlineSeconds <= 0.0 || o.deadlineSeconds > 3600.0) {
     return badInput("--deadline-s must be in (0, 3600] seconds");
   }
-  if (o.device < -1) return badInput("--device must be a device index (pbdam devices)");
   if (o.bindAddress.empty()) return badInput("--bind must name a local address");
   if (c.morph.morph != "on" && c.morph.morph != "off") {
     return badInput("--morph '" + c.morph.morph + "': expected on or off");
@@ -172,8 +171,7 @@ void addServeCommand(CLI::App& app, CommandStatus& status) {
       ->add_option("--deadline-s", o->server.deadlineSeconds,
                    "Per-request deadline for /frame (queueing and drawing): 503 when missed")
       ->capture_default_str();
-  serve->add_option("--device", o->server.device,
-                    "Vulkan device index (pbdam devices); default: lavapipe");
+  serve->add_option("--device", o->server.device, kDeviceOptionHelp);
   addMorphOptions(*serve, o->morph, false);
   serve->add_flag("--log", o->server.logRequests, "One line per request on stdout");
   serve->add_flag("--quiet", o->quiet, "No start-up and shutdown lines");

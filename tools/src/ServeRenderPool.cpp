@@ -41,7 +41,7 @@ Result<std::unique_ptr<RenderPool>> RenderPool::create(const MappedDataset& data
   if (options.workers == 0) return makeError(ErrorCode::InvalidArgument, "--workers must be >= 1");
   std::unique_ptr<RenderPool> pool(new RenderPool(dataset, options));
   gpu::ContextOptions contextOptions;
-  contextOptions.deviceIndex = options.deviceIndex;
+  contextOptions.device = options.device;
   auto context = gpu::VulkanContext::create(contextOptions);
   if (!context) return std::move(context).error();
   pool->context_.emplace(std::move(*context));

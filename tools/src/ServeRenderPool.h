@@ -12,6 +12,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -82,7 +83,7 @@ struct RenderPoolOptions final {
   std::uint32_t workers = 2;
   std::uint32_t queueCapacity = 8;
   std::uint64_t gpuCacheBytes = std::uint64_t{256} << 20;  ///< the one cache of all contexts
-  std::optional<std::uint32_t> deviceIndex;                ///< unset: lavapipe
+  std::string device;  ///< ContextOptions::device: empty for PBDAM_DEVICE or the best device
   std::uint32_t initialWidthPixels = 640;
   std::uint32_t initialHeightPixels = 480;
 };

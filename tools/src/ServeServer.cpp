@@ -267,7 +267,7 @@ Result<std::shared_ptr<Generation>> openGeneration(const std::string& directory,
   poolOptions.workers = options.workers;
   poolOptions.queueCapacity = options.queueCapacity;
   poolOptions.gpuCacheBytes = static_cast<std::uint64_t>(options.gpuCacheMiB * 1048576.0);
-  if (options.device >= 0) poolOptions.deviceIndex = static_cast<std::uint32_t>(options.device);
+  poolOptions.device = options.device;
   auto pool = RenderPool::create(*generation->dataset, poolOptions);
   if (!pool) return std::move(pool).error();
   generation->pool = std::move(*pool);

@@ -26,7 +26,7 @@ struct ServeOptions final {
   std::uint32_t queueCapacity = 8;
   double gpuCacheMiB = 256.0;
   double deadlineSeconds = 10.0;  ///< per /frame request: queueing and drawing together
-  int device = -1;                ///< Vulkan device index; -1: lavapipe
+  std::string device;             ///< Vulkan device selector (ContextOptions::device)
   bool logRequests = false;       ///< one line per request on stdout
   /// The geomorph of frames whose request does not say (morph=on|off), and its window
   /// (RefinementOptions::morphRange when on; at most the dataset's error margin).

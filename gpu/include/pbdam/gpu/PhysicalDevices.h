@@ -1,5 +1,8 @@
-// Enumerating and describing Vulkan physical devices (for `pbdam devices` and for choosing the
-// device a VulkanContext runs on; lavapipe by default, docs/architecture.md "What pbdam is").
+// Enumerating, describing and choosing Vulkan physical devices (for `pbdam devices` and for the
+// device a VulkanContext runs on). The default is the best device the machine has: a discrete
+// GPU before an integrated one, then a virtual GPU, then a CPU device such as Mesa's lavapipe,
+// ties by index. A selector names another: an index, or a case-insensitive part of the device's
+// or its driver's name (`--device nvidia`, `--device lavapipe`; also PBDAM_DEVICE).
 #pragma once
 
 #include "pbdam/formats/Result.h"
@@ -7,7 +10,9 @@
 #include <vulkan/vulkan.h>
 
 #include <cstdint>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace pbdam::gpu {
@@ -44,6 +49,34 @@ PhysicalDeviceInfo queryPhysicalDeviceInfo(VkPhysicalDevice device, uint32_t ind
 
 /// The physical devices of `instance`, in enumeration order. Thread-safe.
 formats::Result<std::vector<PhysicalDeviceInfo>> listPhysicalDevices(VkInstance instance);
+
+/// The environment variable that names the device when a command is given no --device.
+inline constexpr const char* kDeviceEnvironmentVariable = "PBDAM_DEVICE";
+
+/// How much the default choice prefers a device type: 0 discrete GPU, 1 integrated, 2 virtual,
+/// 3 CPU, 4 anything else (lower is preferred).
+int defaultDevicePreference(VkPhysicalDeviceType type) noexcept;
+
+/// The device used when none is named: the most preferred type, ties by index; nullopt when the
+/// list is empty.
+std::optional<uint32_t> defaultPhysicalDevice(const std::vector<PhysicalDeviceInfo>& devices);
+
+/// The device `selector` names among `devices` (enumeration order, index = position):
+/// - empty: defaultPhysicalDevice;
+/// - all digits: that index;
+/// - otherwise a case-insensitive part of the device's name or of its driver's name, or
+///   "lavapipe" for Mesa's lavapipe; of several matches, the most preferred (ties by index).
+/// Errors: InvalidArgument for an index out of range or a name that matches nothing, NotFound
+/// for an empty list; each message lists the devices.
+formats::Result<uint32_t> selectPhysicalDevice(const std::vector<PhysicalDeviceInfo>& devices,
+                                               std::string_view selector);
+
+/// The selector a command uses: `given` when not empty, else the value of PBDAM_DEVICE, else
+/// empty (the default device).
+std::string deviceSelector(std::string_view given);
+
+/// "; 2 Vulkan device(s) | 0: ... | 1: ...": the devices, for an error message.
+std::string deviceListSuffix(const std::vector<PhysicalDeviceInfo>& devices);
 
 /// Creates a short-lived headless instance (no layers, no window-system extensions) and lists
 /// its physical devices: what `pbdam devices` prints. Errors with ErrorCode::DeviceError when

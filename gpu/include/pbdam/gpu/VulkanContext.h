@@ -1,6 +1,7 @@
-// VulkanContext: the headless Vulkan instance, the chosen physical device (lavapipe unless told
-// otherwise), the logical device with one graphics queue, optional Khronos validation, and a
-// blocking "record, submit, wait" helper. No window system is involved anywhere.
+// VulkanContext: the headless Vulkan instance, the chosen physical device (the machine's best
+// unless told otherwise, PhysicalDevices.h), the logical device with one graphics queue, optional
+// Khronos validation, and a blocking "record, submit, wait" helper. No window system is involved
+// anywhere.
 #pragma once
 
 #include "pbdam/formats/Result.h"
@@ -31,9 +32,10 @@ inline constexpr bool kValidationByDefault = false;
 
 /// How to create a VulkanContext.
 struct ContextOptions final {
-  /// Physical device to use, by vkEnumeratePhysicalDevices index (the CLI's `--device N`).
-  /// Unset: Mesa's lavapipe; if it is not installed, creation fails and lists the devices.
-  std::optional<uint32_t> deviceIndex;
+  /// The physical device (the CLI's `--device`): a vkEnumeratePhysicalDevices index or a
+  /// case-insensitive part of the device's or driver's name ("lavapipe", "nvidia"); empty:
+  /// PBDAM_DEVICE's value, else the machine's best device (selectPhysicalDevice).
+  std::string device;
   /// Load VK_LAYER_KHRONOS_validation and record its warnings/errors in the validation log.
   /// Creation fails if this is set and the layer is not installed.
   bool enableValidation = kValidationByDefault;
@@ -65,10 +67,11 @@ struct ContextOptions final {
 class VulkanContext final {
  public:
   /// Creates the instance (Vulkan 1.3, no window-system extensions), picks the physical device
-  /// (see ContextOptions::deviceIndex) and creates the logical device with dynamic rendering,
+  /// (see ContextOptions::device) and creates the logical device with dynamic rendering,
   /// synchronization2 and timeline semaphores, plus whichever optional features of DeviceCaps
-  /// the device has. Errors: ErrorCode::InvalidArgument for a device index out of range,
-  /// NotFound when lavapipe or the validation layer is requested but missing, DeviceError when
+  /// the device has. Errors: ErrorCode::InvalidArgument for a device index out of range or a
+  /// name that matches no device, NotFound when there is no device or the validation layer is
+  /// requested but missing, DeviceError when
   /// a Vulkan call fails or the device lacks a required feature; messages list the devices.
   static formats::Result<VulkanContext> create(const ContextOptions& options = {});
 
