@@ -8,6 +8,7 @@
 #include <map>
 #include <mutex>
 #include <numbers>
+#include <set>
 #include <thread>
 
 #include "PrivateCopy.h"
@@ -58,9 +59,15 @@ TEST(Prefetcher, AdvisesThePredictedCutAndItBecomesResident) {
   ASSERT_TRUE(dataset.ok()) << dataset.error().message;
   const DatasetView& view = (*dataset)->view();
   const Viewport vp{640, 480, 60.0};
+  std::mutex mutex;
+  std::set<std::uint64_t> asked;
   PrefetchOptions options;
   options.fovMarginDegrees = 0.0;  // the predicted camera's own cut
   options.toleranceScale = 1.0;
+  options.onRange = [&](const PrefetchRange& range) {
+    const std::lock_guard<std::mutex> lock(mutex);
+    asked.insert(range.key.packed);
+  };
   Prefetcher prefetcher(**dataset, options);
   // Flying east over Tharsis at 300 km altitude, 20 km per frame at 10 frames/s.
   for (int k = 0; k < 3; ++k) {
@@ -72,24 +79,38 @@ TEST(Prefetcher, AdvisesThePredictedCutAndItBecomesResident) {
       Camera::fromPose(view.planet(), {0.0, -120.0 + 0.35 * 7, 300e3, 90.0, -60.0, 0.0}, vp);
   const Cut cut = refine(view, ahead, options.refinement);
   ASSERT_FALSE(cut.patches.empty());
-  std::size_t resident = 0, total = 0;
-  for (int wait = 0; wait < 100; ++wait) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    resident = total = 0;
+  const auto countResident = [&] {
+    std::pair<std::size_t, std::size_t> pages{0, 0};
     for (const CutPatch& p : cut.patches) {
       const NodeRecord n = view.node(p.node);
       const auto r = (*dataset)->faceFile(p.node.face).residentPages(n.blobOffset, n.blobsBytes());
-      ASSERT_TRUE(r.ok());
-      resident += r->first;
-      total += r->second;
+      EXPECT_TRUE(r.ok());
+      if (!r) continue;
+      pages.first += r->first;
+      pages.second += r->second;
     }
-    if (resident == total) break;
+    return pages;
+  };
+  std::pair<std::size_t, std::size_t> pages;
+  for (int wait = 0; wait < 100; ++wait) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    pages = countResident();
+    if (pages.first == pages.second) break;
   }
+  prefetcher.stop();
   const PrefetchStats stats = prefetcher.stats();
   EXPECT_GE(stats.predictions, 1u);
   EXPECT_GT(stats.rangesAdvised, 0u);
-  // Everything the predicted cut needs is in the page cache without the test touching it.
-  EXPECT_EQ(resident, total);
+  // The prefetcher's part, exactly: every patch of the predicted cut was asked for (advised, or
+  // found resident) without the test touching it.
+  for (const CutPatch& p : cut.patches) {
+    EXPECT_TRUE(asked.contains(ResidentKey::patch(p.node).packed))
+        << "face " << int{p.node.face} << " tree " << int{p.node.tree} << " heap " << p.node.heap;
+  }
+  // The kernel's part: MADV_WILLNEED starts readahead, whose page allocations may fail quietly
+  // under memory pressure (a loaded CI machine left 2 of 258 pages out), so nearly all, not all.
+  EXPECT_GE(static_cast<double>(pages.first), 0.95 * static_cast<double>(pages.second))
+      << pages.first << " of " << pages.second << " pages resident";
 }
 
 // One pose, so the predicted camera is that camera at every horizon: the ranges asked for are
