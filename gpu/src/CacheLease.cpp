@@ -2,6 +2,7 @@
 #include "CacheLease.h"
 
 #include <algorithm>
+#include <cassert>
 
 using namespace pbdam::formats;
 using namespace pbdam::streaming;
@@ -26,7 +27,8 @@ CacheLease::~CacheLease() {
 
 Result<void> CacheLease::reserve(std::span<const ResidentKey> entries,
                                  std::vector<std::size_t>& misses,
-                                 std::vector<std::uint32_t>& missSlots, LeaseCounters& counters) {
+                                 std::vector<std::uint32_t>& missSlots, LeaseCounters& counters,
+                                 const std::function<bool()>& releaseOwnPins) {
   GpuCache::State& c = *cache_;
   ResidencyLru& l = *c.lru;
   std::uint64_t passEpoch = 0;
@@ -52,6 +54,8 @@ Result<void> CacheLease::reserve(std::span<const ResidentKey> entries,
     if (missBytes <= l.budgetBytes() - l.pinnedBytes()) break;
     for (const ResidentKey key : hits_) l.unpin(key);
     hits_.clear();
+    // The caller's own frames in flight first: nobody else would ever release those pins.
+    if (releaseOwnPins && releaseOwnPins()) continue;
     if (l.pinnedBytes() == 0) {
       return makeError(ErrorCode::Internal, "GPU cache: a planned pass does not fit its budget");
     }
@@ -77,6 +81,15 @@ Result<void> CacheLease::reserve(std::span<const ResidentKey> entries,
   }
   counters.peakResidentBytes = std::max(counters.peakResidentBytes, l.residentBytes());
   return {};
+}
+
+std::vector<ResidentKey> CacheLease::keepPins() {
+  assert(committed_);
+  std::vector<ResidentKey> pins = std::move(hits_);
+  pins.insert(pins.end(), inserted_.begin(), inserted_.end());
+  hits_.clear();
+  inserted_.clear();
+  return pins;
 }
 
 }  // namespace pbdam::gpu

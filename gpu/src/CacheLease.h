@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <mutex>
 #include <span>
 #include <vector>
@@ -36,15 +37,25 @@ class CacheLease final {
 
   /// Reserves `entries` (distinct keys) for this pass: hits are touched and pinned, misses are
   /// inserted and pinned; `misses` receives the indices in `entries` of the missing keys, in
-  /// order, and `missSlots` their slots. Call once per lease. Errors: Internal when the pass
-  /// cannot fit the budget even with every other pass finished (the frame planner makes passes
-  /// that fit).
+  /// order, and `missSlots` their slots. Call once per lease. When the misses do not fit beside
+  /// what is pinned, `releaseOwnPins` (when set) is called first, with the lock held: it waits
+  /// for one of the caller's own frames in flight and unpins its entries, returning false when
+  /// the caller has none left; only then does the lease wait for other renderers' passes.
+  /// Errors: Internal when the pass cannot fit the budget even with every other pass finished
+  /// (the frame planner makes passes that fit).
   formats::Result<void> reserve(std::span<const streaming::ResidentKey> entries,
                                 std::vector<std::size_t>& misses,
-                                std::vector<std::uint32_t>& missSlots, LeaseCounters& counters);
+                                std::vector<std::uint32_t>& missSlots, LeaseCounters& counters,
+                                const std::function<bool()>& releaseOwnPins = {});
 
-  /// The misses' uploads have completed: they stay resident when the lease ends.
+  /// The misses' uploads have completed (or, with a private cache, are submitted ahead of
+  /// every later use): they stay resident when the lease ends.
   void commitUploads() noexcept { committed_ = true; }
+
+  /// Hands the pass's pins (hits and committed misses) to the caller, who unpins each key once
+  /// the submission that draws them has completed (a frame in flight); the lease then releases
+  /// nothing. Call after commitUploads().
+  std::vector<streaming::ResidentKey> keepPins();
 
   /// Lets other renderers use the cache while this pass draws (its entries stay pinned).
   void unlock() { lock_.unlock(); }

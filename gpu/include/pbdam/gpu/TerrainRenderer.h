@@ -5,12 +5,16 @@
 // decoded on TBB workers (streaming/DecodeScheduler.h) and uploaded through a staging buffer
 // (docs/architecture.md "Streaming"). Objects it replaces are destroyed only after the submissions
 // that used them. Implements [P-BDAM 2003] §4.2 (camera-relative vertices, patch.vert) and §4.4
-// (the GPU cache). Thread-safety: none — one thread renders; the decoding it starts runs in
-// parallel inside render(). Several renderers, each used by one thread, may share a VulkanContext
+// (the GPU cache). Frames in flight (TerrainRendererOptions::framesInFlight): submit() records
+// and submits a frame without waiting for it, collect() waits for the oldest and reads it back,
+// so the host prepares frame k+1 while the device draws frame k; render() is the two at once.
+// Thread-safety: none — one thread renders; the decoding it starts runs in parallel inside
+// submit(). Several renderers, each used by one thread, may share a VulkanContext
 // (it serialises queue submissions) and one GpuCache (TerrainRendererOptions::sharedCache).
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <glm/vec3.hpp>
 #include <memory>
@@ -46,6 +50,9 @@ struct TerrainRendererOptions final {
   /// Bytes of one pool chunk (patch vertex and index buffers) and one texture page of a private
   /// cache; renderSelected() needs the whole dataset in one of each.
   std::uint64_t poolChunkBytes = std::uint64_t{16} << 20;
+  /// Frames that may be submitted and not yet collected (1 to kMaxFramesInFlight): each has
+  /// its own command buffers, fence, staging, records, offscreen target and readback buffer.
+  std::uint32_t framesInFlight = 1;
   /// Print a warning on stderr, once per renderer, the first time a frame's cut does not fit
   /// the budget and is drawn in several passes.
   bool warnWhenBudgetExceeded = true;
@@ -84,7 +91,9 @@ struct FrameStats final {
   double decodeMs = 0.0;  ///< decoding misses into the staging buffer (TBB-parallel), wall time
   double uploadMs = 0.0;  ///< staging → pool copies
   double drawMs = 0.0;    ///< the render pass(es)
-  double frameMs = 0.0;   ///< all of render(), readback included, wall time
+  /// Wall time from submit() to the end of its collect() (all of render(), readback included):
+  /// with frames in flight a frame's latency, not the time between frames.
+  double frameMs = 0.0;
   std::uint64_t residentBytes = 0;      ///< slot bytes resident in the cache after the frame
   std::uint64_t peakResidentBytes = 0;  ///< the most resident at any time during the frame
   std::uint64_t poolBytes = 0;          ///< device memory the cache's pools hold (capacity)
@@ -98,7 +107,7 @@ struct FrameStats final {
 
 /// A frame read back: tightly packed RGBA8, top row first.
 struct RenderedFrame final {
-  RgbaImage image;
+  RgbaImage image;  ///< empty for a frame submitted without readback
   FrameStats stats;
 };
 
@@ -112,8 +121,12 @@ struct RenderedFrame final {
 /// FrameStats::budgetExceeded is set.
 class TerrainRenderer final {
  public:
-  /// Creates the offscreen target, command buffers and (without options.sharedCache) a private
-  /// GpuCache. Errors: InvalidArgument for a zero or too-large image size, a budget below
+  /// The most frames in flight a renderer takes.
+  static constexpr std::uint32_t kMaxFramesInFlight = 8;
+
+  /// Creates a frame slot per frame in flight (offscreen target, command buffers, fence…) and
+  /// (without options.sharedCache) a private GpuCache. Errors: InvalidArgument for a zero or
+  /// too-large image size, frames in flight outside 1..kMaxFramesInFlight, a budget below
   /// minimumCacheBytes (the message names both), or a shared cache made for another context or
   /// dataset; DeviceError for Vulkan failures.
   static formats::Result<TerrainRenderer> create(VulkanContext& context,
@@ -136,12 +149,30 @@ class TerrainRenderer final {
   TerrainRenderer& operator=(const TerrainRenderer&) = delete;
   ~TerrainRenderer();
 
-  /// Draws `cut` (computed for `camera` from this renderer's dataset) and reads it back. The
-  /// camera's viewport must have the renderer's size (else InvalidArgument). Errors:
-  /// CorruptData when a patch or tile does not decode (the message names file and offset;
-  /// nothing of the failed upload stays resident), DeviceError for Vulkan failures.
+  /// Draws `cut` (computed for `camera` from this renderer's dataset) and reads it back:
+  /// submit() then collect(). InvalidArgument while frames are pending; the others as submit().
   formats::Result<RenderedFrame> render(const runtime::Cut& cut, const runtime::Camera& camera,
                                         const FrameSettings& settings = {});
+
+  /// Decodes and uploads what `cut` misses, records its frame into the next frame slot and
+  /// submits it without waiting for the device; with `readback` the frame's pixels are copied
+  /// for collect(). It waits only where the cache cannot hold the frame beside the entries
+  /// frames in flight draw (then for this renderer's oldest frame). The image is the one
+  /// render() gives for the same cut, camera and settings whatever else is in flight. The
+  /// camera's viewport must have the renderer's size. Errors: InvalidArgument for another
+  /// size or when framesInFlight() frames are pending (collect one first); CorruptData when a
+  /// patch or tile does not decode (the message names file and offset; nothing of the failed
+  /// upload stays resident); DeviceError for Vulkan failures. After an error no frame was
+  /// added.
+  formats::Result<void> submit(const runtime::Cut& cut, const runtime::Camera& camera,
+                               const FrameSettings& settings = {}, bool readback = true);
+  /// Waits for the oldest pending frame and returns it (its image empty when it was submitted
+  /// without readback; its stats with the device's timings). InvalidArgument when none is
+  /// pending, DeviceError for Vulkan failures.
+  formats::Result<RenderedFrame> collect();
+  /// Frames submitted and not yet collected.
+  std::size_t framesPending() const noexcept;
+  std::uint32_t framesInFlight() const noexcept;
 
   /// Draws the previous render() call's frame again and reads it back: the command buffer that
   /// frame recorded for its render pass is submitted once more as it is — same per-draw records
@@ -152,8 +183,9 @@ class TerrainRenderer final {
   /// tiles, every entry a hit, no decode or upload; drawMs and frameMs measured as render()
   /// measures them. Errors: InvalidArgument when there is no previous frame (render() was never
   /// called, or its last call failed), when it took several passes (over budget: only its last
-  /// pass is still recorded), or when another renderer of a shared cache has evicted one of its
-  /// patches or tiles since; DeviceError for Vulkan failures.
+  /// pass is still recorded), when frames are pending or the last was not read back, or when
+  /// another renderer of a shared cache has evicted one of its patches or tiles since;
+  /// DeviceError for Vulkan failures.
   formats::Result<RenderedFrame> redrawLast();
 
   /// Selects the cut with `selector` (made for this renderer's context and dataset) and draws it
@@ -167,10 +199,10 @@ class TerrainRenderer final {
   /// page (TerrainRendererOptions::poolChunkBytes). Stats: patches and triangles drawn (read
   /// after the frame), uploadMs the selection and draw-list passes, drawMs the render pass; no
   /// tiles count. redrawLast() has no previous frame afterwards. `readableRecords` keeps the
-  /// records where lastSelectedRecords() can read them (tests). Errors: InvalidArgument for a
-  /// shared cache, a device without multi-draw indirect, indirect draw counts or draw
-  /// parameters, or a dataset that does not fit (the message names the bytes); the others as
-  /// render().
+  /// records where lastSelectedRecords() can read them (tests). One frame at a time: it is
+  /// waited for. Errors: InvalidArgument while frames are pending, for a shared cache, a device
+  /// without multi-draw indirect, indirect draw counts or draw parameters, or a dataset that does
+  /// not fit (the message names the bytes); the others as render().
   formats::Result<RenderedFrame> renderSelected(GpuSelector& selector,
                                                 const runtime::Camera& camera,
                                                 const runtime::SelectionOptions& selection,
@@ -182,7 +214,8 @@ class TerrainRenderer final {
   /// Changes the image size to `widthPixels` x `heightPixels`: a new offscreen target, while the
   /// pools and every resident patch and tile stay (so a server can serve several sizes from one
   /// cache). A no-op for the current size. Afterwards redrawLast() has no previous frame.
-  /// Errors as create() for the size; the renderer keeps its old size then.
+  /// Errors as create() for the size, and InvalidArgument while frames are pending; the
+  /// renderer keeps its old size then.
   formats::Result<void> resize(std::uint32_t widthPixels, std::uint32_t heightPixels);
   std::uint32_t widthPixels() const noexcept;
   std::uint32_t heightPixels() const noexcept;
@@ -196,6 +229,7 @@ class TerrainRenderer final {
 
  private:
   struct Impl;
+  friend class PassDrawer;  // one pass of a frame (TerrainRenderer.cpp)
   explicit TerrainRenderer(std::unique_ptr<Impl> impl) noexcept;
   std::unique_ptr<Impl> impl_;
 };
