@@ -224,8 +224,9 @@ TEST(ServeCli, Help) {
   while ((n = std::fread(buf.data(), 1, buf.size(), pipe)) > 0) out.append(buf.data(), n);
   const int status = ::pclose(pipe);
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
-  for (const char* option : {"--bind", "--port", "--workers", "--queue", "--gpu-cache-mb",
-                             "--deadline-s", "/frame", "/height", "/stats", "/healthz"}) {
+  for (const char* option :
+       {"--bind", "--port", "--workers", "--queue", "--gpu-cache-mb", "--deadline-s",
+        "--frames-in-flight", "/frame", "/height", "/stats", "/healthz"}) {
     EXPECT_NE(out.find(option), std::string::npos) << option << "\n" << out;
   }
 }
@@ -237,6 +238,8 @@ TEST(ServeCli, BadOptionsExitWithCode2) {
   EXPECT_EQ(runPbdam("serve " + d + " --workers 0"), 2);
   EXPECT_EQ(runPbdam("serve " + d + " --gpu-cache-mb -1"), 2);
   EXPECT_EQ(runPbdam("serve " + d + " --deadline-s 0"), 2);
+  EXPECT_EQ(runPbdam("serve " + d + " --frames-in-flight 0"), 2);
+  EXPECT_EQ(runPbdam("serve " + d + " --frames-in-flight 9"), 2);
   EXPECT_EQ(runPbdam("serve /nonexistent/dataset --port 0"), 2);
   // Two contexts cannot share 1 MiB: below the per-context minimum, named on stderr.
   EXPECT_EQ(runPbdam("serve " + d + " --port 0 --workers 2 --gpu-cache-mb 0.001"), 2);
@@ -570,6 +573,48 @@ TEST(Serve, RenderContextsShareOneGpuCache) {
   const int entries = std::stoi(first->get_header_value("X-Pbdam-Cache-Misses"));
   EXPECT_EQ(s["cache"]["misses"].get<int>(), entries);
   EXPECT_EQ(s["cache"]["hits"].get<int>(), kClients * entries);
+}
+
+// One context with three frames in flight and a queue of requests for different views: it
+// records the next while the device draws, and every answer is the frame that view gets alone.
+TEST(Serve, AContextWithFramesInFlightAnswersEachRequestWithItsOwnFrame) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  START_SERVER(server, dir, {"--workers", "1", "--queue", "16", "--frames-in-flight", "3"});
+  constexpr int kClients = 8;
+  const auto query = [](int c) {
+    return "/frame?lat=" + std::to_string(-40 + 10 * c) + "&lon=" + std::to_string(20 * c) +
+           "&alt=2e6&pitch=-60&width=160&height=120";
+  };
+  std::vector<std::string> bodies(kClients);
+  std::vector<int> statuses(kClients, -1);
+  std::atomic<int> ready{0};
+  std::vector<std::thread> clients;
+  clients.reserve(kClients);
+  for (int c = 0; c < kClients; ++c) {
+    clients.emplace_back([&, c] {
+      httplib::Client client = server.client();
+      ++ready;
+      while (ready.load() < kClients) std::this_thread::yield();
+      auto res = client.Get(query(c));
+      if (!res) return;
+      statuses[static_cast<std::size_t>(c)] = res->status;
+      bodies[static_cast<std::size_t>(c)] = res->body;
+    });
+  }
+  for (std::thread& t : clients) t.join();
+  httplib::Client alone = server.client();
+  for (int c = 0; c < kClients; ++c) {
+    const auto i = static_cast<std::size_t>(c);
+    ASSERT_EQ(statuses[i], 200) << "client " << c << ": " << bodies[i];
+    auto again = alone.Get(query(c));  // one at a time: nothing else in flight
+    ASSERT_TRUE(again);
+    ASSERT_EQ(again->status, 200) << again->body;
+    EXPECT_TRUE(bodies[i] == again->body) << "client " << c << " got another view's frame";
+  }
+  const auto s = nlohmann::json::parse(alone.Get("/stats")->body);
+  EXPECT_EQ(s["render"]["frames_in_flight"], 3);
+  EXPECT_EQ(s["render"]["frames"], 2 * kClients);
+  EXPECT_EQ(s["cache"]["pinned_bytes"], 0);
 }
 
 TEST(Serve, BurstBeyondTheQueueGets503WithRetryAfter) {

@@ -17,6 +17,10 @@ inline constexpr const char* kDeviceOptionHelp =
     "Vulkan device: an index or a case-insensitive part of its name (pbdam devices); default: "
     "PBDAM_DEVICE, else the best device (discrete > integrated > virtual > CPU)";
 
+inline constexpr const char* kFramesInFlightHelp =
+    "Frames submitted to the device and not yet collected (1-8): the next frame is refined, "
+    "decoded and recorded while the device draws; 1 waits for each frame before the next";
+
 /// Shared by all commands: the code `main` returns after the chosen command ran.
 struct CommandStatus final {
   int exitCode = kExitOk;

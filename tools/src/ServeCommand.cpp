@@ -21,6 +21,7 @@
 #include "MorphOption.h"
 #include "ServeServer.h"
 #include "pbdam/formats/GuardedCopy.h"
+#include "pbdam/gpu/TerrainRenderer.h"
 
 using namespace pbdam::formats;
 
@@ -47,6 +48,10 @@ int runServe(const ServeCliOptions& c) {
     return badInput("--port must be in 0..65535 (0: any free port)");
   if (o.workers < 1 || o.workers > 64) return badInput("--workers must be in 1..64");
   if (o.queueCapacity > 4096) return badInput("--queue must be in 0..4096");
+  if (o.framesInFlight < 1 || o.framesInFlight > gpu::TerrainRenderer::kMaxFramesInFlight) {
+    return badInput("--frames-in-flight must be in 1.." +
+                    std::to_string(gpu::TerrainRenderer::kMaxFramesInFlight));
+  }
   if (!std::isfinite(o.gpuCacheMiB) || o.gpuCacheMiB <= 0.0 || o.gpuCacheMiB > 1048576.0) {
     return badInput("--gpu-cache-mib (--gpu-cache-mb) must be a positive number of MiB");
   }
@@ -161,6 +166,8 @@ void addServeCommand(CLI::App& app, CommandStatus& status) {
       ->add_option("--queue", o->server.queueCapacity,
                    "Frame requests that may wait for a busy render context; beyond that: 503 "
                    "with Retry-After")
+      ->capture_default_str();
+  serve->add_option("--frames-in-flight", o->server.framesInFlight, kFramesInFlightHelp)
       ->capture_default_str();
   serve
       ->add_option("--gpu-cache-mib,--gpu-cache-mb", o->server.gpuCacheMiB,

@@ -63,6 +63,7 @@ Result<std::unique_ptr<RenderPool>> RenderPool::create(const MappedDataset& data
   rendererOptions.sharedCache = pool->cache_;
   // A cut over the budget is still the exact frame (drawn in passes); /stats counts them.
   rendererOptions.warnWhenBudgetExceeded = false;
+  rendererOptions.framesInFlight = options.framesInFlight;
   for (std::uint32_t i = 0; i < options.workers; ++i) {
     auto renderer = gpu::TerrainRenderer::create(*pool->context_, dataset.view(), rendererOptions);
     if (!renderer) return std::move(renderer).error();
@@ -127,81 +128,122 @@ FrameOutcome RenderPool::render(const FrameRequest& request, Clock::time_point d
   return {FrameRefusal::Deadline, std::nullopt};
 }
 
+/// A frame a worker has submitted and not yet handed back.
+struct RenderPool::InFlight {
+  std::shared_ptr<Job> job;
+  Clock::time_point start;
+  double traversalMs = 0.0;
+};
+
+void RenderPool::finishJob(const std::shared_ptr<Job>& job, Clock::time_point start,
+                           Result<FrameResult> frame) {
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    --stats_.rendering;
+    job->done = true;
+    if (frame) {
+      ++stats_.frames;
+      stats_.renderMsTotal += millisecondsBetween(start, Clock::now());
+      stats_.queueMsTotal += frame->queueMs;
+      stats_.hits += frame->stats.hits;
+      stats_.misses += frame->stats.misses;
+      stats_.evictions += frame->stats.evictions;
+      stats_.bytesUploaded += frame->stats.bytesUploaded;
+      if (frame->stats.budgetExceeded) ++stats_.multiPassFrames;
+    } else {
+      ++stats_.renderErrors;
+    }
+  }
+  job->promise.set_value({FrameRefusal::None, std::move(frame)});
+}
+
+void RenderPool::collectOldest(std::uint32_t index, std::deque<InFlight>& inFlight) {
+  InFlight oldest = std::move(inFlight.front());
+  inFlight.pop_front();
+  Result<FrameResult> frame = makeError(ErrorCode::Internal, "frame not drawn");
+  try {
+    Result<gpu::RenderedFrame> drawn = renderers_[index].collect();
+    if (!drawn) {
+      frame = std::move(drawn).error();
+    } else {
+      FrameResult out;
+      out.image = std::move(drawn->image);
+      out.stats = drawn->stats;
+      out.queueMs = millisecondsBetween(oldest.job->enqueued, oldest.start);
+      out.traversalMs = oldest.traversalMs;
+      out.worker = index;
+      frame = std::move(out);
+    }
+  } catch (const std::exception& e) {
+    frame = makeError(ErrorCode::Internal, std::string("render failed: ") + e.what());
+  }
+  finishJob(oldest.job, oldest.start, std::move(frame));
+}
+
 void RenderPool::workerLoop(std::uint32_t index) {
   gpu::TerrainRenderer& renderer = renderers_[index];
   const DatasetView& view = dataset_.view();
   // Each worker keeps its refinement tree between frames: a viewer's consecutive requests
   // re-evaluate only the decisions its movement may change (the same cuts as refine()).
   IncrementalRefiner incremental(view);
+  // Frames in flight: the next request is refined, decoded and recorded while the device draws
+  // the previous ones; a frame is collected (and its request answered) when every slot is taken
+  // or no request is waiting, so a lone viewer never waits for a next request.
+  std::deque<InFlight> inFlight;
   for (;;) {
     std::shared_ptr<Job> job;
     {
       std::unique_lock<std::mutex> lock(mutex_);
-      wake_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
-      if (queue_.empty()) return;  // stopping, and nothing left to draw
-      job = std::move(queue_.front());
-      queue_.pop_front();
-      if (Clock::now() >= job->deadline) {
-        ++stats_.expired;
-        job->done = true;
-        lock.unlock();
-        job->promise.set_value({FrameRefusal::Deadline, std::nullopt});
-        continue;
+      if (inFlight.empty()) wake_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
+      if (queue_.empty() && inFlight.empty()) return;  // stopping, and nothing left to draw
+      if (!queue_.empty() && inFlight.size() < renderer.framesInFlight()) {
+        job = std::move(queue_.front());
+        queue_.pop_front();
+        if (Clock::now() >= job->deadline) {
+          ++stats_.expired;
+          job->done = true;
+          lock.unlock();
+          job->promise.set_value({FrameRefusal::Deadline, std::nullopt});
+          continue;
+        }
+        ++stats_.rendering;
       }
-      ++stats_.rendering;
+    }
+    if (!job) {
+      collectOldest(index, inFlight);
+      continue;
     }
 
     const auto start = Clock::now();
-    Result<FrameResult> frame = makeError(ErrorCode::Internal, "frame not drawn");
     try {
       const FrameRequest& r = job->request;
-      if (Result<void> resized = renderer.resize(r.viewport.width, r.viewport.height); !resized) {
-        frame = std::move(resized).error();
-      } else {
-        const Camera camera = Camera::fromPose(view.planet(), r.pose, r.viewport);
-        RefinementOptions refinement;
-        refinement.tolerancePixels = r.tolerancePixels;
-        refinement.morphRange = r.morphRange;
-        const Cut cut = incremental.update(camera, refinement);
-        const double traversalMs = millisecondsBetween(start, Clock::now());
-        gpu::FrameSettings settings;
-        settings.overlay = r.overlay;
-        Result<gpu::RenderedFrame> drawn = renderer.render(cut, camera, settings);
-        if (!drawn) {
-          frame = std::move(drawn).error();
-        } else {
-          FrameResult out;
-          out.image = std::move(drawn->image);
-          out.stats = drawn->stats;
-          out.queueMs = millisecondsBetween(job->enqueued, start);
-          out.traversalMs = traversalMs;
-          out.worker = index;
-          frame = std::move(out);
-        }
+      // A new size replaces the offscreen targets: the frames drawn into the old ones first.
+      if (r.viewport.width != renderer.widthPixels() ||
+          r.viewport.height != renderer.heightPixels()) {
+        while (!inFlight.empty()) collectOldest(index, inFlight);
       }
+      if (Result<void> resized = renderer.resize(r.viewport.width, r.viewport.height); !resized) {
+        finishJob(job, start, std::move(resized).error());
+        continue;
+      }
+      const Camera camera = Camera::fromPose(view.planet(), r.pose, r.viewport);
+      RefinementOptions refinement;
+      refinement.tolerancePixels = r.tolerancePixels;
+      refinement.morphRange = r.morphRange;
+      const Cut cut = incremental.update(camera, refinement);
+      const double traversalMs = millisecondsBetween(start, Clock::now());
+      gpu::FrameSettings settings;
+      settings.overlay = r.overlay;
+      if (Result<void> submitted = renderer.submit(cut, camera, settings); !submitted) {
+        finishJob(job, start, std::move(submitted).error());
+        continue;
+      }
+      inFlight.push_back({job, start, traversalMs});
     } catch (const std::exception& e) {
       // std::bad_alloc for a huge frame, say: the request fails, the server goes on.
-      frame = makeError(ErrorCode::Internal, std::string("render failed: ") + e.what());
+      finishJob(job, start,
+                makeError(ErrorCode::Internal, std::string("render failed: ") + e.what()));
     }
-
-    {
-      const std::lock_guard<std::mutex> lock(mutex_);
-      --stats_.rendering;
-      job->done = true;
-      if (frame) {
-        ++stats_.frames;
-        stats_.renderMsTotal += millisecondsBetween(start, Clock::now());
-        stats_.queueMsTotal += frame->queueMs;
-        stats_.hits += frame->stats.hits;
-        stats_.misses += frame->stats.misses;
-        stats_.evictions += frame->stats.evictions;
-        stats_.bytesUploaded += frame->stats.bytesUploaded;
-        if (frame->stats.budgetExceeded) ++stats_.multiPassFrames;
-      } else {
-        ++stats_.renderErrors;
-      }
-    }
-    job->promise.set_value({FrameRefusal::None, std::move(frame)});
   }
 }
 

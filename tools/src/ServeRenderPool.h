@@ -1,4 +1,5 @@
-// The render contexts of `pbdam serve`: N worker threads, each owning a TerrainRenderer, all
+// The render contexts of `pbdam serve`: N worker threads, each owning a TerrainRenderer (with
+// frames in flight: a context records its next request while the device draws), all
 // created from ONE VulkanContext (device, queue), drawing ONE shared read-only dataset mapping
 // from ONE GPU cache (gpu/GpuCache.h: one budget, one LRU, one set of pools — what one context
 // uploads the others draw); a bounded FIFO of frame requests in front of them, each with a
@@ -86,6 +87,8 @@ struct RenderPoolOptions final {
   std::string device;  ///< ContextOptions::device: empty for PBDAM_DEVICE or the best device
   std::uint32_t initialWidthPixels = 640;
   std::uint32_t initialHeightPixels = 480;
+  /// Frames each context may have in flight (TerrainRendererOptions::framesInFlight).
+  std::uint32_t framesInFlight = 2;
 };
 
 class RenderPool final {
@@ -117,8 +120,14 @@ class RenderPool final {
 
  private:
   struct Job;
+  struct InFlight;
   RenderPool(const streaming::MappedDataset& dataset, const RenderPoolOptions& options);
   void workerLoop(std::uint32_t index);
+  /// Collects context `index`'s oldest frame in flight and answers its request.
+  void collectOldest(std::uint32_t index, std::deque<InFlight>& inFlight);
+  /// Answers `job` with `frame` and counts it.
+  void finishJob(const std::shared_ptr<Job>& job, std::chrono::steady_clock::time_point start,
+                 formats::Result<FrameResult> frame);
 
   const streaming::MappedDataset& dataset_;
   RenderPoolOptions options_;

@@ -233,11 +233,10 @@ Json makeInfo(const MappedDataset& dataset, const ServeOptions& options,
                      {"morph", options.morph ? "on" : "off"},
                      {"format", "png"}}},
                    {"morph_range", options.morphRange}};
-  info["server"] = {{"contexts", options.workers},
-                    {"queue", options.queueCapacity},
-                    {"gpu_cache_mib", options.gpuCacheMiB},
-                    {"deadline_s", options.deadlineSeconds},
-                    {"device", device}};
+  info["server"] = {
+      {"contexts", options.workers},           {"frames_in_flight", options.framesInFlight},
+      {"queue", options.queueCapacity},        {"gpu_cache_mib", options.gpuCacheMiB},
+      {"deadline_s", options.deadlineSeconds}, {"device", device}};
   return info;
 }
 
@@ -265,6 +264,7 @@ Result<std::shared_ptr<Generation>> openGeneration(const std::string& directory,
   generation->dataset = std::move(*dataset);
   RenderPoolOptions poolOptions;
   poolOptions.workers = options.workers;
+  poolOptions.framesInFlight = options.framesInFlight;
   poolOptions.queueCapacity = options.queueCapacity;
   poolOptions.gpuCacheBytes = static_cast<std::uint64_t>(options.gpuCacheMiB * 1048576.0);
   poolOptions.device = options.device;
@@ -672,6 +672,7 @@ Json FrameServer::Impl::statsJson() const {
                 {"deadline_s", options.deadlineSeconds}};
   const double frames = static_cast<double>(std::max<std::uint64_t>(1, s.frames));
   j["render"] = {{"contexts", s.workers},
+                 {"frames_in_flight", options.framesInFlight},
                  {"device", pool->deviceName()},
                  {"frames", s.frames},
                  {"errors", s.renderErrors},

@@ -24,6 +24,7 @@ struct ServeOptions final {
   int port = 8080;  ///< 0: any free port (the bound one is returned by bind())
   std::uint32_t workers = 2;
   std::uint32_t queueCapacity = 8;
+  std::uint32_t framesInFlight = 2;  ///< per render context (RenderPoolOptions)
   double gpuCacheMiB = 256.0;
   double deadlineSeconds = 10.0;  ///< per /frame request: queueing and drawing together
   std::string device;             ///< Vulkan device selector (ContextOptions::device)
