@@ -26,6 +26,8 @@
 
 #include "BenchReport.h"
 #include "Commands.h"
+#include "CutSource.h"
+#include "FrameModes.h"
 #include "MorphOption.h"
 #include "ProcessMemory.h"
 #include "Progress.h"
@@ -34,7 +36,6 @@
 #include "pbdam/gpu/GpuSelector.h"
 #include "pbdam/gpu/TerrainRenderer.h"
 #include "pbdam/gpu/VulkanContext.h"
-#include "pbdam/runtime/CutReuse.h"
 #include "pbdam/streaming/MappedDataset.h"
 #include "pbdam/streaming/NoStallPolicy.h"
 #include "pbdam/streaming/PageCache.h"
@@ -47,6 +48,7 @@ using namespace pbdam::streaming;
 namespace pbdam::tools {
 namespace {
 
+/// The options as typed; the frame loop's modes among them are parsed once into BenchModes.
 struct BenchCliOptions {
   std::string dir, path, out;
   std::uint32_t width = 640, height = 480;
@@ -64,6 +66,16 @@ struct BenchCliOptions {
   std::string device;
   bool quiet = false;
   MorphCliOptions morph;
+};
+
+/// The frame loop's modes, parsed from BenchCliOptions when the options are checked.
+struct BenchModes final {
+  RunChoice prefetch = RunChoice::Both;
+  RunChoice morph = RunChoice::On;
+  StreamingMode mode = StreamingMode::Paging;
+  bool cutReuse = true;
+  CutSelection selection = CutSelection::Cpu;
+  DrawList draws = DrawList::Readback;
 };
 
 /// RMS and largest difference over every R, G and B value of two images of one size (0–255).
@@ -111,72 +123,30 @@ Result<void> measurePopping(gpu::TerrainRenderer& renderer, const DatasetView& v
   return {};
 }
 
-/// No-stall mode's cut, its cap recorded in `f` and `previousCap`: the cap rises by at most one
-/// diamond level (two bintree levels) over the previous frame's, so that when a level's data
-/// arrives its patches are decoded over a few frames instead of all in one (NoStallPolicy's
-/// cutAfter, which takes a finer resident cut at once when none within that rise is).
-Cut noStallCut(const NoStallPolicy& policy, const Camera& camera, const RefinementOptions& options,
-               int& previousCap, BenchFrame& f) {
-  NoStallCut capped = policy.cutAfter(camera, options, previousCap);
-  previousCap = capped.levelCap;
-  f.drawnLevelCap = capped.levelCap;
-  return std::move(capped.cut);
+/// A cut selected on the device against the host's (untimed): whether they differ, and the
+/// largest screen error over the tolerance of the device cut's drawn inner patches, on the host.
+void checkDeviceCut(const DatasetView& view, const Camera& camera,
+                    const RefinementOptions& refinement, const Cut& device, BenchRun& run) {
+  const Cut host = refine(view, camera, refinement);
+  const bool same =
+      host.patches.size() == device.patches.size() &&
+      std::equal(host.patches.begin(), host.patches.end(), device.patches.begin(),
+                 [](const CutPatch& a, const CutPatch& b) { return a.node == b.node; });
+  if (!same) ++run.selectionFramesDiffering;
+  const int cap =
+      refinement.maxLevel < 0 ? view.depth() : std::min(refinement.maxLevel, view.depth());
+  for (const CutPatch& patch : device.patches) {
+    if (patch.level >= cap) continue;  // leaves and capped levels are drawn whatever their error
+    const NodeRecord record = view.node(patch.node);
+    if (record.leaf()) continue;
+    const glm::dvec3 centre(record.sphereCenter[0], record.sphereCenter[1], record.sphereCenter[2]);
+    const double screen = camera.screenError(
+        refinementErrorMeters(view, patch.level, static_cast<double>(record.errorMeters)), centre,
+        static_cast<double>(record.sphereRadiusMeters));
+    run.selectionMaxScreenRatio =
+        std::max(run.selectionMaxScreenRatio, screen / refinement.tolerancePixels);
+  }
 }
-
-/// Where a paging-mode frame's cut comes from: the device's selection passes, the refinement
-/// tree kept from frame to frame, or the stateless refinement.
-class PagingCuts final {
- public:
-  PagingCuts(const DatasetView& view, bool reuse)
-      : view_(view), incremental_(view), reuse_(reuse) {}
-  gpu::GpuSelector* selector() { return gpu_ ? &*gpu_ : nullptr; }
-  Result<void> useGpu(gpu::VulkanContext& context) {
-    auto selector = gpu::GpuSelector::create(context, view_);
-    if (!selector) return std::move(selector).error();
-    gpu_.emplace(std::move(*selector));
-    return {};
-  }
-  Result<Cut> cut(const Camera& camera, const RefinementOptions& refinement) {
-    if (gpu_) {
-      SelectionOptions selection;
-      selection.refinement = refinement;
-      return gpu_->select(camera, selection);
-    }
-    return reuse_ ? incremental_.update(camera, refinement) : refine(view_, camera, refinement);
-  }
-  /// The device's cut against the host's (untimed): whether they differ, and the largest
-  /// screen error over the tolerance of the device cut's drawn inner patches, on the host.
-  void checkAgainstHost(const Camera& camera, const RefinementOptions& refinement,
-                        const Cut& device, BenchRun& run) const {
-    if (!gpu_) return;
-    const Cut host = refine(view_, camera, refinement);
-    const bool same =
-        host.patches.size() == device.patches.size() &&
-        std::equal(host.patches.begin(), host.patches.end(), device.patches.begin(),
-                   [](const CutPatch& a, const CutPatch& b) { return a.node == b.node; });
-    if (!same) ++run.selectionFramesDiffering;
-    const int cap =
-        refinement.maxLevel < 0 ? view_.depth() : std::min(refinement.maxLevel, view_.depth());
-    for (const CutPatch& patch : device.patches) {
-      if (patch.level >= cap) continue;  // leaves and capped levels are drawn whatever their error
-      const NodeRecord record = view_.node(patch.node);
-      if (record.leaf()) continue;
-      const glm::dvec3 centre(record.sphereCenter[0], record.sphereCenter[1],
-                              record.sphereCenter[2]);
-      const double screen = camera.screenError(
-          refinementErrorMeters(view_, patch.level, static_cast<double>(record.errorMeters)),
-          centre, static_cast<double>(record.sphereRadiusMeters));
-      run.selectionMaxScreenRatio =
-          std::max(run.selectionMaxScreenRatio, screen / refinement.tolerancePixels);
-    }
-  }
-
- private:
-  const DatasetView& view_;
-  IncrementalRefiner incremental_;
-  bool reuse_;
-  std::optional<gpu::GpuSelector> gpu_;
-};
 
 /// The camera of a path point.
 Camera cameraOf(const DatasetView& view, const CameraPathPoint& p, const Viewport& viewport) {
@@ -257,32 +227,34 @@ std::string progressLine(const BenchRun& run, std::size_t done, std::size_t fram
                          const BenchFrame& f) {
   char line[160];
   std::snprintf(line, sizeof line, "morph %s, prefetch %s: frame %zu/%zu  %.1f ms  %llu triangles",
-                run.morph.c_str(), run.prefetch.c_str(), done, frames, f.frameMs,
+                onOff(run.morph), onOff(run.prefetch), done, frames, f.frameMs,
                 static_cast<unsigned long long>(f.triangles));
   return line;
 }
 
 /// A run's settings (its figures are filled in as it goes).
-BenchRun describeRun(const BenchCliOptions& o, bool prefetch, bool morph) {
+BenchRun describeRun(const BenchCliOptions& o, const BenchModes& modes, bool prefetch, bool morph) {
   BenchRun run;
-  run.prefetch = prefetch ? "on" : "off";
-  run.morph = morph ? "on" : "off";
-  run.mode = o.mode;
-  run.selection = o.mode == "paging" ? o.selection : "cpu";
-  run.cutReuse = o.cutReuse == "on" && o.mode == "paging" && run.selection == "cpu";
-  run.draws = run.selection == "gpu" ? o.draws : "readback";
+  run.prefetch = prefetch;
+  run.morph = morph;
+  run.mode = modes.mode;
+  const bool paging = modes.mode == StreamingMode::Paging;
+  run.selection = paging ? modes.selection : CutSelection::Cpu;
+  run.cutReuse = modes.cutReuse && paging && run.selection == CutSelection::Cpu;
+  run.draws = run.selection == CutSelection::Gpu ? modes.draws : DrawList::Readback;
   run.popping = o.popping;
   run.cold = o.cold;
   return run;
 }
 
 gpu::TerrainRendererOptions rendererOptions(const gpu::VulkanContext& context,
-                                            const DatasetView& view, const BenchCliOptions& o) {
+                                            const DatasetView& view, const BenchCliOptions& o,
+                                            const BenchRun& run) {
   gpu::TerrainRendererOptions ro;
   ro.widthPixels = o.width;
   ro.heightPixels = o.height;
   ro.gpuCacheBytes = static_cast<std::uint64_t>(o.gpuCacheMiB * 1048576.0);
-  if (o.selection == "gpu" && o.mode == "paging" && o.draws == "indirect") {
+  if (run.draws == DrawList::Indirect) {
     // The device's draw list needs the whole dataset resident, in one pool chunk.
     ro.gpuCacheBytes = gpu::GpuCache::bytesForEverything(context, view);
     ro.poolChunkBytes = ro.gpuCacheBytes;
@@ -290,42 +262,54 @@ gpu::TerrainRendererOptions rendererOptions(const gpu::VulkanContext& context,
   return ro;
 }
 
+/// Where a run's frames take their cut from: no-stall mode's capped resident cut (its level cap
+/// changes from frame to frame, so it refines from the roots); in paging mode the device's
+/// selection passes, with the cut read back or the draw list made on the device, or the host's
+/// refinement with the refinement tree kept from frame to frame (the same cuts, fewer decisions)
+/// or from the roots.
+Result<std::unique_ptr<CutSource>> runCutSource(gpu::VulkanContext& context,
+                                                const MappedDataset& dataset, const BenchRun& run) {
+  if (run.mode == StreamingMode::NoStall) return noStallCuts(dataset);
+  if (run.selection == CutSelection::Gpu) {
+    return run.draws == DrawList::Indirect ? deviceDrawListCuts(context, dataset.view())
+                                           : deviceSelectionCuts(context, dataset.view(), {});
+  }
+  return hostRefinementCuts(dataset.view(), run.cutReuse);
+}
+
 Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
-                         const std::vector<CameraPathPoint>& path, bool prefetch, bool morph) {
-  BenchRun run = describeRun(o, prefetch, morph);
-  const bool indirect = run.draws == "indirect";
+                         const BenchModes& modes, const std::vector<CameraPathPoint>& path,
+                         bool prefetch, bool morph) {
+  BenchRun run = describeRun(o, modes, prefetch, morph);
   if (o.cold) {
     if (auto r = evictForColdRun(o.dir, run); !r) return r.error();
   }
   auto dataset = MappedDataset::open(o.dir);
   if (!dataset) return dataset.error();
   const DatasetView& view = (*dataset)->view();
-  auto renderer = gpu::TerrainRenderer::create(context, view, rendererOptions(context, view, o));
+  auto renderer =
+      gpu::TerrainRenderer::create(context, view, rendererOptions(context, view, o, run));
   if (!renderer) return renderer.error();
-  const bool noStall = o.mode == "no-stall";
-  const NoStallPolicy noStallPolicy(**dataset);
+  const bool noStall = run.mode == StreamingMode::NoStall;
   if (noStall) {
     // What cannot be read is skipped (the level cap keeps it out of the frames) and reported.
-    for (const Error& e : noStallPolicy.preloadCoarseLevels()) {
+    for (const Error& e : NoStallPolicy(**dataset).preloadCoarseLevels()) {
       std::fprintf(stderr, "pbdam: warning: preload skipped: %s\n", e.message.c_str());
     }
   }
   RefinementOptions refinement;
   refinement.tolerancePixels = o.tolerance;
   refinement.morphRange = morphRangeOf(o.morph, morph);
-  // Paging mode keeps the refinement tree from frame to frame (the same cuts, fewer decisions)
-  // or selects on the device; no-stall mode's level cap changes from frame to frame and
-  // refines from the roots.
-  PagingCuts pagingCuts(view, run.cutReuse);
-  if (run.selection == "gpu") {
-    if (auto r = pagingCuts.useGpu(context); !r) return r.error();
-  }
+  auto cuts = runCutSource(context, **dataset, run);
+  if (!cuts) return cuts.error();
+  CutSource& source = **cuts;
+  const bool deviceList = source.drawsDeviceList();
   SelectionOptions deviceSelection;
   deviceSelection.refinement = refinement;
-  if (indirect && !path.empty()) {
+  if (deviceList && !path.empty()) {
     // Untimed: the first call makes every patch and tile resident.
     auto primed = renderer->renderSelected(
-        *pagingCuts.selector(), cameraOf(view, path.front(), {o.width, o.height, o.fovDegrees}),
+        *source.selector(), cameraOf(view, path.front(), {o.width, o.height, o.fovDegrees}),
         deviceSelection);
     if (!primed) return primed.error();
   }
@@ -340,7 +324,6 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   }
   const Viewport viewport{o.width, o.height, o.fovDegrees};
   std::optional<Cut> previousCut;  // --popping
-  int lastCap = -1;                // no-stall: the previous frame's level cap
   run.baselineRssFileBytes = residentFileBytes();
   Progress progress(o.quiet);
   std::uint64_t residentBefore = residentDatasetPages(**dataset);
@@ -354,30 +337,25 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     f.pathSeconds = p.tSeconds;
     const std::uint64_t faults0 = threadMajorFaults();
     const auto t0 = Clock::now();
-    Cut cut;
-    if (noStall) {
-      cut = noStallCut(noStallPolicy, camera, refinement, lastCap, f);
-    } else if (!indirect) {
-      auto paged = pagingCuts.cut(camera, refinement);
-      if (!paged) return paged.error();
-      cut = std::move(*paged);
-    }
-    // Indirect: the selection runs inside the frame's one submission.
+    // The device's draw list: an empty cut, the selection runs inside the frame's submission.
+    auto selected = source.cut(camera, refinement);
+    if (!selected) return selected.error();
+    const Cut cut = std::move(*selected);
+    f.drawnLevelCap = source.levelCap();
     f.traversalMs = msSince(t0);
-    f.decisions = indirect ? pagingCuts.selector()->index().nodes.size() : cut.nodesVisited;
+    f.decisions = deviceList ? source.selector()->index().nodes.size() : cut.nodesVisited;
     f.morphingPatches = summarizeMorph(cut).morphingPatches;
-    auto frame = indirect
-                     ? renderer->renderSelected(*pagingCuts.selector(), camera, deviceSelection)
-                     : renderer->render(cut, camera);
+    auto frame = deviceList ? renderer->renderSelected(*source.selector(), camera, deviceSelection)
+                            : renderer->render(cut, camera);
     if (!frame) return frame.error();
     f.rssFileBytes = residentFileBytes();
     releaseBlobPages(**dataset);
     f.frameMs = msSince(t0);
     f.renderThreadMajorFaults = threadMajorFaults() - faults0;
-    if (indirect) {
+    if (deviceList) {
       checkDeviceDraws(view, camera, refinement, frame->stats, run);
-    } else if (!noStall) {
-      pagingCuts.checkAgainstHost(camera, refinement, cut, run);
+    } else if (run.selection == CutSelection::Gpu) {
+      checkDeviceCut(view, camera, refinement, cut, run);
     }
     if (o.popping) {
       // After the frame's own figures: the previous cut drawn with this camera, compared.
@@ -405,26 +383,36 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   return run;
 }
 
+/// The frame loop's modes of `o`, parsed once; kExitOk, or the exit status of the first bad
+/// option (checked in the order the options' messages have always come in).
+int parseBenchModes(const BenchCliOptions& o, BenchModes& modes) {
+  auto prefetch = parseRunChoice("--prefetch", o.prefetch);
+  if (!prefetch) return reportError(prefetch.error());
+  auto cutReuse = parseOnOff("--cut-reuse", o.cutReuse);
+  if (!cutReuse) return reportError(cutReuse.error());
+  auto selection = parseCutSelection(o.selection);
+  if (!selection) return reportError(selection.error());
+  auto draws = parseDrawList(o.draws);
+  if (!draws) return reportError(draws.error());
+  auto mode = parseStreamingMode(o.mode);  // reported after the check of --draws indirect
+  if (*draws == DrawList::Indirect &&
+      (*selection != CutSelection::Gpu || !mode || *mode != StreamingMode::Paging || o.popping)) {
+    return reportError(invalidArgument(
+        "--draws indirect needs --selection gpu in paging mode, without --popping"));
+  }
+  if (!mode) return reportError(mode.error());
+  modes.prefetch = *prefetch;
+  modes.cutReuse = *cutReuse;
+  modes.selection = *selection;
+  modes.draws = *draws;
+  modes.mode = *mode;
+  return kExitOk;
+}
+
 int runBench(const BenchCliOptions& o) {
   const auto bad = [](const std::string& what) { return reportError(invalidArgument(what)); };
-  if (o.prefetch != "on" && o.prefetch != "off" && o.prefetch != "both") {
-    return bad("--prefetch '" + o.prefetch + "': expected on, off or both");
-  }
-  if (o.cutReuse != "on" && o.cutReuse != "off") {
-    return bad("--cut-reuse '" + o.cutReuse + "': expected on or off");
-  }
-  if (o.selection != "cpu" && o.selection != "gpu") {
-    return bad("--selection '" + o.selection + "': expected cpu or gpu");
-  }
-  if (o.draws != "readback" && o.draws != "indirect") {
-    return bad("--draws '" + o.draws + "': expected readback or indirect");
-  }
-  if (o.draws == "indirect" && (o.selection != "gpu" || o.mode != "paging" || o.popping)) {
-    return bad("--draws indirect needs --selection gpu in paging mode, without --popping");
-  }
-  if (o.mode != "paging" && o.mode != "no-stall") {
-    return bad("--mode '" + o.mode + "': expected paging or no-stall");
-  }
+  BenchModes modes;
+  if (const int status = parseBenchModes(o, modes); status != kExitOk) return status;
   if (!std::isfinite(o.lookahead) || o.lookahead < 0.0 || o.lookahead > 60.0) {
     return bad("--lookahead-s must be in [0, 60]");
   }
@@ -441,6 +429,7 @@ int runBench(const BenchCliOptions& o) {
   if (!probe) return reportError(probe.error());
   if (auto r = checkMorphOptions(o.morph, (*probe)->view(), true); !r)
     return reportError(r.error());
+  modes.morph = parseRunChoice("--morph", o.morph.morph).value();  // checked just above
   for (const CameraPathPoint& p : *path) {
     if (auto v = validateCameraPose({p.latDegrees, p.lonDegrees, p.altitudeMeters, p.headingDegrees,
                                      p.pitchDegrees, p.rollDegrees},
@@ -470,10 +459,10 @@ int runBench(const BenchCliOptions& o) {
   tbb::global_control serial(tbb::global_control::max_allowed_parallelism, 1);
   std::vector<BenchRun> runs;
   for (const bool morph : {false, true}) {
-    if ((morph && o.morph.morph == "off") || (!morph && o.morph.morph == "on")) continue;
+    if (!includes(modes.morph, morph)) continue;
     for (const bool prefetch : {false, true}) {
-      if ((prefetch && o.prefetch == "off") || (!prefetch && o.prefetch == "on")) continue;
-      auto run = runOnce(*context, o, *path, prefetch, morph);
+      if (!includes(modes.prefetch, prefetch)) continue;
+      auto run = runOnce(*context, o, modes, *path, prefetch, morph);
       if (!run) return reportError(run.error());
       runs.push_back(std::move(run).value());
     }

@@ -64,13 +64,13 @@ nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   const double datasetMb = static_cast<double>(setup.datasetBytes) / 1048576.0;
   const double rssMb = static_cast<double>(peakRss) / 1048576.0;
   nlohmann::ordered_json j;
-  j["prefetch"] = run.prefetch;
-  j["morph"] = run.morph;
-  j["mode"] = run.mode;
+  j["prefetch"] = onOff(run.prefetch);
+  j["morph"] = onOff(run.morph);
+  j["mode"] = toString(run.mode);
   j["cut_reuse"] = run.cutReuse;
-  j["selection"] = run.selection;
-  if (run.selection == "gpu") {
-    j["draws"] = run.draws;
+  j["selection"] = toString(run.selection);
+  if (run.selection == CutSelection::Gpu) {
+    j["draws"] = toString(run.draws);
     j["selection_frames_differing"] = run.selectionFramesDiffering;
     j["selection_max_screen_error_ratio"] = run.selectionMaxScreenRatio;
   }
@@ -178,8 +178,8 @@ void plotReport(const std::filesystem::path& png, const BenchSetup& setup,
   std::string legend;
   static const char* names[] = {"red", "blue", "green", "grey"};
   for (std::size_t k = 0; k < runs.size(); ++k) {
-    legend += std::string(k ? "; " : "") + names[k % 4] + ": morph " + runs[k].morph +
-              ", prefetch " + runs[k].prefetch;
+    legend += std::string(k ? "; " : "") + names[k % 4] + ": morph " + onOff(runs[k].morph) +
+              ", prefetch " + onOff(runs[k].prefetch);
   }
   const std::string title = "frame rate (" + legend + ", " + std::to_string(setup.width) + "x" +
                             std::to_string(setup.height) + ")";
@@ -215,13 +215,14 @@ Result<std::string> writeBenchReport(const std::filesystem::path& dir, const Ben
            "popping_max,morph,morphing_patches\n";
     for (const BenchRun& r : runs) {
       for (const BenchFrame& f : r.frames) {
-        csv << r.prefetch << ',' << r.mode << ',' << f.frame << ',' << f.pathSeconds << ','
-            << f.frameMs << ',' << f.traversalMs << ',' << f.decodeMs << ',' << f.uploadMs << ','
-            << f.drawMs << ',' << f.triangles << ',' << f.patches << ',' << f.tiles << ','
-            << f.drawnLevelCap << ',' << f.renderThreadMajorFaults << ',' << f.bytesPagedIn << ','
-            << f.gpuHits << ',' << f.gpuMisses << ',' << f.gpuEvictions << ',' << f.rssBytes << ','
-            << f.gpuPoolBytes << ',' << f.rssFileBytes << ',' << f.decisions << ',' << f.poppingRms
-            << ',' << f.poppingMax << ',' << r.morph << ',' << f.morphingPatches << '\n';
+        csv << onOff(r.prefetch) << ',' << toString(r.mode) << ',' << f.frame << ','
+            << f.pathSeconds << ',' << f.frameMs << ',' << f.traversalMs << ',' << f.decodeMs << ','
+            << f.uploadMs << ',' << f.drawMs << ',' << f.triangles << ',' << f.patches << ','
+            << f.tiles << ',' << f.drawnLevelCap << ',' << f.renderThreadMajorFaults << ','
+            << f.bytesPagedIn << ',' << f.gpuHits << ',' << f.gpuMisses << ',' << f.gpuEvictions
+            << ',' << f.rssBytes << ',' << f.gpuPoolBytes << ',' << f.rssFileBytes << ','
+            << f.decisions << ',' << f.poppingRms << ',' << f.poppingMax << ',' << onOff(r.morph)
+            << ',' << f.morphingPatches << '\n';
       }
     }
     if (!csv)
@@ -250,7 +251,8 @@ Result<std::string> writeBenchReport(const std::filesystem::path& dir, const Ben
 
   std::ostringstream text;
   char line[512];
-  for (const auto& r : summary["runs"]) {
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    const auto& r = summary["runs"][k];
     std::snprintf(
         line, sizeof line,
         "prefetch %-3s %-8s %4zu frames  %.1f fps  frame ms p50 %.1f p95 %.1f p99 %.1f "
@@ -266,13 +268,13 @@ Result<std::string> writeBenchReport(const std::filesystem::path& dir, const Ben
         100.0 * r["rss_dataset_ratio"].get<double>(), r["dataset_mib"].get<double>(),
         100.0 * r["gpu_cache_hit_rate"].get<double>());
     text << line;
-    std::snprintf(
-        line, sizeof line,
-        "  per frame: %.0f triangles in %.0f draws on average (one per patch; at most "
-        "%llu); %.1f split/cull decisions (cut reuse %s)\n",
-        r["triangles_per_frame_mean"].get<double>(), r["draws_per_frame_mean"].get<double>(),
-        static_cast<unsigned long long>(r["max_patches_per_frame"].get<std::uint64_t>()),
-        r["decisions_per_frame_mean"].get<double>(), r["cut_reuse"].get<bool>() ? "on" : "off");
+    std::snprintf(line, sizeof line,
+                  "  per frame: %.0f triangles in %.0f draws on average (one per patch; at most "
+                  "%llu); %.1f split/cull decisions (cut reuse %s)\n",
+                  r["triangles_per_frame_mean"].get<double>(),
+                  r["draws_per_frame_mean"].get<double>(),
+                  static_cast<unsigned long long>(r["max_patches_per_frame"].get<std::uint64_t>()),
+                  r["decisions_per_frame_mean"].get<double>(), onOff(runs[k].cutReuse));
     text << line;
     std::snprintf(line, sizeof line,
                   "  data stalls (time outside the draw > median frame) %lld; dataset pages in "
@@ -282,7 +284,7 @@ Result<std::string> writeBenchReport(const std::filesystem::path& dir, const Ben
                   100.0 * r["dataset_rss_ratio"].get<double>(),
                   r["peak_gpu_pool_mib"].get<double>());
     text << line;
-    if (r.value("draws", std::string("readback")) == "indirect") {
+    if (runs[k].draws == DrawList::Indirect) {
       // The cut never leaves the device, so its morphing patches are not counted.
       std::snprintf(line, sizeof line, "  morph %s (the draw list is made on the device)\n",
                     r["morph"].get<std::string>().c_str());

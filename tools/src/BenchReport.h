@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "FrameModes.h"
 #include "pbdam/formats/Result.h"
 
 namespace pbdam::tools {
@@ -46,21 +47,21 @@ struct BenchFrame final {
 
 /// One replay of the path with one prefetch setting.
 struct BenchRun final {
-  std::string prefetch;   ///< "on" or "off"
-  std::string morph;      ///< "on" or "off": the geomorph (docs/architecture.md "Geomorphing")
-  std::string mode;       ///< "paging" or "no-stall"
+  bool prefetch = false;
+  bool morph = false;  ///< the geomorph (docs/architecture.md "Geomorphing")
+  StreamingMode mode = StreamingMode::Paging;
   bool cutReuse = false;  ///< the refinement tree kept from frame to frame (IncrementalRefiner)
-  std::string selection = "cpu";  ///< "gpu": the cut from the device's selection passes
-  /// With selection "gpu": frames whose device cut is not the host's (the same patches in the
+  CutSelection selection = CutSelection::Cpu;  ///< Gpu: the cut from the device's selection passes
+  /// With selection Gpu: frames whose device cut is not the host's (the same patches in the
   /// same order), and the largest screen error over the tolerance among the device cut's drawn
   /// inner patches, computed on the host in double (at most 1 + 1e-6 where the device's double
   /// arithmetic differs from the host's; exactly ≤ 1 on lavapipe).
   std::uint64_t selectionFramesDiffering = 0;
   double selectionMaxScreenRatio = 0.0;
-  /// With selection "gpu": "readback" (the host lists the cut and its records) or "indirect"
-  /// (the draw list made on the device, TerrainRenderer::renderSelected; then the host cut is
-  /// compared by its patch and triangle counts, and the screen ratio is not measured).
-  std::string draws = "readback";
+  /// With selection Gpu: Readback (the host lists the cut and its records) or Indirect (the draw
+  /// list made on the device, TerrainRenderer::renderSelected; then the host cut is compared by
+  /// its patch and triangle counts, and the screen ratio is not measured).
+  DrawList draws = DrawList::Readback;
   bool popping = false;  ///< frames drawn twice for the popping measure
   bool cold = false;
   double residentAfterEvictFraction = 0.0;  ///< pages left in the page cache after eviction

@@ -21,19 +21,19 @@
 #include <vector>
 
 #include "Commands.h"
+#include "CutSource.h"
 #include "FocusOption.h"
 #include "FrameImage.h"
+#include "FrameModes.h"
 #include "MorphOption.h"
 #include "Progress.h"
 #include "ViewshedOutput.h"
 #include "ViewshedSpec.h"
 #include "pbdam/formats/CameraPath.h"
 #include "pbdam/formats/NumberList.h"
-#include "pbdam/gpu/GpuSelector.h"
 #include "pbdam/gpu/TerrainRenderer.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/runtime/Camera.h"
-#include "pbdam/runtime/CutReuse.h"
 #include "pbdam/runtime/Refinement.h"
 #include "pbdam/runtime/Selection.h"
 #include "pbdam/streaming/MappedDataset.h"
@@ -49,6 +49,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
+/// The options as typed; --selection and --morph are parsed once into RenderModes.
 struct RenderCliOptions {
   std::string dir;
   std::string camera;
@@ -67,6 +68,12 @@ struct RenderCliOptions {
   FocusCliOptions focus;
   std::string viewshed;
   std::string selection = "cpu";
+};
+
+/// The frame loop's modes, parsed from RenderCliOptions when the options are checked.
+struct RenderModes final {
+  CutSelection selection = CutSelection::Cpu;
+  bool morph = true;
 };
 
 int badInput(const std::string& message) {
@@ -161,10 +168,10 @@ Viewport viewportOf(const RenderCliOptions& c) {
 }
 
 /// Checks every option that needs no dataset (nothing is opened before the command line is
-/// known to be good) and fills the frame settings; kExitOk or the exit status of the first bad
-/// option.
+/// known to be good) and fills the frame settings and the cut selection; kExitOk or the exit
+/// status of the first bad option.
 int checkRenderOptions(const RenderCliOptions& c, const Viewport& viewport,
-                       gpu::FrameSettings& settings) {
+                       gpu::FrameSettings& settings, RenderModes& modes) {
   if (c.camera.empty() == c.path.empty()) {
     return badInput("give exactly one of --camera LAT,LON,ALT[,HEADING,PITCH,ROLL] or --path FILE");
   }
@@ -173,9 +180,9 @@ int checkRenderOptions(const RenderCliOptions& c, const Viewport& viewport,
   if (!std::isfinite(c.tolerancePixels) || c.tolerancePixels <= 0.0) {
     return badInput("--tolerance-px must be a positive number of pixels");
   }
-  if (c.selection != "cpu" && c.selection != "gpu") {
-    return badInput("--selection '" + c.selection + "': expected cpu or gpu");
-  }
+  auto selection = parseCutSelection(c.selection);
+  if (!selection) return badInput(selection.error().message);
+  modes.selection = *selection;
   if (!std::isfinite(c.gpuCacheMiB) || c.gpuCacheMiB <= 0.0 || c.gpuCacheMiB > 1048576.0) {
     return badInput("--gpu-cache-mib (--gpu-cache-mb) must be a positive number of MiB");
   }
@@ -231,51 +238,23 @@ int planFrames(const RenderCliOptions& c, const DatasetView& view, RenderPlan& p
   return kExitOk;
 }
 
-/// The cut selection: the screen error alone (refinement tree kept from frame to frame), focus
-/// regions closed upward (Selection.h), or either on the device (GpuSelector.h).
-class FrameCuts final {
- public:
-  FrameCuts(const DatasetView& view, std::vector<FocusRegion> focus)
-      : incremental_(view), focus_(std::move(focus)), selector_(focusSelector(view, focus_)) {}
-  Result<void> useGpu(gpu::VulkanContext& context, const DatasetView& view) {
-    auto selector = gpu::GpuSelector::create(context, view);
-    if (!selector) return std::move(selector).error();
-    gpu_.emplace(std::move(*selector));
-    return {};
-  }
-  Result<Cut> cut(const Camera& camera, const RefinementOptions& refinement) {
-    SelectionOptions options;
-    options.refinement = refinement;
-    options.focus = focus_;
-    if (gpu_) return gpu_->select(camera, options);
-    if (!selector_) return incremental_.update(camera, refinement);
-    return selector_->select(camera, options);
-  }
-
- private:
-  /// The host's selector when there are focus regions. Constructed in place rather than
-  /// emplaced into an empty optional: GCC 12 at -O2 with asserts on (the asan preset) takes
-  /// emplace's reset of the empty optional for a read of uninitialised vectors
-  /// (-Wmaybe-uninitialized, a false positive).
-  static std::optional<CutSelector> focusSelector(const DatasetView& view,
-                                                  const std::vector<FocusRegion>& focus) {
-    if (focus.empty()) return std::nullopt;
-    return std::optional<CutSelector>(std::in_place, view);
-  }
-
-  // The refinement tree is kept from frame to frame: a path's frames re-evaluate only the
-  // decisions the camera's movement may change (IncrementalRefiner: the same cuts as refine()).
-  IncrementalRefiner incremental_;
-  std::vector<FocusRegion> focus_;
-  std::optional<CutSelector> selector_;
-  std::optional<gpu::GpuSelector> gpu_;
-};
+/// The cut selection: on the device (GpuSelector.h), or on the host with focus regions closed
+/// upward (Selection.h) or by the screen error alone. Without focus the refinement tree is kept
+/// from frame to frame: a path's frames re-evaluate only the decisions the camera's movement may
+/// change (IncrementalRefiner: the same cuts as refine()).
+Result<std::unique_ptr<CutSource>> renderCutSource(gpu::VulkanContext& context,
+                                                   const DatasetView& view, CutSelection selection,
+                                                   std::vector<FocusRegion> focus) {
+  if (selection == CutSelection::Gpu) return deviceSelectionCuts(context, view, std::move(focus));
+  if (!focus.empty()) return focusCuts(view, std::move(focus));
+  return hostRefinementCuts(view, true);
+}
 
 /// Renders and writes every frame of the plan, with a statistics line each (and a JSON line
 /// in `statsFile` when it is open).
-int renderFrames(const RenderCliOptions& c, const DatasetView& view, const Viewport& viewport,
-                 const gpu::FrameSettings& settings, const RenderPlan& plan,
-                 std::ofstream& statsFile) {
+int renderFrames(const RenderCliOptions& c, const RenderModes& modes, const DatasetView& view,
+                 const Viewport& viewport, const gpu::FrameSettings& settings,
+                 const RenderPlan& plan, std::ofstream& statsFile) {
   gpu::ContextOptions contextOptions;
   contextOptions.device = c.device;
   auto context = gpu::VulkanContext::create(contextOptions);
@@ -289,13 +268,12 @@ int renderFrames(const RenderCliOptions& c, const DatasetView& view, const Viewp
 
   RefinementOptions refinement;
   refinement.tolerancePixels = c.tolerancePixels;
-  refinement.morphRange = morphRangeOf(c.morph, c.morph.morph == "on");
+  refinement.morphRange = morphRangeOf(c.morph, modes.morph);
   auto focus = focusRegions(c.focus, view.planet());
   if (!focus) return reportError(focus.error());
-  FrameCuts cuts(view, std::move(*focus));
-  if (c.selection == "gpu") {
-    if (auto r = cuts.useGpu(*context, view); !r) return reportError(r.error());
-  }
+  auto cuts = renderCutSource(*context, view, modes.selection, std::move(*focus));
+  if (!cuts) return reportError(cuts.error());
+  CutSource& source = **cuts;
   gpu::FrameSettings frameSettings = settings;
   if (!c.viewshed.empty()) {
     auto request = parseViewshedSpec("--viewshed", c.viewshed);
@@ -310,7 +288,7 @@ int renderFrames(const RenderCliOptions& c, const DatasetView& view, const Viewp
     const FrameJob& job = plan.jobs[i];
     const Camera camera = Camera::fromPose(view.planet(), job.pose, viewport);
     const auto traversalStart = std::chrono::steady_clock::now();
-    auto selected = cuts.cut(camera, refinement);
+    auto selected = source.cut(camera, refinement);
     if (!selected) return reportError(selected.error());
     const Cut& cut = *selected;
     const double traversalMs =
@@ -369,7 +347,8 @@ int encodeVideo(const RenderPlan& plan, bool quiet) {
 int runRender(const RenderCliOptions& c) {
   const Viewport viewport = viewportOf(c);
   gpu::FrameSettings settings;
-  if (const int status = checkRenderOptions(c, viewport, settings); status != kExitOk) {
+  RenderModes modes;
+  if (const int status = checkRenderOptions(c, viewport, settings, modes); status != kExitOk) {
     return status;
   }
 
@@ -377,6 +356,7 @@ int runRender(const RenderCliOptions& c) {
   if (!dataset) return reportError(dataset.error());
   const DatasetView& view = (*dataset)->view();
   if (auto r = checkMorphOptions(c.morph, view, false); !r) return reportError(r.error());
+  modes.morph = parseOnOff("--morph", c.morph.morph).value();  // checked just above
   RenderPlan plan;
   if (const int status = planFrames(c, view, plan); status != kExitOk) return status;
 
@@ -385,7 +365,7 @@ int runRender(const RenderCliOptions& c) {
     statsFile.open(c.stats, std::ios::trunc);
     if (!statsFile) return badInput("--stats '" + c.stats + "': cannot create the file");
   }
-  if (const int status = renderFrames(c, view, viewport, settings, plan, statsFile);
+  if (const int status = renderFrames(c, modes, view, viewport, settings, plan, statsFile);
       status != kExitOk) {
     return status;
   }

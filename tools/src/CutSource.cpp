@@ -1,0 +1,130 @@
+// The frame loop's cut sources (CutSource.h).
+#include "CutSource.h"
+
+#include <utility>
+
+#include "pbdam/gpu/GpuSelector.h"
+#include "pbdam/runtime/CutReuse.h"
+#include "pbdam/streaming/NoStallPolicy.h"
+
+using namespace pbdam::formats;
+using namespace pbdam::runtime;
+
+namespace pbdam::tools {
+namespace {
+
+class FreshRefinementCuts final : public CutSource {
+ public:
+  explicit FreshRefinementCuts(const DatasetView& view) : view_(view) {}
+  Result<Cut> cut(const Camera& camera, const RefinementOptions& refinement) override {
+    return refine(view_, camera, refinement);
+  }
+
+ private:
+  const DatasetView& view_;
+};
+
+class ReusedRefinementCuts final : public CutSource {
+ public:
+  explicit ReusedRefinementCuts(const DatasetView& view) : incremental_(view) {}
+  Result<Cut> cut(const Camera& camera, const RefinementOptions& refinement) override {
+    return incremental_.update(camera, refinement);
+  }
+
+ private:
+  IncrementalRefiner incremental_;
+};
+
+class FocusCuts final : public CutSource {
+ public:
+  FocusCuts(const DatasetView& view, std::vector<FocusRegion> focus)
+      : selector_(view), focus_(std::move(focus)) {}
+  Result<Cut> cut(const Camera& camera, const RefinementOptions& refinement) override {
+    SelectionOptions options;
+    options.refinement = refinement;
+    options.focus = focus_;
+    return selector_.select(camera, options);
+  }
+
+ private:
+  CutSelector selector_;
+  std::vector<FocusRegion> focus_;
+};
+
+class DeviceSelectionCuts final : public CutSource {
+ public:
+  DeviceSelectionCuts(gpu::GpuSelector selector, std::vector<FocusRegion> focus)
+      : selector_(std::move(selector)), focus_(std::move(focus)) {}
+  Result<Cut> cut(const Camera& camera, const RefinementOptions& refinement) override {
+    SelectionOptions options;
+    options.refinement = refinement;
+    options.focus = focus_;
+    return selector_.select(camera, options);
+  }
+  gpu::GpuSelector* selector() noexcept override { return &selector_; }
+
+ private:
+  gpu::GpuSelector selector_;
+  std::vector<FocusRegion> focus_;
+};
+
+class DeviceDrawListCuts final : public CutSource {
+ public:
+  explicit DeviceDrawListCuts(gpu::GpuSelector selector) : selector_(std::move(selector)) {}
+  Result<Cut> cut(const Camera& /*camera*/, const RefinementOptions& /*refinement*/) override {
+    return Cut{};
+  }
+  bool drawsDeviceList() const noexcept override { return true; }
+  gpu::GpuSelector* selector() noexcept override { return &selector_; }
+
+ private:
+  gpu::GpuSelector selector_;
+};
+
+class NoStallCuts final : public CutSource {
+ public:
+  explicit NoStallCuts(const streaming::MappedDataset& dataset) : policy_(dataset) {}
+  Result<Cut> cut(const Camera& camera, const RefinementOptions& refinement) override {
+    streaming::NoStallCut capped = policy_.cutAfter(camera, refinement, cap_);
+    cap_ = capped.levelCap;
+    return std::move(capped.cut);
+  }
+  int levelCap() const noexcept override { return cap_; }
+
+ private:
+  streaming::NoStallPolicy policy_;
+  int cap_ = -1;  ///< the previous frame's level cap (−1 before the first)
+};
+
+}  // namespace
+
+std::unique_ptr<CutSource> hostRefinementCuts(const DatasetView& view, bool reuseTree) {
+  if (reuseTree) return std::make_unique<ReusedRefinementCuts>(view);
+  return std::make_unique<FreshRefinementCuts>(view);
+}
+
+std::unique_ptr<CutSource> focusCuts(const DatasetView& view, std::vector<FocusRegion> focus) {
+  return std::make_unique<FocusCuts>(view, std::move(focus));
+}
+
+Result<std::unique_ptr<CutSource>> deviceSelectionCuts(gpu::VulkanContext& context,
+                                                       const DatasetView& view,
+                                                       std::vector<FocusRegion> focus) {
+  auto selector = gpu::GpuSelector::create(context, view);
+  if (!selector) return std::move(selector).error();
+  return std::unique_ptr<CutSource>(
+      std::make_unique<DeviceSelectionCuts>(std::move(*selector), std::move(focus)));
+}
+
+Result<std::unique_ptr<CutSource>> deviceDrawListCuts(gpu::VulkanContext& context,
+                                                      const DatasetView& view) {
+  auto selector = gpu::GpuSelector::create(context, view);
+  if (!selector) return std::move(selector).error();
+  return std::unique_ptr<CutSource>(std::make_unique<DeviceDrawListCuts>(std::move(*selector)));
+}
+
+std::unique_ptr<CutSource> noStallCuts(const streaming::MappedDataset& dataset) {
+  return std::make_unique<NoStallCuts>(dataset);
+}
+
+}  // namespace pbdam::tools
