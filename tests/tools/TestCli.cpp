@@ -372,6 +372,12 @@ TEST(Cli, PathThenColdBenchWithAndWithoutPrefetchOnMola) {
     EXPECT_LE(run["resident_after_evict_fraction"].get<double>(), 0.01);
     EXPECT_GT(run["fps_mean"].get<double>(), 0.0);
     EXPECT_GE(run["frame_ms_p99"].get<double>(), run["frame_ms_p50"].get<double>());
+    EXPECT_GT(run["draw_ms_p50"].get<double>(), 0.0);
+    EXPECT_LE(run["draw_ms_p50"].get<double>(), run["frame_ms_max"].get<double>());
+    // Upload and draw (timestamps; CPU time on lavapipe) over the run's wall time: the device
+    // works inside the frames' wall time, one submission at a time, so never more than all of it.
+    EXPECT_GT(run["gpu_busy_fraction"].get<double>(), 0.0);
+    EXPECT_LE(run["gpu_busy_fraction"].get<double>(), 1.0);
   }
   EXPECT_TRUE(std::filesystem::file_size(dir / "report" / "report.png") > 10000);
   const std::string frames = readText(dir / "report" / "frames.csv");
@@ -661,6 +667,9 @@ TEST(Cli, BenchCutReuseKeepsTheCutsAndPoppingIsMeasured) {
     const auto gpuRun = nlohmann::json::parse(in)["runs"][0];
     EXPECT_EQ(gpuRun["selection"], "gpu");
     EXPECT_EQ(gpuRun["draws"], draws);
+    // Indirect: the selection and draw-list passes count as upload, so the device is busiest.
+    EXPECT_GT(gpuRun["gpu_busy_fraction"].get<double>(), 0.0);
+    EXPECT_LE(gpuRun["gpu_busy_fraction"].get<double>(), 1.0);
     // Checked against the host's cut every frame: none differs on lavapipe, and no drawn inner
     // patch's screen error (on the host, in double) is over the tolerance.
     EXPECT_EQ(gpuRun["selection_frames_differing"], 0);

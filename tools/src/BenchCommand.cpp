@@ -180,9 +180,10 @@ void copyRenderStats(const gpu::FrameStats& stats, BenchFrame& f) {
 }
 
 using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+double msBetween(Clock::time_point t0, Clock::time_point t1) {
+  return std::chrono::duration<double, std::milli>(t1 - t0).count();
 }
+double msSince(Clock::time_point t0) { return msBetween(t0, Clock::now()); }
 
 std::uint64_t threadMajorFaults() {
   rusage usage{};
@@ -328,6 +329,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   Progress progress(o.quiet);
   std::uint64_t residentBefore = residentDatasetPages(**dataset);
   const auto page = static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
+  Clock::time_point runStart{}, runEnd{};  // the first frame's start, the last frame's end
   for (std::size_t i = 0; i < path.size(); ++i) {
     const CameraPathPoint& p = path[i];
     const Camera camera = cameraOf(view, p, viewport);
@@ -337,6 +339,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     f.pathSeconds = p.tSeconds;
     const std::uint64_t faults0 = threadMajorFaults();
     const auto t0 = Clock::now();
+    if (i == 0) runStart = t0;
     // The device's draw list: an empty cut, the selection runs inside the frame's submission.
     auto selected = source.cut(camera, refinement);
     if (!selected) return selected.error();
@@ -350,7 +353,8 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     if (!frame) return frame.error();
     f.rssFileBytes = residentFileBytes();
     releaseBlobPages(**dataset);
-    f.frameMs = msSince(t0);
+    runEnd = Clock::now();
+    f.frameMs = msBetween(t0, runEnd);
     f.renderThreadMajorFaults = threadMajorFaults() - faults0;
     if (deviceList) {
       checkDeviceDraws(view, camera, refinement, frame->stats, run);
@@ -375,6 +379,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     progress.status(progressLine(run, i + 1, path.size(), f), i + 1 == path.size());
   }
   progress.finish();
+  run.wallMs = msBetween(runStart, runEnd);
   if (prefetcher) {
     prefetcher->stop();
     run.prefetchRangesAdvised = prefetcher->stats().rangesAdvised;

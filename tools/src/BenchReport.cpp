@@ -25,13 +25,24 @@ double percentile(std::vector<double> v, double p) {
   return v[lo] + (rank - static_cast<double>(lo)) * (v[hi] - v[lo]);
 }
 
+/// The share of the run's wall time the device was busy with its frames: their upload and draw
+/// times (timestamp queries; on lavapipe the CPU time the driver spent on them) over
+/// BenchRun::wallMs. The device works inside a frame's wall time and one submission at a time,
+/// so it is at most 1 up to the timestamps' resolution; 0 for a run without frames.
+double gpuBusyFraction(const BenchRun& run) {
+  double gpuMs = 0.0;
+  for (const BenchFrame& f : run.frames) gpuMs += f.uploadMs + f.drawMs;
+  return run.wallMs > 0.0 ? gpuMs / run.wallMs : 0.0;
+}
+
 nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
-  std::vector<double> ms;
+  std::vector<double> ms, drawMs;
   double total = 0.0, traversal = 0.0, peakTps = 0.0, triangles = 0.0, draws = 0.0, decisions = 0.0;
   std::uint64_t faults = 0, maxPatches = 0, maxTiles = 0, peakRss = 0, hits = 0, misses = 0,
                 paged = 0, peakDatasetRss = 0, peakPool = 0;
   for (const BenchFrame& f : run.frames) {
     ms.push_back(f.frameMs);
+    drawMs.push_back(f.drawMs);
     total += f.frameMs;
     traversal += f.traversalMs;
     triangles += static_cast<double>(f.triangles);
@@ -85,6 +96,8 @@ nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   j["frame_ms_p95"] = percentile(ms, 0.95);
   j["frame_ms_p99"] = percentile(ms, 0.99);
   j["frame_ms_max"] = ms.empty() ? 0.0 : *std::max_element(ms.begin(), ms.end());
+  j["draw_ms_p50"] = percentile(drawMs, 0.5);
+  j["gpu_busy_fraction"] = gpuBusyFraction(run);
   j["stalls"] = stalls;
   j["data_stalls"] = dataStalls;
   j["triangles_per_s_mean"] = total > 0.0 ? triangles / total * 1e3 : 0.0;
@@ -185,6 +198,18 @@ void plotReport(const std::filesystem::path& png, const BenchSetup& setup,
                             std::to_string(setup.height) + ")";
   panel(runs, title.c_str(), "frames/s",
         [](const BenchFrame& f) { return f.frameMs > 0.0 ? 1e3 / f.frameMs : 0.0; });
+  // Between the title and the panel: each run's share of the wall time the device was busy.
+  std::string busy = "GPU busy (upload + draw over the run's wall time):";
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    char share[48];
+    std::snprintf(share, sizeof share, "%s %s %.1f%%", k ? ";" : "", names[k % 4],
+                  100.0 * gpuBusyFraction(runs[k]));
+    busy += share;
+  }
+  plcol0(15);
+  plschr(0.0, 0.85);
+  plmtex("t", 0.8, 0.0, 0.0, busy.c_str());
+  plschr(0.0, 1.0);
   panel(runs, "triangles per frame", "triangles",
         [](const BenchFrame& f) { return static_cast<double>(f.triangles); });
   panel(runs, "patches per frame", "patches",
@@ -276,13 +301,14 @@ Result<std::string> writeBenchReport(const std::filesystem::path& dir, const Ben
                   static_cast<unsigned long long>(r["max_patches_per_frame"].get<std::uint64_t>()),
                   r["decisions_per_frame_mean"].get<double>(), onOff(runs[k].cutReuse));
     text << line;
-    std::snprintf(line, sizeof line,
-                  "  data stalls (time outside the draw > median frame) %lld; dataset pages in "
-                  "RSS peak %.1f MiB (%.2f%% of the dataset); GPU cache pools %.0f MiB\n",
-                  static_cast<long long>(r["data_stalls"].get<std::int64_t>()),
-                  r["peak_dataset_rss_mib"].get<double>(),
-                  100.0 * r["dataset_rss_ratio"].get<double>(),
-                  r["peak_gpu_pool_mib"].get<double>());
+    std::snprintf(
+        line, sizeof line,
+        "  data stalls (time outside the draw > median frame) %lld; dataset pages in "
+        "RSS peak %.1f MiB (%.2f%% of the dataset); GPU cache pools %.0f MiB; GPU "
+        "busy %.1f%% of the wall time\n",
+        static_cast<long long>(r["data_stalls"].get<std::int64_t>()),
+        r["peak_dataset_rss_mib"].get<double>(), 100.0 * r["dataset_rss_ratio"].get<double>(),
+        r["peak_gpu_pool_mib"].get<double>(), 100.0 * r["gpu_busy_fraction"].get<double>());
     text << line;
     if (runs[k].draws == DrawList::Indirect) {
       // The cut never leaves the device, so its morphing patches are not counted.

@@ -71,6 +71,10 @@ struct BenchRun final {
   std::uint64_t prefetchBytesAdvised = 0;
   /// File-backed RSS just before the first frame (shared libraries; no dataset page mapped yet).
   std::uint64_t baselineRssFileBytes = 0;
+  /// Wall time from the start of the first frame to the end of the last (the end of its
+  /// frameMs): the frames' own times, and between them what the loop does untimed (the checks
+  /// of a device cut against the host's, --popping's second draw, the residency figures).
+  double wallMs = 0.0;
   std::vector<BenchFrame> frames;
 };
 
