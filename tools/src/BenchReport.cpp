@@ -182,8 +182,9 @@ void plotReport(const std::filesystem::path& png, const BenchSetup& setup,
   plspage(0.0, 0.0, 1400, 1400, 0, 0);
   plscolbg(255, 255, 255);
   plscol0(15, 0, 0, 0);
-  plscol0(1, 220, 50, 32);  // run 0: red
-  plscol0(9, 30, 90, 200);  // run 1: blue
+  plscol0(1, 220, 50, 32);    // run 0: red
+  plscol0(9, 30, 90, 200);    // run 1: blue
+  plscol0(8, 110, 110, 110);  // run 3: grey (PLplot's colour 8 is brown); run 2: its green
   const bool popping =
       std::any_of(runs.begin(), runs.end(), [](const BenchRun& r) { return r.popping; });
   plssub(1, popping ? 5 : 4);
