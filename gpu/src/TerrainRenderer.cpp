@@ -707,6 +707,12 @@ Result<void> TerrainRenderer::submit(const Cut& cut, const Camera& camera,
     begin = passEnds[p];
   }
   if (stats.evictions > 0) m.deviceList.reset();  // it knew where the evicted entries were
+  {
+    // What the frame left resident (later frames submitted before it is collected change it).
+    const std::lock_guard<std::mutex> lock(c.mutex);
+    stats.residentBytes = c.lru->residentBytes();
+    stats.poolBytes = c.patches.allocatedBytes() + c.tiles.allocatedBytes();
+  }
   slot.pending = true;
   slot.readback = readback;
   slot.stats = stats;
@@ -732,11 +738,6 @@ Result<RenderedFrame> TerrainRenderer::Impl::collectOldest() {
     Result<RgbaImage> pixels = slot.target.readPixels();
     if (!pixels) return std::move(pixels).error();
     image = std::move(*pixels);
-  }
-  {
-    const std::lock_guard<std::mutex> lock(shared->mutex);
-    stats.residentBytes = shared->lru->residentBytes();
-    stats.poolBytes = shared->patches.allocatedBytes() + shared->tiles.allocatedBytes();
   }
   stats.frameMs = millisecondsSince(slot.start);
   // The latest frame, read back and drawn from its slot's commands: redrawLast() may repeat it.

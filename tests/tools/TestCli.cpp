@@ -198,6 +198,11 @@ TEST(Cli, BadInputGivesOneLineAndExitCode2) {
   expectBadInput("bench x --path " + csv + " --out y --mode fast", "--mode 'fast'");
   expectBadInput("bench x --path " + csv + " --out y --selection tpu", "--selection 'tpu'");
   expectBadInput("bench x --path " + csv + " --out y --draws sideways", "--draws 'sideways'");
+  expectBadInput("bench x --path " + csv + " --out y --readback maybe", "--readback 'maybe'");
+  expectBadInput("bench x --path " + csv + " --out y --frames-in-flight 0",
+                 "--frames-in-flight must be in 1..8");
+  expectBadInput("bench x --path " + csv + " --out y --frames-in-flight 9",
+                 "--frames-in-flight must be in 1..8");
   expectBadInput("bench x --path " + csv + " --out y --draws indirect",
                  "--draws indirect needs --selection gpu");
   expectBadInput("bench x --path '" + (dir / "none.csv").string() + "' --out y", "none.csv");
@@ -378,6 +383,9 @@ TEST(Cli, PathThenColdBenchWithAndWithoutPrefetchOnMola) {
     // works inside the frames' wall time, one submission at a time, so never more than all of it.
     EXPECT_GT(run["gpu_busy_fraction"].get<double>(), 0.0);
     EXPECT_LE(run["gpu_busy_fraction"].get<double>(), 1.0);
+    // The defaults: two frames in flight, nothing read back.
+    EXPECT_EQ(run["frames_in_flight"], 2);
+    EXPECT_EQ(run["readback"], false);
   }
   EXPECT_TRUE(std::filesystem::file_size(dir / "report" / "report.png") > 10000);
   const std::string frames = readText(dir / "report" / "frames.csv");
@@ -633,6 +641,9 @@ TEST(Cli, BenchCutReuseKeepsTheCutsAndPoppingIsMeasured) {
     std::ifstream in(out / "summary.json");
     const auto run = nlohmann::json::parse(in)["runs"][0];
     EXPECT_EQ(run["cut_reuse"], reuse == "on");
+    // Popping draws each frame again right after it: one frame in flight, read back.
+    EXPECT_EQ(run["frames_in_flight"], 1);
+    EXPECT_EQ(run["readback"], true);
     decisions[reuse] = run["decisions_per_frame_mean"].get<double>();
     EXPECT_GE(run["popping_rms_p99"].get<double>(), 0.0);
     EXPECT_GE(run["popping_max_max"].get<double>(), run["popping_max_p50"].get<double>());

@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -167,6 +168,64 @@ TEST(RenderCli, CameraPathToFramesAndVideo) {
   EXPECT_NE(bare.out.find("MP4 skipped"), std::string::npos) << bare.out;
 }
 
+// A path drawn with 1, 2 and 3 frames in flight (frames encoded on writer threads): the same
+// PNG bytes and the same per-frame statistics, in frame order, whatever is in flight; under a
+// GPU cache budget small enough that frames evict what the frames before them drew.
+TEST(RenderCli, FramesInFlightWriteTheSameFrames) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  test::TempDir tmp;
+  const auto path = tmp / "path.csv";
+  {
+    std::ofstream out(path);
+    out << "t,lat,lon,alt,heading,pitch,roll\n";
+    for (int k = 0; k < 10; ++k) {
+      out << 0.1 * k << "," << -10 + 2 * k << "," << 280 + 3 * k << "," << 800e3 - 50e3 * k
+          << ",70,-40,0\n";
+    }
+  }
+  // 5 MiB: frames evict what earlier frames drew; 3 MiB: each frame takes two passes too.
+  for (const char* budget : {"5", "3"}) {
+    SCOPED_TRACE(std::string(budget) + " MiB");
+    std::map<int, std::vector<std::string>> images;
+    std::map<int, std::vector<std::string>> stats;
+    std::uint64_t evictions = 0;
+    for (const int inFlight : {1, 2, 3}) {
+      const auto prefix = tmp / ("f" + std::to_string(inFlight) + "-" + budget);
+      const auto statsFile = tmp / ("stats" + std::to_string(inFlight) + "-" + budget + ".jsonl");
+      const CliRun run =
+          runPbdam("render " + quoted(dir) + " --path " + quoted(path) + " --out " +
+                       quoted(prefix) + " --stats " + quoted(statsFile) + " --frames-in-flight " +
+                       std::to_string(inFlight) + " --gpu-cache-mib " + budget + kSmall,
+                   "PATH=/nonexistent");
+      ASSERT_EQ(run.exitCode, 0) << run.err;
+      for (int k = 0; k < 10; ++k) {
+        char name[32];
+        std::snprintf(name, sizeof name, "_%06d.png", k);
+        images[inFlight].push_back(readFile(prefix.string() + name));
+      }
+      for (const std::string& line : lines(readFile(statsFile))) {
+        auto j = nlohmann::json::parse(line);
+        evictions += j["evictions"].get<std::uint64_t>();
+        for (const char* timing :
+             {"traversal_ms", "decode_ms", "upload_ms", "draw_ms", "frame_ms"}) {
+          j.erase(timing);
+        }
+        stats[inFlight].push_back(j.dump());
+      }
+    }
+    ASSERT_EQ(stats[1].size(), 10u);
+    for (const int inFlight : {2, 3}) {
+      for (std::size_t k = 0; k < 10; ++k) {
+        EXPECT_FALSE(images[1][k].empty());
+        EXPECT_TRUE(images[inFlight][k] == images[1][k])
+            << "frame " << k << " with " << inFlight << " in flight";
+        EXPECT_EQ(stats[inFlight][k], stats[1][k]) << inFlight << " in flight";
+      }
+    }
+    EXPECT_GT(evictions, 30u);
+  }
+}
+
 // With stdout a pipe (a log), a camera path's per-frame statistics lines come at most one a
 // second plus the last frame's, not one per frame (--stats has every frame).
 TEST(RenderCli, APathInALogPrintsAtMostALineASecond) {
@@ -288,6 +347,8 @@ TEST(RenderCli, BadInputIsOneLineAndExitCode2) {
       {"render " + ds + " --camera 0,0,1e6 --gpu-cache-mb 0" + out, "--gpu-cache-mb"},
       {"render " + ds + " --camera 0,0,1e6 --gpu-cache-mb 0.01" + out, "minimum of"},
       {"render " + ds + " --camera 0,0,1e6 --clear 255,0" + out, "--clear"},
+      {"render " + ds + " --camera 0,0,1e6 --frames-in-flight 0" + out, "--frames-in-flight"},
+      {"render " + ds + " --camera 0,0,1e6 --frames-in-flight 9" + out, "1..8"},
       {"render " + ds + " --camera 0,0,1e6 --clear 256,0,0" + out, "--clear"},
       {"render " + ds + " --camera 0,0,1e6 --out " + quoted(tmp / "x.jpg"), ".png or .exr"},
       {"render " + ds + " --camera 0,0,1e6 --out " + quoted(tmp / "no/such/dir/x.png"),

@@ -18,6 +18,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -66,6 +67,8 @@ struct BenchCliOptions {
   std::string device;
   bool quiet = false;
   MorphCliOptions morph;
+  std::uint32_t framesInFlight = 2;
+  std::string readback = "off";
 };
 
 /// The frame loop's modes, parsed from BenchCliOptions when the options are checked.
@@ -76,6 +79,7 @@ struct BenchModes final {
   bool cutReuse = true;
   CutSelection selection = CutSelection::Cpu;
   DrawList draws = DrawList::Readback;
+  bool readback = false;  ///< --readback: pixels copied back for every frame
 };
 
 /// RMS and largest difference over every R, G and B value of two images of one size (0–255).
@@ -245,6 +249,10 @@ BenchRun describeRun(const BenchCliOptions& o, const BenchModes& modes, bool pre
   run.draws = run.selection == CutSelection::Gpu ? modes.draws : DrawList::Readback;
   run.popping = o.popping;
   run.cold = o.cold;
+  // --popping draws a frame again right after it (render() needs nothing in flight), and the
+  // device-made draw list is one frame at a time: both run one frame in flight.
+  run.framesInFlight = o.popping || run.draws == DrawList::Indirect ? 1 : o.framesInFlight;
+  run.readback = modes.readback || o.popping;
   return run;
 }
 
@@ -255,6 +263,7 @@ gpu::TerrainRendererOptions rendererOptions(const gpu::VulkanContext& context,
   ro.widthPixels = o.width;
   ro.heightPixels = o.height;
   ro.gpuCacheBytes = static_cast<std::uint64_t>(o.gpuCacheMiB * 1048576.0);
+  ro.framesInFlight = run.framesInFlight;
   if (run.draws == DrawList::Indirect) {
     // The device's draw list needs the whole dataset resident, in one pool chunk.
     ro.gpuCacheBytes = gpu::GpuCache::bytesForEverything(context, view);
@@ -330,6 +339,29 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   std::uint64_t residentBefore = residentDatasetPages(**dataset);
   const auto page = static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
   Clock::time_point runStart{}, runEnd{};  // the first frame's start, the last frame's end
+  // Frames in flight: frame i is refined, decoded and recorded while the device draws the
+  // frames before it; a frame is collected (its device timings and cache figures filled in)
+  // once framesInFlight frames are pending, so 1 in flight is the one-frame-at-a-time loop.
+  std::deque<std::size_t> pending;  // indices in run.frames of the frames in flight
+  const auto collectOne = [&]() -> Result<void> {
+    auto frame = renderer->collect();
+    if (!frame) return frame.error();
+    BenchFrame& f = run.frames[pending.front()];
+    pending.pop_front();
+    copyRenderStats(frame->stats, f);
+    f.gpuPoolBytes = frame->stats.poolBytes;
+    if (o.popping) {
+      // After the frame's own figures: the previous cut drawn with this camera, compared (one
+      // frame in flight: this is the frame just submitted).
+      const Camera camera = cameraOf(view, path[f.frame], viewport);
+      if (auto measured =
+              measurePopping(*renderer, view, refinement, previousCut, camera, frame->image, f);
+          !measured) {
+        return measured.error();
+      }
+    }
+    return {};
+  };
   for (std::size_t i = 0; i < path.size(); ++i) {
     const CameraPathPoint& p = path[i];
     const Camera camera = cameraOf(view, p, viewport);
@@ -348,35 +380,49 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     f.traversalMs = msSince(t0);
     f.decisions = deviceList ? source.selector()->index().nodes.size() : cut.nodesVisited;
     f.morphingPatches = summarizeMorph(cut).morphingPatches;
-    auto frame = deviceList ? renderer->renderSelected(*source.selector(), camera, deviceSelection)
-                            : renderer->render(cut, camera);
-    if (!frame) return frame.error();
-    f.rssFileBytes = residentFileBytes();
-    releaseBlobPages(**dataset);
-    runEnd = Clock::now();
-    f.frameMs = msBetween(t0, runEnd);
-    f.renderThreadMajorFaults = threadMajorFaults() - faults0;
+    f.triangles = cut.triangles;
+    f.patches = cut.patches.size();
     if (deviceList) {
+      auto frame = renderer->renderSelected(*source.selector(), camera, deviceSelection);
+      if (!frame) return frame.error();
+      copyRenderStats(frame->stats, f);
+      f.gpuPoolBytes = frame->stats.poolBytes;
       checkDeviceDraws(view, camera, refinement, frame->stats, run);
-    } else if (run.selection == CutSelection::Gpu) {
-      checkDeviceCut(view, camera, refinement, cut, run);
-    }
-    if (o.popping) {
-      // After the frame's own figures: the previous cut drawn with this camera, compared.
-      if (auto measured =
-              measurePopping(*renderer, view, refinement, previousCut, camera, frame->image, f);
-          !measured) {
-        return measured.error();
+      run.frames.push_back(f);
+    } else {
+      if (auto submitted = renderer->submit(cut, camera, {}, run.readback); !submitted) {
+        return submitted.error();
+      }
+      run.frames.push_back(f);
+      pending.push_back(i);
+      while (pending.size() >= run.framesInFlight) {
+        if (auto r = collectOne(); !r) return r.error();
       }
     }
-    copyRenderStats(frame->stats, f);
+    BenchFrame& done = run.frames.back();
+    done.rssFileBytes = residentFileBytes();
+    releaseBlobPages(**dataset);
+    runEnd = Clock::now();
+    done.frameMs = msBetween(t0, runEnd);
+    done.renderThreadMajorFaults = threadMajorFaults() - faults0;
+    if (!deviceList && run.selection == CutSelection::Gpu) {
+      checkDeviceCut(view, camera, refinement, cut, run);
+    }
     const std::uint64_t residentAfter = residentDatasetPages(**dataset);
-    f.bytesPagedIn = residentAfter > residentBefore ? (residentAfter - residentBefore) * page : 0;
+    done.bytesPagedIn =
+        residentAfter > residentBefore ? (residentAfter - residentBefore) * page : 0;
     residentBefore = residentAfter;
-    f.rssBytes = residentSetBytes();
-    f.gpuPoolBytes = frame->stats.poolBytes;
-    run.frames.push_back(f);
-    progress.status(progressLine(run, i + 1, path.size(), f), i + 1 == path.size());
+    done.rssBytes = residentSetBytes();
+    progress.status(progressLine(run, i + 1, path.size(), done), i + 1 == path.size());
+  }
+  // The frames still in flight: their wait belongs to the last frame's time.
+  if (!pending.empty()) {
+    const auto drainStart = Clock::now();
+    while (!pending.empty()) {
+      if (auto r = collectOne(); !r) return r.error();
+    }
+    runEnd = Clock::now();
+    run.frames.back().frameMs += msBetween(drainStart, runEnd);
   }
   progress.finish();
   run.wallMs = msBetween(runStart, runEnd);
@@ -406,6 +452,9 @@ int parseBenchModes(const BenchCliOptions& o, BenchModes& modes) {
         "--draws indirect needs --selection gpu in paging mode, without --popping"));
   }
   if (!mode) return reportError(mode.error());
+  auto readback = parseOnOff("--readback", o.readback);
+  if (!readback) return reportError(readback.error());
+  modes.readback = *readback;
   modes.prefetch = *prefetch;
   modes.cutReuse = *cutReuse;
   modes.selection = *selection;
@@ -422,6 +471,10 @@ int runBench(const BenchCliOptions& o) {
     return bad("--lookahead-s must be in [0, 60]");
   }
   if (!std::isfinite(o.tolerance) || o.tolerance <= 0.0) return bad("--tolerance-px must be > 0");
+  if (o.framesInFlight < 1 || o.framesInFlight > gpu::TerrainRenderer::kMaxFramesInFlight) {
+    return bad("--frames-in-flight must be in 1.." +
+               std::to_string(gpu::TerrainRenderer::kMaxFramesInFlight));
+  }
   if (!std::isfinite(o.gpuCacheMiB) || o.gpuCacheMiB <= 0.0 || o.gpuCacheMiB > 65536.0) {
     return bad("--gpu-cache-mib (--gpu-cache-mb) must be in (0, 65536]");
   }
@@ -528,6 +581,14 @@ void addBenchCommand(CLI::App& app, CommandStatus& status) {
                   "resident first, and the GPU cache sized for it)")
       ->capture_default_str();
   addMorphOptions(*cmd, o->morph, true);
+  cmd->add_option("--frames-in-flight", o->framesInFlight,
+                  std::string(kFramesInFlightHelp) +
+                      " (--popping and --draws indirect run one frame in flight)")
+      ->capture_default_str();
+  cmd->add_option("--readback", o->readback,
+                  "on: copy every frame's pixels back to the host, as render and serve do; off: "
+                  "the frame stays on the device (implied on by --popping)")
+      ->capture_default_str();
   cmd->add_flag("--quiet", o->quiet, "No per-frame progress");
   cmd->callback([o, &status] { status.exitCode = runBench(*o); });
 }

@@ -98,6 +98,8 @@ nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   j["frame_ms_max"] = ms.empty() ? 0.0 : *std::max_element(ms.begin(), ms.end());
   j["draw_ms_p50"] = percentile(drawMs, 0.5);
   j["gpu_busy_fraction"] = gpuBusyFraction(run);
+  j["frames_in_flight"] = run.framesInFlight;
+  j["readback"] = run.readback;
   j["stalls"] = stalls;
   j["data_stalls"] = dataStalls;
   j["triangles_per_s_mean"] = total > 0.0 ? triangles / total * 1e3 : 0.0;
@@ -296,11 +298,13 @@ Result<std::string> writeBenchReport(const std::filesystem::path& dir, const Ben
     text << line;
     std::snprintf(line, sizeof line,
                   "  per frame: %.0f triangles in %.0f draws on average (one per patch; at most "
-                  "%llu); %.1f split/cull decisions (cut reuse %s)\n",
+                  "%llu); %.1f split/cull decisions (cut reuse %s); %u in flight, readback "
+                  "%s\n",
                   r["triangles_per_frame_mean"].get<double>(),
                   r["draws_per_frame_mean"].get<double>(),
                   static_cast<unsigned long long>(r["max_patches_per_frame"].get<std::uint64_t>()),
-                  r["decisions_per_frame_mean"].get<double>(), onOff(runs[k].cutReuse));
+                  r["decisions_per_frame_mean"].get<double>(), onOff(runs[k].cutReuse),
+                  runs[k].framesInFlight, onOff(runs[k].readback));
     text << line;
     std::snprintf(
         line, sizeof line,

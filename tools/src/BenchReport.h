@@ -17,7 +17,11 @@ namespace pbdam::tools {
 struct BenchFrame final {
   std::uint32_t frame = 0;
   double pathSeconds = 0.0;  ///< the camera path's t
-  double frameMs = 0.0;      ///< traversal + render (decode, upload, draw, readback)
+  /// The render loop's time for the frame: traversal, then submitting it (decode, upload,
+  /// recording) and collecting the frame from framesInFlight frames before (waiting for the
+  /// device, readback): with one in flight traversal + render, with more the time between
+  /// frames. The last frame's includes collecting the frames still in flight.
+  double frameMs = 0.0;
   double traversalMs = 0.0;
   double decodeMs = 0.0;
   double uploadMs = 0.0;
@@ -63,6 +67,10 @@ struct BenchRun final {
   /// its patch and triangle counts, and the screen ratio is not measured).
   DrawList draws = DrawList::Readback;
   bool popping = false;  ///< frames drawn twice for the popping measure
+  /// Frames submitted and not yet collected (TerrainRendererOptions::framesInFlight): 1 with
+  /// --popping and with the device-made draw list.
+  std::uint32_t framesInFlight = 1;
+  bool readback = false;  ///< every frame's pixels copied back to the host
   bool cold = false;
   double residentAfterEvictFraction = 0.0;  ///< pages left in the page cache after eviction
   std::uint64_t residentAfterEvictPages = 0;

@@ -12,12 +12,14 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <memory>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "Commands.h"
@@ -25,6 +27,7 @@
 #include "FocusOption.h"
 #include "FrameImage.h"
 #include "FrameModes.h"
+#include "FrameWriter.h"
 #include "MorphOption.h"
 #include "Progress.h"
 #include "ViewshedOutput.h"
@@ -68,6 +71,7 @@ struct RenderCliOptions {
   FocusCliOptions focus;
   std::string viewshed;
   std::string selection = "cpu";
+  std::uint32_t framesInFlight = 2;
 };
 
 /// The frame loop's modes, parsed from RenderCliOptions when the options are checked.
@@ -180,6 +184,10 @@ int checkRenderOptions(const RenderCliOptions& c, const Viewport& viewport,
   if (!std::isfinite(c.tolerancePixels) || c.tolerancePixels <= 0.0) {
     return badInput("--tolerance-px must be a positive number of pixels");
   }
+  if (c.framesInFlight < 1 || c.framesInFlight > gpu::TerrainRenderer::kMaxFramesInFlight) {
+    return badInput("--frames-in-flight must be in 1.." +
+                    std::to_string(gpu::TerrainRenderer::kMaxFramesInFlight));
+  }
   auto selection = parseCutSelection(c.selection);
   if (!selection) return badInput(selection.error().message);
   modes.selection = *selection;
@@ -263,6 +271,7 @@ int renderFrames(const RenderCliOptions& c, const RenderModes& modes, const Data
   rendererOptions.widthPixels = c.width;
   rendererOptions.heightPixels = c.height;
   rendererOptions.gpuCacheBytes = static_cast<std::uint64_t>(c.gpuCacheMiB * 1048576.0);
+  rendererOptions.framesInFlight = c.framesInFlight;
   auto renderer = gpu::TerrainRenderer::create(*context, view, rendererOptions);
   if (!renderer) return reportError(renderer.error());
 
@@ -284,6 +293,44 @@ int renderFrames(const RenderCliOptions& c, const RenderModes& modes, const Data
   }
   // One statistics line per frame on a terminal; in logs at most one a second (and the last).
   Progress frameLines(c.quiet, stdout, Progress::OnTerminal::Scroll);
+  // Frames in flight: frame i is refined, decoded and recorded while the device draws the
+  // frames before it; a frame is collected once framesInFlight are pending, its pixels handed to
+  // a writer thread, its statistics written in frame order.
+  struct Pending {
+    std::size_t index = 0;
+    double traversalMs = 0.0;
+    CutMorphSummary morph;
+  };
+  std::deque<Pending> pending;
+  FrameWriter writer(std::max(1u, std::thread::hardware_concurrency()));
+  const auto collectOne = [&]() -> Result<void> {
+    auto frame = renderer->collect();
+    if (!frame) return frame.error();
+    const Pending p = pending.front();
+    pending.pop_front();
+    const FrameJob& job = plan.jobs[p.index];
+    if (auto r = writer.write(job.out, std::move(frame->image)); !r) return r;
+    const gpu::FrameStats& s = frame->stats;
+    if (statsFile.is_open()) {
+      statsFile << statsJson(p.index, p.traversalMs, s, p.morph).dump() << "\n";
+      statsFile.flush();
+      if (!statsFile) return makeError(ErrorCode::IoError, c.stats + ": write failed");
+    }
+    char line[4608];  // room for a PATH_MAX output name
+    std::snprintf(line, sizeof line,
+                  "%s%s: %llu patches, %llu triangles, %llu tiles; traversal %.1f ms, decode %.1f "
+                  "ms, upload %.1f ms, draw %.1f ms, frame %.1f ms%s",
+                  plan.jobs.size() > 1 ? ("frame " + std::to_string(p.index + 1) + "/" +
+                                          std::to_string(plan.jobs.size()) + " ")
+                                             .c_str()
+                                       : "wrote ",
+                  job.out.string().c_str(), static_cast<unsigned long long>(s.patches),
+                  static_cast<unsigned long long>(s.triangles),
+                  static_cast<unsigned long long>(s.tiles), p.traversalMs, s.decodeMs, s.uploadMs,
+                  s.drawMs, s.frameMs, s.budgetExceeded ? " (over the GPU cache budget)" : "");
+    frameLines.status(line, p.index + 1 == plan.jobs.size());
+    return {};
+  };
   for (std::size_t i = 0; i < plan.jobs.size(); ++i) {
     const FrameJob& job = plan.jobs[i];
     const Camera camera = Camera::fromPose(view.planet(), job.pose, viewport);
@@ -294,29 +341,14 @@ int renderFrames(const RenderCliOptions& c, const RenderModes& modes, const Data
     const double traversalMs =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - traversalStart)
             .count();
-    auto frame = renderer->render(cut, camera, frameSettings);
-    if (!frame) return reportError(frame.error());
-    if (auto r = writeFrameImage(job.out, frame->image); !r) return reportError(r.error());
-    const gpu::FrameStats& s = frame->stats;
-    if (statsFile.is_open()) {
-      statsFile << statsJson(i, traversalMs, s, summarizeMorph(cut)).dump() << "\n";
-      statsFile.flush();
-      if (!statsFile) return reportError(makeError(ErrorCode::IoError, c.stats + ": write failed"));
+    if (auto r = renderer->submit(cut, camera, frameSettings); !r) return reportError(r.error());
+    pending.push_back({i, traversalMs, summarizeMorph(cut)});
+    while (pending.size() >= renderer->framesInFlight() ||
+           (i + 1 == plan.jobs.size() && !pending.empty())) {
+      if (auto r = collectOne(); !r) return reportError(r.error());
     }
-    char line[4608];  // room for a PATH_MAX output name
-    std::snprintf(line, sizeof line,
-                  "%s%s: %llu patches, %llu triangles, %llu tiles; traversal %.1f ms, decode %.1f "
-                  "ms, upload %.1f ms, draw %.1f ms, frame %.1f ms%s",
-                  plan.jobs.size() > 1 ? ("frame " + std::to_string(i + 1) + "/" +
-                                          std::to_string(plan.jobs.size()) + " ")
-                                             .c_str()
-                                       : "wrote ",
-                  job.out.string().c_str(), static_cast<unsigned long long>(s.patches),
-                  static_cast<unsigned long long>(s.triangles),
-                  static_cast<unsigned long long>(s.tiles), traversalMs, s.decodeMs, s.uploadMs,
-                  s.drawMs, s.frameMs, s.budgetExceeded ? " (over the GPU cache budget)" : "");
-    frameLines.status(line, i + 1 == plan.jobs.size());
   }
+  if (auto r = writer.finish(); !r) return reportError(r.error());
   frameLines.finish();
   return kExitOk;
 }
@@ -423,6 +455,11 @@ void addRenderCommand(CLI::App& app, CommandStatus& status) {
       ->add_option("--selection", o->selection,
                    "cpu: the cut selected on the host; gpu: by the selection's compute passes on "
                    "the device (the same cut on lavapipe)")
+      ->capture_default_str();
+  render
+      ->add_option(
+          "--frames-in-flight", o->framesInFlight,
+          std::string(kFramesInFlightHelp) + "; frames are encoded and written on worker threads")
       ->capture_default_str();
   render->add_flag("--quiet", o->quiet, "No per-frame lines on stdout");
   render->callback([o, &status] { status.exitCode = runRender(*o); });

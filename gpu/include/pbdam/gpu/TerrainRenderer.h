@@ -94,7 +94,7 @@ struct FrameStats final {
   /// Wall time from submit() to the end of its collect() (all of render(), readback included):
   /// with frames in flight a frame's latency, not the time between frames.
   double frameMs = 0.0;
-  std::uint64_t residentBytes = 0;      ///< slot bytes resident in the cache after the frame
+  std::uint64_t residentBytes = 0;      ///< slot bytes resident in the cache after submitting it
   std::uint64_t peakResidentBytes = 0;  ///< the most resident at any time during the frame
   std::uint64_t poolBytes = 0;          ///< device memory the cache's pools hold (capacity)
   std::uint64_t hits = 0;               ///< patches + tiles found resident
