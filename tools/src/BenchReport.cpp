@@ -209,6 +209,11 @@ void plotReport(const std::filesystem::path& png, const BenchSetup& setup,
                   100.0 * gpuBusyFraction(runs[k]));
     busy += share;
   }
+  // Every run of one bench has the same frames in flight and readback.
+  if (!runs.empty()) {
+    busy += "  (" + std::to_string(runs.front().framesInFlight) + " in flight, readback " +
+            onOff(runs.front().readback) + ")";
+  }
   plcol0(15);
   plschr(0.0, 0.85);
   plmtex("t", 0.8, 0.0, 0.0, busy.c_str());
