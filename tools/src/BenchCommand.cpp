@@ -287,6 +287,138 @@ Result<std::unique_ptr<CutSource>> runCutSource(gpu::VulkanContext& context,
   return hostRefinementCuts(dataset.view(), run.cutReuse);
 }
 
+/// The timed frame loop of one run: the path's frames drawn with frames in flight (frame i is
+/// refined, decoded and recorded while the device draws the frames before it; a frame is
+/// collected, its device timings and cache figures filled in, once framesInFlight frames are
+/// pending, so 1 in flight is the one-frame-at-a-time loop), each frame's figures in run.frames.
+struct PathReplay {
+  PathReplay(const BenchCliOptions& options, const std::vector<CameraPathPoint>& cameraPath,
+             const MappedDataset& mapped, gpu::TerrainRenderer& frameRenderer, CutSource& cuts,
+             const RefinementOptions& refine, const SelectionOptions& selection, BenchRun& into)
+      : o(options),
+        path(cameraPath),
+        dataset(mapped),
+        renderer(frameRenderer),
+        source(cuts),
+        refinement(refine),
+        deviceSelection(selection),
+        run(into) {}
+
+  const BenchCliOptions& o;
+  const std::vector<CameraPathPoint>& path;
+  const MappedDataset& dataset;
+  gpu::TerrainRenderer& renderer;
+  CutSource& source;
+  const RefinementOptions& refinement;
+  const SelectionOptions& deviceSelection;
+  BenchRun& run;
+
+  Viewport viewport{o.width, o.height, o.fovDegrees};
+  std::optional<Cut> previousCut;   // --popping
+  std::deque<std::size_t> pending;  // indices in run.frames of the frames in flight
+  std::uint64_t residentBefore = 0;
+  std::uint64_t page = static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
+  Clock::time_point runEnd{};  // the end of the last frame so far
+
+  Result<void> replay(Prefetcher* prefetcher) {
+    const DatasetView& view = dataset.view();
+    Progress progress(o.quiet);
+    residentBefore = residentDatasetPages(dataset);
+    Clock::time_point runStart{};  // the first frame's start
+    for (std::size_t i = 0; i < path.size(); ++i) {
+      const Camera camera = cameraOf(view, path[i], viewport);
+      if (prefetcher) prefetcher->observe(path[i].tSeconds, camera);
+      const auto t0 = Clock::now();
+      if (i == 0) runStart = t0;
+      if (auto r = frame(i, camera, t0); !r) return r;
+      progress.status(progressLine(run, i + 1, path.size(), run.frames.back()),
+                      i + 1 == path.size());
+    }
+    // The frames still in flight: their wait belongs to the last frame's time.
+    if (!pending.empty()) {
+      const auto drainStart = Clock::now();
+      while (!pending.empty()) {
+        if (auto r = collectOne(); !r) return r;
+      }
+      runEnd = Clock::now();
+      run.frames.back().frameMs += msBetween(drainStart, runEnd);
+    }
+    progress.finish();
+    run.wallMs = msBetween(runStart, runEnd);
+    return {};
+  }
+
+  /// Frame i: its cut, its submission (or the device-made draw list's frame), the frames
+  /// collected meanwhile, and its own figures.
+  Result<void> frame(std::size_t i, const Camera& camera, Clock::time_point t0) {
+    const DatasetView& view = dataset.view();
+    const bool deviceList = source.drawsDeviceList();
+    BenchFrame f;
+    f.frame = static_cast<std::uint32_t>(i);
+    f.pathSeconds = path[i].tSeconds;
+    const std::uint64_t faults0 = threadMajorFaults();
+    // The device's draw list: an empty cut, the selection runs inside the frame's submission.
+    auto selected = source.cut(camera, refinement);
+    if (!selected) return selected.error();
+    const Cut cut = std::move(*selected);
+    f.drawnLevelCap = source.levelCap();
+    f.traversalMs = msSince(t0);
+    f.decisions = deviceList ? source.selector()->index().nodes.size() : cut.nodesVisited;
+    f.morphingPatches = summarizeMorph(cut).morphingPatches;
+    f.triangles = cut.triangles;
+    f.patches = cut.patches.size();
+    if (deviceList) {
+      auto drawn = renderer.renderSelected(*source.selector(), camera, deviceSelection);
+      if (!drawn) return drawn.error();
+      copyRenderStats(drawn->stats, f);
+      f.gpuPoolBytes = drawn->stats.poolBytes;
+      checkDeviceDraws(view, camera, refinement, drawn->stats, run);
+      run.frames.push_back(f);
+    } else {
+      if (auto submitted = renderer.submit(cut, camera, {}, run.readback); !submitted) {
+        return submitted.error();
+      }
+      run.frames.push_back(f);
+      pending.push_back(i);
+      while (pending.size() >= run.framesInFlight) {
+        if (auto r = collectOne(); !r) return r;
+      }
+    }
+    BenchFrame& done = run.frames.back();
+    done.rssFileBytes = residentFileBytes();
+    releaseBlobPages(dataset);
+    runEnd = Clock::now();
+    done.frameMs = msBetween(t0, runEnd);
+    done.renderThreadMajorFaults = threadMajorFaults() - faults0;
+    if (!deviceList && run.selection == CutSelection::Gpu) {
+      checkDeviceCut(view, camera, refinement, cut, run);
+    }
+    const std::uint64_t residentAfter = residentDatasetPages(dataset);
+    done.bytesPagedIn =
+        residentAfter > residentBefore ? (residentAfter - residentBefore) * page : 0;
+    residentBefore = residentAfter;
+    done.rssBytes = residentSetBytes();
+    return {};
+  }
+
+  /// Collects the oldest frame in flight into its record (and with --popping, one frame in
+  /// flight, measures it against the previous cut).
+  Result<void> collectOne() {
+    auto drawn = renderer.collect();
+    if (!drawn) return drawn.error();
+    BenchFrame& f = run.frames[pending.front()];
+    pending.pop_front();
+    copyRenderStats(drawn->stats, f);
+    f.gpuPoolBytes = drawn->stats.poolBytes;
+    if (!o.popping) return {};
+    // After the frame's own figures: the previous cut drawn with this camera, compared (one
+    // frame in flight: this is the frame just submitted).
+    const Camera camera = cameraOf(dataset.view(), path[f.frame], viewport);
+    return measurePopping(renderer, dataset.view(), refinement, previousCut, camera, drawn->image,
+                          f);
+  }
+};
+
 Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
                          const BenchModes& modes, const std::vector<CameraPathPoint>& path,
                          bool prefetch, bool morph) {
@@ -332,100 +464,9 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     po.refinement = refinement;
     prefetcher.emplace(**dataset, po);
   }
-  const Viewport viewport{o.width, o.height, o.fovDegrees};
-  std::optional<Cut> previousCut;  // --popping
   run.baselineRssFileBytes = residentFileBytes();
-  Progress progress(o.quiet);
-  std::uint64_t residentBefore = residentDatasetPages(**dataset);
-  const auto page = static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
-  Clock::time_point runStart{}, runEnd{};  // the first frame's start, the last frame's end
-  // Frames in flight: frame i is refined, decoded and recorded while the device draws the
-  // frames before it; a frame is collected (its device timings and cache figures filled in)
-  // once framesInFlight frames are pending, so 1 in flight is the one-frame-at-a-time loop.
-  std::deque<std::size_t> pending;  // indices in run.frames of the frames in flight
-  const auto collectOne = [&]() -> Result<void> {
-    auto frame = renderer->collect();
-    if (!frame) return frame.error();
-    BenchFrame& f = run.frames[pending.front()];
-    pending.pop_front();
-    copyRenderStats(frame->stats, f);
-    f.gpuPoolBytes = frame->stats.poolBytes;
-    if (o.popping) {
-      // After the frame's own figures: the previous cut drawn with this camera, compared (one
-      // frame in flight: this is the frame just submitted).
-      const Camera camera = cameraOf(view, path[f.frame], viewport);
-      if (auto measured =
-              measurePopping(*renderer, view, refinement, previousCut, camera, frame->image, f);
-          !measured) {
-        return measured.error();
-      }
-    }
-    return {};
-  };
-  for (std::size_t i = 0; i < path.size(); ++i) {
-    const CameraPathPoint& p = path[i];
-    const Camera camera = cameraOf(view, p, viewport);
-    if (prefetcher) prefetcher->observe(p.tSeconds, camera);
-    BenchFrame f;
-    f.frame = static_cast<std::uint32_t>(i);
-    f.pathSeconds = p.tSeconds;
-    const std::uint64_t faults0 = threadMajorFaults();
-    const auto t0 = Clock::now();
-    if (i == 0) runStart = t0;
-    // The device's draw list: an empty cut, the selection runs inside the frame's submission.
-    auto selected = source.cut(camera, refinement);
-    if (!selected) return selected.error();
-    const Cut cut = std::move(*selected);
-    f.drawnLevelCap = source.levelCap();
-    f.traversalMs = msSince(t0);
-    f.decisions = deviceList ? source.selector()->index().nodes.size() : cut.nodesVisited;
-    f.morphingPatches = summarizeMorph(cut).morphingPatches;
-    f.triangles = cut.triangles;
-    f.patches = cut.patches.size();
-    if (deviceList) {
-      auto frame = renderer->renderSelected(*source.selector(), camera, deviceSelection);
-      if (!frame) return frame.error();
-      copyRenderStats(frame->stats, f);
-      f.gpuPoolBytes = frame->stats.poolBytes;
-      checkDeviceDraws(view, camera, refinement, frame->stats, run);
-      run.frames.push_back(f);
-    } else {
-      if (auto submitted = renderer->submit(cut, camera, {}, run.readback); !submitted) {
-        return submitted.error();
-      }
-      run.frames.push_back(f);
-      pending.push_back(i);
-      while (pending.size() >= run.framesInFlight) {
-        if (auto r = collectOne(); !r) return r.error();
-      }
-    }
-    BenchFrame& done = run.frames.back();
-    done.rssFileBytes = residentFileBytes();
-    releaseBlobPages(**dataset);
-    runEnd = Clock::now();
-    done.frameMs = msBetween(t0, runEnd);
-    done.renderThreadMajorFaults = threadMajorFaults() - faults0;
-    if (!deviceList && run.selection == CutSelection::Gpu) {
-      checkDeviceCut(view, camera, refinement, cut, run);
-    }
-    const std::uint64_t residentAfter = residentDatasetPages(**dataset);
-    done.bytesPagedIn =
-        residentAfter > residentBefore ? (residentAfter - residentBefore) * page : 0;
-    residentBefore = residentAfter;
-    done.rssBytes = residentSetBytes();
-    progress.status(progressLine(run, i + 1, path.size(), done), i + 1 == path.size());
-  }
-  // The frames still in flight: their wait belongs to the last frame's time.
-  if (!pending.empty()) {
-    const auto drainStart = Clock::now();
-    while (!pending.empty()) {
-      if (auto r = collectOne(); !r) return r.error();
-    }
-    runEnd = Clock::now();
-    run.frames.back().frameMs += msBetween(drainStart, runEnd);
-  }
-  progress.finish();
-  run.wallMs = msBetween(runStart, runEnd);
+  PathReplay replay(o, path, **dataset, *renderer, source, refinement, deviceSelection, run);
+  if (auto r = replay.replay(prefetcher ? &*prefetcher : nullptr); !r) return r.error();
   if (prefetcher) {
     prefetcher->stop();
     run.prefetchRangesAdvised = prefetcher->stats().rangesAdvised;
