@@ -307,7 +307,8 @@ TEST_F(FramesInFlightTest, MisuseIsRefused) {
   EXPECT_EQ(nothing.error().code, ErrorCode::InvalidArgument);
   const std::vector<FlightFrame> frames = flight(*dataset, CutKind::Fresh, 0.0);
   ASSERT_TRUE(renderer->submit(frames[0].cut, frames[0].camera).ok());
-  for (auto refused : {renderer->render(frames[1].cut, frames[1].camera), renderer->redrawLast()}) {
+  for (const auto& refused :
+       {renderer->render(frames[1].cut, frames[1].camera), renderer->redrawLast()}) {
     ASSERT_FALSE(refused.ok());
     EXPECT_EQ(refused.error().code, ErrorCode::InvalidArgument);
   }
