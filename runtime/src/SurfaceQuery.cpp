@@ -3,7 +3,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -48,9 +50,68 @@ std::optional<double> intersect(const glm::dvec3& origin, const glm::dvec3& dir,
   return glm::dot(e2, q) / det;
 }
 
+// Whether the line origin + t·dir (any t) passes within `radius` of `centre`, with a margin far
+// above the rounding of these figures and intersect()'s tolerance (1e-9 of a triangle's edges,
+// which are shorter than 2·radius): a line that misses this sphere hits no triangle inside it.
+bool lineNearSphere(const glm::dvec3& origin, const glm::dvec3& dir, const glm::dvec3& centre,
+                    double radius) {
+  const glm::dvec3 w = centre - origin;
+  const double along = glm::dot(w, dir);
+  const double distanceSquared = glm::dot(w, w) - along * along / glm::dot(dir, dir);
+  const double reach = radius * (1.0 + 1e-6) + 1.0;
+  return distanceSquared <= reach * reach;
+}
+
+// Leaf `key`'s triangles where they are drawn: its terrain points (PatchDraw.h), indices and a
+// sphere around them.
+Result<void> placeLeaf(const DatasetView& view, const NodeKey& key, const NodeRecord& record,
+                       SurfaceLeafCache::Leaf& leaf) {
+  std::vector<glm::dvec3>& positions = leaf.positions;
+  const FaceView& face = view.face(key.face);
+  std::vector<std::byte> blob;
+  auto bytes = face.readPatchBlob(record, blob);
+  if (!bytes) return std::move(bytes).error();
+  PatchMesh mesh;
+  auto decoded =
+      decodePatch(*bytes, mesh, face.context() + "@" + std::to_string(record.blobOffset));
+  if (!decoded) return decoded.error();
+  const PatchVertexPlacement placement(view, key, record);
+  positions.resize(mesh.vertices.size());
+  for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
+    LatticeXY q{0};
+    const PatchVertex& pv = mesh.vertices[v];
+    if (!placement.latticePoint(pv.b1, pv.b2, q)) {
+      return makeError(ErrorCode::CorruptData,
+                       face.context() + "@" + std::to_string(record.blobOffset) +
+                           ": patch vertex " + std::to_string(v) +
+                           " is not a lattice point of its node's triangle");
+    }
+    positions[v] = placement.terrainPoint(q, pv.heightSteps);
+  }
+  leaf.indices = std::move(mesh.indices);
+  glm::dvec3 low(std::numeric_limits<double>::infinity()), high(-low);
+  for (const glm::dvec3& p : positions) {
+    low = glm::min(low, p);
+    high = glm::max(high, p);
+  }
+  leaf.centre = positions.empty() ? glm::dvec3(0.0) : 0.5 * (low + high);
+  leaf.radius = 0.0;
+  for (const glm::dvec3& p : positions) {
+    leaf.radius = std::max(leaf.radius, glm::length(p - leaf.centre));
+  }
+  return {};
+}
+
 }  // namespace
 
 Result<SurfaceHeight> surfaceHeightAt(const DatasetView& view, double lat, double lon) {
+  // The nine candidate leaves at most (below), each decoded once.
+  SurfaceLeafCache once(9);
+  return surfaceHeightAt(view, lat, lon, once);
+}
+
+Result<SurfaceHeight> surfaceHeightAt(const DatasetView& view, double lat, double lon,
+                                      SurfaceLeafCache& cache) {
   if (!std::isfinite(lat) || !std::isfinite(lon) || std::abs(lat) > 90.0 || std::abs(lon) > 360.0) {
     return makeError(ErrorCode::InvalidArgument,
                      "position must be LAT in [-90, 90] and LON in [-360, 360] degrees");
@@ -78,35 +139,32 @@ Result<SurfaceHeight> surfaceHeightAt(const DatasetView& view, double lat, doubl
       if (std::find(leaves.begin(), leaves.end(), key) == leaves.end()) leaves.push_back(key);
     }
   }
+  if (cache.view_ != &view) {
+    cache.leaves_.clear();
+    cache.view_ = &view;
+  }
+  // Room for all of this call's leaves: a full cache starts over before the first is looked up,
+  // so that none is dropped while in use.
+  if (cache.leaves_.size() + leaves.size() > cache.maxLeaves_) cache.leaves_.clear();
   std::optional<SurfaceHeight> best;
-  PatchMesh mesh;
-  std::vector<glm::dvec3> positions;
-  std::vector<std::byte> blob;
   for (const NodeKey& key : leaves) {
     const NodeRecord record = view.node(key);
-    const FaceView& face = view.face(key.face);
-    auto bytes = face.readPatchBlob(record, blob);
-    if (!bytes) return std::move(bytes).error();
-    auto decoded =
-        decodePatch(*bytes, mesh, face.context() + "@" + std::to_string(record.blobOffset));
-    if (!decoded) return decoded.error();
-    // The vertices where they are drawn: their terrain points (PatchDraw.h).
-    const PatchVertexPlacement placement(view, key, record);
-    positions.resize(mesh.vertices.size());
-    for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
-      LatticeXY q{0};
-      const PatchVertex& pv = mesh.vertices[v];
-      if (!placement.latticePoint(pv.b1, pv.b2, q)) {
-        return makeError(ErrorCode::CorruptData,
-                         face.context() + "@" + std::to_string(record.blobOffset) +
-                             ": patch vertex " + std::to_string(v) +
-                             " is not a lattice point of its node's triangle");
+    auto [it, inserted] = cache.leaves_.try_emplace(packKey(key));
+    SurfaceLeafCache::Leaf& leaf = it->second;
+    if (inserted) {
+      auto placed = placeLeaf(view, key, record, leaf);
+      if (!placed) {
+        cache.leaves_.erase(it);
+        return std::move(placed).error();
       }
-      positions[v] = placement.terrainPoint(q, pv.heightSteps);
+      ++cache.decodedLeaves_;
     }
-    for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
-      const auto hit = intersect(origin, normal, positions[mesh.indices[t]],
-                                 positions[mesh.indices[t + 1]], positions[mesh.indices[t + 2]]);
+    // Most candidates lie beside the line: none of their triangles can be hit.
+    if (!lineNearSphere(origin, normal, leaf.centre, leaf.radius)) continue;
+    for (std::size_t t = 0; t + 2 < leaf.indices.size(); t += 3) {
+      const auto hit =
+          intersect(origin, normal, leaf.positions[leaf.indices[t]],
+                    leaf.positions[leaf.indices[t + 1]], leaf.positions[leaf.indices[t + 2]]);
       // The outermost hit: where the line meets the surface coming from above.
       if (hit && (!best || *hit > best->heightMeters)) {
         best = SurfaceHeight{*hit, key, static_cast<double>(record.errorMeters),

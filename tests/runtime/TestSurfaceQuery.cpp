@@ -2,7 +2,10 @@
 // DEM's bilinear sample within the stored error of the leaf it comes from.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <random>
 
 #include "TestData.h"
@@ -54,6 +57,47 @@ TEST(SurfaceQuery, EarthHeightsMatchTheDemWithinTheStoredError) {
   PBDAM_REQUIRE_DATASET(dir, "earth");
   PBDAM_REQUIRE_DATA(dem, PBDAM_ETOPO5_PATH);
   expectHeightsWithinStoredError(dir, dem, 12);
+}
+
+// A SurfaceLeafCache changes nothing but the decoding: along random 100 km segments (a ray
+// march's points, many on leaves already decoded), across faces and at the poles, the cached
+// answers are the uncached ones bit for bit, also once the cache has started over; a
+// malformed position is refused the same way.
+TEST(SurfaceQuery, ACacheOfLeavesGivesTheSameAnswers) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  auto dataset = MappedDataset::open(dir);
+  ASSERT_TRUE(dataset.ok()) << dataset.error().message;
+  const DatasetView& view = (*dataset)->view();
+  SurfaceLeafCache cache(40);  // small, so that it starts over along the way
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  int points = 0;
+  for (int line = 0; line < 20; ++line) {
+    const double lat = line == 0 ? 89.5 : line == 1 ? -89.5 : 170.0 * unit(rng) - 85.0;
+    const double lon = 360.0 * unit(rng) - 180.0;
+    const double dLat = 2.0 * unit(rng) - 1.0, dLon = 2.0 * unit(rng) - 1.0;
+    for (int s = 0; s <= 50; ++s, ++points) {
+      const double la = std::clamp(lat + dLat * s / 50.0, -90.0, 90.0);
+      const double lo = lon + dLon * s / 50.0;
+      const auto plain = surfaceHeightAt(view, la, lo);
+      const auto cached = surfaceHeightAt(view, la, lo, cache);
+      ASSERT_TRUE(plain.ok()) << plain.error().message;
+      ASSERT_TRUE(cached.ok()) << cached.error().message;
+      EXPECT_EQ(std::bit_cast<std::uint64_t>(cached->heightMeters),
+                std::bit_cast<std::uint64_t>(plain->heightMeters))
+          << la << ", " << lo;
+      EXPECT_EQ(cached->leaf, plain->leaf);
+      EXPECT_EQ(cached->leafErrorMeters, plain->leafErrorMeters);
+      EXPECT_EQ(cached->leafMeasuredErrorMeters, plain->leafMeasuredErrorMeters);
+      EXPECT_EQ(cached->leafSources, plain->leafSources);
+    }
+  }
+  // Each point looks at up to nine leaves; neighbours share most of them.
+  EXPECT_GT(cache.decodedLeaves(), 40u);
+  EXPECT_LT(cache.decodedLeaves(), static_cast<std::size_t>(points) * 2);
+  const auto bad = surfaceHeightAt(view, 91.0, 0.0, cache);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.error().code, ErrorCode::InvalidArgument);
 }
 
 TEST(SurfaceQuery, RejectsOutOfRangePositions) {
