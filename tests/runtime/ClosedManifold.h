@@ -104,16 +104,26 @@ inline MeshCheck checkClosedManifold(const runtime::DatasetView& view, const run
   for (const Welded& w : welded) {
     check.morphingSharedVertices += static_cast<std::size_t>(w.morphing && w.minLevel < w.maxLevel);
   }
-  std::sort(directed.begin(), directed.end());
-  for (std::size_t k = 0; k < directed.size(); ++k) {
-    const std::uint64_t edge = directed[k];
-    const std::uint64_t reverse = (edge << 32) | (edge >> 32);
-    // Each directed edge once, and its reverse once: every edge is shared by exactly two
-    // triangles, oriented consistently (a closed, oriented 2-manifold).
-    const bool repeated =
-        (k > 0 && directed[k - 1] == edge) || (k + 1 < directed.size() && directed[k + 1] == edge);
-    if (repeated || !std::binary_search(directed.begin(), directed.end(), reverse)) {
-      ++check.badEdges;
+  // Every directed edge once, and its reverse once: every edge is shared by exactly two
+  // triangles, oriented consistently (a closed, oriented 2-manifold). The edges are grouped by
+  // their first vertex (a counting sort: vertex ids are dense), so that each edge's twin and
+  // reverse are looked for among a few neighbours, not by a binary search of all the edges.
+  std::vector<std::size_t> first(check.vertices + 1, 0);
+  for (const std::uint64_t edge : directed) ++first[(edge >> 32) + 1];
+  for (std::size_t v = 0; v < check.vertices; ++v) first[v + 1] += first[v];
+  std::vector<std::uint32_t> to(directed.size());
+  std::vector<std::size_t> fill(first.begin(), first.end() - 1);
+  for (const std::uint64_t edge : directed) {
+    to[fill[edge >> 32]++] = static_cast<std::uint32_t>(edge);
+  }
+  const auto count = [&](std::uint32_t from, std::uint32_t target) {
+    return std::count(to.begin() + static_cast<std::ptrdiff_t>(first[from]),
+                      to.begin() + static_cast<std::ptrdiff_t>(first[from + 1]), target);
+  };
+  for (std::uint32_t from = 0; from < check.vertices; ++from) {
+    for (std::size_t k = first[from]; k < first[from + 1]; ++k) {
+      const bool repeated = count(from, to[k]) > 1;
+      if (repeated || count(to[k], from) == 0) ++check.badEdges;
     }
   }
   check.edges = directed.size() / 2;
