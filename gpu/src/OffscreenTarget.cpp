@@ -4,6 +4,8 @@
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/gpu/VulkanError.h"
 
+#include <algorithm>
+#include <array>
 #include <cstring>
 #include <string>
 
@@ -224,6 +226,86 @@ Result<RgbaImage> OffscreenTarget::render(VulkanContext& context,
       "offscreen render");
   if (!done) return std::move(done).error();
   return readPixels();
+}
+
+void OffscreenTarget::recordPresent(VkCommandBuffer cmd, const PresentTarget& present,
+                                    bool afterReadback) const {
+  const std::array<VkImageMemoryBarrier2, 2> toBlit = {
+      afterReadback
+          ? imageBarrier(color_.image(), VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_COPY_BIT,
+                         VK_ACCESS_2_TRANSFER_READ_BIT, VK_PIPELINE_STAGE_2_BLIT_BIT,
+                         VK_ACCESS_2_TRANSFER_READ_BIT, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                         VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL)
+          : imageBarrier(color_.image(), VK_IMAGE_ASPECT_COLOR_BIT,
+                         VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                         VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_BLIT_BIT,
+                         VK_ACCESS_2_TRANSFER_READ_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                         VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
+      // In the same stage as the semaphore wait: the acquisition is done before the transition.
+      imageBarrier(present.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_BLIT_BIT,
+                   VK_ACCESS_2_NONE, VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                   VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL)};
+  VkDependencyInfo before{};
+  before.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
+  before.imageMemoryBarrierCount = static_cast<std::uint32_t>(toBlit.size());
+  before.pImageMemoryBarriers = toBlit.data();
+  vkCmdPipelineBarrier2(cmd, &before);
+
+  VkImageBlit region{};
+  region.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+  region.srcOffsets[1] = {static_cast<std::int32_t>(widthPixels()),
+                          static_cast<std::int32_t>(heightPixels()), 1};
+  region.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+  region.dstOffsets[1] = {static_cast<std::int32_t>(present.extent.width),
+                          static_cast<std::int32_t>(present.extent.height), 1};
+  vkCmdBlitImage(cmd, color_.image(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, present.image,
+                 VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region, VK_FILTER_NEAREST);
+
+  VkPipelineStageFlags2 lastStage = VK_PIPELINE_STAGE_2_BLIT_BIT;
+  const std::uint32_t panelWidth =
+      std::min(present.overlayExtent.width,
+               present.extent.width -
+                   std::min<std::uint32_t>(present.extent.width,
+                                           static_cast<std::uint32_t>(present.overlayOffset.x)));
+  const std::uint32_t panelHeight =
+      std::min(present.overlayExtent.height,
+               present.extent.height -
+                   std::min<std::uint32_t>(present.extent.height,
+                                           static_cast<std::uint32_t>(present.overlayOffset.y)));
+  if (present.overlay != VK_NULL_HANDLE && panelWidth > 0 && panelHeight > 0 &&
+      present.overlayOffset.x >= 0 && present.overlayOffset.y >= 0) {
+    // The blit and the panel's copy write the same pixels: the copy comes second.
+    const VkImageMemoryBarrier2 afterBlit =
+        imageBarrier(present.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_PIPELINE_STAGE_2_BLIT_BIT,
+                     VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT,
+                     VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                     VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+    VkDependencyInfo between{};
+    between.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
+    between.imageMemoryBarrierCount = 1;
+    between.pImageMemoryBarriers = &afterBlit;
+    vkCmdPipelineBarrier2(cmd, &between);
+    VkBufferImageCopy panel{};
+    panel.bufferRowLength = present.overlayExtent.width;
+    panel.bufferImageHeight = present.overlayExtent.height;
+    panel.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    panel.imageOffset = {present.overlayOffset.x, present.overlayOffset.y, 0};
+    panel.imageExtent = {panelWidth, panelHeight, 1};
+    vkCmdCopyBufferToImage(cmd, present.overlay, present.image,
+                           VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &panel);
+    lastStage = VK_PIPELINE_STAGE_2_COPY_BIT;
+  }
+
+  // The presentation engine waits for the submission's semaphore, which orders it after this.
+  const VkImageMemoryBarrier2 toPresent =
+      imageBarrier(present.image, VK_IMAGE_ASPECT_COLOR_BIT, lastStage,
+                   VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE,
+                   VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR);
+  VkDependencyInfo after{};
+  after.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
+  after.imageMemoryBarrierCount = 1;
+  after.pImageMemoryBarriers = &toPresent;
+  vkCmdPipelineBarrier2(cmd, &after);
 }
 
 }  // namespace pbdam::gpu

@@ -210,7 +210,7 @@ Result<RenderedFrame> TerrainRenderer::renderSelected(GpuSelector& selector, con
     return std::move(r).error();
   }
   const std::array<VkCommandBuffer, 1> frame = {slot.commands[FrameSlot::kDrawCommands]};
-  if (Result<void> r = m.submitSlot(slot, frame, "selected terrain frame", true); !r) {
+  if (Result<void> r = m.submitSlot(slot, frame, nullptr, "selected terrain frame", true); !r) {
     return std::move(r).error();
   }
   FrameStats stats;

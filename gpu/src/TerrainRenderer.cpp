@@ -202,7 +202,7 @@ class PassDrawer final {
       : m_(m), slot_(slot), in_(in), stats_(stats) {}
 
   /// Draws the pass; a frame's last pass is submitted without waiting.
-  Result<void> draw(bool readback) {
+  Result<void> draw(bool readback, const PresentTarget* present) {
     const std::vector<DecodeJob> entries = passEntries(in_);
     {
       // Under the cache lock from here through the uploads: nothing another renderer does can
@@ -212,8 +212,8 @@ class PassDrawer final {
       CacheLease lease(*m_.shared);
       if (Result<void> r = reserve(lease, entries); !r) return r;
       if (Result<void> r = stage(); !r) return r;
-      if (Result<void> r = record(readback); !r) return r;
-      if (Result<void> r = submit(lease); !r) return r;
+      if (Result<void> r = record(readback, present); !r) return r;
+      if (Result<void> r = submit(lease, present); !r) return r;
     }
     if (!in_.placement.last) m_.readTimestamps(slot_, true, stats_);
     stats_.misses += work_.misses.size();
@@ -295,7 +295,7 @@ class PassDrawer final {
     return slot_.records.flushHostWrites();
   }
 
-  Result<void> record(bool readback) {
+  Result<void> record(bool readback, const PresentTarget* present) {
     // Timestamps: 0 and 3 around the uploads, 1 and 2 around the render pass. The draw buffer
     // resets its own two queries, so that redrawLast() can submit it alone.
     VkQueryPool timestamps = m_.queries.get();
@@ -318,7 +318,7 @@ class PassDrawer final {
     if (!recorded) return recorded;
     const DrawRecorder recorder(m_.shared->pipeline, m_.shared->patches, m_.shared->tiles,
                                 slot_.recordsSet, slot_.overlay->set());
-    return recordCommands(
+    recorded = recordCommands(
         slot_.commands[FrameSlot::kDrawCommands], "terrain frame", [&](VkCommandBuffer cmd) {
           if (timestamps != VK_NULL_HANDLE) {
             vkCmdResetQueryPool(cmd, timestamps, q + 1, 2);
@@ -330,14 +330,21 @@ class PassDrawer final {
           }
           if (in_.placement.last && readback) slot_.target.recordReadback(cmd);
         });
+    if (!recorded || !in_.placement.last || present == nullptr) return recorded;
+    return recordCommands(
+        slot_.commands[FrameSlot::kPresentCommands], "terrain present",
+        [&](VkCommandBuffer cmd) { slot_.target.recordPresent(cmd, *present, readback); });
   }
 
-  Result<void> submit(CacheLease& lease) {
+  Result<void> submit(CacheLease& lease, const PresentTarget* present) {
     const bool wait = !in_.placement.last;
+    // The window's copy goes with the frame's last pass.
+    const PresentTarget* shown = in_.placement.last ? present : nullptr;
+    const std::span<const VkCommandBuffer> all(slot_.commands.data(), shown ? 3 : 2);
     if (m_.privateCache) {
       // Nobody else uses the cache: uploads and draw go in one submission, and later frames
       // (on the same queue, after the uploads' barriers) may use its entries at once.
-      if (Result<void> r = m_.submitSlot(slot_, slot_.commands, "terrain frame", wait); !r) {
+      if (Result<void> r = m_.submitSlot(slot_, all, shown, "terrain frame", wait); !r) {
         return r;
       }
       lease.commitUploads();
@@ -347,11 +354,14 @@ class PassDrawer final {
     // Uploads under the lock; once they have completed the entries are usable by every
     // renderer of the cache, and the draw runs outside the lock with its entries pinned.
     const std::array<VkCommandBuffer, 1> uploads = {slot_.commands[FrameSlot::kUploadCommands]};
-    if (Result<void> r = m_.submitSlot(slot_, uploads, "terrain uploads", true); !r) return r;
+    if (Result<void> r = m_.submitSlot(slot_, uploads, nullptr, "terrain uploads", true); !r) {
+      return r;
+    }
     lease.commitUploads();
     lease.unlock();
-    const std::array<VkCommandBuffer, 1> draw = {slot_.commands[FrameSlot::kDrawCommands]};
-    Result<void> drawn = m_.submitSlot(slot_, draw, "terrain frame", wait);
+    const std::span<const VkCommandBuffer> draw(slot_.commands.data() + FrameSlot::kDrawCommands,
+                                                shown ? 2 : 1);
+    Result<void> drawn = m_.submitSlot(slot_, draw, shown, "terrain frame", wait);
     lease.lock();
     if (drawn && !wait) slot_.pins = lease.keepPins();
     return drawn;
@@ -391,13 +401,14 @@ Result<void> TerrainRenderer::Impl::ensureRecords(FrameSlot& slot, std::size_t c
 
 Result<void> TerrainRenderer::Impl::submitSlot(FrameSlot& slot,
                                                std::span<const VkCommandBuffer> buffers,
-                                               const char* what, bool wait) {
+                                               const PresentTarget* present, const char* what,
+                                               bool wait) {
   assert(!slot.running);
   VkFence submitFence = slot.fence.get();
   if (VkResult r = vkResetFences(context->device(), 1, &submitFence); r != VK_SUCCESS) {
     return vulkanError(r, std::string("vkResetFences (") + what + ")");
   }
-  std::array<VkCommandBufferSubmitInfo, 2> infos{};
+  std::array<VkCommandBufferSubmitInfo, 3> infos{};
   assert(buffers.size() <= infos.size());
   for (std::size_t i = 0; i < buffers.size(); ++i) {
     infos[i].sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO;
@@ -407,6 +418,20 @@ Result<void> TerrainRenderer::Impl::submitSlot(FrameSlot& slot,
   submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO_2;
   submit.commandBufferInfoCount = static_cast<std::uint32_t>(buffers.size());
   submit.pCommandBufferInfos = infos.data();
+  VkSemaphoreSubmitInfo acquired{};
+  VkSemaphoreSubmitInfo rendered{};
+  if (present != nullptr) {
+    acquired.sType = VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO;
+    acquired.semaphore = present->acquired;
+    acquired.stageMask = VK_PIPELINE_STAGE_2_BLIT_BIT;
+    rendered.sType = VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO;
+    rendered.semaphore = present->rendered;
+    rendered.stageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
+    submit.waitSemaphoreInfoCount = 1;
+    submit.pWaitSemaphoreInfos = &acquired;
+    submit.signalSemaphoreInfoCount = 1;
+    submit.pSignalSemaphoreInfos = &rendered;
+  }
   // Through the context: its queue lock lets several renderers share it (pbdam serve).
   if (Result<void> r = context->submit(submit, submitFence, what); !r) return r;
   slot.submission = ++submitted;
@@ -653,7 +678,8 @@ Result<FrameSlot*> TerrainRenderer::Impl::freeSlot() {
 }
 
 Result<void> TerrainRenderer::submit(const Cut& cut, const Camera& camera,
-                                     const FrameSettings& settings, bool readback) {
+                                     const FrameSettings& settings, bool readback,
+                                     const PresentTarget* present) {
   Impl& m = *impl_;
   const auto frameStart = Clock::now();
   auto taken = m.freeSlot();
@@ -703,7 +729,7 @@ Result<void> TerrainRenderer::submit(const Cut& cut, const Camera& camera,
                          camera,
                          std::as_bytes(std::span(&push, 1)),
                          {p == 0, p + 1 == passEnds.size(), clear}};
-    if (Result<void> r = PassDrawer(m, slot, pass, stats).draw(readback); !r) return r;
+    if (Result<void> r = PassDrawer(m, slot, pass, stats).draw(readback, present); !r) return r;
     begin = passEnds[p];
   }
   if (stats.evictions > 0) m.deviceList.reset();  // it knew where the evicted entries were
@@ -847,7 +873,7 @@ Result<RenderedFrame> TerrainRenderer::redrawLast() {
   stats.tiles = last.tiles;
   stats.hits = last.hits + last.misses;
   const std::array<VkCommandBuffer, 1> draw = {slot.commands[FrameSlot::kDrawCommands]};
-  Result<void> submitted = m.submitSlot(slot, draw, "terrain redraw", true);
+  Result<void> submitted = m.submitSlot(slot, draw, nullptr, "terrain redraw", true);
   unpinLast();
   if (!submitted) {
     m.lastFrame.reset();

@@ -61,7 +61,10 @@ std::string mebibytes(std::uint64_t bytes);
 struct FrameSlot final {
   static constexpr std::size_t kUploadCommands = 0;
   static constexpr std::size_t kDrawCommands = 1;
-  std::array<VkCommandBuffer, 2> commands{};  ///< freed with the renderer's command pool
+  /// The copy into a window's image (PresentTarget): apart from the draw, which redrawLast()
+  /// submits again as it is.
+  static constexpr std::size_t kPresentCommands = 2;
+  std::array<VkCommandBuffer, 3> commands{};  ///< freed with the renderer's command pool
   UniqueFence fence;
   OffscreenTarget target;
   StagingUploader uploader;
@@ -137,7 +140,7 @@ struct TerrainRenderer::Impl {
   /// Submits `buffers` (already recorded) of `slot` in one batch on its fence; with `wait`,
   /// waits for them (finish()).
   formats::Result<void> submitSlot(FrameSlot& slot, std::span<const VkCommandBuffer> buffers,
-                                   const char* what, bool wait);
+                                   const PresentTarget* present, const char* what, bool wait);
   /// Waits for `slot`'s submission if it is running, then unpins its entries (the cache lock is
   /// taken unless `cacheLocked`), advances `completed` and destroys what waited for it.
   formats::Result<void> finish(FrameSlot& slot, bool cacheLocked);

@@ -62,6 +62,7 @@ struct VulkanContext::Impl final {
   // messenger outlives the device, the device outlives the pool and fence.
   std::shared_ptr<ValidationLog> log;
   UniqueInstance instance;
+  UniqueSurface surface;  // destroyed after the device (and any swapchain made from it)
   UniqueDebugMessenger messenger;
   UniqueDevice device;
   UniqueCommandPool commandPool;
@@ -89,8 +90,20 @@ struct VulkanContext::Impl final {
 
   Result<void> createInstance(const ContextOptions& options);
   Result<void> choosePhysicalDevice(const ContextOptions& options);
+  Result<void> createSurface(const WindowPresentation& presentation);
+  Result<std::vector<const char*>> chooseQueueFamily();
   Result<void> createDevice();
 };
+
+Result<void> VulkanContext::Impl::createSurface(const WindowPresentation& presentation) {
+  if (!presentation.createSurface) {
+    return makeError(ErrorCode::InvalidArgument, "a window presentation without createSurface");
+  }
+  Result<VkSurfaceKHR> made = presentation.createSurface(instance.get());
+  if (!made) return std::move(made).error();
+  surface = UniqueSurface(instance.get(), *made);
+  return {};
+}
 
 Result<void> VulkanContext::Impl::createInstance(const ContextOptions& options) {
   uint32_t loaderVersion = 0;
@@ -105,6 +118,11 @@ Result<void> VulkanContext::Impl::createInstance(const ContextOptions& options) 
 
   std::vector<const char*> layers;
   std::vector<const char*> extensions;
+  if (options.presentation) {
+    for (const std::string& name : options.presentation->instanceExtensions) {
+      extensions.push_back(name.c_str());
+    }
+  }
   bool syncValidation = false;
   if (options.enableValidation) {
     Result<std::vector<VkLayerProperties>> available = instanceLayers();
@@ -246,23 +264,58 @@ DeviceCaps enabledCaps(const VkPhysicalDeviceFeatures2& want,
 
 }  // namespace
 
-Result<void> VulkanContext::Impl::createDevice() {
+// The graphics queue family (one that also presents to the surface, when there is one) and the
+// device extensions the surface needs.
+Result<std::vector<const char*>> VulkanContext::Impl::chooseQueueFamily() {
   uint32_t familyCount = 0;
   vkGetPhysicalDeviceQueueFamilyProperties(physicalDevice, &familyCount, nullptr);
   std::vector<VkQueueFamilyProperties> families(familyCount);
   vkGetPhysicalDeviceQueueFamilyProperties(physicalDevice, &familyCount, families.data());
   std::optional<uint32_t> family;
+  bool graphics = false;
   for (uint32_t i = 0; i < familyCount; ++i) {
-    if ((families[i].queueFlags & VK_QUEUE_GRAPHICS_BIT) != 0 && families[i].queueCount > 0) {
+    if ((families[i].queueFlags & VK_QUEUE_GRAPHICS_BIT) == 0 || families[i].queueCount == 0) {
+      continue;
+    }
+    graphics = true;
+    VkBool32 presents = VK_TRUE;
+    if (surface && vkGetPhysicalDeviceSurfaceSupportKHR(physicalDevice, i, surface.get(),
+                                                        &presents) != VK_SUCCESS) {
+      presents = VK_FALSE;
+    }
+    if (presents == VK_TRUE) {
       family = i;
       break;
     }
   }
   if (!family) {
     return makeError(ErrorCode::DeviceError,
-                     "Vulkan device " + describe(physicalInfo) + " has no graphics queue");
+                     "Vulkan device " + describe(physicalInfo) +
+                         (graphics ? " cannot present to this window (no queue family both "
+                                     "draws and presents; choose another with --device)"
+                                   : " has no graphics queue"));
   }
   queueFamilyIndex = *family;
+  std::vector<const char*> deviceExtensions;
+  if (surface) {
+    uint32_t count = 0;
+    vkEnumerateDeviceExtensionProperties(physicalDevice, nullptr, &count, nullptr);
+    std::vector<VkExtensionProperties> available(count);
+    vkEnumerateDeviceExtensionProperties(physicalDevice, nullptr, &count, available.data());
+    if (!hasExtension(available, VK_KHR_SWAPCHAIN_EXTENSION_NAME)) {
+      return makeError(ErrorCode::DeviceError, "Vulkan device " + describe(physicalInfo) +
+                                                   " has no swapchains (" +
+                                                   VK_KHR_SWAPCHAIN_EXTENSION_NAME + ")");
+    }
+    deviceExtensions.push_back(VK_KHR_SWAPCHAIN_EXTENSION_NAME);
+  }
+  return deviceExtensions;
+}
+
+Result<void> VulkanContext::Impl::createDevice() {
+  Result<std::vector<const char*>> chosen = chooseQueueFamily();
+  if (!chosen) return std::move(chosen).error();
+  const std::vector<const char*> deviceExtensions = std::move(*chosen);
 
   VkPhysicalDeviceVulkan13Features have13{};
   have13.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES;
@@ -323,6 +376,8 @@ Result<void> VulkanContext::Impl::createDevice() {
   create.pNext = &want;
   create.queueCreateInfoCount = 1;
   create.pQueueCreateInfos = &queueInfo;
+  create.enabledExtensionCount = static_cast<uint32_t>(deviceExtensions.size());
+  create.ppEnabledExtensionNames = deviceExtensions.data();
   VkDevice rawDevice = VK_NULL_HANDLE;
   if (VkResult r = vkCreateDevice(physicalDevice, &create, nullptr, &rawDevice); r != VK_SUCCESS) {
     return vulkanError(r, "vkCreateDevice (" + physicalInfo.name + ")");
@@ -363,6 +418,11 @@ Result<VulkanContext> VulkanContext::create(const ContextOptions& options) {
                   ? options.validationLog
                   : std::make_shared<ValidationLog>(options.echoValidationToStderr);
   if (Result<void> r = impl->createInstance(options); !r) return std::move(r).error();
+  if (options.presentation) {
+    if (Result<void> r = impl->createSurface(*options.presentation); !r) {
+      return std::move(r).error();
+    }
+  }
   if (Result<void> r = impl->choosePhysicalDevice(options); !r) return std::move(r).error();
   if (Result<void> r = impl->createDevice(); !r) return std::move(r).error();
   return VulkanContext(std::move(impl));
@@ -384,6 +444,13 @@ const VkPhysicalDeviceMemoryProperties& VulkanContext::memoryProperties() const 
   return impl_->memoryProperties;
 }
 bool VulkanContext::validationEnabled() const noexcept { return impl_->validation; }
+VkSurfaceKHR VulkanContext::surface() const noexcept { return impl_->surface.get(); }
+
+VkResult VulkanContext::present(const VkPresentInfoKHR& info) {
+  assert(impl_ && "use of a moved-from VulkanContext");
+  const std::lock_guard<std::mutex> lock(impl_->queueMutex);
+  return vkQueuePresentKHR(impl_->queue, &info);
+}
 ValidationLog& VulkanContext::validationLog() const noexcept { return *impl_->log; }
 std::shared_ptr<ValidationLog> VulkanContext::sharedValidationLog() const noexcept {
   return impl_->log;

@@ -17,6 +17,23 @@ namespace pbdam::gpu {
 
 class VulkanContext;
 
+/// Where a frame is also shown (pbdam fly): an acquired swapchain image (Swapchain.h), the
+/// semaphores of its acquisition and presentation, and an optional panel copied over it (the
+/// heads-up display; not part of the frame's read-back pixels).
+struct PresentTarget final {
+  VkImage image = VK_NULL_HANDLE;
+  VkExtent2D extent{};
+  /// Binary semaphores: waited for before the copy; signalled when the image is written.
+  VkSemaphore acquired = VK_NULL_HANDLE;
+  VkSemaphore rendered = VK_NULL_HANDLE;
+  /// Tightly packed pixels in the swapchain image's format, copied to `overlayOffset` (clipped
+  /// to the image); VK_NULL_HANDLE: none. The buffer must stay unchanged until the frame that
+  /// reads it has been collected.
+  VkBuffer overlay = VK_NULL_HANDLE;
+  VkOffset2D overlayOffset{};
+  VkExtent2D overlayExtent{};
+};
+
 /// Colour + depth attachments of a fixed size plus a host-visible staging buffer for readback.
 /// Move-only; a moved-from target is empty. Must be destroyed before its VulkanContext, and
 /// not while a submitted command buffer that uses it is still executing.
@@ -70,6 +87,14 @@ class OffscreenTarget final {
   /// Records the readback part of recordEndRenderingAndReadback, for a pass that the caller
   /// has already ended with vkCmdEndRendering.
   void recordReadback(VkCommandBuffer cmd) const;
+
+  /// Records, after the pass has ended (and after recordReadback when `afterReadback`): the
+  /// colour image copied into `present`'s image (a swapchain image, any previous contents
+  /// discarded) by a blit, scaled where the sizes differ; then `present`'s overlay copied over
+  /// it, and the image left in PRESENT_SRC_KHR. The submission must wait for `present.acquired`
+  /// at the blit stage (VK_PIPELINE_STAGE_2_BLIT_BIT).
+  void recordPresent(VkCommandBuffer cmd, const struct PresentTarget& present,
+                     bool afterReadback) const;
 
   /// The staging buffer's pixels. Valid once the work recorded by recordEndRenderingAndReadback
   /// has completed (its fence signalled).

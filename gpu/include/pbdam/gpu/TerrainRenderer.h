@@ -22,6 +22,7 @@
 
 #include "pbdam/formats/Result.h"
 #include "pbdam/gpu/GpuCache.h"
+#include "pbdam/gpu/OffscreenTarget.h"
 #include "pbdam/gpu/RgbaImage.h"
 #include "pbdam/runtime/Camera.h"
 #include "pbdam/runtime/DatasetView.h"
@@ -164,8 +165,11 @@ class TerrainRenderer final {
   /// patch or tile does not decode (the message names file and offset; nothing of the failed
   /// upload stays resident); DeviceError for Vulkan failures. After an error no frame was
   /// added.
+  /// With `present` the frame is also copied into a window's image by the same submission
+  /// (OffscreenTarget::recordPresent; the target's semaphores waited for and signalled).
   formats::Result<void> submit(const runtime::Cut& cut, const runtime::Camera& camera,
-                               const FrameSettings& settings = {}, bool readback = true);
+                               const FrameSettings& settings = {}, bool readback = true,
+                               const PresentTarget* present = nullptr);
   /// Waits for the oldest pending frame and returns it (its image empty when it was submitted
   /// without readback; its stats with the device's timings). InvalidArgument when none is
   /// pending, DeviceError for Vulkan failures.

@@ -104,5 +104,7 @@ using UniqueDescriptorSetLayout =
 using UniqueDescriptorPool = UniqueHandle<VkDescriptorPool, VkDevice, &vkDestroyDescriptorPool>;
 using UniqueSampler = UniqueHandle<VkSampler, VkDevice, &vkDestroySampler>;
 using UniqueQueryPool = UniqueHandle<VkQueryPool, VkDevice, &vkDestroyQueryPool>;
+using UniqueSurface = UniqueHandle<VkSurfaceKHR, VkInstance, &vkDestroySurfaceKHR>;
+using UniqueSwapchain = UniqueHandle<VkSwapchainKHR, VkDevice, &vkDestroySwapchainKHR>;
 
 }  // namespace pbdam::gpu

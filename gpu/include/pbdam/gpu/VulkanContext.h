@@ -1,7 +1,7 @@
-// VulkanContext: the headless Vulkan instance, the chosen physical device (the machine's best
-// unless told otherwise, PhysicalDevices.h), the logical device with one graphics queue, optional
-// Khronos validation, and a blocking "record, submit, wait" helper. No window system is involved
-// anywhere.
+// VulkanContext: the Vulkan instance, the chosen physical device (the machine's best unless told
+// otherwise, PhysicalDevices.h), the logical device with one graphics queue, optional Khronos
+// validation, and a blocking "record, submit, wait" helper. Headless unless ContextOptions asks
+// for a window's surface (pbdam fly): then the queue also presents to it (Swapchain.h).
 #pragma once
 
 #include "pbdam/formats/Result.h"
@@ -18,6 +18,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace pbdam::gpu {
 
@@ -29,6 +30,15 @@ inline constexpr bool kValidationByDefault = true;
 #else
 inline constexpr bool kValidationByDefault = false;
 #endif
+
+/// Presentation to a window: what the window library needs of the instance, and how it makes
+/// the window's surface (GLFW: glfwGetRequiredInstanceExtensions, glfwCreateWindowSurface).
+struct WindowPresentation final {
+  /// Instance extensions the surface needs (VK_KHR_surface and the platform's).
+  std::vector<std::string> instanceExtensions;
+  /// Makes the surface from the new instance; the context owns it from then on.
+  std::function<formats::Result<VkSurfaceKHR>(VkInstance)> createSurface;
+};
 
 /// How to create a VulkanContext.
 struct ContextOptions final {
@@ -50,6 +60,9 @@ struct ContextOptions final {
   std::shared_ptr<ValidationLog> validationLog;
   /// Reported to the driver in VkApplicationInfo.
   std::string applicationName = "pbdam";
+  /// A window to present to: the device must have a queue family that draws and presents to
+  /// its surface, and gets VK_KHR_swapchain. Empty: headless.
+  std::optional<WindowPresentation> presentation;
 };
 
 /// The Vulkan instance, device and graphics queue that everything in pbdam_gpu is created from.
@@ -112,6 +125,13 @@ class VulkanContext final {
   /// owns (and synchronises) the command buffers and the fence. `what` names the work in error
   /// messages. Thread-safe.
   formats::Result<void> submit(const VkSubmitInfo2& batch, VkFence fence, std::string_view what);
+
+  /// The window's surface (ContextOptions::presentation), else VK_NULL_HANDLE.
+  VkSurfaceKHR surface() const noexcept;
+
+  /// vkQueuePresentKHR under the queue lock; returns its result (VK_SUCCESS, VK_SUBOPTIMAL_KHR,
+  /// VK_ERROR_OUT_OF_DATE_KHR...) for the caller to act on. Thread-safe.
+  VkResult present(const VkPresentInfoKHR& info);
 
   /// vkDeviceWaitIdle under the queue lock. Thread-safe.
   formats::Result<void> waitIdle();
