@@ -25,6 +25,8 @@ set_target_properties(Squish::Squish PROPERTIES IMPORTED_LOCATION ${SQUISH_LIBRA
 pkg_check_modules(OpenImageIO REQUIRED IMPORTED_TARGET OpenImageIO)
 # PLplot draws the benchmark report's plots (cairo PNG driver: plplot-driver-cairo).
 pkg_check_modules(PLplot REQUIRED IMPORTED_TARGET plplot)
+# pbdam fly's window (Debian: libglfw3-dev; X11)
+find_package(glfw3 3.3 CONFIG REQUIRED)
 # The distributed build (`mpirun -np N pbdam build`) through Debian's OpenMPI. pbdam itself does
 # not link MPI: it loads the libpbdam_mpi.so module only when mpirun started it.
 option(PBDAM_WITH_MPI "Build the MPI module for distributed builds (OpenMPI)" ON)

@@ -189,12 +189,6 @@ double msBetween(Clock::time_point t0, Clock::time_point t1) {
 }
 double msSince(Clock::time_point t0) { return msBetween(t0, Clock::now()); }
 
-std::uint64_t threadMajorFaults() {
-  rusage usage{};
-  ::getrusage(RUSAGE_THREAD, &usage);
-  return static_cast<std::uint64_t>(usage.ru_majflt);
-}
-
 std::uint64_t residentDatasetPages(const MappedDataset& dataset) {
   std::uint64_t pages = 0;
   for (int f = 0; f < 6; ++f) {

@@ -52,6 +52,8 @@ void addBenchCommand(CLI::App& app, CommandStatus& status);
 
 /// `pbdam serve DIR [--bind A] [--port N] [--workers N] [--queue N] [--gpu-cache-mb N] [...]`.
 void addServeCommand(CLI::App& app, CommandStatus& status);
+/// `pbdam fly`: an interactive flythrough in a window (FlyCommand.cpp).
+void addFlyCommand(CLI::App& app, CommandStatus& status);
 
 /// `pbdam query cut DIR (--camera POSE | --focus … | --focus-path …) --out MESH.ply [--json]`.
 void addQueryCommands(CLI::App& app, CommandStatus& status);

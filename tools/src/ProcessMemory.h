@@ -1,9 +1,11 @@
 // This process's resident memory as Linux reports it under /proc/self: the whole resident set
 // (`pbdam bench`'s per-frame RSS, `pbdam serve`'s /stats rss_bytes) and its file-backed part
-// (mapped dataset pages and libraries, `pbdam bench`'s dataset RSS). Header-only; thread-safety:
-// free functions, no shared state.
+// (mapped dataset pages and libraries, `pbdam bench`'s dataset RSS); and the calling thread's
+// major page faults (the render thread's faults of `pbdam bench` and `pbdam fly`). Header-only;
+// thread-safety: free functions, no shared state.
 #pragma once
 
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <cstdint>
@@ -31,6 +33,13 @@ inline std::uint64_t residentFileBytes() {
     if (line.rfind("RssFile:", 0) == 0) return std::stoull(line.substr(8)) * 1024;  // kB
   }
   return 0;
+}
+
+/// Major page faults of the calling thread so far (getrusage RUSAGE_THREAD).
+inline std::uint64_t threadMajorFaults() {
+  rusage usage{};
+  ::getrusage(RUSAGE_THREAD, &usage);
+  return static_cast<std::uint64_t>(usage.ru_majflt);
 }
 
 }  // namespace pbdam::tools

@@ -30,6 +30,7 @@ int run(int argc, char** argv) {
   pbdam::tools::addQueryCommands(app, status);
   pbdam::tools::addBenchCommand(app, status);
   pbdam::tools::addServeCommand(app, status);
+  pbdam::tools::addFlyCommand(app, status);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
