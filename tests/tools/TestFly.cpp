@@ -214,7 +214,7 @@ TEST(FlyCli, AScriptedFlightRecordsAndItsScreenshotsAreTheRenderedBytes) {
                           " --screenshots " + quoted((work / "shot").string()) + " --stats " +
                           quoted(stats.string()));
   ASSERT_EQ(run.exitCode, 0) << run.out << run.err;
-  EXPECT_EQ(run.err.find("alidation"), std::string::npos) << run.err;
+  EXPECT_EQ(run.err.find("validation messages"), std::string::npos) << run.err;
 
   const auto summary = nlohmann::json::parse(readFile(stats));
   EXPECT_GE(summary["frames"].get<int>(), 20);
