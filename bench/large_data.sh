@@ -10,7 +10,9 @@
 # default 16384: a 4096-cell lattice), LARGE_MIN_PATCH_TRIANGLES (default 512; formerly the patch vertex count, 800 the paper's ratio of
 # interior to leaf patch size), LARGE_THREADS (build threads per rank, default all cores),
 # LARGE_LEVELS (bintree depth, default auto: 18 makes the paper's 16384-cell lattice from any
-# DEM), LARGE_RANKS (MPI ranks through mpirun, each under /usr/bin/time; default 1: no mpirun).
+# DEM), LARGE_RANKS (MPI ranks through mpirun, each under /usr/bin/time; default 1: no mpirun),
+# LARGE_BUILD_ONLY=1 (build or reuse the dataset, print its directory on the last line, fly
+# nothing: bench/larger_than_memory.sh).
 # The build is out of core (docs/builder.md "Patches"): its peak RSS per rank is the DEM plus
 # well under a gigabyte, whatever the lattice size.
 # The DEM and the dataset are kept and reused when their parameters did not change.
@@ -55,6 +57,10 @@ bytes=$(du -sb "$dataset" | cut -f1)
 echo "dataset: $dataset, $((bytes / 1048576)) MB on disk"
 if [ "$bytes" -lt 2000000000 ]; then
   echo "large_data.sh: warning: the dataset is under 2 GB (raise LARGE_WIDTH)" >&2
+fi
+if [ "${LARGE_BUILD_ONLY:-0}" = 1 ]; then
+  echo "$dataset"
+  exit 0
 fi
 echo
 "$pbdam" bench "$dataset" --path "$root/bench/paths/mars_flight.csv" --out "$out/report-paging" \

@@ -29,6 +29,7 @@
 #include "Commands.h"
 #include "CutSource.h"
 #include "FrameModes.h"
+#include "MemoryBudget.h"
 #include "MorphOption.h"
 #include "ProcessMemory.h"
 #include "Progress.h"
@@ -69,6 +70,7 @@ struct BenchCliOptions {
   MorphCliOptions morph;
   std::uint32_t framesInFlight = 2;
   std::string readback = "off";
+  double memoryBudgetMiB = 0.0;
 };
 
 /// The frame loop's modes, parsed from BenchCliOptions when the options are checked.
@@ -256,7 +258,7 @@ gpu::TerrainRendererOptions rendererOptions(const gpu::VulkanContext& context,
   gpu::TerrainRendererOptions ro;
   ro.widthPixels = o.width;
   ro.heightPixels = o.height;
-  ro.gpuCacheBytes = static_cast<std::uint64_t>(o.gpuCacheMiB * 1048576.0);
+  ro.gpuCacheBytes = run.gpuCacheBytes;
   ro.framesInFlight = run.framesInFlight;
   if (run.draws == DrawList::Indirect) {
     // The device's draw list needs the whole dataset resident, in one pool chunk.
@@ -423,6 +425,23 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   auto dataset = MappedDataset::open(o.dir);
   if (!dataset) return dataset.error();
   const DatasetView& view = (*dataset)->view();
+  run.gpuCacheBytes = static_cast<std::uint64_t>(o.gpuCacheMiB * 1048576.0);
+  if (const std::optional<MemoryLimit> limit = memoryLimitOf(o.memoryBudgetMiB)) {
+    // Sized once the dataset's node tables and the driver are in memory.
+    MemoryDemand demand;
+    demand.widthPixels = o.width;
+    demand.heightPixels = o.height;
+    demand.framesInFlight = run.framesInFlight;
+    demand.gpuCacheBytes = run.gpuCacheBytes;
+    demand.cacheInHostMemory = context.deviceInfo().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
+    demand.residentBytes = residentSetBytes();
+    auto plan = planMemory(*limit, demand);
+    if (!plan) return plan.error();
+    if (!o.quiet) std::fprintf(stderr, "pbdam: %s\n", plan->describe().c_str());
+    run.gpuCacheBytes = plan->gpuCacheBytes;
+    run.memoryBudgetBytes = plan->budgetBytes;
+    run.memoryBudgetSource = plan->source;
+  }
   auto renderer =
       gpu::TerrainRenderer::create(context, view, rendererOptions(context, view, o, run));
   if (!renderer) return renderer.error();
@@ -509,6 +528,10 @@ int runBench(const BenchCliOptions& o) {
   if (o.framesInFlight < 1 || o.framesInFlight > gpu::TerrainRenderer::kMaxFramesInFlight) {
     return bad("--frames-in-flight must be in 1.." +
                std::to_string(gpu::TerrainRenderer::kMaxFramesInFlight));
+  }
+  if (!std::isfinite(o.memoryBudgetMiB) || o.memoryBudgetMiB < 0.0 ||
+      o.memoryBudgetMiB > 16777216.0) {
+    return bad("--memory-budget-mib must be a number of MiB >= 0 (0: the cgroup's limit)");
   }
   if (!std::isfinite(o.gpuCacheMiB) || o.gpuCacheMiB <= 0.0 || o.gpuCacheMiB > 65536.0) {
     return bad("--gpu-cache-mib (--gpu-cache-mb) must be in (0, 65536]");
@@ -599,6 +622,11 @@ void addBenchCommand(CLI::App& app, CommandStatus& status) {
                 "(RMS and largest, 0-255): the popping the change of cut causes (doubles the "
                 "rendering; its timings are not comparable with a run without it)");
   cmd->add_option("--fov-deg", o->fovDegrees, "Vertical field of view in degrees")
+      ->capture_default_str();
+  cmd->add_option("--memory-budget-mib", o->memoryBudgetMiB,
+                  "Memory the run may use in MiB (0: the memory cgroup's limit, if any): the GPU "
+                  "cache (on a CPU device) is lowered to leave room for the dataset's pages; "
+                  "below what the run needs it refuses to start")
       ->capture_default_str();
   cmd->add_option("--gpu-cache-mib,--gpu-cache-mb", o->gpuCacheMiB,
                   "GPU cache budget in MiB (patch and tile slots; --gpu-cache-mb is its former "

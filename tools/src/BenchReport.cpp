@@ -100,6 +100,9 @@ nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   j["gpu_busy_fraction"] = gpuBusyFraction(run);
   j["frames_in_flight"] = run.framesInFlight;
   j["readback"] = run.readback;
+  j["gpu_cache_mib"] = static_cast<double>(run.gpuCacheBytes) / 1048576.0;
+  j["memory_budget_mib"] = static_cast<double>(run.memoryBudgetBytes) / 1048576.0;
+  j["memory_budget_source"] = run.memoryBudgetSource;
   j["stalls"] = stalls;
   j["data_stalls"] = dataStalls;
   j["triangles_per_s_mean"] = total > 0.0 ? triangles / total * 1e3 : 0.0;

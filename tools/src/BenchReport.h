@@ -71,6 +71,11 @@ struct BenchRun final {
   /// --popping and with the device-made draw list.
   std::uint32_t framesInFlight = 1;
   bool readback = false;  ///< every frame's pixels copied back to the host
+  /// The memory budget the run was sized for (MemoryBudget.h): 0 without one; its source, and
+  /// the GPU cache budget the run used.
+  std::uint64_t memoryBudgetBytes = 0;
+  std::string memoryBudgetSource;
+  std::uint64_t gpuCacheBytes = 0;
   bool cold = false;
   double residentAfterEvictFraction = 0.0;  ///< pages left in the page cache after eviction
   std::uint64_t residentAfterEvictPages = 0;

@@ -32,6 +32,7 @@
 #include "FrameImage.h"
 #include "FrameModes.h"
 #include "FrameWriter.h"
+#include "MemoryBudget.h"
 #include "MorphOption.h"
 #include "ProcessMemory.h"
 #include "ViewshedOutput.h"
@@ -82,6 +83,7 @@ struct FlyCliOptions {
   std::string screenshots = "pbdam_fly";
   std::string stats;
   bool validation = false;
+  double memoryBudgetMiB = 0.0;
 };
 
 /// The options parsed once.
@@ -120,6 +122,10 @@ int checkFlyOptions(const FlyCliOptions& c, FlyModes& modes) {
   }
   if (!std::isfinite(c.lookahead) || c.lookahead < 0.0 || c.lookahead > 10.0) {
     return badInput("--lookahead-s must be in 0..10 seconds");
+  }
+  if (!std::isfinite(c.memoryBudgetMiB) || c.memoryBudgetMiB < 0.0 ||
+      c.memoryBudgetMiB > 16777216.0) {
+    return badInput("--memory-budget-mib must be a number of MiB >= 0 (0: the cgroup's limit)");
   }
   if (!std::isfinite(c.exitAfterSeconds) || c.exitAfterSeconds < 0.0) {
     return badInput("--exit-after-s must be a number of seconds >= 0");
@@ -410,6 +416,7 @@ class FlySession final {
   std::vector<CameraPathPoint> recorded_;
   std::size_t frames_ = 0;
   std::size_t shotsTaken_ = 0;
+  std::uint64_t gpuCacheBytes_ = 0;
   bool viewshedOn_ = false;
   gpu::FrameSettings settings_;
   bool recreate_ = false;
@@ -428,6 +435,20 @@ Result<void> FlySession::setUp() {
   options.widthPixels = swapchain_.extent().width;
   options.heightPixels = swapchain_.extent().height;
   options.gpuCacheBytes = static_cast<std::uint64_t>(c_.gpuCacheMiB * 1048576.0);
+  if (const std::optional<MemoryLimit> limit = memoryLimitOf(c_.memoryBudgetMiB)) {
+    MemoryDemand demand;
+    demand.widthPixels = options.widthPixels;
+    demand.heightPixels = options.heightPixels;
+    demand.framesInFlight = c_.framesInFlight;
+    demand.gpuCacheBytes = options.gpuCacheBytes;
+    demand.cacheInHostMemory = context_.deviceInfo().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
+    demand.residentBytes = residentSetBytes();
+    auto plan = planMemory(*limit, demand);
+    if (!plan) return plan.error();
+    std::fprintf(stderr, "pbdam: %s\n", plan->describe().c_str());
+    options.gpuCacheBytes = plan->gpuCacheBytes;
+  }
+  gpuCacheBytes_ = options.gpuCacheBytes;
   options.framesInFlight = c_.framesInFlight;
   auto renderer = gpu::TerrainRenderer::create(context_, view_, options);
   if (!renderer) return renderer.error();
@@ -510,7 +531,8 @@ std::vector<std::string> FlySession::hudLines(const FlyControls& controls, doubl
                 static_cast<unsigned long long>(s.tiles));
   lines.emplace_back(line);
   std::snprintf(line, sizeof line, "GPU cache %.1f / %.0f MiB  faults %llu  data stalls %zu",
-                static_cast<double>(renderer_->residentBytes()) / 1048576.0, c_.gpuCacheMiB,
+                static_cast<double>(renderer_->residentBytes()) / 1048576.0,
+                static_cast<double>(gpuCacheBytes_) / 1048576.0,
                 static_cast<unsigned long long>(figures_.faults), figures_.dataStalls);
   lines.emplace_back(line);
   const CameraPose& p = controls.pose();
@@ -902,6 +924,10 @@ void addFlyCommand(CLI::App& app, CommandStatus& status) {
                   "twice its radius)");
   fly->add_option("--goto", o->goTo, "LAT,LON: start over this place at the start pose's height");
   fly->add_option("--gpu-cache-mib", o->gpuCacheMiB, "GPU cache budget in MiB")
+      ->capture_default_str();
+  fly->add_option("--memory-budget-mib", o->memoryBudgetMiB,
+                  "Memory the flight may use in MiB (0: the memory cgroup's limit, if any): the "
+                  "GPU cache (on a CPU device) is lowered to leave room for the dataset's pages")
       ->capture_default_str();
   fly->add_option("--present", o->present,
                   "fifo (wait for the display, never tears), mailbox or immediate (to measure)")

@@ -55,6 +55,10 @@ int runServe(const ServeCliOptions& c) {
   if (!std::isfinite(o.gpuCacheMiB) || o.gpuCacheMiB <= 0.0 || o.gpuCacheMiB > 1048576.0) {
     return badInput("--gpu-cache-mib (--gpu-cache-mb) must be a positive number of MiB");
   }
+  if (!std::isfinite(o.memoryBudgetMiB) || o.memoryBudgetMiB < 0.0 ||
+      o.memoryBudgetMiB > 16777216.0) {
+    return badInput("--memory-budget-mib must be a number of MiB >= 0 (0: the cgroup's limit)");
+  }
   if (!std::isfinite(o.deadlineSeconds) || o.deadlineSeconds <= 0.0 || o.deadlineSeconds > 3600.0) {
     return badInput("--deadline-s must be in (0, 3600] seconds");
   }
@@ -173,6 +177,12 @@ void addServeCommand(CLI::App& app, CommandStatus& status) {
       ->add_option("--gpu-cache-mib,--gpu-cache-mb", o->server.gpuCacheMiB,
                    "GPU cache budget in MiB: one cache (LRU, pools) shared by every render "
                    "context. --gpu-cache-mb is its former spelling (also MiB)")
+      ->capture_default_str();
+  serve
+      ->add_option("--memory-budget-mib", o->server.memoryBudgetMiB,
+                   "Memory the server may use in MiB (0: the memory cgroup's limit, if any): on a "
+                   "CPU device the GPU cache is lowered to leave room for the dataset's pages; "
+                   "below what it needs it refuses to start")
       ->capture_default_str();
   serve
       ->add_option("--deadline-s", o->server.deadlineSeconds,

@@ -1,6 +1,9 @@
 // Render contexts and the bounded request queue of `pbdam serve` (ServeRenderPool.h).
 #include "ServeRenderPool.h"
 
+#include "MemoryBudget.h"
+#include "ProcessMemory.h"
+
 #include <algorithm>
 #include <exception>
 #include <future>
@@ -49,6 +52,21 @@ Result<std::unique_ptr<RenderPool>> RenderPool::create(const MappedDataset& data
 
   gpu::GpuCacheOptions cacheOptions;
   cacheOptions.budgetBytes = options.gpuCacheBytes;
+  if (const std::optional<MemoryLimit> limit = memoryLimitOf(options.memoryBudgetMiB)) {
+    // Every context's frames in flight at the initial size; larger requests are answered from
+    // the same cache (drawn in passes when a cut does not fit).
+    MemoryDemand demand;
+    demand.widthPixels = options.initialWidthPixels;
+    demand.heightPixels = options.initialHeightPixels;
+    demand.framesInFlight = options.workers * options.framesInFlight;
+    demand.gpuCacheBytes = options.gpuCacheBytes;
+    demand.cacheInHostMemory = pool->context_->deviceInfo().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
+    demand.residentBytes = residentSetBytes();
+    auto plan = planMemory(*limit, demand);
+    if (!plan) return std::move(plan).error();
+    std::fprintf(stderr, "pbdam: %s\n", plan->describe().c_str());
+    cacheOptions.budgetBytes = plan->gpuCacheBytes;
+  }
   auto cache = gpu::GpuCache::create(*pool->context_, dataset.view(), cacheOptions);
   if (!cache) {
     Error error = std::move(cache).error();

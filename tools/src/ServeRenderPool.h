@@ -89,6 +89,9 @@ struct RenderPoolOptions final {
   std::uint32_t initialHeightPixels = 480;
   /// Frames each context may have in flight (TerrainRendererOptions::framesInFlight).
   std::uint32_t framesInFlight = 2;
+  /// Memory budget in MiB (0: the memory cgroup's limit, if any): on a CPU device the shared
+  /// cache is lowered to leave room for the frames and the dataset's pages (MemoryBudget.h).
+  double memoryBudgetMiB = 0.0;
 };
 
 class RenderPool final {

@@ -267,6 +267,7 @@ Result<std::shared_ptr<Generation>> openGeneration(const std::string& directory,
   poolOptions.framesInFlight = options.framesInFlight;
   poolOptions.queueCapacity = options.queueCapacity;
   poolOptions.gpuCacheBytes = static_cast<std::uint64_t>(options.gpuCacheMiB * 1048576.0);
+  poolOptions.memoryBudgetMiB = options.memoryBudgetMiB;
   poolOptions.device = options.device;
   auto pool = RenderPool::create(*generation->dataset, poolOptions);
   if (!pool) return std::move(pool).error();

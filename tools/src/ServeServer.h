@@ -26,6 +26,8 @@ struct ServeOptions final {
   std::uint32_t queueCapacity = 8;
   std::uint32_t framesInFlight = 2;  ///< per render context (RenderPoolOptions)
   double gpuCacheMiB = 256.0;
+  /// Memory the server may use in MiB; 0: the memory cgroup's limit, if any (MemoryBudget.h).
+  double memoryBudgetMiB = 0.0;
   double deadlineSeconds = 10.0;  ///< per /frame request: queueing and drawing together
   std::string device;             ///< Vulkan device selector (ContextOptions::device)
   bool logRequests = false;       ///< one line per request on stdout

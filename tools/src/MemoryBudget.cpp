@@ -1,0 +1,148 @@
+#include "MemoryBudget.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string_view>
+#include <vector>
+
+using namespace pbdam::formats;
+
+namespace pbdam::tools {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// Limits at or above this are "no limit" (cgroup v1 writes PAGE_COUNTER_MAX pages in bytes).
+constexpr std::uint64_t kUnlimited = std::uint64_t{1} << 60;
+
+std::optional<std::uint64_t> readLimitFile(const fs::path& file) {
+  std::ifstream in(file);
+  std::string text;
+  if (!(in >> text) || text == "max") return std::nullopt;
+  std::uint64_t value = 0;
+  for (const char c : text) {
+    if (c < '0' || c > '9') return std::nullopt;
+    value = value * 10 + static_cast<std::uint64_t>(c - '0');
+    if (value >= kUnlimited) return std::nullopt;
+  }
+  return value;
+}
+
+/// The smallest limit in `file` of `dir` and each of its parents up to `root`.
+std::optional<MemoryLimit> smallestUpTo(const fs::path& root, const fs::path& dir, const char* file,
+                                        const char* kind) {
+  std::optional<MemoryLimit> best;
+  fs::path at = dir;
+  while (true) {
+    if (const std::optional<std::uint64_t> limit = readLimitFile(at / file)) {
+      if (!best || *limit < best->bytes) {
+        best = MemoryLimit{*limit, std::string(kind) + " " + file + " of " + at.string()};
+      }
+    }
+    if (at == root || !at.has_parent_path() || at.parent_path() == at) break;
+    at = at.parent_path();
+    if (at.string().size() < root.string().size()) break;
+  }
+  return best;
+}
+
+std::string mib(std::uint64_t bytes) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.0f MiB", static_cast<double>(bytes) / 1048576.0);
+  return text;
+}
+
+}  // namespace
+
+std::optional<MemoryLimit> cgroupMemoryLimit(const fs::path& procSelfCgroup,
+                                             const fs::path& cgroupRoot) {
+  std::ifstream in(procSelfCgroup);
+  std::string line;
+  std::optional<MemoryLimit> best;
+  const auto keep = [&best](std::optional<MemoryLimit> found) {
+    if (found && (!best || found->bytes < best->bytes)) best = std::move(found);
+  };
+  while (std::getline(in, line)) {
+    // hierarchy-ID:controller-list:cgroup-path
+    const std::size_t first = line.find(':');
+    const std::size_t second = line.find(':', first + 1);
+    if (first == std::string::npos || second == std::string::npos) continue;
+    const std::string controllers = line.substr(first + 1, second - first - 1);
+    const std::string path = line.substr(second + 1);
+    const fs::path relative = fs::path(path).relative_path();
+    if (line.compare(0, first, "0") == 0 && controllers.empty()) {
+      // cgroup v2: the unified hierarchy, at the root or (hybrid systems) under unified/.
+      for (const fs::path& root : {cgroupRoot, cgroupRoot / "unified"}) {
+        if (fs::exists(root / "cgroup.controllers")) {
+          keep(smallestUpTo(root, root / relative, "memory.max", "cgroup v2"));
+        }
+      }
+      continue;
+    }
+    std::istringstream list(controllers);
+    for (std::string controller; std::getline(list, controller, ',');) {
+      if (controller == "memory") {
+        const fs::path root = cgroupRoot / "memory";
+        keep(smallestUpTo(root, root / relative, "memory.limit_in_bytes", "cgroup v1"));
+      }
+    }
+  }
+  return best;
+}
+
+std::optional<MemoryLimit> memoryLimitOf(double budgetMiB) {
+  if (budgetMiB > 0.0) {
+    return MemoryLimit{static_cast<std::uint64_t>(budgetMiB * 1048576.0), "--memory-budget-mib"};
+  }
+  return cgroupMemoryLimit();
+}
+
+std::uint64_t frameBytes(std::uint32_t width, std::uint32_t height, std::uint32_t framesInFlight) {
+  const std::uint64_t pixels = std::uint64_t{width} * height;
+  constexpr std::uint64_t kStagingAllowance = std::uint64_t{8} << 20;
+  return std::uint64_t{framesInFlight} * (pixels * 12 + kStagingAllowance);
+}
+
+std::string MemoryPlan::describe() const {
+  return "memory budget " + mib(budgetBytes) + " (" + source + "): " + mib(residentBytes) +
+         " held at start, " + mib(frameBytes) + " for the frames in flight, GPU cache " +
+         mib(gpuCacheBytes) + (cacheLowered ? " (lowered to fit)" : "") + ", " +
+         mib(pageRoomBytes) + " left for dataset pages";
+}
+
+Result<MemoryPlan> planMemory(const MemoryLimit& limit, const MemoryDemand& demand) {
+  MemoryPlan plan;
+  plan.budgetBytes = limit.bytes;
+  plan.source = limit.source;
+  plan.residentBytes = demand.residentBytes;
+  plan.frameBytes = frameBytes(demand.widthPixels, demand.heightPixels, demand.framesInFlight);
+  const std::uint64_t cacheFloor = demand.cacheInHostMemory ? kMinGpuCacheBytes : 0;
+  const std::uint64_t needed =
+      plan.residentBytes + plan.frameBytes + cacheFloor + kMinPageRoomBytes;
+  if (limit.bytes < needed) {
+    return invalidArgument(
+        "a memory budget of " + mib(limit.bytes) + " (" + limit.source + ") is below the " +
+        mib(needed) + " this run needs: " + mib(plan.residentBytes) +
+        " held at start (libraries, node tables, driver), " + mib(plan.frameBytes) + " for " +
+        std::to_string(demand.framesInFlight) + " frames of " + std::to_string(demand.widthPixels) +
+        "x" + std::to_string(demand.heightPixels) +
+        (demand.cacheInHostMemory ? ", " + mib(cacheFloor) + " of GPU cache" : "") + " and " +
+        mib(kMinPageRoomBytes) + " for dataset pages");
+  }
+  const std::uint64_t spare = limit.bytes - plan.residentBytes - plan.frameBytes;
+  if (!demand.cacheInHostMemory) {
+    plan.gpuCacheBytes = demand.gpuCacheBytes;
+    plan.pageRoomBytes = spare;
+    return plan;
+  }
+  plan.pageRoomBytes = std::max(kMinPageRoomBytes, spare / 4);
+  const std::uint64_t cacheRoom = spare - plan.pageRoomBytes;
+  plan.gpuCacheBytes = std::min(demand.gpuCacheBytes, cacheRoom);
+  plan.cacheLowered = plan.gpuCacheBytes < demand.gpuCacheBytes;
+  plan.pageRoomBytes = spare - plan.gpuCacheBytes;
+  return plan;
+}
+
+}  // namespace pbdam::tools

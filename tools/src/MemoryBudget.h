@@ -1,0 +1,82 @@
+// How much memory a frame loop (`pbdam bench`, `render`, `fly`) may use, and how it is shared: the
+// limit of the process's memory cgroup (v2 memory.max, v1 memory.limit_in_bytes; the smallest
+// on the way to the root) or `--memory-budget-mib`, split into what the process already holds
+// (libraries, the dataset's node tables, the Vulkan driver), the frames in flight (offscreen
+// targets, readback and staging buffers), the GPU cache when the device's memory is the host's
+// (lavapipe), and the room left for the dataset's pages that the next frames read — which the
+// cgroup counts too. Below the smallest workable budget the loop refuses to start, naming what
+// it needs. Thread-safety: pure functions.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "pbdam/formats/Result.h"
+
+namespace pbdam::tools {
+
+/// A limit on the process's memory and where it came from.
+struct MemoryLimit final {
+  std::uint64_t bytes = 0;
+  /// "cgroup v2 memory.max of /sys/fs/cgroup/...", "cgroup v1 memory.limit_in_bytes of ...",
+  /// "--memory-budget-mib".
+  std::string source;
+};
+
+/// The memory limit of this process's cgroup: for cgroup v2 the smallest memory.max from its
+/// cgroup up to the root, for cgroup v1 the same over memory.limit_in_bytes of the memory
+/// controller's hierarchy. nullopt when no limit is set (or none can be read). `procSelfCgroup`
+/// and `cgroupRoot` are for tests.
+std::optional<MemoryLimit> cgroupMemoryLimit(
+    const std::filesystem::path& procSelfCgroup = "/proc/self/cgroup",
+    const std::filesystem::path& cgroupRoot = "/sys/fs/cgroup");
+
+/// The limit a run is sized for: `budgetMiB` ("--memory-budget-mib") when it is above 0, else
+/// the memory cgroup's (cgroupMemoryLimit); nullopt when there is neither.
+std::optional<MemoryLimit> memoryLimitOf(double budgetMiB);
+
+/// What a frame loop asks of memory.
+struct MemoryDemand final {
+  std::uint32_t widthPixels = 1280;
+  std::uint32_t heightPixels = 720;
+  std::uint32_t framesInFlight = 2;
+  /// The GPU cache asked for (--gpu-cache-mib); with `cacheInHostMemory` it is lowered to fit.
+  std::uint64_t gpuCacheBytes = 0;
+  /// Whether the device's memory is the host's (a CPU device such as lavapipe): then the GPU
+  /// cache is counted in the budget.
+  bool cacheInHostMemory = true;
+  /// Resident bytes of the process when the plan is made (libraries, node tables, driver).
+  std::uint64_t residentBytes = 0;
+};
+
+/// How a budget is shared.
+struct MemoryPlan final {
+  std::uint64_t budgetBytes = 0;
+  std::string source;
+  std::uint64_t residentBytes = 0;  ///< held already when the plan was made
+  std::uint64_t frameBytes = 0;     ///< the frames in flight's targets and buffers
+  std::uint64_t gpuCacheBytes = 0;  ///< the GPU cache's budget (lowered to fit on a CPU device)
+  std::uint64_t pageRoomBytes = 0;  ///< left for the dataset's pages (the page cache)
+  bool cacheLowered = false;        ///< the cache asked for did not fit
+  /// One line: the budget, its source and its shares.
+  std::string describe() const;
+};
+
+/// The smallest GPU cache and page room a frame loop is allowed to run with.
+inline constexpr std::uint64_t kMinGpuCacheBytes = std::uint64_t{16} << 20;
+inline constexpr std::uint64_t kMinPageRoomBytes = std::uint64_t{48} << 20;
+
+/// Bytes the frames in flight hold besides the cache: per frame an RGBA8 colour target, a
+/// 32-bit depth target, the readback buffer, and a staging allowance for the frame's uploads.
+std::uint64_t frameBytes(std::uint32_t width, std::uint32_t height, std::uint32_t framesInFlight);
+
+/// Shares `limit` among the demand's parts: the page room gets a quarter of what is left after
+/// the process's resident bytes and the frames (at least kMinPageRoomBytes), the GPU cache the
+/// rest up to what was asked for. InvalidArgument when the budget cannot hold the resident
+/// bytes, the frames, kMinGpuCacheBytes and kMinPageRoomBytes: the message names the budget,
+/// its source and each of those figures.
+formats::Result<MemoryPlan> planMemory(const MemoryLimit& limit, const MemoryDemand& demand);
+
+}  // namespace pbdam::tools
