@@ -437,7 +437,9 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     demand.residentBytes = residentSetBytes();
     auto plan = planMemory(*limit, demand);
     if (!plan) return plan.error();
-    if (!o.quiet) std::fprintf(stderr, "pbdam: %s\n", plan->describe().c_str());
+    if (!o.quiet && plan->worthReporting()) {
+      std::fprintf(stderr, "pbdam: %s\n", plan->describe().c_str());
+    }
     run.gpuCacheBytes = plan->gpuCacheBytes;
     run.memoryBudgetBytes = plan->budgetBytes;
     run.memoryBudgetSource = plan->source;

@@ -445,7 +445,7 @@ Result<void> FlySession::setUp() {
     demand.residentBytes = residentSetBytes();
     auto plan = planMemory(*limit, demand);
     if (!plan) return plan.error();
-    std::fprintf(stderr, "pbdam: %s\n", plan->describe().c_str());
+    if (plan->worthReporting()) std::fprintf(stderr, "pbdam: %s\n", plan->describe().c_str());
     options.gpuCacheBytes = plan->gpuCacheBytes;
   }
   gpuCacheBytes_ = options.gpuCacheBytes;

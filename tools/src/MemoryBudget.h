@@ -62,6 +62,10 @@ struct MemoryPlan final {
   bool cacheLowered = false;        ///< the cache asked for did not fit
   /// One line: the budget, its source and its shares.
   std::string describe() const;
+  /// Whether the plan changed anything or was asked for (a cache lowered to fit, or an explicit
+  /// --memory-budget-mib): then the commands print describe() on stderr; a roomy cgroup limit
+  /// is only reported in the run's figures.
+  bool worthReporting() const noexcept { return cacheLowered || source == "--memory-budget-mib"; }
 };
 
 /// The smallest GPU cache and page room a frame loop is allowed to run with.

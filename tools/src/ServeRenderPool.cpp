@@ -64,7 +64,7 @@ Result<std::unique_ptr<RenderPool>> RenderPool::create(const MappedDataset& data
     demand.residentBytes = residentSetBytes();
     auto plan = planMemory(*limit, demand);
     if (!plan) return std::move(plan).error();
-    std::fprintf(stderr, "pbdam: %s\n", plan->describe().c_str());
+    if (plan->worthReporting()) std::fprintf(stderr, "pbdam: %s\n", plan->describe().c_str());
     cacheOptions.budgetBytes = plan->gpuCacheBytes;
   }
   auto cache = gpu::GpuCache::create(*pool->context_, dataset.view(), cacheOptions);
