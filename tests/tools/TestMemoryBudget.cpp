@@ -85,7 +85,7 @@ TEST(MemoryBudget, ABudgetIsSharedAndTooSmallOneIsRefusedNamingWhatItNeeds) {
   const MemoryLimit tiny{std::uint64_t{150} << 20, "--memory-budget-mib"};
   const auto refused = planMemory(tiny, demand);
   ASSERT_FALSE(refused.ok());
-  for (const char* part : {"150 MiB", "--memory-budget-mib", "100 MiB held at start",
+  for (const char* part : {"150 MiB", "--memory-budget-mib", "100 MiB held at start (node tables",
                            "2 frames of 1280x720", "16 MiB of GPU cache", "48 MiB"}) {
     EXPECT_NE(refused.error().message.find(part), std::string::npos)
         << part << ": " << refused.error().message;

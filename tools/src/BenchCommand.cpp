@@ -434,7 +434,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     demand.framesInFlight = run.framesInFlight;
     demand.gpuCacheBytes = run.gpuCacheBytes;
     demand.cacheInHostMemory = context.deviceInfo().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
-    demand.residentBytes = residentSetBytes();
+    demand.residentBytes = anonymousResidentBytes();
     auto plan = planMemory(*limit, demand);
     if (!plan) return plan.error();
     if (!o.quiet && plan->worthReporting()) {

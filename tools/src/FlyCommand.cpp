@@ -442,7 +442,7 @@ Result<void> FlySession::setUp() {
     demand.framesInFlight = c_.framesInFlight;
     demand.gpuCacheBytes = options.gpuCacheBytes;
     demand.cacheInHostMemory = context_.deviceInfo().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
-    demand.residentBytes = residentSetBytes();
+    demand.residentBytes = anonymousResidentBytes();
     auto plan = planMemory(*limit, demand);
     if (!plan) return plan.error();
     if (plan->worthReporting()) std::fprintf(stderr, "pbdam: %s\n", plan->describe().c_str());

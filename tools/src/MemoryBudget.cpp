@@ -125,7 +125,7 @@ Result<MemoryPlan> planMemory(const MemoryLimit& limit, const MemoryDemand& dema
     return invalidArgument(
         "a memory budget of " + mib(limit.bytes) + " (" + limit.source + ") is below the " +
         mib(needed) + " this run needs: " + mib(plan.residentBytes) +
-        " held at start (libraries, node tables, driver), " + mib(plan.frameBytes) + " for " +
+        " held at start (node tables, driver, heap), " + mib(plan.frameBytes) + " for " +
         std::to_string(demand.framesInFlight) + " frames of " + std::to_string(demand.widthPixels) +
         "x" + std::to_string(demand.heightPixels) +
         (demand.cacheInHostMemory ? ", " + mib(cacheFloor) + " of GPU cache" : "") + " and " +

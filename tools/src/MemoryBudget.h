@@ -47,7 +47,9 @@ struct MemoryDemand final {
   /// Whether the device's memory is the host's (a CPU device such as lavapipe): then the GPU
   /// cache is counted in the budget.
   bool cacheInHostMemory = true;
-  /// Resident bytes of the process when the plan is made (libraries, node tables, driver).
+  /// Anonymous resident bytes of the process when the plan is made (node tables, the driver's
+  /// allocations, heaps): what the kernel cannot reclaim. The libraries' clean file pages are
+  /// left to the page room.
   std::uint64_t residentBytes = 0;
 };
 

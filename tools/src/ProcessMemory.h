@@ -35,6 +35,18 @@ inline std::uint64_t residentFileBytes() {
   return 0;
 }
 
+/// Anonymous resident bytes of this process (RssAnon of /proc/self/status: the heap, stacks,
+/// copied node tables, the driver's host allocations), the part the kernel cannot drop under a
+/// memory limit the way it drops clean file pages; 0 when the field is absent.
+inline std::uint64_t anonymousResidentBytes() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("RssAnon:", 0) == 0) return std::stoull(line.substr(8)) * 1024;  // kB
+  }
+  return 0;
+}
+
 /// Major page faults of the calling thread so far (getrusage RUSAGE_THREAD).
 inline std::uint64_t threadMajorFaults() {
   rusage usage{};

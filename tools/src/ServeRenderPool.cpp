@@ -61,7 +61,7 @@ Result<std::unique_ptr<RenderPool>> RenderPool::create(const MappedDataset& data
     demand.framesInFlight = options.workers * options.framesInFlight;
     demand.gpuCacheBytes = options.gpuCacheBytes;
     demand.cacheInHostMemory = pool->context_->deviceInfo().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
-    demand.residentBytes = residentSetBytes();
+    demand.residentBytes = anonymousResidentBytes();
     auto plan = planMemory(*limit, demand);
     if (!plan) return std::move(plan).error();
     if (plan->worthReporting()) std::fprintf(stderr, "pbdam: %s\n", plan->describe().c_str());
