@@ -119,7 +119,7 @@ if os.path.exists(summary) and status == "0":
            "stalls": str(r["data_stalls"]),
            "paged": f"{r['bytes_paged_in'] / 1048576 / seconds:.1f}" if seconds else "-",
            "rss": f"{r['peak_rss_mib']:.0f}"}
-line = (f"| {os.path.basename(os.path.dirname(os.path.dirname(summary)))} | {cap} | {mode} | {prefetch} | "
+line = (f"| {name.split('-')[0]} | {cap} | {mode} | {prefetch} | "
         f"{status} | {row['fps']} | {row['p99']} | {row['faults']} | {row['stalls']} | {row['paged']} | "
         f"{row['rss']} | {peak} | {kills} |")
 print(f"{name}: " + line)
