@@ -426,24 +426,21 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   if (!dataset) return dataset.error();
   const DatasetView& view = (*dataset)->view();
   run.gpuCacheBytes = static_cast<std::uint64_t>(o.gpuCacheMiB * 1048576.0);
-  if (const std::optional<MemoryLimit> limit = memoryLimitOf(o.memoryBudgetMiB)) {
-    // Sized once the dataset's node tables and the driver are in memory.
-    MemoryDemand demand;
-    demand.widthPixels = o.width;
-    demand.heightPixels = o.height;
-    demand.framesInFlight = run.framesInFlight;
-    demand.gpuCacheBytes = run.gpuCacheBytes;
-    demand.cacheInHostMemory = context.deviceInfo().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
-    demand.residentBytes = anonymousResidentBytes();
-    auto plan = planMemory(*limit, demand);
-    if (!plan) return plan.error();
-    if (!o.quiet && plan->worthReporting()) {
-      std::fprintf(stderr, "pbdam: %s\n", plan->describe().c_str());
-    }
-    run.gpuCacheBytes = plan->gpuCacheBytes;
-    run.memoryBudgetBytes = plan->budgetBytes;
-    run.memoryBudgetSource = plan->source;
+  // Sized once the dataset's node tables and the driver are in memory.
+  MemoryDemand demand;
+  demand.widthPixels = o.width;
+  demand.heightPixels = o.height;
+  demand.framesInFlight = run.framesInFlight;
+  demand.gpuCacheBytes = run.gpuCacheBytes;
+  demand.cacheInHostMemory = context.deviceInfo().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
+  auto plan = planRunMemory(o.memoryBudgetMiB, demand, !o.quiet);
+  if (!plan) return plan.error();
+  if (*plan) {
+    run.gpuCacheBytes = (*plan)->gpuCacheBytes;
+    run.memoryBudgetBytes = (*plan)->budgetBytes;
+    run.memoryBudgetSource = (*plan)->source;
   }
+
   auto renderer =
       gpu::TerrainRenderer::create(context, view, rendererOptions(context, view, o, run));
   if (!renderer) return renderer.error();

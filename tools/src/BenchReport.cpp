@@ -14,7 +14,6 @@
 using namespace pbdam::formats;
 
 namespace pbdam::tools {
-namespace {
 
 double percentile(std::vector<double> v, double p) {
   if (v.empty()) return 0.0;
@@ -24,6 +23,8 @@ double percentile(std::vector<double> v, double p) {
   const auto hi = std::min(lo + 1, v.size() - 1);
   return v[lo] + (rank - static_cast<double>(lo)) * (v[hi] - v[lo]);
 }
+
+namespace {
 
 /// The share of the run's wall time the device was busy with its frames: their upload and draw
 /// times (timestamp queries; on lavapipe the CPU time the driver spent on them) over

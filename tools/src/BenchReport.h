@@ -102,6 +102,10 @@ struct BenchSetup final {
   std::uint64_t datasetBytes = 0;
 };
 
+/// The p-quantile (0..1) of `v`, linear between ranks; 0 for an empty vector (bench's and
+/// fly's frame-time figures).
+double percentile(std::vector<double> v, double p);
+
 /// Writes frames.csv, summary.json and report.png into `dir` and returns the summary text
 /// printed by the command.
 formats::Result<std::string> writeBenchReport(const std::filesystem::path& dir,

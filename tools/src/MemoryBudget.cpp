@@ -1,5 +1,7 @@
 #include "MemoryBudget.h"
 
+#include "ProcessMemory.h"
+
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
@@ -143,6 +145,19 @@ Result<MemoryPlan> planMemory(const MemoryLimit& limit, const MemoryDemand& dema
   plan.cacheLowered = plan.gpuCacheBytes < demand.gpuCacheBytes;
   plan.pageRoomBytes = spare - plan.gpuCacheBytes;
   return plan;
+}
+
+Result<std::optional<MemoryPlan>> planRunMemory(double budgetMiB, MemoryDemand demand,
+                                                bool report) {
+  const std::optional<MemoryLimit> limit = memoryLimitOf(budgetMiB);
+  if (!limit) return std::optional<MemoryPlan>();
+  demand.residentBytes = anonymousResidentBytes();
+  auto plan = planMemory(*limit, demand);
+  if (!plan) return std::move(plan).error();
+  if (report && plan->worthReporting()) {
+    std::fprintf(stderr, "pbdam: %s\n", plan->describe().c_str());
+  }
+  return std::optional<MemoryPlan>(std::move(*plan));
 }
 
 }  // namespace pbdam::tools

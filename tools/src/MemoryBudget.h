@@ -85,4 +85,11 @@ std::uint64_t frameBytes(std::uint32_t width, std::uint32_t height, std::uint32_
 /// its source and each of those figures.
 formats::Result<MemoryPlan> planMemory(const MemoryLimit& limit, const MemoryDemand& demand);
 
+/// A frame loop's plan, made once its dataset is open and its device made: memoryLimitOf
+/// (`budgetMiB`) shared by planMemory with the process's anonymous resident bytes now (the
+/// demand's residentBytes is set here); nullopt when there is no limit. With `report` it prints
+/// describe() on stderr when the plan is worth reporting. Errors as planMemory.
+formats::Result<std::optional<MemoryPlan>> planRunMemory(double budgetMiB, MemoryDemand demand,
+                                                         bool report);
+
 }  // namespace pbdam::tools

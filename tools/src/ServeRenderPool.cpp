@@ -2,7 +2,6 @@
 #include "ServeRenderPool.h"
 
 #include "MemoryBudget.h"
-#include "ProcessMemory.h"
 
 #include <algorithm>
 #include <exception>
@@ -52,21 +51,18 @@ Result<std::unique_ptr<RenderPool>> RenderPool::create(const MappedDataset& data
 
   gpu::GpuCacheOptions cacheOptions;
   cacheOptions.budgetBytes = options.gpuCacheBytes;
-  if (const std::optional<MemoryLimit> limit = memoryLimitOf(options.memoryBudgetMiB)) {
-    // Every context's frames in flight at the initial size; larger requests are answered from
-    // the same cache (drawn in passes when a cut does not fit).
-    MemoryDemand demand;
-    demand.widthPixels = options.initialWidthPixels;
-    demand.heightPixels = options.initialHeightPixels;
-    demand.framesInFlight = options.workers * options.framesInFlight;
-    demand.gpuCacheBytes = options.gpuCacheBytes;
-    demand.cacheInHostMemory = pool->context_->deviceInfo().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
-    demand.residentBytes = anonymousResidentBytes();
-    auto plan = planMemory(*limit, demand);
-    if (!plan) return std::move(plan).error();
-    if (plan->worthReporting()) std::fprintf(stderr, "pbdam: %s\n", plan->describe().c_str());
-    cacheOptions.budgetBytes = plan->gpuCacheBytes;
-  }
+  // Every context's frames in flight at the initial size; larger requests are answered from
+  // the same cache (drawn in passes when a cut does not fit).
+  MemoryDemand demand;
+  demand.widthPixels = options.initialWidthPixels;
+  demand.heightPixels = options.initialHeightPixels;
+  demand.framesInFlight = options.workers * options.framesInFlight;
+  demand.gpuCacheBytes = options.gpuCacheBytes;
+  demand.cacheInHostMemory = pool->context_->deviceInfo().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
+  auto plan = planRunMemory(options.memoryBudgetMiB, demand, true);
+  if (!plan) return std::move(plan).error();
+  if (*plan) cacheOptions.budgetBytes = (*plan)->gpuCacheBytes;
+
   auto cache = gpu::GpuCache::create(*pool->context_, dataset.view(), cacheOptions);
   if (!cache) {
     Error error = std::move(cache).error();
