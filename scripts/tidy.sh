@@ -1,10 +1,14 @@
 #!/usr/bin/env bash
 # Static analysis: clang-tidy with the root .clang-tidy over every translation unit of the
-# project in a build's compile_commands.json (formats runtime streaming gpu tools bench tests;
-# nothing generated under build/, nothing third-party), one clang-tidy per core. Any finding
+# project in a build's compile_commands.json (formats runtime streaming gpu tools bench tests,
+# and the unity batches CMake writes under build/ for the command line, each of which includes
+# its sources; nothing else generated, nothing third-party), one clang-tidy per core. Any finding
 # fails (.clang-tidy sets WarningsAsErrors '*'); only the failing files' output is printed.
+# A batch is checked once for all its sources: the heavy headers they share (CLI11,
+# nlohmann-json) are analysed once instead of six times.
 #   scripts/tidy.sh                      every project translation unit of build/release
-#   scripts/tidy.sh BUILD_DIR [REGEX]    another build, or only the files whose path matches
+#   scripts/tidy.sh BUILD_DIR [REGEX]    another build, or only the units whose path (or, for a
+#                                        batch, one of whose sources' paths) matches
 # A clean result is cached per translation unit in $PBDAM_TIDY_CACHE (default
 # ~/.cache/pbdam/tidy), keyed by what clang-tidy's verdict depends on: the translation unit as
 # clang preprocesses it with its compile command, comments kept (so NOLINT counts), every
@@ -30,10 +34,17 @@ if [ -z "$tidy" ]; then
 fi
 
 # CMake writes one '"file": "/abs/path",' line per compile command; a file built into two
-# targets appears twice and is checked once.
+# targets appears twice and is checked once. A unity batch is selected by its sources' paths.
+unity="$root/build/[^/]+/tools/CMakeFiles/pbdam\.dir/Unity/unity_[0-9]+_cxx\.cxx"
 mapfile -t files < <(sed -n 's/^ *"file": "\(.*\)",\{0,1\}$/\1/p' "$db" |
-  grep -E "^$root/(formats|runtime|streaming|gpu|tools|bench|tests)/" |
-  grep -E -e "${only:-.}" | sort -u)
+  grep -E "^($root/(formats|runtime|streaming|gpu|tools|bench|tests)/|$unity\$)" | sort -u |
+  while read -r file; do
+    if [[ $file =~ ^$unity$ ]]; then
+      sed -n 's/^#include "\(.*\)"$/\1/p' "$file" | grep -q -E -e "${only:-.}" && echo "$file"
+    else
+      grep -q -E -e "${only:-.}" <<< "$file" && echo "$file"
+    fi
+  done)
 if [ ${#files[@]} -eq 0 ]; then
   echo "tidy: no project translation units in $db${only:+ matching '$only'}" >&2
   exit 2
