@@ -69,24 +69,27 @@ TEST(MemoryBudget, ABudgetIsSharedAndTooSmallOneIsRefusedNamingWhatItNeeds) {
   ASSERT_TRUE(plan.ok()) << plan.error().message;
   EXPECT_EQ(plan->gpuCacheBytes, demand.gpuCacheBytes);
   EXPECT_FALSE(plan->cacheLowered);
-  EXPECT_EQ(plan->residentBytes + plan->frameBytes + plan->gpuCacheBytes + plan->pageRoomBytes,
+  EXPECT_EQ(plan->poolBytes, 2 * plan->gpuCacheBytes);
+  EXPECT_EQ(plan->residentBytes + plan->frameBytes + plan->poolBytes + plan->pageRoomBytes,
             big.bytes);
 
-  const MemoryLimit tight{std::uint64_t{210} << 20, "cgroup v1 memory.limit_in_bytes of /x"};
+  const MemoryLimit tight{std::uint64_t{240} << 20, "cgroup v1 memory.limit_in_bytes of /x"};
   plan = planMemory(tight, demand);
   ASSERT_TRUE(plan.ok()) << plan.error().message;
   EXPECT_TRUE(plan->cacheLowered);
   EXPECT_GE(plan->gpuCacheBytes, kMinGpuCacheBytes);
   EXPECT_GE(plan->pageRoomBytes, kMinPageRoomBytes);
-  EXPECT_EQ(plan->residentBytes + plan->frameBytes + plan->gpuCacheBytes + plan->pageRoomBytes,
+  EXPECT_EQ(plan->residentBytes + plan->frameBytes + plan->poolBytes + plan->pageRoomBytes,
             tight.bytes);
-  EXPECT_NE(plan->describe().find("210 MiB (cgroup v1"), std::string::npos) << plan->describe();
+  EXPECT_NE(plan->describe().find("in pools of up to"), std::string::npos) << plan->describe();
+  EXPECT_NE(plan->describe().find("240 MiB (cgroup v1"), std::string::npos) << plan->describe();
 
   const MemoryLimit tiny{std::uint64_t{150} << 20, "--memory-budget-mib"};
   const auto refused = planMemory(tiny, demand);
   ASSERT_FALSE(refused.ok());
-  for (const char* part : {"150 MiB", "--memory-budget-mib", "100 MiB held at start (node tables",
-                           "2 frames of 1280x720", "16 MiB of GPU cache", "48 MiB"}) {
+  for (const char* part :
+       {"150 MiB", "--memory-budget-mib", "100 MiB held at start (node tables",
+        "2 frames of 1280x720", "32 MiB for the pools of a 16 MiB GPU cache", "48 MiB"}) {
     EXPECT_NE(refused.error().message.find(part), std::string::npos)
         << part << ": " << refused.error().message;
   }
@@ -97,6 +100,7 @@ TEST(MemoryBudget, ABudgetIsSharedAndTooSmallOneIsRefusedNamingWhatItNeeds) {
   plan = planMemory(small, demand);
   ASSERT_TRUE(plan.ok()) << plan.error().message;
   EXPECT_EQ(plan->gpuCacheBytes, demand.gpuCacheBytes);
+  EXPECT_EQ(plan->poolBytes, 0u);
 }
 
 }  // namespace

@@ -110,7 +110,8 @@ std::uint64_t frameBytes(std::uint32_t width, std::uint32_t height, std::uint32_
 std::string MemoryPlan::describe() const {
   return "memory budget " + mib(budgetBytes) + " (" + source + "): " + mib(residentBytes) +
          " held at start, " + mib(frameBytes) + " for the frames in flight, GPU cache " +
-         mib(gpuCacheBytes) + (cacheLowered ? " (lowered to fit)" : "") + ", " +
+         mib(gpuCacheBytes) + (cacheLowered ? " (lowered to fit)" : "") +
+         (poolBytes > gpuCacheBytes ? " in pools of up to " + mib(poolBytes) : "") + ", " +
          mib(pageRoomBytes) + " left for dataset pages";
 }
 
@@ -120,7 +121,11 @@ Result<MemoryPlan> planMemory(const MemoryLimit& limit, const MemoryDemand& dema
   plan.source = limit.source;
   plan.residentBytes = demand.residentBytes;
   plan.frameBytes = frameBytes(demand.widthPixels, demand.heightPixels, demand.framesInFlight);
-  const std::uint64_t cacheFloor = demand.cacheInHostMemory ? kMinGpuCacheBytes : 0;
+  // On a CPU device the cache's pools are host memory, and they can hold up to twice its
+  // budget: the patch pool and the texture pool each grow to the budget's worth of slots of
+  // their own kind (one LRU over both, pools that never shrink).
+  const std::uint64_t poolFactor = demand.cacheInHostMemory ? 2 : 0;
+  const std::uint64_t cacheFloor = kMinGpuCacheBytes * poolFactor;
   const std::uint64_t needed =
       plan.residentBytes + plan.frameBytes + cacheFloor + kMinPageRoomBytes;
   if (limit.bytes < needed) {
@@ -130,8 +135,10 @@ Result<MemoryPlan> planMemory(const MemoryLimit& limit, const MemoryDemand& dema
         " held at start (node tables, driver, heap), " + mib(plan.frameBytes) + " for " +
         std::to_string(demand.framesInFlight) + " frames of " + std::to_string(demand.widthPixels) +
         "x" + std::to_string(demand.heightPixels) +
-        (demand.cacheInHostMemory ? ", " + mib(cacheFloor) + " of GPU cache" : "") + " and " +
-        mib(kMinPageRoomBytes) + " for dataset pages");
+        (demand.cacheInHostMemory ? ", " + mib(cacheFloor) + " for the pools of a " +
+                                        mib(kMinGpuCacheBytes) + " GPU cache"
+                                  : "") +
+        " and " + mib(kMinPageRoomBytes) + " for dataset pages");
   }
   const std::uint64_t spare = limit.bytes - plan.residentBytes - plan.frameBytes;
   if (!demand.cacheInHostMemory) {
@@ -139,11 +146,11 @@ Result<MemoryPlan> planMemory(const MemoryLimit& limit, const MemoryDemand& dema
     plan.pageRoomBytes = spare;
     return plan;
   }
-  plan.pageRoomBytes = std::max(kMinPageRoomBytes, spare / 4);
-  const std::uint64_t cacheRoom = spare - plan.pageRoomBytes;
-  plan.gpuCacheBytes = std::min(demand.gpuCacheBytes, cacheRoom);
+  const std::uint64_t pageRoom = std::max(kMinPageRoomBytes, spare / 4);
+  plan.gpuCacheBytes = std::min(demand.gpuCacheBytes, (spare - pageRoom) / poolFactor);
   plan.cacheLowered = plan.gpuCacheBytes < demand.gpuCacheBytes;
-  plan.pageRoomBytes = spare - plan.gpuCacheBytes;
+  plan.poolBytes = plan.gpuCacheBytes * poolFactor;
+  plan.pageRoomBytes = spare - plan.poolBytes;
   return plan;
 }
 

@@ -60,6 +60,9 @@ struct MemoryPlan final {
   std::uint64_t residentBytes = 0;  ///< held already when the plan was made
   std::uint64_t frameBytes = 0;     ///< the frames in flight's targets and buffers
   std::uint64_t gpuCacheBytes = 0;  ///< the GPU cache's budget (lowered to fit on a CPU device)
+  /// Host memory set aside for the cache's pools on a CPU device: twice its budget (the patch
+  /// and the texture pool can each grow to the budget's worth of slots); 0 on other devices.
+  std::uint64_t poolBytes = 0;
   std::uint64_t pageRoomBytes = 0;  ///< left for the dataset's pages (the page cache)
   bool cacheLowered = false;        ///< the cache asked for did not fit
   /// One line: the budget, its source and its shares.
@@ -79,10 +82,11 @@ inline constexpr std::uint64_t kMinPageRoomBytes = std::uint64_t{48} << 20;
 std::uint64_t frameBytes(std::uint32_t width, std::uint32_t height, std::uint32_t framesInFlight);
 
 /// Shares `limit` among the demand's parts: the page room gets a quarter of what is left after
-/// the process's resident bytes and the frames (at least kMinPageRoomBytes), the GPU cache the
-/// rest up to what was asked for. InvalidArgument when the budget cannot hold the resident
-/// bytes, the frames, kMinGpuCacheBytes and kMinPageRoomBytes: the message names the budget,
-/// its source and each of those figures.
+/// the process's resident bytes and the frames (at least kMinPageRoomBytes), the GPU cache's
+/// pools the rest (on a CPU device twice the cache's budget, which is at most what was asked
+/// for), and the page room whatever the cache leaves. InvalidArgument when the budget cannot
+/// hold the resident bytes, the frames, the pools of a kMinGpuCacheBytes cache and
+/// kMinPageRoomBytes: the message names the budget, its source and each of those figures.
 formats::Result<MemoryPlan> planMemory(const MemoryLimit& limit, const MemoryDemand& demand);
 
 /// A frame loop's plan, made once its dataset is open and its device made: memoryLimitOf
