@@ -2,12 +2,16 @@
 #include "pbdam/formats/DatasetFormat.h"
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cassert>
 #include <cstring>
+#include <limits>
+#include <mutex>
 
 #include "pbdam/formats/Checksum.h"
 #include "pbdam/formats/GuardedCopy.h"
+#include "pbdam/formats/MemoryMapping.h"
 
 namespace pbdam::formats {
 namespace {
@@ -48,8 +52,9 @@ class Reader {
   std::size_t at_ = 0;
 };
 
-/// Where the heap index lies in a record of each table.
+/// Where the heap index and the flags lie in a record of each table.
 constexpr std::size_t kNodeHeapField = 176;
+constexpr std::size_t kNodeFlagsField = 172;
 constexpr std::size_t kTextureHeapField = 16;
 
 /// A table copied out of a face file, as far as finding a record by heap index goes.
@@ -259,7 +264,115 @@ TextureRecord decodeTextureRecord(std::span<const std::byte, kTextureRecordBytes
   return t;
 }
 
-Result<FaceView> FaceView::open(std::span<const std::byte> file, std::string context) {
+/// The cache of a paged node table: chunks of kNodeTableChunkRows records, each checked on
+/// every read from the file against the CRC-32 it had at open, in shards (chunk % kShards) of
+/// slots with a lock and a clock hand each, so that threads refining at once rarely wait on
+/// each other.
+struct FaceView::NodePages {
+  static constexpr std::size_t kShards = 8;
+  static constexpr std::size_t kChunkBytes = kNodeTableChunkRows * kNodeRecordBytes;
+  static constexpr std::uint32_t kNoSlot = std::numeric_limits<std::uint32_t>::max();
+  static constexpr std::uint64_t kNoChunk = std::numeric_limits<std::uint64_t>::max();
+
+  struct Shard {
+    std::mutex mutex;
+    std::vector<std::byte> slots;      ///< slot s: bytes [s·kChunkBytes, (s+1)·kChunkBytes)
+    std::vector<std::uint64_t> chunk;  ///< per slot: the chunk it holds (or kNoChunk)
+    std::vector<std::uint8_t> used;    ///< per slot: read since the hand last passed (clock)
+    std::size_t filled = 0;
+    std::size_t hand = 0;
+  };
+
+  std::span<const std::byte> file;
+  std::uint64_t tableOffset = 0;
+  std::uint64_t rows = 0;
+  std::string context;
+  std::vector<std::uint32_t> crc;        ///< per chunk, at open
+  std::vector<std::uint64_t> firstHeap;  ///< per chunk: its first record's heap index
+  std::vector<std::uint32_t> slotOf;     ///< per chunk: its slot in shard chunk % kShards
+  std::array<Shard, kShards> shards;
+  std::atomic<std::uint64_t> reads{0};
+  std::atomic<bool> damaged{false};
+  mutable std::mutex damageMutex;
+  std::optional<Error> damage;
+
+  NodePages(std::span<const std::byte> f, std::uint64_t offset, std::uint64_t rowCount,
+            std::string name, std::uint64_t cacheBytes)
+      : file(f), tableOffset(offset), rows(rowCount), context(std::move(name)) {
+    const std::uint64_t chunks = (rows + kNodeTableChunkRows - 1) / kNodeTableChunkRows;
+    crc.resize(chunks);
+    firstHeap.resize(chunks);
+    slotOf.assign(chunks, kNoSlot);
+    // One slot a shard at least (the trees' check at open then reads some chunks twice: it
+    // walks a node and its children further on at once).
+    const std::uint64_t perShard = std::max<std::uint64_t>(1, cacheBytes / kChunkBytes / kShards);
+    for (Shard& shard : shards) {
+      shard.slots.resize(perShard * kChunkBytes);
+      shard.chunk.assign(perShard, kNoChunk);
+      shard.used.assign(perShard, 0);
+    }
+  }
+
+  std::uint64_t chunkRows(std::uint64_t c) const noexcept {
+    return std::min(kNodeTableChunkRows, rows - c * kNodeTableChunkRows);
+  }
+
+  void recordDamage(Error error) {
+    const std::lock_guard<std::mutex> lock(damageMutex);
+    if (!damage) damage = std::move(error);
+    damaged.store(true, std::memory_order_release);
+  }
+
+  /// Calls use(bytes of chunk c) with chunk c in its shard (read from the file if it is not),
+  /// under the shard's lock. False, without calling it, when the chunk cannot be read back as
+  /// it was at open (the damage is recorded).
+  template <typename Use>
+  bool with(std::uint64_t c, Use&& use) {
+    Shard& shard = shards[c % kShards];
+    const std::lock_guard<std::mutex> lock(shard.mutex);
+    std::uint32_t slot = slotOf[c];
+    if (slot == kNoSlot) {
+      const std::size_t count = shard.chunk.size();
+      if (shard.filled < count) {
+        slot = static_cast<std::uint32_t>(shard.filled++);
+      } else {
+        while (shard.used[shard.hand] != 0) {
+          shard.used[shard.hand] = 0;
+          shard.hand = (shard.hand + 1) % count;
+        }
+        slot = static_cast<std::uint32_t>(shard.hand);
+        shard.hand = (shard.hand + 1) % count;
+        if (shard.chunk[slot] != kNoChunk) slotOf[shard.chunk[slot]] = kNoSlot;
+        shard.chunk[slot] = kNoChunk;
+      }
+      const std::span<std::byte> bytes =
+          std::span(shard.slots).subspan(slot * kChunkBytes).first(chunkRows(c) * kNodeRecordBytes);
+      const std::uint64_t offset = tableOffset + c * kChunkBytes;
+      reads.fetch_add(1, std::memory_order_relaxed);
+      if (auto r = readMapped(file, offset, bytes, context); !r) {
+        recordDamage(std::move(r).error());
+        return false;
+      }
+      if (crc32(bytes) != crc[c]) {
+        recordDamage(corrupt(context, offset,
+                             "node table rows " + std::to_string(c * kNodeTableChunkRows) + ".." +
+                                 std::to_string(c * kNodeTableChunkRows + chunkRows(c) - 1) +
+                                 " changed after the file was opened (checksum mismatch)"));
+        return false;
+      }
+      shard.chunk[slot] = c;
+      slotOf[c] = slot;
+    }
+    shard.used[slot] = 1;
+    use(std::span<const std::byte>(shard.slots)
+            .subspan(slot * kChunkBytes)
+            .first(chunkRows(c) * kNodeRecordBytes));
+    return true;
+  }
+};
+
+Result<FaceView> FaceView::open(std::span<const std::byte> file, std::string context,
+                                const FaceViewOptions& options) {
   // The header and both tables are copied out (guarded: a truncated or unreadable file is an
   // error here, not a SIGBUS) and checked against their CRCs once; records are decoded from
   // these copies from then on, so bytes rewritten in the file later are never drawn.
@@ -275,13 +388,7 @@ Result<FaceView> FaceView::open(std::span<const std::byte> file, std::string con
   view.file_ = file;
   view.context_ = std::move(context);
   const FaceHeader& h = view.header_;
-  view.nodeTable_.resize(h.nodeCount * kNodeRecordBytes);
-  if (auto r = readMapped(file, h.nodeTableOffset, view.nodeTable_, view.context_); !r) {
-    return std::move(r).error();
-  }
-  if (crc32(view.nodeTable_) != h.nodeTableCrc) {
-    return corrupt(view.context_, h.nodeTableOffset, "node table checksum mismatch");
-  }
+  if (auto r = view.readNodeTable(options); !r) return std::move(r).error();
   view.textureTable_.resize(h.textureNodeCount * kTextureRecordBytes);
   if (auto r = readMapped(file, h.textureTableOffset, view.textureTable_, view.context_); !r) {
     return std::move(r).error();
@@ -291,13 +398,104 @@ Result<FaceView> FaceView::open(std::span<const std::byte> file, std::string con
   }
   if (auto r = view.checkNodes(); !r) return std::move(r).error();
   if (auto r = view.checkTextures(); !r) return std::move(r).error();
+  // Checking the trees read a paged table back once more: nothing may have changed meanwhile.
+  if (auto damage = view.damage()) return std::move(*damage);
   return view;
 }
 
+Result<void> FaceView::readNodeTable(const FaceViewOptions& options) {
+  const FaceHeader& h = header_;
+  const std::uint64_t tableBytes = h.nodeCount * kNodeRecordBytes;
+  const std::uint64_t words = (h.nodeCount + 63) / 64;
+  innerBits_.assign(words, 0);
+  innerBefore_.assign(words + 1, 0);
+  const auto noteRows = [&](std::uint64_t firstRow, std::span<const std::byte> records) {
+    for (std::uint64_t i = 0; i < records.size() / kNodeRecordBytes; ++i) {
+      std::uint32_t flags = 0;
+      std::memcpy(&flags, records.data() + i * kNodeRecordBytes + kNodeFlagsField, sizeof(flags));
+      const std::uint64_t row = firstRow + i;
+      if ((flags & kRecordLeaf) == 0) innerBits_[row / 64] |= std::uint64_t{1} << (row % 64);
+    }
+  };
+  const auto countInner = [&] {
+    for (std::uint64_t w = 0; w < words; ++w) {
+      innerBefore_[w + 1] =
+          innerBefore_[w] + static_cast<std::uint64_t>(std::popcount(innerBits_[w]));
+    }
+  };
+  if (options.nodeCacheBytes == 0 || tableBytes <= options.nodeCacheBytes) {
+    nodeTable_.resize(tableBytes);
+    if (auto r = readMapped(file_, h.nodeTableOffset, nodeTable_, context_); !r) {
+      return std::move(r).error();
+    }
+    if (crc32(nodeTable_) != h.nodeTableCrc) {
+      return corrupt(context_, h.nodeTableOffset, "node table checksum mismatch");
+    }
+    noteRows(0, nodeTable_);
+    countInner();
+    return {};
+  }
+  // Paged: one pass over the table for its CRC, each chunk's CRC, each chunk's first heap index
+  // and the rows' leaf flags; the records are read again when they are used.
+  pages_ = std::make_shared<NodePages>(file_, h.nodeTableOffset, h.nodeCount, context_,
+                                       options.nodeCacheBytes);
+  NodePages& pages = *pages_;
+  std::vector<std::byte> chunk(NodePages::kChunkBytes);
+  std::uint32_t tableCrc = 0;
+  for (std::uint64_t c = 0; c < pages.crc.size(); ++c) {
+    const std::span<std::byte> bytes =
+        std::span(chunk).first(pages.chunkRows(c) * kNodeRecordBytes);
+    const std::uint64_t offset = h.nodeTableOffset + c * NodePages::kChunkBytes;
+    if (auto r = readMapped(file_, offset, bytes, context_); !r) return std::move(r).error();
+    tableCrc = crc32(bytes, tableCrc);
+    pages.crc[c] = crc32(bytes);
+    std::memcpy(&pages.firstHeap[c], bytes.data() + kNodeHeapField, sizeof(std::uint64_t));
+    noteRows(c * kNodeTableChunkRows, bytes);
+  }
+  if (tableCrc != h.nodeTableCrc) {
+    return corrupt(context_, h.nodeTableOffset, "node table checksum mismatch");
+  }
+  countInner();
+  return {};
+}
+
 NodeRecord FaceView::nodeAt(std::uint64_t tableIndex) const noexcept {
-  return decodeNodeRecord(std::span<const std::byte>(nodeTable_)
-                              .subspan(tableIndex * kNodeRecordBytes)
-                              .first<kNodeRecordBytes>());
+  if (!pages_) {
+    return decodeNodeRecord(std::span<const std::byte>(nodeTable_)
+                                .subspan(tableIndex * kNodeRecordBytes)
+                                .first<kNodeRecordBytes>());
+  }
+  NodeRecord record;
+  const std::uint64_t c = tableIndex / kNodeTableChunkRows;
+  const std::uint64_t row = tableIndex % kNodeTableChunkRows;
+  const bool read = pages_->with(c, [&](std::span<const std::byte> bytes) {
+    record = decodeNodeRecord(bytes.subspan(row * kNodeRecordBytes).first<kNodeRecordBytes>());
+  });
+  // An unreadable chunk: an empty leaf (nothing drawn below it); damage() says why.
+  if (!read) record.flags = kRecordLeaf;
+  return record;
+}
+
+bool FaceView::nodeRecordResident(std::uint64_t tableIndex) const noexcept {
+  if (!pages_) return true;
+  const std::uint64_t c = tableIndex / kNodeTableChunkRows;
+  {
+    NodePages::Shard& shard = pages_->shards[c % NodePages::kShards];
+    const std::lock_guard<std::mutex> lock(shard.mutex);
+    if (pages_->slotOf[c] != NodePages::kNoSlot) return true;
+  }
+  return pagesResident(file_.subspan(header_.nodeTableOffset + c * NodePages::kChunkBytes,
+                                     pages_->chunkRows(c) * kNodeRecordBytes));
+}
+
+std::uint64_t FaceView::nodeChunkReads() const noexcept {
+  return pages_ ? pages_->reads.load(std::memory_order_relaxed) : 0;
+}
+
+std::optional<Error> FaceView::damage() const {
+  if (!pages_ || !pages_->damaged.load(std::memory_order_acquire)) return std::nullopt;
+  const std::lock_guard<std::mutex> lock(pages_->damageMutex);
+  return pages_->damage;
 }
 
 Result<void> FaceView::checkNodes() {
@@ -305,7 +503,6 @@ Result<void> FaceView::checkNodes() {
   // of every inner node in the order of their parents (2k+1 and 2k+2 grow with k). One walk
   // checks that shape and records where each inner node's children are.
   const FaceHeader& h = header_;
-  firstChild_.assign(h.nodeCount, 0);
   for (std::uint32_t tree = 0; tree < 2; ++tree) {
     const std::uint64_t first = treeFirstNode(tree);
     const std::uint64_t end = tree == 0 ? h.tree1FirstNode : h.nodeCount;
@@ -334,7 +531,7 @@ Result<void> FaceView::checkNodes() {
           nodeAt(next + 1).heapIndex != 2 * n.heapIndex + 2) {
         return where("its children are missing or out of order");
       }
-      firstChild_[k] = next;
+      assert(firstChildOf(k) == next);
       next += 2;
     }
     if (next != end) {
@@ -391,8 +588,47 @@ bool FaceView::completeForest() const noexcept {
 
 std::optional<std::uint64_t> FaceView::findNode(std::uint32_t tree,
                                                 std::uint64_t heapIndex) const noexcept {
-  return findHeapIndex({nodeTable_, kNodeRecordBytes, kNodeHeapField}, treeFirstNode(tree),
-                       tree == 0 ? header_.tree1FirstNode : header_.nodeCount, heapIndex);
+  std::uint64_t lo = treeFirstNode(tree);
+  std::uint64_t hi = tree == 0 ? header_.tree1FirstNode : header_.nodeCount;
+  if (!pages_)
+    return findHeapIndex({nodeTable_, kNodeRecordBytes, kNodeHeapField}, lo, hi, heapIndex);
+  // Paged: the chunks' first heap indices (held) narrow the search to one chunk, searched in
+  // the cache. Chunk c starts at row 64c; those starting inside [lo, hi) are ascending.
+  const std::uint64_t rows = kNodeTableChunkRows;
+  const std::uint64_t cLo = (lo + rows - 1) / rows;
+  const std::uint64_t cHi = (hi + rows - 1) / rows;  // chunks starting before hi
+  const auto begin = pages_->firstHeap.begin();
+  const auto after = std::upper_bound(begin + static_cast<std::ptrdiff_t>(cLo),
+                                      begin + static_cast<std::ptrdiff_t>(cHi), heapIndex);
+  if (after != begin + static_cast<std::ptrdiff_t>(cLo)) {
+    const auto c = static_cast<std::uint64_t>(after - begin) - 1;
+    lo = std::max(lo, c * rows);
+    hi = std::min(hi, (c + 1) * rows);
+  } else {
+    hi = std::min(hi, cLo * rows);
+  }
+  if (lo >= hi) return std::nullopt;
+  const std::uint64_t c = lo / rows;
+  std::optional<std::uint64_t> found;
+  pages_->with(c, [&](std::span<const std::byte> bytes) {
+    const HeapIndexedTable table{bytes, kNodeRecordBytes, kNodeHeapField};
+    std::uint64_t a = lo - c * rows;
+    std::uint64_t b = hi - c * rows;
+    while (a < b) {
+      const std::uint64_t mid = a + (b - a) / 2;
+      const std::uint64_t at = table.heapAt(mid);
+      if (at == heapIndex) {
+        found = c * rows + mid;
+        return;
+      }
+      if (at < heapIndex) {
+        a = mid + 1;
+      } else {
+        b = mid;
+      }
+    }
+  });
+  return found;
 }
 
 NodeRecord FaceView::node(std::uint32_t tree, std::uint64_t heapIndex) const noexcept {

@@ -8,6 +8,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
 #include <cassert>
 #include <cerrno>
 #include <cstring>
@@ -235,6 +237,26 @@ void dropMappedPages(const void* data, std::size_t bytes) noexcept {
   const auto last = reinterpret_cast<std::uintptr_t>(data) + bytes;
   // NOLINTNEXTLINE(performance-no-int-to-ptr): the mapping's own pages
   (void)::madvise(reinterpret_cast<void*>(first), last - first, MADV_DONTNEED);
+}
+
+bool pagesResident(std::span<const std::byte> bytes) noexcept {
+  if (bytes.empty()) return true;
+  const std::size_t page = MemoryMapping::pageSize();
+  const auto address = reinterpret_cast<std::uintptr_t>(bytes.data());  // NOLINT: page arithmetic
+  const std::uintptr_t first = address / page * page;
+  const std::size_t length = address + bytes.size() - first;
+  std::array<unsigned char, 64> small{};
+  std::vector<unsigned char> large;
+  const std::size_t pages = (length + page - 1) / page;
+  unsigned char* vec = small.data();
+  if (pages > small.size()) {
+    large.resize(pages);
+    vec = large.data();
+  }
+  // NOLINTNEXTLINE(performance-no-int-to-ptr): mincore takes the page's address
+  void* start = reinterpret_cast<void*>(first);
+  if (::mincore(start, length, vec) != 0) return false;
+  return std::all_of(vec, vec + pages, [](unsigned char v) { return (v & 1U) != 0; });
 }
 
 }  // namespace pbdam::formats

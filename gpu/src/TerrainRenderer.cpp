@@ -681,6 +681,9 @@ Result<void> TerrainRenderer::submit(const Cut& cut, const Camera& camera,
                                      const FrameSettings& settings, bool readback,
                                      const PresentTarget* present) {
   Impl& m = *impl_;
+  // A paged node table that no longer reads back as it did (DatasetView::damage) may have
+  // given the cut empty leaves: no frame is drawn from it.
+  if (auto damage = m.dataset->damage()) return std::move(*damage);
   const auto frameStart = Clock::now();
   auto taken = m.freeSlot();
   if (!taken) return std::move(taken).error();
@@ -766,6 +769,7 @@ Result<RenderedFrame> TerrainRenderer::Impl::collectOldest() {
     image = std::move(*pixels);
   }
   stats.frameMs = millisecondsSince(slot.start);
+  if (auto damage = dataset->damage()) return std::move(*damage);
   // The latest frame, read back and drawn from its slot's commands: redrawLast() may repeat it.
   if (pendingOrder.empty() && slot.readback && (index + 1) % slots.size() == nextSlot) {
     lastFrame = stats;

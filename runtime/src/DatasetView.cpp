@@ -17,7 +17,8 @@ Error mismatch(const std::string& context, const std::string& what) {
 
 Result<DatasetView> DatasetView::open(const Manifest& manifest,
                                       const std::array<std::span<const std::byte>, 6>& faceBytes,
-                                      const std::string& directory) {
+                                      const std::string& directory,
+                                      const FaceViewOptions& faceOptions) {
   auto planet = Planet::fromSpec(manifest.planetSpec);
   if (!planet) {
     return makeError(ErrorCode::CorruptData,
@@ -42,7 +43,7 @@ Result<DatasetView> DatasetView::open(const Manifest& manifest,
                            std::to_string(faceBytes[fi].size()) + " bytes, manifest.json says " +
                            std::to_string(manifest.faces[fi].bytes) + ")");
     }
-    auto face = FaceView::open(faceBytes[fi], context);
+    auto face = FaceView::open(faceBytes[fi], context, faceOptions);
     if (!face) return std::move(face).error();
     const FaceHeader& h = face->header();
     if (h.face != fi) return mismatch(context, "face index");
@@ -64,6 +65,7 @@ Result<DatasetView> DatasetView::open(const Manifest& manifest,
       double& e = view.textureErrorOfLevel_[textureLevelOfHeap(r.heapIndex)];
       e = std::max(e, static_cast<double>(r.errorMeters));
     }
+    if (auto damage = face->damage()) return std::move(*damage);
     view.faces_[fi] = std::move(face).value();
   }
   const auto depth = static_cast<int>(manifest.depth);
@@ -78,6 +80,19 @@ Result<DatasetView> DatasetView::open(const Manifest& manifest,
     view.textureTerm_[static_cast<std::size_t>(level)] = term;
   }
   return view;
+}
+
+std::optional<formats::Error> DatasetView::damage() const {
+  for (const FaceView& face : faces_) {
+    if (auto damage = face.damage()) return damage;
+  }
+  return std::nullopt;
+}
+
+std::uint64_t DatasetView::nodeChunkReads() const noexcept {
+  std::uint64_t reads = 0;
+  for (const FaceView& face : faces_) reads += face.nodeChunkReads();
+  return reads;
 }
 
 std::uint32_t DatasetView::textureLevelOf(int level) const noexcept {

@@ -35,12 +35,20 @@ class Refiner {
     const double error =
         refinementErrorMeters(dataset_, level, static_cast<double>(node.errorMeters));
     const double screen = camera_.screenError(error, centre, radius);
-    if (screen > options_.tolerancePixels && level < maxLevel_ && !node.leaf()) {
-      const std::uint64_t first = face.firstChildOf(row);
+    const bool descend = screen > options_.tolerancePixels && level < maxLevel_ && !node.leaf();
+    const std::uint64_t first = descend ? face.firstChildOf(row) : 0;
+    if (descend && options_.residentRecordsOnly &&
+        !(face.nodeRecordResident(first) && face.nodeRecordResident(first + 1))) {
+      if (cut_.unresidentRecordLevel < 0 || level + 1 < cut_.unresidentRecordLevel) {
+        cut_.unresidentRecordLevel = level + 1;
+      }
+    } else if (descend) {
       visit(NodeKey{key.face, key.tree, 2 * key.heap + 1}, first, level + 1, {screen, up[0]});
       visit(NodeKey{key.face, key.tree, 2 * key.heap + 2}, first + 1, level + 1, {screen, up[0]});
       return;
     }
+    // A leaf of the cut (or, with resident records only, a node whose children cannot be read
+    // yet: the caller lowers its level cap and refines again).
     CutPatch patch;
     patch.node = key;
     patch.level = level;

@@ -6,7 +6,8 @@ using namespace pbdam::runtime;
 
 namespace pbdam::streaming {
 
-Result<std::unique_ptr<MappedDataset>> MappedDataset::open(const std::filesystem::path& directory) {
+Result<std::unique_ptr<MappedDataset>> MappedDataset::open(const std::filesystem::path& directory,
+                                                           const FaceViewOptions& faceOptions) {
   std::error_code ec;
   if (!std::filesystem::is_directory(directory, ec)) {
     return makeError(ErrorCode::NotFound, directory.string() + ": not a dataset directory");
@@ -25,7 +26,7 @@ Result<std::unique_ptr<MappedDataset>> MappedDataset::open(const std::filesystem
     bytes[f] = file->bytes();
     dataset->files_[f] = std::move(file).value();
   }
-  auto view = DatasetView::open(*manifest, bytes, directory.string());
+  auto view = DatasetView::open(*manifest, bytes, directory.string(), faceOptions);
   if (!view) return std::move(view).error();
   dataset->view_ = std::move(view).value();
   return dataset;

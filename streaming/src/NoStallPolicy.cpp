@@ -19,10 +19,13 @@ bool NoStallPolicy::rangeResident(const MappedFile& file, std::uint64_t offset,
 NoStallCut NoStallPolicy::cut(const Camera& camera, RefinementOptions options) const {
   const DatasetView& view = dataset_->view();
   int level = options.maxLevel < 0 ? view.depth() : std::min(options.maxLevel, view.depth());
+  // Node records too must be at hand: a paged node table's chunk that would be read from disk
+  // caps the level like a patch that is not resident (its children stay out of the cut).
+  options.residentRecordsOnly = true;
   for (;;) {
     options.maxLevel = level;
     Cut cut = refine(view, camera, options);
-    int worst = level + 1;
+    int worst = cut.unresidentRecordLevel < 0 ? level + 1 : cut.unresidentRecordLevel;
     for (const CutPatch& p : cut.patches) {
       const NodeRecord n = view.node(p.node);
       if (!rangeResident(dataset_->faceFile(p.node.face), n.blobOffset, n.blobsBytes())) {
@@ -69,7 +72,14 @@ std::vector<Error> NoStallPolicy::preloadCoarseLevels() const {
   for (int f = 0; f < 6; ++f) {
     const MappedFile& file = dataset_->faceFile(f);
     const FaceHeader& h = view.face(f).header();
-    touch(file, 0, h.blobsOffset);
+    if (view.face(f).nodeTablePaged()) {
+      // A paged node table is read back chunk by chunk as refinement needs it (it may be far
+      // larger than memory): the header and the texture table only.
+      touch(file, 0, h.nodeTableOffset);
+      touch(file, h.textureTableOffset, h.blobsOffset - h.textureTableOffset);
+    } else {
+      touch(file, 0, h.blobsOffset);
+    }
     for (std::uint8_t tree = 0; tree < 2; ++tree) {
       for (std::uint64_t heap = 0; heap < 7; ++heap) {
         const auto row = view.face(f).findNode(tree, heap);

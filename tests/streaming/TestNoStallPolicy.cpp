@@ -3,6 +3,7 @@
 // level-capped cut whose every patch and tile is resident — one level finer is not — and once
 // the full cut's bytes are read in, nothing is capped.
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 
 #include <filesystem>
 #include <memory>
@@ -144,6 +145,46 @@ TEST_F(NoStallPolicyTest, TheCapDoesNotWaitForLevelsTheLoaderDoesNotFetch) {
   EXPECT_EQ(policy.cutAfter(camera, options, 1).levelCap, 3);
   // At the top, nothing changes.
   EXPECT_EQ(policy.cutAfter(camera, options, view.depth()).levelCap, view.depth());
+}
+
+// With node tables paged through a small cache and their pages out of the page cache, the
+// records the cut would descend into cap it too: the render thread's cut reads no record from
+// disk (no major fault on its thread), and once the loader has read them the cap rises.
+TEST(NoStallPolicyPaged, RecordsNotAtHandCapTheLevelWithoutADiskRead) {
+  PBDAM_REQUIRE_DATASET(shared, "mola");
+  test::TempDir temp;
+  const std::filesystem::path dir = test::privateCopy(shared, temp);
+  FaceViewOptions paged;
+  paged.nodeCacheBytes = 1;  // one chunk a shard
+  auto opened = MappedDataset::open(dir, paged);
+  ASSERT_TRUE(opened.ok()) << opened.error().message;
+  const MappedDataset& dataset = **opened;
+  const DatasetView& view = dataset.view();
+  ASSERT_TRUE(view.face(0).nodeTablePaged());
+  for (int f = 0; f < 6; ++f) ASSERT_TRUE(dataset.faceFile(f).releaseResident().ok());
+  ASSERT_TRUE(evictDataset(dir).ok());
+  const NoStallPolicy policy(dataset);
+  EXPECT_TRUE(policy.preloadCoarseLevels().empty());
+  const Camera camera =
+      Camera::fromPose(view.planet(), {18.65, 226.2, 400e3, 0.0, -40.0, 0.0}, {320, 240, 60.0});
+  const RefinementOptions options;
+
+  rusage before{};
+  ASSERT_EQ(::getrusage(RUSAGE_THREAD, &before), 0);
+  const NoStallCut cold = policy.cut(camera, options);
+  rusage after{};
+  ASSERT_EQ(::getrusage(RUSAGE_THREAD, &after), 0);
+  EXPECT_EQ(after.ru_majflt, before.ru_majflt) << "the no-stall cut read from disk";
+  ASSERT_GE(cold.levelCap, 0);
+  EXPECT_LT(cold.levelCap, view.depth());
+  EXPECT_EQ(cold.cut.unresidentRecordLevel, -1);
+
+  // The loader's refinement reads the records (and its patches' bytes): nothing is capped.
+  const Cut full = refine(view, camera, options);
+  readIn(dataset, full);
+  const NoStallCut warm = policy.cut(camera, options);
+  EXPECT_EQ(warm.levelCap, view.depth());
+  EXPECT_EQ(warm.cut.patches.size(), full.patches.size());
 }
 
 }  // namespace

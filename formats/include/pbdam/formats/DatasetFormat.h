@@ -13,6 +13,7 @@
 #include <bit>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -117,11 +118,29 @@ struct PatchBlobs final {
   std::span<const std::byte> morph;  ///< empty when the node has none
 };
 
+/// How a FaceView holds its node table.
+struct FaceViewOptions final {
+  /// 0 (the default): the whole node table is copied out at open. Otherwise the most bytes of
+  /// node-table copies the view may hold: a larger table is paged — read back from the file a
+  /// chunk of kNodeTableChunkRows records at a time into a cache of this many bytes (at least
+  /// one chunk per shard), each chunk checked against the CRC-32 it had when the file opened.
+  std::uint64_t nodeCacheBytes = 0;
+};
+
+/// Records per chunk of a paged node table.
+inline constexpr std::uint64_t kNodeTableChunkRows = 64;
+
 /// A validated, read-only view of a whole face file held in memory or mapped. The header and
-/// both tables are copied out of the file when it opens (through guarded copies, GuardedCopy.h)
+/// both tables are read out of the file when it opens (through guarded copies, GuardedCopy.h)
 /// and checked against their CRC-32s; records are decoded from those copies, never from the
-/// file again. Blobs are copied out on each read (guarded too): a truncated or unreadable file
-/// is an error naming it and the offset, never a SIGBUS. Thread-safety: const members from any
+/// file again. A node table larger than FaceViewOptions::nodeCacheBytes is the exception: it is
+/// read whole once at open (its CRC, each chunk's CRC and the trees' shape checked), and
+/// later read back chunk by chunk into a bounded cache, each chunk checked against its CRC
+/// from open. Should a chunk no longer read back as it was (the file truncated or rewritten
+/// under the mapping, a disk error), nodeAt() returns an empty leaf (no patch) and damage()
+/// names the file, offset and cause from then on: frame loops check it and stop with that
+/// error. Blobs are copied out on each read (guarded too): a truncated or unreadable file is an
+/// error naming it and the offset, never a SIGBUS. Thread-safety: const members from any
 /// thread; the file's bytes must outlive the view.
 class FaceView final {
  public:
@@ -130,7 +149,8 @@ class FaceView final {
   /// leaf or followed in order by all its children, no level deeper than the header's), and that
   /// every node's and tile's blob lies inside the blob area. Errors are CorruptData naming
   /// `context` and the offset.
-  static Result<FaceView> open(std::span<const std::byte> file, std::string context);
+  static Result<FaceView> open(std::span<const std::byte> file, std::string context,
+                               const FaceViewOptions& options = {});
 
   const FaceHeader& header() const noexcept { return header_; }
   const std::string& context() const noexcept { return context_; }
@@ -148,8 +168,22 @@ class FaceView final {
   /// Table index of the first child of the node at `tableIndex` (the second follows it); the
   /// node must not be a leaf.
   std::uint64_t firstChildOf(std::uint64_t tableIndex) const noexcept {
-    return firstChild_[tableIndex];
+    // Children follow in the order of their parents (checked at open): the first child of the
+    // k-th inner node of a tree is the tree's row 1 + 2k.
+    const std::uint64_t first = tableIndex < header_.tree1FirstNode ? 0 : header_.tree1FirstNode;
+    return first + 1 + 2 * (innerRowsBefore(tableIndex) - innerRowsBefore(first));
   }
+  /// Whether nodeAt(tableIndex) can be answered without reading the disk: always for a table
+  /// held whole; for a paged one, when its chunk is cached or its pages are in the page cache
+  /// (mincore).
+  bool nodeRecordResident(std::uint64_t tableIndex) const noexcept;
+  /// Whether the node table is paged (FaceViewOptions::nodeCacheBytes) rather than held whole.
+  bool nodeTablePaged() const noexcept { return pages_ != nullptr; }
+  /// Chunks of a paged node table read from the file since open (0 when held whole).
+  std::uint64_t nodeChunkReads() const noexcept;
+  /// The first failure to read a chunk of a paged node table back as it was at open (the file
+  /// changed or became unreadable under the view); nullopt while there is none.
+  std::optional<Error> damage() const;
   /// Copies the patch blob of a node into `buffer` (resized to fit) and returns it (empty when
   /// the node has none). CorruptData naming the file and offset when the blob's bytes cannot be
   /// read (the file was truncated under its mapping, or its disk failed). The blob's own CRC is
@@ -175,14 +209,29 @@ class FaceView final {
  private:
   Result<std::span<const std::byte>> readBlob(std::uint64_t offset, std::uint64_t bytes,
                                               std::vector<std::byte>& buffer) const;
+  struct NodePages;
+  Result<void> readNodeTable(const FaceViewOptions& options);
   Result<void> checkNodes();
   Result<void> checkTextures();
+  /// Rows with children among rows [0, row).
+  std::uint64_t innerRowsBefore(std::uint64_t row) const noexcept {
+    const std::uint64_t word = row / 64;
+    const std::uint64_t below = (std::uint64_t{1} << (row % 64)) - 1;
+    return word < innerBits_.size()
+               ? innerBefore_[word] +
+                     static_cast<std::uint64_t>(std::popcount(innerBits_[word] & below))
+               : innerBefore_.back();
+  }
   FaceHeader header_;
   std::span<const std::byte> file_;
   std::string context_;
-  std::vector<std::byte> nodeTable_;       ///< copied and CRC-checked at open
-  std::vector<std::byte> textureTable_;    ///< copied and CRC-checked at open
-  std::vector<std::uint64_t> firstChild_;  ///< per node: table index of its first child (or 0)
+  std::vector<std::byte> nodeTable_;     ///< copied and CRC-checked at open (unless paged)
+  std::shared_ptr<NodePages> pages_;     ///< the paged node table's cache, shared by copies
+  std::vector<std::byte> textureTable_;  ///< copied and CRC-checked at open
+  /// Bit r % 64 of word r / 64: row r has children (from the records' leaf flags at open).
+  std::vector<std::uint64_t> innerBits_;
+  /// Rows with children before row 64·w, for w up to innerBits_.size() (one more entry).
+  std::vector<std::uint64_t> innerBefore_;
 };
 
 /// The level of texture heap index `heapIndex` (0 for the root, 1 for 1..4, …).

@@ -121,4 +121,8 @@ class MemoryMapping final {
 /// would be zeroed). Safe to call from any thread.
 void dropMappedPages(const void* data, std::size_t bytes) noexcept;
 
+/// Whether every page overlapping `bytes` (inside any mapping, file-backed or not) is resident
+/// (mincore): reading them needs no disk read. False when mincore fails.
+bool pagesResident(std::span<const std::byte> bytes) noexcept;
+
 }  // namespace pbdam::formats

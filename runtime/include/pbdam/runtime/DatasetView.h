@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -57,9 +58,16 @@ class DatasetView final {
   /// Validates the six faces against the manifest (lattice, depth, texture levels and sizes,
   /// file sizes). `faceBytes[f]` are the bytes of manifest.faces[f]; `directory` names the
   /// dataset in errors.
+  /// `faceOptions` say how each face holds its node table (FaceViewOptions: whole, or paged
+  /// through a cache of at most that many bytes per face).
   static formats::Result<DatasetView> open(
       const formats::Manifest& manifest, const std::array<std::span<const std::byte>, 6>& faceBytes,
-      const std::string& directory);
+      const std::string& directory, const formats::FaceViewOptions& faceOptions = {});
+  /// The first face's damage() (a paged node table that no longer reads back as it did at
+  /// open): frame loops check it after each frame and stop with it. nullopt while all is well.
+  std::optional<formats::Error> damage() const;
+  /// Node-table chunks read back from the files since open (paged tables only).
+  std::uint64_t nodeChunkReads() const noexcept;
 
   const formats::Manifest& manifest() const noexcept { return manifest_; }
   const Planet& planet() const noexcept { return planet_; }

@@ -42,6 +42,11 @@ struct RefinementOptions final {
   /// own from τ·(1 + m) on. 0 turns morphing off. At most the dataset's error margin, which
   /// keeps the windows of successive levels apart (checkMorphRange).
   double morphRange = 0.25;
+  /// Descend only into children whose node records can be read without a disk read
+  /// (FaceView::nodeRecordResident: always, unless the node tables are paged): no-stall
+  /// refinement on the render thread. Where a node's children are not, it stays in the cut and
+  /// Cut::unresidentRecordLevel says at which level records were missing.
+  bool residentRecordsOnly = false;
 };
 
 /// One patch of a cut.
@@ -66,6 +71,9 @@ struct Cut final {
   std::uint64_t vertices = 0;
   std::uint64_t nodesVisited = 0;
   std::uint64_t nodesCulled = 0;
+  /// With RefinementOptions::residentRecordsOnly, the shallowest level of children that were
+  /// not descended into because their records were not resident; −1 when none were.
+  int unresidentRecordLevel = -1;
 };
 
 /// The refinement criterion's error for a node of `level` whose saturated geometry error is

@@ -18,9 +18,10 @@ namespace pbdam::streaming {
 class MappedDataset final {
  public:
   /// Opens DIR: NotFound when DIR has no manifest.json (an incomplete or missing dataset),
-  /// CorruptData naming the file when a face does not match its manifest entry.
+  /// CorruptData naming the file when a face does not match its manifest entry. `faceOptions`:
+  /// node tables held whole (the default) or paged (DatasetView::open).
   static formats::Result<std::unique_ptr<MappedDataset>> open(
-      const std::filesystem::path& directory);
+      const std::filesystem::path& directory, const formats::FaceViewOptions& faceOptions = {});
 
   const runtime::DatasetView& view() const noexcept { return view_; }
   const MappedFile& faceFile(int face) const noexcept {
