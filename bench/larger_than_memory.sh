@@ -87,8 +87,8 @@ echo "large-data dataset: $large, $(($(du -sb "$large" | cut -f1) / 1048576)) MB
 path="$root/bench/paths/mars_flight.csv"
 
 : > "$out/table.md"
-echo "| dataset | cap | mode | prefetch | exit | fps | frame p99 ms | faults (after 1st) | data stalls | paged in MB/s | peak RSS MiB | cgroup peak MiB | OOM kills |" >> "$out/table.md"
-echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|" >> "$out/table.md"
+echo "| dataset | cap | mode | prefetch | exit | fps | frame p99 ms | faults (after 1st) | data stalls | frames below full depth | triangles / frame | paged in MB/s | prefetched: used / evicted before use | node chunk reads | peak RSS MiB | cgroup peak MiB | OOM kills |" >> "$out/table.md"
+echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|" >> "$out/table.md"
 
 fly() {  # fly NAME DATASET CAP_MIB|none MODE PREFETCH
   local name=$1 dataset=$2 capMib=$3 mode=$4 prefetch=$5 report="$out/$1" status=0 peak="-" kills="-"
@@ -110,17 +110,24 @@ fly() {  # fly NAME DATASET CAP_MIB|none MODE PREFETCH
     "$kills" "$out/table.md" <<'PY'
 import json, os, sys
 summary, name, cap, mode, prefetch, status, peak, kills, table = sys.argv[1:]
-row = {"fps": "-", "p99": "-", "faults": "-", "stalls": "-", "paged": "-", "rss": "-"}
+row = {k: "-" for k in ("fps", "p99", "faults", "stalls", "capped", "tris", "paged", "used",
+                        "chunks", "rss")}
 if os.path.exists(summary) and status == "0":
     r = json.load(open(summary))["runs"][0]
     seconds = r["frames"] / r["fps_mean"] if r["fps_mean"] else 0
     row = {"fps": f"{r['fps_mean']:.1f}", "p99": f"{r['frame_ms_p99']:.1f}",
            "faults": f"{r['render_thread_major_faults']} ({r['render_thread_major_faults_after_first_frame']})",
            "stalls": str(r["data_stalls"]),
+           "capped": f"{r['frames_below_full_depth']} of {r['frames']}",
+           "tris": f"{r['triangles_per_frame_mean']:,.0f}",
+           "used": (f"{r['prefetch_ranges_used']} / {r['prefetch_ranges_evicted_before_use']}"
+                    if prefetch == "on" else "-"),
+           "chunks": str(r["node_chunk_reads"]) if r["node_tables_paged"] else "whole",
            "paged": f"{r['bytes_paged_in'] / 1048576 / seconds:.1f}" if seconds else "-",
            "rss": f"{r['peak_rss_mib']:.0f}"}
 line = (f"| {name.split('-')[0]} | {cap} | {mode} | {prefetch} | "
-        f"{status} | {row['fps']} | {row['p99']} | {row['faults']} | {row['stalls']} | {row['paged']} | "
+        f"{status} | {row['fps']} | {row['p99']} | {row['faults']} | {row['stalls']} | "
+        f"{row['capped']} | {row['tris']} | {row['paged']} | {row['used']} | {row['chunks']} | "
         f"{row['rss']} | {peak} | {kills} |")
 print(f"{name}: " + line)
 open(table, "a").write(line + "\n")
@@ -131,6 +138,7 @@ for capMib in "$cap" none; do
   tag=$([ "$capMib" = none ] && echo uncapped || echo "cap${capMib}")
   fly "large-$tag-paging-off" "$large" "$capMib" paging off
   fly "large-$tag-paging-on" "$large" "$capMib" paging on
+  fly "large-$tag-nostall-off" "$large" "$capMib" no-stall off
   fly "large-$tag-nostall-on" "$large" "$capMib" no-stall on
 done
 if [ -n "${PAPER_DATASET:-}" ]; then
@@ -138,6 +146,7 @@ if [ -n "${PAPER_DATASET:-}" ]; then
     tag=$([ "$capMib" = none ] && echo uncapped || echo "cap${capMib}")
     fly "paper-$tag-paging-off" "$PAPER_DATASET" "$capMib" paging off
     fly "paper-$tag-paging-on" "$PAPER_DATASET" "$capMib" paging on
+    fly "paper-$tag-nostall-off" "$PAPER_DATASET" "$capMib" no-stall off
     fly "paper-$tag-nostall-on" "$PAPER_DATASET" "$capMib" no-stall on
   done
 fi

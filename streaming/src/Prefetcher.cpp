@@ -70,7 +70,8 @@ void Prefetcher::observe(double timeSeconds, const Camera& camera) {
 }
 
 PrefetchStats Prefetcher::stats() const {
-  return {predictions_.load(), rangesAdvised_.load(), bytesAdvised_.load(), rangesResident_.load()};
+  return {predictions_.load(), rangesAdvised_.load(), bytesAdvised_.load(), rangesResident_.load(),
+          rangesDeferred_.load()};
 }
 
 void Prefetcher::run() {
@@ -86,6 +87,7 @@ void Prefetcher::run() {
     const double last = *predictor_.lastTime();
     if (!predictor_.predict(last)) continue;
     ++cycle_;
+    cycleBytes_ = 0;
     // A quarter, a half and the whole look-ahead, nearest first: what the next frames need is
     // asked for before what the look-ahead needs, and a turn the extrapolation misses at the
     // far horizon is still caught near. A range asked for at one horizon is not asked again.
@@ -144,9 +146,17 @@ void Prefetcher::adviseRange(int face, std::uint64_t offset, std::uint64_t bytes
   const MappedFile& file = dataset_.faceFile(face);
   const auto resident = file.residentPages(offset, bytes);
   const bool wasResident = resident && resident->first == resident->second;
+  if (!wasResident && options_.pageRoomBytes > 0 &&
+      cycleBytes_ + bytes > options_.pageRoomBytes / 2) {
+    // Over this prediction's share of the page room: asked for again by the next one.
+    advisedAt_.erase(it);
+    rangesDeferred_.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
   if (wasResident) {
     rangesResident_.fetch_add(1, std::memory_order_relaxed);
   } else if (file.willNeed(offset, bytes)) {
+    cycleBytes_ += bytes;
     rangesAdvised_.fetch_add(1, std::memory_order_relaxed);
     bytesAdvised_.fetch_add(bytes, std::memory_order_relaxed);
   }

@@ -21,8 +21,10 @@
 #include <deque>
 #include <iostream>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <utility>
 
 #include "BenchReport.h"
@@ -287,6 +289,37 @@ Result<std::unique_ptr<CutSource>> runCutSource(gpu::VulkanContext& context,
 /// refined, decoded and recorded while the device draws the frames before it; a frame is
 /// collected, its device timings and cache figures filled in, once framesInFlight frames are
 /// pending, so 1 in flight is the one-frame-at-a-time loop), each frame's figures in run.frames.
+/// Prefetched ranges until a frame's cut uses them: sampled with mincore every 30 frames, a
+/// range whose pages left the page cache before any cut used it was evicted before use (the
+/// page room was too small for what the prefetcher asked). The prefetcher's worker adds
+/// ranges; the frame loop takes them away.
+struct PrefetchUse {
+  std::mutex mutex;
+  std::unordered_map<std::uint64_t, PrefetchRange> waiting;  ///< advised, not used yet
+  std::uint64_t used = 0;
+  std::uint64_t evictedBeforeUse = 0;
+
+  void advised(const PrefetchRange& range) {
+    if (range.wasResident) return;
+    const std::lock_guard<std::mutex> lock(mutex);
+    waiting.insert_or_assign(range.key.packed, range);
+  }
+  void usedBy(const Cut& cut) {
+    const std::lock_guard<std::mutex> lock(mutex);
+    for (const CutPatch& p : cut.patches) used += waiting.erase(packKey(p.node));
+    for (const TileKey& t : cut.tiles) used += waiting.erase(packKey(t));
+  }
+  void sample(const MappedDataset& dataset) {
+    const std::lock_guard<std::mutex> lock(mutex);
+    std::erase_if(waiting, [&](const auto& entry) {
+      const PrefetchRange& r = entry.second;
+      if (NoStallPolicy::rangeResident(dataset.faceFile(r.face), r.offset, r.bytes)) return false;
+      ++evictedBeforeUse;
+      return true;
+    });
+  }
+};
+
 struct PathReplay {
   PathReplay(const BenchCliOptions& options, const std::vector<CameraPathPoint>& cameraPath,
              const MappedDataset& mapped, gpu::TerrainRenderer& frameRenderer, CutSource& cuts,
@@ -314,7 +347,8 @@ struct PathReplay {
   std::deque<std::size_t> pending;  // indices in run.frames of the frames in flight
   std::uint64_t residentBefore = 0;
   std::uint64_t page = static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
-  Clock::time_point runEnd{};  // the end of the last frame so far
+  Clock::time_point runEnd{};          // the end of the last frame so far
+  PrefetchUse* prefetchUse = nullptr;  // with prefetch on
 
   Result<void> replay(Prefetcher* prefetcher) {
     const DatasetView& view = dataset.view();
@@ -389,6 +423,10 @@ struct PathReplay {
     if (!deviceList && run.selection == CutSelection::Gpu) {
       checkDeviceCut(view, camera, refinement, cut, run);
     }
+    if (prefetchUse) {
+      prefetchUse->usedBy(cut);
+      if (i % 30 == 29) prefetchUse->sample(dataset);
+    }
     const std::uint64_t residentAfter = residentDatasetPages(dataset);
     done.bytesPagedIn =
         residentAfter > residentBefore ? (residentAfter - residentBefore) * page : 0;
@@ -422,7 +460,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   if (o.cold) {
     if (auto r = evictForColdRun(o.dir, run); !r) return r.error();
   }
-  auto dataset = MappedDataset::open(o.dir);
+  auto dataset = MappedDataset::open(o.dir, faceOptionsFor(memoryLimitOf(o.memoryBudgetMiB)));
   if (!dataset) return dataset.error();
   const DatasetView& view = (*dataset)->view();
   run.gpuCacheBytes = static_cast<std::uint64_t>(o.gpuCacheMiB * 1048576.0);
@@ -467,6 +505,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
         deviceSelection);
     if (!primed) return primed.error();
   }
+  PrefetchUse prefetchUse;  // outlives the prefetcher, whose worker adds to it
   std::optional<Prefetcher> prefetcher;
   if (prefetch || noStall) {
     // No-stall always has a loader thread; without prefetch it fetches the current camera's cut
@@ -474,16 +513,26 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
     PrefetchOptions po;
     po.lookaheadSeconds = prefetch ? o.lookahead : 0.0;
     po.refinement = refinement;
+    if (*plan) po.pageRoomBytes = (*plan)->pageRoomBytes;
+    if (prefetch) po.onRange = [&prefetchUse](const PrefetchRange& r) { prefetchUse.advised(r); };
     prefetcher.emplace(**dataset, po);
   }
   run.baselineRssFileBytes = residentFileBytes();
   PathReplay replay(o, path, **dataset, *renderer, source, refinement, deviceSelection, run);
+  if (prefetch) replay.prefetchUse = &prefetchUse;
   if (auto r = replay.replay(prefetcher ? &*prefetcher : nullptr); !r) return r.error();
   if (prefetcher) {
     prefetcher->stop();
     run.prefetchRangesAdvised = prefetcher->stats().rangesAdvised;
     run.prefetchBytesAdvised = prefetcher->stats().bytesAdvised;
+    run.prefetchRangesDeferred = prefetcher->stats().rangesDeferred;
+    prefetchUse.sample(**dataset);
+    run.prefetchRangesUsed = prefetchUse.used;
+    run.prefetchRangesEvictedBeforeUse = prefetchUse.evictedBeforeUse;
   }
+  for (int f = 0; f < 6; ++f) run.nodeTablesPaged |= view.face(f).nodeTablePaged();
+  run.datasetDepth = view.depth();
+  run.nodeChunkReads = view.nodeChunkReads();
   return run;
 }
 

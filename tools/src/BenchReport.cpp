@@ -36,6 +36,22 @@ double gpuBusyFraction(const BenchRun& run) {
   return run.wallMs > 0.0 ? gpuMs / run.wallMs : 0.0;
 }
 
+// --popping: the per-frame differences' percentiles (frames without one are skipped).
+void addPopping(const BenchRun& run, nlohmann::ordered_json& j) {
+  std::vector<double> rms, max;
+  for (const BenchFrame& f : run.frames) {
+    if (f.poppingRms < 0.0) continue;
+    rms.push_back(f.poppingRms);
+    max.push_back(f.poppingMax);
+  }
+  j["popping_rms_p50"] = percentile(rms, 0.5);
+  j["popping_rms_p99"] = percentile(rms, 0.99);
+  j["popping_rms_max"] = rms.empty() ? 0.0 : *std::max_element(rms.begin(), rms.end());
+  j["popping_max_p50"] = percentile(max, 0.5);
+  j["popping_max_p99"] = percentile(max, 0.99);
+  j["popping_max_max"] = max.empty() ? 0.0 : *std::max_element(max.begin(), max.end());
+}
+
 nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   std::vector<double> ms, drawMs;
   double total = 0.0, traversal = 0.0, peakTps = 0.0, triangles = 0.0, draws = 0.0, decisions = 0.0;
@@ -104,8 +120,15 @@ nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   j["gpu_cache_mib"] = static_cast<double>(run.gpuCacheBytes) / 1048576.0;
   j["memory_budget_mib"] = static_cast<double>(run.memoryBudgetBytes) / 1048576.0;
   j["memory_budget_source"] = run.memoryBudgetSource;
+  j["node_tables_paged"] = run.nodeTablesPaged;
+  j["node_chunk_reads"] = run.nodeChunkReads;
   j["stalls"] = stalls;
   j["data_stalls"] = dataStalls;
+  // No-stall: frames drawn under a level cap above the dataset's depth (data not resident yet).
+  j["frames_below_full_depth"] =
+      std::count_if(run.frames.begin(), run.frames.end(), [&](const BenchFrame& f) {
+        return f.drawnLevelCap >= 0 && f.drawnLevelCap < run.datasetDepth;
+      });
   j["triangles_per_s_mean"] = total > 0.0 ? triangles / total * 1e3 : 0.0;
   j["triangles_per_s_peak"] = peakTps;
   const double frames = std::max<double>(1.0, static_cast<double>(run.frames.size()));
@@ -128,6 +151,9 @@ nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   j["bytes_paged_in"] = paged;
   j["prefetch_ranges_advised"] = run.prefetchRangesAdvised;
   j["prefetch_bytes_advised"] = run.prefetchBytesAdvised;
+  j["prefetch_ranges_deferred"] = run.prefetchRangesDeferred;
+  j["prefetch_ranges_used"] = run.prefetchRangesUsed;
+  j["prefetch_ranges_evicted_before_use"] = run.prefetchRangesEvictedBeforeUse;
   j["peak_rss_mib"] = rssMb;
   j["dataset_mib"] = datasetMb;
   j["rss_dataset_ratio"] = datasetMb > 0.0 ? rssMb / datasetMb : 0.0;
@@ -135,20 +161,7 @@ nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   j["peak_dataset_rss_mib"] = datasetRssMb;
   j["dataset_rss_ratio"] = datasetMb > 0.0 ? datasetRssMb / datasetMb : 0.0;
   j["peak_gpu_pool_mib"] = static_cast<double>(peakPool) / 1048576.0;
-  if (run.popping) {
-    std::vector<double> rms, max;
-    for (const BenchFrame& f : run.frames) {
-      if (f.poppingRms < 0.0) continue;
-      rms.push_back(f.poppingRms);
-      max.push_back(f.poppingMax);
-    }
-    j["popping_rms_p50"] = percentile(rms, 0.5);
-    j["popping_rms_p99"] = percentile(rms, 0.99);
-    j["popping_rms_max"] = rms.empty() ? 0.0 : *std::max_element(rms.begin(), rms.end());
-    j["popping_max_p50"] = percentile(max, 0.5);
-    j["popping_max_p99"] = percentile(max, 0.99);
-    j["popping_max_max"] = max.empty() ? 0.0 : *std::max_element(max.begin(), max.end());
-  }
+  if (run.popping) addPopping(run, j);
   j["gpu_cache_hit_rate"] =
       hits + misses > 0 ? static_cast<double>(hits) / static_cast<double>(hits + misses) : 0.0;
   return j;

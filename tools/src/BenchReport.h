@@ -75,12 +75,22 @@ struct BenchRun final {
   /// the GPU cache budget the run used.
   std::uint64_t memoryBudgetBytes = 0;
   std::string memoryBudgetSource;
+  /// Whether the node tables were paged (FaceViewOptions, under a memory budget) and how many
+  /// of their chunks were read back from the files.
+  bool nodeTablesPaged = false;
+  int datasetDepth = 0;  ///< the deepest bintree level (frames_below_full_depth)
+  std::uint64_t nodeChunkReads = 0;
   std::uint64_t gpuCacheBytes = 0;
   bool cold = false;
   double residentAfterEvictFraction = 0.0;  ///< pages left in the page cache after eviction
   std::uint64_t residentAfterEvictPages = 0;
   std::uint64_t datasetPages = 0;
   std::uint64_t prefetchRangesAdvised = 0;
+  std::uint64_t prefetchRangesDeferred = 0;  ///< left to a later prediction (page room)
+  /// Advised ranges a frame's cut used, and advised ranges found (mincore, every 30 frames and
+  /// at the end) to have left the page cache before any cut used them.
+  std::uint64_t prefetchRangesUsed = 0;
+  std::uint64_t prefetchRangesEvictedBeforeUse = 0;
   std::uint64_t prefetchBytesAdvised = 0;
   /// File-backed RSS just before the first frame (shared libraries; no dataset page mapped yet).
   std::uint64_t baselineRssFileBytes = 0;

@@ -409,6 +409,7 @@ class FlySession final {
   std::size_t frames_ = 0;
   std::size_t shotsTaken_ = 0;
   std::uint64_t gpuCacheBytes_ = 0;
+  std::uint64_t pageRoomBytes_ = 0;  ///< the memory plan's page room (0: no budget)
   bool viewshedOn_ = false;
   gpu::FrameSettings settings_;
   bool recreate_ = false;
@@ -435,7 +436,10 @@ Result<void> FlySession::setUp() {
   demand.cacheInHostMemory = context_.deviceInfo().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
   auto plan = planRunMemory(c_.memoryBudgetMiB, demand, true);
   if (!plan) return plan.error();
-  if (*plan) options.gpuCacheBytes = (*plan)->gpuCacheBytes;
+  if (*plan) {
+    options.gpuCacheBytes = (*plan)->gpuCacheBytes;
+    pageRoomBytes_ = (*plan)->pageRoomBytes;
+  }
 
   gpuCacheBytes_ = options.gpuCacheBytes;
   options.framesInFlight = c_.framesInFlight;
@@ -457,6 +461,7 @@ Result<void> FlySession::setUp() {
     po.lookaheadSeconds = modes_.prefetch ? c_.lookahead : 0.0;
     po.refinement.tolerancePixels = c_.tolerancePixels;
     po.refinement.morphRange = morphRangeOf(c_.morph, modes_.morph);
+    po.pageRoomBytes = pageRoomBytes_;
     prefetcher_.emplace(dataset_, po);
   }
   // One acquisition semaphore (and HUD buffer) more than frames in flight: the one a new frame
@@ -778,7 +783,7 @@ int runFly(const FlyCliOptions& c) {
   FlyModes modes;
   if (const int status = checkFlyOptions(c, modes); status != kExitOk) return status;
   // Everything about the data first: nothing opens a window for a dataset that cannot be read.
-  auto dataset = MappedDataset::open(c.dir);
+  auto dataset = MappedDataset::open(c.dir, faceOptionsFor(memoryLimitOf(c.memoryBudgetMiB)));
   if (!dataset) return reportError(dataset.error());
   const DatasetView& view = (*dataset)->view();
   if (auto r = checkMorphOptions(c.morph, view, false); !r) return reportError(r.error());

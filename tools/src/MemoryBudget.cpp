@@ -101,6 +101,15 @@ std::optional<MemoryLimit> memoryLimitOf(double budgetMiB) {
   return cgroupMemoryLimit();
 }
 
+formats::FaceViewOptions faceOptionsFor(const std::optional<MemoryLimit>& limit) {
+  formats::FaceViewOptions options;
+  if (limit) {
+    options.nodeCacheBytes =
+        std::max<std::uint64_t>(std::uint64_t{1} << 20, limit->bytes / kNodeCacheShare / 6);
+  }
+  return options;
+}
+
 std::uint64_t frameBytes(std::uint32_t width, std::uint32_t height, std::uint32_t framesInFlight) {
   const std::uint64_t pixels = std::uint64_t{width} * height;
   constexpr std::uint64_t kStagingAllowance = std::uint64_t{8} << 20;

@@ -13,6 +13,7 @@
 #include <optional>
 #include <string>
 
+#include "pbdam/formats/DatasetFormat.h"
 #include "pbdam/formats/Result.h"
 
 namespace pbdam::tools {
@@ -72,6 +73,13 @@ struct MemoryPlan final {
   /// is only reported in the run's figures.
   bool worthReporting() const noexcept { return cacheLowered || source == "--memory-budget-mib"; }
 };
+
+/// How a frame loop under `limit` (memoryLimitOf) opens its dataset: with a limit, node tables
+/// larger than the limit / kNodeCacheShare (over the six faces, at least 1 MiB a face) are paged
+/// through a cache of that size (FaceViewOptions) instead of held whole, so that a dataset's
+/// tables need not fit in memory; without one, tables are held whole.
+formats::FaceViewOptions faceOptionsFor(const std::optional<MemoryLimit>& limit);
+inline constexpr std::uint64_t kNodeCacheShare = 32;
 
 /// The smallest GPU cache and page room a frame loop is allowed to run with.
 inline constexpr std::uint64_t kMinGpuCacheBytes = std::uint64_t{16} << 20;

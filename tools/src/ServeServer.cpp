@@ -26,6 +26,7 @@
 
 #include "FrameImage.h"
 #include "HeightJson.h"
+#include "MemoryBudget.h"
 #include "ProcessMemory.h"
 #include "ServeQueries.h"
 #include "ServeRequest.h"
@@ -258,7 +259,8 @@ Result<std::shared_ptr<Generation>> openGeneration(const std::string& directory,
                                                    std::uint64_t number) {
   auto generation = std::make_shared<Generation>();
   generation->number = number;
-  auto dataset = MappedDataset::open(directory);
+  auto dataset =
+      MappedDataset::open(directory, faceOptionsFor(memoryLimitOf(options.memoryBudgetMiB)));
   if (!dataset) return std::move(dataset).error();
   if (auto r = checkMorphRange((*dataset)->view(), options.morphRange); !r) return r.error();
   generation->dataset = std::move(*dataset);

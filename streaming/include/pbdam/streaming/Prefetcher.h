@@ -69,6 +69,12 @@ struct PrefetchOptions final {
   /// the last 16 predictions, after it was advised (or found resident). Unset: nothing. Lets a
   /// caller (a test) see what was fetched; must not call back into the Prefetcher.
   std::function<void(const PrefetchRange&)> onRange;
+  /// The page cache's room for the dataset under a memory budget (MemoryPlan::pageRoomBytes);
+  /// 0: no bound. Otherwise a prediction advises at most half of it (bytes not resident yet,
+  /// the nearest horizon first) and leaves the rest to the next predictions (rangesDeferred),
+  /// so that under a cap advised pages do not push out each other, or the pages the frames
+  /// are reading, before they are used.
+  std::uint64_t pageRoomBytes = 0;
 };
 
 /// What the prefetcher did so far.
@@ -77,6 +83,7 @@ struct PrefetchStats final {
   std::uint64_t rangesAdvised = 0;   ///< madvise(MADV_WILLNEED) calls
   std::uint64_t bytesAdvised = 0;    ///< bytes in those ranges
   std::uint64_t rangesResident = 0;  ///< ranges found already resident (no call)
+  std::uint64_t rangesDeferred = 0;  ///< ranges left to a later prediction (pageRoomBytes)
 };
 
 class Prefetcher final {
@@ -109,8 +116,9 @@ class Prefetcher final {
   CameraPredictor predictor_;
   std::unordered_map<std::uint64_t, std::uint64_t> advisedAt_;  ///< range key → cycle
   std::uint64_t cycle_ = 0;
+  std::uint64_t cycleBytes_ = 0;  ///< bytes advised by the current prediction
   std::atomic<std::uint64_t> predictions_{0}, rangesAdvised_{0}, bytesAdvised_{0},
-      rangesResident_{0};
+      rangesResident_{0}, rangesDeferred_{0};
   std::thread worker_;
 };
 
