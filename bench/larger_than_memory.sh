@@ -2,8 +2,8 @@
 # Larger than memory, for real: the large-data dataset (2.24 GB, bench/large_data.sh, built or
 # reused) flown cold along the Mars flight (bench/paths/mars_flight.csv) at WIDTHxHEIGHT inside a
 # memory cgroup that counts the page cache, capped at CAP_MIB (default 256: 9x smaller than the
-# data), in paging mode with prefetch off and on and in no-stall mode with prefetch on; and the
-# same three flights uncapped. With PAPER_DATASET set (bench/paper_scale.sh's output) it flies
+# data), in paging and in no-stall mode, each with prefetch off and on; and the same four
+# flights uncapped. With PAPER_DATASET set (bench/paper_scale.sh's output) it flies
 # that one too under PAPER_CAP_MIB (default 1024). Then, unless SERVE_SECONDS=0, `pbdam serve`
 # under SERVE_CAP_MIB (default 512) with the soak's mixed load (pbdam_serve_soak) for
 # SERVE_SECONDS (default 600), and uncapped for the same time.
