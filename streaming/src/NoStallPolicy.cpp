@@ -2,12 +2,68 @@
 // (NoStallPolicy.h; docs/architecture.md "Modes").
 #include "pbdam/streaming/NoStallPolicy.h"
 
+#include <sys/mman.h>
+
 #include <algorithm>
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
 
 namespace pbdam::streaming {
+
+HeldPages::HeldPages(HeldPages&& other) noexcept
+    : ranges_(std::move(other.ranges_)), bytes_(std::exchange(other.bytes_, 0)) {
+  other.ranges_.clear();
+}
+
+HeldPages& HeldPages::operator=(HeldPages&& other) noexcept {
+  if (this != &other) {
+    release();
+    ranges_ = std::move(other.ranges_);
+    other.ranges_.clear();
+    bytes_ = std::exchange(other.bytes_, 0);
+  }
+  return *this;
+}
+
+HeldPages::~HeldPages() { release(); }
+
+bool HeldPages::hold(const MappedFile& file, std::uint64_t offset, std::uint64_t bytes) {
+  if (bytes == 0) return true;
+  const std::byte* begin = file.bytes().data() + offset;
+  if (::mlock(begin, bytes) != 0) return false;
+  ranges_.emplace_back(begin, bytes);
+  bytes_ += bytes;
+  return true;
+}
+
+void HeldPages::releaseResidentAround(const MappedFile& file, std::uint64_t offset,
+                                      std::uint64_t bytes) const {
+  const std::byte* base = file.bytes().data();
+  const std::uint64_t page = MappedFile::pageSize();
+  // The held ranges inside this file, widened to whole pages, in order.
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> skip;
+  for (const auto& [begin, size] : ranges_) {
+    if (begin < base || begin >= base + file.size()) continue;
+    const auto at = static_cast<std::uint64_t>(begin - base);
+    skip.emplace_back(at / page * page, (at + size + page - 1) / page * page);
+  }
+  std::sort(skip.begin(), skip.end());
+  std::uint64_t from = offset;
+  const std::uint64_t end = offset + bytes;
+  for (const auto& [lo, hi] : skip) {
+    if (hi <= from || lo >= end) continue;
+    if (lo > from) (void)file.releaseResident(from, lo - from);
+    from = std::max(from, hi);
+  }
+  if (from < end) (void)file.releaseResident(from, end - from);
+}
+
+void HeldPages::release() noexcept {
+  for (const auto& [begin, bytes] : ranges_) ::munlock(begin, bytes);
+  ranges_.clear();
+  bytes_ = 0;
+}
 
 bool NoStallPolicy::rangeResident(const MappedFile& file, std::uint64_t offset,
                                   std::uint64_t bytes) {
@@ -40,9 +96,27 @@ NoStallCut NoStallPolicy::cut(const Camera& camera, RefinementOptions options) c
         worst = std::min(worst, 2 * tileLevel);
       }
     }
-    if (worst > level) return {std::move(cut), level};
+    if (worst > level) {
+      NoStallCut chosen{std::move(cut), level, {}};
+      if (holdPages_) hold(chosen);
+      return chosen;
+    }
     level = std::min(level, worst) - 1;
-    if (level < 0) return {Cut{}, -1};
+    if (level < 0) return {Cut{}, -1, {}};
+  }
+}
+
+void NoStallPolicy::hold(NoStallCut& chosen) const {
+  // Right after the residency check: the window in which the kernel could still take a page
+  // is the few microseconds between mincore and mlock.
+  const DatasetView& view = dataset_->view();
+  for (const CutPatch& p : chosen.cut.patches) {
+    const NodeRecord n = view.node(p.node);
+    if (!chosen.held.hold(dataset_->faceFile(p.node.face), n.blobOffset, n.blobsBytes())) return;
+  }
+  for (const TileKey& t : chosen.cut.tiles) {
+    const TextureRecord r = view.textureNode(t);
+    if (!chosen.held.hold(dataset_->faceFile(t.face), r.blobOffset, r.blobBytes)) return;
   }
 }
 
@@ -59,15 +133,19 @@ NoStallCut NoStallPolicy::cutAfter(const Camera& camera, RefinementOptions optio
   return finest.levelCap > step.levelCap ? std::move(finest) : std::move(step);
 }
 
-std::vector<Error> NoStallPolicy::preloadCoarseLevels() const {
+std::vector<Error> NoStallPolicy::preloadCoarseLevels(HeldPages* keep) const {
   const DatasetView& view = dataset_->view();
   std::vector<Error> unreadable;
-  const auto touch = [&unreadable](const MappedFile& file, std::uint64_t offset,
-                                   std::uint64_t bytes) {
+  const auto touch = [&unreadable, keep](const MappedFile& file, std::uint64_t offset,
+                                         std::uint64_t bytes) {
     if (bytes == 0) return;
     (void)file.willNeed(offset, bytes);
     // Guarded reads: an unreadable page is skipped and reported, not a SIGBUS.
-    if (auto r = file.touch(offset, bytes); !r) unreadable.push_back(std::move(r).error());
+    if (auto r = file.touch(offset, bytes); !r) {
+      unreadable.push_back(std::move(r).error());
+    } else if (keep) {
+      (void)keep->hold(file, offset, bytes);
+    }
   };
   for (int f = 0; f < 6; ++f) {
     const MappedFile& file = dataset_->faceFile(f);
@@ -77,6 +155,12 @@ std::vector<Error> NoStallPolicy::preloadCoarseLevels() const {
       // larger than memory): the header and the texture table only.
       touch(file, 0, h.nodeTableOffset);
       touch(file, h.textureTableOffset, h.blobsOffset - h.textureTableOffset);
+      // The chunks of the coarsest rows (the roots and their first descendants): no-stall
+      // refinement always reads them.
+      for (const std::uint64_t first : {std::uint64_t{0}, h.tree1FirstNode}) {
+        const std::uint64_t rows = std::min(kNodeTableChunkRows, h.nodeCount - first);
+        touch(file, view.face(f).nodeRecordOffset(first), rows * kNodeRecordBytes);
+      }
     } else {
       touch(file, 0, h.blobsOffset);
     }
@@ -92,7 +176,11 @@ std::vector<Error> NoStallPolicy::preloadCoarseLevels() const {
     touch(file, root.blobOffset, root.blobBytes);
     // The tables stay mapped: refinement reads them every frame, and mapped pages the render
     // thread keeps referencing are the last the kernel reclaims. Only the blobs leave the RSS.
-    (void)file.releaseResident(h.blobsOffset, file.size() - h.blobsOffset);
+    if (keep) {
+      keep->releaseResidentAround(file, h.blobsOffset, file.size() - h.blobsOffset);
+    } else {
+      (void)file.releaseResident(h.blobsOffset, file.size() - h.blobsOffset);
+    }
   }
   return unreadable;
 }

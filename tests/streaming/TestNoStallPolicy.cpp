@@ -187,5 +187,36 @@ TEST(NoStallPolicyPaged, RecordsNotAtHandCapTheLevelWithoutADiskRead) {
   EXPECT_EQ(warm.cut.patches.size(), full.patches.size());
 }
 
+// Under a memory budget the preload also locks the coarse levels: they stay resident when the
+// page cache is dropped around them, so a no-stall frame always has a cut to draw.
+TEST(NoStallPolicyPaged, HeldCoarseLevelsStayResidentWhenTheRestIsDropped) {
+  PBDAM_REQUIRE_DATASET(shared, "mola");
+  test::TempDir temp;
+  const std::filesystem::path dir = test::privateCopy(shared, temp);
+  auto opened = MappedDataset::open(dir);
+  ASSERT_TRUE(opened.ok()) << opened.error().message;
+  const MappedDataset& dataset = **opened;
+  const DatasetView& view = dataset.view();
+  HeldPages coarse;
+  EXPECT_TRUE(NoStallPolicy(dataset).preloadCoarseLevels(&coarse).empty());
+  if (coarse.bytes() == 0) GTEST_SKIP() << "mlock is not allowed here (RLIMIT_MEMLOCK)";
+  for (int f = 0; f < 6; ++f) {
+    const MappedFile& file = dataset.faceFile(f);
+    const std::uint64_t blobs = view.face(f).header().blobsOffset;
+    coarse.releaseResidentAround(file, blobs, file.size() - blobs);
+  }
+  ASSERT_TRUE(evictDataset(dir).ok());
+  for (int f = 0; f < 6; ++f) {
+    const NodeRecord root = view.node(NodeKey{static_cast<std::uint8_t>(f), 0, 0});
+    EXPECT_TRUE(
+        NoStallPolicy::rangeResident(dataset.faceFile(f), root.blobOffset, root.blobsBytes()))
+        << "face " << f;
+  }
+  const NoStallCut cut = NoStallPolicy(dataset).cut(
+      Camera::fromPose(view.planet(), {18.65, 226.2, 400e3, 0.0, -40.0, 0.0}, {320, 240, 60.0}),
+      RefinementOptions{});
+  EXPECT_GE(cut.levelCap, 0);
+}
+
 }  // namespace
 }  // namespace pbdam::streaming

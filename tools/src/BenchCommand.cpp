@@ -218,11 +218,11 @@ Result<void> evictForColdRun(const std::string& dir, BenchRun& run) {
 /// Drops the page-table entries of the face files' blobs after a frame, so that RSS follows the
 /// working set. The node and texture tables (each file's head) stay mapped: refinement reads
 /// them every frame, and unmapped they are the page cache's first victims under memory pressure.
-void releaseBlobPages(const MappedDataset& dataset) {
+void releaseBlobPages(const MappedDataset& dataset, const HeldPages& held) {
   for (int face = 0; face < 6; ++face) {
     const MappedFile& file = dataset.faceFile(face);
     const std::uint64_t blobs = dataset.view().face(face).header().blobsOffset;
-    (void)file.releaseResident(blobs, file.size() - blobs);
+    held.releaseResidentAround(file, blobs, file.size() - blobs);
   }
 }
 
@@ -277,7 +277,9 @@ gpu::TerrainRendererOptions rendererOptions(const gpu::VulkanContext& context,
 /// or from the roots.
 Result<std::unique_ptr<CutSource>> runCutSource(gpu::VulkanContext& context,
                                                 const MappedDataset& dataset, const BenchRun& run) {
-  if (run.mode == StreamingMode::NoStall) return noStallCuts(dataset);
+  // Under a memory budget the page cache is tight: each cut's pages are held until its frame
+  // has decoded them (NoStallPolicy's holdPages).
+  if (run.mode == StreamingMode::NoStall) return noStallCuts(dataset, run.memoryBudgetBytes > 0);
   if (run.selection == CutSelection::Gpu) {
     return run.draws == DrawList::Indirect ? deviceDrawListCuts(context, dataset.view())
                                            : deviceSelectionCuts(context, dataset.view(), {});
@@ -349,6 +351,7 @@ struct PathReplay {
   std::uint64_t page = static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
   Clock::time_point runEnd{};          // the end of the last frame so far
   PrefetchUse* prefetchUse = nullptr;  // with prefetch on
+  HeldPages heldCoarse;                // no-stall under a budget: the preloaded coarse levels
 
   Result<void> replay(Prefetcher* prefetcher) {
     const DatasetView& view = dataset.view();
@@ -408,6 +411,7 @@ struct PathReplay {
       if (auto submitted = renderer.submit(cut, camera, {}, run.readback); !submitted) {
         return submitted.error();
       }
+      source.cutDecoded();
       run.frames.push_back(f);
       pending.push_back(i);
       while (pending.size() >= run.framesInFlight) {
@@ -416,7 +420,7 @@ struct PathReplay {
     }
     BenchFrame& done = run.frames.back();
     done.rssFileBytes = residentFileBytes();
-    releaseBlobPages(dataset);
+    releaseBlobPages(dataset, heldCoarse);
     runEnd = Clock::now();
     done.frameMs = msBetween(t0, runEnd);
     done.renderThreadMajorFaults = threadMajorFaults() - faults0;
@@ -483,9 +487,13 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
       gpu::TerrainRenderer::create(context, view, rendererOptions(context, view, o, run));
   if (!renderer) return renderer.error();
   const bool noStall = run.mode == StreamingMode::NoStall;
+  // Under a memory budget the preloaded coarse levels are also locked in memory for the run:
+  // the kernel would otherwise evict them, and a frame could have nothing to draw.
+  HeldPages coarse;
   if (noStall) {
     // What cannot be read is skipped (the level cap keeps it out of the frames) and reported.
-    for (const Error& e : NoStallPolicy(**dataset).preloadCoarseLevels()) {
+    for (const Error& e : NoStallPolicy(**dataset).preloadCoarseLevels(
+             run.memoryBudgetBytes > 0 ? &coarse : nullptr)) {
       std::fprintf(stderr, "pbdam: warning: preload skipped: %s\n", e.message.c_str());
     }
   }
@@ -519,6 +527,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   }
   run.baselineRssFileBytes = residentFileBytes();
   PathReplay replay(o, path, **dataset, *renderer, source, refinement, deviceSelection, run);
+  replay.heldCoarse = std::move(coarse);
   if (prefetch) replay.prefetchUse = &prefetchUse;
   if (auto r = replay.replay(prefetcher ? &*prefetcher : nullptr); !r) return r.error();
   if (prefetcher) {

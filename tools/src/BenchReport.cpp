@@ -124,11 +124,15 @@ nlohmann::ordered_json summarise(const BenchRun& run, const BenchSetup& setup) {
   j["node_chunk_reads"] = run.nodeChunkReads;
   j["stalls"] = stalls;
   j["data_stalls"] = dataStalls;
-  // No-stall: frames drawn under a level cap above the dataset's depth (data not resident yet).
-  j["frames_below_full_depth"] =
-      std::count_if(run.frames.begin(), run.frames.end(), [&](const BenchFrame& f) {
-        return f.drawnLevelCap >= 0 && f.drawnLevelCap < run.datasetDepth;
-      });
+  // No-stall: frames drawn under a level cap above the dataset's depth (data not resident
+  // yet), and frames with nothing drawn (not even the roots resident: cap −1).
+  const bool noStall = run.mode == StreamingMode::NoStall;
+  j["frames_below_full_depth"] = std::count_if(
+      run.frames.begin(), run.frames.end(),
+      [&](const BenchFrame& f) { return noStall && f.drawnLevelCap < run.datasetDepth; });
+  j["frames_empty"] = std::count_if(run.frames.begin(), run.frames.end(), [&](const BenchFrame& f) {
+    return noStall && f.drawnLevelCap < 0;
+  });
   j["triangles_per_s_mean"] = total > 0.0 ? triangles / total * 1e3 : 0.0;
   j["triangles_per_s_peak"] = peakTps;
   const double frames = std::max<double>(1.0, static_cast<double>(run.frames.size()));

@@ -83,17 +83,21 @@ class DeviceDrawListCuts final : public CutSource {
 
 class NoStallCuts final : public CutSource {
  public:
-  explicit NoStallCuts(const streaming::MappedDataset& dataset) : policy_(dataset) {}
+  NoStallCuts(const streaming::MappedDataset& dataset, bool holdPages)
+      : policy_(dataset, holdPages) {}
   Result<Cut> cut(const Camera& camera, const RefinementOptions& refinement) override {
     streaming::NoStallCut capped = policy_.cutAfter(camera, refinement, cap_);
     cap_ = capped.levelCap;
+    held_ = std::move(capped.held);  // until cutDecoded()
     return std::move(capped.cut);
   }
   int levelCap() const noexcept override { return cap_; }
+  void cutDecoded() noexcept override { held_ = streaming::HeldPages(); }
 
  private:
   streaming::NoStallPolicy policy_;
-  int cap_ = -1;  ///< the previous frame's level cap (−1 before the first)
+  int cap_ = -1;               ///< the previous frame's level cap (−1 before the first)
+  streaming::HeldPages held_;  ///< the last cut's pages (with holdPages)
 };
 
 }  // namespace
@@ -123,8 +127,8 @@ Result<std::unique_ptr<CutSource>> deviceDrawListCuts(gpu::VulkanContext& contex
   return std::unique_ptr<CutSource>(std::make_unique<DeviceDrawListCuts>(std::move(*selector)));
 }
 
-std::unique_ptr<CutSource> noStallCuts(const streaming::MappedDataset& dataset) {
-  return std::make_unique<NoStallCuts>(dataset);
+std::unique_ptr<CutSource> noStallCuts(const streaming::MappedDataset& dataset, bool holdPages) {
+  return std::make_unique<NoStallCuts>(dataset, holdPages);
 }
 
 }  // namespace pbdam::tools

@@ -52,6 +52,9 @@ class CutSource {
   /// The level cap of the last cut (refinement's maxLevel; no-stall mode); −1 for sources
   /// without one.
   virtual int levelCap() const noexcept { return -1; }
+  /// The frame drawn from the last cut has been submitted, so its data has been decoded: a
+  /// source that held the cut's pages (no-stall under a memory budget) lets them go.
+  virtual void cutDecoded() noexcept {}
 };
 
 /// The host's refinement: refine() from the roots every frame, or with `reuseTree` the
@@ -81,6 +84,7 @@ formats::Result<std::unique_ptr<CutSource>> deviceDrawListCuts(gpu::VulkanContex
 /// arrives its patches are decoded over a few frames instead of all in one
 /// (NoStallPolicy::cutAfter, which takes a finer resident cut at once when none within that rise
 /// is). levelCap() is the cap of the last cut. `dataset` must outlive the source.
-std::unique_ptr<CutSource> noStallCuts(const streaming::MappedDataset& dataset);
+std::unique_ptr<CutSource> noStallCuts(const streaming::MappedDataset& dataset,
+                                       bool holdPages = false);
 
 }  // namespace pbdam::tools

@@ -410,6 +410,7 @@ class FlySession final {
   std::size_t shotsTaken_ = 0;
   std::uint64_t gpuCacheBytes_ = 0;
   std::uint64_t pageRoomBytes_ = 0;  ///< the memory plan's page room (0: no budget)
+  HeldPages heldCoarse_;             ///< no-stall under a budget: the coarse levels, locked
   bool viewshedOn_ = false;
   gpu::FrameSettings settings_;
   bool recreate_ = false;
@@ -448,10 +449,12 @@ Result<void> FlySession::setUp() {
   renderer_.emplace(std::move(*renderer));
   const bool noStall = modes_.mode == StreamingMode::NoStall;
   if (noStall) {
-    for (const Error& e : NoStallPolicy(dataset_).preloadCoarseLevels()) {
+    // Under a memory budget the coarse levels stay locked in memory (as in bench).
+    for (const Error& e :
+         NoStallPolicy(dataset_).preloadCoarseLevels(pageRoomBytes_ > 0 ? &heldCoarse_ : nullptr)) {
       std::fprintf(stderr, "pbdam: warning: preload skipped: %s\n", e.message.c_str());
     }
-    cuts_ = noStallCuts(dataset_);
+    cuts_ = noStallCuts(dataset_, pageRoomBytes_ > 0);
   } else {
     cuts_ = hostRefinementCuts(view_, true);
   }
@@ -636,9 +639,9 @@ Result<void> FlySession::frame(FlyControls& controls, double t) {
       present.overlayExtent = {hudPixels_.width, hudPixels_.height};
     }
   }
-  if (auto r = renderer_->submit(*selected, camera, settings_, screenshot, &present); !r) {
-    return r;
-  }
+  auto submitted = renderer_->submit(*selected, camera, settings_, screenshot, &present);
+  cuts_->cutDecoded();
+  if (!submitted) return submitted;
   entry.faults = threadMajorFaults() - faults0;
   inFlight_.push_back(entry);
   auto shown = swapchain_.present(**image);

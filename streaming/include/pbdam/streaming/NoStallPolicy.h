@@ -5,7 +5,9 @@
 // conforming). No Vulkan here. Thread-safety: const members only; any thread may call them.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "pbdam/formats/Result.h"
@@ -16,18 +18,51 @@
 
 namespace pbdam::streaming {
 
+/// Pages locked in memory (mlock) until the object goes: a no-stall cut's byte ranges, found
+/// resident, held so that the kernel cannot evict them between the check and the frame's
+/// decode (under a tight memory cap it otherwise does, and the render thread faults). Best
+/// effort: a range the process may not lock (RLIMIT_MEMLOCK) is left unlocked. Move-only.
+class HeldPages final {
+ public:
+  HeldPages() = default;
+  HeldPages(HeldPages&& other) noexcept;
+  HeldPages& operator=(HeldPages&& other) noexcept;
+  HeldPages(const HeldPages&) = delete;
+  HeldPages& operator=(const HeldPages&) = delete;
+  ~HeldPages();
+  /// Locks the pages overlapping [offset, offset + bytes) of `file`; false when mlock refused.
+  bool hold(const MappedFile& file, std::uint64_t offset, std::uint64_t bytes);
+  std::uint64_t bytes() const noexcept { return bytes_; }
+  /// Drops this process's page-table entries of [offset, offset + bytes) of `file`
+  /// (MappedFile::releaseResident) except on the pages held here, which madvise cannot drop
+  /// (it would stop at the first locked page).
+  void releaseResidentAround(const MappedFile& file, std::uint64_t offset,
+                             std::uint64_t bytes) const;
+
+ private:
+  void release() noexcept;
+  std::vector<std::pair<const std::byte*, std::size_t>> ranges_;
+  std::uint64_t bytes_ = 0;
+};
+
 /// A cut and the global level cap it was refined under.
 struct NoStallCut final {
   runtime::Cut cut;
   /// The finest level drawn (refinement's maxLevel); the dataset's depth when nothing was
   /// capped; -1 (and an empty cut) when not even the roots are resident.
   int levelCap = -1;
+  /// With NoStallPolicy's holdPages, the cut's patch and tile pages, locked: keep them until
+  /// the frame drawn from the cut has decoded what it needed.
+  HeldPages held;
 };
 
 /// Chooses no-stall cuts over one mapped dataset, which must outlive it.
 class NoStallPolicy final {
  public:
-  explicit NoStallPolicy(const MappedDataset& dataset) noexcept : dataset_(&dataset) {}
+  /// With `holdPages` (under a memory budget) every cut comes with its pages locked
+  /// (NoStallCut::held).
+  explicit NoStallPolicy(const MappedDataset& dataset, bool holdPages = false) noexcept
+      : dataset_(&dataset), holdPages_(holdPages) {}
 
   /// Whether every page of [offset, offset + bytes) of `file` is in the page cache (mincore);
   /// an empty range is.
@@ -41,7 +76,10 @@ class NoStallPolicy final {
   /// the reads: call it before the first frame. Ranges that cannot be read (a truncated file,
   /// a failing disk) are skipped; their errors, naming the file and offset, are returned (empty
   /// when everything was read).
-  std::vector<formats::Error> preloadCoarseLevels() const;
+  /// With `keep`, what was read is also locked in memory there for as long as the caller keeps
+  /// it (HeldPages): under a memory budget the kernel would otherwise evict the coarse levels
+  /// the guarantee rests on, and a frame would have nothing to draw.
+  std::vector<formats::Error> preloadCoarseLevels(HeldPages* keep = nullptr) const;
 
   /// The finest level-capped cut for `camera` (refined with `options`; its maxLevel, when set,
   /// is the highest cap tried) whose patch and tile byte ranges are all resident. Faults in node
@@ -57,7 +95,9 @@ class NoStallPolicy final {
                       int previousCap, int maxRise = 2) const;
 
  private:
+  void hold(NoStallCut& chosen) const;
   const MappedDataset* dataset_;
+  bool holdPages_ = false;
 };
 
 }  // namespace pbdam::streaming
