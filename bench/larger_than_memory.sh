@@ -151,6 +151,15 @@ if [ -n "${PAPER_DATASET:-}" ]; then
   done
 fi
 
+# Faults and frame time along the flight, capped against uncapped (docs/performance.md shows it).
+"$root/bench/plot_larger_than_memory.py" "$out/flight.svg" \
+  "$cap MiB paging, prefetch off=$out/large-cap$cap-paging-off" \
+  "$cap MiB paging, prefetch on=$out/large-cap$cap-paging-on" \
+  "$cap MiB no-stall, prefetch on=$out/large-cap$cap-nostall-on" \
+  "uncapped paging, prefetch off=$out/large-uncapped-paging-off" \
+  "uncapped paging, prefetch on=$out/large-uncapped-paging-on" || true
+echo "plot: $out/flight.svg"
+
 if [ "$serveSeconds" != 0 ]; then
   soak="$bin/bench/pbdam_serve_soak"
   for capMib in "$serveCap" none; do
