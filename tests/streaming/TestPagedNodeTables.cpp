@@ -10,6 +10,7 @@
 
 #include <array>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
@@ -88,41 +89,50 @@ void expectSameCuts(const DatasetView& whole, const DatasetView& paged) {
   EXPECT_FALSE(paged.damage().has_value());
 }
 
-TEST(PagedNodeTables, MolaRecordsLinksLookupsAndCutsAreTheWholeTables) {
-  PBDAM_REQUIRE_DATASET(dir, "mola");
+/// `dir` opened twice: node tables held whole, and paged through the smallest cache.
+struct BothWays {
+  std::unique_ptr<MappedDataset> whole;
+  std::unique_ptr<MappedDataset> paged;
+};
+void openBothWays(const std::filesystem::path& dir, BothWays& both) {
   auto whole = MappedDataset::open(dir);
   ASSERT_TRUE(whole.ok()) << whole.error().message;
   auto paged = MappedDataset::open(dir, pagedTables());
   ASSERT_TRUE(paged.ok()) << paged.error().message;
-  expectSameTables((*whole)->view(), (*paged)->view());
-  expectSameCuts((*whole)->view(), (*paged)->view());
+  both = {std::move(*whole), std::move(*paged)};
+}
+
+TEST(PagedNodeTables, MolaRecordsLinksLookupsAndCutsAreTheWholeTables) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  BothWays both;
+  ASSERT_NO_FATAL_FAILURE(openBothWays(dir, both));
+  const DatasetView& w = both.whole->view();
+  const DatasetView& p = both.paged->view();
+  expectSameTables(w, p);
+  expectSameCuts(w, p);
 }
 
 TEST(PagedNodeTables, AnInsetsSparseForestIsTheWholeTables) {
   PBDAM_REQUIRE_DATASET(dir, "luxembourg");
-  auto whole = MappedDataset::open(dir);
-  ASSERT_TRUE(whole.ok()) << whole.error().message;
-  auto paged = MappedDataset::open(dir, pagedTables());
-  ASSERT_TRUE(paged.ok()) << paged.error().message;
-  ASSERT_FALSE(
-      (*whole)->view().face(0).completeForest() && (*whole)->view().face(1).completeForest() &&
-      (*whole)->view().face(2).completeForest() && (*whole)->view().face(3).completeForest() &&
-      (*whole)->view().face(4).completeForest() && (*whole)->view().face(5).completeForest())
-      << "the inset dataset should have a sparse forest somewhere";
-  expectSameTables((*whole)->view(), (*paged)->view());
-  expectSameCuts((*whole)->view(), (*paged)->view());
+  BothWays both;
+  ASSERT_NO_FATAL_FAILURE(openBothWays(dir, both));
+  const DatasetView& w = both.whole->view();
+  const DatasetView& p = both.paged->view();
+  bool sparse = false;
+  for (int f = 0; f < 6; ++f) sparse |= !w.face(f).completeForest();
+  ASSERT_TRUE(sparse) << "the inset dataset should have a sparse forest somewhere";
+  expectSameTables(w, p);
+  expectSameCuts(w, p);
 }
 
 // The render thread, the loader and the prefetcher refine at once through one cache (TSan
 // checks its locks in the tsan preset).
 TEST(PagedNodeTables, ThreadsRefiningAtOnceGetTheWholeTablesCuts) {
   PBDAM_REQUIRE_DATASET(dir, "mola");
-  auto whole = MappedDataset::open(dir);
-  ASSERT_TRUE(whole.ok()) << whole.error().message;
-  auto paged = MappedDataset::open(dir, pagedTables());
-  ASSERT_TRUE(paged.ok()) << paged.error().message;
-  const DatasetView& w = (*whole)->view();
-  const DatasetView& p = (*paged)->view();
+  BothWays both;
+  ASSERT_NO_FATAL_FAILURE(openBothWays(dir, both));
+  const DatasetView& w = both.whole->view();
+  const DatasetView& p = both.paged->view();
   const Viewport viewport{320, 240, 60.0};
   std::vector<Camera> cameras;
   cameras.reserve(8);
