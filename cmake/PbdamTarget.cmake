@@ -13,7 +13,10 @@ function(pbdam_target_settings target)
   if(PBDAM_SANITIZE)
     target_compile_options(${target} PUBLIC -fsanitize=${PBDAM_SANITIZE} -fno-omit-frame-pointer
                                             -fno-sanitize-recover=all)
-    target_link_options(${target} PUBLIC -fsanitize=${PBDAM_SANITIZE})
+    # With -fsanitize GCC leaves out the --as-needed Debian's GCC passes by default, and every
+    # executable would load every library its dependencies name (OpenImageIO alone brings 260,
+    # 0.15 s at each start).
+    target_link_options(${target} PUBLIC -fsanitize=${PBDAM_SANITIZE} -Wl,--as-needed)
   endif()
 endfunction()
 
