@@ -115,7 +115,10 @@ FrameOutcome RenderPool::render(const FrameRequest& request, Clock::time_point d
     const std::lock_guard<std::mutex> lock(mutex_);
     if (stopping_) return {FrameRefusal::ShuttingDown, std::nullopt};
     // Room for every idle context plus the queue: requests beyond that are refused at once.
-    const std::size_t idle = stats_.workers - stats_.rendering;
+    // With several frames in flight a context draws more than one, so `rendering` may exceed
+    // the contexts (the difference once wrapped around and admitted every request).
+    const std::size_t idle =
+        stats_.rendering < stats_.workers ? stats_.workers - stats_.rendering : 0;
     if (queue_.size() >= idle + options_.queueCapacity) {
       ++stats_.rejectedQueueFull;
       return {FrameRefusal::QueueFull, std::nullopt};
