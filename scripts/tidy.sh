@@ -35,7 +35,7 @@ fi
 
 # CMake writes one '"file": "/abs/path",' line per compile command; a file built into two
 # targets appears twice and is checked once. A unity batch is selected by its sources' paths.
-unity="$root/build/[^/]+/tools/CMakeFiles/pbdam\.dir/Unity/unity_[0-9]+_cxx\.cxx"
+unity="$root/build/[^/]+/(tools|tests/[a-z]+)/CMakeFiles/[a-z_]+\.dir/Unity/unity_[0-9]+_cxx\.cxx"
 mapfile -t files < <(sed -n 's/^ *"file": "\(.*\)",\{0,1\}$/\1/p' "$db" |
   grep -E "^($root/(formats|runtime|streaming|gpu|tools|bench|tests)/|$unity\$)" | sort -u |
   while read -r file; do

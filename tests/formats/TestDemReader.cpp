@@ -32,11 +32,6 @@ std::string replaceOnce(std::string text, const std::string& from, const std::st
   return text;
 }
 
-std::string readText(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 void writeBytes(const fs::path& p, const std::string& bytes) {
   std::ofstream out(p, std::ios::binary);
   out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
@@ -46,10 +41,10 @@ void writeBytes(const fs::path& p, const std::string& bytes) {
 /// label edited by `editLabel`.
 fs::path copyMola(const fs::path& dir, std::int64_t imageBytes,
                   const std::function<std::string(std::string)>& editLabel = {}) {
-  std::string label = readText(test::dataDir() / kMolaLabel);
+  std::string label = test::readFile(test::dataDir() / kMolaLabel);
   if (editLabel) label = editLabel(label);
   writeBytes(dir / "megt90n000cb.lbl", label);
-  std::string image = readText(test::dataDir() / kMolaImage);
+  std::string image = test::readFile(test::dataDir() / kMolaImage);
   if (imageBytes >= 0) image.resize(static_cast<std::size_t>(imageBytes));
   writeBytes(dir / "megt90n000cb.img", image);
   return dir / "megt90n000cb.lbl";
@@ -141,7 +136,7 @@ TEST(DemReader, ImageBesideALabelOfAnotherFileSaysWhichFileToPass) {
   test::TempDir dir;
   copyMola(dir.path(), -1);
   fs::rename(dir / "megt90n000cb.img", dir / "megt90n000cb-copy.img");
-  writeBytes(dir / "megt90n000cb-copy.lbl", readText(dir / "megt90n000cb.lbl"));
+  writeBytes(dir / "megt90n000cb-copy.lbl", test::readFile(dir / "megt90n000cb.lbl"));
   EXPECT_FALSE(pdsLabelFor(dir / "megt90n000cb-copy.img"));
   expectRejected(readDem(dir / "megt90n000cb-copy.img"), dir / "megt90n000cb-copy.img",
                  "does not name it: pass the PDS label that describes this image");
@@ -395,7 +390,7 @@ TEST(DemReader, RejectsTruncatedNetcdf) {
   PBDAM_REQUIRE_DATA(path, PBDAM_ETOPO5_PATH);
   test::TempDir dir;
   const fs::path copy = dir / "etopo5.cdf";
-  std::string bytes = readText(path);
+  std::string bytes = test::readFile(path);
   bytes.resize(3000000);
   writeBytes(copy, bytes);
   expectRejected(readDem(copy), copy, "truncated");
@@ -408,7 +403,7 @@ TEST(DemReader, RejectsTruncatedGeoTiff) {
   PBDAM_REQUIRE_DATA(path, test::dataDir() / "geotiff/terra_elev_luxembourg.tif");
   test::TempDir dir;
   const fs::path copy = dir / "cut.tif";
-  std::string bytes = readText(path);
+  std::string bytes = test::readFile(path);
   bytes.resize(4000);
   writeBytes(copy, bytes);
   expectRejected(readDem(copy), copy, "cannot read");
@@ -417,7 +412,7 @@ TEST(DemReader, RejectsTruncatedGeoTiff) {
 TEST(DemReader, RejectsTruncatedSrtmTile) {
   test::TempDir dir;
   const fs::path tile = writeSrtmTile(dir.path());
-  std::string bytes = readText(tile);
+  std::string bytes = test::readFile(tile);
   bytes.resize(bytes.size() - 5000);
   writeBytes(tile, bytes);
   expectRejected(readDem(tile), tile, "");

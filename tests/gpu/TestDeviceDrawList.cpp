@@ -29,8 +29,8 @@ using namespace pbdam::runtime;
 namespace pbdam::gpu {
 namespace {
 
-constexpr std::uint32_t kWidth = 320;
-constexpr std::uint32_t kHeight = 200;
+constexpr std::uint32_t kDrawListWidth = 320;
+constexpr std::uint32_t kDrawListHeight = 200;
 
 class DeviceDrawListTest : public test::GpuTest {
  protected:
@@ -43,8 +43,8 @@ class DeviceDrawListTest : public test::GpuTest {
   /// A renderer whose private cache holds `budgetBytes` in one pool chunk.
   Result<TerrainRenderer> makeRenderer(const DatasetView& view, std::uint64_t budgetBytes) {
     TerrainRendererOptions ro;
-    ro.widthPixels = kWidth;
-    ro.heightPixels = kHeight;
+    ro.widthPixels = kDrawListWidth;
+    ro.heightPixels = kDrawListHeight;
     ro.gpuCacheBytes = budgetBytes;
     ro.poolChunkBytes = budgetBytes;
     return TerrainRenderer::create(context(), view, ro);
@@ -71,7 +71,7 @@ class DeviceDrawListTest : public test::GpuTest {
                             -90.0 + 70.0 * unit(rng),
                             0.0};
       SCOPED_TRACE(test::describe(pose));
-      const Camera camera = test::cameraAt(view, pose, kWidth, kHeight);
+      const Camera camera = test::cameraAt(view, pose, kDrawListWidth, kDrawListHeight);
       SelectionOptions selection;
       selection.refinement.tolerancePixels = 2.0 + 3.0 * unit(rng);
       selection.refinement.morphRange = c % 3 == 2 ? 0.0 : 0.25;
@@ -149,7 +149,8 @@ TEST_F(DeviceDrawListTest, ABudgetBelowTheWholeDatasetIsRefused) {
   ASSERT_TRUE(selector.ok()) << selector.error().message;
   auto renderer = makeRenderer(view, GpuCache::bytesForEverything(context(), view) / 2);
   ASSERT_TRUE(renderer.ok()) << renderer.error().message;
-  const Camera camera = test::cameraAt(view, {0.0, 0.0, 4e6, 0.0, -90.0, 0.0}, kWidth, kHeight);
+  const Camera camera =
+      test::cameraAt(view, {0.0, 0.0, 4e6, 0.0, -90.0, 0.0}, kDrawListWidth, kDrawListHeight);
   auto refused = renderer->renderSelected(*selector, camera, {});
   ASSERT_FALSE(refused.ok());
   EXPECT_EQ(refused.error().code, ErrorCode::InvalidArgument);

@@ -29,8 +29,8 @@ using namespace pbdam::runtime;
 namespace pbdam::gpu {
 namespace {
 
-constexpr std::uint32_t kWidth = 320;
-constexpr std::uint32_t kHeight = 240;
+constexpr std::uint32_t kInFlightWidth = 320;
+constexpr std::uint32_t kInFlightHeight = 240;
 constexpr std::size_t kFrames = 16;
 
 /// One frame of a flight: its camera and cut.
@@ -63,7 +63,7 @@ std::vector<FlightFrame> flight(const streaming::MappedDataset& dataset, CutKind
   int cap = -1;
   std::vector<FlightFrame> frames;
   for (const CameraPose& pose : flightPoses()) {
-    const Camera camera = test::cameraAt(view, pose, kWidth, kHeight);
+    const Camera camera = test::cameraAt(view, pose, kInFlightWidth, kInFlightHeight);
     Cut cut;
     switch (kind) {
       case CutKind::Fresh:
@@ -96,8 +96,8 @@ class FramesInFlightTest : public test::GpuTest {
                                        std::uint64_t budgetBytes = std::uint64_t{128} << 20,
                                        std::shared_ptr<GpuCache> cache = nullptr) {
     TerrainRendererOptions options;
-    options.widthPixels = kWidth;
-    options.heightPixels = kHeight;
+    options.widthPixels = kInFlightWidth;
+    options.heightPixels = kInFlightHeight;
     options.gpuCacheBytes = budgetBytes;
     options.framesInFlight = inFlight;
     options.sharedCache = std::move(cache);
@@ -274,7 +274,7 @@ TEST_F(FramesInFlightTest, WithoutReadbackTheFrameHasNoImageAndTheSameStatistics
     auto b = without->collect();
     ASSERT_TRUE(a.ok()) << a.error().message;
     ASSERT_TRUE(b.ok()) << b.error().message;
-    EXPECT_EQ(a->image.rgba.size(), std::size_t{4} * kWidth * kHeight);
+    EXPECT_EQ(a->image.rgba.size(), std::size_t{4} * kInFlightWidth * kInFlightHeight);
     EXPECT_TRUE(b->image.rgba.empty());
     EXPECT_EQ(b->image.widthPixels, 0u);
     EXPECT_EQ(a->stats.patches, b->stats.patches);

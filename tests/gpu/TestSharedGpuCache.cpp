@@ -28,15 +28,15 @@ using namespace pbdam::runtime;
 namespace pbdam::gpu {
 namespace {
 
-constexpr std::uint32_t kWidth = 320;
-constexpr std::uint32_t kHeight = 240;
+constexpr std::uint32_t kSharedCacheWidth = 320;
+constexpr std::uint32_t kSharedCacheHeight = 240;
 
 class SharedGpuCacheTest : public test::GpuTest {
  protected:
   Result<TerrainRenderer> makeRenderer(const DatasetView& view, std::shared_ptr<GpuCache> cache) {
     TerrainRendererOptions options;
-    options.widthPixels = kWidth;
-    options.heightPixels = kHeight;
+    options.widthPixels = kSharedCacheWidth;
+    options.heightPixels = kSharedCacheHeight;
     options.sharedCache = std::move(cache);
     options.warnWhenBudgetExceeded = false;
     return TerrainRenderer::create(context(), view, options);
@@ -74,8 +74,8 @@ TEST_F(SharedGpuCacheTest, WhatOneRendererUploadsTheOtherDraws) {
   ASSERT_TRUE(b.ok()) << b.error().message;
   EXPECT_EQ(a->cache(), b->cache());
 
-  const Camera camera =
-      test::cameraAt(view, {10.0, 230.0, 2.5e6, 0.0, -70.0, 0.0}, kWidth, kHeight);
+  const Camera camera = test::cameraAt(view, {10.0, 230.0, 2.5e6, 0.0, -70.0, 0.0},
+                                       kSharedCacheWidth, kSharedCacheHeight);
   const Cut cut = refine(view, camera, RefinementOptions{});
   const std::uint64_t entries = cut.patches.size() + cut.tiles.size();
   auto first = a->render(cut, camera);
@@ -119,7 +119,7 @@ TEST_F(SharedGpuCacheTest, ConcurrentRenderersDrawExactFramesWithinTheBudget) {
   std::uint64_t largest = 0;
   for (std::size_t t = 0; t < flights.size(); ++t) {
     for (const CameraPose& pose : flights[t]) {
-      cameras[t].push_back(test::cameraAt(view, pose, kWidth, kHeight));
+      cameras[t].push_back(test::cameraAt(view, pose, kSharedCacheWidth, kSharedCacheHeight));
       cuts[t].push_back(refine(view, cameras[t].back(), RefinementOptions{}));
       largest = std::max(largest, bytesOf(view, cuts[t].back()));
     }
@@ -128,8 +128,8 @@ TEST_F(SharedGpuCacheTest, ConcurrentRenderersDrawExactFramesWithinTheBudget) {
   std::vector<std::vector<std::vector<std::uint8_t>>> expected(flights.size());
   {
     TerrainRendererOptions options;
-    options.widthPixels = kWidth;
-    options.heightPixels = kHeight;
+    options.widthPixels = kSharedCacheWidth;
+    options.heightPixels = kSharedCacheHeight;
     options.gpuCacheBytes = std::uint64_t{256} << 20;
     auto reference = TerrainRenderer::create(context(), view, options);
     ASSERT_TRUE(reference.ok()) << reference.error().message;
@@ -209,7 +209,7 @@ TEST_F(SharedGpuCacheTest, TwoFramesInFlightWhileTheCacheEvicts) {
   std::uint64_t largest = 0;
   for (std::size_t t = 0; t < flights.size(); ++t) {
     for (const CameraPose& pose : flights[t]) {
-      cameras[t].push_back(test::cameraAt(view, pose, kWidth, kHeight));
+      cameras[t].push_back(test::cameraAt(view, pose, kSharedCacheWidth, kSharedCacheHeight));
       cuts[t].push_back(refine(view, cameras[t].back(), RefinementOptions{}));
       largest = std::max(largest, bytesOf(view, cuts[t].back()));
     }
@@ -249,8 +249,8 @@ TEST_F(SharedGpuCacheTest, TwoFramesInFlightWhileTheCacheEvicts) {
       for (int round = 0; round < kRounds; ++round) {
         if (t == 1 && round == 1) {
           // A resize retires the old target while the other renderer's frame is in flight.
-          if (!renderers[t].resize(kWidth / 2, kHeight / 2) ||
-              !renderers[t].resize(kWidth, kHeight)) {
+          if (!renderers[t].resize(kSharedCacheWidth / 2, kSharedCacheHeight / 2) ||
+              !renderers[t].resize(kSharedCacheWidth, kSharedCacheHeight)) {
             failures[t] += "resize failed\n";
           }
         }
@@ -287,8 +287,10 @@ TEST_F(SharedGpuCacheTest, RedrawLastRefusesWhenAnotherRendererEvictedItsEntries
   const auto dataset = test::openDataset(dir);
   ASSERT_NE(dataset, nullptr);
   const DatasetView& view = dataset->view();
-  const Camera ca = test::cameraAt(view, {0.0, 0.0, 3e6, 0.0, -90.0, 0.0}, kWidth, kHeight);
-  const Camera cb = test::cameraAt(view, {0.0, 180.0, 3e6, 0.0, -90.0, 0.0}, kWidth, kHeight);
+  const Camera ca =
+      test::cameraAt(view, {0.0, 0.0, 3e6, 0.0, -90.0, 0.0}, kSharedCacheWidth, kSharedCacheHeight);
+  const Camera cb = test::cameraAt(view, {0.0, 180.0, 3e6, 0.0, -90.0, 0.0}, kSharedCacheWidth,
+                                   kSharedCacheHeight);
   const Cut cutA = refine(view, ca, RefinementOptions{});
   const Cut cutB = refine(view, cb, RefinementOptions{});
   const auto cache = makeCache(view, std::max(bytesOf(view, cutA), bytesOf(view, cutB)));

@@ -70,4 +70,9 @@ CommandRun runCommand(const std::string& command) {
   return run;
 }
 
+std::string readFile(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
 }  // namespace pbdam::test

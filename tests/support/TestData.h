@@ -42,6 +42,9 @@ struct CommandRun final {
 /// Runs `command` through /bin/sh, capturing stdout (a pipe) and stderr (a temporary file).
 CommandRun runCommand(const std::string& command);
 
+/// The bytes of a file; empty when it cannot be read.
+std::string readFile(const std::filesystem::path& path);
+
 }  // namespace pbdam::test
 
 /// Declares `var` as the path of a required data file; when it is missing, fails the test

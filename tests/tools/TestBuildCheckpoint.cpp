@@ -22,12 +22,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string readFile(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-BuildOptions smallMola(const fs::path& dem, const fs::path& out) {
+BuildOptions checkpointMola(const fs::path& dem, const fs::path& out) {
   BuildOptions o;
   o.demPath = dem;
   o.planetSpec = "mars";
@@ -45,7 +40,7 @@ void expectSameDataset(const fs::path& a, const fs::path& b) {
   int files = 0;
   for (const auto& entry : fs::directory_iterator(a)) {
     const auto name = entry.path().filename();
-    EXPECT_TRUE(readFile(a / name) == readFile(b / name)) << name << " differs";
+    EXPECT_TRUE(test::readFile(a / name) == test::readFile(b / name)) << name << " differs";
     ++files;
   }
   EXPECT_EQ(files, 7);
@@ -117,12 +112,12 @@ Result<BuildSummary> buildOnRanks(const BuildOptions& options, int ranks) {
 TEST(DistributedBuild, ThreadRanksGiveThePlainBuildsBytes) {
   PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
   test::TempDir dir;
-  auto plain = buildDataset(smallMola(dem, dir / "plain"));
+  auto plain = buildDataset(checkpointMola(dem, dir / "plain"));
   ASSERT_TRUE(plain) << plain.error().message;
   for (int ranks : {2, 3, 5}) {
     const fs::path out = dir / ("r" + std::to_string(ranks));
     std::vector<std::string> lines;
-    BuildOptions o = smallMola(dem, out);
+    BuildOptions o = checkpointMola(dem, out);
     o.log = [&](std::string_view line) { lines.emplace_back(line); };
     auto summary = buildOnRanks(o, ranks);
     ASSERT_TRUE(summary) << summary.error().message;
@@ -150,7 +145,7 @@ TEST(DistributedBuild, DifferentOptionsOnOneRankAreRefusedOnAll) {
   ThreadGroup group(2);
   ThreadGroup::Rank r0(group, 0);
   ThreadGroup::Rank r1(group, 1);
-  BuildOptions a = smallMola(dem, dir / "out");
+  BuildOptions a = checkpointMola(dem, dir / "out");
   a.communicator = &r0;
   BuildOptions b = a;
   b.communicator = &r1;
@@ -169,10 +164,10 @@ TEST(DistributedBuild, DifferentOptionsOnOneRankAreRefusedOnAll) {
 TEST(DistributedBuild, AnInterruptedBuildResumesToTheSameBytes) {
   PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
   test::TempDir dir;
-  ASSERT_TRUE(buildDataset(smallMola(dem, dir / "plain")));
+  ASSERT_TRUE(buildDataset(checkpointMola(dem, dir / "plain")));
   for (int failLevel : {4, 2, 0}) {
     const fs::path out = dir / ("cut" + std::to_string(failLevel));
-    BuildOptions o = smallMola(dem, out);
+    BuildOptions o = checkpointMola(dem, out);
     o.fault.failRank = 0;
     o.fault.failLevel = failLevel;
     o.fault.failByKill = false;
@@ -212,7 +207,7 @@ TEST(BuildCheckpoint, ResumeRefusesOtherOptionsAndDamagedCheckpoints) {
   PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
   test::TempDir dir;
   const fs::path out = dir / "out";
-  BuildOptions o = smallMola(dem, out);
+  BuildOptions o = checkpointMola(dem, out);
   o.fault = {0, 1, false};
   ASSERT_FALSE(buildDataset(o));
   o.fault = {};
@@ -229,7 +224,7 @@ TEST(BuildCheckpoint, ResumeRefusesOtherOptionsAndDamagedCheckpoints) {
 
   // A flipped byte in a level file is caught by its CRC.
   const fs::path level3 = Checkpoint(out).file(Checkpoint::Kind::Nodes, 3);
-  std::string bytes = readFile(level3);
+  std::string bytes = test::readFile(level3);
   ASSERT_GT(bytes.size(), 1000u);
   bytes[bytes.size() / 2] = static_cast<char>(bytes[bytes.size() / 2] ^ 0x10);
   std::ofstream(level3, std::ios::binary)
@@ -251,14 +246,14 @@ TEST(BuildCheckpoint, ResumeRefusesOtherOptionsAndDamagedCheckpoints) {
   // Without --resume the checkpoint is discarded and the build starts over.
   o.resume = false;
   ASSERT_TRUE(buildDataset(o));
-  ASSERT_TRUE(buildDataset(smallMola(dem, dir / "plain")));
+  ASSERT_TRUE(buildDataset(checkpointMola(dem, dir / "plain")));
   expectSameDataset(dir / "plain", out);
 }
 
 TEST(BuildCheckpoint, ResumeWithoutACheckpointBuildsFromTheStart) {
   PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
   test::TempDir dir;
-  BuildOptions o = smallMola(dem, dir / "out");
+  BuildOptions o = checkpointMola(dem, dir / "out");
   o.depth = 2;
   o.resume = true;
   std::vector<std::string> lines;
@@ -287,7 +282,7 @@ TEST(DistributedBuild, AnInsetBuildIsTheSameBytesOnAnyRankCountAndAfterAResume) 
   writePpm(dir / "lux.ppm", 200);
   writePpm(dir / "other.ppm", 100);
   const auto options = [&](const fs::path& out) {
-    BuildOptions o = smallMola(dem, out);
+    BuildOptions o = checkpointMola(dem, out);
     o.planetSpec = "earth";
     o.insets = {InsetSpec{luxembourg, {}, dir / "lux.ppm"}};
     return o;

@@ -29,11 +29,6 @@ struct BuildRun {
   std::string err;
 };
 
-std::string readFile(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 /// The small MOLA build of the distributed-build tests (about 2 s).
 std::vector<std::string> buildArgs(const fs::path& dem, const fs::path& out) {
   return {PBDAM_EXE,
@@ -91,7 +86,7 @@ BuildRun run(const std::vector<std::string>& args, const fs::path& errFile,
   ::waitpid(pid, &status, 0);
   BuildRun r;
   r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  r.err = readFile(errFile);
+  r.err = test::readFile(errFile);
   return r;
 }
 
@@ -100,7 +95,7 @@ void expectSameDataset(const fs::path& a, const fs::path& b) {
   for (const auto& entry : fs::directory_iterator(a)) {
     const auto name = entry.path().filename();
     ASSERT_TRUE(fs::exists(b / name)) << b / name;
-    EXPECT_TRUE(readFile(a / name) == readFile(b / name)) << name << " differs";
+    EXPECT_TRUE(test::readFile(a / name) == test::readFile(b / name)) << name << " differs";
     ++files;
   }
   EXPECT_EQ(files, 7);  // six faces and the manifest: no checkpoint left behind

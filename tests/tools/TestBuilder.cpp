@@ -43,11 +43,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string readFile(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 void writeFile(const fs::path& p, const std::string& bytes) {
   std::ofstream(p, std::ios::binary)
       .write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
@@ -57,7 +52,7 @@ void writeFile(const fs::path& p, const std::string& bytes) {
 void expectSameFiles(const fs::path& a, const fs::path& b) {
   for (const auto& entry : fs::directory_iterator(a)) {
     const auto name = entry.path().filename();
-    EXPECT_EQ(readFile(a / name), readFile(b / name)) << name;
+    EXPECT_EQ(test::readFile(a / name), test::readFile(b / name)) << name;
   }
 }
 
@@ -72,7 +67,7 @@ void expectErrorTargetsHold(const fs::path& dataset, std::uint32_t minTriangles,
   EXPECT_EQ(manifest->errorMargin, margin);
   std::size_t checked = 0;
   for (const ManifestFace& f : manifest->faces) {
-    const std::string bytes = readFile(dataset / f.file);
+    const std::string bytes = test::readFile(dataset / f.file);
     auto view =
         FaceView::open(std::as_bytes(std::span<const char>(bytes.data(), bytes.size())), f.file);
     ASSERT_TRUE(view) << view.error().message;
@@ -171,7 +166,7 @@ TEST(Builder, MorphTargetsAgreeWherePatchesShareAVertexAndItsGoverningDiamond) {
   std::map<std::pair<runtime::PointKey, EdgeKey>, std::pair<std::int32_t, int>> seen;
   std::size_t moved = 0;
   for (std::size_t f = 0; f < 6; ++f) {
-    const std::string bytes = readFile(dir / "mola" / manifest->faces[f].file);
+    const std::string bytes = test::readFile(dir / "mola" / manifest->faces[f].file);
     auto view = FaceView::open(std::as_bytes(std::span<const char>(bytes.data(), bytes.size())),
                                manifest->faces[f].file);
     ASSERT_TRUE(view) << view.error().message;
@@ -291,7 +286,7 @@ TEST(Builder, AnAdaptiveForestPassesVerifyAgainstTheDem) {
   auto manifest = readManifest(dir / "adaptive");
   ASSERT_TRUE(manifest) << manifest.error().message;
   for (const ManifestFace& f : manifest->faces) {
-    const std::string bytes = readFile(dir / "adaptive" / f.file);
+    const std::string bytes = test::readFile(dir / "adaptive" / f.file);
     auto view =
         FaceView::open(std::as_bytes(std::span<const char>(bytes.data(), bytes.size())), f.file);
     ASSERT_TRUE(view) << view.error().message;
@@ -413,13 +408,13 @@ TEST(Builder, SameInputsGiveIdenticalBytesForAnyThreadCountAndDemStorage) {
   EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator{}), 2)
       << "a scratch file was left in " << dir.path();
   // Rebuilding over the same directory needs --force and reproduces the same bytes.
-  const std::string before = readFile(dir / "a" / "face3.pbdam");
+  const std::string before = test::readFile(dir / "a" / "face3.pbdam");
   auto again = buildDataset(a);
   ASSERT_FALSE(again);
   EXPECT_NE(again.error().message.find("--force"), std::string::npos);
   a.force = true;
   ASSERT_TRUE(buildDataset(a));
-  EXPECT_EQ(readFile(dir / "a" / "face3.pbdam"), before);
+  EXPECT_EQ(test::readFile(dir / "a" / "face3.pbdam"), before);
 }
 
 TEST(Builder, ADirectoryWithoutManifestIsNotADataset) {
@@ -452,7 +447,7 @@ TEST(Builder, AnOlderFormatVersionIsRefusedNamingTheFileAndTheRebuild) {
   // A face file whose header says version 3 (its header checksum made valid again): the version
   // is read before the node records, whose last field version 4 added.
   const fs::path facePath = dir / "d" / "face4.pbdam";
-  std::string face = readFile(facePath);
+  std::string face = test::readFile(facePath);
   const auto headerBytes = std::as_bytes(std::span(face.data(), kFaceHeaderBytes));
   auto header = decodeFaceHeader(headerBytes, face.size(), facePath.string());
   ASSERT_TRUE(header) << header.error().message;
@@ -530,7 +525,7 @@ TEST_F(CorruptionTest, AByteFlippedInAnySectionIsCaughtByVerifyAndByDecode) {
   PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
   ASSERT_NE(dir_, nullptr);
   const fs::path face = dir_->path() / "ds" / "face2.pbdam";
-  const std::string original = readFile(face);
+  const std::string original = test::readFile(face);
   auto span = [](const std::string& s) {
     return std::as_bytes(std::span<const char>(s.data(), s.size()));
   };
@@ -575,7 +570,7 @@ TEST_F(CorruptionTest, AByteFlippedInAnySectionIsCaughtByVerifyAndByDecode) {
   EXPECT_TRUE(verify(dir_->path() / "ds").ok());
   // The manifest carries its own checksum.
   const fs::path manifestPath = dir_->path() / "ds" / "manifest.json";
-  const std::string manifest = readFile(manifestPath);
+  const std::string manifest = test::readFile(manifestPath);
   std::string edited = manifest;
   const auto at = edited.find("\"min_patch_triangles\": 128");
   ASSERT_NE(at, std::string::npos);

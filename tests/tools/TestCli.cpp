@@ -30,11 +30,6 @@ namespace {
 
 using CliRun = test::CommandRun;
 
-std::string readText(const std::filesystem::path& file) {
-  std::ifstream in(file);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 /// The comma-separated cells of one CSV line (frames.csv has no quoted cells).
 std::vector<std::string> splitCsv(const std::string& line) {
   std::vector<std::string> cells;
@@ -46,6 +41,20 @@ std::vector<std::string> splitCsv(const std::string& line) {
 /// Runs pbdam with `args` (a shell-quoted string), capturing stdout and stderr.
 CliRun runPbdam(const std::string& args) {
   return test::runCommand(std::string("'") + PBDAM_EXE + "' " + args);
+}
+
+// OpenImageIO (about 260 libraries) is loaded only by processes that read or write an image,
+// from the module beside pbdam: pbdam itself does not link it, the module does.
+TEST(Cli, OpenImageIoIsAModuleBesidePbdam) {
+  const test::CommandRun needed =
+      test::runCommand("readelf -d " + std::string(PBDAM_EXE) + " | grep NEEDED");
+  ASSERT_EQ(needed.exitCode, 0) << needed.err;
+  EXPECT_EQ(needed.out.find("OpenImageIO"), std::string::npos) << needed.out;
+  const std::filesystem::path module =
+      std::filesystem::path(PBDAM_EXE).parent_path() / "libpbdam_oiio.so";
+  ASSERT_TRUE(std::filesystem::is_regular_file(module)) << module;
+  const test::CommandRun modules = test::runCommand("readelf -d " + module.string());
+  EXPECT_NE(modules.out.find("libOpenImageIO"), std::string::npos) << modules.out;
 }
 
 TEST(Cli, HelpAndVersion) {
@@ -388,7 +397,7 @@ TEST(Cli, PathThenColdBenchWithAndWithoutPrefetchOnMola) {
     EXPECT_EQ(run["readback"], false);
   }
   EXPECT_TRUE(std::filesystem::file_size(dir / "report" / "report.png") > 10000);
-  const std::string frames = readText(dir / "report" / "frames.csv");
+  const std::string frames = test::readFile(dir / "report" / "frames.csv");
   EXPECT_EQ(std::count(frames.begin(), frames.end(), '\n'), 1 + 2 * 7);
   // Each run's faults are its frames' sum, and the count after the first frame leaves out
   // exactly the first frame's (rows are in run order, frame order within a run).
@@ -437,7 +446,7 @@ TEST(Cli, NoStallBenchNeverFaultsOnTheRenderThread) {
     EXPECT_EQ(run["mode"], "no-stall");
     EXPECT_EQ(run["render_thread_major_faults_after_first_frame"], 0)
         << "frames.csv:\n"
-        << readText(dir / "r" / "frames.csv");
+        << test::readFile(dir / "r" / "frames.csv");
   }
   // The process's very first frame also runs code (decoders, the driver's paths) for the first
   // time; on a machine under memory pressure its pages can be a major fault that is not the
@@ -445,7 +454,7 @@ TEST(Cli, NoStallBenchNeverFaultsOnTheRenderThread) {
   // that code before: there every frame is free of faults.
   EXPECT_EQ(summary["runs"][1]["render_thread_major_faults"], 0)
       << "frames.csv:\n"
-      << readText(dir / "r" / "frames.csv");
+      << test::readFile(dir / "r" / "frames.csv");
 }
 
 // `pbdam query cut`: a focus region alone gives a closed mesh of the whole planet (V = F/2 + 2
@@ -469,7 +478,7 @@ TEST(Cli, QueryCutWritesTheFocusMeshAsPly) {
   EXPECT_GT(j["in_focus"]["patches"].get<int>(), 0);
   EXPECT_EQ(j["in_focus"]["min_level"], 8);
   EXPECT_EQ(j["in_focus"]["leaf_level"], 8);
-  const std::string bytes = readText(ply);
+  const std::string bytes = test::readFile(ply);
   const std::string header = "ply\nformat binary_little_endian 1.0\n";
   EXPECT_EQ(bytes.rfind(header, 0), 0u);
   const std::size_t body = bytes.find("end_header\n") + 11;
@@ -654,7 +663,7 @@ TEST(Cli, BenchCutReuseKeepsTheCutsAndPoppingIsMeasured) {
     decisions[reuse] = run["decisions_per_frame_mean"].get<double>();
     EXPECT_GE(run["popping_rms_p99"].get<double>(), 0.0);
     EXPECT_GE(run["popping_max_max"].get<double>(), run["popping_max_p50"].get<double>());
-    std::istringstream csv(readText(out / "frames.csv"));
+    std::istringstream csv(test::readFile(out / "frames.csv"));
     std::string line;
     std::getline(csv, line);
     EXPECT_NE(line.find(",decisions,popping_rms,popping_max,morph,morphing_patches"),
@@ -695,7 +704,7 @@ TEST(Cli, BenchCutReuseKeepsTheCutsAndPoppingIsMeasured) {
       EXPECT_GT(gpuRun["selection_max_screen_error_ratio"].get<double>(), 0.0);
       EXPECT_LE(gpuRun["selection_max_screen_error_ratio"].get<double>(), 1.0);
     }
-    std::istringstream csv(readText(out / "frames.csv"));
+    std::istringstream csv(test::readFile(out / "frames.csv"));
     std::string line;
     std::getline(csv, line);
     std::vector<std::string> gpuTriangles;

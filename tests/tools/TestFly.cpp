@@ -145,11 +145,6 @@ std::string quoted(const std::string& text) {
   return q;
 }
 
-std::string readFile(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 test::CommandRun runPbdam(const std::string& args, const std::string& env = "") {
   return test::runCommand(env + " " + quoted(PBDAM_EXE) + " " + args);
 }
@@ -216,7 +211,7 @@ TEST(FlyCli, AScriptedFlightRecordsAndItsScreenshotsAreTheRenderedBytes) {
   ASSERT_EQ(run.exitCode, 0) << run.out << run.err;
   EXPECT_EQ(run.err.find("validation messages"), std::string::npos) << run.err;
 
-  const auto summary = nlohmann::json::parse(readFile(stats));
+  const auto summary = nlohmann::json::parse(test::readFile(stats));
   EXPECT_GE(summary["frames"].get<int>(), 20);
   // The script resized the window: the last frames are the new size.
   EXPECT_EQ(summary["width"].get<int>(), 960);
@@ -236,15 +231,16 @@ TEST(FlyCli, AScriptedFlightRecordsAndItsScreenshotsAreTheRenderedBytes) {
   // Each screenshot is what pbdam render writes for its camera and options.
   for (const char* name : {"shot_000.png", "shot_001.png"}) {
     SCOPED_TRACE(name);
-    const std::string options = readFile(work / (std::string(name) + ".txt"));
+    const std::string options = test::readFile(work / (std::string(name) + ".txt"));
     ASSERT_FALSE(options.empty());
     const fs::path rendered = work / (std::string("render_") + name);
     const auto render = runPbdam("render " + ds + " " + options.substr(0, options.find('\n')) +
                                  " --quiet --out " + quoted(rendered.string()));
     ASSERT_EQ(render.exitCode, 0) << render.err;
-    const std::string a = readFile(work / name);
+    const std::string a = test::readFile(work / name);
     ASSERT_FALSE(a.empty());
-    EXPECT_TRUE(a == readFile(rendered)) << "the screenshot differs from pbdam render's frame";
+    EXPECT_TRUE(a == test::readFile(rendered))
+        << "the screenshot differs from pbdam render's frame";
   }
 
   // The recorded path replays unchanged in pbdam bench...
@@ -252,7 +248,7 @@ TEST(FlyCli, AScriptedFlightRecordsAndItsScreenshotsAreTheRenderedBytes) {
       runPbdam("bench " + ds + " --path " + quoted(recorded.string()) + " --out " +
                quoted((work / "bench").string()) + " --mode no-stall --prefetch on --quiet");
   ASSERT_EQ(bench.exitCode, 0) << bench.err;
-  const auto benchSummary = nlohmann::json::parse(readFile(work / "bench" / "summary.json"));
+  const auto benchSummary = nlohmann::json::parse(test::readFile(work / "bench" / "summary.json"));
   EXPECT_EQ(benchSummary["runs"][0]["frames"].get<std::size_t>(), path->size());
 
   // ... and in the window (its first two seconds).
@@ -265,7 +261,7 @@ TEST(FlyCli, AScriptedFlightRecordsAndItsScreenshotsAreTheRenderedBytes) {
       runFly(ds + " --validation --replay " + quoted((work / "start.csv").string()) + " --stats " +
              quoted((work / "replay.json").string()));
   ASSERT_EQ(replay.exitCode, 0) << replay.out << replay.err;
-  EXPECT_GE(nlohmann::json::parse(readFile(work / "replay.json"))["frames"].get<int>(), 3);
+  EXPECT_GE(nlohmann::json::parse(test::readFile(work / "replay.json"))["frames"].get<int>(), 3);
 }
 
 }  // namespace

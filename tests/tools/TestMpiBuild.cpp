@@ -36,11 +36,6 @@ struct ShellRun {
   double seconds = 0.0;
 };
 
-std::string readFile(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 /// Runs a shell command line, capturing stdout and stderr.
 ShellRun runShell(const std::string& command) {
   test::TempDir dir;
@@ -56,7 +51,7 @@ ShellRun runShell(const std::string& command) {
   const int status = ::pclose(pipe);
   run.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   run.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  run.err = readFile(errFile);
+  run.err = test::readFile(errFile);
   return run;
 }
 
@@ -79,7 +74,7 @@ void expectSameDataset(const fs::path& a, const fs::path& b) {
   for (const auto& entry : fs::directory_iterator(a)) {
     const auto name = entry.path().filename();
     ASSERT_TRUE(fs::exists(b / name)) << b / name;
-    EXPECT_TRUE(readFile(a / name) == readFile(b / name)) << name << " differs";
+    EXPECT_TRUE(test::readFile(a / name) == test::readFile(b / name)) << name << " differs";
     ++files;
   }
   EXPECT_EQ(files, 7);  // six faces and the manifest: no checkpoint left behind
@@ -189,7 +184,7 @@ pid_t rankPid(pid_t mpirunPid, int rank) {
     std::string pid, comm, state;
     long ppid = 0;
     if (!(stat >> pid >> comm >> state >> ppid) || ppid != mpirunPid) continue;
-    const std::string environ = readFile(entry.path() / "environ");
+    const std::string environ = test::readFile(entry.path() / "environ");
     if (environ.find("OMPI_COMM_WORLD_RANK=" + std::to_string(rank) + '\0') != std::string::npos) {
       return static_cast<pid_t>(std::stol(pid));
     }
@@ -228,7 +223,7 @@ TEST(MpiBuild, AnExternalKillDashNineOfARankStopsTheJob) {
   ASSERT_EQ(::waitpid(child, &status, 0), child);
   const double stopSeconds = std::chrono::duration<double>(Clock::now() - killedAt).count();
   EXPECT_LT(stopSeconds, 30.0) << "the job must stop, not hang";
-  const std::string err = readFile(errFile);
+  const std::string err = test::readFile(errFile);
   const bool finishedFirst = WIFEXITED(status) && WEXITSTATUS(status) == 0;
   if (finishedFirst) {
     // The kill was not tested at all: under CI that must show as a failure, not a quiet skip.

@@ -30,11 +30,6 @@ CliRun runPbdam(const std::string& args, const std::string& env = "") {
   return test::runCommand(env + " '" + std::string(PBDAM_EXE) + "' " + args);
 }
 
-std::string readFile(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 std::vector<std::string> lines(const std::string& text) {
   std::vector<std::string> out;
   std::istringstream in(text);
@@ -70,10 +65,10 @@ TEST(RenderCli, OneCameraToPngWithStats) {
                               quoted(png) + " --stats " + quoted(stats) + kSmall);
   ASSERT_EQ(run.exitCode, 0) << run.err;
   EXPECT_NE(run.out.find("wrote " + png.string()), std::string::npos) << run.out;
-  const std::string bytes = readFile(png);
+  const std::string bytes = test::readFile(png);
   ASSERT_GT(bytes.size(), 8u);
   EXPECT_EQ(bytes.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
-  const auto statLines = lines(readFile(stats));
+  const auto statLines = lines(test::readFile(stats));
   ASSERT_EQ(statLines.size(), 1u);
   const auto j = nlohmann::json::parse(statLines[0]);
   for (const char* key :
@@ -96,12 +91,12 @@ TEST(RenderCli, OneCameraToPngWithStats) {
                      " --stats " + quoted(flatStats) + " --morph off" + kSmall)
                 .exitCode,
             0);
-  const auto off = nlohmann::json::parse(lines(readFile(flatStats))[0]);
+  const auto off = nlohmann::json::parse(lines(test::readFile(flatStats))[0]);
   EXPECT_EQ(off["triangles"], j["triangles"]);
   EXPECT_EQ(off["morphing_patches"], 0);
   EXPECT_EQ(off["largest_morph_weight"], 0.0);
   if (j["morphing_patches"].get<int>() > 0) {
-    EXPECT_NE(readFile(flat), bytes);
+    EXPECT_NE(test::readFile(flat), bytes);
   }
 }
 
@@ -113,7 +108,7 @@ TEST(RenderCli, OneCameraToExr) {
                               quoted(exr) + " --quiet --clear 255,0,255" + kSmall);
   ASSERT_EQ(run.exitCode, 0) << run.err;
   EXPECT_TRUE(run.out.empty()) << run.out;
-  const std::string bytes = readFile(exr);
+  const std::string bytes = test::readFile(exr);
   ASSERT_GT(bytes.size(), 4u);
   EXPECT_EQ(bytes.substr(0, 4), std::string("\x76\x2f\x31\x01", 4));  // OpenEXR magic
 }
@@ -148,10 +143,10 @@ TEST(RenderCli, CameraPathToFramesAndVideo) {
   }
   EXPECT_NE(run.out.find("frame 3/3"), std::string::npos) << run.out;
   EXPECT_TRUE(std::filesystem::exists(tmp / "flight.mp4")) << run.out;
-  const std::string args = readFile(tmp / "ffmpeg-args.txt");
+  const std::string args = test::readFile(tmp / "ffmpeg-args.txt");
   EXPECT_NE(args.find("-framerate 4 "), std::string::npos) << args;  // 2 intervals in 0.5 s
   EXPECT_NE(args.find((tmp / "flight_%06d.png").string()), std::string::npos) << args;
-  const auto statLines = lines(readFile(stats));
+  const auto statLines = lines(test::readFile(stats));
   ASSERT_EQ(statLines.size(), 3u);
   const auto second = nlohmann::json::parse(statLines[1]);
   EXPECT_EQ(second["frame"], 1);
@@ -201,9 +196,9 @@ TEST(RenderCli, FramesInFlightWriteTheSameFrames) {
       for (int k = 0; k < 10; ++k) {
         char name[32];
         std::snprintf(name, sizeof name, "_%06d.png", k);
-        images[inFlight].push_back(readFile(prefix.string() + name));
+        images[inFlight].push_back(test::readFile(prefix.string() + name));
       }
-      for (const std::string& line : lines(readFile(statsFile))) {
+      for (const std::string& line : lines(test::readFile(statsFile))) {
         auto j = nlohmann::json::parse(line);
         evictions += j["evictions"].get<std::uint64_t>();
         for (const char* timing :
@@ -266,7 +261,7 @@ TEST(RenderCli, ABudgetOverTheCutStillRenders) {
                " --gpu-cache-mb 0.5 --stats " + quoted(stats) + kSmall);
   ASSERT_EQ(run.exitCode, 0) << run.err;
   EXPECT_NE(run.err.find("warning"), std::string::npos) << run.err;
-  EXPECT_TRUE(nlohmann::json::parse(readFile(stats))["budget_exceeded"].get<bool>());
+  EXPECT_TRUE(nlohmann::json::parse(test::readFile(stats))["budget_exceeded"].get<bool>());
 }
 
 // The device's selection passes draw the host's cut: byte-identical exact frames, with and
@@ -282,7 +277,7 @@ TEST(RenderCli, GpuSelectionDrawsTheSameFrameAsTheCpu) {
           runPbdam("render " + quoted(dir) + " --camera 18.65,226.2,600e3,0,-60,0" + focus +
                    " --selection " + (k == 0 ? "cpu" : "gpu") + " --out " + quoted(png) + kSmall);
       ASSERT_EQ(run.exitCode, 0) << run.err;
-      frames[k] = readFile(png);
+      frames[k] = test::readFile(png);
     }
     EXPECT_EQ(frames[0], frames[1]) << "focus '" << focus << "'";
   }
@@ -300,7 +295,7 @@ TEST(RenderCli, AViewshedIsDrapedOverItsDiscOnly) {
     const CliRun run = runPbdam("render " + quoted(dir) + " --camera " + camera + extra +
                                 " --out " + quoted(png) + kSmall);
     EXPECT_EQ(run.exitCode, 0) << run.err;
-    return readFile(png);
+    return test::readFile(png);
   };
   const std::string over = "16,-133.8,600e3,0,-60,0";
   const std::string away = "-16,46.2,600e3,0,-60,0";

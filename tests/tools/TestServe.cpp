@@ -44,11 +44,6 @@ using namespace std::chrono_literals;
 constexpr int kStartSeconds = 180;
 constexpr time_t kRequestSeconds = 120;
 
-std::string readFile(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 /// `pbdam serve DIR --port 0 ARGS...` as a child process; stdout is a pipe the start-up line is
 /// read from. The destructor stops a server still running (SIGTERM, then SIGKILL).
 class ServerProcess final {
@@ -279,7 +274,7 @@ TEST(Serve, FramesEqualPbdamRenderByteForByte) {
     ASSERT_EQ(runPbdam("render " + quoted(dir.string()) + " --camera " + c.camera + " --width " +
                        size + " --out " + quoted(png.string()) + " --quiet"),
               0);
-    const std::string expected = readFile(png);
+    const std::string expected = test::readFile(png);
     ASSERT_EQ(expected.substr(0, 8), kPng);
     EXPECT_EQ(res->body.size(), expected.size());
     EXPECT_TRUE(res->body == expected) << "server PNG differs from pbdam render's";
@@ -830,7 +825,7 @@ TEST(Serve, SurvivesTruncatedFacesAndReloadsADatasetPutInPlace) {
     ASSERT_EQ(runPbdam("render " + quoted(earth.string()) + " --camera " + camera + " --out " +
                        quoted(png.string()) + " --quiet"),
               0);
-    const std::string expected = readFile(png);
+    const std::string expected = test::readFile(png);
     ASSERT_EQ(expected.substr(0, 8), kPng);
     EXPECT_TRUE(res->body == expected) << "served PNG differs from pbdam render's";
   }
