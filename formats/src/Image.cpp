@@ -1,7 +1,9 @@
-// Imagery ingest through OpenImageIO, georeference through GDAL (Image.h).
+// Imagery ingest through OpenImageIO (its module, ImageCodec.h), georeference through GDAL
+// (Image.h).
 #include "pbdam/formats/Image.h"
 
-#include <OpenImageIO/imageio.h>
+#include "pbdam/formats/ImageCodec.h"
+
 #include <cpl_conv.h>
 #include <gdal.h>
 #include <gdal_utils.h>
@@ -190,31 +192,14 @@ Result<GeoImage> readImage(const std::filesystem::path& path) {
   if (!std::filesystem::is_regular_file(path, ec)) {
     return makeError(ErrorCode::NotFound, path.string() + ": no such file");
   }
-  auto input = OIIO::ImageInput::open(path.string());
-  if (!input) {
-    return makeError(
-        ErrorCode::UnsupportedFormat,
-        path.string() + ": not an image OpenImageIO can read (" + OIIO::geterror() + ")");
-  }
-  const OIIO::ImageSpec& spec = input->spec();
-  if (spec.width < 1 || spec.height < 1 || spec.nchannels < 1 || spec.depth > 1) {
-    return makeError(ErrorCode::UnsupportedFormat,
-                     path.string() + ": unsupported image layout (" + std::to_string(spec.width) +
-                         "x" + std::to_string(spec.height) + ", " + std::to_string(spec.nchannels) +
-                         " channels)");
-  }
-  const auto width = static_cast<std::int64_t>(spec.width);
-  const auto height = static_cast<std::int64_t>(spec.height);
-  const int channels = std::min(spec.nchannels, 4);
-  std::vector<std::uint8_t> pixels(static_cast<std::size_t>(width * height * channels));
-  // Decoders such as libjpeg report a truncated file as a warning and fill the rest: any
-  // message recorded during the read makes the image corrupt.
-  const bool decoded = input->read_image(0, 0, 0, channels, OIIO::TypeDesc::UINT8, pixels.data());
-  if (!decoded || input->has_error()) {
-    return makeError(ErrorCode::CorruptData,
-                     path.string() + ": cannot decode the pixels (" + input->geterror() + ")");
-  }
-  input->close();
+  const Result<const ImageCodec*> codec = imageCodec();
+  if (!codec) return codec.error();
+  Result<Pixels8> read = (*codec)->read(path);
+  if (!read) return makeError(read.error().code, path.string() + ": " + read.error().message);
+  const std::int64_t width = read->width;
+  const std::int64_t height = read->height;
+  const int channels = read->channels;
+  const std::vector<std::uint8_t>& pixels = read->bytes;
   std::vector<std::uint8_t> rgba(static_cast<std::size_t>(width * height * 4));
   for (std::size_t p = 0; p < static_cast<std::size_t>(width * height); ++p) {
     const std::uint8_t* src = &pixels[p * static_cast<std::size_t>(channels)];

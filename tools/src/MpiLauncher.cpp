@@ -9,6 +9,8 @@
 #include <cstring>
 #include <filesystem>
 
+#include "pbdam/formats/Module.h"
+
 using namespace pbdam::formats;
 
 namespace pbdam::tools {
@@ -35,28 +37,15 @@ Result<std::unique_ptr<MpiJob>> joinMpiJob() {
                    "started by an MPI launcher, but this pbdam was built without MPI "
                    "(configure with -DPBDAM_WITH_MPI=ON)");
 #else
-  // The module sits next to the executable; the build tree's path is the fallback.
-  std::error_code ec;
-  const auto self = std::filesystem::read_symlink("/proc/self/exe", ec);
-  std::array<std::filesystem::path, 2> candidates = {
-      ec ? std::filesystem::path{} : self.parent_path() / "libpbdam_mpi.so",
-      std::filesystem::path(PBDAM_MPI_MODULE)};
-  std::string why;
-  void* module = nullptr;
-  for (const auto& path : candidates) {
-    if (path.empty() || !std::filesystem::exists(path, ec)) continue;
-    // RTLD_GLOBAL: OpenMPI's own plugins resolve libmpi/libopen-pal symbols through it.
-    module = ::dlopen(path.c_str(), RTLD_NOW | RTLD_GLOBAL);
-    if (module != nullptr) break;
-    const char* e = ::dlerror();
-    why = path.string() + ": " + (e != nullptr ? e : "dlopen failed");
-  }
-  if (module == nullptr) {
+  // RTLD_GLOBAL: OpenMPI's own plugins resolve libmpi/libopen-pal symbols through it.
+  const Result<void*> opened =
+      formats::openModule("libpbdam_mpi.so", PBDAM_MPI_MODULE, RTLD_NOW | RTLD_GLOBAL);
+  if (!opened) {
     return makeError(ErrorCode::NotFound,
                      "started by an MPI launcher, but the MPI module could not be loaded (" +
-                         (why.empty() ? std::string("libpbdam_mpi.so not found") : why) +
-                         "; is OpenMPI installed?)");
+                         opened.error().message + "; is OpenMPI installed?)");
   }
+  void* module = *opened;
   using Connect = builder::Communicator* (*)(char*, std::size_t);
   using Disconnect = void (*)(builder::Communicator*);
   auto connect = reinterpret_cast<Connect>(::dlsym(module, "pbdam_mpi_connect"));

@@ -1,0 +1,56 @@
+// Image files through OpenImageIO, in a module loaded on first use (libpbdam_oiio.so, built
+// beside the pbdam executable). Debian's OpenImageIO links about 260 shared libraries (OpenCV,
+// FFmpeg, DCMTK, OpenVDB, ...): loading them took 0.12 s of every process start, 0.2 s under the
+// sanitizers, while most pbdam commands never read or write an image. The module is looked for
+// beside the running executable, then where this build wrote it (Module.h).
+// Thread-safety: imageCodec() is safe from any thread; the codec's functions are reentrant.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "pbdam/formats/Result.h"
+
+namespace pbdam::formats {
+
+/// Pixels of 8-bit channels, `channels` bytes a pixel, rows top to bottom, tightly packed.
+struct Pixels8 final {
+  std::int64_t width = 0;
+  std::int64_t height = 0;
+  int channels = 0;
+  std::vector<std::uint8_t> bytes;
+};
+
+/// RGBA8 pixels to encode (not owned): 4 bytes a pixel, rows top to bottom, tightly packed.
+struct RgbaPixels final {
+  const std::uint8_t* rgba = nullptr;
+  std::uint32_t width = 0;
+  std::uint32_t height = 0;
+};
+
+/// The module's functions. Their errors carry OpenImageIO's message; callers add the file name.
+struct ImageCodec final {
+  /// Reads up to four channels of an image file (any format OpenImageIO reads) as 8 bits.
+  /// UnsupportedFormat: not an image, or an unusable layout; CorruptData: the pixels do not
+  /// decode, including a decoder's warning about a truncated file.
+  Result<Pixels8> (*read)(const std::filesystem::path& path);
+  /// Writes the first `channels` (3 or 4) channels of `image` to `file`, in the format its
+  /// extension names: PNG at zlib level 1, EXR as half floats with values 0..1. IoError.
+  Result<void> (*write)(const std::filesystem::path& file, RgbaPixels image, int channels);
+  /// Encodes the first `channels` (3 or 4) channels in memory as `format` ("png": zlib level 1,
+  /// the bytes `write` gives; "jpg": baseline at `jpegQuality`, 1..100). Internal on failure.
+  Result<std::vector<unsigned char>> (*encode)(RgbaPixels image, const std::string& format,
+                                               int channels, int jpegQuality);
+  /// Draws `lines` in `fontFile` (OpenImageIO's default font when empty) at `fontPixels`, ink
+  /// on an opaque dark panel just large enough for them and at most `maxWidth` wide, as RGBA.
+  Pixels8 (*drawText)(const std::vector<std::string>& lines, const std::string& fontFile,
+                      std::uint32_t maxWidth, int fontPixels);
+};
+
+/// The codec, loaded on the first call. Internal error naming the places looked in and why when
+/// the module is missing or does not load.
+Result<const ImageCodec*> imageCodec();
+
+}  // namespace pbdam::formats
