@@ -166,4 +166,14 @@ GpuCacheStats GpuCache::stats() const {
   return s;
 }
 
+bool GpuCache::holds(const runtime::NodeKey& patch) const {
+  const std::lock_guard<std::mutex> lock(state_->mutex);
+  return state_->lru->find(ResidentKey::patch(patch)).has_value();
+}
+
+bool GpuCache::holds(const runtime::TileKey& tile) const {
+  const std::lock_guard<std::mutex> lock(state_->mutex);
+  return state_->lru->find(ResidentKey::tile(tile)).has_value();
+}
+
 }  // namespace pbdam::gpu

@@ -72,6 +72,18 @@ bool NoStallPolicy::rangeResident(const MappedFile& file, std::uint64_t offset,
   return r && r->first == r->second;
 }
 
+bool NoStallPolicy::patchAtHand(const CutPatch& p) const {
+  if (cached_.patch && cached_.patch(p.node)) return true;
+  const NodeRecord n = dataset_->view().node(p.node);
+  return rangeResident(dataset_->faceFile(p.node.face), n.blobOffset, n.blobsBytes());
+}
+
+bool NoStallPolicy::tileAtHand(const TileKey& t) const {
+  if (cached_.tile && cached_.tile(t)) return true;
+  const TextureRecord r = dataset_->view().textureNode(t);
+  return rangeResident(dataset_->faceFile(t.face), r.blobOffset, r.blobBytes);
+}
+
 NoStallCut NoStallPolicy::cut(const Camera& camera, RefinementOptions options) const {
   const DatasetView& view = dataset_->view();
   int level = options.maxLevel < 0 ? view.depth() : std::min(options.maxLevel, view.depth());
@@ -83,14 +95,10 @@ NoStallCut NoStallPolicy::cut(const Camera& camera, RefinementOptions options) c
     Cut cut = refine(view, camera, options);
     int worst = cut.unresidentRecordLevel < 0 ? level + 1 : cut.unresidentRecordLevel;
     for (const CutPatch& p : cut.patches) {
-      const NodeRecord n = view.node(p.node);
-      if (!rangeResident(dataset_->faceFile(p.node.face), n.blobOffset, n.blobsBytes())) {
-        worst = std::min(worst, p.level);
-      }
+      if (!patchAtHand(p)) worst = std::min(worst, p.level);
     }
     for (const TileKey& t : cut.tiles) {
-      const TextureRecord r = view.textureNode(t);
-      if (!rangeResident(dataset_->faceFile(t.face), r.blobOffset, r.blobBytes)) {
+      if (!tileAtHand(t)) {
         // Tile level t is drawn with patches of levels 2t and 2t+1.
         const auto tileLevel = static_cast<int>(textureLevelOfHeap(t.heap));
         worst = std::min(worst, 2 * tileLevel);
@@ -109,12 +117,15 @@ NoStallCut NoStallPolicy::cut(const Camera& camera, RefinementOptions options) c
 void NoStallPolicy::hold(NoStallCut& chosen) const {
   // Right after the residency check: the window in which the kernel could still take a page
   // is the few microseconds between mincore and mlock.
+  // What the caller holds decoded is not read: its pages need no lock.
   const DatasetView& view = dataset_->view();
   for (const CutPatch& p : chosen.cut.patches) {
+    if (cached_.patch && cached_.patch(p.node)) continue;
     const NodeRecord n = view.node(p.node);
     if (!chosen.held.hold(dataset_->faceFile(p.node.face), n.blobOffset, n.blobsBytes())) return;
   }
   for (const TileKey& t : chosen.cut.tiles) {
+    if (cached_.tile && cached_.tile(t)) continue;
     const TextureRecord r = view.textureNode(t);
     if (!chosen.held.hold(dataset_->faceFile(t.face), r.blobOffset, r.blobBytes)) return;
   }

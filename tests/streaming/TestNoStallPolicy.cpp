@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <set>
 
 #include "PrivateCopy.h"
 #include "TestData.h"
@@ -118,6 +119,38 @@ TEST_F(NoStallPolicyTest, DrawsTheFinestFullyResidentCapAndNothingCappedOnceResi
   EXPECT_EQ(warm.levelCap, view.depth());
   EXPECT_EQ(warm.cut.patches.size(), full.patches.size());
   EXPECT_EQ(warm.cut.triangles, full.triangles);
+}
+
+// What the caller holds decoded (its GPU cache) needs no page: with every page of the dataset
+// evicted, even the roots', a cut the cache holds is still drawn whole, and locks nothing. Before,
+// an uncapped no-stall flight drew frames with nothing in them whenever other processes' memory
+// pressure took the roots' pages from the page cache while the GPU cache still held them.
+TEST_F(NoStallPolicyTest, WhatTheGpuCacheHoldsNeedsNoPage) {
+  const DatasetView& view = this->view();
+  const Camera camera = this->camera();
+  const RefinementOptions options;
+  const Cut full = refine(view, camera, options);
+  ASSERT_TRUE(evictDataset(dataset().directory()).ok());
+  EXPECT_EQ(policy().cut(camera, options).levelCap, -1) << "the roots' pages were evicted too";
+
+  std::set<std::uint64_t> patches;
+  std::set<std::uint64_t> tiles;
+  for (const CutPatch& p : full.patches) patches.insert(packKey(p.node));
+  for (const TileKey& t : full.tiles) tiles.insert(packKey(t));
+  NoStallCached cached;
+  cached.patch = [&patches](const NodeKey& key) { return patches.count(packKey(key)) != 0; };
+  cached.tile = [&tiles](const TileKey& key) { return tiles.count(packKey(key)) != 0; };
+  const NoStallPolicy holding(dataset(), true, cached);
+  const NoStallCut chosen = holding.cut(camera, options);
+  EXPECT_EQ(chosen.levelCap, view.depth());
+  EXPECT_EQ(chosen.cut.patches.size(), full.patches.size());
+  EXPECT_EQ(chosen.held.bytes(), 0U) << "cached patches and tiles are not read: nothing to lock";
+
+  // One patch of the cut not cached (and not resident) caps the cut below its level again.
+  const CutPatch missing = full.patches.front();
+  patches.erase(packKey(missing.node));
+  const NoStallPolicy lacking(dataset(), false, cached);
+  EXPECT_LT(lacking.cut(camera, options).levelCap, missing.level);
 }
 
 // The cap rises at most two levels a frame, but it does not wait for levels that nobody fetches:

@@ -276,10 +276,13 @@ gpu::TerrainRendererOptions rendererOptions(const gpu::VulkanContext& context,
 /// refinement with the refinement tree kept from frame to frame (the same cuts, fewer decisions)
 /// or from the roots.
 Result<std::unique_ptr<CutSource>> runCutSource(gpu::VulkanContext& context,
-                                                const MappedDataset& dataset, const BenchRun& run) {
+                                                const MappedDataset& dataset, const BenchRun& run,
+                                                const gpu::TerrainRenderer& renderer) {
   // Under a memory budget the page cache is tight: each cut's pages are held until its frame
-  // has decoded them (NoStallPolicy's holdPages).
-  if (run.mode == StreamingMode::NoStall) return noStallCuts(dataset, run.memoryBudgetBytes > 0);
+  // has decoded them (NoStallPolicy's holdPages). What the GPU cache holds needs no page.
+  if (run.mode == StreamingMode::NoStall) {
+    return noStallCuts(dataset, run.memoryBudgetBytes > 0, renderer.cache());
+  }
   if (run.selection == CutSelection::Gpu) {
     return run.draws == DrawList::Indirect ? deviceDrawListCuts(context, dataset.view())
                                            : deviceSelectionCuts(context, dataset.view(), {});
@@ -500,7 +503,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   RefinementOptions refinement;
   refinement.tolerancePixels = o.tolerance;
   refinement.morphRange = morphRangeOf(o.morph, morph);
-  auto cuts = runCutSource(context, **dataset, run);
+  auto cuts = runCutSource(context, **dataset, run, *renderer);
   if (!cuts) return cuts.error();
   CutSource& source = **cuts;
   const bool deviceList = source.drawsDeviceList();

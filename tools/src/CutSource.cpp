@@ -3,6 +3,7 @@
 
 #include <utility>
 
+#include "pbdam/gpu/GpuCache.h"
 #include "pbdam/gpu/GpuSelector.h"
 #include "pbdam/runtime/CutReuse.h"
 #include "pbdam/streaming/NoStallPolicy.h"
@@ -81,10 +82,18 @@ class DeviceDrawListCuts final : public CutSource {
   gpu::GpuSelector selector_;
 };
 
+/// The GPU cache's residency as the no-stall policy asks for it (none without a cache).
+streaming::NoStallCached cachedIn(const std::shared_ptr<const gpu::GpuCache>& cache) {
+  if (!cache) return {};
+  return {[cache](const runtime::NodeKey& node) { return cache->holds(node); },
+          [cache](const runtime::TileKey& tile) { return cache->holds(tile); }};
+}
+
 class NoStallCuts final : public CutSource {
  public:
-  NoStallCuts(const streaming::MappedDataset& dataset, bool holdPages)
-      : policy_(dataset, holdPages) {}
+  NoStallCuts(const streaming::MappedDataset& dataset, bool holdPages,
+              const std::shared_ptr<const gpu::GpuCache>& cache)
+      : policy_(dataset, holdPages, cachedIn(cache)) {}
   Result<Cut> cut(const Camera& camera, const RefinementOptions& refinement) override {
     streaming::NoStallCut capped = policy_.cutAfter(camera, refinement, cap_);
     cap_ = capped.levelCap;
@@ -127,8 +136,9 @@ Result<std::unique_ptr<CutSource>> deviceDrawListCuts(gpu::VulkanContext& contex
   return std::unique_ptr<CutSource>(std::make_unique<DeviceDrawListCuts>(std::move(*selector)));
 }
 
-std::unique_ptr<CutSource> noStallCuts(const streaming::MappedDataset& dataset, bool holdPages) {
-  return std::make_unique<NoStallCuts>(dataset, holdPages);
+std::unique_ptr<CutSource> noStallCuts(const streaming::MappedDataset& dataset, bool holdPages,
+                                       const std::shared_ptr<const gpu::GpuCache>& cache) {
+  return std::make_unique<NoStallCuts>(dataset, holdPages, cache);
 }
 
 }  // namespace pbdam::tools

@@ -17,6 +17,7 @@
 #include "pbdam/runtime/Selection.h"
 
 namespace pbdam::gpu {
+class GpuCache;
 class GpuSelector;
 class VulkanContext;
 }  // namespace pbdam::gpu
@@ -83,8 +84,10 @@ formats::Result<std::unique_ptr<CutSource>> deviceDrawListCuts(gpu::VulkanContex
 /// one diamond level (two bintree levels) over the previous frame's, so that when a level's data
 /// arrives its patches are decoded over a few frames instead of all in one
 /// (NoStallPolicy::cutAfter, which takes a finer resident cut at once when none within that rise
-/// is). levelCap() is the cap of the last cut. `dataset` must outlive the source.
+/// is). levelCap() is the cap of the last cut. `dataset` must outlive the source. What `cache`
+/// (the renderer's GPU cache, when given) holds counts as at hand without its pages.
 std::unique_ptr<CutSource> noStallCuts(const streaming::MappedDataset& dataset,
-                                       bool holdPages = false);
+                                       bool holdPages = false,
+                                       const std::shared_ptr<const gpu::GpuCache>& cache = nullptr);
 
 }  // namespace pbdam::tools

@@ -454,7 +454,7 @@ Result<void> FlySession::setUp() {
          NoStallPolicy(dataset_).preloadCoarseLevels(pageRoomBytes_ > 0 ? &heldCoarse_ : nullptr)) {
       std::fprintf(stderr, "pbdam: warning: preload skipped: %s\n", e.message.c_str());
     }
-    cuts_ = noStallCuts(dataset_, pageRoomBytes_ > 0);
+    cuts_ = noStallCuts(dataset_, pageRoomBytes_ > 0, renderer_->cache());
   } else {
     cuts_ = hostRefinementCuts(view_, true);
   }

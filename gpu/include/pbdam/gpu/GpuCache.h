@@ -75,6 +75,12 @@ class GpuCache final {
   /// Whether tiles are sampled as BC1 on the device (else RGBA8).
   bool usesBc1Textures() const noexcept;
   GpuCacheStats stats() const;
+  /// Whether the patch (the tile) is resident now, drawable without a decode. Until the
+  /// caller's next pass through this cache plans its uploads it stays so, unless a pass of
+  /// another renderer of the cache, or an earlier pass of the same frame (a cut larger than the
+  /// budget), makes room in between.
+  bool holds(const runtime::NodeKey& patch) const;
+  bool holds(const runtime::TileKey& tile) const;
 
   /// The state behind the cache (gpu/src/GpuCacheState.h); only pbdam_gpu's sources see inside.
   struct State;

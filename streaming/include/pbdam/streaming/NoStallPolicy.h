@@ -2,11 +2,14 @@
 // on disk; it draws the finest conforming cut whose patches and tiles are all in the page cache
 // already, while a loader thread (Prefetcher) brings in what the camera needs. The cut is capped by
 // one global level (a cap applies to both triangles of every diamond, so the capped cut stays
-// conforming). No Vulkan here. Thread-safety: const members only; any thread may call them.
+// conforming). A patch or tile the caller already holds decoded (its GPU cache: NoStallCached)
+// needs no page. No Vulkan here. Thread-safety: const members only; any thread may call them
+// (the NoStallCached queries must then be safe from that thread).
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <utility>
 #include <vector>
 
@@ -56,13 +59,25 @@ struct NoStallCut final {
   HeldPages held;
 };
 
+/// What the caller holds decoded already, so that drawing it reads no page: the renderer's GPU
+/// cache (gpu::GpuCache::holds). Without it, only the page cache counts, and a patch the kernel
+/// evicted from the page cache caps the cut though the GPU cache still holds it (with no memory
+/// budget nothing is locked: under other processes' memory pressure the roots went, and frames
+/// were drawn empty). Empty functions hold nothing.
+struct NoStallCached final {
+  std::function<bool(const runtime::NodeKey&)> patch;
+  std::function<bool(const runtime::TileKey&)> tile;
+};
+
 /// Chooses no-stall cuts over one mapped dataset, which must outlive it.
 class NoStallPolicy final {
  public:
   /// With `holdPages` (under a memory budget) every cut comes with its pages locked
   /// (NoStallCut::held).
-  explicit NoStallPolicy(const MappedDataset& dataset, bool holdPages = false) noexcept
-      : dataset_(&dataset), holdPages_(holdPages) {}
+  /// `cached`: what needs no page (NoStallCached); a cached patch or tile is not locked either.
+  explicit NoStallPolicy(const MappedDataset& dataset, bool holdPages = false,
+                         NoStallCached cached = {}) noexcept
+      : dataset_(&dataset), holdPages_(holdPages), cached_(std::move(cached)) {}
 
   /// Whether every page of [offset, offset + bytes) of `file` is in the page cache (mincore);
   /// an empty range is.
@@ -82,8 +97,8 @@ class NoStallPolicy final {
   std::vector<formats::Error> preloadCoarseLevels(HeldPages* keep = nullptr) const;
 
   /// The finest level-capped cut for `camera` (refined with `options`; its maxLevel, when set,
-  /// is the highest cap tried) whose patch and tile byte ranges are all resident. Faults in node
-  /// records only.
+  /// is the highest cap tried) whose patches and tiles are all cached or have their byte ranges
+  /// resident. Faults in node records only.
   NoStallCut cut(const runtime::Camera& camera, runtime::RefinementOptions options) const;
 
   /// The cut of a frame whose previous frame was drawn under `previousCap` (-1: none). The cap
@@ -96,8 +111,11 @@ class NoStallPolicy final {
 
  private:
   void hold(NoStallCut& chosen) const;
+  bool patchAtHand(const runtime::CutPatch& p) const;
+  bool tileAtHand(const runtime::TileKey& t) const;
   const MappedDataset* dataset_;
   bool holdPages_ = false;
+  NoStallCached cached_;
 };
 
 }  // namespace pbdam::streaming
