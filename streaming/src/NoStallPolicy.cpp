@@ -148,13 +148,13 @@ std::vector<Error> NoStallPolicy::preloadCoarseLevels(HeldPages* keep) const {
   const DatasetView& view = dataset_->view();
   std::vector<Error> unreadable;
   const auto touch = [&unreadable, keep](const MappedFile& file, std::uint64_t offset,
-                                         std::uint64_t bytes) {
+                                         std::uint64_t bytes, bool lock = true) {
     if (bytes == 0) return;
     (void)file.willNeed(offset, bytes);
     // Guarded reads: an unreadable page is skipped and reported, not a SIGBUS.
     if (auto r = file.touch(offset, bytes); !r) {
       unreadable.push_back(std::move(r).error());
-    } else if (keep) {
+    } else if (keep && lock) {
       (void)keep->hold(file, offset, bytes);
     }
   };
@@ -173,7 +173,9 @@ std::vector<Error> NoStallPolicy::preloadCoarseLevels(HeldPages* keep) const {
         touch(file, view.face(f).nodeRecordOffset(first), rows * kNodeRecordBytes);
       }
     } else {
-      touch(file, 0, h.blobsOffset);
+      // Tables held whole were copied out at open: refinement never reads these pages, so
+      // they are read (a paging run's first frames use them) but not locked.
+      touch(file, 0, h.blobsOffset, false);
     }
     for (std::uint8_t tree = 0; tree < 2; ++tree) {
       for (std::uint64_t heap = 0; heap < 7; ++heap) {

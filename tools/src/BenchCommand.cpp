@@ -490,13 +490,13 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
       gpu::TerrainRenderer::create(context, view, rendererOptions(context, view, o, run));
   if (!renderer) return renderer.error();
   const bool noStall = run.mode == StreamingMode::NoStall;
-  // Under a memory budget the preloaded coarse levels are also locked in memory for the run:
-  // the kernel would otherwise evict them, and a frame could have nothing to draw.
+  // The preloaded coarse levels are also locked in memory for the run: the kernel would
+  // otherwise evict them (under a budget, or under other processes' memory pressure), and a
+  // frame could have nothing to draw.
   HeldPages coarse;
   if (noStall) {
     // What cannot be read is skipped (the level cap keeps it out of the frames) and reported.
-    for (const Error& e : NoStallPolicy(**dataset).preloadCoarseLevels(
-             run.memoryBudgetBytes > 0 ? &coarse : nullptr)) {
+    for (const Error& e : NoStallPolicy(**dataset).preloadCoarseLevels(&coarse)) {
       std::fprintf(stderr, "pbdam: warning: preload skipped: %s\n", e.message.c_str());
     }
   }

@@ -410,7 +410,7 @@ class FlySession final {
   std::size_t shotsTaken_ = 0;
   std::uint64_t gpuCacheBytes_ = 0;
   std::uint64_t pageRoomBytes_ = 0;  ///< the memory plan's page room (0: no budget)
-  HeldPages heldCoarse_;             ///< no-stall under a budget: the coarse levels, locked
+  HeldPages heldCoarse_;             ///< no-stall: the coarse levels, locked
   bool viewshedOn_ = false;
   gpu::FrameSettings settings_;
   bool recreate_ = false;
@@ -449,9 +449,8 @@ Result<void> FlySession::setUp() {
   renderer_.emplace(std::move(*renderer));
   const bool noStall = modes_.mode == StreamingMode::NoStall;
   if (noStall) {
-    // Under a memory budget the coarse levels stay locked in memory (as in bench).
-    for (const Error& e :
-         NoStallPolicy(dataset_).preloadCoarseLevels(pageRoomBytes_ > 0 ? &heldCoarse_ : nullptr)) {
+    // The coarse levels stay locked in memory (as in bench).
+    for (const Error& e : NoStallPolicy(dataset_).preloadCoarseLevels(&heldCoarse_)) {
       std::fprintf(stderr, "pbdam: warning: preload skipped: %s\n", e.message.c_str());
     }
     cuts_ = noStallCuts(dataset_, pageRoomBytes_ > 0, renderer_->cache());

@@ -91,9 +91,11 @@ class NoStallPolicy final {
   /// the reads: call it before the first frame. Ranges that cannot be read (a truncated file,
   /// a failing disk) are skipped; their errors, naming the file and offset, are returned (empty
   /// when everything was read).
-  /// With `keep`, what was read is also locked in memory there for as long as the caller keeps
-  /// it (HeldPages): under a memory budget the kernel would otherwise evict the coarse levels
-  /// the guarantee rests on, and a frame would have nothing to draw.
+  /// With `keep`, the blobs read (and a paged node table's chunks) are also locked in memory
+  /// there for as long as the caller keeps it (HeldPages): under a memory budget, or under other
+  /// processes' memory pressure, the kernel would otherwise evict the coarse levels the
+  /// guarantee rests on, and a frame would have nothing to draw. Tables held whole are not
+  /// locked: they were copied out at open.
   std::vector<formats::Error> preloadCoarseLevels(HeldPages* keep = nullptr) const;
 
   /// The finest level-capped cut for `camera` (refined with `options`; its maxLevel, when set,
