@@ -1,4 +1,5 @@
 // Imagery ingest through OpenImageIO: the Debian-packaged Earth map and rejection of bad files.
+#include <dlfcn.h>
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -6,6 +7,8 @@
 #include "TestData.h"
 #include "Utm32GeoTiff.h"
 #include "pbdam/formats/Image.h"
+#include "pbdam/formats/ImageCodec.h"
+#include "pbdam/formats/Module.h"
 
 using namespace pbdam::formats;
 
@@ -13,6 +16,36 @@ namespace pbdam::formats {
 namespace {
 
 constexpr const char* kEarthImage = "/usr/share/xplanet/images/earth.jpg";
+
+// OpenImageIO is a module loaded on first use (ImageCodec.h): it loads in a test executable too
+// (from where the build wrote it), and a module that is nowhere is a NotFound naming every place
+// looked at and why.
+TEST(Image, TheCodecModuleLoadsAndAMissingModuleSaysWhereItLooked) {
+  const Result<const ImageCodec*> codec = imageCodec();
+  ASSERT_TRUE(codec.ok()) << codec.error().message;
+  ASSERT_NE(*codec, nullptr);
+  EXPECT_NE((*codec)->read, nullptr);
+
+  const Result<void*> missing =
+      openModule("libpbdam_nowhere.so", "/nonexistent/libpbdam_nowhere.so", RTLD_NOW);
+  ASSERT_FALSE(missing.ok());
+  EXPECT_EQ(missing.error().code, ErrorCode::NotFound);
+  const std::string& message = missing.error().message;
+  EXPECT_NE(message.find("libpbdam_nowhere.so did not load"), std::string::npos) << message;
+  EXPECT_NE(message.find("/nonexistent/libpbdam_nowhere.so: missing"), std::string::npos)
+      << message;
+
+  // A file that is not a shared object: dlopen's own reason.
+  test::TempDir dir;
+  const std::filesystem::path bogus = dir / "libpbdam_bogus.so";
+  std::ofstream(bogus) << "not an ELF file";
+  const Result<void*> refused = openModule("libpbdam_bogus.so", bogus, RTLD_NOW);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().message.find(bogus.string() + ": "), std::string::npos)
+      << refused.error().message;
+  EXPECT_EQ(refused.error().message.find(bogus.string() + ": missing"), std::string::npos)
+      << refused.error().message;
+}
 
 TEST(Image, ReadsTheEquirectangularEarth) {
   PBDAM_REQUIRE_DATA(path, kEarthImage);
