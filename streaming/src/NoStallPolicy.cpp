@@ -72,33 +72,37 @@ bool NoStallPolicy::rangeResident(const MappedFile& file, std::uint64_t offset,
   return r && r->first == r->second;
 }
 
-bool NoStallPolicy::patchAtHand(const CutPatch& p) const {
-  if (cached_.patch && cached_.patch(p.node)) return true;
-  const NodeRecord n = dataset_->view().node(p.node);
-  return rangeResident(dataset_->faceFile(p.node.face), n.blobOffset, n.blobsBytes());
-}
-
-bool NoStallPolicy::tileAtHand(const TileKey& t) const {
-  if (cached_.tile && cached_.tile(t)) return true;
-  const TextureRecord r = dataset_->view().textureNode(t);
-  return rangeResident(dataset_->faceFile(t.face), r.blobOffset, r.blobBytes);
-}
-
 NoStallCut NoStallPolicy::cut(const Camera& camera, RefinementOptions options) const {
   const DatasetView& view = dataset_->view();
   int level = options.maxLevel < 0 ? view.depth() : std::min(options.maxLevel, view.depth());
   // Node records too must be at hand: a paged node table's chunk that would be read from disk
   // caps the level like a patch that is not resident (its children stay out of the cut).
   options.residentRecordsOnly = true;
+  // The byte ranges a cut will read (what the caller holds decoded reads nothing), found
+  // resident: the ones hold() locks.
+  std::vector<PageRange> reads;
+  const auto atHand = [&reads, this](const MappedFile& file, std::uint64_t offset,
+                                     std::uint64_t bytes) {
+    if (!rangeResident(file, offset, bytes)) return false;
+    if (holdPages_) reads.push_back({&file, offset, bytes});
+    return true;
+  };
   for (;;) {
     options.maxLevel = level;
     Cut cut = refine(view, camera, options);
     int worst = cut.unresidentRecordLevel < 0 ? level + 1 : cut.unresidentRecordLevel;
+    reads.clear();
     for (const CutPatch& p : cut.patches) {
-      if (!patchAtHand(p)) worst = std::min(worst, p.level);
+      if (cached_.patch && cached_.patch(p.node)) continue;
+      const NodeRecord n = view.node(p.node);
+      if (!atHand(dataset_->faceFile(p.node.face), n.blobOffset, n.blobsBytes())) {
+        worst = std::min(worst, p.level);
+      }
     }
     for (const TileKey& t : cut.tiles) {
-      if (!tileAtHand(t)) {
+      if (cached_.tile && cached_.tile(t)) continue;
+      const TextureRecord r = view.textureNode(t);
+      if (!atHand(dataset_->faceFile(t.face), r.blobOffset, r.blobBytes)) {
         // Tile level t is drawn with patches of levels 2t and 2t+1.
         const auto tileLevel = static_cast<int>(textureLevelOfHeap(t.heap));
         worst = std::min(worst, 2 * tileLevel);
@@ -106,7 +110,7 @@ NoStallCut NoStallPolicy::cut(const Camera& camera, RefinementOptions options) c
     }
     if (worst > level) {
       NoStallCut chosen{std::move(cut), level, {}};
-      if (holdPages_) hold(chosen);
+      if (holdPages_) hold(reads, chosen.held);
       return chosen;
     }
     level = std::min(level, worst) - 1;
@@ -114,20 +118,11 @@ NoStallCut NoStallPolicy::cut(const Camera& camera, RefinementOptions options) c
   }
 }
 
-void NoStallPolicy::hold(NoStallCut& chosen) const {
+void NoStallPolicy::hold(const std::vector<PageRange>& reads, HeldPages& held) {
   // Right after the residency check: the window in which the kernel could still take a page
   // is the few microseconds between mincore and mlock.
-  // What the caller holds decoded is not read: its pages need no lock.
-  const DatasetView& view = dataset_->view();
-  for (const CutPatch& p : chosen.cut.patches) {
-    if (cached_.patch && cached_.patch(p.node)) continue;
-    const NodeRecord n = view.node(p.node);
-    if (!chosen.held.hold(dataset_->faceFile(p.node.face), n.blobOffset, n.blobsBytes())) return;
-  }
-  for (const TileKey& t : chosen.cut.tiles) {
-    if (cached_.tile && cached_.tile(t)) continue;
-    const TextureRecord r = view.textureNode(t);
-    if (!chosen.held.hold(dataset_->faceFile(t.face), r.blobOffset, r.blobBytes)) return;
+  for (const PageRange& r : reads) {
+    if (!held.hold(*r.file, r.offset, r.bytes)) return;
   }
 }
 
