@@ -7,7 +7,6 @@
 
 #include <algorithm>
 #include <array>
-#include <cctype>
 
 #include "pbdam/formats/ImageCodec.h"
 
@@ -59,19 +58,16 @@ Result<void> writeTo(OIIO::ImageOutput& out, const std::string& name, RgbaPixels
   return {};
 }
 
-Result<void> write(const std::filesystem::path& file, RgbaPixels image, int channels) {
-  std::string ext = file.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  const bool exr = ext == ".exr";
+Result<void> write(const std::filesystem::path& file, RgbaPixels image, int channels,
+                   bool halfFloat) {
   auto out = OIIO::ImageOutput::create(file.string());
   if (!out) {
     return makeError(ErrorCode::IoError,
                      "cannot write this image format (" + OIIO::geterror() + ")");
   }
   OIIO::ImageSpec spec(static_cast<int>(image.width), static_cast<int>(image.height), channels,
-                       exr ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::UINT8);
-  if (!exr) spec.attribute("png:compressionLevel", 1);
+                       halfFloat ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::UINT8);
+  if (!halfFloat) spec.attribute("png:compressionLevel", 1);
   return writeTo(*out, file.string(), image, spec, ErrorCode::IoError);
 }
 

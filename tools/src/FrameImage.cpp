@@ -38,7 +38,7 @@ Result<void> writeFrameImage(const std::filesystem::path& path, const gpu::RgbaI
     std::filesystem::remove(temporary, ignored);
     return makeError(ErrorCode::IoError, path.string() + ": " + what);
   };
-  const Result<void> written = (*codec)->write(temporary, pixelsOf(image), 3);
+  const Result<void> written = (*codec)->write(temporary, pixelsOf(image), 3, isExrPath(path));
   if (!written) return fail(written.error().message);
   std::error_code ec;
   std::filesystem::rename(temporary, path, ec);

@@ -37,8 +37,10 @@ struct ImageCodec final {
   /// decode, including a decoder's warning about a truncated file.
   Result<Pixels8> (*read)(const std::filesystem::path& path);
   /// Writes the first `channels` (3 or 4) channels of `image` to `file`, in the format its
-  /// extension names: PNG at zlib level 1, EXR as half floats with values 0..1. IoError.
-  Result<void> (*write)(const std::filesystem::path& file, RgbaPixels image, int channels);
+  /// extension names: 8 bits (PNG at zlib level 1), or with `halfFloat` half floats with values
+  /// 0..1 (EXR). IoError.
+  Result<void> (*write)(const std::filesystem::path& file, RgbaPixels image, int channels,
+                        bool halfFloat);
   /// Encodes the first `channels` (3 or 4) channels in memory as `format` ("png": zlib level 1,
   /// the bytes `write` gives; "jpg": baseline at `jpegQuality`, 1..100). Internal on failure.
   Result<std::vector<unsigned char>> (*encode)(RgbaPixels image, const std::string& format,
