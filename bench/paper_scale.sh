@@ -19,9 +19,11 @@
 # Environment: PBDAM_DATA_DIR (default ../shared/data), PAPER_WIDTH (fractal DEM columns,
 # default 32768: 537 M source samples), PAPER_LEVELS (default 18: 16384 cells with 33-vertex
 # leaves), PAPER_CONFIGS (default "1x2 2x1"), PAPER_VERIFY (default 1), PAPER_MIN_FREE_GB
-# (default 75: the free disk a configuration needs at assembly — heights and samples ~8 GB, node
-# parts ~32 GB, face files ~32 GB; the script refuses to start a build with less, and deletes a
-# failed build's files when it left the disk nearly full), PAPER_PBDAM (the pbdam binary to run,
+# (default 48: the free disk a configuration needs — node parts ~32 GB, heights and samples
+# ~8 GB until the assembly, then one face file at a time beside the parts, whose pages the
+# assembly frees as it goes when the disk is short (`pbdam build --free-checkpoint auto`,
+# docs/builder.md "Disk at assembly"); the script refuses to start a build with less, and deletes
+# a failed build's files when it left the disk nearly full), PAPER_PBDAM (the pbdam binary to run,
 # default the release build's: a copy keeps a long run independent of rebuilds meanwhile).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -37,7 +39,7 @@ width=${PAPER_WIDTH:-32768}
 levels=${PAPER_LEVELS:-18}
 configs=${PAPER_CONFIGS:-"1x2 2x1"}
 verify=${PAPER_VERIFY:-1}
-minFreeGb=${PAPER_MIN_FREE_GB:-75}
+minFreeGb=${PAPER_MIN_FREE_GB:-48}
 asroot=()
 [ "$(id -u)" -eq 0 ] && asroot=(--allow-run-as-root)
 mkdir -p "$out"

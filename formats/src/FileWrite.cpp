@@ -91,4 +91,31 @@ Result<void> syncFile(int fd, std::uint64_t bytes, const fs::path& path) {
 
 void failWritesForTesting(std::string pathPart) { injectedPathPart() = std::move(pathPart); }
 
+Result<std::uint64_t> freeFileRanges(
+    const fs::path& path, std::span<const std::pair<std::uint64_t, std::uint64_t>> ranges) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+  if (fd < 0) {
+    return makeError(ErrorCode::IoError, path.string() + ": cannot open to free its pages (" +
+                                             std::strerror(errno) + ")");
+  }
+  const auto page = static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
+  std::uint64_t freed = 0;
+  for (const auto& [first, end] : ranges) {
+    const std::uint64_t from = (first + page - 1) / page * page;
+    const std::uint64_t to = end / page * page;
+    if (to <= from) continue;
+    if (::fallocate(fd, FALLOC_FL_PUNCH_HOLE | FALLOC_FL_KEEP_SIZE, static_cast<off_t>(from),
+                    static_cast<off_t>(to - from)) != 0) {
+      const int err = errno;
+      ::close(fd);
+      return makeError(ErrorCode::IoError, path.string() + ": cannot free bytes " +
+                                               std::to_string(from) + ".." + std::to_string(to) +
+                                               " (" + std::strerror(err) + ")");
+    }
+    freed += to - from;
+  }
+  ::close(fd);
+  return freed;
+}
+
 }  // namespace pbdam::formats

@@ -5,6 +5,8 @@
 // process, so the sanitizer presets cover the serialisation and checkpoint code.
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+
 #include <barrier>
 #include <fstream>
 #include <thread>
@@ -13,6 +15,7 @@
 #include "pbdam/builder/Builder.h"
 #include "pbdam/builder/Checkpoint.h"
 #include "pbdam/builder/Communicator.h"
+#include "pbdam/formats/FileWrite.h"
 #include "pbdam/formats/Manifest.h"
 
 using namespace pbdam::formats;
@@ -265,6 +268,84 @@ TEST(BuildCheckpoint, ResumeWithoutACheckpointBuildsFromTheStart) {
   EXPECT_EQ(lines[0].rfind("resume: no checkpoint in ", 0), 0u) << lines[0];
 }
 
+/// The bytes the files of `dir` take on the disk, and their sizes.
+std::pair<std::uint64_t, std::uint64_t> diskAndApparentBytes(const fs::path& dir) {
+  std::uint64_t disk = 0;
+  std::uint64_t apparent = 0;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    struct stat st {};
+    if (::stat(entry.path().c_str(), &st) != 0 || !S_ISREG(st.st_mode)) continue;
+    disk += static_cast<std::uint64_t>(st.st_blocks) * 512;
+    apparent += static_cast<std::uint64_t>(st.st_size);
+  }
+  return {disk, apparent};
+}
+
+// A disk too small for the checkpoint and the face files side by side: the assembly frees each
+// level file's pages once the faces whose nodes they hold are written. The dataset's bytes are
+// the same; the checkpoint then says so, and a resume after such an assembly failed is refused
+// (its levels are gone) with what to do instead.
+TEST(BuildCheckpoint, AnAssemblyThatFreesTheCheckpointGivesTheSameBytesAndCannotResume) {
+  PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
+  test::TempDir dir;
+  std::vector<std::string> lines;
+  BuildOptions plainOptions = checkpointMola(dem, dir / "plain");
+  plainOptions.log = [&](std::string_view line) { lines.emplace_back(line); };
+  ASSERT_TRUE(buildDataset(plainOptions));
+  for (const auto& line : lines) {  // Auto, with room: nothing freed
+    EXPECT_EQ(line.find("freeing"), std::string::npos) << line;
+  }
+
+  const fs::path out = dir / "freed";
+  BuildOptions o = checkpointMola(dem, out);
+  o.freeCheckpoint = BuildOptions::FreeCheckpoint::Always;
+  o.threads = 2;
+  std::optional<std::pair<std::uint64_t, std::uint64_t>> afterFace0;
+  std::optional<std::pair<std::uint64_t, std::uint64_t>> afterFace5;
+  bool marked = false;
+  o.progress = [&](std::string_view stage, double fraction) {
+    if (stage != "write") return;
+    const auto bytes = diskAndApparentBytes(out / Checkpoint::kDirectoryName);
+    if (fraction < 0.2 && !afterFace0) {
+      afterFace0 = bytes;
+      auto state = Checkpoint(out).readState();
+      marked = state && *state && (*state)->assemblyFreedLevels;
+    }
+    if (fraction > 0.99) afterFace5 = bytes;
+  };
+  auto built = buildOnRanks(o, 2);
+  ASSERT_TRUE(built) << built.error().message;
+  expectSameDataset(dir / "plain", out);
+  ASSERT_TRUE(afterFace0 && afterFace5);
+  EXPECT_TRUE(marked) << "the state did not say the levels were freed";
+  // Pages go as their faces are written (at this tiny depth a face's nodes are spread by the
+  // diamonds across face edges), and when all are, what stays is the texture parts (12%), the
+  // state and the pages the files' headers and footers share with nodes.
+  EXPECT_LT(afterFace0->first, afterFace0->second);
+  EXPECT_LT(afterFace5->first, afterFace5->second / 4)
+      << afterFace5->first << " of " << afterFace5->second << " bytes still on the disk";
+
+  // The disk fills at face 3: faces 0..2's pages were freed, so the levels cannot be resumed.
+  const fs::path cut = dir / "cut";
+  BuildOptions failing = checkpointMola(dem, cut);
+  failing.freeCheckpoint = BuildOptions::FreeCheckpoint::Always;
+  failWritesForTesting((cut / "face3").string());
+  auto full = buildDataset(failing);
+  failWritesForTesting("");
+  ASSERT_FALSE(full);
+  EXPECT_EQ(full.error().code, ErrorCode::NoSpace) << full.error().message;
+  failing.resume = true;
+  auto refused = buildDataset(failing);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().code, ErrorCode::CorruptData);
+  EXPECT_NE(refused.error().message.find("an earlier assembly freed its level files' pages"),
+            std::string::npos)
+      << refused.error().message;
+  failing.resume = false;
+  ASSERT_TRUE(buildDataset(failing));
+  expectSameDataset(dir / "plain", cut);
+}
+
 // ETOPO20 with the Luxembourg GeoTIFF and an image for it (a plain PPM, so it takes the
 // inset's footprint): the sparse forest, the composite's samples and the inset's texture come out
 // byte-identical on any rank count and after a resume; a resume with another inset texture is
@@ -297,6 +378,7 @@ TEST(DistributedBuild, AnInsetBuildIsTheSameBytesOnAnyRankCountAndAfterAResume) 
 
   BuildOptions ranks = options(dir / "ranks");
   ranks.threads = 2;
+  ranks.freeCheckpoint = BuildOptions::FreeCheckpoint::Always;  // a sparse forest's parts too
   auto two = buildOnRanks(ranks, 2);
   ASSERT_TRUE(two) << two.error().message;
   expectSameDataset(dir / "plain", dir / "ranks");

@@ -42,6 +42,7 @@ struct BuildCliOptions {
   int threads = 0;
   bool force = false;
   bool resume = false;
+  std::string freeCheckpoint = "auto";
   bool quiet = false;
   RawGridOptions raw;
 };
@@ -189,6 +190,10 @@ int runBuild(const BuildCliOptions& c) {
   builder::BuildOptions o;
   o.communicator = comm;
   o.resume = c.resume;
+  using Free = builder::BuildOptions::FreeCheckpoint;
+  o.freeCheckpoint = c.freeCheckpoint == "always"  ? Free::Always
+                     : c.freeCheckpoint == "never" ? Free::Never
+                                                   : Free::Auto;
   o.fault = faultFromEnvironment();
   o.demPath = c.dem;
   o.texturePath = c.texture;
@@ -293,6 +298,12 @@ void addBuildCommand(CLI::App& app, CommandStatus& status) {
   cmd->add_flag("--force", c->force, "Replace an existing dataset in --out");
   cmd->add_flag("--resume", c->resume,
                 "Continue an interrupted build from its checkpoint (OUT/.build-checkpoint)");
+  cmd->add_option("--free-checkpoint", c->freeCheckpoint,
+                  "Free the checkpoint's level files as the face files are written, so both need "
+                  "not fit on the disk at once (a failed assembly then cannot resume): auto "
+                  "(when the disk is short), always or never")
+      ->check(CLI::IsMember({"auto", "always", "never"}))
+      ->capture_default_str();
   cmd->add_flag("--quiet", c->quiet, "No progress output");
   addRawGridOptions(*cmd, c->raw);
   cmd->callback([c, &status] { status.exitCode = runBuild(*c); });

@@ -247,6 +247,8 @@ class DatasetBuild {
   Checkpoint checkpoint_;
   CheckpointState state_;
   std::optional<SampleGrid> grid_;
+  float minHeightMeters_ = 0.0f;  ///< the grid's, kept for the manifest once it is gone
+  float maxHeightMeters_ = 0.0f;
 
   // The carry of the level below the one being built (its diamonds' saturated errors and
   // spheres and its working patches, by node id), read from its part files.
@@ -284,6 +286,13 @@ Result<StartPoint> DatasetBuild::setUpOutput() {
         return invalidArgument("--resume: " + checkpoint_.directory().string() +
                                " belongs to another build: " + *differs +
                                " (rerun without --resume to start over)");
+      }
+      if ((*saved)->assemblyFreedLevels) {
+        return makeError(ErrorCode::CorruptData,
+                         "--resume: " + checkpoint_.directory().string() +
+                             ": an earlier assembly freed its level files' pages to fit the face "
+                             "files on the disk, then failed; rerun without --resume to build "
+                             "again (or with --free-checkpoint never and more free disk)");
       }
       start.completeLevel = (*saved)->completeLevel;
       start.textureComplete = (*saved)->textureComplete;
@@ -842,12 +851,13 @@ Result<void> DatasetBuild::assemble(BuildSummary& summary) {
                               in_.depth,
                               in_.imagery.has_value(),
                               in_.demSource.format,
-                              static_cast<double>(grid_->minHeightMeters()),
-                              static_cast<double>(grid_->maxHeightMeters()),
+                              static_cast<double>(minHeightMeters_),
+                              static_cast<double>(maxHeightMeters_),
                               manifestInsets(o_, in_),
                               leafSources(o_, in_, plan_, lattice_),
                               assembling_,
-                              [this](double fraction) { report("write", fraction); }};
+                              [this](double fraction) { report("write", fraction); },
+                              [this](const std::string& line) { log(line); }};
   return assembleDataset(inputs, summary);
 }
 
@@ -939,6 +949,22 @@ Result<BuildSummary> DatasetBuild::run() {
   // (2.17 GB at the paper scale) goes before it. The paper-scale 2 × 1 run without this peaked
   // at 5,115 MB on rank 0 (which assembles) against 3,465 MB on rank 1.
   releaseDem();
+  // Disk bound: the lattice heights and the bucketed samples (8 GB at the paper scale) serve
+  // the levels and the textures only, and a resumed build samples them again: they go before
+  // the face files are written beside the checkpoint.
+  minHeightMeters_ = grid_->minHeightMeters();
+  maxHeightMeters_ = grid_->maxHeightMeters();
+  {
+    std::lock_guard lock(residentMutex_);
+    grid_.reset();
+  }
+  if (root()) {
+    std::error_code ignored;
+    fs::remove(checkpoint_.heightsFile(), ignored);
+    for (std::uint32_t k = 0; k < static_cast<std::uint32_t>(comm_.size()); ++k) {
+      fs::remove(checkpoint_.samplesFile(k), ignored);
+    }
+  }
 
   // ---- Face files, then the manifest (rank 0).
   if (root()) {

@@ -168,6 +168,7 @@ Result<void> Checkpoint::writeState(const CheckpointState& state) const {
     out << "level-parts " << level << ' ' << parts << '\n';
   out << "texture-complete " << (state.textureComplete ? "yes" : "no") << '\n';
   if (state.textureComplete) out << "texture-parts " << state.textureParts << '\n';
+  if (state.assemblyFreedLevels) out << "assembly-freed-levels yes\n";
   out << "end\n";
   const std::string text = out.str();
   std::uint32_t crc = 0;

@@ -109,6 +109,8 @@ Result<CheckpointState> parseCheckpointState(std::string_view text, const std::s
       }
     } else if (key == "texture-complete") {
       state.textureComplete = value == "yes";
+    } else if (key == "assembly-freed-levels") {
+      state.assemblyFreedLevels = value == "yes";
     } else if (key == "level-parts" || key == "texture-parts") {
       try {
         std::size_t used = 0;

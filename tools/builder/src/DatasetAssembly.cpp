@@ -3,8 +3,11 @@
 #include "DatasetAssembly.h"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
 #include <initializer_list>
 #include <memory>
 #include <mutex>
@@ -16,6 +19,7 @@
 #include "pbdam/builder/MorphTargets.h"
 #include "pbdam/formats/Checksum.h"
 #include "pbdam/formats/DatasetFormat.h"
+#include "pbdam/formats/FileWrite.h"
 #include "pbdam/formats/Manifest.h"
 #include "pbdam/formats/PatchCodec.h"
 
@@ -76,6 +80,13 @@ class Assembly final {
   }
   Result<void> locateNodes();
   Result<void> locateLevelPart(int level, std::uint32_t part);
+  /// Whether to free the level files' pages as the faces are written (BuildOptions::
+  /// freeCheckpoint): Auto when the filesystem's free space is short of the face files'
+  /// estimate. Logs the decision when it frees.
+  Result<bool> decideFreeing() const;
+  /// Frees the pages of every level file that hold only nodes of faces up to `face`, after
+  /// recording in the checkpoint's state (once) that its levels can no longer be resumed from.
+  Result<void> freeLevelPages(int face);
   Result<void> locateTiles();
   Manifest makeManifest() const;
   Result<ManifestFace> writeFace(int face);
@@ -106,6 +117,17 @@ class Assembly final {
   std::uint32_t textureLevels_;
   std::vector<std::unique_ptr<MappedFile>> mappings_;
   std::vector<Located> located_;
+  /// One level part file's byte ranges, [begin, end) in the file, by the face whose nodes they
+  /// hold (adjacent ranges merged), and the ranges written so far, for freeing its pages.
+  struct PartRanges {
+    std::filesystem::path path;
+    std::array<std::vector<std::pair<std::uint64_t, std::uint64_t>>, 6> byFace;
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> written;
+  };
+  std::vector<PartRanges> partRanges_;
+  std::uint64_t partBytes_ = 0;  ///< the level and texture part files' bytes
+  bool freeing_ = false;
+  bool stateMarked_ = false;
   Tiles tiles_;
   std::vector<std::uint64_t> tileKeys_;  ///< the tiles that exist (empty: all), ascending
 };
@@ -143,9 +165,22 @@ Result<void> Assembly::locateLevelPart(int level, std::uint32_t part) {
   summary_.halvesOverTarget += view->footer().halvesOverTarget;
   summary_.patchBytesRaw += view->footer().patchBytesRaw;
   std::size_t releasedUpTo = 0;
+  partBytes_ += nodesFile.size();
+  PartRanges& ranges = partRanges_.emplace_back();
+  ranges.path = nodesFile.path();
+  const auto entriesAt = static_cast<std::uint64_t>(payload.data() - nodesFile.bytes().data());
+  std::uint64_t entryBegin = entriesAt;
   auto walked = view->forEachNode([&](const NodeEntry& node, std::size_t readBytes) {
     const std::uint64_t slot = slotOf(node.id);
     if (slot >= located_.size()) return false;
+    const std::uint64_t entryEnd = entriesAt + readBytes;
+    auto& faceRanges = ranges.byFace[static_cast<std::size_t>(node.id / (2 * nodesPerTree_))];
+    if (!faceRanges.empty() && faceRanges.back().second == entryBegin) {
+      faceRanges.back().second = entryEnd;
+    } else {
+      faceRanges.emplace_back(entryBegin, entryEnd);
+    }
+    entryBegin = entryEnd;
     if (readBytes - releasedUpTo >= kReleaseEvery) {
       (void)nodesFile.releaseResident();
       releasedUpTo = readBytes;
@@ -164,6 +199,59 @@ Result<void> Assembly::locateLevelPart(int level, std::uint32_t part) {
   });
   if (!walked) return walked;
   (void)nodesFile.releaseResident();
+  return {};
+}
+
+Result<bool> Assembly::decideFreeing() const {
+  using Free = BuildOptions::FreeCheckpoint;
+  if (in_.options.freeCheckpoint != Free::Auto) return in_.options.freeCheckpoint == Free::Always;
+  std::error_code ec;
+  const std::filesystem::space_info space = std::filesystem::space(in_.options.outDir, ec);
+  if (ec) return false;  // unknown: keep the checkpoint (a short disk then fails as NoSpace)
+  // The face files hold the part files' blobs and records plus the morph targets, which the
+  // assembly makes: at most about half the patch bytes again on the datasets measured
+  // (docs/builder.md "Disk at assembly"); 1 GiB for what else fills the disk meanwhile.
+  const std::uint64_t estimate = partBytes_ + partBytes_ / 2 + (std::uint64_t{1} << 30);
+  if (space.available >= estimate) return false;
+  if (in_.log) {
+    char line[240];
+    std::snprintf(line, sizeof line,
+                  "write: %.1f GB free on %s, the face files need about %.1f GB beside the "
+                  "%.1f GB checkpoint: freeing its level files' pages as the faces are written "
+                  "(a failed assembly then builds the levels again)",
+                  static_cast<double>(space.available) / 1e9, in_.options.outDir.c_str(),
+                  static_cast<double>(estimate) / 1e9, static_cast<double>(partBytes_) / 1e9);
+    in_.log(line);
+  }
+  return true;
+}
+
+Result<void> Assembly::freeLevelPages(int face) {
+  if (!stateMarked_) {
+    CheckpointState state = in_.state;
+    state.assemblyFreedLevels = true;
+    if (auto w = in_.checkpoint.writeState(state); !w) return w;
+    stateMarked_ = true;
+  }
+  for (PartRanges& part : partRanges_) {
+    auto& mine = part.byFace[static_cast<std::size_t>(face)];
+    part.written.insert(part.written.end(), mine.begin(), mine.end());
+    mine = {};
+    // Merged, the ranges of faces written so far cover whole stretches of the file: nodes are
+    // in diamond order, nearly face by face (a diamond across a face edge has a node on each).
+    std::sort(part.written.begin(), part.written.end());
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> merged;
+    for (const auto& range : part.written) {
+      if (!merged.empty() && merged.back().second >= range.first) {
+        merged.back().second = std::max(merged.back().second, range.second);
+      } else {
+        merged.push_back(range);
+      }
+    }
+    part.written = merged;
+    auto freed = freeFileRanges(part.path, part.written);
+    if (!freed) return std::move(freed).error();
+  }
   return {};
 }
 
@@ -191,7 +279,7 @@ Result<void> Assembly::locateTiles() {
           return true;
         });
     if (!walked) return walked;
-    keep(std::move(mapped).value());
+    partBytes_ += keep(std::move(mapped).value()).size();
   }
   if (seen != tiles_.blobs.size()) {
     return makeError(ErrorCode::CorruptData,
@@ -401,10 +489,18 @@ Result<void> Assembly::run() {
   if (auto r = locateTiles(); !r) return r;
   summary_.textureTiles = tiles_.blobs.size();
 
+  auto freeing = decideFreeing();
+  if (!freeing) return std::move(freeing).error();
+  freeing_ = *freeing;
+
   Manifest manifest = makeManifest();
   for (int face = 0; face < 6; ++face) {
     auto written = writeFace(face);
     if (!written) return std::move(written).error();
+    // The face's nodes are never read again (morph targets come from the same face's trees).
+    if (freeing_) {
+      if (auto r = freeLevelPages(face); !r) return r;
+    }
     manifest.faces[static_cast<std::size_t>(face)] = *written;
     summary_.datasetBytes += written->bytes;
     if (in_.progress) in_.progress(static_cast<double>(face + 1) / 6.0);

@@ -71,6 +71,8 @@ struct AssemblyInputs final {
   AssemblyMappings& mappings;
   /// Called with the fraction of the face files written.
   std::function<void(double)> progress;
+  /// Called with a line for the build's log (the decision to free the checkpoint's pages).
+  std::function<void(const std::string&)> log;
 };
 
 /// Writes the face files and the manifest from the checkpoint, fills the dataset's figures in

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <span>
 #include <string>
+#include <utility>
 
 #include "pbdam/formats/Result.h"
 
@@ -39,6 +40,14 @@ Result<void> reserveFileSpace(int fd, std::uint64_t offset, std::uint64_t bytes,
                               const std::filesystem::path& path);
 /// Makes fsync of `fd` report a full disk (delayed allocation) as writeFailure does.
 Result<void> syncFile(int fd, std::uint64_t bytes, const std::filesystem::path& path);
+
+/// Gives the disk blocks of every whole page inside the byte ranges [first, second) of the file
+/// at `path` back to the filesystem (FALLOC_FL_PUNCH_HOLE; the file keeps its size and those
+/// pages then read as zeros). Returns the bytes of the pages freed. Errors: IoError naming the
+/// file and the reason (a filesystem without hole punching: EOPNOTSUPP).
+Result<std::uint64_t> freeFileRanges(
+    const std::filesystem::path& path,
+    std::span<const std::pair<std::uint64_t, std::uint64_t>> ranges);
 
 /// Test aid (PBDAM_TEST_FAIL_WRITE): from now on, every write, pwrite, reservation and fsync
 /// above to a path whose string contains `pathPart` fails with ENOSPC, as on a full disk.

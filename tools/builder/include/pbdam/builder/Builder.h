@@ -53,6 +53,12 @@ struct BuildOptions final {
   int threads = 0;      ///< 0: all cores (per rank)
   bool force = false;   ///< replace an existing dataset
   bool resume = false;  ///< continue from OUT/.build-checkpoint after its last complete level
+  /// Whether the assembly frees each checkpoint level file's pages (punches holes) once the
+  /// faces whose nodes they hold are written, so that the checkpoint and the face files need
+  /// not fit on the disk side by side. The price: an assembly that then fails cannot be resumed
+  /// (the levels are built again). Auto frees only when the free space of the output's
+  /// filesystem is short of the face files' estimate (docs/builder.md "Disk at assembly").
+  enum class FreeCheckpoint { Auto, Always, Never } freeCheckpoint = FreeCheckpoint::Auto;
   /// The ranks of a distributed build; null: this process alone. Every rank calls buildDataset
   /// with the same options; rank 0 writes the dataset (docs/builder.md "Distributed build").
   Communicator* communicator = nullptr;

@@ -145,6 +145,8 @@ struct CheckpointState final {
   /// the textures.
   std::map<int, std::uint32_t> levelParts;
   std::uint32_t textureParts = 0;
+  /// The assembly has begun freeing the level files' pages: they can no longer be resumed from.
+  bool assemblyFreedLevels = false;
 };
 
 /// The first line of the state file.
