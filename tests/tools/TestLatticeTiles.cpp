@@ -38,31 +38,21 @@ TEST(LatticeTiles, DenseLayoutIsTheFaceMajorRowMajorGrid) {
 
 /// Whether a tile of `tiles` (brute force over all of them) stores point p of `face`.
 bool storedByBruteForce(const LatticeTiles& tiles, int face, LatticeXY p) {
-  const auto cells = static_cast<int>(tiles.tileCells());
-  const auto perSide = static_cast<int>(tiles.tilesPerSide());
-  for (int ty = 0; ty < perSide; ++ty) {
-    for (int tx = 0; tx < perSide; ++tx) {
-      const std::size_t k = (static_cast<std::size_t>(face) * static_cast<std::size_t>(perSide) +
-                             static_cast<std::size_t>(ty)) *
-                                static_cast<std::size_t>(perSide) +
-                            static_cast<std::size_t>(tx);
-      const int s = tiles.spacing(k);
-      const bool inside = p.x >= tx * cells && p.x <= (tx + 1) * cells && p.y >= ty * cells &&
-                          p.y <= (ty + 1) * cells;
-      if (inside && p.x % s == 0 && p.y % s == 0) return true;
-    }
+  for (std::size_t k = 0; k < tiles.tileCount(); ++k) {
+    const LatticeTiles::Tile& t = tiles.tile(k);
+    const auto cells = static_cast<int>(t.cells);
+    const int s = t.spacing();
+    const bool inside =
+        t.face == face && p.x >= t.x0 && p.x <= t.x0 + cells && p.y >= t.y0 && p.y <= t.y0 + cells;
+    if (inside && p.x % s == 0 && p.y % s == 0) return true;
   }
   return false;
 }
 
-TEST(LatticeTiles, RowsVisitEveryStoredPointOnceInOrderWhereIndexSays) {
-  std::mt19937 rng(7);
-  constexpr std::uint32_t kCells = 32;
-  constexpr std::uint32_t kTile = 8;
-  std::vector<std::uint8_t> spacing(std::size_t{6} * 16);
-  for (std::uint8_t& s : spacing) s = static_cast<std::uint8_t>(rng() % 4);  // 1, 2, 4 or 8
-  const LatticeTiles tiles(kCells, kTile, spacing);
-  EXPECT_FALSE(tiles.isDense());
+/// Checks every query of `tiles` against brute force over its tiles: the storage rows, every
+/// row scan at several strides, index(), and the spacings of random boxes.
+void expectQueriesMatchBruteForce(const LatticeTiles& tiles, std::mt19937& rng) {
+  const auto n = static_cast<int>(tiles.sideCells());
   // Storage rows cover the storage exactly once, each row inside its tile.
   std::uint64_t next = 0;
   for (std::uint64_t r = 0; r < tiles.rowCount(); ++r) {
@@ -76,11 +66,12 @@ TEST(LatticeTiles, RowsVisitEveryStoredPointOnceInOrderWhereIndexSays) {
   }
   EXPECT_EQ(next, tiles.pointCount());
   for (int face : {0, 3, 5}) {
-    for (int y = 0; y <= static_cast<int>(kCells); ++y) {
+    for (int y = 0; y <= n; ++y) {
       for (const int stride : {1, 2, 4, 8, 16}) {
-        const auto first = static_cast<std::uint32_t>(rng() % (kCells + 1));
+        const auto first = static_cast<std::uint32_t>(rng() % static_cast<std::uint32_t>(n + 1));
         const std::int64_t lo = first;
-        const std::int64_t hi = lo + static_cast<std::int64_t>(rng() % (kCells + 1 - first));
+        const std::int64_t hi =
+            lo + static_cast<std::int64_t>(rng() % (static_cast<std::uint32_t>(n) + 1 - first));
         std::vector<std::int64_t> expected;
         for (std::int64_t x = lo; x <= hi; ++x) {
           if (x % stride == 0 && storedByBruteForce(tiles, face, LatticeXY{static_cast<int>(x), y}))
@@ -89,23 +80,89 @@ TEST(LatticeTiles, RowsVisitEveryStoredPointOnceInOrderWhereIndexSays) {
         std::vector<std::int64_t> visited;
         tiles.forEachInRow(face, y, lo, hi, stride, [&](std::int64_t x, std::uint64_t at) {
           visited.push_back(x);
-          const LatticeXY p{static_cast<int>(x), y};
-          // The same point may live in several tiles: each copy is a position of p.
-          const std::uint64_t direct = tiles.index(face, p);
-          EXPECT_NE(direct, LatticeTiles::kAbsent);
+          EXPECT_NE(tiles.index(face, LatticeXY{static_cast<int>(x), y}), LatticeTiles::kAbsent);
           EXPECT_LT(at, tiles.pointCount());
-          (void)direct;
         });
         EXPECT_EQ(visited, expected)
             << "face " << face << " row " << y << " [" << lo << ", " << hi << "] stride " << stride;
       }
-      for (int x = 0; x <= static_cast<int>(kCells); ++x) {
+      for (int x = 0; x <= n; ++x) {
         const LatticeXY p{x, y};
         EXPECT_EQ(tiles.index(face, p) != LatticeTiles::kAbsent,
                   storedByBruteForce(tiles, face, p));
       }
     }
+    for (int k = 0; k < 200; ++k) {
+      const int x0 = static_cast<int>(rng() % static_cast<std::uint32_t>(n));
+      const int y0 = static_cast<int>(rng() % static_cast<std::uint32_t>(n));
+      const int x1 = x0 + 1 + static_cast<int>(rng() % static_cast<std::uint32_t>(n - x0));
+      const int y1 = y0 + 1 + static_cast<int>(rng() % static_cast<std::uint32_t>(n - y0));
+      int finest = 1 << 30;
+      int coarsest = 1;
+      for (std::size_t t = 0; t < tiles.tileCount(); ++t) {
+        const LatticeTiles::Tile& tile = tiles.tile(t);
+        if (tile.face != face) continue;
+        const int c = static_cast<int>(tile.cells);
+        if (tile.x0 <= x1 && tile.x0 + c >= x0 && tile.y0 <= y1 && tile.y0 + c >= y0)
+          finest = std::min(finest, tile.spacing());
+        if (tile.x0 < x1 && tile.x0 + c > x0 && tile.y0 < y1 && tile.y0 + c > y0)
+          coarsest = std::max(coarsest, tile.spacing());
+      }
+      EXPECT_EQ(tiles.finestSpacingIn(face, x0, y0, x1, y1), finest);
+      EXPECT_EQ(tiles.coarsestSpacingIn(face, x0, y0, x1, y1), coarsest);
+    }
   }
+}
+
+TEST(LatticeTiles, RowsVisitEveryStoredPointOnceInOrderWhereIndexSays) {
+  std::mt19937 rng(7);
+  constexpr std::uint32_t kCells = 32;
+  constexpr std::uint32_t kTile = 8;
+  std::vector<std::uint8_t> spacing(std::size_t{6} * 16);
+  for (std::uint8_t& s : spacing) s = static_cast<std::uint8_t>(rng() % 4);  // 1, 2, 4 or 8
+  const LatticeTiles tiles(kCells, kTile, spacing);
+  EXPECT_FALSE(tiles.isDense());
+  expectQueriesMatchBruteForce(tiles, rng);
+}
+
+// An adaptive tiling: squares cut into quarters where a region wants more points than a tile
+// may hold a side; every query still answers as brute force over the tiles does, and the
+// points stored are about the regions' own.
+TEST(LatticeTiles, AnAdaptiveTilingCutsSquaresWhereRegionsAreFineAndAnswersAsBruteForce) {
+  std::mt19937 rng(11);
+  constexpr std::uint32_t kCells = 64;
+  const std::vector<LatticeTiles::Region> regions = {
+      {0, 3, 5, 9, 12, 0},     // a fine box in one square
+      {0, 30, 30, 34, 34, 1},  // across four squares' corner
+      {3, 40, 0, 64, 8, 2},    // along a face edge
+      {5, 17, 47, 18, 48, 0},  // one cell
+  };
+  const LatticeTiles tiles = LatticeTiles::adaptive(kCells, 16, 3, regions, 4);
+  EXPECT_FALSE(tiles.isDense());
+  EXPECT_GT(tiles.tileCount(), std::size_t{6} * 16);  // some squares were cut
+  for (const LatticeTiles::Region& r : regions) {
+    // Every point a region wants is stored.
+    const int s = 1 << r.spacingLog2;
+    for (int y = r.y0; y <= r.y1; y += s) {
+      for (int x = r.x0; x <= r.x1; x += s) {
+        if (x % s == 0 && y % s == 0) {
+          EXPECT_TRUE(storedByBruteForce(tiles, r.face, LatticeXY{x, y}))
+              << r.face << ": " << x << "," << y;
+        }
+      }
+    }
+  }
+  for (std::size_t k = 0; k < tiles.tileCount(); ++k) {
+    const LatticeTiles::Tile& t = tiles.tile(k);
+    EXPECT_TRUE(tiles.pointsPerRow(k) <= 5 || t.cells == static_cast<std::uint32_t>(t.spacing()))
+        << "tile " << k << " has " << tiles.pointsPerRow(k) << " points a side";
+  }
+  // Cut squares store fewer points than whole squares at their finest spacing would.
+  const LatticeTiles whole = LatticeTiles::adaptive(kCells, 16, 3, regions, 1024);
+  EXPECT_EQ(whole.tileCount(), std::size_t{6} * 16);
+  EXPECT_LT(tiles.pointCount(), whole.pointCount());
+  expectQueriesMatchBruteForce(tiles, rng);
+  expectQueriesMatchBruteForce(whole, rng);
 }
 
 using test::roughDem;

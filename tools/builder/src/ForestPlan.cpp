@@ -97,13 +97,15 @@ LatticeTiles ForestPlan::latticeTiles() const {
   const auto baseSpacing = static_cast<std::uint32_t>(leafSpacing(shape_->baseDepth()));
   const std::uint32_t cells =
       std::min(n >> (shape_->baseDepth() / 2), std::max(8 * baseSpacing, n >> 8));
-  const std::uint32_t perSide = n / cells;
-  // Start every tile at the base leaves' spacing, then refine to the finest leaf that reaches it.
+  // Every leaf finer than the base's is a region wanting its spacing; a square is cut into
+  // quarters while it would hold more than kMaxTilePoints points a side at the finest spacing
+  // that shares area with it, so an inset many levels finer than the base costs about its own
+  // points, not a whole base square's at its spacing.
+  constexpr std::uint32_t kMaxTilePoints = 1024;
   const auto log2Of = [](std::int32_t spacing) {
     return static_cast<std::uint8_t>(std::countr_zero(static_cast<std::uint32_t>(spacing)));
   };
-  std::vector<std::uint8_t> spacing(6 * std::size_t{perSide} * perSide,
-                                    log2Of(leafSpacing(shape_->baseDepth())));
+  std::vector<LatticeTiles::Region> regions;
   for (int level = shape_->baseDepth() + 1; level <= depth_; ++level) {
     const auto& nodes = shape_->nodesOfLevel(level);
     const auto& split = shape_->splitOfLevel(level);
@@ -111,25 +113,14 @@ LatticeTiles ForestPlan::latticeTiles() const {
     for (std::size_t k = 0; k < nodes.size(); ++k) {
       if (split[k]) continue;
       const BinTriangle t = triangleOfNode(lattice_, nodes[k], depth_);
-      // Every tile whose square shares area with the leaf's box.
-      const auto lo = [cells](std::int32_t c) { return static_cast<std::uint32_t>(c) / cells; };
-      const auto hi = [cells](std::int32_t c) {
-        return (static_cast<std::uint32_t>(c) - 1) / cells;
-      };
-      const std::uint32_t tx0 = lo(std::min({t.apex.x, t.left.x, t.right.x}));
-      const std::uint32_t tx1 = hi(std::max({t.apex.x, t.left.x, t.right.x}));
-      const std::uint32_t ty0 = lo(std::min({t.apex.y, t.left.y, t.right.y}));
-      const std::uint32_t ty1 = hi(std::max({t.apex.y, t.left.y, t.right.y}));
-      for (std::uint32_t ty = ty0; ty <= ty1; ++ty) {
-        for (std::uint32_t tx = tx0; tx <= tx1; ++tx) {
-          std::uint8_t& at =
-              spacing[(static_cast<std::size_t>(t.face) * perSide + ty) * perSide + tx];
-          at = std::min(at, s);
-        }
-      }
+      regions.push_back(LatticeTiles::Region{t.face, std::min({t.apex.x, t.left.x, t.right.x}),
+                                             std::min({t.apex.y, t.left.y, t.right.y}),
+                                             std::max({t.apex.x, t.left.x, t.right.x}),
+                                             std::max({t.apex.y, t.left.y, t.right.y}), s});
     }
   }
-  return LatticeTiles(n, cells, std::move(spacing));
+  return LatticeTiles::adaptive(n, cells, log2Of(leafSpacing(shape_->baseDepth())), regions,
+                                kMaxTilePoints);
 }
 
 std::vector<std::uint64_t> ForestPlan::tiles(std::uint32_t textureLevels) const {

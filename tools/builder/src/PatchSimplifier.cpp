@@ -45,19 +45,9 @@ ChordModel chordModel(const SampleGrid& grid) {
 /// The coarsest spacing of the tiles a triangle's box reaches: the diagonal of a diamond takes
 /// the points both its triangles' tiles store (1 on a dense lattice).
 std::int32_t coarsestSpacing(const LatticeTiles& tiles, const BinTriangle& t) {
-  if (tiles.isDense()) return 1;
-  const std::int32_t x0 = std::min({t.apex.x, t.left.x, t.right.x});
-  const std::int32_t x1 = std::max({t.apex.x, t.left.x, t.right.x});
-  const std::int32_t y0 = std::min({t.apex.y, t.left.y, t.right.y});
-  const std::int32_t y1 = std::max({t.apex.y, t.left.y, t.right.y});
-  const auto cells = static_cast<std::int32_t>(tiles.tileCells());
-  std::int32_t coarsest = 1;
-  for (std::int32_t y = y0; y < y1; y += cells - (y % cells)) {
-    for (std::int32_t x = x0; x < x1; x += cells - (x % cells)) {
-      coarsest = std::max(coarsest, tiles.spacingAt(t.face, LatticeXY{x, y}));
-    }
-  }
-  return coarsest;
+  return tiles.coarsestSpacingIn(
+      t.face, std::min({t.apex.x, t.left.x, t.right.x}), std::min({t.apex.y, t.left.y, t.right.y}),
+      std::max({t.apex.x, t.left.x, t.right.x}), std::max({t.apex.y, t.left.y, t.right.y}));
 }
 
 }  // namespace
