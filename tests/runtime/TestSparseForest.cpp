@@ -44,7 +44,7 @@ test::PruneRules withAllTiles(test::PruneRules rules) {
 test::PruneRules aroundOlympus(std::uint32_t n, int depth) {
   const glm::dvec3 target = CubeMap::faceUvToDirection(CubeMap::latLonToFaceUv(kLat, kLon));
   auto shape = std::make_shared<const builder::ForestShape>(builder::ForestShape::make(
-      builder::Lattice(n), 2,
+      builder::Lattice(n), Planet::mars(), 2,
       {builder::DeepRegion{{kLat - 1.5, 360.0 + kLon - 1.5, kLat + 1.5, 360.0 + kLon + 1.5},
                            depth}}));
   test::PruneRules rules;

@@ -230,7 +230,7 @@ TEST(Builder, VerifyWalksAPrunedForestAndNamesAnUnclosedOne) {
   // Leaves of level 6 (the build's depth) over a box on Mars, level 2 elsewhere, closed.
   const Lattice lattice(128);
   const ForestShape shape =
-      ForestShape::make(lattice, 2, {DeepRegion{{10.0, 60.0, 20.0, 75.0}, 6}});
+      ForestShape::make(lattice, Planet::mars(), 2, {DeepRegion{{10.0, 60.0, 20.0, 75.0}, 6}});
   ASSERT_EQ(shape.depth(), 6);
   test::PruneRules closed;
   closed.splitNode = [&](const BinTriangle& t) {

@@ -58,9 +58,31 @@ int leafLevelAt(const Lattice& lattice, const ForestShape& shape, double lat, do
   return t.level;
 }
 
+// A region's box is geodetic, as a DEM's samples are placed: on WGS84 the deep leaves lie over
+// the box, not 0.19° north of it where a box taken as geocentric directions would put them
+// (two hypotenuses of level 24 are about 7 km; the shift is 21 km at 49.8°N).
+TEST(ForestShape, RegionsAreGeodeticOnAnEllipsoid) {
+  const Lattice lattice(16384);
+  const Planet earth = Planet::earthWgs84();
+  const ForestShape shape =
+      ForestShape::make(lattice, earth, 2, {DeepRegion{{49.82, 5.86, 49.86, 5.92}, 24}});
+  const auto levelAt = [&](double lat, double lon) {
+    const FaceUv fuv = CubeMap::directionToFaceUv(earth.geodeticToDirection(lat, lon));
+    const glm::dvec2 xy = fuv.uv * static_cast<double>(lattice.sideCells());
+    BinTriangle t = lattice.root(cubeFaceIndex(fuv.face), xy.x >= xy.y ? 0 : 1);
+    while (shape.isSplit(t.level, nodeId(t, shape.depth()))) {
+      t = Lattice::children(t)[static_cast<std::size_t>(bintreeChildContaining(t, xy))];
+    }
+    return t.level;
+  };
+  EXPECT_EQ(levelAt(49.84, 5.89), 24);
+  EXPECT_EQ(levelAt(49.821, 5.861), 24);
+  EXPECT_LE(levelAt(50.03, 5.89), 22);  // where the geocentric reading would have gone deep
+}
+
 TEST(ForestShape, WithoutRegionsItIsTheCompleteForestOfTheBaseDepth) {
   const Lattice lattice(64);
-  const ForestShape shape = ForestShape::make(lattice, 4, {});
+  const ForestShape shape = ForestShape::make(lattice, Planet::mars(), 4, {});
   EXPECT_EQ(shape.depth(), 4);
   EXPECT_EQ(shape.nodeCount(), 12u * 31u);
   EXPECT_EQ(shape.leafCount(), 12u * 16u);
@@ -71,7 +93,7 @@ TEST(ForestShape, DeeperNearARegionClosedEverywhere) {
   // Luxembourg's box wanting level 12 on a base of depth 4 (2048 cells, 32-cell leaves at 12).
   const Lattice lattice(2048);
   const DeepRegion luxembourg{{49.44, 5.74, 50.19, 6.53}, 12};
-  const ForestShape shape = ForestShape::make(lattice, 4, {luxembourg});
+  const ForestShape shape = ForestShape::make(lattice, Planet::mars(), 4, {luxembourg});
   EXPECT_EQ(shape.depth(), 12);
   expectClosed(lattice, shape);
   EXPECT_EQ(leafLevelAt(lattice, shape, 49.8, 6.1), 12);
@@ -92,15 +114,15 @@ TEST(ForestShape, ClosedAcrossFaceEdgesAndACubeCornerInAnyOrder) {
   // (1, 1, 1)/√3 is a corner of three faces; the second box straddles the seam at 180°.
   const DeepRegion corner{{33.0, 43.0, 37.5, 47.0}, 10};
   const DeepRegion seam{{-5.0, 178.0, 5.0, 182.0}, 8};
-  const ForestShape ab = ForestShape::make(lattice, 2, {corner, seam});
-  const ForestShape ba = ForestShape::make(lattice, 2, {seam, corner});
+  const ForestShape ab = ForestShape::make(lattice, Planet::mars(), 2, {corner, seam});
+  const ForestShape ba = ForestShape::make(lattice, Planet::mars(), 2, {seam, corner});
   expectClosed(lattice, ab);
   EXPECT_EQ(leafLevelAt(lattice, ab, 35.26, 45.0), 10);
   EXPECT_EQ(leafLevelAt(lattice, ab, 0.0, 180.0), 8);
   EXPECT_EQ(leafLevelAt(lattice, ab, 0.0, -179.0), 8);
   // A rule that splits little more than the nodes over the region is far from closed: the
   // closure does the rest.
-  const ForestShape tight = ForestShape::make(lattice, 2, {corner, seam}, 0.6);
+  const ForestShape tight = ForestShape::make(lattice, Planet::mars(), 2, {corner, seam}, 0.6);
   expectClosed(lattice, tight);
   EXPECT_EQ(leafLevelAt(lattice, tight, 35.26, 45.0), 10);
   EXPECT_LT(tight.nodeCount(), ab.nodeCount());
@@ -123,7 +145,7 @@ TEST(ForestShape, AMolaSizedInset) {
   const Lattice lattice(32768);
   const auto start = std::chrono::steady_clock::now();
   const ForestShape shape =
-      ForestShape::make(lattice, 8, {DeepRegion{{-16.0, 120.0, 16.0, 152.0}, 20}});
+      ForestShape::make(lattice, Planet::mars(), 8, {DeepRegion{{-16.0, 120.0, 16.0, 152.0}, 20}});
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::printf("%llu nodes, %llu leaves, %llu closure splits in %.2f s\n",

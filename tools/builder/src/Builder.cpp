@@ -141,8 +141,8 @@ class DatasetBuild {
         plan_(in.deepRegions.empty()
                   ? ForestPlan(lattice_, d_, in.leafCells)
                   : ForestPlan(lattice_, in.leafCells,
-                               ForestShape::make(lattice_, static_cast<int>(in.baseDepth),
-                                                 in.deepRegions))),
+                               ForestShape::make(lattice_, *in.planet,
+                                                 static_cast<int>(in.baseDepth), in.deepRegions))),
         tiles_(plan_.latticeTiles()),
         checkpoint_(o.outDir) {}
 

@@ -18,16 +18,17 @@ double wrap360(double degrees) noexcept {
   return d < 0.0 ? d + 360.0 : d;
 }
 
-glm::dvec3 directionOf(double lat, double lon) {
-  return CubeMap::faceUvToDirection(CubeMap::latLonToFaceUv(lat, lon));
+glm::dvec3 directionOf(const Planet& planet, double lat, double lon) {
+  return planet.geodeticToDirection(lat, lon);
 }
 
 /// Chord distance (unit sphere) from `p` to the nearest point of a lat/lon box, taking the
 /// box's point of clamped latitude and longitude (exact along meridians and parallels, close
 /// enough elsewhere for a split rule the closure corrects).
-double chordToBox(const glm::dvec3& p, const formats::LatLonBounds& box) {
-  const FaceUv fuv = CubeMap::directionToFaceUv(p);
-  const LatLonDegrees ll = CubeMap::faceUvToLatLon(fuv.face, fuv.uv);
+double chordToBox(const Planet& planet, const glm::dvec3& p, const formats::LatLonBounds& box) {
+  // The box is geodetic, as the DEMs' samples are placed (SampleGrid: geodeticToDirection): on
+  // an ellipsoid a direction's latitude differs from the geodetic one (0.19° on Earth at 45°).
+  const GeodeticPosition ll = planet.directionToGeodetic(p);
   const double lat = std::clamp(ll.latDegrees, box.southDegrees, box.northDegrees);
   const double width = box.eastDegrees - box.westDegrees;
   const double east = wrap360(ll.lonDegrees - box.westDegrees);  // degrees east of the west edge
@@ -36,14 +37,15 @@ double chordToBox(const glm::dvec3& p, const formats::LatLonBounds& box) {
     // Outside the box's longitudes: the nearer of its two edges.
     lon = (east - width < 360.0 - east) ? box.eastDegrees : box.westDegrees;
   }
-  return glm::length(p - directionOf(lat, lon));
+  return glm::length(p - directionOf(planet, lat, lon));
 }
 
 class ShapeBuilder {
  public:
-  ShapeBuilder(const Lattice& lattice, int baseDepth, int maxDepth, std::vector<DeepRegion> regions,
-               double reach)
+  ShapeBuilder(const Lattice& lattice, const Planet& planet, int baseDepth, int maxDepth,
+               std::vector<DeepRegion> regions, double reach)
       : lattice_(lattice),
+        planet_(planet),
         reach_(reach),
         baseDepth_(baseDepth),
         maxDepth_(maxDepth),
@@ -85,7 +87,7 @@ class ShapeBuilder {
     const glm::dvec3 m = lattice_.direction(t.face, (t.left + t.right) / 2);
     const double reach = reach_ * glm::length(l - r);
     return std::any_of(regions_.begin(), regions_.end(), [&](const DeepRegion& region) {
-      return t.level < region.leafLevel && chordToBox(m, region.bounds) <= reach;
+      return t.level < region.leafLevel && chordToBox(planet_, m, region.bounds) <= reach;
     });
   }
 
@@ -125,6 +127,7 @@ class ShapeBuilder {
   }
 
   const Lattice& lattice_;
+  const Planet& planet_;
   double reach_;
   int baseDepth_;
   int maxDepth_;
@@ -136,11 +139,11 @@ class ShapeBuilder {
 
 }  // namespace
 
-ForestShape ForestShape::make(const Lattice& lattice, int baseDepth,
+ForestShape ForestShape::make(const Lattice& lattice, const Planet& planet, int baseDepth,
                               std::vector<DeepRegion> regions, double reach) {
   int maxDepth = baseDepth;
   for (const DeepRegion& r : regions) maxDepth = std::max(maxDepth, r.leafLevel);
-  ShapeBuilder builder(lattice, baseDepth, maxDepth, std::move(regions), reach);
+  ShapeBuilder builder(lattice, planet, baseDepth, maxDepth, std::move(regions), reach);
   builder.run();
   ForestShape shape;
   shape.baseDepth_ = baseDepth;

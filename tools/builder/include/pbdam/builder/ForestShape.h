@@ -11,6 +11,7 @@
 
 #include "pbdam/builder/Lattice.h"
 #include "pbdam/formats/HeightGrid.h"
+#include "pbdam/runtime/Planet.h"
 
 namespace pbdam::builder {
 
@@ -31,8 +32,9 @@ class ForestShape final {
   /// result depends only on the arguments (not on the regions' order or on threads).
   /// `lattice` is the deepest leaves' lattice: leaves of level d have legs of
   /// N / 2^(d/2) cells, so N must allow the deepest region's level.
-  static ForestShape make(const Lattice& lattice, int baseDepth, std::vector<DeepRegion> regions,
-                          double reach = 2.0);
+  /// The regions' boxes are geodetic on `planet` (as DEM samples are placed).
+  static ForestShape make(const Lattice& lattice, const runtime::Planet& planet, int baseDepth,
+                          std::vector<DeepRegion> regions, double reach = 2.0);
 
   /// The deepest leaf level: the base's depth or the deepest region's leaf level.
   int depth() const noexcept { return static_cast<int>(levels_.size()) - 1; }
