@@ -73,6 +73,28 @@ TEST(CompositeSurface, InsetInsideBaseOutsideAContinuousBlendBetween) {
   EXPECT_EQ(s.sourceAt(15.0, 45.0).inset, -1);
 }
 
+// The band spans a cell of what the inset blends into — a coarser inset holding it, else the
+// base — but at most a quarter of the inset's smaller side, so an inset smaller than a cell
+// below it keeps its middle at its own samples.
+TEST(CompositeSurface, TheBandSpansACellOfWhatLiesBelowAndAtMostAQuarterOfTheInset) {
+  const auto flat = [](double, double) { return 0.0; };
+  HeightGrid base = grid(360, 181, 90.0, 0.0, 1.0, flat);
+  std::vector<HeightGrid> insets;
+  insets.push_back(grid(1001, 1001, 20.0, 30.0, 0.01, flat));    // 100 base samples a cell
+  insets.push_back(grid(401, 401, 15.2, 35.0, 0.0005, flat));    // inside it: 20 a cell of it
+  insets.push_back(grid(201, 201, -10.0, 100.0, 0.0005, flat));  // alone: 2000 a base cell
+  std::vector<InsetSpec> specs{InsetSpec{"a.tif", {}, {}}, InsetSpec{"b.tif", {}, {}},
+                               InsetSpec{"c.tif", {}, {}}};
+  const CompositeSurface s =
+      CompositeSurface::make(std::move(base), std::move(specs), std::move(insets));
+  ASSERT_EQ(s.insets().size(), 3u);  // coarsest first
+  EXPECT_EQ(s.insets()[0].bandSamples, 100);
+  EXPECT_EQ(s.insets()[1].bandSamples, 20);  // one cell of the inset holding it
+  EXPECT_EQ(s.insets()[2].bandSamples, 50);  // a quarter of its 201 samples, not 2000
+  // The lone fine inset's middle is its own: weight 1 there.
+  EXPECT_EQ(s.weightOf(2, -10.05, 100.05), 1.0);
+}
+
 TEST(CompositeSurface, TheFinerOfOverlappingInsetsWins) {
   std::vector<HeightGrid> fine;
   // 0.05° samples over 12–18°N, 36–44°E at 200 m: it overlaps the 0.1° inset's east part.

@@ -52,9 +52,11 @@ double smoothstep(double x) noexcept {
 
 }  // namespace
 
-std::int64_t transitionBandSamples(const HeightGrid& base, const HeightGrid& inset) noexcept {
-  const double ratio = spacingOf(base) / spacingOf(inset);
-  return std::max<std::int64_t>(16, static_cast<std::int64_t>(std::ceil(ratio - 1e-9)));
+std::int64_t transitionBandSamples(const HeightGrid& below, const HeightGrid& inset) noexcept {
+  const double ratio = spacingOf(below) / spacingOf(inset);
+  const std::int64_t quarter = std::min(inset.width(), inset.height()) / 4;
+  return std::max<std::int64_t>(
+      16, std::min(quarter, static_cast<std::int64_t>(std::ceil(ratio - 1e-9))));
 }
 
 Result<void> checkInset(const InsetSpec& spec, const HeightGrid& inset, const HeightGrid& base,
@@ -97,7 +99,17 @@ CompositeSurface CompositeSurface::make(HeightGrid base, std::vector<InsetSpec> 
   for (const std::size_t k : order) {
     Inset inset;
     inset.offsetMeters = specs[k].offsetMeters.value_or(0.0);
-    inset.bandSamples = transitionBandSamples(base, insets[k]);
+    // What it blends into: the finest coarser inset whose box holds its box, else the base.
+    const HeightGrid* below = &base;
+    const LatLonBounds box = insets[k].bounds();
+    for (const Inset& coarser : s.insets_) {
+      const LatLonBounds c = coarser.grid.bounds();
+      if (c.southDegrees <= box.southDegrees && c.northDegrees >= box.northDegrees &&
+          c.westDegrees <= box.westDegrees && c.eastDegrees >= box.eastDegrees) {
+        below = &coarser.grid;  // coarsest first: the last that holds it is the finest
+      }
+    }
+    inset.bandSamples = transitionBandSamples(*below, insets[k]);
     inset.edgeDistance = edgeDistances(insets[k], static_cast<std::uint16_t>(std::min<std::int64_t>(
                                                       inset.bandSamples + 1, 65535)));
     inset.grid = std::move(insets[k]);

@@ -30,10 +30,14 @@ struct InsetSpec final {
   std::filesystem::path texturePath;
 };
 
-/// The transition band's width in inset samples: at least 16, and at least one base sample
-/// spacing, so the blend spans several inset samples and a whole base cell (wider would eat
-/// small insets: two ETOPO5 spacings leave 30 of Luxembourg's samples outside the band).
-std::int64_t transitionBandSamples(const formats::HeightGrid& base,
+/// The transition band's width in inset samples: at least 16, and at least one sample spacing
+/// of the surface below (`below`: the base, or a coarser inset containing this one), so the
+/// blend spans several inset samples and a whole cell of what it blends into (wider would eat
+/// small insets: two ETOPO5 spacings leave 30 of Luxembourg's samples outside the band) — but
+/// at most a quarter of the inset's smaller side (when that exceeds 16), so that an inset
+/// smaller than a cell below it (4 km of lidar on ETOPO5's 9 km) keeps its middle half at its
+/// own samples.
+std::int64_t transitionBandSamples(const formats::HeightGrid& below,
                                    const formats::HeightGrid& inset) noexcept;
 
 /// Checks an inset read from `spec.path` against the base and the planet: on the same body
