@@ -6,9 +6,12 @@
 // output spacing. The same arguments always give the same bytes, for any thread count.
 // Writes a tiled, uncompressed int16 GeoTIFF through GDAL in strips (memory: the source plus one
 // strip), georeferenced in degrees on the source body's ellipsoid, pixel-is-area. With --bounds
-// it covers that box only (an inset for a hybrid dataset), W columns across it.
+// it covers that box only (an inset for a hybrid dataset), W columns across it; the source may
+// then be regional too (the box inside its samples).
 //   pbdam_fractal_dem --dem IN --out OUT.tif --width W [--seed S] [--amplitude-m A]
-//                     [--hurst H] [--planet-radius-m R] [--bounds S,W,N,E]
+//                     [--hurst H] [--planet-radius-m R] [--bounds S,W,N,E] [--float32]
+// --float32 writes Float32 heights, unrounded: detail finer than a metre (a lidar-class inset)
+// survives.
 #include <cpl_conv.h>
 #include <gdal_priv.h>
 #include <libnoise/noise.h>
@@ -38,6 +41,7 @@ struct Options {
   std::int64_t width = 0;
   int seed = 1;
   double amplitudeMeters = 120.0;  ///< fBm amplitude at the source's sample spacing
+  bool float32 = false;            ///< Float32 samples (unrounded) instead of Int16
   double hurst = 0.8;              ///< roughness: amplitude ∝ wavelength^H
   double radiusMeters = 0.0;       ///< 0: the source CRS's semi-major axis (or Mars)
   /// A regional output (an inset): S, W, N, E in degrees, --width columns across W..E; empty:
@@ -46,15 +50,16 @@ struct Options {
 };
 
 [[noreturn]] void usage(const char* why) {
-  std::fprintf(stderr,
-               "pbdam_fractal_dem: %s\n"
-               "usage: pbdam_fractal_dem --dem IN --out OUT.tif --width W [--seed S]\n"
-               "       [--amplitude-m A] [--hurst H] [--planet-radius-m R] [--bounds S,W,N,E]\n"
-               "  W: output columns over 360 degrees (rows = W/2); must be even and > the "
-               "source's width\n"
-               "  --bounds: a regional grid (an inset) of W columns across W..E, as many rows "
-               "at the same spacing\n",
-               why);
+  std::fprintf(
+      stderr,
+      "pbdam_fractal_dem: %s\n"
+      "usage: pbdam_fractal_dem --dem IN --out OUT.tif --width W [--seed S]\n"
+      "       [--amplitude-m A] [--hurst H] [--planet-radius-m R] [--bounds S,W,N,E] [--float32]\n"
+      "  W: output columns over 360 degrees (rows = W/2); must be even and > the "
+      "source's width\n"
+      "  --bounds: a regional grid (an inset) of W columns across W..E, as many rows "
+      "at the same spacing\n",
+      why);
   std::exit(2);
 }
 
@@ -87,6 +92,8 @@ Options parse(int argc, char** argv) {
       o.seed = static_cast<int>(number(0, 1 << 30));
     } else if (a == "--amplitude-m") {
       o.amplitudeMeters = number(0, 1e5);
+    } else if (a == "--float32") {
+      o.float32 = true;
     } else if (a == "--hurst") {
       o.hurst = number(0.05, 1.0);
     } else if (a == "--planet-radius-m") {
@@ -125,7 +132,8 @@ Options parse(int argc, char** argv) {
 std::unique_ptr<GDALDataset> createGeoTiff(const std::string& tmp, std::int64_t width,
                                            std::int64_t height, double spacingDegrees,
                                            double westDegrees, double northDegrees,
-                                           const pbdam::formats::HeightGrid& dem) {
+                                           const pbdam::formats::HeightGrid& dem,
+                                           GDALDataType type) {
   GDALAllRegister();
   GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
   if (driver == nullptr) {
@@ -138,7 +146,7 @@ std::unique_ptr<GDALDataset> createGeoTiff(const std::string& tmp, std::int64_t 
   createOptions = CSLSetNameValue(createOptions, "BLOCKYSIZE", "512");
   createOptions = CSLSetNameValue(createOptions, "BIGTIFF", "IF_SAFER");
   std::unique_ptr<GDALDataset> out(driver->Create(
-      tmp.c_str(), static_cast<int>(width), static_cast<int>(height), 1, GDT_Int16, createOptions));
+      tmp.c_str(), static_cast<int>(width), static_cast<int>(height), 1, type, createOptions));
   CSLDestroy(createOptions);
   if (!out) {
     std::fprintf(stderr, "pbdam_fractal_dem: %s: cannot create\n", tmp.c_str());
@@ -163,12 +171,27 @@ int run(int argc, char** argv) {
     std::fprintf(stderr, "pbdam_fractal_dem: %s\n", dem.error().message.c_str());
     return 2;
   }
-  if (!dem->wrapsLongitude() || !dem->coversPoles()) {
-    std::fprintf(stderr, "pbdam_fractal_dem: %s: must be a global grid (360° x 180°)\n",
+  const bool regional = !o.bounds.empty();
+  if (regional && !(dem->wrapsLongitude() && dem->coversPoles())) {
+    // A regional source (e.g. a national DEM) serves a box inside its own samples' centres,
+    // where its bicubic height is defined.
+    const pbdam::formats::LatLonBounds b = dem->bounds();
+    const double margin = 1.5 * dem->geometry().lonSpacingDegrees;
+    if (o.bounds[0] < b.southDegrees + margin || o.bounds[2] > b.northDegrees - margin ||
+        o.bounds[1] < b.westDegrees + margin || o.bounds[3] > b.eastDegrees - margin) {
+      std::fprintf(stderr,
+                   "pbdam_fractal_dem: %s covers %.6f..%.6f N, %.6f..%.6f E: --bounds must lie "
+                   "inside it by 1.5 samples\n",
+                   o.dem.c_str(), b.southDegrees, b.northDegrees, b.westDegrees, b.eastDegrees);
+      return 2;
+    }
+  } else if (!dem->wrapsLongitude() || !dem->coversPoles()) {
+    std::fprintf(stderr,
+                 "pbdam_fractal_dem: %s: must be a global grid (360° x 180°), or give --bounds "
+                 "inside it\n",
                  o.dem.c_str());
     return 2;
   }
-  const bool regional = !o.bounds.empty();
   const double west = regional ? o.bounds[1] : 0.0;
   const double north = regional ? o.bounds[2] : 90.0;
   const double spacingDegrees =
@@ -203,8 +226,8 @@ int run(int argc, char** argv) {
   perlin.SetNoiseQuality(noise::QUALITY_STD);
 
   const std::string tmp = o.out + ".tmp.tif";
-  std::unique_ptr<GDALDataset> out =
-      createGeoTiff(tmp, width, height, spacingDegrees, west, north, *dem);
+  std::unique_ptr<GDALDataset> out = createGeoTiff(tmp, width, height, spacingDegrees, west, north,
+                                                   *dem, o.float32 ? GDT_Float32 : GDT_Int16);
   if (!out) return 1;
   GDALRasterBand* band = out->GetRasterBand(1);
   band->SetNoDataValue(-32768.0);
@@ -212,6 +235,7 @@ int run(int argc, char** argv) {
   const auto start = std::chrono::steady_clock::now();
   constexpr std::int64_t kStripRows = 512;
   std::vector<std::int16_t> strip(static_cast<std::size_t>(kStripRows * width));
+  std::vector<float> stripFloat(o.float32 ? strip.size() : 0);
   double minM = 1e300;
   double maxM = -1e300;
   for (std::int64_t row0 = 0; row0 < height; row0 += kStripRows) {
@@ -226,18 +250,25 @@ int run(int argc, char** argv) {
         const double detail =
             o.amplitudeMeters * perlin.GetValue(std::cos(phi) * std::cos(lambda),
                                                 std::cos(phi) * std::sin(lambda), std::sin(phi));
+        if (o.float32) {
+          stripFloat[static_cast<std::size_t>(r * width + c)] = static_cast<float>(base + detail);
+          continue;
+        }
         const double h = std::clamp(std::round(base + detail), -32767.0, 32767.0);
         strip[static_cast<std::size_t>(r * width + c)] = static_cast<std::int16_t>(h);
       }
     });
     for (std::int64_t k = 0; k < rows * width; ++k) {
-      const double h = strip[static_cast<std::size_t>(k)];
+      const double h = o.float32 ? static_cast<double>(stripFloat[static_cast<std::size_t>(k)])
+                                 : strip[static_cast<std::size_t>(k)];
       minM = std::min(minM, h);
       maxM = std::max(maxM, h);
     }
     if (band->RasterIO(GF_Write, 0, static_cast<int>(row0), static_cast<int>(width),
-                       static_cast<int>(rows), strip.data(), static_cast<int>(width),
-                       static_cast<int>(rows), GDT_Int16, 0, 0) != CE_None) {
+                       static_cast<int>(rows),
+                       o.float32 ? static_cast<void*>(stripFloat.data()) : strip.data(),
+                       static_cast<int>(width), static_cast<int>(rows),
+                       o.float32 ? GDT_Float32 : GDT_Int16, 0, 0) != CE_None) {
       std::fprintf(stderr, "pbdam_fractal_dem: %s: write failed\n", tmp.c_str());
       return 1;
     }
@@ -260,11 +291,11 @@ int run(int argc, char** argv) {
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::printf(
-      "\n%s: %lld x %lld int16 samples (%.3f G), %.5f deg spacing (%.0f m), %d octaves of "
+      "\n%s: %lld x %lld %s samples (%.3f G), %.5f deg spacing (%.0f m), %d octaves of "
       "detail (amplitude %.0f m, H %.2f, seed %d), heights %.0f .. %.0f m, %.1f s\n",
       o.out.c_str(), static_cast<long long>(width), static_cast<long long>(height),
-      static_cast<double>(width * height) / 1e9, spacingDegrees, outputSpacingMeters, octaves,
-      o.amplitudeMeters, o.hurst, o.seed, minM, maxM, seconds);
+      o.float32 ? "float32" : "int16", static_cast<double>(width * height) / 1e9, spacingDegrees,
+      outputSpacingMeters, octaves, o.amplitudeMeters, o.hurst, o.seed, minM, maxM, seconds);
   return 0;
 }
 
