@@ -16,6 +16,7 @@
 #include "MpiLauncher.h"
 #include "Progress.h"
 #include "pbdam/builder/Builder.h"
+#include "pbdam/formats/DatasetFormat.h"
 #include "pbdam/formats/FileWrite.h"
 
 using namespace pbdam::formats;
@@ -118,7 +119,9 @@ Result<void> parseDeepRegions(const std::vector<std::string>& texts, builder::Bu
       std::size_t used = 0;
       const std::string level = text.substr(at + 1);
       const int leafLevel = std::stoi(level, &used);
-      if (used != level.size() || leafLevel <= 0 || leafLevel > 28) return bad();
+      if (used != level.size() || leafLevel <= 0 ||
+          leafLevel > static_cast<int>(formats::kMaxBintreeDepth))
+        return bad();
       o.deepRegions.push_back(builder::DeepRegion{box.bounds, leafLevel});
     } catch (const std::exception&) {
       return bad();

@@ -12,6 +12,7 @@
 #include <span>
 
 #include "pbdam/formats/Checksum.h"
+#include "pbdam/formats/DatasetFormat.h"
 #include "pbdam/formats/Manifest.h"
 #include "pbdam/formats/PatchCodec.h"
 
@@ -108,6 +109,12 @@ Result<BuildInputs> prepareInputs(const BuildOptions& o) {
   in.n = in.leafCells;
   if (o.depth) {
     in.depth = *o.depth;
+    if (in.depth > formats::kMaxBintreeDepth) {
+      return invalidArgument("the bintree would be " + std::to_string(in.depth) +
+                             " levels deep; a dataset holds at most " +
+                             std::to_string(formats::kMaxBintreeDepth) +
+                             " (larger leaves: --leaf-vertices 33 takes two levels off)");
+    }
     in.n = in.leafCells << (in.depth / 2);
   } else {
     in.depth = levelOfDensity(*dem, in.leafCells);
@@ -140,9 +147,11 @@ Result<BuildInputs> prepareInputs(const BuildOptions& o) {
     in.depth = std::max(in.depth, static_cast<std::uint32_t>(r.leafLevel));
   }
   // A uniform lattice is stored densely (6·(N+1)² heights: 6.4 GB at 16384); an adaptive one
-  // only where its deep leaves are, up to the 2^15 cells that patch barycentrics (1/2^15 of a
-  // leg) address exactly at every level.
-  const std::uint64_t maxCells = in.deepRegions.empty() ? 16384 : 32768;
+  // in tiles at the spacing of the leaves over them (LatticeTiles), so its size follows the
+  // leaves. Past 2^15 cells a patch's legs span more than its barycentrics' 2^15 steps: its
+  // vertices then lie on the sub-lattice those steps address (docs/decisions.md "Finer than
+  // 2^15 cells a face").
+  const std::uint64_t maxCells = in.deepRegions.empty() ? 16384 : std::uint64_t{1} << 24;
   if (std::uint64_t{in.leafCells} << (in.depth / 2) > maxCells) {
     return invalidArgument(
         "the lattice would have " + std::to_string(std::uint64_t{in.leafCells} << (in.depth / 2)) +

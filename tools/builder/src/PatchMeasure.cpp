@@ -265,13 +265,23 @@ double placeVertices(const SampleGrid& grid, const BinTriangle& t, const WorkPat
   for (std::size_t v = 0; v < patch.points.size(); ++v) {
     const LatticeXY p = patch.points[v];
     const auto [n1, n2] = corners.numerators(p);
-    assert((n1 * one) % len2 == 0 && (n2 * one) % len2 == 0);
+    // b = n·2^15 / len2, both powers of two: divided first where the leg is longer than 2^15
+    // steps (n·2^15 would overflow past 2^23 cells a face), the vertex then on the sub-lattice
+    // the barycentrics address (the candidates' spacing, bit_floor(extent/512), ensures it).
+    const auto barycentric = [&](std::int64_t n) {
+      if (len2 >= one) {
+        assert(n % (len2 / one) == 0);
+        return n / (len2 / one);
+      }
+      assert((n * one) % len2 == 0);
+      return n * one / len2;
+    };
     const double height = static_cast<double>(grid.height(t.face, p));
     const double steps = std::round(height / heightStepMeters);
     const auto stepsInt = static_cast<std::int32_t>(std::clamp(steps, -2147483647.0, 2147483647.0));
     const double stored = static_cast<double>(stepsInt) * heightStepMeters;
-    const PatchVertex vertex{static_cast<std::uint16_t>(n1 * one / len2),
-                             static_cast<std::uint16_t>(n2 * one / len2), stepsInt};
+    const PatchVertex vertex{static_cast<std::uint16_t>(barycentric(n1)),
+                             static_cast<std::uint16_t>(barycentric(n2)), stepsInt};
     rendered[v] = latticeTerrainPoint(planet, cells, t.face, p, stored);
     out.mesh.vertices[v] = vertex;
     quantisation = std::max(quantisation, std::abs(stored - height));
