@@ -390,6 +390,79 @@ TEST(Builder, Etopo5WithTheLuxembourgInsetVerifiesAndAnswersTheInsetsHeights) {
   EXPECT_EQ(paris->leafSources, 1U);
 }
 
+// Past the 2^15 cells a patch's barycentrics address exactly: a 1″ (~30 m) inset made from
+// the real Luxembourg DEM (bilinear, plus deterministic detail down to its spacing) on ETOPO5
+// needs 2^19 cells a face side. Coarse patches put their vertices on the sub-lattice their legs
+// address; the dataset verifies against the base and the inset, and inside the inset the
+// terrain is the inset's within the leaf's stored error, from leaves of the inset's level.
+TEST(Builder, AnInsetFinerThan2To15CellsAFaceBuildsVerifiesAndAnswersItsHeights) {
+  PBDAM_REQUIRE_DATA(dem, PBDAM_ETOPO5_PATH);
+  PBDAM_REQUIRE_DATA(luxembourg, test::dataDir() / "geotiff/terra_elev_luxembourg.tif");
+  test::TempDir dir;
+  auto lux = readDem(luxembourg);
+  ASSERT_TRUE(lux) << lux.error().message;
+  // 0.05° × 0.05° at 1″: 180 × 180 samples over 49.80–49.85°N, 6.05–6.10°E.
+  constexpr int kSide = 180;
+  constexpr double kStep = 1.0 / 3600.0;
+  const fs::path fine = dir / "lux_1s.asc";
+  {
+    std::ofstream out(fine);
+    out << "ncols " << kSide << "\nnrows " << kSide << "\nxllcorner 6.05\nyllcorner 49.80\n"
+        << "cellsize " << kStep << "\nNODATA_value -9999\n";
+    out.precision(9);
+    for (int r = 0; r < kSide; ++r) {
+      for (int c = 0; c < kSide; ++c) {
+        const double lat = 49.85 - (r + 0.5) * kStep;
+        const double lon = 6.05 + (c + 0.5) * kStep;
+        const double detail =
+            12.0 * std::sin(0.37 * c) * std::cos(0.23 * r) + 3.0 * std::sin(1.9 * c + 1.3 * r);
+        out << lux->sampleBilinear(lat, lon).value_or(300.0) + detail
+            << (c + 1 < kSide ? " " : "\n");
+      }
+    }
+    std::ofstream prj(dir / "lux_1s.prj");
+    prj << R"(GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563]],)"
+        << R"(PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433]])";
+  }
+  BuildOptions o = smallMola(dem, dir / "fine");
+  o.planetSpec = "earth";
+  o.depth = 4;
+  o.insets = {InsetSpec{fine, {}, {}}};
+  auto summary = buildDataset(o);
+  ASSERT_TRUE(summary) << summary.error().message;
+  EXPECT_GE(summary->latticeCells, 1u << 19);
+  EXPECT_GE(summary->depth, 30u);
+  VerifyOptions v;
+  v.datasetDir = dir / "fine";
+  v.demPath = dem;
+  v.insets = o.insets;
+  auto report = verifyDataset(v);
+  ASSERT_TRUE(report) << report.error().message;
+  EXPECT_TRUE(report->ok()) << describe(*report);
+
+  auto grid = readDem(fine);
+  ASSERT_TRUE(grid) << grid.error().message;
+  auto dataset = streaming::MappedDataset::open(dir / "fine");
+  ASSERT_TRUE(dataset) << dataset.error().message;
+  std::size_t checked = 0;
+  for (std::int64_t r = 50; r < kSide - 50; r += 7) {
+    for (std::int64_t c = 50; c < kSide - 50; c += 7) {
+      const double lat = grid->latOfRowDegrees(r) + 0.3 * kStep;
+      const double lon = grid->lonOfColumnDegrees(c) + 0.6 * kStep;
+      const auto expected = grid->sampleBilinear(lat, lon);
+      auto h = runtime::surfaceHeightAt((*dataset)->view(), lat, lon);
+      ASSERT_TRUE(h && expected);
+      EXPECT_LE(std::abs(h->heightMeters - *expected), h->leafErrorMeters + 1e-3)
+          << lat << ", " << lon;
+      EXPECT_EQ(runtime::bintreeLevel(h->leaf.heap), static_cast<int>(summary->depth))
+          << "not a leaf of the inset's level at " << lat << ", " << lon;
+      EXPECT_LT(h->leafErrorMeters, 10.0);
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 20u);
+}
+
 TEST(Builder, SameInputsGiveIdenticalBytesForAnyThreadCountAndDemStorage) {
   PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
   test::TempDir dir;
