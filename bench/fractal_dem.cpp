@@ -164,6 +164,31 @@ std::unique_ptr<GDALDataset> createGeoTiff(const std::string& tmp, std::int64_t 
   return out;
 }
 
+/// Whether `dem` can serve the output: a global grid, or with --bounds a regional one holding
+/// the box inside its samples' centres (where its bicubic height is defined); says why not.
+bool sourceCovers(const Options& o, const pbdam::formats::HeightGrid& dem) {
+  const bool global = dem.wrapsLongitude() && dem.coversPoles();
+  if (global) return true;
+  if (o.bounds.empty()) {
+    std::fprintf(stderr,
+                 "pbdam_fractal_dem: %s: must be a global grid (360° x 180°), or give --bounds "
+                 "inside it\n",
+                 o.dem.c_str());
+    return false;
+  }
+  const pbdam::formats::LatLonBounds b = dem.bounds();
+  const double margin = 1.5 * dem.geometry().lonSpacingDegrees;
+  if (o.bounds[0] < b.southDegrees + margin || o.bounds[2] > b.northDegrees - margin ||
+      o.bounds[1] < b.westDegrees + margin || o.bounds[3] > b.eastDegrees - margin) {
+    std::fprintf(stderr,
+                 "pbdam_fractal_dem: %s covers %.6f..%.6f N, %.6f..%.6f E: --bounds must lie "
+                 "inside it by 1.5 samples\n",
+                 o.dem.c_str(), b.southDegrees, b.northDegrees, b.westDegrees, b.eastDegrees);
+    return false;
+  }
+  return true;
+}
+
 int run(int argc, char** argv) {
   const Options o = parse(argc, argv);
   auto dem = pbdam::formats::readDem(o.dem);
@@ -172,26 +197,7 @@ int run(int argc, char** argv) {
     return 2;
   }
   const bool regional = !o.bounds.empty();
-  if (regional && !(dem->wrapsLongitude() && dem->coversPoles())) {
-    // A regional source (e.g. a national DEM) serves a box inside its own samples' centres,
-    // where its bicubic height is defined.
-    const pbdam::formats::LatLonBounds b = dem->bounds();
-    const double margin = 1.5 * dem->geometry().lonSpacingDegrees;
-    if (o.bounds[0] < b.southDegrees + margin || o.bounds[2] > b.northDegrees - margin ||
-        o.bounds[1] < b.westDegrees + margin || o.bounds[3] > b.eastDegrees - margin) {
-      std::fprintf(stderr,
-                   "pbdam_fractal_dem: %s covers %.6f..%.6f N, %.6f..%.6f E: --bounds must lie "
-                   "inside it by 1.5 samples\n",
-                   o.dem.c_str(), b.southDegrees, b.northDegrees, b.westDegrees, b.eastDegrees);
-      return 2;
-    }
-  } else if (!dem->wrapsLongitude() || !dem->coversPoles()) {
-    std::fprintf(stderr,
-                 "pbdam_fractal_dem: %s: must be a global grid (360° x 180°), or give --bounds "
-                 "inside it\n",
-                 o.dem.c_str());
-    return 2;
-  }
+  if (!sourceCovers(o, *dem)) return 2;
   const double west = regional ? o.bounds[1] : 0.0;
   const double north = regional ? o.bounds[2] : 90.0;
   const double spacingDegrees =

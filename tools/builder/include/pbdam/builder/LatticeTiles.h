@@ -221,11 +221,11 @@ class LatticeTiles final {
     std::uint32_t ox = tx * tileCells_;
     std::uint32_t oy = ty * tileCells_;
     while (node >= 0) {
-      const std::uint32_t qx = static_cast<std::uint32_t>(cx) - ox >= half ? 1u : 0u;
-      const std::uint32_t qy = static_cast<std::uint32_t>(cy) - oy >= half ? 1u : 0u;
+      const std::size_t qx = static_cast<std::uint32_t>(cx) - ox >= half ? 1 : 0;
+      const std::size_t qy = static_cast<std::uint32_t>(cy) - oy >= half ? 1 : 0;
       node = nodes_[static_cast<std::size_t>(node) + qx + 2 * qy];
-      ox += qx * half;
-      oy += qy * half;
+      if (qx != 0) ox += half;
+      if (qy != 0) oy += half;
       half /= 2;
     }
     return static_cast<std::size_t>(-node - 1);
