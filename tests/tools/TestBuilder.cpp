@@ -102,10 +102,12 @@ BuildOptions smallMola(const fs::path& dem, const fs::path& out) {
   return o;
 }
 
-VerifyReport verify(const fs::path& dir, const fs::path& dem = {}) {
+VerifyReport verify(const fs::path& dir, const fs::path& dem = {},
+                    const std::vector<InsetSpec>& insets = {}) {
   VerifyOptions v;
   v.datasetDir = dir;
   v.demPath = dem;
+  v.insets = insets;
   auto r = verifyDataset(v);
   EXPECT_TRUE(r) << (r ? "" : r.error().message);
   return r ? *r : VerifyReport{};
@@ -346,14 +348,9 @@ TEST(Builder, Etopo5WithTheLuxembourgInsetVerifiesAndAnswersTheInsetsHeights) {
   EXPECT_EQ(manifest->insets[0].leafLevel, 20u);
   EXPECT_EQ(manifest->insets[0].bandSamples, 16u);
   EXPECT_NEAR(manifest->insets[0].northDegrees, 50.19, 0.01);
-  VerifyOptions v;
-  v.datasetDir = dir / "lux";
-  v.demPath = dem;
-  v.insets = o.insets;
-  auto report = verifyDataset(v);
-  ASSERT_TRUE(report) << report.error().message;
-  EXPECT_TRUE(report->ok()) << describe(*report);
-  EXPECT_LE(report->worstErrorRatio, 1.0);
+  const VerifyReport report = verify(dir / "lux", dem, o.insets);
+  EXPECT_TRUE(report.ok()) << describe(report);
+  EXPECT_LE(report.worstErrorRatio, 1.0);
 
   auto etopo = readDem(dem);
   auto lux = readDem(luxembourg);
@@ -432,13 +429,8 @@ TEST(Builder, AnInsetFinerThan2To15CellsAFaceBuildsVerifiesAndAnswersItsHeights)
   ASSERT_TRUE(summary) << summary.error().message;
   EXPECT_GE(summary->latticeCells, 1u << 19);
   EXPECT_GE(summary->depth, 30u);
-  VerifyOptions v;
-  v.datasetDir = dir / "fine";
-  v.demPath = dem;
-  v.insets = o.insets;
-  auto report = verifyDataset(v);
-  ASSERT_TRUE(report) << report.error().message;
-  EXPECT_TRUE(report->ok()) << describe(*report);
+  const VerifyReport report = verify(dir / "fine", dem, o.insets);
+  EXPECT_TRUE(report.ok()) << describe(report);
 
   auto grid = readDem(fine);
   ASSERT_TRUE(grid) << grid.error().message;
