@@ -8,7 +8,8 @@
 # under SERVE_CAP_MIB (default 512) with the soak's mixed load (pbdam_serve_soak) for
 # SERVE_SECONDS (default 600), and uncapped for the same time.
 #   bench/larger_than_memory.sh [OUTDIR]      (default build/ltm)
-# Environment: CAP_MIB, PAPER_DATASET, PAPER_CAP_MIB, SERVE_CAP_MIB, SERVE_SECONDS, WIDTH (1280),
+# FLY_LARGE=0 skips the large-data flights (to fly only the paper-scale dataset).
+# Environment: CAP_MIB, FLY_LARGE, PAPER_DATASET, PAPER_CAP_MIB, SERVE_CAP_MIB, SERVE_SECONDS, WIDTH (1280),
 # HEIGHT (720), LARGE_OUT (where bench/large_data.sh keeps the dataset, default build/large).
 # The cap is a child cgroup of this shell's memory cgroup: cgroup v2 (memory.max, swap off) where
 # /sys/fs/cgroup is the unified hierarchy, else cgroup v1 (memory.limit_in_bytes and, where the
@@ -135,6 +136,7 @@ PY
 }
 
 for capMib in "$cap" none; do
+  [ "${FLY_LARGE:-1}" = 0 ] && break
   tag=$([ "$capMib" = none ] && echo uncapped || echo "cap${capMib}")
   fly "large-$tag-paging-off" "$large" "$capMib" paging off
   fly "large-$tag-paging-on" "$large" "$capMib" paging on
@@ -152,13 +154,23 @@ if [ -n "${PAPER_DATASET:-}" ]; then
 fi
 
 # Faults and frame time along the flight, capped against uncapped (docs/performance.md shows it).
-"$root/bench/plot_larger_than_memory.py" "$out/flight.svg" \
+[ "${FLY_LARGE:-1}" = 0 ] || "$root/bench/plot_larger_than_memory.py" "$out/flight.svg" \
   "$cap MiB paging, prefetch off=$out/large-cap$cap-paging-off" \
   "$cap MiB paging, prefetch on=$out/large-cap$cap-paging-on" \
   "$cap MiB no-stall, prefetch on=$out/large-cap$cap-nostall-on" \
   "uncapped paging, prefetch off=$out/large-uncapped-paging-off" \
   "uncapped paging, prefetch on=$out/large-uncapped-paging-on" || true
 echo "plot: $out/flight.svg"
+if [ -n "${PAPER_DATASET:-}" ]; then
+  pcap=${PAPER_CAP_MIB:-1024}
+  "$root/bench/plot_larger_than_memory.py" "$out/flight-paper.svg" \
+    "$pcap MiB paging, prefetch off=$out/paper-cap$pcap-paging-off" \
+    "$pcap MiB paging, prefetch on=$out/paper-cap$pcap-paging-on" \
+    "$pcap MiB no-stall, prefetch on=$out/paper-cap$pcap-nostall-on" \
+    "uncapped paging, prefetch off=$out/paper-uncapped-paging-off" \
+    "uncapped paging, prefetch on=$out/paper-uncapped-paging-on" || true
+  echo "plot: $out/flight-paper.svg"
+fi
 
 if [ "$serveSeconds" != 0 ]; then
   soak="$bin/bench/pbdam_serve_soak"

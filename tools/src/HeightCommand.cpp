@@ -10,6 +10,7 @@
 
 #include "Commands.h"
 #include "HeightJson.h"
+#include "MemoryBudget.h"
 #include "pbdam/formats/NumberList.h"
 #include "pbdam/runtime/SurfaceQuery.h"
 #include "pbdam/streaming/MappedDataset.h"
@@ -35,7 +36,7 @@ int runHeight(const HeightCliOptions& o) {
         makeError(ErrorCode::InvalidArgument,
                   "--at '" + o.at + "': expected LAT,LON in degrees (|LAT| <= 90, |LON| <= 360)"));
   }
-  auto dataset = MappedDataset::open(o.dir);
+  auto dataset = MappedDataset::open(o.dir, faceOptionsFor(cgroupMemoryLimit()));
   if (!dataset) return reportError(dataset.error());
   const DatasetView& view = (*dataset)->view();
   auto h = surfaceHeightAt(view, latLon[0], latLon[1]);

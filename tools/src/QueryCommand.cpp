@@ -25,6 +25,7 @@
 
 #include "Commands.h"
 #include "FocusOption.h"
+#include "MemoryBudget.h"
 #include "ViewshedOutput.h"
 #include "pbdam/builder/Checkpoint.h"
 #include "pbdam/formats/DemReader.h"
@@ -97,7 +98,7 @@ int runQueryCut(const QueryCutOptions& o) {
   if (!std::isfinite(o.tolerancePixels) || o.tolerancePixels <= 0.0) {
     return bad("--tolerance-px must be a positive number of pixels");
   }
-  auto dataset = MappedDataset::open(o.dir);
+  auto dataset = MappedDataset::open(o.dir, faceOptionsFor(cgroupMemoryLimit()));
   if (!dataset) return reportError(dataset.error());
   const DatasetView& view = (*dataset)->view();
   auto focus = focusRegions(o.focus, view.planet());
@@ -186,7 +187,7 @@ Result<gpu::GroundPoint> groundPoint(const std::string& option, const std::strin
 }
 
 int runQueryLos(const QueryLosOptions& o) {
-  auto dataset = MappedDataset::open(o.dir);
+  auto dataset = MappedDataset::open(o.dir, faceOptionsFor(cgroupMemoryLimit()));
   if (!dataset) return reportError(dataset.error());
   const DatasetView& view = (*dataset)->view();
   const Planet& planet = view.planet();
@@ -230,7 +231,7 @@ struct QueryViewshedOptions {
 
 int runQueryViewshed(const QueryViewshedOptions& o) {
   if (auto r = checkOutputDirectory(o.out); !r) return reportError(r.error());
-  auto dataset = MappedDataset::open(o.dir);
+  auto dataset = MappedDataset::open(o.dir, faceOptionsFor(cgroupMemoryLimit()));
   if (!dataset) return reportError(dataset.error());
   const DatasetView& view = (*dataset)->view();
   auto at = groundPoint("--at", o.at);

@@ -28,6 +28,7 @@
 #include "FrameImage.h"
 #include "FrameModes.h"
 #include "FrameWriter.h"
+#include "MemoryBudget.h"
 #include "MorphOption.h"
 #include "Progress.h"
 #include "ViewshedOutput.h"
@@ -384,7 +385,7 @@ int runRender(const RenderCliOptions& c) {
     return status;
   }
 
-  auto dataset = MappedDataset::open(c.dir);
+  auto dataset = MappedDataset::open(c.dir, faceOptionsFor(cgroupMemoryLimit()));
   if (!dataset) return reportError(dataset.error());
   const DatasetView& view = (*dataset)->view();
   if (auto r = checkMorphOptions(c.morph, view, false); !r) return reportError(r.error());
