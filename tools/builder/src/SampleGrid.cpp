@@ -35,8 +35,11 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr std::array<char, 8> kSamplesMagic = {'P', 'B', 'D', 'A', 'M', 'S', 'M', 'P'};
-constexpr std::uint32_t kSamplesVersion = 2;     // 2: bucketed by the stored float position
-constexpr std::size_t kSamplesHeaderBytes = 32;  // magic, version, buckets per side, count
+// 2: bucketed by the stored float position; 3: positions from the bucket's corner, dense
+// buckets split into sub-buckets.
+constexpr std::uint32_t kSamplesVersion = 3;
+// magic, version, buckets per side, samples, dense buckets, sub-bucket offsets, 8 spare
+constexpr std::size_t kSamplesHeaderBytes = 48;
 
 Error ioError(const fs::path& path, const std::string& what) {
   return makeError(ErrorCode::IoError,
@@ -86,15 +89,17 @@ Placed placeAt(const Planet& planet, double n, std::uint32_t bucketCells,
   if (std::isnan(value) || lat < -90.0 || lat > 90.0) return p;
   const glm::dvec3 d = planet.geodeticToDirection(lat, lon);
   const FaceUv fuv = CubeMap::directionToFaceUv(d);
-  // The bucket of the stored (float) position, which the inside tests use: bucketing the double
-  // one put a sample that rounds onto a bucket's edge into the bucket beside it, where a
-  // triangle on that edge did not look.
-  const SourceSample sample{static_cast<float>(fuv.uv.x), static_cast<float>(fuv.uv.y), value};
+  // The bucket of the position, and the position from the bucket's corner in lattice cells
+  // (which the inside tests add back to the corner exactly): within [0, bucketCells] as stored.
   const double last = static_cast<double>(bucketsPerSide - 1);
-  const double bx =
-      std::clamp(std::floor(static_cast<double>(sample.u) * n / bucketCells), 0.0, last);
-  const double by =
-      std::clamp(std::floor(static_cast<double>(sample.v) * n / bucketCells), 0.0, last);
+  const double x = fuv.uv.x * n;
+  const double y = fuv.uv.y * n;
+  const double bx = std::clamp(std::floor(x / bucketCells), 0.0, last);
+  const double by = std::clamp(std::floor(y / bucketCells), 0.0, last);
+  const auto within = [bucketCells](double cells) {
+    return std::clamp(static_cast<float>(cells), 0.0f, static_cast<float>(bucketCells));
+  };
+  const SourceSample sample{within(x - bx * bucketCells), within(y - by * bucketCells), value};
   const auto face = static_cast<std::uint32_t>(cubeFaceIndex(fuv.face));
   p.bucket = (face * bucketsPerSide + static_cast<std::uint32_t>(by)) * bucketsPerSide +
              static_cast<std::uint32_t>(bx);
@@ -116,6 +121,76 @@ Placed place(const HeightGrid& dem, const Planet& planet, double n, std::uint32_
                  dem.lonOfColumnDegrees(static_cast<std::int64_t>(col)), value);
 }
 
+/// A table's dense buckets (SampleGrid::subBucketsPerSide) and their sub-bucket offsets: chosen
+/// from the bucket counts, then each dense bucket's samples counted per sub-bucket (count(),
+/// from any thread), prefix-summed (finish()), and placed (place(), in sample order).
+class DenseLayout final {
+ public:
+  template <typename CountOf>
+  static DenseLayout choose(std::size_t buckets, std::uint32_t cells, const CountOf& countOf) {
+    DenseLayout layout;
+    layout.cells_ = cells;
+    for (std::size_t b = 0; b < buckets; ++b) {
+      const std::uint32_t side = SampleGrid::subBucketsPerSide(countOf(b), cells);
+      if (side < 2) continue;
+      DenseBucket d;
+      d.bucket = b;
+      d.side = side;
+      d.first = layout.subStart_.size();
+      layout.dense_.push_back(d);
+      layout.subStart_.resize(layout.subStart_.size() + std::size_t{side} * side + 1, 0);
+    }
+    return layout;
+  }
+  bool empty() const noexcept { return dense_.empty(); }
+  const std::vector<DenseBucket>& dense() const noexcept { return dense_; }
+  const std::vector<std::uint32_t>& subStart() const noexcept { return subStart_; }
+
+  /// Counts a sample of `bucket` if the bucket is dense. Thread-safe.
+  void count(std::uint32_t bucket, const SourceSample& s) noexcept {
+    if (const DenseBucket* d = find(bucket)) {
+      std::atomic_ref<std::uint32_t>(subStart_[d->first + subOf(*d, s) + 1])
+          .fetch_add(1, std::memory_order_relaxed);
+    }
+  }
+  void finish() {
+    for (const DenseBucket& d : dense_) {
+      const std::size_t k = std::size_t{d.side} * d.side;
+      for (std::size_t i = 0; i < k; ++i) subStart_[d.first + i + 1] += subStart_[d.first + i];
+    }
+    cursor_.assign(subStart_.size(), 0);
+  }
+  /// Where the next sample of a dense `bucket` goes, from the bucket's start; nullopt for a
+  /// bucket that is not dense.
+  std::optional<std::uint64_t> place(std::uint32_t bucket, const SourceSample& s) noexcept {
+    const DenseBucket* d = find(bucket);
+    if (!d) return std::nullopt;
+    const std::size_t k = d->first + subOf(*d, s);
+    return std::uint64_t{subStart_[k]} + cursor_[k]++;
+  }
+
+ private:
+  const DenseBucket* find(std::uint64_t bucket) const noexcept {
+    const auto it =
+        std::lower_bound(dense_.begin(), dense_.end(), bucket,
+                         [](const DenseBucket& d, std::uint64_t b) { return d.bucket < b; });
+    return it != dense_.end() && it->bucket == bucket ? &*it : nullptr;
+  }
+  /// The sub-bucket of a sample of dense bucket d, from its stored position (the division is
+  /// by a power of two: exact).
+  std::size_t subOf(const DenseBucket& d, const SourceSample& s) const noexcept {
+    const double sub = static_cast<double>(cells_) / d.side;
+    const double last = static_cast<double>(d.side - 1);
+    const double sx = std::clamp(std::floor(static_cast<double>(s.x) / sub), 0.0, last);
+    const double sy = std::clamp(std::floor(static_cast<double>(s.y) / sub), 0.0, last);
+    return static_cast<std::size_t>(sy) * d.side + static_cast<std::size_t>(sx);
+  }
+  std::vector<DenseBucket> dense_;
+  std::vector<std::uint32_t> subStart_;
+  std::vector<std::uint32_t> cursor_;
+  std::uint32_t cells_ = 1;
+};
+
 /// Where a bucket file is written before it is renamed into place.
 fs::path temporaryBucketPath(const fs::path& samplesFile) {
   std::string name = ".";
@@ -124,19 +199,52 @@ fs::path temporaryBucketPath(const fs::path& samplesFile) {
   return samplesFile.parent_path() / name;
 }
 
-/// A new bucket file at `tmp` for `buckets` buckets and `total` samples (header, CSR offsets,
-/// samples), mapped writable, its header written (magic, version, buckets per side, count).
+/// Bytes of a bucket file's dense directory and sub-bucket offsets (padded to 8).
+std::size_t denseBytes(std::uint64_t dense, std::uint64_t subOffsets) {
+  const std::size_t subBytes = static_cast<std::size_t>(subOffsets) * sizeof(std::uint32_t);
+  return static_cast<std::size_t>(dense) * sizeof(DenseBucket) + (subBytes + 7) / 8 * 8;
+}
+
+/// Where a bucket file's parts lie.
+struct BucketFileLayout final {
+  std::size_t dense = kSamplesHeaderBytes;
+  std::size_t subStart = 0;
+  std::size_t start = 0;
+  std::size_t samples = 0;
+  std::size_t bytes = 0;
+};
+BucketFileLayout bucketFileLayout(std::size_t buckets, std::uint64_t total, std::uint64_t dense,
+                                  std::uint64_t subOffsets) {
+  BucketFileLayout l;
+  l.subStart = l.dense + static_cast<std::size_t>(dense) * sizeof(DenseBucket);
+  l.start = kSamplesHeaderBytes + denseBytes(dense, subOffsets);
+  l.samples = l.start + (buckets + 1) * sizeof(std::uint64_t);
+  l.bytes = l.samples + static_cast<std::size_t>(total) * sizeof(SourceSample);
+  return l;
+}
+
+/// A new bucket file at `tmp` for `buckets` buckets and `total` samples (header, dense buckets
+/// and their sub-bucket offsets, CSR offsets, samples), mapped writable, its header and dense
+/// parts written (magic, version, buckets per side, count, dense buckets, sub-bucket offsets).
 Result<MemoryMapping> createBucketFile(const fs::path& tmp, std::size_t buckets,
-                                       std::uint32_t perSide, std::uint64_t total) {
-  const std::size_t bytes = kSamplesHeaderBytes + (buckets + 1) * sizeof(std::uint64_t) +
-                            static_cast<std::size_t>(total) * sizeof(SourceSample);
-  auto map = MemoryMapping::create(tmp, bytes);
+                                       std::uint32_t perSide, std::uint64_t total,
+                                       const DenseLayout& layout) {
+  const std::uint64_t dense = layout.dense().size();
+  const std::uint64_t subOffsets = layout.subStart().size();
+  const BucketFileLayout l = bucketFileLayout(buckets, total, dense, subOffsets);
+  auto map = MemoryMapping::create(tmp, l.bytes);
   if (!map) return std::move(map).error();
   std::byte* at = map->writableBytes().data();
   std::memcpy(at, kSamplesMagic.data(), 8);
   std::memcpy(at + 8, &kSamplesVersion, 4);
   std::memcpy(at + 12, &perSide, 4);
   std::memcpy(at + 16, &total, 8);
+  std::memcpy(at + 24, &dense, 8);
+  std::memcpy(at + 32, &subOffsets, 8);
+  if (dense > 0) {
+    std::memcpy(at + l.dense, layout.dense().data(), dense * sizeof(DenseBucket));
+    std::memcpy(at + l.subStart, layout.subStart().data(), subOffsets * sizeof(std::uint32_t));
+  }
   return map;
 }
 
@@ -161,6 +269,24 @@ std::uint32_t bucketsPerSideOf(const Lattice& lattice, std::uint32_t bucketCells
 
 }  // namespace
 
+std::optional<SampleGrid::Placement> SampleGrid::placeSample(const Planet& planet,
+                                                             const Lattice& lattice,
+                                                             std::uint32_t bucketCells, double lat,
+                                                             double lon, float heightMeters) {
+  const std::uint32_t cells =
+      std::max<std::uint32_t>(1, std::min(bucketCells, lattice.sideCells()));
+  const std::uint32_t perSide = bucketsPerSideOf(lattice, bucketCells);
+  const Placed p = placeAt(planet, static_cast<double>(lattice.sideCells()), cells, perSide, lat,
+                           lon, heightMeters);
+  if (p.bucket == std::numeric_limits<std::uint32_t>::max()) return std::nullopt;
+  Placement out;
+  out.face = static_cast<int>(p.bucket / perSide / perSide);
+  out.by = p.bucket / perSide % perSide;
+  out.bx = p.bucket % perSide;
+  out.sample = p.sample;
+  return out;
+}
+
 glm::dvec3 SampleGrid::terrainPoint(const glm::dvec3& direction,
                                     double heightMeters) const noexcept {
   return terrainPointOfDirection(planet_, direction, heightMeters);
@@ -182,6 +308,12 @@ std::size_t SampleGrid::sourceSampleCount() const noexcept {
   const std::size_t buckets = 6 * std::size_t{bucketsPerSide_} * bucketsPerSide_;
   std::size_t n = 0;
   for (const BucketTable& t : tables_) n += static_cast<std::size_t>(t.start[buckets]);
+  return n;
+}
+
+std::size_t SampleGrid::denseBuckets() const noexcept {
+  std::size_t n = 0;
+  for (const BucketTable& t : tables_) n += t.denseCount;
   return n;
 }
 
@@ -243,12 +375,30 @@ SampleGrid SampleGrid::build(const HeightGrid& dem, const Planet& planet, const 
     if (p.bucket != kInvalid) ++grid.bucketStart_[p.bucket + 1];
   }
   for (std::size_t b = 0; b < buckets; ++b) grid.bucketStart_[b + 1] += grid.bucketStart_[b];
+  DenseLayout layout = DenseLayout::choose(buckets, grid.bucketCells_, [&](std::size_t b) {
+    return grid.bucketStart_[b + 1] - grid.bucketStart_[b];
+  });
+  if (!layout.empty()) {
+    for (const Placed& p : placed) {
+      if (p.bucket != kInvalid) layout.count(p.bucket, p.sample);
+    }
+  }
+  layout.finish();
   grid.samples_.resize(static_cast<std::size_t>(grid.bucketStart_[buckets]));
   std::vector<std::uint64_t> cursor(grid.bucketStart_.begin(), grid.bucketStart_.end() - 1);
   for (const Placed& p : placed) {
-    if (p.bucket != kInvalid) grid.samples_[cursor[p.bucket]++] = p.sample;
+    if (p.bucket == kInvalid) continue;
+    if (const auto at = layout.place(p.bucket, p.sample)) {
+      grid.samples_[grid.bucketStart_[p.bucket] + *at] = p.sample;
+    } else {
+      grid.samples_[cursor[p.bucket]++] = p.sample;
+    }
   }
-  grid.tables_.push_back(BucketTable{grid.bucketStart_.data(), grid.samples_.data()});
+  grid.dense_ = layout.dense();
+  grid.subStart_ = layout.subStart();
+  grid.tables_.push_back(BucketTable{grid.bucketStart_.data(), grid.samples_.data(),
+                                     grid.dense_.data(), grid.dense_.size(),
+                                     grid.subStart_.data()});
   return grid;
 }
 
@@ -367,20 +517,34 @@ Result<void> SampleGrid::writeSourceBuckets(const HeightGrid& dem, const Planet&
   });
   std::uint64_t total = 0;
   for (std::size_t b = 0; b < buckets; ++b) total += counts[b].load(std::memory_order_relaxed);
+  // Dense buckets: their samples counted per sub-bucket (a third read of the rows).
+  DenseLayout layout = DenseLayout::choose(buckets, cells, [&](std::size_t b) {
+    return std::uint64_t{counts[b].load(std::memory_order_relaxed)};
+  });
+  if (!layout.empty()) {
+    tbb::parallel_for(beginRow, endRow, [&](std::size_t row) {
+      for (std::size_t col = 0; col < w; ++col) {
+        const Placed p = place(dem, planet, n, cells, perSide, row, col);
+        if (p.bucket != kInvalid) layout.count(p.bucket, p.sample);
+      }
+    });
+  }
+  layout.finish();
 
-  // The file: header, CSR offsets, samples; written through a temporary name.
-  const std::size_t startBytes = (buckets + 1) * sizeof(std::uint64_t);
+  // The file: header, dense buckets, CSR offsets, samples; written through a temporary name.
   const fs::path tmp = temporaryBucketPath(samplesFile);
-  auto map = createBucketFile(tmp, buckets, perSide, total);
+  auto map = createBucketFile(tmp, buckets, perSide, total, layout);
   if (!map) return std::move(map).error();
+  const BucketFileLayout parts =
+      bucketFileLayout(buckets, total, layout.dense().size(), layout.subStart().size());
   std::byte* at = map->writableBytes().data();
-  auto* start = reinterpret_cast<std::uint64_t*>(at + kSamplesHeaderBytes);
+  auto* start = reinterpret_cast<std::uint64_t*>(at + parts.start);
   start[0] = 0;
   for (std::size_t b = 0; b < buckets; ++b) {
     start[b + 1] = start[b] + counts[b].load(std::memory_order_relaxed);
     counts[b].store(0, std::memory_order_relaxed);  // from here on: samples placed so far
   }
-  auto* samples = reinterpret_cast<SourceSample*>(at + kSamplesHeaderBytes + startBytes);
+  auto* samples = reinterpret_cast<SourceSample*>(at + parts.samples);
 
   // Pass 2: place chunk by chunk (in parallel), scatter in row order (stable).
   std::vector<Placed> placed;
@@ -393,7 +557,10 @@ Result<void> SampleGrid::writeSourceBuckets(const HeightGrid& dem, const Planet&
       }
     });
     for (const Placed& p : placed) {
-      if (p.bucket != kInvalid) {
+      if (p.bucket == kInvalid) continue;
+      if (const auto inBucket = layout.place(p.bucket, p.sample)) {
+        samples[start[p.bucket] + *inBucket] = p.sample;
+      } else {
         std::atomic<std::uint32_t>& placedSoFar = counts[p.bucket];
         const std::uint32_t k = placedSoFar.load(std::memory_order_relaxed);
         placedSoFar.store(k + 1, std::memory_order_relaxed);
@@ -430,15 +597,29 @@ Result<void> SampleGrid::writeSourceBuckets(const SampleEnumerator& samples,
   for (const Placed& p : placed) ++start[p.bucket + 1];
   for (std::size_t b = 0; b < buckets; ++b) start[b + 1] += start[b];
   const std::uint64_t total = start[buckets];
+  DenseLayout layout =
+      DenseLayout::choose(buckets, cells, [&](std::size_t b) { return start[b + 1] - start[b]; });
+  if (!layout.empty()) {
+    for (const Placed& p : placed) layout.count(p.bucket, p.sample);
+  }
+  layout.finish();
   const std::size_t startBytes = (buckets + 1) * sizeof(std::uint64_t);
   const fs::path tmp = temporaryBucketPath(samplesFile);
-  auto map = createBucketFile(tmp, buckets, perSide, total);
+  auto map = createBucketFile(tmp, buckets, perSide, total, layout);
   if (!map) return std::move(map).error();
+  const BucketFileLayout parts =
+      bucketFileLayout(buckets, total, layout.dense().size(), layout.subStart().size());
   std::byte* at = map->writableBytes().data();
-  std::memcpy(at + kSamplesHeaderBytes, start.data(), startBytes);
-  auto* out = reinterpret_cast<SourceSample*>(at + kSamplesHeaderBytes + startBytes);
+  std::memcpy(at + parts.start, start.data(), startBytes);
+  auto* out = reinterpret_cast<SourceSample*>(at + parts.samples);
   std::vector<std::uint64_t> cursor(start.begin(), start.end() - 1);
-  for (const Placed& p : placed) out[cursor[p.bucket]++] = p.sample;
+  for (const Placed& p : placed) {
+    if (const auto inBucket = layout.place(p.bucket, p.sample)) {
+      out[start[p.bucket] + *inBucket] = p.sample;
+    } else {
+      out[cursor[p.bucket]++] = p.sample;
+    }
+  }
   return publishBucketFile(*map, tmp, samplesFile);
 }
 
@@ -564,7 +745,6 @@ Result<SampleGrid> SampleGrid::open(const Lattice& lattice, const LatticeTiles& 
   grid.bucketsPerSide_ = bucketsPerSideOf(lattice, bucketCells);
   const std::size_t buckets =
       6 * static_cast<std::size_t>(grid.bucketsPerSide_) * grid.bucketsPerSide_;
-  const std::size_t startBytes = (buckets + 1) * sizeof(std::uint64_t);
   for (const fs::path& path : samplesFiles) {
     auto mapped = MappedFile::open(path);
     if (!mapped) return std::move(mapped).error();
@@ -572,13 +752,17 @@ Result<SampleGrid> SampleGrid::open(const Lattice& lattice, const LatticeTiles& 
     auto damaged = [&](const std::string& what) {
       return makeError(ErrorCode::CorruptData, path.string() + ": " + what);
     };
-    if (bytes.size() < kSamplesHeaderBytes + startBytes) return damaged("truncated bucket file");
+    if (bytes.size() < kSamplesHeaderBytes) return damaged("truncated bucket file");
     std::uint32_t version = 0;
     std::uint32_t perSide = 0;
     std::uint64_t total = 0;
+    std::uint64_t dense = 0;
+    std::uint64_t subOffsets = 0;
     std::memcpy(&version, bytes.data() + 8, 4);
     std::memcpy(&perSide, bytes.data() + 12, 4);
     std::memcpy(&total, bytes.data() + 16, 8);
+    std::memcpy(&dense, bytes.data() + 24, 8);
+    std::memcpy(&subOffsets, bytes.data() + 32, 8);
     if (std::memcmp(bytes.data(), kSamplesMagic.data(), 8) != 0) {
       return damaged("not a bucket file of this lattice");
     }
@@ -588,13 +772,36 @@ Result<SampleGrid> SampleGrid::open(const Lattice& lattice, const LatticeTiles& 
                      " (a checkpoint of another pbdam: build again without --resume)");
     }
     if (perSide != grid.bucketsPerSide_) return damaged("not a bucket file of this lattice");
-    if (bytes.size() != kSamplesHeaderBytes + startBytes + total * sizeof(SourceSample)) {
+    // Counts bounded by the file's size before any layout arithmetic.
+    if (total > bytes.size() || dense > bytes.size() || subOffsets > bytes.size()) {
       return damaged("size mismatch");
     }
+    const BucketFileLayout parts = bucketFileLayout(buckets, total, dense, subOffsets);
+    if (bytes.size() != parts.bytes) return damaged("size mismatch");
     BucketTable table;
-    table.start = reinterpret_cast<const std::uint64_t*>(bytes.data() + kSamplesHeaderBytes);
-    table.samples =
-        reinterpret_cast<const SourceSample*>(bytes.data() + kSamplesHeaderBytes + startBytes);
+    table.start = reinterpret_cast<const std::uint64_t*>(bytes.data() + parts.start);
+    table.samples = reinterpret_cast<const SourceSample*>(bytes.data() + parts.samples);
+    table.dense = reinterpret_cast<const DenseBucket*>(bytes.data() + parts.dense);
+    table.denseCount = static_cast<std::size_t>(dense);
+    table.subStart = reinterpret_cast<const std::uint32_t*>(bytes.data() + parts.subStart);
+    if (table.start[0] != 0 || table.start[buckets] != total) return damaged("bad bucket offsets");
+    // Every dense bucket's sub-buckets inside its bucket, in order (queries read them unchecked).
+    for (std::size_t i = 0; i < table.denseCount; ++i) {
+      const DenseBucket& d = table.dense[i];
+      const std::uint64_t k = std::uint64_t{d.side} * d.side;
+      if (d.bucket >= buckets || (i > 0 && d.bucket <= table.dense[i - 1].bucket) || d.side < 2 ||
+          d.side > grid.bucketCells_ || !std::has_single_bit(d.side) || d.first > subOffsets ||
+          k + 1 > subOffsets - d.first) {
+        return damaged("bad dense bucket " + std::to_string(i));
+      }
+      const std::uint64_t count =
+          table.start[d.bucket + 1] - std::min(table.start[d.bucket], table.start[d.bucket + 1]);
+      const std::uint32_t* sub = table.subStart + d.first;
+      if (sub[0] != 0 || sub[k] != count || table.start[d.bucket + 1] < table.start[d.bucket] ||
+          !std::is_sorted(sub, sub + k + 1)) {
+        return damaged("bad sub-bucket offsets of dense bucket " + std::to_string(i));
+      }
+    }
     grid.tables_.push_back(table);
     grid.samplesMappings_.push_back(std::move(mapped).value());
   }

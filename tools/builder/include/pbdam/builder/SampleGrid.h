@@ -4,7 +4,11 @@
 // against the original data. In memory (build()) for small users, or out of core for the builder:
 // the heights in one file written row range by row range (writeHeightRows), the bucketed
 // samples in one file per DEM row range (writeSourceBuckets), both read through read-only
-// mappings (open()), so that the page cache holds them once per machine. Thread-safety:
+// mappings (open()), so that the page cache holds them once per machine. Buckets are squares of
+// a fixed number of lattice cells; a bucket holding many more samples than a leaf triangle
+// reaches (a lidar inset on a global base: millions in a 2.4 km bucket at 2^24 cells a face) is
+// split into a grid of sub-buckets, and a triangle reads of it only the sub-buckets it reaches.
+// Thread-safety:
 // immutable after build()/open(); const members are safe from any thread.
 #pragma once
 
@@ -31,12 +35,26 @@
 
 namespace pbdam::builder {
 
-/// A source DEM sample placed on a face: (u, v) on that face and its height.
+/// A source DEM sample placed on a face: its position in lattice cells from the lower corner of
+/// its bucket (0 ≤ x, y ≤ the bucket's cells) and its height. Relative to the bucket, a float
+/// keeps the position to 2^-24 of a bucket (0.15 mm in a 4096-cell bucket at 2^24 cells a face);
+/// a float face coordinate rounded it to half a cell (0.3 m) at that lattice.
 struct SourceSample final {
-  float u = 0.0f;
-  float v = 0.0f;
+  float x = 0.0f;
+  float y = 0.0f;
   float heightMeters = 0.0f;
 };
+
+/// A bucket of a sample table split into side² sub-buckets (row-major by sub-row, then
+/// sub-column): its samples are ordered by sub-bucket, sub-bucket k's from start[bucket] +
+/// subStart[first + k] to start[bucket] + subStart[first + k + 1].
+struct DenseBucket final {
+  std::uint64_t bucket = 0;  // face-major bucket index
+  std::uint32_t side = 1;
+  std::uint32_t reserved = 0;
+  std::uint64_t first = 0;  // into the table's subStart
+};
+static_assert(sizeof(DenseBucket) == 24, "bucket files store DenseBucket as 24 bytes");
 
 /// What writeHeightRows found in its rows.
 struct HeightRowStats final {
@@ -90,11 +108,13 @@ class SampleGrid final {
       std::size_t endRow, const std::function<void(std::size_t, std::size_t)>& progress = {});
 
   /// Out of core, step 2: the valid DEM samples of the DEM rows [beginRow, endRow), bucketed
-  /// into `bucketCells`-sized squares of each face (counting sort: within a bucket in DEM row
-  /// order), written to `samplesFile` (a new file, through a temporary name). The DEM is read
-  /// twice (count, then place) in chunks, so memory stays at the bucket table plus one chunk.
-  /// Files of consecutive row ranges, read in order, visit each bucket's samples in the same
-  /// order as build()'s single table.
+  /// into `bucketCells`-sized squares of each face (counting sort: within a bucket, or within a
+  /// dense bucket's sub-bucket, in DEM row order), written to `samplesFile` (a new file, through
+  /// a temporary name). The DEM is read twice (count, then place; three times where a bucket is
+  /// dense: its sub-buckets counted in between) in chunks, so memory stays at the bucket table
+  /// plus one chunk. Files of consecutive row ranges together hold the samples of build()'s
+  /// single table (each file splits its own dense buckets, so the order of the visits may
+  /// differ; the set does not).
   static formats::Result<void> writeSourceBuckets(const formats::HeightGrid& dem,
                                                   const runtime::Planet& planet,
                                                   const Lattice& lattice, std::uint32_t bucketCells,
@@ -110,6 +130,18 @@ class SampleGrid final {
                                                   const runtime::Planet& planet,
                                                   const Lattice& lattice, std::uint32_t bucketCells,
                                                   const std::filesystem::path& samplesFile);
+
+  /// Where a sample of height `heightMeters` at (lat, lon) is bucketed: its face, bucket column
+  /// and row, and the sample as stored; nullopt for a NaN height or |lat| > 90.
+  struct Placement final {
+    int face = 0;
+    std::uint32_t bx = 0;
+    std::uint32_t by = 0;
+    SourceSample sample;
+  };
+  static std::optional<Placement> placeSample(const runtime::Planet& planet, const Lattice& lattice,
+                                              std::uint32_t bucketCells, double lat, double lon,
+                                              float heightMeters);
 
   /// Out of core, step 3: maps the complete heights file and the bucket files (in row order)
   /// read-only. `stats` are the totals over all rows. Errors: missing, short or damaged files.
@@ -128,6 +160,20 @@ class SampleGrid final {
   /// page cache; the next read is a minor fault), so that RSS counts only what was touched
   /// since. Safe while other threads read. No-op for an in-memory grid.
   void releaseResident() const noexcept;
+
+  /// A bucket of a table holding more samples than this is split into sub-buckets
+  /// (subBucketsPerSide).
+  static constexpr std::uint64_t kDenseBucketSamples = 1024;
+  /// Sub-buckets per side of a bucket of `bucketCells` cells holding `samples` samples: 1 (not
+  /// split) up to kDenseBucketSamples, else a power of two for about 16 samples a sub-bucket,
+  /// at most one a lattice cell.
+  static std::uint32_t subBucketsPerSide(std::uint64_t samples,
+                                         std::uint32_t bucketCells) noexcept {
+    if (samples <= kDenseBucketSamples || bucketCells < 2) return 1;
+    const auto side =
+        static_cast<std::uint32_t>(std::ceil(std::sqrt(static_cast<double>(samples) / 16.0)));
+    return std::clamp(std::bit_ceil(side), 2U, bucketCells);
+  }
 
   /// The bucket size that keeps buckets a few lattice cells wide at most (a patch triangle then
   /// tests only the source samples near it) while bounding the bucket table to 4096² per face
@@ -200,6 +246,8 @@ class SampleGrid final {
     return {t.samples + t.start[b], t.samples + t.start[b + 1]};
   }
   std::size_t sourceSampleCount() const noexcept;
+  /// Buckets split into sub-buckets, over all tables.
+  std::size_t denseBuckets() const noexcept;
 
   /// Calls fn(l0, l1, l2, sample) for every source sample inside or on the counter-clockwise
   /// (u,v) triangle (a, b, c) of `face`, with (l0, l1, l2) its barycentric weights (summing to
@@ -211,7 +259,7 @@ class SampleGrid final {
     for (std::uint32_t by = box->by0; by <= box->by1; ++by) {
       for (std::uint32_t bx = box->bx0; bx <= box->bx1; ++bx) {
         for (std::size_t table = 0; table < tables_.size(); ++table) {
-          visitInside(bucket(table, face, bx, by), a, b, c, *box, fn);
+          visitInside(bucket(table, face, bx, by), bucketOrigin(bx, by), a, b, c, *box, fn);
         }
       }
     }
@@ -219,9 +267,9 @@ class SampleGrid final {
 
   /// The same samples as forEachSourceSampleIn of the triangle's (u,v) corners, with the same
   /// arithmetic, for a triangle with lattice-point corners — but of each bucket row only the
-  /// buckets the triangle reaches (widened by one: a sample's float (u, v) may lie a rounding
-  /// error outside its bucket, and the inside test decides) are read, as one contiguous run per
-  /// bucket table, rather than its whole bounding box. The order of the visits may differ.
+  /// buckets the triangle reaches (widened by one: a sample that passes the inside test may lie
+  /// its tolerance outside the triangle) are read, rather than its whole bounding box. The order
+  /// of the visits may differ.
   template <typename Fn>
   void forEachSourceSampleIn(int face, runtime::LatticeXY la, runtime::LatticeXY lb,
                              runtime::LatticeXY lc, Fn&& fn) const {
@@ -252,10 +300,10 @@ class SampleGrid final {
       }
       // Buckets of one row are consecutive in each bucket table.
       for (std::size_t table = 0; table < tables_.size(); ++table) {
-        const SourceSample* begin = bucket(table, face, rx0, by).data();
-        const std::span<const SourceSample> lastBucket = bucket(table, face, rx1, by);
-        const SourceSample* end = lastBucket.data() + lastBucket.size();
-        visitInside(std::span<const SourceSample>(begin, end), a, b, c, *box, fn);
+        forEachRunNear(table, face, by, rx0, rx1, {la, lb, lc},
+                       [&](std::span<const SourceSample> run, std::uint32_t bx) {
+                         visitInside(run, bucketOrigin(bx, by), a, b, c, *box, fn);
+                       });
       }
     }
   }
@@ -290,9 +338,8 @@ class SampleGrid final {
     const std::optional<TriangleBuckets> outer =
         bucketsOf(oa, ob, oc) ? bucketsOf(oa, ob, oc) : bucketsOf(oa, oc, ob);
     if (!outer) return;
-    const double n = static_cast<double>(lattice_.sideCells());
+    const double perCell = 1.0 / static_cast<double>(lattice_.sideCells());
     const double cells = static_cast<double>(bucketCells_);
-    const double perBucket = 1.0 / cells;
     for (std::uint32_t by = outer->by0; by <= outer->by1; ++by) {
       double xLo = 0.0;
       double xHi = 0.0;
@@ -308,41 +355,42 @@ class SampleGrid final {
                                                              static_cast<double>(outer->bx1)));
       if (rx0 > rx1) continue;
       for (std::size_t table = 0; table < tables_.size(); ++table) {
-        const SourceSample* begin = bucket(table, face, rx0, by).data();
-        const std::span<const SourceSample> lastBucket = bucket(table, face, rx1, by);
-        const SourceSample* end = lastBucket.data() + lastBucket.size();
-        for (const SourceSample* s = begin; s != end; ++s) {
-          const double x = static_cast<double>(s->u) * n;
-          const double y = static_cast<double>(s->v) * n;
-          // The sample's bucket column, as writeSourceBuckets computed it (u ≥ 0; the
-          // division by a power of two is exact).
-          const auto bx = static_cast<std::uint32_t>(
-              std::min(x * perBucket, static_cast<double>(bucketsPerSide_ - 1)));
-          const std::int64_t sx0 = binOf(x - x0 - margin, bw);
-          const std::int64_t sx1 = binOf(x - x0 + margin, bw);
-          const std::int64_t sy0 = binOf(y - y0 - margin, bh);
-          const std::int64_t sy1 = binOf(y - y0 + margin, bh);
-          for (std::int64_t sy = sy0; sy <= sy1; ++sy) {
-            for (std::int64_t sx = sx0; sx <= sx1; ++sx) {
-              const auto bin = static_cast<std::size_t>(sy * bw + sx);
-              for (std::uint32_t i = bins.start[bin]; i < bins.start[bin + 1]; ++i) {
-                const std::uint32_t k = bins.binned[i];
-                // A triangle in several of the sample's bins is visited from the first.
-                if ((sx != sx0 && bins.reach[k][0] < sx) || (sy != sy0 && bins.reach[k][2] < sy))
-                  continue;
-                // Only from the buckets forEachSourceSampleIn reads for triangle k.
-                const TriangleBuckets& test = bins.tests[k];
-                if (bx < test.bx0 || bx > test.bx1 || by < test.by0 || by > test.by1) continue;
-                double w0 = 0.0;
-                double w1 = 0.0;
-                double w2 = 0.0;
-                if (!inside(*s, bins.uv[k][0], bins.uv[k][1], bins.uv[k][2], test, w0, w1, w2))
-                  continue;
-                fn(std::size_t{k}, w0 / test.total, w1 / test.total, w2 / test.total, *s);
+        forEachRunNear(
+            table, face, by, rx0, rx1, outline,
+            [&](std::span<const SourceSample> run, std::uint32_t bx) {
+              const glm::dvec2 origin = bucketOrigin(bx, by);
+              for (const SourceSample* s = run.data(); s != run.data() + run.size(); ++s) {
+                const double x = origin.x + static_cast<double>(s->x);
+                const double y = origin.y + static_cast<double>(s->y);
+                const std::int64_t sx0 = binOf(x - x0 - margin, bw);
+                const std::int64_t sx1 = binOf(x - x0 + margin, bw);
+                const std::int64_t sy0 = binOf(y - y0 - margin, bh);
+                const std::int64_t sy1 = binOf(y - y0 + margin, bh);
+                for (std::int64_t sy = sy0; sy <= sy1; ++sy) {
+                  for (std::int64_t sx = sx0; sx <= sx1; ++sx) {
+                    const auto bin = static_cast<std::size_t>(sy * bw + sx);
+                    for (std::uint32_t i = bins.start[bin]; i < bins.start[bin + 1]; ++i) {
+                      const std::uint32_t k = bins.binned[i];
+                      // A triangle in several of the sample's bins is visited from the first.
+                      if ((sx != sx0 && bins.reach[k][0] < sx) ||
+                          (sy != sy0 && bins.reach[k][2] < sy))
+                        continue;
+                      // Only from the buckets forEachSourceSampleIn reads for triangle k.
+                      const TriangleBuckets& test = bins.tests[k];
+                      if (bx < test.bx0 || bx > test.bx1 || by < test.by0 || by > test.by1)
+                        continue;
+                      double w0 = 0.0;
+                      double w1 = 0.0;
+                      double w2 = 0.0;
+                      if (!inside(x * perCell, y * perCell, bins.uv[k][0], bins.uv[k][1],
+                                  bins.uv[k][2], test, w0, w1, w2))
+                        continue;
+                      fn(std::size_t{k}, w0 / test.total, w1 / test.total, w2 / test.total, *s);
+                    }
+                  }
+                }
               }
-            }
-          }
-        }
+            });
       }
     }
   }
@@ -401,39 +449,120 @@ class SampleGrid final {
     return box;
   }
 
-  /// The inside test of forEachSourceSampleIn for one sample: whether it lies inside or on
-  /// (a, b, c) up to `eps` of the doubled area `total`, and its weights (w0, w1, w2) / total.
-  static bool inside(const SourceSample& s, glm::dvec2 a, glm::dvec2 b, glm::dvec2 c,
+  /// The lower corner of bucket (bx, by) in lattice units.
+  glm::dvec2 bucketOrigin(std::uint32_t bx, std::uint32_t by) const noexcept {
+    return {static_cast<double>(bx) * bucketCells_, static_cast<double>(by) * bucketCells_};
+  }
+
+  /// The inside test of forEachSourceSampleIn for a sample at (px, py) on the face (its bucket's
+  /// origin plus its position, over the lattice's cells: exact, the cells being a power of two):
+  /// whether it lies inside or on (a, b, c) up to `eps` of the doubled area `total`, and its
+  /// weights (w0, w1, w2) / total.
+  static bool inside(double px, double py, glm::dvec2 a, glm::dvec2 b, glm::dvec2 c,
                      const TriangleBuckets& box, double& w0, double& w1, double& w2) noexcept {
-    const double px = static_cast<double>(s.u);
-    const double py = static_cast<double>(s.v);
     w0 = (c.x - b.x) * (py - b.y) - (c.y - b.y) * (px - b.x);
     w1 = (a.x - c.x) * (py - c.y) - (a.y - c.y) * (px - c.x);
     w2 = (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x);
     return !(w0 < box.eps || w1 < box.eps || w2 < box.eps);
   }
 
-  /// The inside test of forEachSourceSampleIn over one run of samples: fn(l0, l1, l2, sample)
-  /// for those inside or on (a, b, c) up to `eps` of the doubled area `total`.
+  /// The inside test of forEachSourceSampleIn over one run of samples of the bucket whose lower
+  /// corner is `origin` (lattice units): fn(l0, l1, l2, sample) for those inside or on (a, b, c)
+  /// up to `eps` of the doubled area `total`.
   template <typename Fn>
-  static void visitInside(std::span<const SourceSample> run, glm::dvec2 a, glm::dvec2 b,
-                          glm::dvec2 c, const TriangleBuckets& box, Fn& fn) {
+  void visitInside(std::span<const SourceSample> run, glm::dvec2 origin, glm::dvec2 a, glm::dvec2 b,
+                   glm::dvec2 c, const TriangleBuckets& box, Fn& fn) const {
     const double total = box.total;
+    const double perCell = 1.0 / static_cast<double>(lattice_.sideCells());
     for (const SourceSample& s : run) {
       double w0 = 0.0;
       double w1 = 0.0;
       double w2 = 0.0;
-      if (!inside(s, a, b, c, box, w0, w1, w2)) continue;
+      if (!inside((origin.x + static_cast<double>(s.x)) * perCell,
+                  (origin.y + static_cast<double>(s.y)) * perCell, a, b, c, box, w0, w1, w2))
+        continue;
       fn(w0 / total, w1 / total, w2 / total, s);
     }
   }
 
+  /// The samples of the buckets rx0..rx1 of bucket row `by` of `face` in table `table`, as
+  /// runs, visit(run, bx) with bx the run's bucket column: each bucket whole, but of a dense
+  /// bucket the sub-buckets within one sub-bucket of `outline` (lattice corners), one run per
+  /// sub-bucket row. Every sample of these buckets within a sub-bucket of the outline is in a
+  /// run.
+  template <typename Visit>
+  void forEachRunNear(std::size_t table, int face, std::uint32_t by, std::uint32_t rx0,
+                      std::uint32_t rx1, const std::array<runtime::LatticeXY, 3>& outline,
+                      Visit&& visit) const {
+    const BucketTable& t = tables_[table];
+    const std::size_t rowFirst =
+        (static_cast<std::size_t>(face) * bucketsPerSide_ + by) * bucketsPerSide_;
+    std::size_t next = rowFirst + rx0;
+    const std::size_t last = rowFirst + rx1;
+    const auto wholeBuckets = [&](std::size_t first, std::size_t end) {  // [first, end)
+      for (std::size_t b = first; b < end; ++b) {
+        if (t.start[b] != t.start[b + 1]) {
+          visit(std::span<const SourceSample>(t.samples + t.start[b], t.samples + t.start[b + 1]),
+                static_cast<std::uint32_t>(b - rowFirst));
+        }
+      }
+    };
+    const DenseBucket* d =
+        std::lower_bound(t.dense, t.dense + t.denseCount, next,
+                         [](const DenseBucket& e, std::size_t b) { return e.bucket < b; });
+    for (; d != t.dense + t.denseCount && d->bucket <= last; ++d) {
+      wholeBuckets(next, static_cast<std::size_t>(d->bucket));
+      next = static_cast<std::size_t>(d->bucket) + 1;
+      const std::uint32_t bx = static_cast<std::uint32_t>(d->bucket - rowFirst);
+      visitDenseBucket(t, *d, bx, by, outline, visit);
+    }
+    wholeBuckets(next, last + 1);
+  }
+
   /// One bucket-sorted sample table: CSR offsets over the 6·bucketsPerSide² buckets (face-major,
-  /// then by, bx) into its samples.
+  /// then by, bx) into its samples, and its dense buckets (sorted by bucket).
   struct BucketTable final {
     const std::uint64_t* start = nullptr;  // 6·B² + 1 entries
     const SourceSample* samples = nullptr;
+    const DenseBucket* dense = nullptr;
+    std::size_t denseCount = 0;
+    const std::uint32_t* subStart = nullptr;  // offsets from the bucket's start
   };
+
+  /// The sub-buckets of dense bucket `d` (bucket column bx of row by) near `outline`.
+  template <typename Visit>
+  void visitDenseBucket(const BucketTable& t, const DenseBucket& d, std::uint32_t bx,
+                        std::uint32_t by, const std::array<runtime::LatticeXY, 3>& outline,
+                        Visit& visit) const {
+    const double sub = static_cast<double>(bucketCells_) / d.side;  // cells (a power of two)
+    const double x0 = static_cast<double>(bx) * bucketCells_;
+    const double y0 = static_cast<double>(by) * bucketCells_;
+    const double lastSub = static_cast<double>(d.side - 1);
+    const double oy0 = std::min({outline[0].y, outline[1].y, outline[2].y});
+    const double oy1 = std::max({outline[0].y, outline[1].y, outline[2].y});
+    const double syLo = std::floor((oy0 - y0) / sub) - 1.0;
+    const double syHi = std::floor((oy1 - y0) / sub) + 1.0;
+    if (syHi < 0.0 || syLo > lastSub) return;
+    const SourceSample* base = t.samples + t.start[d.bucket];
+    const std::uint32_t* offsets = t.subStart + d.first;
+    for (auto sy = static_cast<std::uint32_t>(std::max(syLo, 0.0));
+         sy <= static_cast<std::uint32_t>(std::min(syHi, lastSub)); ++sy) {
+      double xLo = 0.0;
+      double xHi = 0.0;
+      const double rowY = y0 + static_cast<double>(sy) * sub;
+      triangleSpanInRows(outline[0], outline[1], outline[2], rowY - sub, rowY + 2.0 * sub, xLo,
+                         xHi);
+      if (!(xLo <= xHi)) continue;
+      const double sxLo = std::floor((xLo - x0) / sub) - 1.0;
+      const double sxHi = std::floor((xHi - x0) / sub) + 1.0;
+      if (sxHi < 0.0 || sxLo > lastSub) continue;
+      const std::size_t row = static_cast<std::size_t>(sy) * d.side;
+      const auto sx0 = static_cast<std::size_t>(std::max(sxLo, 0.0));
+      const auto sx1 = static_cast<std::size_t>(std::min(sxHi, lastSub));
+      visit(std::span<const SourceSample>(base + offsets[row + sx0], base + offsets[row + sx1 + 1]),
+            bx);
+    }
+  }
   SampleGrid(const Lattice& lattice, const LatticeTiles& tiles, const runtime::Planet& planet)
       : lattice_(lattice), tiles_(tiles), planet_(planet) {}
   template <typename HeightAt>
@@ -461,6 +590,8 @@ class SampleGrid final {
   std::vector<float> heights_;
   std::vector<std::uint64_t> bucketStart_;
   std::vector<SourceSample> samples_;
+  std::vector<DenseBucket> dense_;
+  std::vector<std::uint32_t> subStart_;
   streaming::MappedFile heightsMapping_;
   std::vector<streaming::MappedFile> samplesMappings_;
   std::uint64_t noDataPoints_ = 0;
