@@ -22,6 +22,7 @@
 #include "RefinementCuts.h"
 #include "RuntimeTestSupport.h"
 #include "TestData.h"
+#include "pbdam/builder/Builder.h"
 #include "pbdam/formats/DemReader.h"
 #include "pbdam/runtime/Camera.h"
 
@@ -155,11 +156,13 @@ TEST(Refinement, CutsAcrossAnInsetsBorderAreWatertight) {
 namespace pbdam::runtime {
 namespace {
 
-// The highest vertices of the leaves around (lat, lon), by distance from the planet centre.
+// The highest vertices of the leaves around (lat, lon) seen from `aboveMeters` above it, by
+// distance from the planet centre.
 std::vector<glm::dvec3> highestVertices(const DatasetView& view, test::PatchStore& store,
-                                        double lat, double lon, std::size_t count) {
-  const Camera above =
-      Camera::fromPose(view.planet(), {lat, lon, 60e3, 0.0, -90.0, 0.0}, Viewport{1280, 720, 60.0});
+                                        double lat, double lon, std::size_t count,
+                                        double aboveMeters) {
+  const Camera above = Camera::fromPose(view.planet(), {lat, lon, aboveMeters, 0.0, -90.0, 0.0},
+                                        Viewport{1280, 720, 60.0});
   const Cut cut = refine(view, above, {3.0, true, -1});
   std::vector<glm::dvec3> vertices;
   for (const CutPatch& p : cut.patches) {
@@ -184,15 +187,17 @@ struct PrecisionFigures {
   double absoluteFloat = 0.0;   ///< largest error, absolute float positions
 };
 
-// Cameras 2 m above each of the highest vertices near (lat, lon); errors of every drawn vertex
-// within 1 km of the camera against double-precision truth.
-PrecisionFigures measurePrecision(const std::filesystem::path& dir, double lat, double lon) {
+// Cameras 2 m above each of the highest vertices near (lat, lon) (leaves seen from
+// `aboveMeters`); errors of every drawn vertex within 1 km of the camera against double-precision
+// truth.
+PrecisionFigures measurePrecision(const std::filesystem::path& dir, double lat, double lon,
+                                  double aboveMeters = 60e3) {
   auto dataset = openDataset(dir);
   PrecisionFigures f;
   if (!dataset) return f;
   const DatasetView& view = dataset->view();
   test::PatchStore store(view);
-  for (const glm::dvec3& summit : highestVertices(view, store, lat, lon, 4)) {
+  for (const glm::dvec3& summit : highestVertices(view, store, lat, lon, 4, aboveMeters)) {
     const glm::dvec3 eye = summit + 2.0 * glm::normalize(summit);
     const GeodeticPosition g = view.planet().ecefToGeodetic(eye);
     Camera camera = Camera::fromPose(view.planet(),
@@ -245,6 +250,63 @@ TEST(CameraRelative, MillimetreAccurateTwoMetresAboveTheHighestEtopo5Point) {
   ASSERT_GT(f.vertices, 0u);
   EXPECT_LE(f.cameraRelative, 1e-3);
   EXPECT_GT(f.absoluteFloat, 0.1);
+}
+
+TEST(CameraRelative, MillimetreAccurateTwoMetresAboveAOneMetreInset) {
+  // Lidar class: 200 x 200 samples of a geographic grid 1 m apart north-south (0.65 m east-west;
+  // the Luxembourg DEM with metre-scale detail added) on ETOPO5, so the lattice has 2^24 cells a
+  // face side and the inset's leaves are 40 levels deep, their vertices 2^-24 of a face apart.
+  PBDAM_REQUIRE_DATA(etopo5, PBDAM_ETOPO5_PATH);
+  PBDAM_REQUIRE_DATA(luxembourg, test::dataDir() / "geotiff/terra_elev_luxembourg.tif");
+  auto lux = readDem(luxembourg);
+  ASSERT_TRUE(lux.ok()) << lux.error().message;
+  test::TempDir dir;
+  constexpr int kSide = 200;
+  constexpr double kLat = 49.80;  // the inset's south-west corner
+  constexpr double kLon = 6.05;
+  const double dLat = 1.0 / 111250.0;  // 1 m north-south at 49.8°N
+  const double dLon = dLat;
+  const std::filesystem::path fine = dir / "lux_1m.asc";
+  {
+    std::ofstream out(fine);
+    out.precision(12);
+    out << "ncols " << kSide << "\nnrows " << kSide << "\nxllcorner " << kLon << "\nyllcorner "
+        << kLat << "\ncellsize " << dLat << "\nNODATA_value -9999\n";
+    out.precision(9);
+    for (int r = 0; r < kSide; ++r) {
+      for (int c = 0; c < kSide; ++c) {
+        const double lat = kLat + (kSide - r - 0.5) * dLat;
+        const double lon = kLon + (c + 0.5) * dLon;
+        const double detail =
+            2.0 * std::sin(0.37 * c) * std::cos(0.23 * r) + 0.5 * std::sin(1.9 * c + 1.3 * r);
+        out << lux->sampleBilinear(lat, lon).value_or(300.0) + detail
+            << (c + 1 < kSide ? " " : "\n");
+      }
+    }
+    std::ofstream prj(dir / "lux_1m.prj");
+    prj << R"(GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563]],)"
+        << R"(PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433]])";
+  }
+  builder::BuildOptions o;
+  o.demPath = etopo5;
+  o.planetSpec = "earth";
+  o.outDir = dir / "lidar";
+  o.leafVertices = 17;
+  o.minPatchTriangles = 128;
+  o.depth = 4;
+  o.textureTileTexels = 64;
+  o.textureFormat = TexelFormat::Rgba8;
+  o.threads = 2;
+  o.insets = {builder::InsetSpec{fine, {}, {}}};
+  auto summary = builder::buildDataset(o);
+  ASSERT_TRUE(summary) << summary.error().message;
+  EXPECT_EQ(summary->latticeCells, 1u << 24);
+  EXPECT_EQ(summary->depth, 40u);
+  const PrecisionFigures f =
+      measurePrecision(dir / "lidar", kLat + 0.5 * kSide * dLat, kLon + 0.5 * kSide * dLon, 300.0);
+  ASSERT_GT(f.vertices, 0u);
+  EXPECT_LE(f.cameraRelative, 1e-3);
+  EXPECT_GT(f.absoluteFloat, 0.1);  // the test fails without the technique
 }
 
 TEST(Refinement, CutsAreWithinTolerance) {
