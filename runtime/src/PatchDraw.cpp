@@ -110,11 +110,17 @@ PatchDrawTemplate makePatchDrawTemplate(const DatasetView& dataset, const NodeKe
   d.normalDelta1 = vec4(nf[1] - nf[0], 0.0f);
   d.normalDelta2 = vec4(nf[2] - nf[0], 0.0f);
 
-  // The patch's texture tile: the quadtree node at its texture level that contains it.
-  const std::uint32_t tl = dataset.textureLevelOf(tri.level);
+  // The patch's texture tile, the one its draw binds (DatasetView::tileOf): the quadtree node at
+  // its texture level that contains it, or in a sparse quadtree the nearest coarser one there
+  // is. Placing the coordinates in the tile of its texture level instead drew a coarser tile's
+  // texels as if they were that tile's, another region's texture on every patch outside an
+  // inset's tiles.
+  const TileKey tile = dataset.tileOf(node);
+  const std::uint32_t tl = textureLevelOfHeap(tile.heap);
+  const std::uint64_t tileInLevel = tile.heap - textureHeapIndex(tl, 0, 0);
   const std::int32_t sideCells = static_cast<std::int32_t>(dataset.latticeCells() >> tl);
-  const std::int32_t qi = std::min({tri.apex.x, tri.left.x, tri.right.x}) / sideCells;
-  const std::int32_t qj = std::min({tri.apex.y, tri.left.y, tri.right.y}) / sideCells;
+  const auto qi = static_cast<std::int32_t>(tileInLevel & ((std::uint64_t{1} << tl) - 1));
+  const auto qj = static_cast<std::int32_t>(tileInLevel >> tl);
   const Manifest& m = dataset.manifest();
   t.texCenter = setPatchTexture(
       d, dataset.planet(),

@@ -309,6 +309,60 @@ TEST(CameraRelative, MillimetreAccurateTwoMetresAboveAOneMetreInset) {
   EXPECT_GT(f.absoluteFloat, 0.1);  // the test fails without the technique
 }
 
+TEST(PatchTexCoord, APatchIsTexturedFromTheTileItsDrawBindsInASparseQuadtree) {
+  // The Luxembourg hybrid's texture quadtree is deep over the inset only: elsewhere a patch's
+  // texture level has no tile and its draw binds the nearest coarser one (DatasetView::tileOf).
+  // Its texture coordinates must place it in that tile; placed in the missing finer tile, they
+  // drew another region's texels on it. Every vertex of a cut from 300 km over the inset's
+  // surroundings: the shader's coordinate against the lattice-linear one in the bound tile.
+  PBDAM_REQUIRE_DATASET(dir, "luxembourg");
+  auto dataset = openDataset(dir);
+  ASSERT_TRUE(dataset);
+  const DatasetView& view = dataset->view();
+  const Manifest& m = view.manifest();
+  test::PatchStore store(view);
+  const Camera camera = Camera::fromPose(view.planet(), {48.0, 4.0, 300e3, 40.0, -50.0, 0.0},
+                                         Viewport{640, 360, 60.0});
+  const glm::dvec3 eye = camera.position();
+  const Cut cut = refine(view, camera, {3.0, true, -1});
+  const double size = static_cast<double>(m.textureTileTexels);
+  const double inner = size - 2.0 * static_cast<double>(m.textureBorderTexels);
+  std::size_t coarser = 0;
+  std::size_t vertices = 0;
+  double worstTexels = 0.0;
+  for (const CutPatch& p : cut.patches) {
+    const NodeRecord record = view.node(p.node);
+    const TileKey tile = view.tileOf(p.node);
+    const std::uint32_t tl = textureLevelOfHeap(tile.heap);
+    if (tl < view.textureLevelOf(p.level)) ++coarser;
+    const std::uint64_t inLevel = tile.heap - textureHeapIndex(tl, 0, 0);
+    const double side = static_cast<double>(view.latticeCells() >> tl);
+    const double qi = static_cast<double>(inLevel & ((std::uint64_t{1} << tl) - 1));
+    const double qj = static_cast<double>(inLevel >> tl);
+    const PatchDrawRecord draw =
+        makePatchDrawRecord(view, PatchDrawInput{.node = p.node, .record = record}, eye);
+    const PatchVertexPlacement placement(view, p.node, record);
+    for (const PatchVertex& v : store.mesh(p.node).vertices) {
+      LatticeXY q;
+      ASSERT_TRUE(placement.latticePoint(v.b1, v.b2, q));
+      const glm::dvec3 relative = exactVertexPosition(placement, v, eye);
+      const glm::vec2 tc = shaderTexCoord(draw, glm::vec3(relative));
+      const double ex = (m.textureBorderTexels + (q.x - qi * side) / side * inner) / size;
+      const double ey = (m.textureBorderTexels + (q.y - qj * side) / side * inner) / size;
+      worstTexels = std::max({worstTexels, std::abs(static_cast<double>(tc.x) - ex) * size,
+                              std::abs(static_cast<double>(tc.y) - ey) * size});
+      ++vertices;
+    }
+  }
+  std::printf(
+      "%zu patches (%zu in a coarser tile than their level's), %zu vertices: worst %.3g "
+      "texels\n",
+      cut.patches.size(), coarser, vertices, worstTexels);
+  EXPECT_GT(coarser, 10u);
+  EXPECT_GT(vertices, 10000u);
+  EXPECT_LT(worstTexels, 0.05);
+}
+
 TEST(Refinement, CutsAreWithinTolerance) {
   PBDAM_REQUIRE_DATASET(dir, "mola");
   PBDAM_REQUIRE_DATA(demPath, test::dataDir() / "mars/megt90n000cb.lbl");
