@@ -32,18 +32,30 @@ if [ ! -f "$base/manifest.json" ]; then
     --leaf-vertices 17 --out "$base" --force --quiet
 fi
 
-# The path: orbit, 30 km over the inset, 300 m over its edge, 50 m over AT (above the rendered
-# terrain there, as `pbdam height` gives it).
+# The path: from orbit (3,000 km, 1,300 km away) to 3 km over the inset's edge in the first 60%
+# of the time, then an approach down to 50 m above AT (above the rendered terrain there, as
+# `pbdam height` gives it) in the rest: two great-circle legs, each with its eased altitude.
 ground=$("$pbdam" height "$lidar" --at "$at" --json |
          python3 -c 'import json, sys; print(json.load(sys.stdin)["height_m"])')
 lat=${at%,*}
 lon=${at#*,}
 edge=$(python3 -c "print(f'{$lat - 0.012:.6f},{$lon - 0.018:.6f}')")
-alt() { python3 -c "print(f'{$ground + $1:.3f}')"; }
-"$pbdam" path waypoints --dataset "$lidar" --duration "$seconds" --out "$out/path.csv" \
-  --via "$(python3 -c "print(f'{$lat - 8:.6f},{$lon - 10:.6f}')"),3000000" \
-  --via "$lat,$lon,30000" --via "$edge,$(alt 300)" --via "$at,$(alt 50)"
-echo "path: $out/path.csv ($(($(wc -l < "$out/path.csv") - 1)) poses, ends 50 m above $ground m at $at)"
+orbit=$(python3 -c "print(f'{$lat - 8:.6f},{$lon - 10:.6f}')")
+end=$(python3 -c "print(f'{$ground + 50:.3f}')")
+first=$(python3 -c "print($seconds * 0.6)")
+"$pbdam" path great-circle --dataset "$lidar" --from "$orbit,3000000" --to "$edge,3000" \
+  --duration "$first" --out "$out/path-1.csv" > /dev/null
+"$pbdam" path great-circle --dataset "$lidar" --from "$edge,3000" --to "$at,$end" \
+  --duration "$(python3 -c "print($seconds - $first)")" --out "$out/path-2.csv" > /dev/null
+python3 - "$out" "$first" <<'PY'
+import sys
+out, first = sys.argv[1], float(sys.argv[2])
+one = open(f"{out}/path-1.csv").read().splitlines()
+two = open(f"{out}/path-2.csv").read().splitlines()[2:]  # its header and first pose (= one's last)
+rows = [f"{float(r.split(',', 1)[0]) + first!r},{r.split(',', 1)[1]}" for r in two]
+open(f"{out}/path.csv", "w").write("\n".join(one + rows) + "\n")
+PY
+echo "path: $out/path.csv ($(($(wc -l < "$out/path.csv") - 1)) poses over $seconds s, ends 50 m above $ground m at $at)"
 
 for name in lidar base; do
   dataset=$([ "$name" = lidar ] && echo "$lidar" || echo "$base")

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
-"""Holes in frames rendered with --clear 255,0,255: a magenta pixel below the topmost terrain
-pixel of its column (the sky cannot show beneath the ground in a frame whose camera looks at the
-terrain from above it). Prints per frame the hole count and the worst column; exit 1 if any.
+"""Holes in frames rendered with --clear 255,0,255: a magenta pixel between two terrain pixels of
+its column (the sky cannot show through the ground; below a globe's lower limb, or above its
+horizon, it is not enclosed and not counted). Prints per frame the hole count and the worst
+column; exit 1 if any.
   bench/magenta_holes.py FRAME.png [FRAME.png ...]
 Reads 8-bit RGB/RGBA PNGs with the standard library only."""
 import struct
@@ -53,14 +54,15 @@ def holes(path):
     width, height, channels, rows = read_png(path)
     total, worst = 0, (0, -1)
     for x in range(width):
-        ground, count = False, 0
+        ground, count, run = False, 0, 0
         for y in range(height):
             p = rows[y][x * channels:x * channels + 3]
             magenta = p[0] == 255 and p[1] == 0 and p[2] == 255
             if not magenta:
-                ground = True
-            elif ground:
-                count += 1
+                count += run if ground else 0  # the run above was enclosed
+                ground, run = True, 0
+            else:
+                run += 1
         total += count
         worst = max(worst, (count, x))
     return total, worst

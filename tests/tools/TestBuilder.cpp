@@ -961,7 +961,7 @@ TEST(SampleGrid, DenseBucketFilesGiveTheInMemoryVisitsAndAreChecked) {
   const SampleGrid memory = SampleGrid::build(dem, planet, lattice, bucketCells);
   test::TempDir dir;
   const fs::path heights = dir / "heights.f32";
-  auto stats = SampleGrid::writeHeightRows(dem, planet, lattice, heights, 0, 6 * 65);
+  auto stats = SampleGrid::writeHeightRows(dem, planet, lattice, heights, 0, std::size_t{6} * 65);
   ASSERT_TRUE(stats) << stats.error().message;
   // Two DEM row ranges: each file splits its own dense buckets.
   const auto demRows = static_cast<std::size_t>(dem.height());
