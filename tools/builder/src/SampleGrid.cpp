@@ -583,43 +583,54 @@ Result<void> SampleGrid::writeSourceBuckets(const SampleEnumerator& samples,
   const std::size_t buckets = 6 * static_cast<std::size_t>(perSide) * perSide;
   const double n = static_cast<double>(lattice.sideCells());
   constexpr auto kInvalid = std::numeric_limits<std::uint32_t>::max();
-  // This share's samples placed, in enumeration order (16 bytes each).
-  std::vector<Placed> placed;
-  std::uint64_t ordinal = 0;
-  samples([&](double lat, double lon, double height) {
-    if (ordinal >= beginSample && ordinal < endSample) {
-      const Placed p = placeAt(planet, n, cells, perSide, lat, lon, static_cast<float>(height));
-      if (p.bucket != kInvalid) placed.push_back(p);
-    }
-    ++ordinal;
-  });
-  std::vector<std::uint64_t> start(buckets + 1, 0);
-  for (const Placed& p : placed) ++start[p.bucket + 1];
-  for (std::size_t b = 0; b < buckets; ++b) start[b + 1] += start[b];
-  const std::uint64_t total = start[buckets];
+  // The share's samples are enumerated again for each pass (count, count the dense buckets'
+  // sub-buckets where there are any, place) rather than held: memory is the bucket table and the
+  // file's pages, whatever the input's size.
+  const auto forEachPlaced = [&](const auto& fn) {
+    std::uint64_t ordinal = 0;
+    samples([&](double lat, double lon, double height) {
+      if (ordinal >= beginSample && ordinal < endSample) {
+        const Placed p = placeAt(planet, n, cells, perSide, lat, lon, static_cast<float>(height));
+        if (p.bucket != kInvalid) fn(p);
+      }
+      ++ordinal;
+    });
+  };
+  // Pass 1: count per bucket (32 bits, as writeSourceBuckets of a DEM).
+  std::vector<std::uint32_t> counts(buckets, 0);
+  forEachPlaced([&](const Placed& p) { ++counts[p.bucket]; });
+  std::uint64_t total = 0;
+  for (const std::uint32_t c : counts) total += c;
   DenseLayout layout =
-      DenseLayout::choose(buckets, cells, [&](std::size_t b) { return start[b + 1] - start[b]; });
-  if (!layout.empty()) {
-    for (const Placed& p : placed) layout.count(p.bucket, p.sample);
-  }
+      DenseLayout::choose(buckets, cells, [&](std::size_t b) { return std::uint64_t{counts[b]}; });
+  if (!layout.empty()) forEachPlaced([&](const Placed& p) { layout.count(p.bucket, p.sample); });
   layout.finish();
-  const std::size_t startBytes = (buckets + 1) * sizeof(std::uint64_t);
   const fs::path tmp = temporaryBucketPath(samplesFile);
   auto map = createBucketFile(tmp, buckets, perSide, total, layout);
   if (!map) return std::move(map).error();
   const BucketFileLayout parts =
       bucketFileLayout(buckets, total, layout.dense().size(), layout.subStart().size());
   std::byte* at = map->writableBytes().data();
-  std::memcpy(at + parts.start, start.data(), startBytes);
+  auto* start = reinterpret_cast<std::uint64_t*>(at + parts.start);
+  start[0] = 0;
+  for (std::size_t b = 0; b < buckets; ++b) {
+    start[b + 1] = start[b] + counts[b];
+    counts[b] = 0;  // from here on: samples placed so far
+  }
   auto* out = reinterpret_cast<SourceSample*>(at + parts.samples);
-  std::vector<std::uint64_t> cursor(start.begin(), start.end() - 1);
-  for (const Placed& p : placed) {
+  // Pass 2: place in enumeration order (stable within a bucket or sub-bucket).
+  std::uint64_t placedSinceRelease = 0;
+  forEachPlaced([&](const Placed& p) {
     if (const auto inBucket = layout.place(p.bucket, p.sample)) {
       out[start[p.bucket] + *inBucket] = p.sample;
     } else {
-      out[cursor[p.bucket]++] = p.sample;
+      out[start[p.bucket] + counts[p.bucket]++] = p.sample;
     }
-  }
+    if (++placedSinceRelease == (std::uint64_t{1} << 22)) {
+      (void)map->releaseResident();  // RSS bound: the written pages live on in the page cache
+      placedSinceRelease = 0;
+    }
+  });
   return publishBucketFile(*map, tmp, samplesFile);
 }
 

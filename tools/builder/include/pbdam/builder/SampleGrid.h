@@ -122,8 +122,9 @@ class SampleGrid final {
                                                   std::size_t beginRow, std::size_t endRow);
 
   /// Step 2 for any source: the samples [beginSample, endSample) of those `samples`
-  /// enumerates (in its order), bucketed as writeSourceBuckets does a DEM's. Held in memory
-  /// while bucketed (16 bytes a sample).
+  /// enumerates (in its order), bucketed as writeSourceBuckets does a DEM's: `samples` is
+  /// called two or three times (count, count a dense bucket's sub-buckets, place), so that memory
+  /// is the bucket table and not the samples.
   static formats::Result<void> writeSourceBuckets(const SampleEnumerator& samples,
                                                   std::uint64_t beginSample,
                                                   std::uint64_t endSample,
