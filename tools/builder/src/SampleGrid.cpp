@@ -544,6 +544,7 @@ Result<void> SampleGrid::writeSourceBuckets(const HeightGrid& dem, const Planet&
     start[b + 1] = start[b] + counts[b].load(std::memory_order_relaxed);
     counts[b].store(0, std::memory_order_relaxed);  // from here on: samples placed so far
   }
+  (void)map->releaseResident();  // the offsets' pages (8 bytes a bucket) stay in the page cache
   auto* samples = reinterpret_cast<SourceSample*>(at + parts.samples);
 
   // Pass 2: place chunk by chunk (in parallel), scatter in row order (stable).
@@ -616,7 +617,9 @@ Result<void> SampleGrid::writeSourceBuckets(const SampleEnumerator& samples,
   for (std::size_t b = 0; b < buckets; ++b) {
     start[b + 1] = start[b] + counts[b];
     counts[b] = 0;  // from here on: samples placed so far
+    if ((b + 1) % (std::size_t{1} << 23) == 0) (void)map->releaseResident();  // every 64 MB
   }
+  (void)map->releaseResident();  // the offsets' pages (8 bytes a bucket) stay in the page cache
   auto* out = reinterpret_cast<SourceSample*>(at + parts.samples);
   // Pass 2: place in enumeration order (stable within a bucket or sub-bucket).
   std::uint64_t placedSinceRelease = 0;

@@ -37,8 +37,9 @@ namespace pbdam::builder {
 
 /// A source DEM sample placed on a face: its position in lattice cells from the lower corner of
 /// its bucket (0 ≤ x, y ≤ the bucket's cells) and its height. Relative to the bucket, a float
-/// keeps the position to 2^-24 of a bucket (0.15 mm in a 4096-cell bucket at 2^24 cells a face);
-/// a float face coordinate rounded it to half a cell (0.3 m) at that lattice.
+/// keeps the position to 2^-24 of a bucket (at 2^24 cells a face, 0.6 m cells: 0.6 mm in the
+/// 16384-cell buckets of a 1 m inset's build); a float face coordinate rounded it to half a cell
+/// (0.3 m) at that lattice.
 struct SourceSample final {
   float x = 0.0f;
   float y = 0.0f;
@@ -184,14 +185,17 @@ class SampleGrid final {
   static std::uint32_t defaultBucketCells(const Lattice& lattice) noexcept {
     return std::max<std::uint32_t>(1, lattice.sideCells() / 4096);
   }
-  /// The same, but no finer than about one source sample per bucket: a sparse lattice's side
-  /// follows its densest inset, and buckets of a few of its cells over the whole planet would
-  /// cost 8 bytes each for mostly empty buckets (805 MB at 16384 cells for ETOPO5's 9 M
-  /// samples). Which samples a triangle tests does not depend on the bucket size.
+  /// For a sparse lattice (insets): no finer than about one source sample per bucket, and at
+  /// most 1024 buckets a face side. Its side follows its densest inset, and buckets of a few of
+  /// its cells over the whole planet would cost 8 bytes each for mostly empty buckets (805 MB at
+  /// 16384 cells for ETOPO5's 9 M samples); where an inset is dense its buckets are split
+  /// (subBucketsPerSide), so the table need not follow the sample count: at 4096² a face the
+  /// table (400 MB of counts while bucketing, 800 MB of offsets) grew with the input. Which
+  /// samples a triangle tests does not depend on the bucket size.
   static std::uint32_t bucketCellsFor(const Lattice& lattice,
                                       std::uint64_t sourceSamples) noexcept {
     const double perFace = static_cast<double>(sourceSamples) / 6.0;
-    const auto side = static_cast<std::uint32_t>(std::min(4096.0, std::ceil(std::sqrt(perFace))));
+    const auto side = static_cast<std::uint32_t>(std::min(1024.0, std::ceil(std::sqrt(perFace))));
     const std::uint32_t buckets = std::min(lattice.sideCells(), std::bit_ceil(std::max(side, 1U)));
     return std::max(defaultBucketCells(lattice), lattice.sideCells() / buckets);
   }
