@@ -18,11 +18,11 @@
 #include <unordered_map>
 #include <vector>
 
+#include "CameraPrecision.h"
 #include "ClosedManifold.h"
 #include "RefinementCuts.h"
 #include "RuntimeTestSupport.h"
 #include "TestData.h"
-#include "pbdam/builder/Builder.h"
 #include "pbdam/formats/DemReader.h"
 #include "pbdam/runtime/Camera.h"
 
@@ -156,85 +156,8 @@ TEST(Refinement, CutsAcrossAnInsetsBorderAreWatertight) {
 namespace pbdam::runtime {
 namespace {
 
-// The highest vertices of the leaves around (lat, lon) seen from `aboveMeters` above it, by
-// distance from the planet centre.
-std::vector<glm::dvec3> highestVertices(const DatasetView& view, test::PatchStore& store,
-                                        double lat, double lon, std::size_t count,
-                                        double aboveMeters) {
-  const Camera above = Camera::fromPose(view.planet(), {lat, lon, aboveMeters, 0.0, -90.0, 0.0},
-                                        Viewport{1280, 720, 60.0});
-  const Cut cut = refine(view, above, {3.0, true, -1});
-  std::vector<glm::dvec3> vertices;
-  for (const CutPatch& p : cut.patches) {
-    if (p.level != view.depth()) continue;
-    const PatchVertexPlacement placement(view, p.node, view.node(p.node));
-    for (const PatchVertex& v : store.mesh(p.node).vertices) {
-      vertices.push_back(exactVertexPosition(placement, v, glm::dvec3(0.0)));
-    }
-  }
-  std::sort(vertices.begin(), vertices.end(), [](const glm::dvec3& a, const glm::dvec3& b) {
-    return glm::length(a) > glm::length(b);
-  });
-  vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
-  if (vertices.size() > count) vertices.resize(count);
-  return vertices;
-}
-
-struct PrecisionFigures {
-  std::size_t vertices = 0;     ///< drawn vertices within 1 km of the camera
-  double cameraRelative = 0.0;  ///< largest error, runtime/PatchDraw.h
-  double cornerRelative = 0.0;  ///< largest error, Fig. 5 without reference points
-  double absoluteFloat = 0.0;   ///< largest error, absolute float positions
-};
-
-// Cameras 2 m above each of the highest vertices near (lat, lon) (leaves seen from
-// `aboveMeters`); errors of every drawn vertex within 1 km of the camera against double-precision
-// truth.
-PrecisionFigures measurePrecision(const std::filesystem::path& dir, double lat, double lon,
-                                  double aboveMeters = 60e3) {
-  auto dataset = openDataset(dir);
-  PrecisionFigures f;
-  if (!dataset) return f;
-  const DatasetView& view = dataset->view();
-  test::PatchStore store(view);
-  for (const glm::dvec3& summit : highestVertices(view, store, lat, lon, 4, aboveMeters)) {
-    const glm::dvec3 eye = summit + 2.0 * glm::normalize(summit);
-    const GeodeticPosition g = view.planet().ecefToGeodetic(eye);
-    Camera camera = Camera::fromPose(view.planet(),
-                                     {g.latDegrees, g.lonDegrees, g.heightMeters, 30.0, -20.0, 0.0},
-                                     Viewport{1280, 720, 60.0});
-    const Cut cut = refine(view, camera, {3.0, true, -1});
-    for (const CutPatch& p : cut.patches) {
-      const NodeRecord record = view.node(p.node);
-      const PatchDrawRecord draw =
-          makePatchDrawRecord(view, PatchDrawInput{.node = p.node, .record = record}, eye);
-      const PatchVertexPlacement placement(view, p.node, record);
-      for (const PatchVertex& v : store.mesh(p.node).vertices) {
-        // Truth: the vertex's terrain point in double. Each technique adds the decoded offset.
-        const glm::dvec3 truth = exactVertexPosition(placement, v, eye);
-        if (glm::length(truth) > 1000.0) continue;
-        PatchVertexDisplacement h;
-        if (!placement.displacement(v, h)) {
-          ADD_FAILURE() << "vertex off its node's lattice";
-          continue;
-        }
-        ++f.vertices;
-        const auto err = [&](const glm::vec3& p32) { return glm::length(glm::dvec3(p32) - truth); };
-        f.cameraRelative =
-            std::max(f.cameraRelative, err(shaderVertexPosition(draw, v.b1, v.b2, h)));
-        f.cornerRelative = std::max(f.cornerRelative,
-                                    err(cornerRelativeVertexPosition(record, v.b1, v.b2, h, eye)));
-        f.absoluteFloat =
-            std::max(f.absoluteFloat, err(absoluteFloatVertexPosition(record, v.b1, v.b2, h, eye)));
-      }
-    }
-  }
-  std::printf(
-      "%zu vertices within 1 km: camera-relative %.3g m, corner-relative (Fig. 5) %.3g m, "
-      "absolute float %.3g m\n",
-      f.vertices, f.cameraRelative, f.cornerRelative, f.absoluteFloat);
-  return f;
-}
+using precision::measurePrecision;
+using precision::PrecisionFigures;
 
 TEST(CameraRelative, MillimetreAccurateTwoMetresAboveOlympusMons) {
   PBDAM_REQUIRE_DATASET(dir, "mola");
@@ -250,63 +173,6 @@ TEST(CameraRelative, MillimetreAccurateTwoMetresAboveTheHighestEtopo5Point) {
   ASSERT_GT(f.vertices, 0u);
   EXPECT_LE(f.cameraRelative, 1e-3);
   EXPECT_GT(f.absoluteFloat, 0.1);
-}
-
-TEST(CameraRelative, MillimetreAccurateTwoMetresAboveAOneMetreInset) {
-  // Lidar class: 200 x 200 samples of a geographic grid 1 m apart north-south (0.65 m east-west;
-  // the Luxembourg DEM with metre-scale detail added) on ETOPO5, so the lattice has 2^24 cells a
-  // face side and the inset's leaves are 40 levels deep, their vertices 2^-24 of a face apart.
-  PBDAM_REQUIRE_DATA(etopo5, PBDAM_ETOPO5_PATH);
-  PBDAM_REQUIRE_DATA(luxembourg, test::dataDir() / "geotiff/terra_elev_luxembourg.tif");
-  auto lux = readDem(luxembourg);
-  ASSERT_TRUE(lux.ok()) << lux.error().message;
-  test::TempDir dir;
-  constexpr int kSide = 200;
-  constexpr double kLat = 49.80;  // the inset's south-west corner
-  constexpr double kLon = 6.05;
-  const double dLat = 1.0 / 111250.0;  // 1 m north-south at 49.8°N
-  const double dLon = dLat;
-  const std::filesystem::path fine = dir / "lux_1m.asc";
-  {
-    std::ofstream out(fine);
-    out.precision(12);
-    out << "ncols " << kSide << "\nnrows " << kSide << "\nxllcorner " << kLon << "\nyllcorner "
-        << kLat << "\ncellsize " << dLat << "\nNODATA_value -9999\n";
-    out.precision(9);
-    for (int r = 0; r < kSide; ++r) {
-      for (int c = 0; c < kSide; ++c) {
-        const double lat = kLat + (kSide - r - 0.5) * dLat;
-        const double lon = kLon + (c + 0.5) * dLon;
-        const double detail =
-            2.0 * std::sin(0.37 * c) * std::cos(0.23 * r) + 0.5 * std::sin(1.9 * c + 1.3 * r);
-        out << lux->sampleBilinear(lat, lon).value_or(300.0) + detail
-            << (c + 1 < kSide ? " " : "\n");
-      }
-    }
-    std::ofstream prj(dir / "lux_1m.prj");
-    prj << R"(GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563]],)"
-        << R"(PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433]])";
-  }
-  builder::BuildOptions o;
-  o.demPath = etopo5;
-  o.planetSpec = "earth";
-  o.outDir = dir / "lidar";
-  o.leafVertices = 17;
-  o.minPatchTriangles = 128;
-  o.depth = 4;
-  o.textureTileTexels = 64;
-  o.textureFormat = TexelFormat::Rgba8;
-  o.threads = 2;
-  o.insets = {builder::InsetSpec{fine, {}, {}}};
-  auto summary = builder::buildDataset(o);
-  ASSERT_TRUE(summary) << summary.error().message;
-  EXPECT_EQ(summary->latticeCells, 1u << 24);
-  EXPECT_EQ(summary->depth, 40u);
-  const PrecisionFigures f =
-      measurePrecision(dir / "lidar", kLat + 0.5 * kSide * dLat, kLon + 0.5 * kSide * dLon, 300.0);
-  ASSERT_GT(f.vertices, 0u);
-  EXPECT_LE(f.cameraRelative, 1e-3);
-  EXPECT_GT(f.absoluteFloat, 0.1);  // the test fails without the technique
 }
 
 TEST(PatchTexCoord, APatchIsTexturedFromTheTileItsDrawBindsInASparseQuadtree) {
