@@ -20,4 +20,10 @@ std::uint32_t crc32(std::span<const std::byte> bytes, std::uint32_t crc) noexcep
   return static_cast<std::uint32_t>(value);
 }
 
+std::uint32_t crc32Combine(std::uint32_t first, std::uint32_t second,
+                           std::uint64_t secondBytes) noexcept {
+  return static_cast<std::uint32_t>(
+      ::crc32_combine64(first, second, static_cast<z_off64_t>(secondBytes)));
+}
+
 }  // namespace pbdam::formats

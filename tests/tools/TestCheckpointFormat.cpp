@@ -7,8 +7,12 @@
 #include <algorithm>
 #include <bit>
 #include <cstring>
+#include <fstream>
+#include <iterator>
 
+#include "TestData.h"
 #include "pbdam/builder/Checkpoint.h"
+#include "pbdam/formats/Checksum.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
@@ -261,6 +265,49 @@ TEST(CheckpointFormat, ACarryPatchIndexingPastItsPointsIsDamaged) {
     WorkPatch patch;
     EXPECT_FALSE(getCarryRecord(r, s, &patch)) << partialTriangle;
   }
+}
+
+TEST(AtomicFile, APrefixWrittenAfterTheRestGivesTheBytesAndTheCrcOfAFileWrittenInOrder) {
+  // The face files' assembly: header and node table written last, in place, in pieces.
+  test::TempDir dir;
+  std::vector<std::byte> head(1000);
+  std::vector<std::byte> tail(300000);  // past the writer's buffer
+  for (std::size_t i = 0; i < head.size(); ++i) head[i] = static_cast<std::byte>(i * 7 + 1);
+  for (std::size_t i = 0; i < tail.size(); ++i) tail[i] = static_cast<std::byte>(i * 13 + 5);
+  auto w = AtomicFileWriter::create(dir / "f.bin");
+  ASSERT_TRUE(w);
+  ASSERT_TRUE(w->leavePrefix(head.size()));
+  ASSERT_TRUE(w->append(std::span(tail).first(100)));
+  ASSERT_TRUE(w->append(std::span(tail).subspan(100)));
+  const std::span<const std::byte> h(head);
+  ASSERT_TRUE(w->writePrefix(600, h.subspan(600)));  // any order
+  ASSERT_TRUE(w->writePrefix(0, h.first(600)));
+  EXPECT_FALSE(w->writePrefix(999, h.first(2)));  // past the prefix: refused
+  w->prefixWritten(crc32(h));
+  std::vector<std::byte> whole = head;
+  whole.insert(whole.end(), tail.begin(), tail.end());
+  EXPECT_EQ(w->crc(), crc32(whole));
+  EXPECT_EQ(w->size(), whole.size());
+  ASSERT_TRUE(w->finish());
+  std::ifstream in(dir / "f.bin", std::ios::binary);
+  std::vector<char> read((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_EQ(read.size(), whole.size());
+  EXPECT_EQ(std::memcmp(read.data(), whole.data(), whole.size()), 0);
+}
+
+TEST(AtomicFile, APrefixNeverWrittenIsRefusedAtFinishAndLeavesNoFile) {
+  test::TempDir dir;
+  auto w = AtomicFileWriter::create(dir / "f.bin");
+  ASSERT_TRUE(w);
+  ASSERT_TRUE(w->leavePrefix(64));
+  const std::array<std::byte, 4> bytes{};
+  ASSERT_TRUE(w->append(bytes));
+  auto done = w->finish();
+  ASSERT_FALSE(done);
+  EXPECT_NE(done.error().message.find("prefix"), std::string::npos) << done.error().message;
+  *w = AtomicFileWriter();  // abandoned: the temporary goes
+  EXPECT_FALSE(std::filesystem::exists(dir / "f.bin"));
+  EXPECT_TRUE(std::filesystem::is_empty(dir.path()));
 }
 
 }  // namespace

@@ -345,6 +345,9 @@ Result<StartPoint> DatasetBuild::setUpOutput() {
 void DatasetBuild::releaseResident() {
   std::lock_guard lock(residentMutex_);
   if (in_.dem) in_.dem->releaseResident();
+  if (in_.composite) {
+    for (const auto& inset : in_.composite->insets()) inset.grid.releaseResident();
+  }
   if (grid_) grid_->releaseResident();
   below_.releaseResident();
   assembling_.releaseResident();
@@ -807,6 +810,9 @@ Result<void> DatasetBuild::buildTextures() {
         failedTile = static_cast<std::int64_t>(k);
         return;
       }
+      // A coarse tile samples the DEM across its whole area: its pages leave the process with
+      // the tile rather than at the trimmer's next tick (mapped DEMs; no-op in memory).
+      releaseResident();
       ++done;
       if (std::this_thread::get_id() == caller && root() &&
           Clock::now() - lastReport > std::chrono::milliseconds(100)) {

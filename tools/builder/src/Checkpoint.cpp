@@ -54,6 +54,8 @@ AtomicFileWriter::AtomicFileWriter(AtomicFileWriter&& other) noexcept
       buffer_(std::move(other.buffer_)),
       size_(other.size_),
       reserved_(other.reserved_),
+      prefix_(other.prefix_),
+      prefixPending_(other.prefixPending_),
       crc_(other.crc_) {}
 
 AtomicFileWriter& AtomicFileWriter::operator=(AtomicFileWriter&& other) noexcept {
@@ -65,6 +67,8 @@ AtomicFileWriter& AtomicFileWriter::operator=(AtomicFileWriter&& other) noexcept
     buffer_ = std::move(other.buffer_);
     size_ = other.size_;
     reserved_ = other.reserved_;
+    prefix_ = other.prefix_;
+    prefixPending_ = other.prefixPending_;
     crc_ = other.crc_;
   }
   return *this;
@@ -93,6 +97,33 @@ Result<void> AtomicFileWriter::append(std::span<const std::byte> bytes) {
   return {};
 }
 
+Result<void> AtomicFileWriter::leavePrefix(std::uint64_t bytes) {
+  if (size_ != 0 || prefixPending_) {
+    return makeError(ErrorCode::Internal, path_.string() + ": a prefix left after appending");
+  }
+  if (::lseek(fd_, static_cast<off_t>(bytes), SEEK_SET) < 0) {
+    return makeError(ErrorCode::IoError,
+                     tmp_.string() + ": lseek failed (" + std::strerror(errno) + ")");
+  }
+  prefix_ = bytes;
+  prefixPending_ = bytes != 0;
+  size_ = bytes;
+  return {};
+}
+
+Result<void> AtomicFileWriter::writePrefix(std::uint64_t offset, std::span<const std::byte> bytes) {
+  if (!prefixPending_ || offset > prefix_ || bytes.size() > prefix_ - offset) {
+    return makeError(ErrorCode::Internal, path_.string() + ": a write outside the prefix left");
+  }
+  return pwriteFully(fd_, bytes, offset, path_);
+}
+
+void AtomicFileWriter::prefixWritten(std::uint32_t prefixCrc) noexcept {
+  if (!prefixPending_) return;
+  crc_ = crc32Combine(prefixCrc, crc_, size_ - prefix_);
+  prefixPending_ = false;
+}
+
 Result<void> AtomicFileWriter::flush() {
   auto r = writeFully(fd_, buffer_, path_);
   buffer_.clear();
@@ -106,6 +137,9 @@ Result<void> AtomicFileWriter::reserve(std::uint64_t bytes) {
 }
 
 Result<void> AtomicFileWriter::finish() {
+  if (prefixPending_) {
+    return makeError(ErrorCode::Internal, path_.string() + ": its prefix was never written");
+  }
   if (auto r = flush(); !r) return r;
   // posix_fallocate extends the file: a reservation beyond what was written is cut off.
   if (reserved_ > size_ && ::ftruncate(fd_, static_cast<off_t>(size_)) != 0) {

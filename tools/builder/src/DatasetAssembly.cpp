@@ -8,7 +8,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <initializer_list>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -36,6 +35,10 @@ std::uint32_t textureLevelCount(std::uint32_t latticeCells, std::uint32_t tileTe
 }
 
 namespace {
+
+/// Nodes whose morph targets the assembly makes and writes at a time: what it holds of them is
+/// this many nodes' targets (a few KB each), never a face's.
+constexpr std::uint64_t kAssemblyBatchNodes = 8192;
 
 /// Where one node's record and blob are inside the mapped part files.
 struct Located {
@@ -90,6 +93,11 @@ class Assembly final {
   Result<void> locateTiles();
   Manifest makeManifest() const;
   Result<ManifestFace> writeFace(int face);
+  /// Appends the face's patch and morph-target blobs from `at` on, a batch of nodes at a time,
+  /// and writes their records into the node table's place in the prefix; returns the table's
+  /// CRC-32.
+  Result<std::uint32_t> appendNodes(AtomicFileWriter& file, const formats::FaceHeader& h,
+                                    std::uint64_t firstSlot, std::uint64_t& at);
   Result<std::vector<std::vector<std::byte>>> faceMorphTargets(std::uint64_t firstSlot,
                                                                std::uint64_t count);
 
@@ -378,6 +386,51 @@ Result<std::vector<std::vector<std::byte>>> Assembly::faceMorphTargets(std::uint
   return blobs;
 }
 
+Result<std::uint32_t> Assembly::appendNodes(AtomicFileWriter& file, const FaceHeader& h,
+                                            std::uint64_t firstSlot, std::uint64_t& at) {
+  std::uint32_t nodeTableCrc = 0;
+  std::vector<std::byte> nodeTable;
+  for (std::uint64_t k0 = 0; k0 < h.nodeCount; k0 += kAssemblyBatchNodes) {
+    const std::uint64_t n = std::min(kAssemblyBatchNodes, h.nodeCount - k0);
+    auto morph = faceMorphTargets(firstSlot + k0, n);
+    if (!morph) return std::move(morph).error();
+    nodeTable.assign(n * kNodeRecordBytes, std::byte{0});
+    for (std::uint64_t b = 0; b < n; ++b) {
+      const std::uint64_t k = k0 + b;
+      const Located& node = located_[firstSlot + k];
+      NodeRecord record = decodeNodeRecord(
+          std::span<const std::byte, kNodeRecordBytes>(node.record, kNodeRecordBytes));
+      record.blobOffset = at;
+      record.blobBytes = static_cast<std::uint32_t>(node.blob.size());
+      const std::uint64_t id = idAt(firstSlot + k);
+      record.heapIndex = id % nodesPerTree_;
+      const bool leaf = in_.plan.isLeaf(runtime::bintreeLevel(record.heapIndex), id);
+      record.flags = leaf ? kRecordLeaf : 0;
+      record.sources = 0;
+      if (leaf && in_.leafSources) {
+        record.sources = in_.leafSources(
+            triangleOfNode(Lattice(in_.latticeCells), id, static_cast<int>(in_.depth)));
+      }
+      const std::vector<std::byte>& targets = (*morph)[b];
+      record.morphBytes = static_cast<std::uint32_t>(targets.size());
+      at += node.blob.size() + record.morphBytes;
+      if (auto w = file.append(node.blob); !w) return std::move(w).error();
+      if (auto w = file.append(targets); !w) return std::move(w).error();
+      summary_.morphTargetBytes += record.morphBytes;
+      encodeNodeRecord(record, std::span<std::byte, kNodeRecordBytes>(
+                                   nodeTable.data() + b * kNodeRecordBytes, kNodeRecordBytes));
+      summary_.patchBytesCompressed += node.blob.size();
+      summary_.totalTriangles += record.triangleCount;
+      if (leaf) summary_.leafTriangles += record.triangleCount;
+    }
+    if (auto w = file.writePrefix(h.nodeTableOffset + k0 * kNodeRecordBytes, nodeTable); !w) {
+      return std::move(w).error();
+    }
+    nodeTableCrc = crc32(nodeTable, nodeTableCrc);
+  }
+  return nodeTableCrc;
+}
+
 Result<ManifestFace> Assembly::writeFace(int face) {
   FaceHeader h;
   h.face = static_cast<std::uint32_t>(face);
@@ -407,37 +460,25 @@ Result<ManifestFace> Assembly::writeFace(int face) {
   h.textureTableOffset = h.nodeTableOffset + h.nodeCount * kNodeRecordBytes;
   const std::uint64_t tablesEnd = h.textureTableOffset + h.textureNodeCount * kTextureRecordBytes;
   h.blobsOffset = (tablesEnd + 4095) / 4096 * 4096;  // page-aligned blob area
+  std::vector<std::byte> padding(h.blobsOffset - tablesEnd);
+  const std::string name = "face" + std::to_string(face) + ".pbdam";
+  auto file = AtomicFileWriter::create(in_.options.outDir / name);
+  if (!file) return std::move(file).error();
+  // The blocks the face takes before its morph targets are made (the tables, the patches and
+  // the tiles): a disk that cannot hold that much fails here, naming the size.
+  std::uint64_t known = h.blobsOffset;
+  for (std::uint64_t k = 0; k < h.nodeCount; ++k) known += located_[firstSlot + k].blob.size();
+  for (std::uint64_t k = 0; k < h.textureNodeCount; ++k)
+    known += tiles_.blobs[firstTile + k].size();
+  if (auto r = file->reserve(known); !r) return std::move(r).error();
+  // The header and tables are written last, in place: a record holds its blobs' offset, known
+  // once the morph targets before it are made, and the header the tables' CRCs. The morph
+  // targets are made and written a batch of nodes at a time, so that the assembly holds one
+  // batch, never a face's worth (several GB at the paper's scale).
+  if (auto r = file->leavePrefix(h.blobsOffset); !r) return std::move(r).error();
   std::uint64_t at = h.blobsOffset;
-  std::vector<std::byte> nodeTable(h.nodeCount * kNodeRecordBytes);
-  auto morph = faceMorphTargets(firstSlot, h.nodeCount);
-  if (!morph) return std::move(morph).error();
-  std::vector<std::span<const std::byte>> blobs;
-  for (std::uint64_t k = 0; k < h.nodeCount; ++k) {
-    const Located& node = located_[firstSlot + k];
-    NodeRecord record = decodeNodeRecord(
-        std::span<const std::byte, kNodeRecordBytes>(node.record, kNodeRecordBytes));
-    record.blobOffset = at;
-    record.blobBytes = static_cast<std::uint32_t>(node.blob.size());
-    const std::uint64_t id = idAt(firstSlot + k);
-    record.heapIndex = id % nodesPerTree_;
-    const bool leaf = in_.plan.isLeaf(runtime::bintreeLevel(record.heapIndex), id);
-    record.flags = leaf ? kRecordLeaf : 0;
-    record.sources = 0;
-    if (leaf && in_.leafSources) {
-      record.sources = in_.leafSources(
-          triangleOfNode(Lattice(in_.latticeCells), id, static_cast<int>(in_.depth)));
-    }
-    record.morphBytes = static_cast<std::uint32_t>((*morph)[k].size());
-    at += node.blob.size() + record.morphBytes;
-    blobs.emplace_back(node.blob);
-    blobs.emplace_back((*morph)[k]);
-    summary_.morphTargetBytes += record.morphBytes;
-    encodeNodeRecord(record, std::span<std::byte, kNodeRecordBytes>(
-                                 nodeTable.data() + k * kNodeRecordBytes, kNodeRecordBytes));
-    summary_.patchBytesCompressed += node.blob.size();
-    summary_.totalTriangles += record.triangleCount;
-    if (leaf) summary_.leafTriangles += record.triangleCount;
-  }
+  auto nodeTableCrc = appendNodes(*file, h, firstSlot, at);
+  if (!nodeTableCrc) return std::move(nodeTableCrc).error();
   std::vector<std::byte> textureTable(h.textureNodeCount * kTextureRecordBytes);
   for (std::uint64_t k = 0; k < h.textureNodeCount; ++k) {
     const std::size_t tile = firstTile + k;
@@ -456,28 +497,26 @@ Result<ManifestFace> Assembly::writeFace(int face) {
     TextureRecord t{at, static_cast<std::uint32_t>(blob.size()), tiles_.errors[tile], heap,
                     leaf ? kRecordLeaf : 0};
     at += blob.size();
-    blobs.emplace_back(blob);
+    if (auto w = file->append(blob); !w) return std::move(w).error();
     encodeTextureRecord(t, std::span<std::byte, kTextureRecordBytes>(
                                textureTable.data() + k * kTextureRecordBytes, kTextureRecordBytes));
   }
   h.fileBytes = at;
-  h.nodeTableCrc = crc32(nodeTable);
+  h.nodeTableCrc = *nodeTableCrc;
   h.textureTableCrc = crc32(textureTable);
   std::array<std::byte, kFaceHeaderBytes> header{};
   encodeFaceHeader(h, header);
-  std::vector<std::byte> padding(h.blobsOffset - tablesEnd);
-  const std::string name = "face" + std::to_string(face) + ".pbdam";
-  auto file = AtomicFileWriter::create(in_.options.outDir / name);
-  if (!file) return std::move(file).error();
-  // The whole face's blocks first: a disk that cannot hold it fails here, naming its size.
-  if (auto r = file->reserve(h.fileBytes); !r) return std::move(r).error();
-  for (std::span<const std::byte> chunk : std::initializer_list<std::span<const std::byte>>{
-           header, nodeTable, textureTable, padding}) {
-    if (auto w = file->append(chunk); !w) return std::move(w).error();
+  // The prefix in file order: header, node table (written above), texture table, padding.
+  if (auto w = file->writePrefix(0, header); !w) return std::move(w).error();
+  if (auto w = file->writePrefix(h.textureTableOffset, textureTable); !w) {
+    return std::move(w).error();
   }
-  for (const auto& blob : blobs) {
-    if (auto w = file->append(blob); !w) return std::move(w).error();
-  }
+  if (auto w = file->writePrefix(tablesEnd, padding); !w) return std::move(w).error();
+  std::uint32_t prefixCrc = crc32(header);
+  prefixCrc = crc32Combine(prefixCrc, *nodeTableCrc, h.nodeCount * kNodeRecordBytes);
+  prefixCrc = crc32(textureTable, prefixCrc);
+  prefixCrc = crc32(padding, prefixCrc);
+  file->prefixWritten(prefixCrc);
   const std::uint32_t crc = file->crc();
   if (auto w = file->finish(); !w) return std::move(w).error();
   return ManifestFace{name, h.fileBytes, crc};

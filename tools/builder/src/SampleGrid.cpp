@@ -322,6 +322,19 @@ void SampleGrid::releaseResident() const noexcept {
   for (const MappedFile& m : samplesMappings_) (void)m.releaseResident();
 }
 
+void SampleGrid::noteMappedSampleReads(const void* lo, const void* hi) const noexcept {
+  constexpr std::uintptr_t kPage = 4096;
+  const auto first = reinterpret_cast<std::uintptr_t>(lo) / kPage;       // NOLINT: page arithmetic
+  const auto last = (reinterpret_cast<std::uintptr_t>(hi) - 1) / kPage;  // NOLINT: the same
+  const std::uint64_t bytes = (last - first + 1) * kPage;
+  const std::uint64_t before = mappedSampleReads_->fetch_add(bytes, std::memory_order_relaxed);
+  // The one call that crosses the bound releases; pages counted meanwhile start the next round.
+  if (before < kReleaseSamplesAfterBytes && before + bytes >= kReleaseSamplesAfterBytes) {
+    for (const MappedFile& m : samplesMappings_) (void)m.releaseResident();
+    mappedSampleReads_->fetch_sub(before + bytes, std::memory_order_relaxed);
+  }
+}
+
 SampleGrid SampleGrid::build(const HeightGrid& dem, const Planet& planet, const Lattice& lattice,
                              std::uint32_t bucketCells,
                              const std::function<void(std::size_t, std::size_t)>& progress) {
@@ -543,6 +556,8 @@ Result<void> SampleGrid::writeSourceBuckets(const HeightGrid& dem, const Planet&
   for (std::size_t b = 0; b < buckets; ++b) {
     start[b + 1] = start[b] + counts[b].load(std::memory_order_relaxed);
     counts[b].store(0, std::memory_order_relaxed);  // from here on: samples placed so far
+    // Every 64 MB: the offsets of 6·4096² buckets are 800 MB of pages written in this loop.
+    if ((b + 1) % (std::size_t{1} << 23) == 0) (void)map->releaseResident();
   }
   (void)map->releaseResident();  // the offsets' pages (8 bytes a bucket) stay in the page cache
   auto* samples = reinterpret_cast<SourceSample*>(at + parts.samples);

@@ -49,7 +49,7 @@ struct BuildOptions final {
   double heightStepMeters = 1.0 / 64.0;
   /// A DEM whose heights take at least this many bytes is read into a mapped scratch file on
   /// the output's filesystem instead of memory (DemReadOptions::mapAtBytes).
-  std::uint64_t demMapAtBytes = std::uint64_t{256} << 20;
+  std::uint64_t demMapAtBytes = std::uint64_t{16} << 20;
   int threads = 0;      ///< 0: all cores (per rank)
   bool force = false;   ///< replace an existing dataset
   bool resume = false;  ///< continue from OUT/.build-checkpoint after its last complete level

@@ -90,7 +90,9 @@ class ByteReader final {
 
 /// Writes one file through a temporary name in the same directory (docs/architecture.md "Formats"):
 /// bytes are appended (buffered), finish() fsyncs and renames. Destroyed unfinished, it removes the
-/// temporary. Keeps the CRC-32 of everything appended.
+/// temporary. Keeps the CRC-32 of everything appended. A file whose head depends on what follows
+/// it (a face file's header and node table) leaves that head as a prefix, appends the rest, then
+/// writes the prefix in place: nothing of the file need be held in memory whole.
 class AtomicFileWriter final {
  public:
   static formats::Result<AtomicFileWriter> create(const std::filesystem::path& path);
@@ -107,10 +109,20 @@ class AtomicFileWriter final {
   /// Reserves the file's blocks for `bytes` bytes up front (posix_fallocate), so that a file of
   /// known size fails at once, naming the size it needs, when it cannot fit.
   formats::Result<void> reserve(std::uint64_t bytes);
-  /// Bytes appended so far.
+  /// Leaves the file's first `bytes` to be written later (writePrefix), before anything is
+  /// appended; appends then go after them.
+  formats::Result<void> leavePrefix(std::uint64_t bytes);
+  /// Writes `bytes` at `offset` inside the prefix (pwrite; any order, each byte once).
+  formats::Result<void> writePrefix(std::uint64_t offset, std::span<const std::byte> bytes);
+  /// Says the prefix is written and gives its CRC-32 (of all its bytes in file order), which
+  /// crc() then includes.
+  void prefixWritten(std::uint32_t prefixCrc) noexcept;
+  /// Bytes of the file so far (the prefix and what was appended).
   std::uint64_t size() const noexcept { return size_; }
+  /// CRC-32 of the file: of what was appended, and of the prefix before it once prefixWritten.
   std::uint32_t crc() const noexcept { return crc_; }
-  /// Flushes, fsyncs, closes and renames the temporary to the path.
+  /// Flushes, fsyncs, closes and renames the temporary to the path. Internal error when a
+  /// prefix was left and never said written.
   formats::Result<void> finish();
 
  private:
@@ -122,6 +134,8 @@ class AtomicFileWriter final {
   std::vector<std::byte> buffer_;
   std::uint64_t size_ = 0;
   std::uint64_t reserved_ = 0;
+  std::uint64_t prefix_ = 0;  ///< the prefix's bytes
+  bool prefixPending_ = false;
   std::uint32_t crc_ = 0;
 };
 

@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <bit>
 #include <cassert>
 #include <cmath>
@@ -22,6 +23,7 @@
 #include <functional>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
+#include <memory>
 #include <optional>
 #include <span>
 #include <vector>
@@ -162,6 +164,11 @@ class SampleGrid final {
   /// page cache; the next read is a minor fault), so that RSS counts only what was touched
   /// since. Safe while other threads read. No-op for an in-memory grid.
   void releaseResident() const noexcept;
+  /// Out of core, the samples' mappings are also released each time the pages read from them
+  /// since the last release reach this many bytes, so that the pages a build's error
+  /// measurement holds are bounded by its reads, not by a timer against the CPU's speed: a
+  /// coarse level reads every sample of the face (hundreds of MB for a large input).
+  static constexpr std::uint64_t kReleaseSamplesAfterBytes = std::uint64_t{32} << 20;
 
   /// A bucket of a table holding more samples than this is split into sub-buckets
   /// (subBucketsPerSide).
@@ -504,11 +511,20 @@ class SampleGrid final {
         (static_cast<std::size_t>(face) * bucketsPerSide_ + by) * bucketsPerSide_;
     std::size_t next = rowFirst + rx0;
     const std::size_t last = rowFirst + rx1;
+    // The runs lie in one stretch of the table (its buckets rx0..rx1 are consecutive): the
+    // pages between the first and the last are what the visits touch.
+    const SourceSample* lo = nullptr;
+    const SourceSample* hi = nullptr;
+    const auto counted = [&lo, &hi, &visit](std::span<const SourceSample> run, std::uint32_t bx) {
+      if (!lo || run.data() < lo) lo = run.data();
+      if (!hi || run.data() + run.size() > hi) hi = run.data() + run.size();
+      visit(run, bx);
+    };
     const auto wholeBuckets = [&](std::size_t first, std::size_t end) {  // [first, end)
       for (std::size_t b = first; b < end; ++b) {
         if (t.start[b] != t.start[b + 1]) {
-          visit(std::span<const SourceSample>(t.samples + t.start[b], t.samples + t.start[b + 1]),
-                static_cast<std::uint32_t>(b - rowFirst));
+          counted(std::span<const SourceSample>(t.samples + t.start[b], t.samples + t.start[b + 1]),
+                  static_cast<std::uint32_t>(b - rowFirst));
         }
       }
     };
@@ -519,10 +535,18 @@ class SampleGrid final {
       wholeBuckets(next, static_cast<std::size_t>(d->bucket));
       next = static_cast<std::size_t>(d->bucket) + 1;
       const std::uint32_t bx = static_cast<std::uint32_t>(d->bucket - rowFirst);
-      visitDenseBucket(t, *d, bx, by, outline, visit);
+      visitDenseBucket(t, *d, bx, by, outline, counted);
     }
     wholeBuckets(next, last + 1);
+    if (!samplesMappings_.empty()) {
+      // The bucket offsets read (a few pages of the table's CSR index), and the samples.
+      noteMappedSampleReads(t.start + rowFirst + rx0, t.start + rowFirst + rx1 + 2);
+      if (lo) noteMappedSampleReads(lo, hi);
+    }
   }
+  /// Adds the pages of [lo, hi) to those read from the mappings since their last release and
+  /// releases them when that reaches kReleaseSamplesAfterBytes.
+  void noteMappedSampleReads(const void* lo, const void* hi) const noexcept;
 
   /// One bucket-sorted sample table: CSR offsets over the 6·bucketsPerSide² buckets (face-major,
   /// then by, bx) into its samples, and its dense buckets (sorted by bucket).
@@ -599,6 +623,10 @@ class SampleGrid final {
   std::vector<std::uint32_t> subStart_;
   streaming::MappedFile heightsMapping_;
   std::vector<streaming::MappedFile> samplesMappings_;
+  /// Bytes of samples read from samplesMappings_ since they were last released (a pointer so
+  /// that the grid stays movable).
+  std::unique_ptr<std::atomic<std::uint64_t>> mappedSampleReads_ =
+      std::make_unique<std::atomic<std::uint64_t>>(0);
   std::uint64_t noDataPoints_ = 0;
   float minHeight_ = 0.0f;
   float maxHeight_ = 0.0f;
