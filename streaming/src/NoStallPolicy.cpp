@@ -79,50 +79,44 @@ NoStallCut NoStallPolicy::cut(const Camera& camera, RefinementOptions options) c
   // caps the level like a patch that is not resident (its children stay out of the cut).
   options.residentRecordsOnly = true;
   // The byte ranges a cut will read (what the caller holds decoded reads nothing), found
-  // resident: the ones hold() locks.
-  std::vector<PageRange> reads;
-  const auto atHand = [&reads, this](const MappedFile& file, std::uint64_t offset,
-                                     std::uint64_t bytes) {
-    if (!rangeResident(file, offset, bytes)) return false;
-    if (holdPages_) reads.push_back({&file, offset, bytes});
+  // resident, are locked at once: the kernel could otherwise take a page between this check and
+  // the frame's decode — or between it and a later mlock, which would then read the page back
+  // from disk on the render thread. A refinement at a lower cap starts its locks over.
+  HeldPages held;
+  // What the GPU cache holds (`cached`) is at hand whatever the page cache says; but a cut
+  // larger than the cache is drawn in passes that evict some of it before its draw, whose decode
+  // then reads the file: its pages too are locked where they are resident.
+  const auto atHand = [&held, this](bool cached, const MappedFile& file, std::uint64_t offset,
+                                    std::uint64_t bytes) {
+    if (!rangeResident(file, offset, bytes)) return cached;
+    // Best effort: a range mlock refuses (no memory to lock) is at hand, unlocked.
+    if (holdPages_) (void)held.hold(file, offset, bytes);
     return true;
   };
   for (;;) {
     options.maxLevel = level;
     Cut cut = refine(view, camera, options);
     int worst = cut.unresidentRecordLevel < 0 ? level + 1 : cut.unresidentRecordLevel;
-    reads.clear();
+    held = HeldPages{};  // unlocks the previous cap's ranges
     for (const CutPatch& p : cut.patches) {
-      if (cached_.patch && cached_.patch(p.node)) continue;
       const NodeRecord n = view.node(p.node);
-      if (!atHand(dataset_->faceFile(p.node.face), n.blobOffset, n.blobsBytes())) {
+      const bool cached = cached_.patch && cached_.patch(p.node);
+      if (!atHand(cached, dataset_->faceFile(p.node.face), n.blobOffset, n.blobsBytes())) {
         worst = std::min(worst, p.level);
       }
     }
     for (const TileKey& t : cut.tiles) {
-      if (cached_.tile && cached_.tile(t)) continue;
       const TextureRecord r = view.textureNode(t);
-      if (!atHand(dataset_->faceFile(t.face), r.blobOffset, r.blobBytes)) {
+      const bool cached = cached_.tile && cached_.tile(t);
+      if (!atHand(cached, dataset_->faceFile(t.face), r.blobOffset, r.blobBytes)) {
         // Tile level t is drawn with patches of levels 2t and 2t+1.
         const auto tileLevel = static_cast<int>(textureLevelOfHeap(t.heap));
         worst = std::min(worst, 2 * tileLevel);
       }
     }
-    if (worst > level) {
-      NoStallCut chosen{std::move(cut), level, {}};
-      if (holdPages_) hold(reads, chosen.held);
-      return chosen;
-    }
+    if (worst > level) return NoStallCut{std::move(cut), level, std::move(held)};
     level = std::min(level, worst) - 1;
     if (level < 0) return {Cut{}, -1, {}};
-  }
-}
-
-void NoStallPolicy::hold(const std::vector<PageRange>& reads, HeldPages& held) {
-  // Right after the residency check: the window in which the kernel could still take a page
-  // is the few microseconds between mincore and mlock.
-  for (const PageRange& r : reads) {
-    if (!held.hold(*r.file, r.offset, r.bytes)) return;
   }
 }
 

@@ -112,13 +112,6 @@ class NoStallPolicy final {
                       int previousCap, int maxRise = 2) const;
 
  private:
-  /// A byte range of a face file that a cut reads.
-  struct PageRange final {
-    const MappedFile* file = nullptr;
-    std::uint64_t offset = 0;
-    std::uint64_t bytes = 0;
-  };
-  static void hold(const std::vector<PageRange>& reads, HeldPages& held);
   const MappedDataset* dataset_;
   bool holdPages_ = false;
   NoStallCached cached_;
