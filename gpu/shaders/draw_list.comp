@@ -218,8 +218,10 @@ void writeDraw(uint i, uint at) {
 }
 
 void main() {
-  const uint j = gl_GlobalInvocationID.x;
+  // Rows of groups (ComputeProgram.h, dispatchLinear): more than 65,535 groups of 256 nodes.
+  const uint group = gl_WorkGroupID.x + gl_WorkGroupID.y * gl_NumWorkGroups.x;
   const uint local = gl_LocalInvocationID.x;
+  const uint j = group * 256u + local;
   if (pass.mode == 0u) {
     // Hillis-Steele inclusive scan in shared memory, then exclusive.
     const uint flag = j < frame.count && drawn(dfs.order[j]) ? 1u : 0u;
@@ -232,7 +234,7 @@ void main() {
       barrier();
     }
     if (j < frame.count) slots.slot[j] = partial[local] - flag;
-    if (local == 255u) groupSums.sums[gl_WorkGroupID.x] = partial[255];
+    if (local == 255u && group < frame.groups) groupSums.sums[group] = partial[255];
   } else if (pass.mode == 1u) {
     if (j != 0u) return;
     uint running = 0u;
@@ -246,7 +248,7 @@ void main() {
     if (j >= frame.count) return;
     const uint i = dfs.order[j];
     if (!drawn(i)) return;
-    const uint at = groupSums.sums[gl_WorkGroupID.x] + slots.slot[j];
+    const uint at = groupSums.sums[group] + slots.slot[j];
     writeDraw(i, at);
     atomicAdd(total.triangles, table.nodes[i].draw.x / 3u);
   }

@@ -82,7 +82,8 @@ bool near(uint r, dvec4 sphere) {
 }
 
 void main() {
-  const uint i = gl_GlobalInvocationID.x;
+  // Rows of groups (ComputeProgram.h, dispatchLinear): more than 65,535 × 64 nodes.
+  const uint i = gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * 64u;
   if (i >= frame.count) return;
   const SelectNode n = tree.nodes[i];
   if (pass.mode == 0u) {

@@ -134,12 +134,11 @@ void computeBarrier(VkCommandBuffer cmd, bool toHost) noexcept {
                     : (VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT));
 }
 
-void dispatchLinear(VkCommandBuffer cmd, std::uint64_t invocations,
-                    std::uint32_t localSize) noexcept {
-  constexpr std::uint64_t kMaxGroups = 65535;
+void dispatchLinear(VkCommandBuffer cmd, std::uint64_t invocations, std::uint32_t localSize,
+                    std::uint32_t groupsPerRow) noexcept {
   const std::uint64_t groups = (invocations + localSize - 1) / localSize;
   if (groups == 0) return;
-  const std::uint64_t columns = std::min(groups, kMaxGroups);
+  const std::uint64_t columns = std::min<std::uint64_t>(groups, std::max(groupsPerRow, 1U));
   const std::uint64_t rows = (groups + columns - 1) / columns;
   vkCmdDispatch(cmd, static_cast<std::uint32_t>(columns), static_cast<std::uint32_t>(rows), 1);
 }

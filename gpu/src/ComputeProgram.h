@@ -39,11 +39,13 @@ class ComputeProgram final {
 };
 
 /// Dispatches `invocations` invocations of a shader of `localSize` × 1 × 1 in as many rows of
-/// at most 65,535 groups (the least maxComputeWorkGroupCount Vulkan guarantees) as it takes;
-/// the shader's index is gl_GlobalInvocationID.x + gl_GlobalInvocationID.y · gl_NumWorkGroups.x
-/// · localSize (see linearInvocation in the shaders).
-void dispatchLinear(VkCommandBuffer cmd, std::uint64_t invocations,
-                    std::uint32_t localSize) noexcept;
+/// at most `groupsPerRow` groups (default 65,535: the least maxComputeWorkGroupCount Vulkan
+/// guarantees) as it takes; the shader's index is gl_GlobalInvocationID.x +
+/// gl_GlobalInvocationID.y · gl_NumWorkGroups.x · localSize, and a whole group's is
+/// gl_WorkGroupID.x + gl_WorkGroupID.y · gl_NumWorkGroups.x. The last row may hold groups past
+/// the end: the shader returns for indices past `invocations`.
+void dispatchLinear(VkCommandBuffer cmd, std::uint64_t invocations, std::uint32_t localSize,
+                    std::uint32_t groupsPerRow = 65535) noexcept;
 
 /// One global memory barrier (synchronization2) from `srcStages`' `srcAccess` to `dstStages`'
 /// `dstAccess`.

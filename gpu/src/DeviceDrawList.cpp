@@ -122,6 +122,7 @@ Result<DeviceDrawList> DeviceDrawList::create(VulkanContext& context, const Data
   list.constants_ = patchDrawConstants(dataset);
   list.nodeCount_ = static_cast<std::uint32_t>(index.nodes.size());
   list.groups_ = (list.nodeCount_ + kGroupSize - 1) / kGroupSize;
+  list.groupsPerRow_ = selector.groupsPerRow();
 
   std::vector<DrawNode> table(index.nodes.size());
   std::vector<std::uint32_t> parents(index.nodes.size());
@@ -211,7 +212,11 @@ Result<void> DeviceDrawList::record(VkCommandBuffer cmd, const Camera& camera,
   program_->bind(cmd);
   for (std::uint32_t mode = 0; mode < 3; ++mode) {
     program_->push(cmd, std::as_bytes(std::span(&mode, 1)));
-    vkCmdDispatch(cmd, mode == 1 ? 1 : groups_, 1, 1);
+    if (mode == 1) {
+      vkCmdDispatch(cmd, 1, 1, 1);
+    } else {
+      dispatchLinear(cmd, nodeCount_, kGroupSize, groupsPerRow_);
+    }
     if (mode < 2) computeBarrier(cmd);
   }
   // The list feeds the indirect draw, its records the vertex shader, its count the host.

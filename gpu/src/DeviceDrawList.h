@@ -76,6 +76,7 @@ class DeviceDrawList final {
   runtime::PatchDrawConstants constants_{};
   std::uint32_t nodeCount_ = 0;
   std::uint32_t groups_ = 0;
+  std::uint32_t groupsPerRow_ = 65535;
   std::uint32_t capacity_ = 0;
   GpuBuffer records_, nodes_, frame_, order_, slots_, groupSums_, commands_, count_, parents_;
   std::optional<ComputeProgram> program_;

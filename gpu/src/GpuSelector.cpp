@@ -77,6 +77,7 @@ struct GpuSelector::Impl {
   GpuBuffer regions;
   GpuBuffer points;
   GpuBuffer wanted;
+  std::uint32_t groupsPerRow = 65535;
 
   /// The focus regions' and the caller's predicate's inputs of one selection.
   Result<void> upload(const SelectionOptions& selection);
@@ -118,7 +119,8 @@ Result<void> GpuSelector::Impl::upload(const SelectionOptions& selection) {
 }
 
 Result<GpuSelector> GpuSelector::create(VulkanContext& context, const DatasetView& dataset,
-                                        std::uint64_t tableBudgetBytes) {
+                                        std::uint64_t tableBudgetBytes,
+                                        std::uint32_t groupsPerRow) {
   if (!context.caps().shaderFloat64) {
     return makeError(ErrorCode::InvalidArgument,
                      "GPU selection needs 64-bit floats in shaders; the device has none");
@@ -126,6 +128,7 @@ Result<GpuSelector> GpuSelector::create(VulkanContext& context, const DatasetVie
   auto impl = std::make_unique<Impl>();
   impl->context = &context;
   impl->dataset = &dataset;
+  impl->groupsPerRow = std::max(groupsPerRow, 1U);
   // The node tables in the index space of DiamondIndex (parents and diamond partners shared
   // with the host's selection).
   impl->index.emplace(dataset);
@@ -225,12 +228,11 @@ Result<void> GpuSelector::recordSelection(VkCommandBuffer cmd, const Camera& cam
   std::memcpy(m.frame.mappedBytes().data(), &f, sizeof f);
   if (auto r = m.frame.flushHostWrites(); !r) return r;
 
-  const std::uint32_t groups = (count + kGroupSize - 1) / kGroupSize;
   const std::uint32_t closureSteps = 2 * (static_cast<std::uint32_t>(dataset.depth()) + 1);
   m.program->bind(cmd);
   const auto dispatch = [&](std::uint32_t mode) {
     m.program->push(cmd, std::as_bytes(std::span(&mode, 1)));
-    vkCmdDispatch(cmd, groups, 1, 1);
+    dispatchLinear(cmd, count, kGroupSize, m.groupsPerRow);
     computeBarrier(cmd);
   };
   dispatch(0);
@@ -240,6 +242,7 @@ Result<void> GpuSelector::recordSelection(VkCommandBuffer cmd, const Camera& cam
 }
 
 const DiamondIndex& GpuSelector::index() const noexcept { return *impl_->index; }
+std::uint32_t GpuSelector::groupsPerRow() const noexcept { return impl_->groupsPerRow; }
 const GpuBuffer& GpuSelector::screenErrors() const noexcept { return impl_->screen; }
 const GpuBuffer& GpuSelector::nodeStates() const noexcept { return impl_->state; }
 

@@ -2,7 +2,8 @@
 // lavapipe with validation on: for Mars and Earth cameras, with geomorphing and with a focus
 // region, the indirect frame is byte-identical to render() of the read-back cut, the draws are
 // that cut's drawable patches with its triangles, and every record is makePatchDrawRecord's bit
-// for bit; a budget that cannot hold the whole dataset is refused naming the bytes. CTest also
+// for bit, also when the scan is dispatched in rows of groups; a budget that cannot hold the
+// whole dataset is refused naming the bytes. CTest also
 // runs these on lavapipe as it runs on an x86-64 CPU without AVX-512 (tests/gpu/CMakeLists.txt),
 // whose double rounding once made the records differ.
 #include <gtest/gtest.h>
@@ -50,13 +51,18 @@ class DeviceDrawListTest : public test::GpuTest {
     return TerrainRenderer::create(context(), view, ro);
   }
 
-  void expectReadBackFrames(const std::filesystem::path& dir, std::uint64_t seed, bool focus) {
+  void expectReadBackFrames(const std::filesystem::path& dir, std::uint64_t seed, bool focus,
+                            std::uint32_t groupsPerRow = 65535) {
     if (!supported()) GTEST_SKIP() << "no indirect draw counts or draw parameters";
     const auto dataset = test::openDataset(dir);
     ASSERT_NE(dataset, nullptr);
     const DatasetView& view = dataset->view();
-    auto selector = GpuSelector::create(context(), view);
+    auto selector = GpuSelector::create(context(), view, std::uint64_t{256} << 20, groupsPerRow);
     ASSERT_TRUE(selector.ok()) << selector.error().message;
+    if (groupsPerRow < 65535) {
+      ASSERT_GT(selector->index().nodes.size(), std::size_t{256} * groupsPerRow * 2)
+          << "the scan spans several rows of groups";
+    }
     auto renderer = makeRenderer(view, GpuCache::bytesForEverything(context(), view));
     ASSERT_TRUE(renderer.ok()) << renderer.error().message;
     const double radius = view.planet().equatorialRadiusMeters();
@@ -137,6 +143,13 @@ TEST_F(DeviceDrawListTest, EarthFramesAreTheReadBackCutsFramesOnLavapipe) {
 TEST_F(DeviceDrawListTest, FocusCutsAreDrawnFromTheDeviceList) {
   PBDAM_REQUIRE_DATASET(dir, "mola");
   expectReadBackFrames(dir, 13, true);
+}
+
+// The list's scan in rows of 2 groups of 256 nodes (past 65,535 groups, 16.8 M nodes, a
+// dispatch is made of rows): the same frames and records.
+TEST_F(DeviceDrawListTest, ListsScannedInRowsOfGroupsDrawTheSameFrames) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  expectReadBackFrames(dir, 14, false, 2);
 }
 
 TEST_F(DeviceDrawListTest, ABudgetBelowTheWholeDatasetIsRefused) {

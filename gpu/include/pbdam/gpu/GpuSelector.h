@@ -30,11 +30,15 @@ class GpuSelector final {
  public:
   /// Uploads the node tables (64 bytes a node) and creates the passes. InvalidArgument when the
   /// tables need more than `tableBudgetBytes` (naming both sizes) or the device has no 64-bit
-  /// floats in shaders; DeviceError for Vulkan failures.
+  /// floats in shaders; DeviceError for Vulkan failures. Its passes, and a DeviceDrawList's
+  /// made from it, dispatch one invocation a node in rows of at most `groupsPerRow` groups
+  /// (65,535, the least maxComputeWorkGroupCount Vulkan guarantees: 4.2 M nodes a row at 64 a
+  /// group; the paper-scale dataset has 6.3 M); tests narrow the rows to cover several.
   static formats::Result<GpuSelector> create(VulkanContext& context,
                                              const runtime::DatasetView& dataset,
                                              std::uint64_t tableBudgetBytes = std::uint64_t{256}
-                                                                              << 20);
+                                                                              << 20,
+                                             std::uint32_t groupsPerRow = 65535);
   GpuSelector(GpuSelector&&) noexcept;
   GpuSelector& operator=(GpuSelector&&) noexcept;
   GpuSelector(const GpuSelector&) = delete;
@@ -54,6 +58,8 @@ class GpuSelector final {
   formats::Result<void> recordSelection(VkCommandBuffer cmd, const runtime::Camera& camera,
                                         const runtime::SelectionOptions& selection);
   const runtime::DiamondIndex& index() const noexcept;
+  /// The row width of its dispatches (create's `groupsPerRow`).
+  std::uint32_t groupsPerRow() const noexcept;
   const GpuBuffer& screenErrors() const noexcept;
   const GpuBuffer& nodeStates() const noexcept;
 
