@@ -141,11 +141,14 @@ void Prefetcher::prefetch(const Cut& cut) {
 void Prefetcher::adviseRange(int face, std::uint64_t offset, std::uint64_t bytes, ResidentKey key) {
   if (bytes == 0) return;
   auto [it, fresh] = advisedAt_.try_emplace(key.packed, cycle_);
-  if (!fresh && it->second + 16 > cycle_) return;  // advised recently
-  it->second = cycle_;
   const MappedFile& file = dataset_.faceFile(face);
   const auto resident = file.residentPages(offset, bytes);
   const bool wasResident = resident && resident->first == resident->second;
+  // Advised recently: not again, unless an earlier prediction advised it and its pages left
+  // the page cache since. A proactive reclaimer (DAMON's pageout, senpai) takes pages that were
+  // read ahead and not yet mapped first, as cold, with plenty of memory free.
+  if (!fresh && it->second + 16 > cycle_ && (it->second == cycle_ || wasResident)) return;
+  it->second = cycle_;
   if (!wasResident && options_.pageRoomBytes > 0 &&
       cycleBytes_ + bytes > options_.pageRoomBytes / 2) {
     // Over this prediction's share of the page room: asked for again by the next one.

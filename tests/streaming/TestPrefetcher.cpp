@@ -185,6 +185,55 @@ void expectTheRangesOfThePredictedCut(double fovMarginDegrees, double toleranceS
   EXPECT_EQ(prefetcher.stats().rangesResident, asked.size() - advised);
 }
 
+// A proactive reclaimer (DAMON's pageout, as on the machines these benchmarks ran on) takes
+// pages that were read ahead and not yet used, with memory free: a range an earlier prediction
+// advised whose pages left the page cache is advised again by the next one, not after 16.
+TEST(Prefetcher, ARangeEvictedAfterItsAdviceIsAdvisedAgain) {
+  PBDAM_REQUIRE_DATASET(shared, "mola");
+  test::TempDir temp;
+  const std::filesystem::path dir = test::privateCopy(shared, temp);
+  ASSERT_TRUE(evictDataset(dir).ok());
+  auto dataset = MappedDataset::open(dir);
+  ASSERT_TRUE(dataset.ok()) << dataset.error().message;
+  std::mutex mutex;
+  std::map<std::uint64_t, std::vector<PrefetchRange>> asked;  // by prediction
+  PrefetchOptions options;
+  options.onRange = [&](const PrefetchRange& range) {
+    const std::lock_guard<std::mutex> lock(mutex);
+    asked[range.cycle].push_back(range);
+  };
+  const Camera camera = Camera::fromPose((*dataset)->view().planet(),
+                                         {-8.0, -75.0, 150e3, 90.0, -20.0, 0.0}, {320, 240, 60.0});
+  Prefetcher prefetcher(**dataset, options);
+  const auto predictions = [&](std::uint64_t n) {
+    for (int wait = 0; wait < 400 && prefetcher.stats().predictions < n; ++wait) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return prefetcher.stats().predictions;
+  };
+  prefetcher.observe(0.0, camera);
+  ASSERT_EQ(predictions(1), 1u);
+  const std::uint64_t advisedFirst = prefetcher.stats().rangesAdvised;
+  ASSERT_GT(advisedFirst, 0u);
+  // The reclaimer's part, all at once.
+  ASSERT_TRUE(evictDataset(dir).ok());
+  prefetcher.observe(0.1, camera);
+  ASSERT_EQ(predictions(2), 2u);
+  prefetcher.stop();
+  const std::lock_guard<std::mutex> lock(mutex);
+  std::size_t again = 0;
+  for (const PrefetchRange& range : asked[2]) {
+    if (!range.wasResident) ++again;
+  }
+  EXPECT_GT(again, 0u) << "ranges evicted after their advice were not advised again";
+  EXPECT_EQ(prefetcher.stats().rangesAdvised, advisedFirst + again);
+  // Each at most once a prediction.
+  std::set<std::uint64_t> keys;
+  for (const PrefetchRange& range : asked[2]) {
+    EXPECT_TRUE(keys.insert(range.key.packed).second) << "range asked for twice";
+  }
+}
+
 TEST(Prefetcher, AsksForExactlyTheRangesOfThePredictedCut) {
   expectTheRangesOfThePredictedCut(0.0, 1.0);
 }
