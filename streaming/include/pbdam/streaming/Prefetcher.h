@@ -67,8 +67,8 @@ struct PrefetchOptions final {
   double toleranceScale = 0.75;
   /// Called on the worker thread for every range of a predicted cut that was not advised in
   /// the last 16 predictions, or was and left the page cache since (a proactive reclaimer takes
-  /// pages read ahead and not yet used), after it was advised (or found resident). Unset: nothing. Lets a
-  /// caller (a test) see what was fetched; must not call back into the Prefetcher.
+  /// pages read ahead and not yet used), after it was advised (or found resident). Unset: nothing.
+  /// Lets a caller (a test) see what was fetched; must not call back into the Prefetcher.
   std::function<void(const PrefetchRange&)> onRange;
   /// The page cache's room for the dataset under a memory budget (MemoryPlan::pageRoomBytes);
   /// 0: no bound. Otherwise a prediction advises at most half of it (bytes not resident yet,
