@@ -345,9 +345,7 @@ Result<StartPoint> DatasetBuild::setUpOutput() {
 void DatasetBuild::releaseResident() {
   std::lock_guard lock(residentMutex_);
   if (in_.dem) in_.dem->releaseResident();
-  if (in_.composite) {
-    for (const auto& inset : in_.composite->insets()) inset.grid.releaseResident();
-  }
+  if (in_.composite) in_.composite->releaseResident();
   if (grid_) grid_->releaseResident();
   below_.releaseResident();
   assembling_.releaseResident();
@@ -810,9 +808,7 @@ Result<void> DatasetBuild::buildTextures() {
         failedTile = static_cast<std::int64_t>(k);
         return;
       }
-      // A coarse tile samples the DEM across its whole area: its pages leave the process with
-      // the tile rather than at the trimmer's next tick (mapped DEMs; no-op in memory).
-      releaseResident();
+      releaseResident();  // a coarse tile's DEM pages go with it, not at the trimmer's tick
       ++done;
       if (std::this_thread::get_id() == caller && root() &&
           Clock::now() - lastReport > std::chrono::milliseconds(100)) {
@@ -997,9 +993,7 @@ Result<BuildSummary> buildDataset(const BuildOptions& o) {
     result = build.run();
   });
   if (!result) return withResumeHint(std::move(result).error());
-  if (result) {
-    result->seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  }
+  result->seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return result;
 }
 

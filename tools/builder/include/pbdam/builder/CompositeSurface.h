@@ -74,6 +74,10 @@ class CompositeSurface final {
 
   const formats::HeightGrid& base() const noexcept { return base_; }
   const std::vector<Inset>& insets() const noexcept { return insets_; }
+  /// Lets the insets' mapped pages go from the process (HeightGrid::releaseResident).
+  void releaseResident() const {
+    for (const Inset& inset : insets_) inset.grid.releaseResident();
+  }
   /// The spec each inset came from (same order as insets()).
   const std::vector<InsetSpec>& specs() const noexcept { return specs_; }
 
