@@ -11,6 +11,8 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
 
 scripts/install_packages.sh scripts/packages.txt
+# What the build and the main job run is there (each missing one named with its package).
+scripts/preflight.sh main
 
 presets=("$@")
 [ ${#presets[@]} -gt 0 ] || presets=(release)

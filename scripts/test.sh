@@ -32,6 +32,9 @@ trap summary EXIT
 
 # The test-only extras first, so that configuring sees them.
 phase "setup" sh -c 'scripts/setup_test.sh && scripts/install_packages.sh scripts/packages.txt'
+# Every command and file the suite runs is there before anything is built (the missing ones are
+# named with their packages), so a machine without one fails now rather than in a test later.
+phase "preflight" scripts/preflight.sh test
 for preset in $presets; do
   phase "build $preset" scripts/setup.sh "$preset"
 done
