@@ -3,6 +3,7 @@
 // CRSs, checks raw layouts against the file size (GDAL reads short raw files without complaint
 // in some drivers), and maps nodata to NaN.
 #include "pbdam/formats/DemReader.h"
+#include "pbdam/formats/DemTileSet.h"
 
 #include "pbdam/formats/MemoryMapping.h"
 #include "pbdam/formats/NumberList.h"
@@ -17,6 +18,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -840,10 +842,12 @@ std::optional<fs::path> pdsLabelFor(const fs::path& image) {
   return label;
 }
 
-Result<HeightGrid> readDem(const fs::path& path, const DemReadOptions& options) {
-  std::error_code ec;
-  if (!fs::exists(path, ec)) return fail(ErrorCode::NotFound, path, "no such file");
-  if (!fs::is_regular_file(path, ec)) return fail(ErrorCode::InvalidArgument, path, "not a file");
+namespace {
+
+/// readDem's work on a path GDAL opens (a file, or a VRT in GDAL's memory filesystem); the grid's
+/// source names `name` when given.
+Result<HeightGrid> readOpened(const fs::path& path, const std::string& name,
+                              const DemReadOptions& options) {
   registerGdalOnce();
   GdalErrorCapture capture;
   // Never write .aux.xml side files next to the input.
@@ -862,7 +866,116 @@ Result<HeightGrid> readDem(const fs::path& path, const DemReadOptions& options) 
   if (!options.raw && !dem->source.warped) {
     if (auto r = checkTruncation(*dem, geometry->width * geometry->height); !r) return r.error();
   }
+  if (!name.empty()) dem->source.path = name;
   return readHeights(*dem, *geometry, path, options, capture);
+}
+
+}  // namespace
+
+Result<HeightGrid> readDem(const fs::path& path, const DemReadOptions& options) {
+  if (namesDemSet(path)) {
+    // A directory or a glob: its tiles as one grid, when they make one surface.
+    if (options.raw) {
+      return fail(ErrorCode::InvalidArgument, path, "a set of tiles cannot be read as a raw grid");
+    }
+    auto files = expandDemSet(path);
+    if (!files) return std::move(files).error();
+    auto tiles = probeDemTiles(*files);
+    if (!tiles) return std::move(tiles).error();
+    const auto surfaces = groupDemTiles(*tiles);
+    if (surfaces.size() != 1) {
+      return fail(ErrorCode::InvalidArgument, path,
+                  "its " + std::to_string(tiles->size()) + " tiles make " +
+                      std::to_string(surfaces.size()) +
+                      " separate surfaces (other CRSs or spacings, or tiles that do not touch): "
+                      "one DEM must be one surface (as insets, tiles of several surfaces are "
+                      "joined to the base each)");
+    }
+    return readDemMosaic(*files, path.string(), options);
+  }
+  std::error_code ec;
+  if (!fs::exists(path, ec)) return fail(ErrorCode::NotFound, path, "no such file");
+  if (!fs::is_regular_file(path, ec)) return fail(ErrorCode::InvalidArgument, path, "not a file");
+  return readOpened(path, "", options);
+}
+
+Result<DemTileProbe> probeDemTile(const fs::path& path) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) return fail(ErrorCode::NotFound, path, "no such file");
+  registerGdalOnce();
+  GdalErrorCapture capture;
+  ScopedConfig noPam("GDAL_PAM_ENABLED", "NO");
+  auto dem = openDem(path, DemReadOptions{}, capture);
+  if (!dem) return std::move(dem).error();
+  DemTileProbe probe;
+  probe.path = path;
+  probe.format = dem->driverName;
+  probe.width = GDALGetRasterXSize(dem->dataset.get());
+  probe.height = GDALGetRasterYSize(dem->dataset.get());
+  if (GDALGetGeoTransform(dem->dataset.get(), probe.geoTransform.data()) != CE_None) {
+    return fail(ErrorCode::UnsupportedFormat, path, "has no georeferencing");
+  }
+  if (probe.geoTransform[2] != 0.0 || probe.geoTransform[4] != 0.0 ||
+      !(probe.geoTransform[1] > 0.0) || !(probe.geoTransform[5] < 0.0)) {
+    return fail(ErrorCode::UnsupportedFormat, path,
+                "is not a north-up grid (a tile of a set must be; warp it first)");
+  }
+  if (OGRSpatialReferenceH h = GDALGetSpatialRef(dem->dataset.get()); h != nullptr) {
+    OGRSpatialReference crs = *OGRSpatialReference::FromHandle(h);
+    char* wkt = nullptr;
+    if (crs.exportToWkt(&wkt) == OGRERR_NONE && wkt != nullptr) probe.crsWkt = wkt;
+    CPLFree(wkt);
+    describeCrs(&crs, dem->source);
+    probe.body = dem->source.body;
+  }
+  if (auto r = checkTruncation(*dem, probe.width * probe.height); !r) return r.error();
+  return probe;
+}
+
+Result<HeightGrid> readDemMosaic(const std::vector<fs::path>& tiles, const std::string& name,
+                                 const DemReadOptions& options) {
+  if (tiles.empty()) return makeError(ErrorCode::InvalidArgument, name + ": no tiles");
+  if (tiles.size() == 1) {
+    auto grid = readOpened(tiles.front(), name, options);
+    return grid;
+  }
+  registerGdalOnce();
+  GdalErrorCapture capture;
+  ScopedConfig noPam("GDAL_PAM_ENABLED", "NO");
+  static std::atomic<std::uint64_t> counter{0};
+  const std::string vrt = "/vsimem/pbdam-mosaic-" + std::to_string(counter++) + ".vrt";
+  std::vector<std::string> names;
+  std::vector<const char*> pointers;
+  for (const fs::path& tile : tiles) names.push_back(tile.string());
+  for (const std::string& n : names) pointers.push_back(n.c_str());
+  {
+    DatasetPtr mosaic(GDALBuildVRT(vrt.c_str(), static_cast<int>(pointers.size()), nullptr,
+                                   pointers.data(), nullptr, nullptr));
+    if (!mosaic) {
+      return makeError(ErrorCode::UnsupportedFormat,
+                       name + ": its tiles could not be joined" +
+                           (capture.hasFailures() ? " (GDAL: " + capture.failures() + ")" : ""));
+    }
+  }  // closed: the VRT is written
+  auto grid = readOpened(vrt, name, options);
+  VSIUnlink(vrt.c_str());
+  if (grid) {
+    // Named by what the tiles are, not by the VRT that joins them.
+    std::string tileFormat = "unknown";
+    if (GDALDriverH driver = GDALIdentifyDriver(tiles.front().c_str(), nullptr)) {
+      tileFormat =
+          std::string(GDALGetDriverShortName(driver)) + " (" + GDALGetDriverLongName(driver) + ")";
+    }
+    GridSource source = grid->source();
+    source.format =
+        std::to_string(tiles.size()) + " tiles of " + tileFormat + ", joined as a GDAL VRT mosaic";
+    return grid->withSource(std::move(source));
+  }
+  if (!grid) {
+    return makeError(grid.error().code, name + " (" + std::to_string(tiles.size()) +
+                                            " tiles): " + grid.error().message);
+  }
+  return grid;
 }
 
 }  // namespace pbdam::formats

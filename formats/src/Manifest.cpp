@@ -59,6 +59,9 @@ std::string manifestToJson(const Manifest& m) {
                  {"min_height_m", m.minHeightMeters},
                  {"max_height_m", m.maxHeightMeters}};
   if (!m.insets.empty()) j["insets"] = insetsJson(m);
+  if (m.voids) {
+    j["voids"] = {{"file", m.voids->file}, {"bytes", m.voids->bytes}, {"crc32", m.voids->crc32}};
+  }
   nlohmann::ordered_json faces = nlohmann::ordered_json::array();
   for (const ManifestFace& f : m.faces) {
     faces.push_back({{"file", f.file}, {"bytes", f.bytes}, {"crc32", f.crc32}});
@@ -175,6 +178,18 @@ Result<Manifest> parseManifest(std::string_view text, std::string_view context) 
         }
         m.insets.push_back(std::move(i));
       }
+    }
+    if (j.contains("voids")) {
+      const auto& v = j.at("voids");
+      ManifestFace file;
+      file.file = v.at("file").get<std::string>();
+      file.bytes = unsignedField<std::uint64_t>(v, "bytes");
+      file.crc32 = unsignedField<std::uint32_t>(v, "crc32");
+      if (file.file.empty() || file.file.find('/') != std::string::npos ||
+          file.file.find("..") != std::string::npos || m.insets.empty()) {
+        return fail("'voids' must name a plain file of a dataset with insets");
+      }
+      m.voids = std::move(file);
     }
     const auto& faces = j.at("faces");
     if (!faces.is_array() || faces.size() != 6) return fail("'faces' must list 6 files");

@@ -66,6 +66,27 @@ luxembourg="$data/geotiff/terra_elev_luxembourg.tif"
 if [[ -r "$luxembourg" ]]; then
   build luxembourg /usr/share/ferret-vis/data/etopo5.cdf --planet earth --levels 6 \
     --leaf-vertices 17 --inset "$luxembourg"
+  # Survey tiles: the same GeoTIFF cut into two tiles sharing a column (SRTM's convention), with
+  # voids punched into each — 2 × 2 samples at 49.8542°N 5.9958°E in the west tile, one at
+  # 49.7542°N 6.2625°E in the east one — given as two insets: one surface, voids filled from
+  # their rims (tests/tools/TestCli.cpp "SurveyTiles").
+  tiles="$out/survey-tiles"
+  mkdir -p "$tiles"
+  gdal_translate -q -of AAIGrid -srcwin 0 0 48 90 "$luxembourg" "$tiles/west.asc"
+  gdal_translate -q -of AAIGrid -srcwin 47 0 48 90 "$luxembourg" "$tiles/east.asc"
+  punch() {  # file row col...: sets those samples (0-based, after the 6 header lines) to nodata
+    local file=$1
+    shift
+    awk -v cells="$*" 'BEGIN { n = split(cells, a, " "); for (i = 1; i < n; i += 2) hit[a[i] "," a[i + 1]] = 1 }
+      /^[a-zA-Z]/ { print; next }
+      { row = NR - 7; for (c = 1; c <= NF; ++c) if ((row "," (c - 1)) in hit) $c = -32768; print }' \
+      "$file" >"$file.tmp" && mv "$file.tmp" "$file"
+  }
+  punch "$tiles/west.asc" 40 30 40 31 41 30 41 31
+  punch "$tiles/east.asc" 52 15
+  rm -f "$tiles"/*.aux.xml
+  build survey /usr/share/ferret-vis/data/etopo5.cdf --planet earth --levels 6 \
+    --leaf-vertices 17 --inset "$tiles/west.asc" --inset "$tiles/east.asc"
 else
   echo "test dataset 'luxembourg' not built: input $luxembourg is missing (set PBDAM_DATA_DIR)"
   [[ "${CI:-}" == "true" ]] && status=1

@@ -357,8 +357,9 @@ TEST(Builder, Etopo5WithTheLuxembourgInsetVerifiesAndAnswersTheInsetsHeights) {
   auto lux = readDem(luxembourg);
   ASSERT_TRUE(etopo && lux);
   const HeightGrid grid = *lux;
-  const CompositeSurface composite =
-      CompositeSurface::make(*etopo, o.insets, {std::move(lux).value()});
+  auto made = CompositeSurface::make(*etopo, o.insets, std::vector<HeightGrid>{*lux});
+  ASSERT_TRUE(made) << made.error().message;
+  const CompositeSurface& composite = *made;
   auto dataset = streaming::MappedDataset::open(dir / "lux");
   ASSERT_TRUE(dataset) << dataset.error().message;
   std::size_t checked = 0;

@@ -345,6 +345,70 @@ TEST(Cli, BuildAndVerifyTakeTheRawGridOptionsOfDemInfo) {
                  "not a raster format");
 }
 
+// Survey tiles (the `survey` test dataset: the Luxembourg GeoTIFF cut into two tiles sharing a
+// column, voids punched into both, given as two --insets): one inset surface in the manifest,
+// the voids filled from their rims, and `height` saying so at a punched sample and not beside it.
+TEST(Cli, SurveyTilesAreOneSurfaceAndHeightNamesTheirFilledVoids) {
+  PBDAM_REQUIRE_DATASET(dir, "survey");
+  const auto manifest = nlohmann::json::parse(test::readFile(dir / "manifest.json"));
+  ASSERT_EQ(manifest["insets"].size(), 1u) << "two tiles, one surface";
+  EXPECT_EQ(manifest["insets"][0]["file"], "west.asc + east.asc");
+  EXPECT_EQ(manifest["voids"]["file"], "voids.bin");
+  const auto height = [&](const std::string& at) {
+    const CliRun run = runPbdam("height '" + dir.string() + "' --at " + at + " --json");
+    EXPECT_EQ(run.exitCode, 0) << run.err;
+    return nlohmann::json::parse(run.out);
+  };
+  // The punched 2 x 2 block (49.8542°N 5.9958°E its north-west sample) and the single sample.
+  for (const char* at : {"49.8542,5.9958", "49.8458,6.0042", "49.7542,6.2625"}) {
+    const auto j = height(at);
+    ASSERT_TRUE(j["void"].is_object()) << at << ": " << j.dump();
+    EXPECT_EQ(j["void"]["inset"], "west.asc + east.asc");
+    EXPECT_EQ(j["void"]["filled_from"], "rim");
+    // The leaf's sources name the inset (and the base too: in so small a country every leaf
+    // reaches the band along its border).
+    EXPECT_NE(j["sources"].dump().find("west.asc + east.asc"), std::string::npos) << at;
+  }
+  EXPECT_TRUE(height("49.8708,5.9958")["void"].is_null());  // two samples north: valid
+  EXPECT_TRUE(height("48.85,2.35")["void"].is_null());      // Paris: the base alone
+  const CliRun text = runPbdam("height '" + dir.string() + "' --at 49.8542,5.9958");
+  EXPECT_NE(text.out.find("in a void of west.asc + east.asc, filled from its rim"),
+            std::string::npos)
+      << text.out;
+}
+
+// `pbdam dem info` of a set of tiles: one surface, its tile count and voids; a set that cannot
+// be read is refused naming the file, and a build of it writes nothing.
+TEST(Cli, DemInfoOfATileSetAndBadSetsRefusedNamingTheFile) {
+  PBDAM_REQUIRE_DATASET(survey, "survey");
+  const std::filesystem::path tiles = survey.parent_path() / "survey-tiles";
+  const CliRun info = runPbdam("dem info '" + tiles.string() + "' --json");
+  ASSERT_EQ(info.exitCode, 0) << info.err;
+  const auto j = nlohmann::json::parse(info.out);
+  EXPECT_EQ(j["tiles"], 2);
+  EXPECT_EQ(j["width"], 95);
+  EXPECT_EQ(j["voids"]["count"], 2);
+  EXPECT_EQ(j["voids"]["samples"], 5);
+  EXPECT_EQ(j["voids"]["fillable"], 2);
+  test::TempDir dir;
+  std::filesystem::create_directories(dir / "bad");
+  std::filesystem::copy(tiles / "west.asc", dir / "bad/west.asc");
+  std::filesystem::copy(tiles / "west.prj", dir / "bad/west.prj");
+  std::ofstream(dir / "bad/broken.hgt") << "not a tile";
+  const std::string out = (dir / "out").string();
+  const CliRun bad = runPbdam(
+      "build --dem /usr/share/ferret-vis/data/etopo5.cdf --planet earth "
+      "--levels 6 --inset '" +
+      (dir / "bad").string() + "' --out '" + out + "'");
+  EXPECT_EQ(bad.exitCode, 2) << bad.err;
+  EXPECT_NE(bad.err.find("bad/broken.hgt"), std::string::npos) << bad.err;
+  EXPECT_FALSE(std::filesystem::exists(out)) << "nothing written";
+  std::filesystem::create_directories(dir / "empty");
+  const CliRun empty = runPbdam("dem info '" + (dir / "empty").string() + "'");
+  EXPECT_EQ(empty.exitCode, 2);
+  EXPECT_NE(empty.err.find("holds no DEM tiles"), std::string::npos) << empty.err;
+}
+
 TEST(Cli, HeightOnMolaMatchesTheDemWithinTheStoredError) {
   PBDAM_REQUIRE_DATASET(dir, "mola");
   const CliRun run = runPbdam("height '" + dir.string() + "' --at 17.375,226.875 --json");

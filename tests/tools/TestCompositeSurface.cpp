@@ -1,17 +1,24 @@
 // The composite surface of a base DEM and insets: the inset's heights inside its footprint, a
 // continuous blend in the band just inside its edge, the base outside; the finer of overlapping
-// insets wins; nodata holes fall back to what lies below; the samples that define it are each
-// source's own where it is the finest; and insets that cannot be joined are refused by name. On
+// insets wins; voids are filled from their rims, large ones from what lies below, and the band
+// stays where the data ends; tiles that touch at one spacing are one surface, whatever grouping
+// they come in (files, a directory, a glob, a VRT); the samples that define it are each source's
+// own where it is the finest; and insets or tiles that cannot be joined are refused by name. On
 // synthetic grids and on the real ETOPO5 + Luxembourg GeoTIFF pair.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <limits>
+#include <random>
 
 #include "TestData.h"
 #include "pbdam/builder/CompositeSurface.h"
 #include "pbdam/formats/DemReader.h"
+#include "pbdam/formats/NodataFill.h"
 
 using namespace pbdam::formats;
 
@@ -33,6 +40,15 @@ HeightGrid grid(std::int64_t w, std::int64_t h, double north, double west, doubl
   return HeightGrid(g, std::move(v), std::move(source));
 }
 
+/// The composite of a successful make() (the test fails and stops on an error).
+CompositeSurface joined(Result<CompositeSurface> made) {
+  if (!made.ok()) {
+    ADD_FAILURE() << made.error().message;
+    std::abort();
+  }
+  return std::move(made).value();
+}
+
 /// A global 1° base, flat at 0 m, and an inset of 0.1° samples over 10–20°N, 30–40°E at 100 m.
 CompositeSurface flatPair(std::vector<HeightGrid> more = {}) {
   HeightGrid base = grid(360, 181, 90.0, 0.0, 1.0, [](double, double) { return 0.0; });
@@ -43,7 +59,7 @@ CompositeSurface flatPair(std::vector<HeightGrid> more = {}) {
     insets.push_back(std::move(g));
     specs.push_back(InsetSpec{"b.tif", {}, {}});
   }
-  return CompositeSurface::make(std::move(base), std::move(specs), std::move(insets));
+  return joined(CompositeSurface::make(std::move(base), std::move(specs), std::move(insets)));
 }
 
 TEST(CompositeSurface, InsetInsideBaseOutsideAContinuousBlendBetween) {
@@ -86,7 +102,7 @@ TEST(CompositeSurface, TheBandSpansACellOfWhatLiesBelowAndAtMostAQuarterOfTheIns
   std::vector<InsetSpec> specs{InsetSpec{"a.tif", {}, {}}, InsetSpec{"b.tif", {}, {}},
                                InsetSpec{"c.tif", {}, {}}};
   const CompositeSurface s =
-      CompositeSurface::make(std::move(base), std::move(specs), std::move(insets));
+      joined(CompositeSurface::make(std::move(base), std::move(specs), std::move(insets)));
   ASSERT_EQ(s.insets().size(), 3u);  // coarsest first
   EXPECT_EQ(s.insets()[0].bandSamples, 100);
   EXPECT_EQ(s.insets()[1].bandSamples, 20);  // one cell of the inset holding it
@@ -114,22 +130,88 @@ TEST(CompositeSurface, TheFinerOfOverlappingInsetsWins) {
   EXPECT_LT(h, 200.0);
 }
 
-TEST(CompositeSurface, NodataHolesFallBackToWhatLiesBelow) {
+TEST(CompositeSurface, SmallVoidsAreFilledFromTheirRimsAndTheBandStaysWhereTheDataEnds) {
   HeightGrid base = grid(360, 181, 90.0, 0.0, 1.0, [](double, double) { return -5.0; });
-  std::vector<HeightGrid> insets;
-  insets.push_back(grid(101, 101, 20.0, 30.0, 0.1, [](double lat, double lon) {
+  const auto terrain = [](double lat, double lon) {
+    return 100.0 + 40.0 * std::sin(3.0 * lat) * std::cos(2.0 * lon);
+  };
+  const auto hole = [&](double lat, double lon) {
     return std::hypot(lat - 15.0, lon - 35.0) < 0.5 ? std::numeric_limits<double>::quiet_NaN()
-                                                    : 100.0;
-  }));
-  const CompositeSurface s =
-      CompositeSurface::make(std::move(base), {InsetSpec{"hole.tif", {}, {}}}, std::move(insets));
-  EXPECT_DOUBLE_EQ(*s.heightAt(15.0, 35.0), -5.0);
-  EXPECT_EQ(s.sourceAt(15.0, 35.0).inset, -1);
-  // Around the hole the band rises again: 0.7° (7 samples) from its nearest nodata sample the
-  // weight is between 0 and 1; beyond the 16-sample band it is 1.
-  EXPECT_LT(s.weightOf(0, 15.0, 36.1), 1.0);
-  EXPECT_GT(s.weightOf(0, 15.0, 36.1), 0.0);
-  EXPECT_DOUBLE_EQ(*s.heightAt(17.5, 37.5), 100.0);
+                                                    : terrain(lat, lon);
+  };
+  HeightGrid holed = grid(101, 101, 20.0, 30.0, 0.1, hole);
+  // GDAL's fill-nodata over the whole grid (gdal_fillnodata.py -md 100): what the void becomes.
+  std::vector<float> expected(holed.heightsMeters().begin(), holed.heightsMeters().end());
+  ASSERT_TRUE(fillNodata(expected, 101, 101, 100.0).ok());
+  std::vector<HeightGrid> insets;
+  insets.push_back(holed);
+  const CompositeSurface s = joined(
+      CompositeSurface::make(std::move(base), {InsetSpec{"hole.tif", {}, {}}}, std::move(insets)));
+  const VoidReport& v = s.insets()[0].voids;
+  EXPECT_EQ(v.voids, 1);
+  EXPECT_EQ(v.filledVoids, 1);
+  EXPECT_EQ(v.largeVoids, 0);
+  EXPECT_EQ(v.voidSamples, v.filledSamples);
+  EXPECT_GT(v.filledSamples, 60);
+  // Every sample of the void is GDAL's fill, the composite's height there, with weight 1.
+  for (std::int64_t r = 0; r < 101; ++r) {
+    for (std::int64_t c = 0; c < 101; ++c) {
+      if (!std::isnan(holed.at(r, c))) continue;
+      const double lat = holed.latOfRowDegrees(r), lon = holed.lonOfColumnDegrees(c);
+      EXPECT_EQ(s.insets()[0].grid.at(r, c), expected[static_cast<std::size_t>(r * 101 + c)]);
+      EXPECT_EQ(s.weightOf(0, lat, lon), 1.0);
+      EXPECT_NEAR(*s.heightAt(lat, lon),
+                  static_cast<double>(expected[static_cast<std::size_t>(r * 101 + c)]), 1e-4);
+      EXPECT_EQ(s.sourceAt(lat, lon).inset, 0);
+    }
+  }
+  // The valid samples next to the void keep their own heights (no band around a void).
+  EXPECT_NEAR(*s.heightAt(15.0, 35.6), terrain(15.0, 35.6), 1e-3);
+  EXPECT_EQ(s.weightOf(0, 15.0, 35.6), 1.0);
+}
+
+TEST(CompositeSurface, ALargeVoidShowsWhatLiesBelowBlendedAcrossABandSizedByTheVoid) {
+  HeightGrid base = grid(360, 181, 90.0, 0.0, 1.0, [](double, double) { return -5.0; });
+  // 0.01° samples over 10–16°N, 30–36°E at 100 m with a lake of 1.2° radius (120 samples: more
+  // than the fill's reach) around 13°N 33°E and nodata reaching the west edge (a clip).
+  const auto lake = [](double lat, double lon) {
+    if (std::hypot(lat - 13.0, lon - 33.0) < 1.2 || lon < 30.195) {
+      return std::numeric_limits<double>::quiet_NaN();
+    }
+    return 100.0;
+  };
+  std::vector<HeightGrid> insets;
+  insets.push_back(grid(601, 601, 16.0, 30.0, 0.01, lake));
+  const CompositeSurface s = joined(
+      CompositeSurface::make(std::move(base), {InsetSpec{"lake.tif", {}, {}}}, std::move(insets)));
+  const VoidReport& v = s.insets()[0].voids;
+  EXPECT_EQ(v.voids, 1);
+  EXPECT_EQ(v.largeVoids, 1);
+  EXPECT_EQ(v.filledVoids, 0);
+  EXPECT_GT(v.belowSamples, 40000);
+  EXPECT_EQ(v.outsideSamples, 601 * 20);
+  EXPECT_NEAR(v.largestBelow.southDegrees, 11.8, 0.02);
+  ASSERT_EQ(s.insets()[0].bandSamples, 100);
+  // Along the row through the lake's middle, at sample centres: the shore is the inset's
+  // 100 m, the middle the base's −5 m, and between them a monotone fade over half the lake's
+  // radius (60 samples); the valid samples by the shore keep their own height and weight 1.
+  const HeightGrid& g = s.insets()[0].grid;
+  const std::int64_t row = 300, shore = 420;  // 13°N; 34.2°E, the first valid sample east
+  ASSERT_EQ(g.latOfRowDegrees(row), 13.0);
+  EXPECT_EQ(g.at(row, shore), 100.0f);
+  EXPECT_EQ(s.weightOf(0, 13.0, g.lonOfColumnDegrees(shore + 2)), 1.0);
+  EXPECT_DOUBLE_EQ(*s.heightAt(13.0, g.lonOfColumnDegrees(shore + 2)), 100.0);
+  EXPECT_NEAR(g.at(row, shore - 1), 100.0f, 1e-3);
+  float last = 101.0f;
+  for (std::int64_t c = shore - 1; c >= 300; --c) {
+    EXPECT_LE(g.at(row, c), last) << c;
+    last = g.at(row, c);
+    EXPECT_EQ(s.weightOf(0, 13.0, g.lonOfColumnDegrees(c)), 1.0) << c;
+  }
+  EXPECT_NEAR(g.at(row, shore - 61), -5.0f, 1e-3);  // past the band of 60 samples
+  EXPECT_NEAR(*s.heightAt(13.0, 33.0), -5.0, 1e-3);
+  // The clipped west edge still bands: weight 0 on its outer ring.
+  EXPECT_EQ(s.weightOf(0, 14.0, 30.2), 0.0);
 }
 
 TEST(CompositeSurface, ItsSamplesAreEachSourcesOwnWhereItIsTheFinest) {
@@ -202,7 +284,8 @@ TEST(CompositeSurface, LuxembourgOnEtopo5) {
   ASSERT_TRUE(checkInset(spec, *luxembourg, *etopo, "earth").ok());
   EXPECT_FALSE(checkInset(spec, *luxembourg, *etopo, "mars").ok());
   const HeightGrid lux = *luxembourg;
-  const CompositeSurface s = CompositeSurface::make(*etopo, {spec}, {std::move(*luxembourg)});
+  const CompositeSurface s =
+      joined(CompositeSurface::make(*etopo, {spec}, std::vector<HeightGrid>{*luxembourg}));
   // One ETOPO5 spacing is 10 Luxembourg samples: the band is the minimum, 16.
   EXPECT_EQ(s.insets()[0].bandSamples, 16);
   // The GeoTIFF holds the country's shape (nodata around it): wherever a sample is more than the
@@ -222,6 +305,146 @@ TEST(CompositeSurface, LuxembourgOnEtopo5) {
   // Well outside it: ETOPO5's.
   EXPECT_NEAR(*s.heightAt(49.0, 5.0), *etopo->sampleBicubic(49.0, 5.0), 1e-9);
   EXPECT_EQ(s.sourceAt(49.0, 5.0).inset, -1);
+}
+
+/// Writes rows [r0, r1] and columns [c0, c1] of `g` (pixel-is-area) as an ESRI ASCII grid.
+void writeTile(const std::filesystem::path& path, const HeightGrid& g, std::int64_t r0,
+               std::int64_t r1, std::int64_t c0, std::int64_t c1) {
+  std::ofstream out(path);
+  const GridGeometry& geo = g.geometry();
+  char header[256];
+  std::snprintf(header, sizeof header,
+                "ncols %lld\nnrows %lld\nxllcorner %.12f\nyllcorner %.12f\ncellsize %.12f\n"
+                "NODATA_value -9999\n",
+                static_cast<long long>(c1 - c0 + 1), static_cast<long long>(r1 - r0 + 1),
+                g.lonOfColumnDegrees(c0) - 0.5 * geo.lonSpacingDegrees,
+                g.latOfRowDegrees(r1) - 0.5 * geo.latSpacingDegrees, geo.lonSpacingDegrees);
+  out << header;
+  for (std::int64_t r = r0; r <= r1; ++r) {
+    for (std::int64_t c = c0; c <= c1; ++c) {
+      const float v = g.at(r, c);
+      out << (std::isnan(v) ? -9999.0f : v) << (c < c1 ? " " : "\n");
+    }
+  }
+}
+
+/// The composite's inset samples in order, and the count of its base samples.
+std::pair<std::vector<std::array<double, 3>>, std::size_t> samplesOf(const CompositeSurface& s) {
+  std::vector<std::array<double, 3>> out;
+  std::size_t base = 0;
+  s.forEachSample([&](int source, double lat, double lon, double h) {
+    if (source < 0) {
+      ++base;
+    } else {
+      out.push_back({lat, lon, h});
+    }
+  });
+  return {std::move(out), base};
+}
+
+// The Luxembourg GeoTIFF cut into 2 × 2 tiles — sharing their edge rows (SRTM's convention) or
+// abutting cell to cell — and given as four insets, as a directory, as a glob or as a VRT: one
+// surface with the single file's samples and heights, no band along the seams.
+TEST(CompositeSurface, TilesThatTouchAreOneSurfaceWhateverGroupingTheyComeIn) {
+  PBDAM_REQUIRE_DATA(luxembourgPath, test::dataDir() / "geotiff/terra_elev_luxembourg.tif");
+  PBDAM_REQUIRE_DATA(etopoPath, PBDAM_ETOPO5_PATH);
+  auto etopo = readDem(etopoPath);
+  auto lux = readDem(luxembourgPath);
+  ASSERT_TRUE(etopo.ok() && lux.ok());
+  test::TempDir dir;
+  const std::int64_t w = lux->width(), h = lux->height(), rm = h / 2, cm = w / 2;
+  writeTile(dir / "whole.asc", *lux, 0, h - 1, 0, w - 1);
+  std::filesystem::create_directories(dir / "shared");
+  std::filesystem::create_directories(dir / "abutting");
+  for (const auto& [name, overlap] : {std::pair{"shared", 0}, std::pair{"abutting", 1}}) {
+    const std::filesystem::path d = dir / name;
+    writeTile(d / "nw.asc", *lux, 0, rm, 0, cm);
+    writeTile(d / "ne.asc", *lux, 0, rm, cm + overlap, w - 1);
+    writeTile(d / "sw.asc", *lux, rm + overlap, h - 1, 0, cm);
+    writeTile(d / "se.asc", *lux, rm + overlap, h - 1, cm + overlap, w - 1);
+  }
+  ASSERT_EQ(test::runCommand("gdalbuildvrt -q '" + (dir / "tiles.vrt").string() + "' '" +
+                             (dir / "abutting").string() + "'/*.asc")
+                .exitCode,
+            0);
+  const auto read = [&](std::vector<std::filesystem::path> paths) {
+    std::vector<InsetSpec> specs;
+    for (auto& p : paths) specs.push_back(InsetSpec{std::move(p), {}, {}});
+    return CompositeSurface::read(*etopo, std::move(specs), {}, "earth");
+  };
+  auto whole = read({dir / "whole.asc"});
+  ASSERT_TRUE(whole.ok()) << whole.error().message;
+  const auto wholeSamples = samplesOf(*whole);
+  std::mt19937_64 random(7);
+  const LatLonBounds b = lux->bounds();
+  std::uniform_real_distribution<double> lat(b.southDegrees, b.northDegrees);
+  std::uniform_real_distribution<double> lon(b.westDegrees, b.eastDegrees);
+  std::vector<std::pair<double, double>> points;
+  for (int k = 0; k < 1000; ++k) points.emplace_back(lat(random), lon(random));
+  const std::vector<std::pair<std::string, std::vector<std::filesystem::path>>> groupings = {
+      {"four files sharing edge rows",
+       {dir / "shared/nw.asc", dir / "shared/se.asc", dir / "shared/ne.asc",
+        dir / "shared/sw.asc"}},
+      {"four abutting files",
+       {dir / "abutting/sw.asc", dir / "abutting/nw.asc", dir / "abutting/ne.asc",
+        dir / "abutting/se.asc"}},
+      {"a directory", {dir / "shared"}},
+      {"a glob", {dir / "abutting/*.asc"}},
+      {"a VRT", {dir / "tiles.vrt"}},
+      {"a directory and a file of it twice over", {dir / "abutting", dir / "shared/nw.asc"}},
+  };
+  for (const auto& [what, paths] : groupings) {
+    SCOPED_TRACE(what);
+    auto tiled = read(paths);
+    ASSERT_TRUE(tiled.ok()) << tiled.error().message;
+    ASSERT_EQ(tiled->insets().size(), 1u) << "one surface";
+    EXPECT_EQ(tiled->insets()[0].bandSamples, whole->insets()[0].bandSamples);
+    EXPECT_TRUE(samplesOf(*tiled) == wholeSamples) << "the same samples, heights and order";
+    for (const auto& [la, lo] : points) {
+      const auto expected = whole->heightAt(la, lo);
+      const auto got = tiled->heightAt(la, lo);
+      ASSERT_EQ(expected.has_value(), got.has_value());
+      if (expected) {
+        EXPECT_EQ(*got, *expected) << la << "," << lo;
+      }
+      EXPECT_EQ(tiled->weightOf(0, la, lo), whole->weightOf(0, la, lo));
+    }
+  }
+}
+
+TEST(CompositeSurface, TileSetsThatCannotBeReadAreRefusedNamingTheFile) {
+  PBDAM_REQUIRE_DATA(luxembourgPath, test::dataDir() / "geotiff/terra_elev_luxembourg.tif");
+  PBDAM_REQUIRE_DATA(etopoPath, PBDAM_ETOPO5_PATH);
+  auto etopo = readDem(etopoPath);
+  auto lux = readDem(luxembourgPath);
+  ASSERT_TRUE(etopo.ok() && lux.ok());
+  test::TempDir dir;
+  const auto refused = [&](const std::filesystem::path& path, const std::string& expected) {
+    auto read = CompositeSurface::read(*etopo, {InsetSpec{path, {}, {}}}, {}, "earth");
+    ASSERT_FALSE(read.ok()) << path;
+    EXPECT_NE(read.error().message.find(expected), std::string::npos) << read.error().message;
+  };
+  std::filesystem::create_directories(dir / "empty");
+  std::ofstream(dir / "empty/README.txt") << "not a tile\n";
+  refused(dir / "empty", "holds no DEM tiles");
+  refused(dir / "nothing/*.hgt", "matches no DEM files");
+  // A corrupt tile among good ones.
+  std::filesystem::create_directories(dir / "corrupt");
+  writeTile(dir / "corrupt/a.asc", *lux, 0, 40, 0, 40);
+  writeTile(dir / "corrupt/b.asc", *lux, 0, 40, 40, 80);
+  std::ofstream(dir / "corrupt/c.asc") << "ncols 12\nnrows x\ngarbage\n";
+  refused(dir / "corrupt", "corrupt/c.asc");
+  // A tile of another planet (its CRS says Mars) beside Earth's.
+  std::filesystem::create_directories(dir / "planets");
+  writeTile(dir / "planets/earth.asc", *lux, 0, 40, 0, 40);
+  writeTile(dir / "planets/mars.asc", *lux, 0, 40, 40, 80);
+  std::ofstream(dir / "planets/earth.prj")
+      << R"(GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563]],)"
+      << R"(PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433]])";
+  std::ofstream(dir / "planets/mars.prj")
+      << R"(GEOGCS["Mars 2000",DATUM["D_Mars_2000",SPHEROID["Mars_2000_IAU_IAG",3396190,)"
+      << R"(169.894447223612]],PRIMEM["Reference_Meridian",0],UNIT["degree",0.0174532925199433]])";
+  refused(dir / "planets", "planets/mars.asc: its CRS is on mars");
 }
 
 }  // namespace

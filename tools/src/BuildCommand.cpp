@@ -162,6 +162,24 @@ void printBuildSummary(const std::string& out, const builder::BuildSummary& s) {
               static_cast<double>(s.morphTargetBytes) / 1e6);
   std::printf("  textures    %llu tiles\n", static_cast<unsigned long long>(s.textureTiles));
   std::printf("  dataset     %.1f MB on disk\n", static_cast<double>(s.datasetBytes) / 1e6);
+  for (const builder::InsetSurfaceSummary& inset : s.insets) {
+    const builder::VoidReport& v = inset.voids;
+    std::printf(
+        "  inset       %s: %zu tile%s, %lld voids (%lld samples): %lld filled from their "
+        "rims (%lld samples), %lld left to the surface below (%lld samples)\n",
+        inset.name.c_str(), inset.tiles, inset.tiles == 1 ? "" : "s",
+        static_cast<long long>(v.voids), static_cast<long long>(v.voidSamples),
+        static_cast<long long>(v.filledVoids), static_cast<long long>(v.filledSamples),
+        static_cast<long long>(v.largeVoids), static_cast<long long>(v.belowSamples));
+    if (v.largeVoids > 0) {
+      std::printf(
+          "  note        the surface below shows through %s's largest void at "
+          "%.4f..%.4f°N %.4f..%.4f°E (%lld samples)\n",
+          inset.name.c_str(), v.largestBelow.southDegrees, v.largestBelow.northDegrees,
+          v.largestBelow.westDegrees, v.largestBelow.eastDegrees,
+          static_cast<long long>(v.largestBelowSamples));
+    }
+  }
   if (s.noDataPoints > 0) {
     std::printf("  note        %llu lattice points had no DEM data (height 0)\n",
                 static_cast<unsigned long long>(s.noDataPoints));

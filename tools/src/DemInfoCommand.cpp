@@ -1,6 +1,8 @@
-// `pbdam dem info`: what an elevation file holds, as GDAL reads it and pbdam georeferences it —
-// format, CRS/body, size, bounds, spacing, extremes with their positions, mean, nodata count,
-// and the height sampled at a point.
+// `pbdam dem info`: what an elevation file or a set of tiles holds, as GDAL reads it and pbdam
+// georeferences it — format, CRS/body, size, bounds, spacing, extremes with their positions,
+// mean, nodata count, voids (enclosed nodata, and what a build would do with them), and the
+// height sampled at a point. A set (a directory or a glob) is reported per surface: the tiles
+// that touch at one spacing, read as one grid.
 #include <nlohmann/json.hpp>
 
 #include <cmath>
@@ -12,7 +14,9 @@
 
 #include "Commands.h"
 #include "DemInputOptions.h"
+#include "pbdam/builder/VoidFill.h"
 #include "pbdam/formats/DemReader.h"
+#include "pbdam/formats/DemTileSet.h"
 #include "pbdam/formats/NumberList.h"
 
 using namespace pbdam::formats;
@@ -53,9 +57,11 @@ struct DemInfoReport {
   std::optional<std::pair<double, double>> point;
   std::optional<double> bilinear;
   std::optional<double> bicubic;
+  builder::VoidReport voids;
+  std::size_t tiles = 1;  ///< files the grid was read from
 };
 
-void printDemInfoJson(const DemInfoReport& r) {
+nlohmann::ordered_json demInfoJson(const DemInfoReport& r) {
   const GridGeometry& g = r.grid.geometry();
   const GridSource& s = r.grid.source();
   const LatLonBounds b = r.grid.bounds();
@@ -85,6 +91,14 @@ void printDemInfoJson(const DemInfoReport& r) {
   j["nodata_value"] =
       s.noDataValue ? nlohmann::ordered_json(*s.noDataValue) : nlohmann::ordered_json(nullptr);
   j["nodata_count"] = stats.noDataCount;
+  if (r.tiles > 1) j["tiles"] = r.tiles;
+  j["voids"] = {{"count", r.voids.voids},
+                {"samples", r.voids.voidSamples},
+                {"fillable", r.voids.filledVoids},
+                {"fillable_samples", r.voids.filledSamples},
+                {"too_large", r.voids.largeVoids},
+                {"too_large_samples", r.voids.belowSamples},
+                {"outside_samples", r.voids.outsideSamples}};
   if (stats.validCount > 0) {
     j["min"] = {{"height_m", stats.minMeters},
                 {"lat_deg", stats.minLatDegrees},
@@ -103,7 +117,7 @@ void printDemInfoJson(const DemInfoReport& r) {
                {"bilinear_m", opt(r.bilinear)},
                {"bicubic_m", opt(r.bicubic)}};
   }
-  std::cout << j.dump(2) << "\n";
+  return j;
 }
 
 void printDemInfoText(const DemInfoReport& r) {
@@ -111,7 +125,8 @@ void printDemInfoText(const DemInfoReport& r) {
   const GridSource& s = r.grid.source();
   const LatLonBounds b = r.grid.bounds();
   const GridStats& stats = r.stats;
-  std::printf("file:     %s\n", s.path.c_str());
+  std::printf("file:     %s%s\n", s.path.c_str(),
+              r.tiles > 1 ? (" (" + std::to_string(r.tiles) + " tiles)").c_str() : "");
   if (!s.labelPath.empty()) std::printf("label:    %s\n", s.labelPath.c_str());
   std::printf("format:   %s\n", s.format.c_str());
   std::printf("crs:      %s%s\n", s.crs.c_str(), s.warped ? " (warped to geographic)" : "");
@@ -142,6 +157,13 @@ void printDemInfoText(const DemInfoReport& r) {
   } else {
     std::printf("nodata:   %lld samples\n", static_cast<long long>(stats.noDataCount));
   }
+  const builder::VoidReport& voids = r.voids;
+  std::printf(
+      "voids:    %lld enclosed (%lld samples): %lld fillable from their rims (%lld "
+      "samples), %lld too large (%lld samples, the base shows there)\n",
+      static_cast<long long>(voids.voids), static_cast<long long>(voids.voidSamples),
+      static_cast<long long>(voids.filledVoids), static_cast<long long>(voids.filledSamples),
+      static_cast<long long>(voids.largeVoids), static_cast<long long>(voids.belowSamples));
   if (r.point) {
     auto text = [](const std::optional<double>& v) {
       char buf[48];
@@ -167,24 +189,62 @@ int runDemInfo(const DemInfoOptions& o) {
     point = *parsed;
   }
 
-  if (!readOptions.raw) noteDemLabel(o.file);
-  auto grid = readDem(o.file, readOptions);
-  if (!grid) return reportError(grid.error());
-  DemInfoReport report{*grid, grid->computeStats(), point, std::nullopt, std::nullopt};
-  if (point) {
-    if (!grid->contains(point->first, point->second)) {
-      return reportError(makeError(
-          ErrorCode::InvalidArgument,
-          o.file + ": point " + latLonText(point->first, point->second) + " is outside the grid"));
+  // One grid, or the surfaces of a set of tiles.
+  std::vector<std::pair<std::vector<std::filesystem::path>, std::string>> surfaces;
+  if (!readOptions.raw && namesDemSet(o.file)) {
+    auto files = expandDemSet(o.file);
+    if (!files) return reportError(files.error());
+    auto tiles = probeDemTiles(*files);
+    if (!tiles) return reportError(tiles.error());
+    const auto groups = groupDemTiles(*tiles);
+    for (std::size_t k = 0; k < groups.size(); ++k) {
+      std::vector<std::filesystem::path> members;
+      for (const std::size_t t : groups[k]) members.push_back((*files)[t]);
+      surfaces.emplace_back(std::move(members),
+                            groups.size() == 1 ? o.file
+                                               : o.file + " (surface " + std::to_string(k + 1) +
+                                                     " of " + std::to_string(groups.size()) + ")");
     }
-    report.bilinear = grid->sampleBilinear(point->first, point->second);
-    report.bicubic = grid->sampleBicubic(point->first, point->second);
   }
-
+  if (!readOptions.raw && surfaces.empty()) noteDemLabel(o.file);
+  const std::size_t count = std::max<std::size_t>(1, surfaces.size());
+  nlohmann::ordered_json all = nlohmann::ordered_json::array();
+  for (std::size_t k = 0; k < count; ++k) {
+    auto grid = surfaces.empty() ? readDem(o.file, readOptions)
+                                 : readDemMosaic(surfaces[k].first, surfaces[k].second);
+    if (!grid) return reportError(grid.error());
+    auto voids = builder::findVoids(*grid);
+    if (!voids) return reportError(voids.error());
+    DemInfoReport report{*grid,
+                         grid->computeStats(),
+                         point,
+                         std::nullopt,
+                         std::nullopt,
+                         *voids,
+                         surfaces.empty() ? 1 : surfaces[k].first.size()};
+    if (point && count == 1) {
+      if (!grid->contains(point->first, point->second)) {
+        return reportError(makeError(ErrorCode::InvalidArgument,
+                                     o.file + ": point " + latLonText(point->first, point->second) +
+                                         " is outside the grid"));
+      }
+    }
+    if (point && grid->contains(point->first, point->second)) {
+      report.bilinear = grid->sampleBilinear(point->first, point->second);
+      report.bicubic = grid->sampleBicubic(point->first, point->second);
+    } else {
+      report.point.reset();
+    }
+    if (o.json) {
+      all.push_back(demInfoJson(report));
+    } else {
+      if (k > 0) std::printf("\n");
+      printDemInfoText(report);
+    }
+  }
   if (o.json) {
-    printDemInfoJson(report);
-  } else {
-    printDemInfoText(report);
+    // One grid: its object, as always; a set of several surfaces: an array of them.
+    std::cout << (count == 1 ? all[0] : all).dump(2) << "\n";
   }
   return kExitOk;
 }
@@ -215,7 +275,9 @@ void addDemCommands(CLI::App& app, CommandStatus& status) {
   auto options = std::make_shared<DemInfoOptions>();
   CLI::App* info = dem->add_subcommand(
       "info", "Format, CRS/body, size, bounds, spacing, extremes, mean, nodata of a DEM");
-  info->add_option("FILE", options->file, "Elevation file (PDS3 .lbl, NetCDF, .hgt, GeoTIFF, raw)")
+  info->add_option("FILE", options->file,
+                   "Elevation file (PDS3 .lbl, NetCDF, .hgt, GeoTIFF, VRT, raw), or a set of "
+                   "tiles: a directory or a quoted glob")
       ->required();
   info->add_option("--at", options->at, "Also sample the height at LAT,LON (degrees)");
   info->add_flag("--json", options->json, "Machine-readable JSON output");

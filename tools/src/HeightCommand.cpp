@@ -41,8 +41,10 @@ int runHeight(const HeightCliOptions& o) {
   const DatasetView& view = (*dataset)->view();
   auto h = surfaceHeightAt(view, latLon[0], latLon[1]);
   if (!h) return reportError(h.error());
+  const auto inVoid = (*dataset)->voidAt(latLon[0], latLon[1]);
   if (o.json) {
-    std::cout << surfaceHeightJson(latLon[0], latLon[1], *h, view.manifest()).dump(2) << "\n";
+    std::cout << surfaceHeightJson(latLon[0], latLon[1], *h, view.manifest(), inVoid).dump(2)
+              << "\n";
   } else {
     std::string sources;
     for (const std::string& name : heightSources(*h, view.manifest())) {
@@ -51,6 +53,10 @@ int runHeight(const HeightCliOptions& o) {
     std::printf("%.3f m at %.6f, %.6f (%s; leaf error <= %.1f m; from %s)\n", h->heightMeters,
                 latLon[0], latLon[1], view.manifest().planetSpec.c_str(), h->leafErrorMeters,
                 sources.c_str());
+    if (inVoid) {
+      std::printf("in a void of %s, %s\n", view.manifest().insets[inVoid->inset].file.c_str(),
+                  voidFillText(inVoid->kind));
+    }
   }
   return kExitOk;
 }

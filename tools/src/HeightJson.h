@@ -3,11 +3,13 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "pbdam/formats/Manifest.h"
 #include "pbdam/runtime/SurfaceQuery.h"
+#include "pbdam/streaming/MappedDataset.h"
 
 namespace pbdam::tools {
 
@@ -23,10 +25,19 @@ inline std::vector<std::string> heightSources(const runtime::SurfaceHeight& h,
   return names;
 }
 
-/// {lat, lon, height_m, error_m, measured_error_m, sources, planet, face, tree, node}.
-inline nlohmann::ordered_json surfaceHeightJson(double latDegrees, double lonDegrees,
-                                                const runtime::SurfaceHeight& h,
-                                                const formats::Manifest& manifest) {
+/// What the void a point lies in became, in words for the text output.
+inline const char* voidFillText(formats::VoidKind kind) noexcept {
+  return kind == formats::VoidKind::FilledFromRim ? "filled from its rim"
+                                                  : "too large to fill: the surface below shows";
+}
+
+/// {lat, lon, height_m, error_m, measured_error_m, sources, void, planet, face, tree, node}:
+/// `void` is null, or {inset, filled_from: "rim" | "surface_below"} where the point lies in a
+/// void of an inset (the sample nearest it was nodata in the inset).
+inline nlohmann::ordered_json surfaceHeightJson(
+    double latDegrees, double lonDegrees, const runtime::SurfaceHeight& h,
+    const formats::Manifest& manifest,
+    const std::optional<streaming::MappedDataset::VoidAt>& inVoid = std::nullopt) {
   nlohmann::ordered_json j;
   j["lat"] = latDegrees;
   j["lon"] = lonDegrees;
@@ -34,6 +45,13 @@ inline nlohmann::ordered_json surfaceHeightJson(double latDegrees, double lonDeg
   j["error_m"] = h.leafErrorMeters;
   j["measured_error_m"] = h.leafMeasuredErrorMeters;
   j["sources"] = heightSources(h, manifest);
+  if (inVoid && inVoid->inset < manifest.insets.size()) {
+    j["void"] = {{"inset", manifest.insets[inVoid->inset].file},
+                 {"filled_from",
+                  inVoid->kind == formats::VoidKind::FilledFromRim ? "rim" : "surface_below"}};
+  } else {
+    j["void"] = nullptr;
+  }
   j["planet"] = manifest.planetSpec;
   j["face"] = h.leaf.face;
   j["tree"] = h.leaf.tree;

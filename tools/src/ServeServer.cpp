@@ -533,7 +533,9 @@ void FrameServer::Impl::handleHeight(const httplib::Request& req, httplib::Respo
   const DatasetView& view = g->dataset->view();
   auto h = surfaceHeightAt(view, query->latDegrees, query->lonDegrees);
   if (!h) return sendError(res, statusFor(h.error()), h.error().message);
-  sendJson(res, 200, surfaceHeightJson(query->latDegrees, query->lonDegrees, *h, view.manifest()));
+  sendJson(res, 200,
+           surfaceHeightJson(query->latDegrees, query->lonDegrees, *h, view.manifest(),
+                             g->dataset->voidAt(query->latDegrees, query->lonDegrees)));
 }
 
 void FrameServer::Impl::handleLos(const httplib::Request& req, httplib::Response& res) const {

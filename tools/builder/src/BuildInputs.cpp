@@ -121,21 +121,22 @@ Result<BuildInputs> prepareInputs(const BuildOptions& o) {
   }
   in.baseDepth = in.depth;
   in.deepRegions = o.deepRegions;
-  std::vector<HeightGrid> insets;
-  DemReadOptions insetOptions = demReadOptions(o);
-  insetOptions.raw.reset();  // the raw-grid options describe --dem only
-  for (const InsetSpec& inset : o.insets) {
-    auto grid = readDem(inset.path, insetOptions);
-    if (!grid) return std::move(grid).error();
-    if (auto ok = checkInset(inset, *grid, *dem, planet->name()); !ok) return std::move(ok).error();
-    const LatLonBounds b = grid->bounds();
-    if (!(b.southDegrees >= -90.0 && b.northDegrees <= 90.0)) {
-      return invalidArgument(inset.path.string() + ": its samples reach latitudes beyond ±90°");
+  if (!o.insets.empty()) {
+    // The insets' surfaces (tiles that touch at one spacing joined, voids filled), each a deep
+    // region at its density's level, in the manifest's order.
+    DemReadOptions insetOptions = demReadOptions(o);
+    insetOptions.raw.reset();  // the raw-grid options describe --dem only
+    auto composite =
+        CompositeSurface::read(*dem, o.insets, insetOptions, planet->name(),
+                               VoidFillOptions{.scratchDirectory = insetOptions.scratchDirectory});
+    if (!composite) return std::move(composite).error();
+    in.composite = std::move(composite).value();
+    for (std::size_t m = 0; m < in.composite->insets().size(); ++m) {
+      const HeightGrid& grid = in.composite->insets()[in.composite->insetOfManifestIndex(m)].grid;
+      // At least one level (two bintree levels) below the base, so the inset adds leaves.
+      const auto level = std::max(levelOfDensity(grid, in.leafCells), in.baseDepth + 2);
+      in.deepRegions.push_back(DeepRegion{grid.bounds(), static_cast<int>(level)});
     }
-    // At least one level (two bintree levels) below the base, so the inset adds leaves.
-    const auto level = std::max(levelOfDensity(*grid, in.leafCells), in.baseDepth + 2);
-    in.deepRegions.push_back(DeepRegion{b, static_cast<int>(level)});
-    insets.push_back(std::move(grid).value());
   }
   for (const DeepRegion& r : in.deepRegions) {
     if (r.leafLevel % 2 != 0 || r.leafLevel <= static_cast<int>(in.baseDepth) ||
@@ -163,8 +164,7 @@ Result<BuildInputs> prepareInputs(const BuildOptions& o) {
   in.n = in.leafCells << (in.depth / 2);
   in.dem = std::move(dem).value();
   in.demSource = in.dem->source();
-  if (!insets.empty()) {
-    in.composite = CompositeSurface::make(*in.dem, o.insets, std::move(insets));
+  if (in.composite) {
     auto imagery = readInsetImagery(*in.composite);
     if (!imagery) return std::move(imagery).error();
     in.insetImagery = std::move(imagery).value();
@@ -182,7 +182,7 @@ Result<std::vector<std::optional<GeoImage>>> readInsetImagery(const CompositeSur
     }
     auto image = readImage(spec.texturePath);
     if (!image) return std::move(image).error();
-    const LatLonBounds footprint = composite.insets()[i].grid.bounds();
+    const LatLonBounds footprint = composite.specFootprint(i);
     if (!image->georeferenced()) {
       // An image without a georeference is taken to cover its inset's footprint exactly.
       const std::int64_t w = image->width();
@@ -243,18 +243,26 @@ std::vector<std::pair<std::string, std::string>> fingerprintOf(const BuildOption
   f.emplace_back("texture", texture);
   f.emplace_back("planet", in.planet->name());
   f.emplace_back("levels", std::to_string(in.depth));
-  for (const InsetSpec& inset : o.insets) {
-    const auto& grids = in.composite->insets();
-    const auto& specs = in.composite->specs();
-    for (std::size_t i = 0; i < specs.size(); ++i) {
-      if (specs[i].path != inset.path) continue;
-      f.emplace_back("inset", inset.path.filename().string() + "/crc32:" + demCrc32(grids[i].grid) +
-                                  "/offset:" + exact(inset.offsetMeters.value_or(0.0)));
-      if (const auto& image = in.insetImagery[i]) {
-        f.emplace_back("inset-texture", inset.texturePath.filename().string() + "/crc32:" +
-                                            hex32(crc32(std::as_bytes(std::span(image->rgba())))));
+  if (in.composite) {
+    const CompositeSurface& composite = *in.composite;
+    for (std::size_t m = 0; m < composite.insets().size(); ++m) {
+      const CompositeSurface::Inset& surface =
+          composite.insets()[composite.insetOfManifestIndex(m)];
+      std::string names;
+      for (const std::size_t k : surface.specs) {
+        if (!names.empty()) names += '+';
+        names += composite.specs()[k].path.filename().string();
       }
-      break;
+      f.emplace_back("inset", names + "/tiles:" + std::to_string(surface.tiles) +
+                                  "/crc32:" + demCrc32(surface.grid) +
+                                  "/offset:" + exact(surface.offsetMeters));
+    }
+    for (std::size_t k = 0; k < composite.specs().size(); ++k) {
+      if (const auto& image = in.insetImagery[k]) {
+        f.emplace_back("inset-texture",
+                       composite.specs()[k].texturePath.filename().string() +
+                           "/crc32:" + hex32(crc32(std::as_bytes(std::span(image->rgba())))));
+      }
     }
   }
   for (const DeepRegion& r : in.deepRegions) {
@@ -274,32 +282,37 @@ std::vector<std::pair<std::string, std::string>> fingerprintOf(const BuildOption
   return f;
 }
 
-/// The manifest's record of each inset, in the order of the options.
+/// The manifest's record of each inset surface, ordered by the first spec it holds.
 std::vector<ManifestInset> manifestInsets(const BuildOptions& o, const BuildInputs& in) {
   std::vector<ManifestInset> out;
   if (!in.composite) return out;
-  const auto& insets = in.composite->insets();
-  const auto& specs = in.composite->specs();
-  for (std::size_t k = 0; k < o.insets.size(); ++k) {
-    for (std::size_t i = 0; i < specs.size(); ++i) {
-      if (specs[i].path != o.insets[k].path) continue;
-      const HeightGrid& g = insets[i].grid;
-      const DeepRegion& region = in.deepRegions[o.deepRegions.size() + k];
-      ManifestInset m;
-      m.file = specs[i].path.filename().string();
-      m.format = g.source().format;
-      m.samples = static_cast<std::uint64_t>(g.computeStats().validCount);
-      m.southDegrees = region.bounds.southDegrees;
-      m.westDegrees = region.bounds.westDegrees;
-      m.northDegrees = region.bounds.northDegrees;
-      m.eastDegrees = region.bounds.eastDegrees;
-      m.leafLevel = static_cast<std::uint32_t>(region.leafLevel);
-      m.bandSamples = static_cast<std::uint32_t>(insets[i].bandSamples);
-      m.offsetMeters = insets[i].offsetMeters;
-      if (!specs[i].texturePath.empty()) m.texture = specs[i].texturePath.filename().string();
-      out.push_back(std::move(m));
-      break;
+  const CompositeSurface& composite = *in.composite;
+  for (std::size_t m = 0; m < composite.insets().size(); ++m) {
+    const CompositeSurface::Inset& surface = composite.insets()[composite.insetOfManifestIndex(m)];
+    const HeightGrid& g = surface.grid;
+    const DeepRegion& region = in.deepRegions[o.deepRegions.size() + m];
+    ManifestInset record;
+    std::string texture;
+    for (const std::size_t k : surface.specs) {
+      const InsetSpec& spec = composite.specs()[k];
+      if (!record.file.empty()) record.file += " + ";
+      record.file += spec.path.filename().string();
+      if (!spec.texturePath.empty()) {
+        if (!texture.empty()) texture += " + ";
+        texture += spec.texturePath.filename().string();
+      }
     }
+    record.format = g.source().format;
+    record.samples = static_cast<std::uint64_t>(g.computeStats().validCount);
+    record.southDegrees = region.bounds.southDegrees;
+    record.westDegrees = region.bounds.westDegrees;
+    record.northDegrees = region.bounds.northDegrees;
+    record.eastDegrees = region.bounds.eastDegrees;
+    record.leafLevel = static_cast<std::uint32_t>(region.leafLevel);
+    record.bandSamples = static_cast<std::uint32_t>(surface.bandSamples);
+    record.offsetMeters = surface.offsetMeters;
+    if (!texture.empty()) record.texture = texture;
+    out.push_back(std::move(record));
   }
   return out;
 }
@@ -311,15 +324,12 @@ std::function<std::uint32_t(const BinTriangle&)> leafSources(const BuildOptions&
                                                              const ForestPlan& plan,
                                                              const Lattice& lattice) {
   if (!in.composite) return {};
-  // The composite orders its insets coarsest first; the manifest as the options do.
-  std::vector<std::uint32_t> bitOf(in.composite->specs().size(), 0);
+  // The composite orders its insets coarsest first; the manifest by their first spec, and bit
+  // 1 + m is the manifest's inset m (CompositeSurface::make caps them at 31).
+  (void)o;
+  std::vector<std::uint32_t> bitOf(in.composite->insets().size(), 0);
   for (std::size_t i = 0; i < bitOf.size(); ++i) {
-    for (std::size_t k = 0; k < o.insets.size(); ++k) {
-      if (in.composite->specs()[i].path == o.insets[k].path) {
-        bitOf[i] = std::uint32_t{2} << k;
-        break;
-      }
-    }
+    bitOf[i] = std::uint32_t{2} << in.composite->insets()[i].manifestIndex;
   }
   return [&in, &plan, &lattice, bitOf](const BinTriangle& t) {
     std::uint32_t sources = 0;

@@ -700,12 +700,13 @@ TextureSource DatasetBuild::textureSource() const {
   source.ramp.maxMeters =
       std::max(static_cast<double>(grid.maxHeightMeters()), source.ramp.minMeters + 1.0);
   if (in_.imagery) source.imagery = &*in_.imagery;
-  // Insets with imagery draw it over what lies below, with the weight their heights blend by.
+  // Insets with imagery draw it over what lies below, with the weight their heights blend by
+  // (each spec's imagery over its own tiles of its surface).
   for (std::size_t i = 0; i < in_.insetImagery.size(); ++i) {
     if (!in_.insetImagery[i]) continue;
     const CompositeSurface* composite = &*in_.composite;
     source.layers.push_back({&*in_.insetImagery[i], [composite, i](double lat, double lon) {
-                               return composite->weightOf(i, lat, lon);
+                               return composite->specWeight(i, lat, lon);
                              }});
   }
   if (source.imagery != nullptr || !source.layers.empty()) source.imageryShadingStrength = 0.35;
@@ -857,6 +858,7 @@ Result<void> DatasetBuild::assemble(BuildSummary& summary) {
                               static_cast<double>(maxHeightMeters_),
                               manifestInsets(o_, in_),
                               leafSources(o_, in_, plan_, lattice_),
+                              in_.composite ? in_.composite->voidMap() : formats::VoidMap{},
                               assembling_,
                               [this](double fraction) { report("write", fraction); },
                               [this](const std::string& line) { log(line); }};
@@ -866,6 +868,13 @@ Result<void> DatasetBuild::assemble(BuildSummary& summary) {
 Result<BuildSummary> DatasetBuild::run() {
   BuildSummary summary;
   summary.latticeCells = in_.n;
+  if (in_.composite) {
+    const std::vector<formats::ManifestInset> records = manifestInsets(o_, in_);
+    for (std::size_t m = 0; m < records.size(); ++m) {
+      const auto& surface = in_.composite->insets()[in_.composite->insetOfManifestIndex(m)];
+      summary.insets.push_back(InsetSurfaceSummary{records[m].file, surface.tiles, surface.voids});
+    }
+  }
   summary.depth = in_.depth;
   summary.ranks = comm_.size();
   state_.fingerprint = fingerprintOf(o_, in_);

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <numeric>
 
+#include "pbdam/formats/DemTileSet.h"
+
 using namespace pbdam::formats;
 
 namespace pbdam::builder {
@@ -87,21 +89,61 @@ Result<void> checkInset(const InsetSpec& spec, const HeightGrid& inset, const He
   return {};
 }
 
-CompositeSurface CompositeSurface::make(HeightGrid base, std::vector<InsetSpec> specs,
-                                        std::vector<HeightGrid> insets) {
+Result<CompositeSurface> CompositeSurface::make(HeightGrid base, std::vector<InsetSpec> specs,
+                                                std::vector<HeightGrid> grids,
+                                                const VoidFillOptions& fill) {
+  std::vector<InsetSurfaceInput> surfaces;
+  for (std::size_t k = 0; k < grids.size(); ++k) {
+    const LatLonBounds bounds = grids[k].bounds();
+    surfaces.push_back(InsetSurfaceInput{std::move(grids[k]), {k}, 1, {bounds}});
+  }
+  return make(std::move(base), std::move(specs), std::move(surfaces), fill);
+}
+
+Result<CompositeSurface> CompositeSurface::make(HeightGrid base, std::vector<InsetSpec> specs,
+                                                std::vector<InsetSurfaceInput> surfaces,
+                                                const VoidFillOptions& fill) {
+  if (surfaces.size() > kMaxInsetSurfaces) {
+    return invalidArgument(std::to_string(surfaces.size()) +
+                           " separate inset surfaces: a leaf's sources name at "
+                           "most " +
+                           std::to_string(kMaxInsetSurfaces) +
+                           " (tiles that touch or overlap at one spacing count as one surface)");
+  }
+  // The manifest's order: by first spec.
+  std::vector<std::size_t> byFirstSpec(surfaces.size());
+  std::iota(byFirstSpec.begin(), byFirstSpec.end(), std::size_t{0});
+  std::stable_sort(byFirstSpec.begin(), byFirstSpec.end(), [&](std::size_t a, std::size_t b) {
+    return surfaces[a].specs.front() < surfaces[b].specs.front();
+  });
+  std::vector<std::size_t> manifestIndexOf(surfaces.size());
+  for (std::size_t m = 0; m < byFirstSpec.size(); ++m) manifestIndexOf[byFirstSpec[m]] = m;
   // Coarsest first, so that each finer inset is blended over what lies below it.
-  std::vector<std::size_t> order(insets.size());
-  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::vector<std::size_t> order(byFirstSpec);
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    return spacingOf(insets[a]) > spacingOf(insets[b]);
+    return spacingOf(surfaces[a].grid) > spacingOf(surfaces[b].grid);
   });
   CompositeSurface s;
+  s.base_ = std::move(base);
+  s.specs_ = std::move(specs);
   for (const std::size_t k : order) {
+    InsetSurfaceInput& input = surfaces[k];
     Inset inset;
-    inset.offsetMeters = specs[k].offsetMeters.value_or(0.0);
+    inset.offsetMeters = s.specs_[input.specs.front()].offsetMeters.value_or(0.0);
+    // Voids filled over what is below (the base and the coarser insets joined so far); their
+    // heights are the inset's own, so the offset comes off what lies below.
+    const double offset = inset.offsetMeters;
+    auto filled = fillVoids(input.grid, fill, [&s, offset](double lat, double lon) {
+      std::optional<double> h = s.heightBelow(s.insets_.size(), lat, lon);
+      if (h) *h -= offset;
+      return h;
+    });
+    if (!filled) return std::move(filled).error();
+    inset.voids = filled->report;
+    inset.voidRuns = std::move(filled->runs);
     // What it blends into: the finest coarser inset whose box holds its box, else the base.
-    const HeightGrid* below = &base;
-    const LatLonBounds box = insets[k].bounds();
+    const HeightGrid* below = &s.base_;
+    const LatLonBounds box = filled->grid.bounds();
     for (const Inset& coarser : s.insets_) {
       const LatLonBounds c = coarser.grid.bounds();
       if (c.southDegrees <= box.southDegrees && c.northDegrees >= box.northDegrees &&
@@ -109,15 +151,147 @@ CompositeSurface CompositeSurface::make(HeightGrid base, std::vector<InsetSpec> 
         below = &coarser.grid;  // coarsest first: the last that holds it is the finest
       }
     }
-    inset.bandSamples = transitionBandSamples(*below, insets[k]);
-    inset.edgeDistance = edgeDistances(insets[k], static_cast<std::uint16_t>(std::min<std::int64_t>(
-                                                      inset.bandSamples + 1, 65535)));
-    inset.grid = std::move(insets[k]);
+    inset.bandSamples = transitionBandSamples(*below, filled->grid);
+    inset.edgeDistance = edgeDistances(
+        filled->grid,
+        static_cast<std::uint16_t>(std::min<std::int64_t>(inset.bandSamples + 1, 65535)));
+    inset.grid = std::move(filled).value().grid;
+    inset.specs = std::move(input.specs);
+    inset.specBounds = std::move(input.specBounds);
+    inset.tiles = input.tiles;
+    inset.manifestIndex = manifestIndexOf[k];
     s.insets_.push_back(std::move(inset));
-    s.specs_.push_back(std::move(specs[k]));
   }
-  s.base_ = std::move(base);
   return s;
+}
+
+VoidMap CompositeSurface::voidMap() const {
+  VoidMap map;
+  bool any = false;
+  for (std::size_t m = 0; m < insets_.size(); ++m) {
+    const Inset& inset = insets_[insetOfManifestIndex(m)];
+    const GridGeometry& g = inset.grid.geometry();
+    map.surfaces.push_back(VoidGrid{g.firstLatDegrees, g.firstLonDegrees, g.latSpacingDegrees,
+                                    g.lonSpacingDegrees, static_cast<std::uint32_t>(g.width),
+                                    static_cast<std::uint32_t>(g.height), inset.voidRuns});
+    any = any || !inset.voidRuns.empty();
+  }
+  if (!any) map.surfaces.clear();
+  return map;
+}
+
+double CompositeSurface::specWeight(std::size_t k, double lat, double lon) const noexcept {
+  for (std::size_t i = 0; i < insets_.size(); ++i) {
+    const Inset& inset = insets_[i];
+    for (std::size_t j = 0; j < inset.specs.size(); ++j) {
+      if (inset.specs[j] != k) continue;
+      if (inset.specs.size() > 1) {
+        const LatLonBounds& b = inset.specBounds[j];
+        double l = std::fmod(lon - b.westDegrees, 360.0);
+        if (l < 0.0) l += 360.0;
+        if (lat < b.southDegrees || lat > b.northDegrees || l > b.eastDegrees - b.westDegrees) {
+          return 0.0;
+        }
+      }
+      return weightOf(i, lat, lon);
+    }
+  }
+  return 0.0;
+}
+
+LatLonBounds CompositeSurface::specFootprint(std::size_t k) const noexcept {
+  for (const Inset& inset : insets_) {
+    for (std::size_t j = 0; j < inset.specs.size(); ++j) {
+      if (inset.specs[j] == k) return inset.specBounds[j];
+    }
+  }
+  return LatLonBounds{};
+}
+
+std::size_t CompositeSurface::insetOfManifestIndex(std::size_t manifestIndex) const noexcept {
+  for (std::size_t i = 0; i < insets_.size(); ++i) {
+    if (insets_[i].manifestIndex == manifestIndex) return i;
+  }
+  return insets_.size();
+}
+
+Result<CompositeSurface> CompositeSurface::read(HeightGrid base, std::vector<InsetSpec> specs,
+                                                const DemReadOptions& readOptions,
+                                                const std::string& planetSpec,
+                                                const VoidFillOptions& fill) {
+  // Every tile of every spec, probed; the key keeps specs of different offsets apart.
+  std::vector<std::filesystem::path> paths;
+  std::vector<std::size_t> specOf;
+  std::vector<int> keys;
+  for (std::size_t k = 0; k < specs.size(); ++k) {
+    auto files = expandDemSet(specs[k].path);
+    if (!files) return std::move(files).error();
+    int key = static_cast<int>(k);
+    for (std::size_t j = 0; j < k; ++j) {
+      if (specs[j].offsetMeters == specs[k].offsetMeters) {
+        key = static_cast<int>(j);
+        break;
+      }
+    }
+    for (auto& file : *files) {
+      paths.push_back(std::move(file));
+      specOf.push_back(k);
+      keys.push_back(key);
+    }
+  }
+  auto tiles = probeDemTiles(paths);
+  if (!tiles) return std::move(tiles).error();
+  std::vector<InsetSurfaceInput> surfaces;
+  for (const std::vector<std::size_t>& members : groupDemTiles(*tiles, keys)) {
+    std::vector<std::filesystem::path> files;
+    InsetSurfaceInput input;
+    for (const std::size_t t : members) {
+      files.push_back(paths[t]);
+      if (std::find(input.specs.begin(), input.specs.end(), specOf[t]) == input.specs.end()) {
+        input.specs.push_back(specOf[t]);
+      }
+    }
+    std::sort(input.specs.begin(), input.specs.end());
+    // Named as the user named it: the spec, or the specs it joins.
+    std::string name;
+    for (const std::size_t k : input.specs) {
+      if (!name.empty()) name += " + ";
+      name += specs[k].path.string();
+    }
+    auto grid = readDemMosaic(files, name, readOptions);
+    if (!grid) return std::move(grid).error();
+    const InsetSpec& first = specs[input.specs.front()];
+    if (auto ok = checkInset(first, *grid, base, planetSpec); !ok) return std::move(ok).error();
+    const LatLonBounds b = grid->bounds();
+    if (!(b.southDegrees >= -90.0 && b.northDegrees <= 90.0)) {
+      return invalidArgument(name + ": its samples reach latitudes beyond ±90°");
+    }
+    // Each spec's own footprint, for its imagery: the box of its tiles where the surface is
+    // geographic and holds several specs, else the surface's.
+    for (const std::size_t k : input.specs) {
+      LatLonBounds own = b;
+      if (input.specs.size() > 1 && !grid->source().warped) {
+        bool any = false;
+        for (const std::size_t t : members) {
+          if (specOf[t] != k) continue;
+          const auto& g = (*tiles)[t].geoTransform;
+          const LatLonBounds tb{g[3] + g[5] * static_cast<double>((*tiles)[t].height), g[0], g[3],
+                                g[0] + g[1] * static_cast<double>((*tiles)[t].width)};
+          own = any ? LatLonBounds{std::min(own.southDegrees, tb.southDegrees),
+                                   std::min(own.westDegrees, tb.westDegrees),
+                                   std::max(own.northDegrees, tb.northDegrees),
+                                   std::max(own.eastDegrees, tb.eastDegrees)}
+                    : tb;
+          any = true;
+        }
+      }
+      input.specBounds.push_back(own);
+    }
+    input.tiles = members.size();
+    input.grid = std::move(grid).value();
+    surfaces.push_back(std::move(input));
+  }
+  return make(std::move(base), std::move(specs), std::move(surfaces), fill);
 }
 
 double CompositeSurface::weightOf(std::size_t i, double lat, double lon) const noexcept {

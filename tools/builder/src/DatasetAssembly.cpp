@@ -545,6 +545,16 @@ Result<void> Assembly::run() {
     if (in_.progress) in_.progress(static_cast<double>(face + 1) / 6.0);
   }
   const std::filesystem::path& outDir = in_.options.outDir;
+  if (!in_.voids.surfaces.empty()) {
+    // Where the insets' voids were, for `pbdam height` (before the manifest, which names it).
+    const std::vector<std::byte> bytes = encodeVoidMap(in_.voids);
+    ManifestFace voids{kVoidMapFileName, bytes.size(), 0};
+    if (auto w = writeFileAtomically(outDir / kVoidMapFileName, {bytes}, voids.crc32); !w) {
+      return w;
+    }
+    manifest.voids = voids;
+    summary_.datasetBytes += bytes.size();
+  }
   syncDirectory(outDir);
   const std::string json = manifestToJson(manifest);
   std::uint32_t crc = 0;

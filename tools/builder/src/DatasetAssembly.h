@@ -4,6 +4,7 @@
 #pragma once
 
 #include "pbdam/formats/Manifest.h"
+#include "pbdam/formats/VoidMap.h"
 
 #include "ForestPlan.h"
 
@@ -64,9 +65,11 @@ struct AssemblyInputs final {
   std::string sourceFormat;
   double minHeightMeters = 0.0;
   double maxHeightMeters = 0.0;
-  std::vector<formats::ManifestInset> insets;  ///< in the order of the options
+  std::vector<formats::ManifestInset> insets;  ///< in the manifest's order
   /// With insets: a leaf's sources (NodeRecord::sources) from its triangle.
   std::function<std::uint32_t(const runtime::BinTriangle&)> leafSources;
+  /// The insets' voids (written as voids.bin when it lists surfaces).
+  formats::VoidMap voids;
   /// Where the assembly registers its mappings while it reads them (cleared before it returns).
   AssemblyMappings& mappings;
   /// Called with the fraction of the face files written.

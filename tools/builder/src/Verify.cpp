@@ -278,18 +278,13 @@ Result<void> DatasetVerifier::openDemGrid() {
     }
   } else {
     // The composite's samples, as the builder measured its errors against them.
-    std::vector<HeightGrid> insets;
-    for (const InsetSpec& spec : o_.insets) {
-      DemReadOptions insetOptions = readOptions;
-      insetOptions.raw.reset();  // the raw-grid options describe --dem only
-      auto grid = readDem(spec.path, insetOptions);
-      if (!grid) return std::move(grid).error();
-      if (auto ok = checkInset(spec, *grid, *dem, planet_.name()); !ok) {
-        return std::move(ok).error();
-      }
-      insets.push_back(std::move(grid).value());
-    }
-    const CompositeSurface composite = CompositeSurface::make(*dem, o_.insets, std::move(insets));
+    DemReadOptions insetOptions = readOptions;
+    insetOptions.raw.reset();  // the raw-grid options describe --dem only
+    auto read =
+        CompositeSurface::read(*dem, o_.insets, insetOptions, planet_.name(),
+                               VoidFillOptions{.scratchDirectory = insetOptions.scratchDirectory});
+    if (!read) return std::move(read).error();
+    const CompositeSurface& composite = *read;
     const SampleEnumerator samples =
         [&composite](const std::function<void(double, double, double)>& fn) {
           composite.forEachSample(

@@ -13,6 +13,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace pbdam::formats {
@@ -78,6 +79,13 @@ class HeightGrid final {
   /// they are a shared file mapping whose pages releaseResident may drop from the process.
   HeightGrid(GridGeometry geometry, std::shared_ptr<const float> heightsMeters, bool fileBacked,
              GridSource source);
+
+  /// The same grid (sharing its heights) described by `source`.
+  HeightGrid withSource(GridSource source) const {
+    HeightGrid copy = *this;
+    copy.source_ = std::move(source);
+    return copy;
+  }
 
   const GridGeometry& geometry() const noexcept { return geometry_; }
   const GridSource& source() const noexcept { return source_; }

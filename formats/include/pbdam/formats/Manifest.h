@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -62,6 +63,9 @@ struct Manifest final {
   std::array<ManifestFace, 6> faces;
   /// Insets joined to the source DEM; written (as "insets") only when there are some.
   std::vector<ManifestInset> insets;
+  /// Where the insets' voids were and what they became (formats/VoidMap.h): written (as
+  /// "voids") only when an inset had voids. Readers that predate it ignore it.
+  std::optional<ManifestFace> voids;
 };
 
 /// The manifest as pretty-printed JSON (stable key order: byte-identical for equal manifests).

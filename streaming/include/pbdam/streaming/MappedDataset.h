@@ -8,8 +8,10 @@
 #include <array>
 #include <filesystem>
 #include <memory>
+#include <optional>
 
 #include "pbdam/formats/Result.h"
+#include "pbdam/formats/VoidMap.h"
 #include "pbdam/runtime/DatasetView.h"
 #include "pbdam/streaming/MappedFile.h"
 
@@ -18,7 +20,8 @@ namespace pbdam::streaming {
 class MappedDataset final {
  public:
   /// Opens DIR: NotFound when DIR has no manifest.json (an incomplete or missing dataset),
-  /// CorruptData naming the file when a face does not match its manifest entry. `faceOptions`:
+  /// CorruptData naming the file when a face (or the void map) does not match its manifest
+  /// entry. `faceOptions`:
   /// node tables held whole (the default) or paged (DatasetView::open).
   static formats::Result<std::unique_ptr<MappedDataset>> open(
       const std::filesystem::path& directory, const formats::FaceViewOptions& faceOptions = {});
@@ -31,11 +34,22 @@ class MappedDataset final {
   /// Total bytes of the six face files.
   std::uint64_t bytes() const noexcept;
 
+  /// A void of an inset at a point: the manifest's inset index and what the void became.
+  struct VoidAt final {
+    std::size_t inset = 0;
+    formats::VoidKind kind = formats::VoidKind::FilledFromRim;
+  };
+  /// Whether (lat, lon) lies in a void of an inset (the sample nearest it was a void's), the
+  /// finest inset first; nullopt in a dataset without voids (voids.bin, read and checked at
+  /// open).
+  std::optional<VoidAt> voidAt(double latDegrees, double lonDegrees) const noexcept;
+
  private:
   MappedDataset() = default;
   std::filesystem::path directory_;
   std::array<MappedFile, 6> files_;
   runtime::DatasetView view_;
+  formats::VoidMap voids_;
 };
 
 }  // namespace pbdam::streaming

@@ -83,7 +83,15 @@ struct BuildOptions final {
 };
 
 /// What a build did, for the summary the CLI prints.
+/// One inset surface as the build joined it (the manifest's order).
+struct InsetSurfaceSummary final {
+  std::string name;       ///< the specs it holds, as the manifest names them
+  std::size_t tiles = 1;  ///< files read
+  VoidReport voids;       ///< its voids: filled from their rims, or the surface below
+};
+
 struct BuildSummary final {
+  std::vector<InsetSurfaceSummary> insets;
   std::uint32_t latticeCells = 0;
   std::uint32_t depth = 0;
   std::uint32_t textureLevels = 0;

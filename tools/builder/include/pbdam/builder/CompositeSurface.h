@@ -2,10 +2,12 @@
 // and local high-resolution insets, each read through GDAL in any format and projection. One
 // function of position: inside an inset's footprint (its valid samples) the inset's heights, in
 // a transition band just inside the footprint's edge a blend to what lies below, outside it the
-// base unchanged; where insets overlap, the finer wins. Patch errors are measured against the
-// composite's own samples (forEachSample): base samples where no inset lies, each inset's samples
-// where it is the finest, with their blended heights in its band. Thread-safety: immutable after
-// make(); const members are safe from any thread.
+// base unchanged; where insets overlap, the finer wins. Tiles that touch or overlap at one
+// spacing are one surface (one grid, no band along their seams), and the voids of a surface
+// are filled from its own samples (VoidFill.h), so the band lies only where its data ends. Patch
+// errors are measured against the composite's own samples (forEachSample): base samples where no
+// inset lies, each inset's samples where it is the finest, with their blended heights in its band.
+// Thread-safety: immutable after make(); const members are safe from any thread.
 #pragma once
 
 #include <cstdint>
@@ -15,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include "pbdam/builder/VoidFill.h"
+#include "pbdam/formats/DemReader.h"
 #include "pbdam/formats/HeightGrid.h"
 #include "pbdam/formats/Result.h"
 
@@ -22,6 +26,7 @@ namespace pbdam::builder {
 
 /// An inset as the command line names it.
 struct InsetSpec final {
+  /// A DEM file, a VRT, or a set of tiles: a directory or a glob (formats/DemTileSet.h).
   std::filesystem::path path;
   /// Added to the inset's heights (metres), for an inset on another vertical datum.
   std::optional<double> offsetMeters;
@@ -47,15 +52,29 @@ std::int64_t transitionBandSamples(const formats::HeightGrid& below,
 formats::Result<void> checkInset(const InsetSpec& spec, const formats::HeightGrid& inset,
                                  const formats::HeightGrid& base, const std::string& planetSpec);
 
+/// The most inset surfaces a dataset joins: a leaf's sources (formats::NodeRecord::sources)
+/// give the base bit 0 and each surface one of the other 31 bits.
+inline constexpr std::size_t kMaxInsetSurfaces = 31;
+
 /// Which source defines the composite at a point.
 struct SourceAt final {
   int inset = -1;       ///< index into the composite's insets, −1 for the base
   double weight = 0.0;  ///< of that inset there: 1 inside its band, 0 < w < 1 in the band
 };
 
+/// One surface of inset samples before it joins the composite: the tiles of one or more specs
+/// that touch or overlap at one spacing, read as one grid (formats::readDemMosaic).
+struct InsetSurfaceInput final {
+  formats::HeightGrid grid;
+  std::vector<std::size_t> specs;  ///< indices of the specs whose tiles it holds, ascending
+  std::size_t tiles = 1;           ///< how many files it was read from
+  /// The footprint of each of `specs` (the box of its own tiles), for its imagery.
+  std::vector<formats::LatLonBounds> specBounds;
+};
+
 class CompositeSurface final {
  public:
-  /// One inset: its grid, its height offset and its band.
+  /// One inset surface: its grid (voids filled), its height offset and its band.
   struct Inset final {
     formats::HeightGrid grid;
     double offsetMeters = 0.0;
@@ -64,13 +83,40 @@ class CompositeSurface final {
     /// samples next to nodata or the grid's edge), rising by 1/band per sample inward, 1 beyond
     /// the band (Chebyshev distance to the nearest sample outside the footprint, minus 1).
     std::vector<std::uint16_t> edgeDistance;
+    std::vector<std::size_t> specs;                 ///< the specs (indices into specs()) it joins
+    std::vector<formats::LatLonBounds> specBounds;  ///< the footprint of each of those
+    std::size_t tiles = 1;                          ///< the files it was read from
+    VoidReport voids;                               ///< what its voids were and became
+    std::vector<formats::VoidRun> voidRuns;         ///< where they were (its grid's rows)
+    /// Its position among the surfaces ordered by their first spec (the manifest's order).
+    std::size_t manifestIndex = 0;
   };
 
-  /// The composite of `base` and `insets` (any order: they are sorted from coarsest to finest,
-  /// ties by the order given). Index i of sourceAt() and forEachSample() is the position in
-  /// insets() (that order).
-  static CompositeSurface make(formats::HeightGrid base, std::vector<InsetSpec> specs,
-                               std::vector<formats::HeightGrid> insets);
+  /// Reads the insets of `specs` (files, VRTs, directories or globs of tiles) and joins them to
+  /// `base`: every tile is probed, tiles that touch or overlap at one spacing and CRS with the
+  /// same height offset become one surface whatever spec or order they came in, each surface is
+  /// checked against the base (checkInset, naming its first spec), its voids filled
+  /// (VoidFill.h) and joined. Errors name the file or spec: unreadable or corrupt tiles, empty
+  /// sets, tiles of another body, more surfaces than a leaf's sources can name (31).
+  static formats::Result<CompositeSurface> read(formats::HeightGrid base,
+                                                std::vector<InsetSpec> specs,
+                                                const formats::DemReadOptions& readOptions,
+                                                const std::string& planetSpec,
+                                                const VoidFillOptions& fill = {});
+
+  /// The composite of `base` and the inset `surfaces` (any order: they are sorted from
+  /// coarsest to finest, ties by their first spec). Index i of sourceAt() and forEachSample()
+  /// is the position in insets() (that order). Voids are filled coarsest first, each over the
+  /// composite of what is below it. Errors: the void fill's.
+  static formats::Result<CompositeSurface> make(formats::HeightGrid base,
+                                                std::vector<InsetSpec> specs,
+                                                std::vector<InsetSurfaceInput> surfaces,
+                                                const VoidFillOptions& fill = {});
+  /// The same with one surface per spec, `grids` in the order of `specs`.
+  static formats::Result<CompositeSurface> make(formats::HeightGrid base,
+                                                std::vector<InsetSpec> specs,
+                                                std::vector<formats::HeightGrid> grids,
+                                                const VoidFillOptions& fill = {});
 
   const formats::HeightGrid& base() const noexcept { return base_; }
   const std::vector<Inset>& insets() const noexcept { return insets_; }
@@ -78,8 +124,19 @@ class CompositeSurface final {
   void releaseResident() const {
     for (const Inset& inset : insets_) inset.grid.releaseResident();
   }
-  /// The spec each inset came from (same order as insets()).
+  /// The specs as given (the options' order); each inset says which of them it holds.
   const std::vector<InsetSpec>& specs() const noexcept { return specs_; }
+  /// The weight of spec `k`'s imagery at (lat, lon): its surface's weight, within the
+  /// footprint of its own tiles when the surface joins several specs.
+  double specWeight(std::size_t k, double latDegrees, double lonDegrees) const noexcept;
+  /// The voids of every surface, in the manifest's order (the dataset's voids.bin); empty
+  /// surfaces list when no surface had a void.
+  formats::VoidMap voidMap() const;
+  /// The footprint of spec `k`'s own tiles (its imagery's box when the imagery has none).
+  formats::LatLonBounds specFootprint(std::size_t k) const noexcept;
+  /// The index into insets() of the surface at `manifestIndex` (surfaces ordered by their
+  /// first spec).
+  std::size_t insetOfManifestIndex(std::size_t manifestIndex) const noexcept;
 
   /// The composite height at (lat, lon): the base's bicubic height (bilinear where bicubic
   /// lacks data), then for each inset from coarsest to finest w·(the inset's height, read the
