@@ -83,7 +83,7 @@ Result<std::vector<fs::path>> expandDemSet(const fs::path& path) {
       if (entry.is_regular_file(ec) && !isSideFile(entry.path())) files.push_back(entry.path());
     }
     if (files.empty()) {
-      return invalidArgument(path.string() + ": the directory holds no DEM tiles");
+      return invalidArgument(path.string() + ": the directory holds no tiles (side files such as .prj, .aux.xml and .txt do not count)");
     }
   } else if (!fs::exists(path, ec) && hasGlobCharacter(path.string())) {
     glob_t matches{};
@@ -94,7 +94,7 @@ Result<std::vector<fs::path>> expandDemSet(const fs::path& path) {
     }
     ::globfree(&matches);
     if (files.empty()) {
-      return makeError(ErrorCode::NotFound, path.string() + ": the pattern matches no DEM files");
+      return makeError(ErrorCode::NotFound, path.string() + ": the pattern matches no tiles");
     }
   } else {
     files.push_back(path);

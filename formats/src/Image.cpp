@@ -2,6 +2,7 @@
 // (Image.h).
 #include "pbdam/formats/Image.h"
 
+#include "pbdam/formats/DemTileSet.h"
 #include "pbdam/formats/ImageCodec.h"
 
 #include <cpl_conv.h>
@@ -10,6 +11,7 @@
 #include <ogr_srs_api.h>
 
 #include <algorithm>
+#include <functional>
 #include <cmath>
 #include <mutex>
 
@@ -110,23 +112,41 @@ Georeference georeference(const std::filesystem::path& path) {
   return found;
 }
 
-/// A projected image warped by GDAL's warper to the geographic CRS of its own datum (bilinear,
-/// GDAL's default resolution), its bytes as RGBA8 with alpha 0 where the warp has no source.
-Result<GeoImage> readWarpedImage(const std::filesystem::path& path) {
-  registerGdal();
-  const auto fail = [&path](const std::string& why) -> Result<GeoImage> {
-    return makeError(
-        ErrorCode::UnsupportedFormat,
-        path.string() + ": a projected image that cannot be warped to geographic (" + why + ")");
-  };
-  CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", "NO");
-  GDALDatasetH source =
-      GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr);
-  CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", nullptr);
-  if (source == nullptr) return fail("GDAL cannot open it");
+/// The pixels of a north-up geographic GDAL dataset whose last band is alpha, as RGBA8 (colour
+/// bands 1..3; a grey band thrice). `fail` makes the error naming what was read.
+Result<GeoImage> rgbaOf(GDALDatasetH ds, const std::function<Error(const std::string&)>& fail) {
+  double gt[6] = {};
+  const std::int64_t width = GDALGetRasterXSize(ds);
+  const std::int64_t height = GDALGetRasterYSize(ds);
+  const int out = GDALGetRasterCount(ds);  // colour bands, then alpha
+  if (GDALGetGeoTransform(ds, gt) != CE_None || gt[2] != 0.0 || gt[4] != 0.0 || gt[5] >= 0.0 ||
+      width < 1 || height < 1 || out < 2) {
+    return fail("not a north-up grid");
+  }
+  std::vector<std::uint8_t> rgba(static_cast<std::size_t>(width * height * 4));
+  const int colours = out - 1;
+  bool read = true;
+  for (int c = 0; c < 4 && read; ++c) {
+    const int band = c == 3 ? out : std::min(c + 1, colours);
+    read =
+        GDALRasterIO(GDALGetRasterBand(ds, band), GF_Read, 0, 0, static_cast<int>(width),
+                     static_cast<int>(height), rgba.data() + c, static_cast<int>(width),
+                     static_cast<int>(height), GDT_Byte, 4, static_cast<int>(width * 4)) == CE_None;
+  }
+  if (!read) return fail("GDAL could not read its pixels");
+  return GeoImage(width, height, std::move(rgba),
+                  LatLonBounds{gt[3] + static_cast<double>(height) * gt[5], gt[0], gt[3],
+                               gt[0] + static_cast<double>(width) * gt[1]},
+                  true);
+}
+
+/// `source` (8-bit bands, projected) warped by GDAL's warper to the geographic CRS of its own
+/// datum (bilinear, GDAL's default resolution), as RGBA8 with alpha 0 where the warp has no
+/// source. Closes nothing.
+Result<GeoImage> warpedImage(GDALDatasetH source,
+                             const std::function<Error(const std::string&)>& fail) {
   const int bands = GDALGetRasterCount(source);
   if (bands < 1 || GDALGetRasterDataType(GDALGetRasterBand(source, 1)) != GDT_Byte) {
-    GDALClose(source);
     return fail("it needs 8-bit bands");
   }
   OGRSpatialReferenceH geographic = OSRCloneGeogCS(GDALGetSpatialRef(source));
@@ -135,10 +155,7 @@ Result<GeoImage> readWarpedImage(const std::filesystem::path& path) {
   std::string target = wkt != nullptr ? wkt : "";
   CPLFree(wkt);
   OSRDestroySpatialReference(geographic);
-  if (target.empty()) {
-    GDALClose(source);
-    return fail("its CRS has no geographic base");
-  }
+  if (target.empty()) return fail("its CRS has no geographic base");
   // An alpha band of the source is carried as such; otherwise the warper adds one.
   const bool hasAlpha =
       GDALGetRasterColorInterpretation(GDALGetRasterBand(source, bands)) == GCI_AlphaBand;
@@ -155,39 +172,82 @@ Result<GeoImage> readWarpedImage(const std::filesystem::path& path) {
   GDALDatasetH warped = GDALWarp("", nullptr, 1, inputs, options, &usageError);
   GDALWarpAppOptionsFree(options);
   CPLPopErrorHandler();
-  GDALClose(source);
   if (warped == nullptr) return fail("GDAL's warper failed");
-  double gt[6] = {};
-  const std::int64_t width = GDALGetRasterXSize(warped);
-  const std::int64_t height = GDALGetRasterYSize(warped);
-  const int out = GDALGetRasterCount(warped);  // colour bands, then alpha
-  if (GDALGetGeoTransform(warped, gt) != CE_None || gt[2] != 0.0 || gt[4] != 0.0 || gt[5] >= 0.0 ||
-      width < 1 || height < 1 || out < 2) {
-    GDALClose(warped);
-    return fail("the warp is not a north-up grid");
-  }
-  std::vector<std::uint8_t> rgba(static_cast<std::size_t>(width * height * 4));
-  // Colour bands 1..3 (grey: band 1 thrice), alpha the last band.
-  const int colours = out - 1;
-  bool read = true;
-  for (int c = 0; c < 4 && read; ++c) {
-    const int band = c == 3 ? out : std::min(c + 1, colours);
-    read =
-        GDALRasterIO(GDALGetRasterBand(warped, band), GF_Read, 0, 0, static_cast<int>(width),
-                     static_cast<int>(height), rgba.data() + c, static_cast<int>(width),
-                     static_cast<int>(height), GDT_Byte, 4, static_cast<int>(width * 4)) == CE_None;
-  }
+  auto image = rgbaOf(warped, [&](const std::string& why) { return fail("the warp is " + why); });
   GDALClose(warped);
-  if (!read) return fail("GDAL could not read the warped pixels");
-  return GeoImage(width, height, std::move(rgba),
-                  LatLonBounds{gt[3] + static_cast<double>(height) * gt[5], gt[0], gt[3],
-                               gt[0] + static_cast<double>(width) * gt[1]},
-                  true);
+  return image;
+}
+
+/// A projected image warped to geographic (warpedImage).
+Result<GeoImage> readWarpedImage(const std::filesystem::path& path) {
+  registerGdal();
+  const auto fail = [&path](const std::string& why) {
+    return makeError(
+        ErrorCode::UnsupportedFormat,
+        path.string() + ": a projected image that cannot be warped to geographic (" + why + ")");
+  };
+  CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", "NO");
+  GDALDatasetH source =
+      GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr);
+  CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", nullptr);
+  if (source == nullptr) return fail("GDAL cannot open it");
+  auto image = warpedImage(source, fail);
+  GDALClose(source);
+  return image;
+}
+
+/// Imagery tiles (a directory or a glob of georeferenced images) as one image: a GDAL VRT
+/// mosaic of them with an alpha band (0 where no tile lies), warped when projected.
+Result<GeoImage> readImageSet(const std::filesystem::path& path) {
+  auto files = expandDemSet(path);
+  if (!files) return std::move(files).error();
+  registerGdal();
+  for (const std::filesystem::path& file : *files) {
+    if (const Georeference geo = georeference(file); !geo.bounds && !geo.projected) {
+      return makeError(ErrorCode::UnsupportedFormat,
+                       file.string() + ": an imagery tile of a set must be georeferenced (or " +
+                           "give the image alone, to cover its inset)");
+    }
+  }
+  const auto fail = [&path](const std::string& why) {
+    return makeError(ErrorCode::UnsupportedFormat,
+                     path.string() + ": its imagery tiles cannot be joined (" + why + ")");
+  };
+  std::vector<std::string> names;
+  std::vector<const char*> pointers;
+  for (const auto& file : *files) names.push_back(file.string());
+  for (const auto& name : names) pointers.push_back(name.c_str());
+  std::vector<std::string> args = {"-addalpha"};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  CPLPushErrorHandler(CPLQuietErrorHandler);
+  CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", "NO");
+  GDALBuildVRTOptions* options = GDALBuildVRTOptionsNew(argv.data(), nullptr);
+  int usageError = 0;
+  GDALDatasetH mosaic = GDALBuildVRT("", static_cast<int>(pointers.size()), nullptr,
+                                     pointers.data(), options, &usageError);
+  GDALBuildVRTOptionsFree(options);
+  CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", nullptr);
+  CPLPopErrorHandler();
+  if (mosaic == nullptr) return fail("GDAL could not build a mosaic of them");
+  Result<GeoImage> image = fail("no georeference");
+  if (GDALGetRasterDataType(GDALGetRasterBand(mosaic, 1)) != GDT_Byte) {
+    image = fail("they need 8-bit bands");
+  } else if (OGRSpatialReferenceH srs = GDALGetSpatialRef(mosaic);
+             srs != nullptr && OSRIsProjected(srs) != 0) {
+    image = warpedImage(mosaic, fail);
+  } else {
+    image = rgbaOf(mosaic, [&](const std::string& why) { return fail("the mosaic is " + why); });
+  }
+  GDALClose(mosaic);
+  return image;
 }
 
 }  // namespace
 
 Result<GeoImage> readImage(const std::filesystem::path& path) {
+  if (namesDemSet(path)) return readImageSet(path);
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) {
     return makeError(ErrorCode::NotFound, path.string() + ": no such file");

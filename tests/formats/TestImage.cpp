@@ -2,7 +2,10 @@
 #include <dlfcn.h>
 #include <gtest/gtest.h>
 
+#include <array>
+#include <filesystem>
 #include <fstream>
+#include <vector>
 
 #include "TestData.h"
 #include "Utm32GeoTiff.h"
@@ -121,6 +124,67 @@ TEST(Image, AProjectedGeoTiffIsWarpedToGeographicWithAlphaOutsideItsFootprint) {
   // The bounds are a box around the rotated footprint: its corners have no source pixel.
   EXPECT_EQ(image->pixel(0, 0)[3], 0);
   EXPECT_EQ(image->pixel(image->width() - 1, image->height() - 1)[3], 0);
+}
+
+/// Writes a 1° × 1° geographic (WGS 84) RGB GeoTIFF of `side` × `side` pixels of one colour.
+bool writeGeographicTile(const std::filesystem::path& path, double west, double north, int side,
+                         std::array<std::uint8_t, 3> rgb) {
+  GDALAllRegister();
+  GDALDriverH gtiff = GDALGetDriverByName("GTiff");
+  GDALDatasetH ds = gtiff != nullptr ? GDALCreate(gtiff, path.c_str(), side, side, 3, GDT_Byte,
+                                                  nullptr)
+                                     : nullptr;
+  if (ds == nullptr) return false;
+  double gt[6] = {west, 1.0 / side, 0.0, north, 0.0, -1.0 / side};
+  GDALSetGeoTransform(ds, gt);
+  OGRSpatialReferenceH wgs84 = OSRNewSpatialReference(nullptr);
+  OSRImportFromEPSG(wgs84, 4326);
+  GDALSetSpatialRef(ds, wgs84);
+  OSRDestroySpatialReference(wgs84);
+  bool ok = true;
+  for (int b = 0; b < 3; ++b) {
+    std::vector<std::uint8_t> values(static_cast<std::size_t>(side * side), rgb[b]);
+    ok = ok && GDALRasterIO(GDALGetRasterBand(ds, b + 1), GF_Write, 0, 0, side, side,
+                            values.data(), side, side, GDT_Byte, 0, 0) == CE_None;
+  }
+  GDALClose(ds);
+  return ok;
+}
+
+// Imagery tiles for a tile set's inset: a directory (or a glob) of georeferenced images read as
+// one image, transparent where no tile lies; an ungeoreferenced tile among them is refused.
+TEST(Image, ADirectoryOfGeoreferencedTilesIsOneImageTransparentWhereNoTileLies) {
+  test::TempDir dir;
+  std::filesystem::create_directories(dir / "tiles");
+  ASSERT_TRUE(writeGeographicTile(dir / "tiles/a.tif", 10.0, 46.0, 32, {255, 0, 0}));
+  ASSERT_TRUE(writeGeographicTile(dir / "tiles/b.tif", 11.0, 46.0, 32, {0, 0, 255}));
+  ASSERT_TRUE(writeGeographicTile(dir / "tiles/c.tif", 13.0, 46.0, 32, {0, 255, 0}));
+  std::ofstream(dir / "tiles/README.txt") << "side file\n";
+  for (const auto& set : {dir / "tiles", dir / "tiles/*.tif"}) {
+    auto image = readImage(set);
+    ASSERT_TRUE(image) << image.error().message;
+    EXPECT_TRUE(image->georeferenced());
+    EXPECT_NEAR(image->bounds().westDegrees, 10.0, 1e-9);
+    EXPECT_NEAR(image->bounds().eastDegrees, 14.0, 1e-9);
+    EXPECT_NEAR(image->bounds().southDegrees, 45.0, 1e-9);
+    const auto red = image->sampleBilinear(45.5, 10.5);
+    const auto blue = image->sampleBilinear(45.5, 11.5);
+    const auto gap = image->sampleBilinear(45.5, 12.5);
+    const auto green = image->sampleBilinear(45.5, 13.5);
+    ASSERT_TRUE(red && blue && gap && green);
+    EXPECT_EQ((*red)[0], 255.0f);
+    EXPECT_EQ((*red)[3], 255.0f);
+    EXPECT_EQ((*blue)[2], 255.0f);
+    EXPECT_EQ((*green)[1], 255.0f);
+    EXPECT_EQ((*gap)[3], 0.0f) << "no tile there";
+  }
+  // A plain PNG (no georeference) among the tiles.
+  std::filesystem::copy(kEarthImage, dir / "tiles/plain.jpg");
+  auto mixed = readImage(dir / "tiles");
+  ASSERT_FALSE(mixed.ok());
+  EXPECT_NE(mixed.error().message.find("plain.jpg: an imagery tile of a set must be"),
+            std::string::npos)
+      << mixed.error().message;
 }
 
 }  // namespace

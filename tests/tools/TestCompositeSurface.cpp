@@ -426,8 +426,8 @@ TEST(CompositeSurface, TileSetsThatCannotBeReadAreRefusedNamingTheFile) {
   };
   std::filesystem::create_directories(dir / "empty");
   std::ofstream(dir / "empty/README.txt") << "not a tile\n";
-  refused(dir / "empty", "holds no DEM tiles");
-  refused(dir / "nothing/*.hgt", "matches no DEM files");
+  refused(dir / "empty", "holds no tiles");
+  refused(dir / "nothing/*.hgt", "matches no tiles");
   // A corrupt tile among good ones.
   std::filesystem::create_directories(dir / "corrupt");
   writeTile(dir / "corrupt/a.asc", *lux, 0, 40, 0, 40);

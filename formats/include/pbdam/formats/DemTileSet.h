@@ -22,10 +22,11 @@ namespace pbdam::formats {
 /// that does not exist and holds a glob character (* ? [).
 bool namesDemSet(const std::filesystem::path& path);
 
-/// The files of a set, sorted: a directory's regular files (hidden files and the side files
-/// GDAL and the survey agencies put beside rasters — .aux.xml, .prj, .tfw, .xml, .txt, ... —
-/// left out; subdirectories not entered), or a glob pattern's matches. A path that is one file
-/// gives itself. Errors: an unreadable directory, a set with no files (naming it).
+/// The files of a set of raster tiles (DEMs or imagery), sorted: a directory's regular files
+/// (hidden files and the side files GDAL and the survey agencies put beside rasters — .aux.xml,
+/// .prj, world files, .xml, .txt, ... — left out; subdirectories not entered), or a glob
+/// pattern's matches. A path that is one file gives itself. Errors: an unreadable directory, a
+/// set with no files (naming it).
 Result<std::vector<std::filesystem::path>> expandDemSet(const std::filesystem::path& path);
 
 /// A tile as GDAL describes it, without its heights.

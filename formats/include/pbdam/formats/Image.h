@@ -50,8 +50,10 @@ class GeoImage final {
 
 /// Reads an image (JPEG, PNG, TIFF, ... anything OpenImageIO reads) as RGBA8. Grey images are
 /// expanded, alpha defaults to 255. A projected GeoTIFF (8-bit bands) is warped to geographic
-/// (bilinear, GDAL's default resolution) with alpha 0 where it has no source pixel. Errors name the
-/// file: missing, unreadable, truncated.
+/// (bilinear, GDAL's default resolution) with alpha 0 where it has no source pixel. A directory
+/// or a glob (DemTileSet.h) is a set of georeferenced imagery tiles, read as one image (a GDAL
+/// VRT mosaic, alpha 0 where no tile lies). Errors name the file: missing, unreadable,
+/// truncated, a tile of a set without a georeference.
 Result<GeoImage> readImage(const std::filesystem::path& path);
 
 }  // namespace pbdam::formats
