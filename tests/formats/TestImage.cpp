@@ -131,9 +131,9 @@ bool writeGeographicTile(const std::filesystem::path& path, double west, double 
                          std::array<std::uint8_t, 3> rgb) {
   GDALAllRegister();
   GDALDriverH gtiff = GDALGetDriverByName("GTiff");
-  GDALDatasetH ds = gtiff != nullptr ? GDALCreate(gtiff, path.c_str(), side, side, 3, GDT_Byte,
-                                                  nullptr)
-                                     : nullptr;
+  GDALDatasetH ds = gtiff != nullptr
+                        ? GDALCreate(gtiff, path.c_str(), side, side, 3, GDT_Byte, nullptr)
+                        : nullptr;
   if (ds == nullptr) return false;
   double gt[6] = {west, 1.0 / side, 0.0, north, 0.0, -1.0 / side};
   GDALSetGeoTransform(ds, gt);
@@ -143,9 +143,10 @@ bool writeGeographicTile(const std::filesystem::path& path, double west, double 
   OSRDestroySpatialReference(wgs84);
   bool ok = true;
   for (int b = 0; b < 3; ++b) {
-    std::vector<std::uint8_t> values(static_cast<std::size_t>(side * side), rgb[b]);
-    ok = ok && GDALRasterIO(GDALGetRasterBand(ds, b + 1), GF_Write, 0, 0, side, side,
-                            values.data(), side, side, GDT_Byte, 0, 0) == CE_None;
+    std::vector<std::uint8_t> values(static_cast<std::size_t>(side * side),
+                                     rgb[static_cast<std::size_t>(b)]);
+    ok = ok && GDALRasterIO(GDALGetRasterBand(ds, b + 1), GF_Write, 0, 0, side, side, values.data(),
+                            side, side, GDT_Byte, 0, 0) == CE_None;
   }
   GDALClose(ds);
   return ok;

@@ -214,6 +214,27 @@ TEST(CompositeSurface, ALargeVoidShowsWhatLiesBelowBlendedAcrossABandSizedByTheV
   EXPECT_EQ(s.weightOf(0, 14.0, 30.2), 0.0);
 }
 
+TEST(CompositeSurface, TilesOfDifferentSpacingsSideBySideMeetWithoutABandAlongTheirSeam) {
+  HeightGrid base = grid(360, 181, 90.0, 0.0, 1.0, [](double, double) { return 0.0; });
+  const auto terrain = [](double lat, double lon) { return 500.0 + 10.0 * lat + 5.0 * lon; };
+  // A 0.05° tile over 30–32°E and a 0.1° one over 32–36°E sharing the 32°E column (SRTM's
+  // convention), both over 10–14°N.
+  std::vector<HeightGrid> insets;
+  insets.push_back(grid(41, 81, 14.0, 30.0, 0.05, terrain));
+  insets.push_back(grid(41, 41, 14.0, 32.0, 0.1, terrain));
+  const CompositeSurface s = joined(CompositeSurface::make(
+      std::move(base), {InsetSpec{"fine.tif", {}, {}}, InsetSpec{"coarse.tif", {}, {}}},
+      std::move(insets)));
+  ASSERT_EQ(s.insets().size(), 2u);
+  // Along the seam and on both sides of it, the tiles' own heights: no fade to the base's 0 m.
+  for (double lon : {31.9, 31.97, 32.0, 32.03, 32.1, 32.3}) {
+    EXPECT_NEAR(*s.heightAt(12.0, lon), terrain(12.0, lon), 1e-6) << lon;
+  }
+  // Where the data ends (the fine tile's west edge, the coarse tile's east edge), the band.
+  EXPECT_LT(*s.heightAt(12.0, 30.1), 0.9 * terrain(12.0, 30.1));
+  EXPECT_LT(*s.heightAt(12.0, 35.9), 0.9 * terrain(12.0, 35.9));
+}
+
 TEST(CompositeSurface, ItsSamplesAreEachSourcesOwnWhereItIsTheFinest) {
   std::vector<HeightGrid> fine;
   fine.push_back(

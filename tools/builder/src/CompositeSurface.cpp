@@ -16,17 +16,44 @@ double spacingOf(const HeightGrid& grid) noexcept {
   return std::max(grid.geometry().latSpacingDegrees, grid.geometry().lonSpacingDegrees);
 }
 
+/// Whether the position (r, c) just beyond `grid`'s edge, next to its sample (qr, qc), lies on
+/// another surface that continues the grid side by side rather than lying under it: one of
+/// `others` has data at (r, c) but not a few of its own spacings inside the grid from there.
+/// Such an edge is a seam between surfaces, not where the data ends.
+bool continuedBeside(const HeightGrid& grid, const std::vector<const HeightGrid*>& others,
+                     std::int64_t r, std::int64_t c, std::int64_t qr, std::int64_t qc) {
+  const double lat = grid.latOfRowDegrees(r), lon = grid.lonOfColumnDegrees(c);
+  for (const HeightGrid* other : others) {
+    if (!other->sampleBilinear(lat, lon)) continue;
+    // Inward, past the half cell of `other` that its sampling reaches beyond its last sample.
+    const auto steps =
+        static_cast<std::int64_t>(std::ceil(spacingOf(*other) / spacingOf(grid))) + 1;
+    const std::int64_t ir = qr + (qr - r) * steps, ic = qc + (qc - c) * steps;
+    if (!other->sampleBilinear(grid.latOfRowDegrees(ir), grid.lonOfColumnDegrees(ic))) {
+      return true;
+    }
+  }
+  return false;
+}
+
 /// Per sample, the Chebyshev distance (in samples) to the nearest sample that is nodata or
-/// beyond the grid's edge, capped at `cap`: two passes of the 3 × 3 distance transform.
-std::vector<std::uint16_t> edgeDistances(const HeightGrid& grid, std::uint16_t cap) {
+/// beyond the grid's edge, capped at `cap`: two passes of the 3 × 3 distance transform. Beyond
+/// the edge where another surface continues the grid side by side (continuedBeside) counts as
+/// inside: no band along a seam between surfaces of different spacings.
+std::vector<std::uint16_t> edgeDistances(const HeightGrid& grid, std::uint16_t cap,
+                                         const std::vector<const HeightGrid*>& others) {
   const std::int64_t w = grid.width(), h = grid.height();
   std::vector<std::uint16_t> d(static_cast<std::size_t>(w * h));
   const auto at = [&](std::int64_t r, std::int64_t c) -> std::uint16_t& {
     return d[static_cast<std::size_t>(r * w + c)];
   };
-  // Beyond the edge counts as outside (distance 0).
+  // Beyond the edge counts as outside (distance 0) unless another surface continues it there.
   const auto get = [&](std::int64_t r, std::int64_t c) -> std::uint16_t {
-    return r < 0 || r >= h || c < 0 || c >= w ? std::uint16_t{0} : at(r, c);
+    if (r >= 0 && r < h && c >= 0 && c < w) return at(r, c);
+    if (others.empty()) return 0;
+    const std::int64_t qr = std::clamp<std::int64_t>(r, 0, h - 1);
+    const std::int64_t qc = std::clamp<std::int64_t>(c, 0, w - 1);
+    return continuedBeside(grid, others, r, c, qr, qc) ? cap : std::uint16_t{0};
   };
   for (std::int64_t r = 0; r < h; ++r) {
     for (std::int64_t c = 0; c < w; ++c) at(r, c) = std::isnan(grid.at(r, c)) ? 0 : cap;
@@ -152,9 +179,16 @@ Result<CompositeSurface> CompositeSurface::make(HeightGrid base, std::vector<Ins
       }
     }
     inset.bandSamples = transitionBandSamples(*below, filled->grid);
+    // Surfaces of other spacings beside it: no band along the seams with them.
+    std::vector<const HeightGrid*> others;
+    for (const InsetSurfaceInput& other : surfaces) {
+      if (&other != &input && spacingOf(other.grid) != spacingOf(input.grid)) {
+        others.push_back(&other.grid);
+      }
+    }
     inset.edgeDistance = edgeDistances(
         filled->grid,
-        static_cast<std::uint16_t>(std::min<std::int64_t>(inset.bandSamples + 1, 65535)));
+        static_cast<std::uint16_t>(std::min<std::int64_t>(inset.bandSamples + 1, 65535)), others);
     inset.grid = std::move(filled).value().grid;
     inset.specs = std::move(input.specs);
     inset.specBounds = std::move(input.specBounds);
