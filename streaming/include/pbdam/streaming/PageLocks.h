@@ -22,6 +22,8 @@ namespace pbdam::streaming {
 /// again). mlock faults in a page that is not resident, and other threads' locks wait for that
 /// read: callers lock pages they have just found resident (NoStallPolicy) or just read
 /// (preloadCoarseLevels, before the first frame). Non-copyable; one instance per process.
+/// Under ASan and TSan the runtime's mlock and munlock do nothing (and return 0): the counts
+/// are kept all the same, but nothing is locked.
 class PageLocks final {
  public:
   /// The process's registry (made on first use).
