@@ -55,8 +55,13 @@ bool PageLocks::lock(const std::byte* begin, std::size_t bytes) {
   if (bytes == 0) return true;
   const auto [first, end] = pagesOf(begin, bytes);
   const std::lock_guard guard(mutex_);
-  // Room for the counts first: after the mlocks below nothing may fail.
-  holds_.reserve(holds_.size() + (end - first));
+  // Room for the counts first: after the mlocks below nothing may fail. (Only ever grown:
+  // reserve() below the bucket count would shrink the table, a rehash on every call.)
+  const std::size_t needed = holds_.size() + (end - first);
+  if (static_cast<double>(needed) >
+      static_cast<double>(holds_.max_load_factor()) * static_cast<double>(holds_.bucket_count())) {
+    holds_.reserve(needed);
+  }
   // The pages no one holds yet are locked run by run; the counts change only once every run is
   // locked, so a refusal leaves the counts and the kernel's locks as they were. The refused run
   // is unlocked too: mlock may have locked part of it before failing, and no one holds it.
