@@ -2,9 +2,9 @@
 // (NoStallPolicy.h; docs/architecture.md "Modes").
 #include "pbdam/streaming/NoStallPolicy.h"
 
-#include <sys/mman.h>
-
 #include <algorithm>
+
+#include "pbdam/streaming/PageLocks.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
@@ -31,7 +31,7 @@ HeldPages::~HeldPages() { release(); }
 bool HeldPages::hold(const MappedFile& file, std::uint64_t offset, std::uint64_t bytes) {
   if (bytes == 0) return true;
   const std::byte* begin = file.bytes().data() + offset;
-  if (::mlock(begin, bytes) != 0) return false;
+  if (!PageLocks::instance().lock(begin, bytes)) return false;
   ranges_.emplace_back(begin, bytes);
   bytes_ += bytes;
   return true;
@@ -60,7 +60,7 @@ void HeldPages::releaseResidentAround(const MappedFile& file, std::uint64_t offs
 }
 
 void HeldPages::release() noexcept {
-  for (const auto& [begin, bytes] : ranges_) ::munlock(begin, bytes);
+  for (const auto& [begin, bytes] : ranges_) PageLocks::instance().unlock(begin, bytes);
   ranges_.clear();
   bytes_ = 0;
 }

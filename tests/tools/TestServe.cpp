@@ -81,12 +81,19 @@ class ServerProcess final {
     const std::size_t at = output_.find(marker);
     if (at != std::string::npos) port_ = std::atoi(output_.c_str() + at + marker.size());
   }
+  /// A server still running is stopped with SIGTERM, and must then exit 0 (the graceful
+  /// shutdown): a server that does not — under the sanitizers, one that reported an error,
+  /// on its way down too (exit code 66) — fails the test.
   ~ServerProcess() {
     if (pid_ > 0 && !exitStatus_) {
       ::kill(pid_, SIGTERM);
       if (!waitExit(60s)) {
         ::kill(pid_, SIGKILL);
         waitExit(10s);
+        ADD_FAILURE() << "the server did not exit within 60 s of SIGTERM";
+      } else if (!WIFEXITED(*exitStatus_) || WEXITSTATUS(*exitStatus_) != 0) {
+        ADD_FAILURE() << "the server did not exit 0 on SIGTERM (wait status " << *exitStatus_
+                      << "; a sanitizer report exits 66)";
       }
     }
     if (out_ >= 0) ::close(out_);

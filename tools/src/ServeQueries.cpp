@@ -22,11 +22,25 @@ std::string keyOf(const ViewshedRequest& r) {
 
 }  // namespace
 
-bool ServeQueries::takeDevice(std::unique_lock<std::timed_mutex>& lock) {
-  if (lock.try_lock_for(wait_)) return true;
+bool ServeQueries::takeDevice() {
+  {
+    std::unique_lock<std::mutex> lock(deviceMutex_);
+    if (deviceFree_.wait_for(lock, wait_, [this] { return !deviceBusy_; })) {
+      deviceBusy_ = true;
+      return true;
+    }
+  }
   const std::lock_guard<std::mutex> counters(mutex_);
   ++stats_.busy;
   return false;
+}
+
+void ServeQueries::releaseDevice() noexcept {
+  {
+    const std::lock_guard<std::mutex> lock(deviceMutex_);
+    deviceBusy_ = false;
+  }
+  deviceFree_.notify_one();
 }
 
 QueryOutcome<std::shared_ptr<const ServedViewshed>> ServeQueries::viewshed(
@@ -57,13 +71,14 @@ QueryOutcome<std::shared_ptr<const ServedViewshed>> ServeQueries::viewshed(
                       std::to_string(kServeMaxViewshedCells) + " (raise cell_m or lower radius_m)");
     return outcome;
   }
-  std::unique_lock<std::timed_mutex> device(device_, std::defer_lock);
-  if (!takeDevice(device)) {
+  if (!takeDevice()) {
     outcome.busy = true;
     return outcome;
   }
-  auto computed = gpu::viewshedOverTerrain(context_, view_, *grid);
-  device.unlock();
+  auto computed = [&] {
+    const DeviceTurn turn(*this);
+    return gpu::viewshedOverTerrain(context_, view_, *grid);
+  }();
   if (!computed) {
     outcome.result = std::move(computed).error();
     return outcome;
@@ -85,13 +100,14 @@ QueryOutcome<std::shared_ptr<const ServedViewshed>> ServeQueries::viewshed(
 QueryOutcome<gpu::TerrainSightline> ServeQueries::sightline(const gpu::GroundPoint& from,
                                                             const gpu::GroundPoint& to) {
   QueryOutcome<gpu::TerrainSightline> outcome;
-  std::unique_lock<std::timed_mutex> device(device_, std::defer_lock);
-  if (!takeDevice(device)) {
+  if (!takeDevice()) {
     outcome.busy = true;
     return outcome;
   }
-  outcome.result = gpu::sightlineOverTerrain(context_, view_, from, to);
-  device.unlock();
+  {
+    const DeviceTurn turn(*this);
+    outcome.result = gpu::sightlineOverTerrain(context_, view_, from, to);
+  }
   const std::lock_guard<std::mutex> lock(mutex_);
   ++stats_.sightlines;
   return outcome;

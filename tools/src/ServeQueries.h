@@ -6,6 +6,7 @@
 #pragma once
 
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <list>
 #include <memory>
@@ -63,14 +64,33 @@ class ServeQueries final {
   ServeQueryStats stats() const;
 
  private:
-  /// Takes the device for `lock` within the wait; false (counted as busy) when it cannot.
-  bool takeDevice(std::unique_lock<std::timed_mutex>& lock);
+  /// Takes the device within the wait; false (counted as busy) when another query held it for
+  /// the whole wait. A true return must be matched by releaseDevice().
+  bool takeDevice();
+  void releaseDevice() noexcept;
+  /// Gives the device back when it goes: made right after a takeDevice() that returned true.
+  class DeviceTurn final {
+   public:
+    explicit DeviceTurn(ServeQueries& queries) noexcept : queries_(queries) {}
+    ~DeviceTurn() { queries_.releaseDevice(); }
+    DeviceTurn(const DeviceTurn&) = delete;
+    DeviceTurn& operator=(const DeviceTurn&) = delete;
+
+   private:
+    ServeQueries& queries_;
+  };
 
   static constexpr std::size_t kKept = 4;
   const runtime::DatasetView& view_;
   gpu::VulkanContext& context_;
   std::chrono::duration<double> wait_;
-  std::timed_mutex device_;   ///< one query on the device at a time
+  // One query on the device at a time: a flag under a mutex and a condition variable rather
+  // than std::timed_mutex, whose try_lock_for (pthread_mutex_clocklock) GCC 12's TSan does not
+  // intercept — it then saw only the unlock ("unlock of an unlocked mutex") and none of the
+  // ordering between queries.
+  std::mutex deviceMutex_;
+  std::condition_variable deviceFree_;
+  bool deviceBusy_ = false;   ///< guarded by deviceMutex_
   mutable std::mutex mutex_;  ///< the kept viewsheds and the counters
   std::list<std::pair<std::string, std::shared_ptr<const ServedViewshed>>> kept_;  ///< newest first
   ServeQueryStats stats_;

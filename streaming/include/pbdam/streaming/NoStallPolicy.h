@@ -23,8 +23,11 @@ namespace pbdam::streaming {
 
 /// Pages locked in memory (mlock) until the object goes: a no-stall cut's byte ranges, found
 /// resident, held so that the kernel cannot evict them between the check and the frame's
-/// decode (under a tight memory cap it otherwise does, and the render thread faults). Best
-/// effort: a range the process may not lock (RLIMIT_MEMLOCK) is left unlocked. Move-only.
+/// decode (under a tight memory cap it otherwise does, and the render thread faults). Holds
+/// nest: they are counted per page (PageLocks), so letting a frame's hold go leaves locked
+/// the pages another hold has (the run-long hold on the coarse levels). Best effort: a range
+/// the process may not lock (RLIMIT_MEMLOCK) is left unlocked. Move-only; one object is used
+/// by one thread at a time, and objects on different threads may hold the same pages.
 class HeldPages final {
  public:
   HeldPages() = default;
