@@ -171,21 +171,35 @@ void printBuildSummary(const std::string& out, const builder::BuildSummary& s) {
     std::printf("  note        %llu patches reached 65535 vertices before their error target\n",
                 static_cast<unsigned long long>(s.halvesOverTarget));
   }
-  // CPU seconds per stage: the levels on a line of their own, leaves first.
+  // CPU seconds per stage (each with its unit, so that README checks mask them): the levels'
+  // sum in build order among the others, then each level on a line of its own, leaves first.
   double total = 0.0;
-  std::string stages;
+  double levelsTotal = 0.0;
+  std::string before;
+  std::string after;
   std::string levels;
   char buf[64];
   for (const auto& [stage, cpu] : s.cpuSeconds) {
     total += cpu;
-    const bool level = stage.rfind("level ", 0) == 0;
-    std::snprintf(buf, sizeof buf, "%s%s %.1f", (level ? levels : stages).empty() ? "" : ", ",
-                  level ? stage.c_str() + 6 : stage.c_str(), cpu);
-    (level ? levels : stages) += buf;
+    if (stage.rfind("level ", 0) == 0) {
+      levelsTotal += cpu;
+      std::snprintf(buf, sizeof buf, "%s%s: %.1f s", levels.empty() ? "" : ", ", stage.c_str() + 6,
+                    cpu);
+      levels += buf;
+      continue;
+    }
+    std::snprintf(buf, sizeof buf, ", %s %.1f s", stage.c_str(), cpu);
+    (levels.empty() ? before : after) += buf;
   }
-  std::printf("  cpu         %.1f s%s: %s\n", total, s.ranks > 1 ? " (rank 0)" : "",
+  if (!levels.empty()) {
+    std::snprintf(buf, sizeof buf, ", levels %.1f s", levelsTotal);
+    before += buf;
+  }
+  const std::string joined = before + after;
+  const std::string stages = joined.size() > 2 ? joined.substr(2) : joined;  // each begins ", "
+  std::printf("  cpu         %.1f s%s: %s\n", total, s.ranks > 1 ? " on rank 0" : "",
               stages.c_str());
-  if (!levels.empty()) std::printf("  cpu levels  %s s\n", levels.c_str());
+  if (!levels.empty()) std::printf("  cpu levels  %s\n", levels.c_str());
 }
 
 /// The summary as JSON (--stats): what the CLI prints, in numbers.
