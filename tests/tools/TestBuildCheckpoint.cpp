@@ -253,6 +253,36 @@ TEST(BuildCheckpoint, ResumeRefusesOtherOptionsAndDamagedCheckpoints) {
   expectSameDataset(dir / "plain", out);
 }
 
+TEST(BuildCheckpoint, ResumeRefusesTheCheckpointOfABuilderThatMadeItsLevelsAnotherWay) {
+  // The builder before each level's errors were bounded through its children carried no
+  // per-triangle errors and recorded no builder-levels entry: its checkpoint has the state of
+  // this one without that line, and its level files cannot be continued.
+  PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
+  test::TempDir dir;
+  const fs::path out = dir / "out";
+  BuildOptions o = checkpointMola(dem, out);
+  o.fault = {0, 4, false};
+  ASSERT_FALSE(buildDataset(o));
+  const fs::path state = Checkpoint(out).directory() / "state";
+  std::string text = test::readFile(state);
+  const std::string entry = "option builder-levels=2\n";
+  const std::size_t at = text.find(entry);
+  ASSERT_NE(at, std::string::npos) << text;
+  text.erase(at, entry.size());
+  std::ofstream(state, std::ios::binary)
+      .write(text.data(), static_cast<std::streamsize>(text.size()));
+  o.fault = {};
+  o.resume = true;
+  auto refused = buildDataset(o);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().code, ErrorCode::InvalidArgument);
+  EXPECT_NE(refused.error().message.find("written by an older builder (levels version 1, this "
+                                         "builder's 2)"),
+            std::string::npos)
+      << refused.error().message;
+  EXPECT_NE(refused.error().message.find("rerun without --resume"), std::string::npos);
+}
+
 TEST(BuildCheckpoint, ResumeWithoutACheckpointBuildsFromTheStart) {
   PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
   test::TempDir dir;

@@ -4,10 +4,13 @@
 // the cube map's canonical keys (docs/builder.md "Errors", "Lattice and bintrees").
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include <map>
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "RoughDem.h"
@@ -136,6 +139,57 @@ TEST(PatchBuilder, MeasuredSampleErrorEqualsAScanOfEveryCandidate) {
       }
     }
   }
+}
+
+TEST(PatchBuilder, ErrorsBoundedThroughTheChildrenAreAtLeastThoseOfTheSamples) {
+  // Each triangle's bound through its children (PatchBound.h) is at least its sample error by
+  // definition; where in doubt the samples decide, and with every triangle in doubt the result
+  // is the full measurement's.
+  const HeightGrid dem = roughDem();
+  const Lattice lattice(64);
+  const SampleGrid grid = SampleGrid::build(dem, Planet::mars(), lattice, 1);
+  int looser = 0;
+  for (const Diamond& d : diamondsOfLevel(lattice, 4, 3)) {
+    const std::array<BinTriangle, 2> tri = {triangleOfNode(lattice, d[0], 4),
+                                            triangleOfNode(lattice, d[1], 4)};
+    DiamondLeaves kids(tri);
+    for (std::size_t s = 0; s < 2; ++s) {
+      const auto leaves = Lattice::children(tri[s]);
+      for (std::size_t c = 0; c < 2; ++c) {
+        WorkPatch& leaf = kids.leaves[s][c];
+        leaf.sampleErrorMeters =
+            measurePatch(grid, leaves[c], leaf, 1.0 / 64.0).triangleSampleErrors;
+        ASSERT_EQ(leaf.sampleErrorMeters.size(), leaf.indices.size() / 3);
+      }
+    }
+    const BlockResult block =
+        simplifyBlock(grid, tri, kids.children, BlockTargets{200.0, 40, 65535});
+    const std::array<const WorkPatch*, 2> halves = {&block.first, &block.second};
+    for (std::size_t s = 0; s < 2; ++s) {
+      const WorkPatch& patch = *halves[s];
+      const std::array<const WorkPatch*, 2> children = {&kids.leaves[s][0], &kids.leaves[s][1]};
+      const MeasuredPatch exact = measurePatch(grid, tri[s], patch, 1.0 / 64.0);
+      const MeasuredPatch bound = measurePatchFromChildren(
+          grid, tri[s], patch, children, 1.0 / 64.0, std::numeric_limits<double>::infinity());
+      EXPECT_EQ(bound.trianglesMeasuredAgainstSamples, 0u);
+      ASSERT_EQ(bound.triangleSampleErrors.size(), patch.indices.size() / 3);
+      for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
+        WorkPatch one;
+        one.points = patch.points;
+        one.indices = {patch.indices[k], patch.indices[k + 1], patch.indices[k + 2]};
+        EXPECT_GE(static_cast<double>(bound.triangleSampleErrors[k / 3]),
+                  sampleErrorByScan(grid, tri[s].face, one));
+      }
+      EXPECT_GE(bound.errorMeters, exact.errorMeters);
+      if (bound.errorMeters > exact.errorMeters) ++looser;
+      const MeasuredPatch doubted =
+          measurePatchFromChildren(grid, tri[s], patch, children, 1.0 / 64.0, 0.0);
+      EXPECT_EQ(doubted.trianglesMeasuredAgainstSamples, patch.indices.size() / 3);
+      EXPECT_EQ(doubted.errorMeters, exact.errorMeters);
+      EXPECT_EQ(doubted.triangleSampleErrors, exact.triangleSampleErrors);
+    }
+  }
+  EXPECT_GT(looser, 0);  // the bound is an upper bound, not the measurement again
 }
 
 TEST(PatchBuilder, SampleErrorAndSagAddPerTriangle) {

@@ -45,6 +45,7 @@ struct BuildCliOptions {
   bool resume = false;
   std::string freeCheckpoint = "auto";
   bool quiet = false;
+  std::string stats;
   RawGridOptions raw;
 };
 
@@ -188,6 +189,59 @@ void printBuildSummary(const std::string& out, const builder::BuildSummary& s) {
     std::printf("  note        %llu patches reached 65535 vertices before their error target\n",
                 static_cast<unsigned long long>(s.halvesOverTarget));
   }
+  // CPU seconds per stage (each with its unit, so that README checks mask them): the levels'
+  // sum in build order among the others, then each level on a line of its own, leaves first.
+  double total = 0.0;
+  double levelsTotal = 0.0;
+  std::string before;
+  std::string after;
+  std::string levels;
+  char buf[64];
+  for (const auto& [stage, cpu] : s.cpuSeconds) {
+    total += cpu;
+    if (stage.rfind("level ", 0) == 0) {
+      levelsTotal += cpu;
+      std::snprintf(buf, sizeof buf, "%s%s: %.1f s", levels.empty() ? "" : ", ", stage.c_str() + 6,
+                    cpu);
+      levels += buf;
+      continue;
+    }
+    std::snprintf(buf, sizeof buf, ", %s %.1f s", stage.c_str(), cpu);
+    (levels.empty() ? before : after) += buf;
+  }
+  if (!levels.empty()) {
+    std::snprintf(buf, sizeof buf, ", levels %.1f s", levelsTotal);
+    before += buf;
+  }
+  const std::string joined = before + after;
+  const std::string stages = joined.size() > 2 ? joined.substr(2) : joined;  // each begins ", "
+  std::printf("  cpu         %.1f s%s: %s\n", total, s.ranks > 1 ? " on rank 0" : "",
+              stages.c_str());
+  if (!levels.empty()) std::printf("  cpu levels  %s\n", levels.c_str());
+}
+
+/// The summary as JSON (--stats): what the CLI prints, in numbers.
+bool writeBuildStats(const std::string& path, const builder::BuildSummary& s) {
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  if (f == nullptr) return false;
+  std::fprintf(
+      f,
+      "{\"seconds\":%.3f,\"ranks\":%d,\"lattice_cells\":%u,\"depth\":%u,"
+      "\"source_samples\":%llu,\"lattice_samples\":%llu,\"patches\":%llu,"
+      "\"triangles\":%llu,\"root_error_m\":%.3f,\"dataset_bytes\":%llu,"
+      "\"cpu_seconds\":{",
+      s.seconds, s.ranks, s.latticeCells, s.depth, static_cast<unsigned long long>(s.sourceSamples),
+      static_cast<unsigned long long>(s.latticeSamples), static_cast<unsigned long long>(s.patches),
+      static_cast<unsigned long long>(s.totalTriangles), s.rootErrorMeters,
+      static_cast<unsigned long long>(s.datasetBytes));
+  double total = 0.0;
+  for (std::size_t k = 0; k < s.cpuSeconds.size(); ++k) {
+    total += s.cpuSeconds[k].second;
+    std::fprintf(f, "%s\"%s\":%.3f", k == 0 ? "" : ",", s.cpuSeconds[k].first.c_str(),
+                 s.cpuSeconds[k].second);
+  }
+  std::fprintf(f, "%s\"total\":%.3f}}\n", s.cpuSeconds.empty() ? "" : ",", total);
+  return std::fclose(f) == 0;
 }
 
 int runBuild(const BuildCliOptions& c) {
@@ -276,6 +330,10 @@ int runBuild(const BuildCliOptions& c) {
   std::signal(SIGTERM, SIG_DFL);
   if (!summary) return reportError(summary.error());
   printBuildSummary(c.out, *summary);
+  if (!c.stats.empty() && !writeBuildStats(c.stats, *summary)) {
+    std::cerr << "pbdam: --stats '" << c.stats << "': cannot write the file\n";
+    return kExitBadInput;
+  }
   return kExitOk;
 }
 
@@ -326,6 +384,9 @@ void addBuildCommand(CLI::App& app, CommandStatus& status) {
       ->check(CLI::IsMember({"auto", "always", "never"}))
       ->capture_default_str();
   cmd->add_flag("--quiet", c->quiet, "No progress output");
+  cmd->add_option(
+      "--stats", c->stats,
+      "Write the build's figures (CPU seconds per stage included) as JSON to this file");
   addRawGridOptions(*cmd, c->raw);
   cmd->callback([c, &status] { status.exitCode = runBuild(*c); });
 }

@@ -229,6 +229,9 @@ std::vector<std::pair<std::string, std::string>> fingerprintOf(const BuildOption
                                                                const BuildInputs& in) {
   const GridGeometry& g = in.dem->geometry();
   std::vector<std::pair<std::string, std::string>> f;
+  // What the levels are made from and what the carry holds: a checkpoint of another version of
+  // the builder's levels cannot be continued (docs/builder.md "Checkpoints").
+  f.emplace_back("builder-levels", std::to_string(kBuilderLevelsVersion));
   f.emplace_back("dem", o.demPath.filename().string());
   f.emplace_back("dem-grid", std::to_string(g.width) + "x" + std::to_string(g.height) + "@" +
                                  exact(g.firstLatDegrees) + "," + exact(g.firstLonDegrees) + "/" +

@@ -75,6 +75,11 @@ formats::Result<BuildInputs> prepareInputs(const BuildOptions& o);
 /// The DEM's identity in the fingerprint: the CRC-32 of its heights, in hex.
 std::string demCrc32(const formats::HeightGrid& dem);
 
+/// The version of how the levels are made and what their carry holds, in the fingerprint: 2
+/// since each level is made from the level below (docs/decisions.md "Builder"); checkpoints
+/// without it were written by the builder that made every level from the lattice.
+inline constexpr int kBuilderLevelsVersion = 2;
+
 /// The options and inputs that decide the output bytes (the checkpoint's fingerprint). Thread
 /// and rank counts are not among them: they do not change the output.
 std::vector<std::pair<std::string, std::string>> fingerprintOf(const BuildOptions& o,

@@ -24,6 +24,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <functional>
 #include <limits>
 #include <mutex>
@@ -64,6 +65,20 @@ namespace {
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
+
+/// CPU seconds (user + system) this process has used so far.
+double processCpuSeconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
+/// Appends the CPU seconds since the last mark to the summary's stages.
+void markCpu(BuildSummary& summary, std::string stage, double& since) {
+  const double now = processCpuSeconds();
+  summary.cpuSeconds.emplace_back(std::move(stage), now - since);
+  since = now;
+}
 
 /// Contiguous share [begin, end) of `count` items for `rank` of `ranks`.
 std::pair<std::uint64_t, std::uint64_t> shareOf(std::uint64_t count, int rank, int ranks) {
@@ -146,7 +161,8 @@ class DatasetBuild {
         tiles_(plan_.latticeTiles()),
         checkpoint_(o.outDir) {}
 
-  Result<BuildSummary> run();
+  /// Builds from the CPU time `cpuSince` on (processCpuSeconds) and reports each stage's.
+  Result<BuildSummary> run(double cpuSince);
 
  private:
   bool root() const noexcept { return comm_.rank() == 0; }
@@ -865,7 +881,7 @@ Result<void> DatasetBuild::assemble(BuildSummary& summary) {
   return assembleDataset(inputs, summary);
 }
 
-Result<BuildSummary> DatasetBuild::run() {
+Result<BuildSummary> DatasetBuild::run(double cpuSince) {
   BuildSummary summary;
   summary.latticeCells = in_.n;
   if (in_.composite) {
@@ -927,6 +943,7 @@ Result<BuildSummary> DatasetBuild::run() {
   // ---- Resample (each rank a share of the lattice rows and of the DEM rows, into files that
   // every rank then maps).
   if (auto r = resample(); !r) return std::move(r).error();
+  markCpu(summary, "resample", cpuSince);
   summary.sourceSamples = grid_->sourceSampleCount();
   summary.latticeSamples = tiles_.pointCount();
   summary.noDataPoints = grid_->noDataPoints();
@@ -949,11 +966,13 @@ Result<BuildSummary> DatasetBuild::run() {
   }
   for (int level = next; level >= 0; --level) {
     if (auto r = buildLevel(level); !r) return std::move(r).error();
+    markCpu(summary, "level " + std::to_string(level), cpuSince);
   }
 
   // ---- Texture quadtree.
   if (!start.textureComplete) {
     if (auto r = buildTextures(); !r) return std::move(r).error();
+    markCpu(summary, "textures", cpuSince);
   }
 
   // RSS bound: the assembly reads checkpoint files only, so the DEM the textures read again
@@ -980,6 +999,7 @@ Result<BuildSummary> DatasetBuild::run() {
   // ---- Face files, then the manifest (rank 0).
   if (root()) {
     if (auto r = assemble(summary); !r) return fail("writing the dataset", r.error());
+    markCpu(summary, "assembly", cpuSince);
   }
   return summary;
 }
@@ -988,6 +1008,7 @@ Result<BuildSummary> DatasetBuild::run() {
 
 Result<BuildSummary> buildDataset(const BuildOptions& o) {
   const auto start = Clock::now();
+  double cpuSince = processCpuSeconds();
   LocalCommunicator local;
   Communicator& comm = o.communicator ? *o.communicator : local;
   auto inputs = prepareInputs(o);
@@ -998,8 +1019,11 @@ Result<BuildSummary> buildDataset(const BuildOptions& o) {
   tbb::task_arena arena(o.threads > 0 ? o.threads : tbb::task_arena::automatic);
   Result<BuildSummary> result = Error{};
   arena.execute([&] {
+    BuildSummary inputsCpu;
+    markCpu(inputsCpu, "inputs", cpuSince);
     DatasetBuild build(o, comm, *inputs);
-    result = build.run();
+    result = build.run(cpuSince);
+    if (result) result->cpuSeconds.insert(result->cpuSeconds.begin(), inputsCpu.cpuSeconds[0]);
   });
   if (!result) return withResumeHint(std::move(result).error());
   result->seconds = std::chrono::duration<double>(Clock::now() - start).count();

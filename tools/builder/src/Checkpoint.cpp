@@ -350,6 +350,12 @@ std::optional<std::string> fingerprintMismatch(
     for (const auto& [k, v] : saved) {
       if (k == key) old = v;
     }
+    if (key == "builder-levels" && old != value) {
+      // The builder that wrote it made (or carried) its levels another way: its part files
+      // cannot be continued by this one.
+      return "it was written by an older builder (levels version " + old.value_or("1") +
+             ", this builder's " + value + "), whose level files this one cannot continue";
+    }
     if (!old) return key + " is not recorded in it";
     if (*old != value) {
       return std::string("it has ")

@@ -327,7 +327,10 @@ void putCarryRecord(ByteWriter& w, const CarrySaturation& saturation, const Work
   w.put(saturation.sphereRadiusMeters);
   w.put(saturation.floorMeters);
   w.put(static_cast<std::uint8_t>(patch != nullptr ? 1 : 0));
-  if (patch != nullptr) putPatch(w, *patch);
+  if (patch == nullptr) return;
+  putPatch(w, *patch);
+  w.put(static_cast<std::uint32_t>(patch->sampleErrorMeters.size()));
+  w.putBytes(std::as_bytes(std::span<const float>(patch->sampleErrorMeters)));
 }
 
 bool getCarryRecord(ByteReader& r, CarrySaturation& saturation, WorkPatch* patch) {
@@ -342,6 +345,13 @@ bool getCarryRecord(ByteReader& r, CarrySaturation& saturation, WorkPatch* patch
     if (!hasPatch) return false;
     *patch = WorkPatch{};
     if (!getPatch(r, *patch)) return false;
+    const auto errors = r.get<std::uint32_t>();
+    // None, or one a triangle.
+    if (r.failed() || (errors != 0 && errors != patch->indices.size() / 3)) return false;
+    const auto run = r.take(std::size_t{errors} * sizeof(float));
+    if (r.failed()) return false;
+    patch->sampleErrorMeters.resize(errors);
+    if (errors > 0) std::memcpy(patch->sampleErrorMeters.data(), run.data(), run.size());
   }
   return !r.failed();
 }

@@ -39,6 +39,11 @@ float storedRadius(double r) {
   return f;
 }
 
+/// A half is measured through its children when it has more lattice cells than this per child
+/// triangle, else against its samples (docs/decisions.md "Builder": measured on MOLA and ETOPO5,
+/// where one overlap test of the bound costs about as much as scanning a few lattice cells).
+constexpr double kBoundCellsPerChildTriangle = 4.0;
+
 }  // namespace
 
 float roundUpToFloat(double v) {
@@ -71,11 +76,17 @@ void DiamondBuilder::noteFailure(Error error) {
   failed_ = true;
 }
 
-bool DiamondBuilder::makeNode(const BinTriangle& t, const WorkPatch& patch, Node& n) {
+bool DiamondBuilder::makeNode(const BinTriangle& t, WorkPatch& patch, Node& n,
+                              const std::array<const WorkPatch*, 2>* children,
+                              double targetMeters) {
   const SampleGrid& grid = level_.grid;
   n.id = nodeId(t, level_.depth);
   n.triangle = t;
-  MeasuredPatch m = measurePatch(grid, t, patch, level_.heightStepMeters);
+  MeasuredPatch m = children != nullptr
+                        ? measurePatchFromChildren(grid, t, patch, *children,
+                                                   level_.heightStepMeters, targetMeters)
+                        : measurePatch(grid, t, patch, level_.heightStepMeters);
+  patch.sampleErrorMeters = std::move(m.triangleSampleErrors);
   optimizePatchForRendering(m.mesh);
   auto blob = encodePatch(m.mesh);
   if (!blob) {
@@ -135,7 +146,8 @@ bool DiamondBuilder::makeNodes(const std::array<BinTriangle, 2>& tri, std::size_
   if (leaf) {
     bool ok = true;
     for (std::size_t s = 0; s < count; ++s) {
-      ok = makeNode(tri[s], level_.plan.leafPatch(tri[s]), nodes[s]) && ok;
+      WorkPatch leafPatch = level_.plan.leafPatch(tri[s]);
+      ok = makeNode(tri[s], leafPatch, nodes[s]) && ok;
     }
     return ok;
   }
@@ -152,13 +164,38 @@ bool DiamondBuilder::makeNodes(const std::array<BinTriangle, 2>& tri, std::size_
     floor = std::max(floor, child.floor);
   }
   const double target = (1.0 + level_.errorMargin) * childError;
+  // Each level from the level below (docs/decisions.md "Builder"): where every child carries its
+  // patch and per-triangle sample errors (all but the leaves' parents: leaves are made again,
+  // not carried), the block inserts only the children's vertices, and its patches' errors are
+  // bounded through the children where that is cheaper than reading the samples. Either way the
+  // heights work to the target less the leaves' floor.
+  bool fromChildren = true;
+  for (const auto& pair : children) {
+    for (const WorkPatch& child : pair) {
+      fromChildren = fromChildren && !child.indices.empty() &&
+                     child.sampleErrorMeters.size() == child.indices.size() / 3;
+    }
+  }
   const BlockTargets targets{std::max(0.0, target - floor), level_.minPatchTriangles,
                              kPatchMaxVertices};
   BlockResult block = simplifyBlock(level_.grid, tri, childPointers, targets);
   inserted_ += block.stats.insertedPoints;
   overTarget_ += block.stats.halvesOverTarget;
-  bool ok = makeNode(tri[0], block.first, nodes[0]);
-  ok = makeNode(tri[1], block.second, nodes[1]) && ok;
+  // The bound costs a few overlap tests per child triangle, the samples one evaluation each:
+  // where the half holds few lattice points per child triangle (the levels just above the
+  // leaves' parents) reading the samples is the cheaper way to the errors.
+  const std::array<std::array<const WorkPatch*, 2>, 2> pairs = {
+      {{&children[0][0], &children[0][1]}, {&children[1][0], &children[1][1]}}};
+  std::array<const std::array<const WorkPatch*, 2>*, 2> boundBy = {nullptr, nullptr};
+  for (std::size_t s = 0; s < 2 && fromChildren; ++s) {
+    const double cells =
+        0.5 * static_cast<double>(std::abs(doubleArea(tri[s].apex, tri[s].left, tri[s].right)));
+    const double childTriangles =
+        static_cast<double>(children[s][0].indices.size() + children[s][1].indices.size()) / 3.0;
+    if (cells > kBoundCellsPerChildTriangle * childTriangles) boundBy[s] = &pairs[s];
+  }
+  bool ok = makeNode(tri[0], block.first, nodes[0], boundBy[0], target);
+  ok = makeNode(tri[1], block.second, nodes[1], boundBy[1], target) && ok;
   made = {std::move(block.first), std::move(block.second)};
   return ok;
 }
@@ -210,17 +247,12 @@ void DiamondBuilder::serialise(std::array<Node, 2>& nodes, std::size_t count, bo
   const CarrySaturation carried{static_cast<float>(saturated.error), saturated.sphere.center,
                                 static_cast<float>(saturated.sphere.radius),
                                 static_cast<float>(saturated.floor)};
-  // The parent's block keeps only what a patch has on its hypotenuse; a leaf's is made again.
-  std::array<WorkPatch, 2> kept;
-  if (!leaf) {
-    for (std::size_t s = 0; s < count; ++s) {
-      kept[s].points = hypotenusePoints(nodes[s].triangle, made[s]);
-    }
-  }
+  // The parent's block is made from the whole patch (its vertices are the parent's candidates,
+  // its triangles' sample errors what the parent's are bounded through); a leaf's is made again.
   ByteWriter c;
-  putCarryRecord(c, carried, leaf ? nullptr : &kept[0]);
+  putCarryRecord(c, carried, leaf ? nullptr : &made[0]);
   out.firstCarryBytes = c.bytes().size();
-  if (count == 2) putCarryRecord(c, carried, leaf ? nullptr : &kept[1]);
+  if (count == 2) putCarryRecord(c, carried, leaf ? nullptr : &made[1]);
   out.carry = c.take();
 }
 

@@ -65,7 +65,12 @@ class DiamondBuilder final {
   struct Node;
   struct Saturated;
   void noteFailure(formats::Error error);
-  bool makeNode(const runtime::BinTriangle& t, const WorkPatch& patch, Node& node);
+  /// Measures and encodes `patch` of `t` into `node`, and gives `patch` its per-triangle sample
+  /// errors for the carry: against the samples, or with `children` (the two patches that tile
+  /// t) bounded through them where that keeps within `targetMeters`.
+  bool makeNode(const runtime::BinTriangle& t, WorkPatch& patch, Node& node,
+                const std::array<const WorkPatch*, 2>* children = nullptr,
+                double targetMeters = 0.0);
   bool readChildren(const std::array<runtime::BinTriangle, 2>& tri,
                     std::array<Saturated, 4>& saturated,
                     std::array<std::array<WorkPatch, 2>, 2>& children);

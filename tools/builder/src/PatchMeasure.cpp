@@ -11,6 +11,8 @@
 #include <limits>
 #include <optional>
 
+#include "DiamondBuilder.h"
+#include "PatchBound.h"
 #include "pbdam/builder/PatchBuilder.h"
 #include "pbdam/runtime/PatchDraw.h"
 #include "pbdam/runtime/TerrainPoint.h"
@@ -378,23 +380,75 @@ std::vector<double> sampleErrors(const SampleGrid& grid, const BinTriangle& t,
 
 }  // namespace
 
+namespace {
+
+/// The patch error from its per-triangle sample errors (docs/builder.md "Errors"): a point of
+/// triangle k is off the terrain by at most its sample error plus k's sag, so the two terms add
+/// per triangle, not as the patch's two maxima.
+void combine(const std::vector<double>& sample, const std::vector<double>& sag,
+             MeasuredPatch& out) {
+  double worst = 0.0;
+  out.triangleSampleErrors.resize(sag.size());
+  for (std::size_t k = 0; k < sag.size(); ++k) {
+    out.chordErrorMeters = std::max(out.chordErrorMeters, sag[k]);
+    out.sampleErrorMeters = std::max(out.sampleErrorMeters, sample[k]);
+    out.triangleSampleErrors[k] = roundUpToFloat(sample[k]);
+    worst = std::max(worst, sample[k] + sag[k]);
+  }
+  out.errorMeters = worst + out.representationErrorMeters;
+}
+
+}  // namespace
+
 MeasuredPatch measurePatch(const SampleGrid& grid, const BinTriangle& t, const WorkPatch& patch,
                            double heightStepMeters) {
   MeasuredPatch out;
   std::vector<glm::dvec3> rendered;
   out.representationErrorMeters = placeVertices(grid, t, patch, heightStepMeters, out, rendered);
   boundingSphere(rendered, out);
-  // A point of triangle k is off the terrain by at most its sample error plus k's sag, so the
-  // two terms add per triangle, not as the patch's two maxima.
   const std::vector<double> sag = chordErrors(grid, patch, rendered);
   const std::vector<double> sample = sampleErrors(grid, t, patch);
-  double worst = 0.0;
-  for (std::size_t k = 0; k < sag.size(); ++k) {
-    out.chordErrorMeters = std::max(out.chordErrorMeters, sag[k]);
-    out.sampleErrorMeters = std::max(out.sampleErrorMeters, sample[k]);
-    worst = std::max(worst, sample[k] + sag[k]);
+  out.trianglesMeasuredAgainstSamples = static_cast<std::uint32_t>(sag.size());
+  combine(sample, sag, out);
+  return out;
+}
+
+MeasuredPatch measurePatchFromChildren(const SampleGrid& grid, const BinTriangle& t,
+                                       const WorkPatch& patch,
+                                       const std::array<const WorkPatch*, 2>& children,
+                                       double heightStepMeters, double targetMeters) {
+  MeasuredPatch out;
+  std::vector<glm::dvec3> rendered;
+  out.representationErrorMeters = placeVertices(grid, t, patch, heightStepMeters, out, rendered);
+  boundingSphere(rendered, out);
+  const std::vector<double> sag = chordErrors(grid, patch, rendered);
+  std::vector<double> sample = childBoundedSampleErrors(grid.heightsOf(t.face), patch, children);
+  if (sample.empty()) {
+    sample = sampleErrors(grid, t, patch);  // a child without bounds: measure it all
+    out.trianglesMeasuredAgainstSamples = static_cast<std::uint32_t>(sag.size());
+    combine(sample, sag, out);
+    return out;
   }
-  out.errorMeters = worst + out.representationErrorMeters;
+  // Where the bound would lift the diamond's error above what it stores anyway, the samples
+  // decide: those triangles alone are measured, and the smaller of the two bounds is kept.
+  WorkPatch doubtful;
+  doubtful.points = patch.points;
+  std::vector<std::size_t> which;
+  for (std::size_t k = 0; k < sag.size(); ++k) {
+    if (sample[k] + sag[k] + out.representationErrorMeters <= targetMeters) continue;
+    which.push_back(k);
+    doubtful.indices.insert(doubtful.indices.end(),
+                            patch.indices.begin() + static_cast<std::ptrdiff_t>(3 * k),
+                            patch.indices.begin() + static_cast<std::ptrdiff_t>(3 * k + 3));
+  }
+  if (!which.empty()) {
+    const std::vector<double> exact = sampleErrors(grid, t, doubtful);
+    for (std::size_t j = 0; j < which.size(); ++j) {
+      sample[which[j]] = std::min(sample[which[j]], exact[j]);
+    }
+  }
+  out.trianglesMeasuredAgainstSamples = static_cast<std::uint32_t>(which.size());
+  combine(sample, sag, out);
   return out;
 }
 

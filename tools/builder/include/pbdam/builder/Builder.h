@@ -13,6 +13,8 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 #include "pbdam/builder/Communicator.h"
 #include "pbdam/builder/CompositeSurface.h"
@@ -111,6 +113,10 @@ struct BuildSummary final {
   double rootErrorMeters = 0.0;
   double leafMaxErrorMeters = 0.0;
   double seconds = 0.0;
+  /// CPU seconds (user + system) of this process — rank 0's share when there are several —
+  /// per stage in build order: "inputs", "resample", "level D" … "level 0" (the levels built
+  /// by this run), "textures", "assembly".
+  std::vector<std::pair<std::string, double>> cpuSeconds;
   int ranks = 1;
   std::optional<int> resumedAfterLevel;  ///< the checkpoint's last complete level, if resumed
   bool resumedAfterTexture = false;

@@ -366,8 +366,10 @@ struct CarrySaturation final {
 /// Appends one carry record: the saturation, a u8 flag, and with `patch` the working patch —
 /// u32 point count, u8 width (2 when every coordinate and index fits 16 bits — always for
 /// lattices up to 16384 cells and patches up to 65536 points — else 4), the points' (x, y), u32
-/// index count, the indices; each value in `width` bytes. Half the bytes of plain 32-bit
-/// values: the carry of the first block level is most of the build's I/O and disk.
+/// index count, the indices; each value in `width` bytes (half the bytes of plain 32-bit
+/// values: the carry of the first block level is most of the build's I/O and disk); then u32
+/// count (0 or one a triangle) and the triangles' sample errors (float), which the parent's
+/// errors are bounded through.
 void putCarryRecord(ByteWriter& w, const CarrySaturation& saturation, const WorkPatch* patch);
 /// Reads one carry record; with `patch` the record must hold a patch. False when it is damaged
 /// (or has no patch that was asked for).

@@ -22,6 +22,9 @@ namespace pbdam::builder {
 struct WorkPatch final {
   std::vector<runtime::LatticeXY> points;
   std::vector<std::uint32_t> indices;
+  /// Once measured: per triangle, an upper bound (metres) of |patch − sample| over the lattice
+  /// and source samples inside or on it — what the parent's error is bounded through.
+  std::vector<float> sampleErrorMeters;
 };
 
 /// The regular triangulation of a leaf triangle: its longest-edge bisection down to triangles
@@ -99,12 +102,26 @@ struct MeasuredPatch final {
   double sphereRadiusMeters = 0.0;
   double minHeightMeters = 0.0;  ///< over its vertices
   double maxHeightMeters = 0.0;
+  /// Per triangle of the patch (its WorkPatch order), the sample error bound, rounded up to
+  /// float: what WorkPatch::sampleErrorMeters carries to the parent.
+  std::vector<float> triangleSampleErrors;
+  std::uint32_t trianglesMeasuredAgainstSamples = 0;  ///< by the samples, not the children
 };
 
 /// Measures `patch` of `triangle` (docs/builder.md "Errors") and converts it to the stored
 /// representation with `heightStepMeters` quantisation.
 MeasuredPatch measurePatch(const SampleGrid& grid, const runtime::BinTriangle& triangle,
                            const WorkPatch& patch, double heightStepMeters);
+
+/// As measurePatch, with the sample error of each triangle bounded through the two children
+/// that tile `triangle` (their WorkPatch::sampleErrorMeters; PatchBound.h) rather than read from
+/// the samples; only a triangle whose bound plus sag plus the representation error exceeds
+/// `targetMeters` (the error the diamond will store anyway) is measured against its samples,
+/// keeping the smaller of the two. Either is an upper bound of the true sample error.
+MeasuredPatch measurePatchFromChildren(const SampleGrid& grid, const runtime::BinTriangle& triangle,
+                                       const WorkPatch& patch,
+                                       const std::array<const WorkPatch*, 2>& children,
+                                       double heightStepMeters, double targetMeters);
 
 /// The coarsest lattice spacing a patch of node `triangle` considers: 1 on a dense lattice; on a
 /// sparse one the power of two at most 1/512 of the triangle's extent, so that a coarse patch
