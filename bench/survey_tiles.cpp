@@ -72,7 +72,7 @@ void writeAsc(const fs::path& path, const Grid& g, std::int64_t r0, std::int64_t
   std::snprintf(header, sizeof header,
                 "ncols %lld\nnrows %lld\nxllcorner %.12f\nyllcorner %.12f\ncellsize %.12f\n"
                 "NODATA_value -32768\n",
-                static_cast<long long>(c1 - c0 + 1), static_cast<long long>(r1 - r0 + 1),
+                static_cast<long long>(c1 - c0) + 1, static_cast<long long>(r1 - r0) + 1,
                 g.lon(c0) - 0.5 * g.step, g.lat(r1) - 0.5 * g.step, g.step);
   out << header;
   for (std::int64_t r = r0; r <= r1; ++r) {
@@ -100,7 +100,8 @@ std::int64_t punchVoids(Grid& g, int count) {
   }
   std::sort(slopes.begin(), slopes.end(), std::greater<>());
   std::vector<std::int64_t> seeds;
-  for (const auto& [slope, i] : slopes) {
+  for (const auto& candidate : slopes) {
+    const std::int64_t i = candidate.second;
     if (static_cast<int>(seeds.size()) == count) break;
     const bool near = std::any_of(seeds.begin(), seeds.end(), [&](std::int64_t s) {
       return std::abs(s / g.cols - i / g.cols) < 10 && std::abs(s % g.cols - i % g.cols) < 10;
@@ -158,20 +159,8 @@ runtime::SurfaceHeight heightAt(const Built& b, double lat, double lon) {
   return *h;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  if (argc < 2) die("usage: pbdam_survey_tiles OUTDIR [--json FILE] [--fillnodata SCRIPT]");
-  const fs::path out = argv[1];
-  std::string jsonPath, fillScript = "gdal_fillnodata.py";
-  for (int i = 2; i + 1 < argc; i += 2) {
-    const std::string flag = argv[i];
-    if (flag == "--json") jsonPath = argv[i + 1];
-    if (flag == "--fillnodata") fillScript = argv[i + 1];
-  }
-  fs::create_directories(out);
-
-  // The truth: ETOPO5 over the Himalaya and Tibet, read as pbdam reads it.
+/// The truth (ETOPO5 over the inset's box, read as pbdam reads it) and the same with voids.
+std::pair<Grid, Grid> makeInset() {
   auto etopo5 = formats::readDem(kEtopo5);
   if (!etopo5) die(etopo5.error().message);
   Grid truth;
@@ -184,72 +173,69 @@ int main(int argc, char** argv) {
   for (std::int64_t r = 0; r < truth.rows; ++r) {
     for (std::int64_t c = 0; c < truth.cols; ++c) {
       truth.at(r, c) =
-          static_cast<float>(etopo5->sampleBilinear(truth.lat(r), truth.lon(c)).value());
+          static_cast<float>(etopo5->sampleBilinear(truth.lat(r), truth.lon(c)).value_or(0.0));
     }
   }
   Grid punched = truth;
-  const std::int64_t voidSamples = punchVoids(punched, 60);
-  writeAsc(out / "truth.asc", truth, 0, truth.rows - 1, 0, truth.cols - 1);
-  writeAsc(out / "punched.asc", punched, 0, punched.rows - 1, 0, punched.cols - 1);
-  // 2 × 2 tiles: sharing the middle row and column (SRTM's convention), or abutting.
-  const std::int64_t rm = punched.rows / 2, cm = punched.cols / 2;
+  punchVoids(punched, 60);
+  return {std::move(truth), std::move(punched)};
+}
+
+/// 2 × 2 tiles: sharing the middle row and column (SRTM's convention), or abutting; a VRT of
+/// the abutting ones.
+void writeTiles(const fs::path& out, const Grid& g) {
+  const std::int64_t rm = g.rows / 2, cm = g.cols / 2;
   for (const auto& [name, overlap] :
        {std::pair{"tiles-shared", 0}, std::pair{"tiles-abutting", 1}}) {
     const fs::path d = out / name;
     fs::create_directories(d);
-    writeAsc(d / "nw.asc", punched, 0, rm, 0, cm);
-    writeAsc(d / "ne.asc", punched, 0, rm, cm + overlap, punched.cols - 1);
-    writeAsc(d / "sw.asc", punched, rm + overlap, punched.rows - 1, 0, cm);
-    writeAsc(d / "se.asc", punched, rm + overlap, punched.rows - 1, cm + overlap, punched.cols - 1);
+    writeAsc(d / "nw.asc", g, 0, rm, 0, cm);
+    writeAsc(d / "ne.asc", g, 0, rm, cm + overlap, g.cols - 1);
+    writeAsc(d / "sw.asc", g, rm + overlap, g.rows - 1, 0, cm);
+    writeAsc(d / "se.asc", g, rm + overlap, g.rows - 1, cm + overlap, g.cols - 1);
   }
   const std::string vrtCommand = "gdalbuildvrt -q '" + (out / "tiles.vrt").string() + "' '" +
                                  (out / "tiles-abutting").string() + "'/*.asc";
   if (std::system(vrtCommand.c_str()) != 0) die("gdalbuildvrt failed");
+}
 
-  // The builds.
-  const Built single = build(out / "single", {out / "punched.asc"});
-  const Built files =
-      build(out / "files", {out / "tiles-shared/nw.asc", out / "tiles-shared/ne.asc",
-                            out / "tiles-shared/sw.asc", out / "tiles-shared/se.asc"});
-  const Built dir = build(out / "dir", {out / "tiles-abutting"});
-  const Built vrt = build(out / "vrt", {out / "tiles.vrt"});
-
-  // The composite the single build joined: which samples lie beyond the outer band.
-  auto base = formats::readDem(kEtopo20);
-  if (!base) die(base.error().message);
-  auto composite = builder::CompositeSurface::read(
-      *base, {builder::InsetSpec{out / "punched.asc", {}, {}}}, {}, "earth");
-  if (!composite) die(composite.error().message);
-  const builder::VoidReport& voids = composite->insets()[0].voids;
-
-  // 1. Valid samples beyond the outer band: the height within the stored error + 0.5 m.
-  std::mt19937_64 random(42);
-  std::uniform_int_distribution<std::int64_t> row(0, punched.rows - 1), col(0, punched.cols - 1);
+/// Of 10,000 random valid samples beyond the outer band, how many `pbdam height` gives within
+/// the stored error + 0.5 m; and the worst excess over the stored error.
+struct ValidCheck {
   int checked = 0, within = 0;
   double worstBeyond = 0.0;
-  while (checked < 10000) {
+};
+ValidCheck checkValid(const Grid& punched, const builder::CompositeSurface& composite,
+                      const Built& single, std::mt19937_64& random) {
+  std::uniform_int_distribution<std::int64_t> row(0, punched.rows - 1), col(0, punched.cols - 1);
+  ValidCheck v;
+  while (v.checked < 10000) {
     const std::int64_t r = row(random), c = col(random);
     if (std::isnan(punched.at(r, c))) continue;
     const double lat = punched.lat(r), lon = punched.lon(c);
-    if (composite->weightOf(0, lat, lon) < 1.0) continue;
+    if (composite.weightOf(0, lat, lon) < 1.0) continue;
     const runtime::SurfaceHeight h = heightAt(single, lat, lon);
     const double off = std::abs(h.heightMeters - static_cast<double>(punched.at(r, c)));
-    ++checked;
+    ++v.checked;
     if (off <= h.leafErrorMeters + 0.5) {
-      ++within;
+      ++v.within;
     } else {
-      worstBeyond = std::max(worstBeyond, off - h.leafErrorMeters);
+      v.worstBeyond = std::max(v.worstBeyond, off - h.leafErrorMeters);
     }
   }
+  return v;
+}
 
-  // 2. The punched samples against the truth: pbdam height and GDAL's fill-nodata.
+/// RMS against the truth over the punched samples: `pbdam height`, and GDAL's fill-nodata of
+/// the punched DEM (NaN when the script is missing).
+std::pair<double, double> voidRms(const fs::path& out, const Grid& truth, const Grid& punched,
+                                  const Built& single, const std::string& fillScript) {
   const std::string fillCommand = fillScript + " -q -md 100 -si 0 '" +
                                   (out / "punched.asc").string() + "' '" +
                                   (out / "filled.tif").string() + "'";
   fs::remove(out / "filled.tif");
-  const bool haveGdalFill = std::system(fillCommand.c_str()) == 0;
   std::optional<HeightGrid> gdalFilled;
-  if (haveGdalFill) {
+  if (std::system(fillCommand.c_str()) == 0) {
     auto read = formats::readDem(out / "filled.tif");
     if (!read) die(read.error().message);
     gdalFilled = std::move(read).value();
@@ -269,26 +255,67 @@ int main(int argc, char** argv) {
       ++holes;
     }
   }
-  const double pbdamRms = std::sqrt(pbdamSquares / static_cast<double>(holes));
-  const double gdalRms = std::sqrt(gdalSquares / static_cast<double>(holes));
+  const auto n = static_cast<double>(holes);
+  return {std::sqrt(pbdamSquares / n),
+          gdalFilled ? std::sqrt(gdalSquares / n) : std::numeric_limits<double>::quiet_NaN()};
+}
 
-  // 3. Tiles against the single file: 1,000 random points over the inset.
+/// The worst difference of 1,000 random heights over the inset between the single file's
+/// dataset and each tiled one.
+double worstTileDifference(const Built& single, const std::vector<const Built*>& tiled,
+                           std::mt19937_64& random) {
   std::uniform_real_distribution<double> lat(kSouth, kNorth), lon(kWest, kEast);
-  double worstTiles = 0.0;
+  double worst = 0.0;
   for (int k = 0; k < 1000; ++k) {
     const double la = lat(random), lo = lon(random);
     const double h = heightAt(single, la, lo).heightMeters;
-    for (const Built* b : {&files, &dir, &vrt}) {
-      worstTiles = std::max(worstTiles, std::abs(heightAt(*b, la, lo).heightMeters - h));
+    for (const Built* b : tiled) {
+      worst = std::max(worst, std::abs(heightAt(*b, la, lo).heightMeters - h));
     }
   }
+  return worst;
+}
+
+int run(int argc, char** argv) {
+  if (argc < 2) die("usage: pbdam_survey_tiles OUTDIR [--json FILE] [--fillnodata SCRIPT]");
+  const fs::path out = argv[1];
+  std::string jsonPath, fillScript = "gdal_fillnodata.py";
+  for (int i = 2; i + 1 < argc; i += 2) {
+    const std::string flag = argv[i];
+    if (flag == "--json") jsonPath = argv[i + 1];
+    if (flag == "--fillnodata") fillScript = argv[i + 1];
+  }
+  fs::create_directories(out);
+  const auto [truth, punched] = makeInset();
+  writeAsc(out / "truth.asc", truth, 0, truth.rows - 1, 0, truth.cols - 1);
+  writeAsc(out / "punched.asc", punched, 0, punched.rows - 1, 0, punched.cols - 1);
+  writeTiles(out, punched);
+
+  const Built single = build(out / "single", {out / "punched.asc"});
+  const Built files =
+      build(out / "files", {out / "tiles-shared/nw.asc", out / "tiles-shared/ne.asc",
+                            out / "tiles-shared/sw.asc", out / "tiles-shared/se.asc"});
+  const Built dir = build(out / "dir", {out / "tiles-abutting"});
+  const Built vrt = build(out / "vrt", {out / "tiles.vrt"});
+
+  // The composite the single build joined: which samples lie beyond the outer band.
+  auto base = formats::readDem(kEtopo20);
+  if (!base) die(base.error().message);
+  auto composite = builder::CompositeSurface::read(
+      *base, {builder::InsetSpec{out / "punched.asc", {}, {}}}, {}, "earth");
+  if (!composite) die(composite.error().message);
+  const builder::VoidReport& voids = composite->insets()[0].voids;
+  std::mt19937_64 random(42);
+  const ValidCheck valid = checkValid(punched, *composite, single, random);
+  const auto [pbdamRms, gdalRms] = voidRms(out, truth, punched, single, fillScript);
+  const double worstTiles = worstTileDifference(single, {&files, &dir, &vrt}, random);
   const double cpuRatio =
       std::max({files.cpuSeconds, dir.cpuSeconds, vrt.cpuSeconds}) / single.cpuSeconds;
 
   std::printf(
       "\ninset: ETOPO5 27–37°N 74–94°E (120 x 240 samples) on ETOPO20; %lld samples "
       "punched in %lld voids on the steepest slopes\n",
-      static_cast<long long>(voidSamples), static_cast<long long>(voids.voids));
+      static_cast<long long>(voids.voidSamples), static_cast<long long>(voids.voids));
   std::printf("voids: %lld filled from their rims (%lld samples), %lld left to the base\n",
               static_cast<long long>(voids.filledVoids),
               static_cast<long long>(voids.filledSamples),
@@ -296,45 +323,46 @@ int main(int argc, char** argv) {
   std::printf(
       "valid samples beyond the outer band within stored error + 0.5 m: %d of %d "
       "(%.2f%%), worst beyond the stored error %.2f m\n",
-      within, checked, 100.0 * within / checked, worstBeyond);
-  if (haveGdalFill) {
-    std::printf(
-        "punched samples, RMS against the truth: pbdam height %.1f m, "
-        "gdal_fillnodata.py -md 100 %.1f m (ratio %.3f)\n",
-        pbdamRms, gdalRms, pbdamRms / gdalRms);
-  } else {
-    std::printf(
-        "punched samples, RMS against the truth: pbdam height %.1f m (%s not found: "
-        "no comparison)\n",
-        pbdamRms, fillScript.c_str());
-  }
+      valid.within, valid.checked, 100.0 * valid.within / valid.checked, valid.worstBeyond);
+  std::printf(
+      "punched samples, RMS against the truth: pbdam height %.1f m, "
+      "gdal_fillnodata.py -md 100 %.1f m (ratio %.3f)\n",
+      pbdamRms, gdalRms, pbdamRms / gdalRms);
   std::printf(
       "2 x 2 tiles (four files sharing edge rows, a directory of abutting tiles, a VRT) "
       "against the single file: worst of 1000 heights %.3f m; build CPU %.2fx\n",
       worstTiles, cpuRatio);
   if (!jsonPath.empty()) {
     nlohmann::ordered_json j;
-    j["void_samples"] = voidSamples;
+    j["void_samples"] = voids.voidSamples;
     j["voids"] = voids.voids;
     j["filled_voids"] = voids.filledVoids;
     j["large_voids"] = voids.largeVoids;
-    j["valid_checked"] = checked;
-    j["valid_within"] = within;
-    j["valid_share"] = static_cast<double>(within) / checked;
+    j["valid_checked"] = valid.checked;
+    j["valid_within"] = valid.within;
+    j["valid_share"] = static_cast<double>(valid.within) / valid.checked;
     j["punched_rms_pbdam_m"] = pbdamRms;
-    if (haveGdalFill) {
-      j["punched_rms_gdal_fillnodata_m"] = gdalRms;
-      j["punched_rms_ratio"] = pbdamRms / gdalRms;
-    }
+    j["punched_rms_gdal_fillnodata_m"] = gdalRms;
+    j["punched_rms_ratio"] = pbdamRms / gdalRms;
     j["tiles_worst_height_m"] = worstTiles;
     j["build_cpu_s"] = {{"single", single.cpuSeconds},
                         {"files", files.cpuSeconds},
                         {"dir", dir.cpuSeconds},
                         {"vrt", vrt.cpuSeconds}};
     j["tiles_cpu_ratio"] = cpuRatio;
-    j["seam_lat_deg"] = punched.lat(rm);
-    j["seam_lon_deg"] = punched.lon(cm);
+    j["seam_lat_deg"] = punched.lat(punched.rows / 2);
+    j["seam_lon_deg"] = punched.lon(punched.cols / 2);
     std::ofstream(jsonPath) << j.dump(2) << "\n";
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    die(e.what());
+  }
 }

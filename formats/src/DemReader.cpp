@@ -946,6 +946,8 @@ Result<HeightGrid> readDemMosaic(const std::vector<fs::path>& tiles, const std::
   const std::string vrt = "/vsimem/pbdam-mosaic-" + std::to_string(counter++) + ".vrt";
   std::vector<std::string> names;
   std::vector<const char*> pointers;
+  names.reserve(tiles.size());
+  pointers.reserve(tiles.size());
   for (const fs::path& tile : tiles) names.push_back(tile.string());
   for (const std::string& n : names) pointers.push_back(n.c_str());
   {

@@ -11,8 +11,8 @@
 #include <ogr_srs_api.h>
 
 #include <algorithm>
-#include <functional>
 #include <cmath>
+#include <functional>
 #include <mutex>
 
 namespace pbdam::formats {
@@ -215,12 +215,12 @@ Result<GeoImage> readImageSet(const std::filesystem::path& path) {
   };
   std::vector<std::string> names;
   std::vector<const char*> pointers;
+  names.reserve(files->size());
+  pointers.reserve(files->size());
   for (const auto& file : *files) names.push_back(file.string());
   for (const auto& name : names) pointers.push_back(name.c_str());
-  std::vector<std::string> args = {"-addalpha"};
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
+  std::string addAlpha = "-addalpha";
+  std::vector<char*> argv = {addAlpha.data(), nullptr};
   CPLPushErrorHandler(CPLQuietErrorHandler);
   CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", "NO");
   GDALBuildVRTOptions* options = GDALBuildVRTOptionsNew(argv.data(), nullptr);

@@ -337,7 +337,7 @@ void writeTile(const std::filesystem::path& path, const HeightGrid& g, std::int6
   std::snprintf(header, sizeof header,
                 "ncols %lld\nnrows %lld\nxllcorner %.12f\nyllcorner %.12f\ncellsize %.12f\n"
                 "NODATA_value -9999\n",
-                static_cast<long long>(c1 - c0 + 1), static_cast<long long>(r1 - r0 + 1),
+                static_cast<long long>(c1 - c0) + 1, static_cast<long long>(r1 - r0) + 1,
                 g.lonOfColumnDegrees(c0) - 0.5 * geo.lonSpacingDegrees,
                 g.latOfRowDegrees(r1) - 0.5 * geo.latSpacingDegrees, geo.lonSpacingDegrees);
   out << header;
@@ -390,6 +390,7 @@ TEST(CompositeSurface, TilesThatTouchAreOneSurfaceWhateverGroupingTheyComeIn) {
             0);
   const auto read = [&](std::vector<std::filesystem::path> paths) {
     std::vector<InsetSpec> specs;
+    specs.reserve(paths.size());
     for (auto& p : paths) specs.push_back(InsetSpec{std::move(p), {}, {}});
     return CompositeSurface::read(*etopo, std::move(specs), {}, "earth");
   };
@@ -401,6 +402,7 @@ TEST(CompositeSurface, TilesThatTouchAreOneSurfaceWhateverGroupingTheyComeIn) {
   std::uniform_real_distribution<double> lat(b.southDegrees, b.northDegrees);
   std::uniform_real_distribution<double> lon(b.westDegrees, b.eastDegrees);
   std::vector<std::pair<double, double>> points;
+  points.reserve(1000);
   for (int k = 0; k < 1000; ++k) points.emplace_back(lat(random), lon(random));
   const std::vector<std::pair<std::string, std::vector<std::filesystem::path>>> groupings = {
       {"four files sharing edge rows",

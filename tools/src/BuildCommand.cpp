@@ -8,8 +8,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <iostream>
 #include <memory>
+
+#include <nlohmann/json.hpp>
 
 #include "Commands.h"
 #include "DemInputOptions.h"
@@ -222,26 +225,41 @@ void printBuildSummary(const std::string& out, const builder::BuildSummary& s) {
 
 /// The summary as JSON (--stats): what the CLI prints, in numbers.
 bool writeBuildStats(const std::string& path, const builder::BuildSummary& s) {
-  std::FILE* f = std::fopen(path.c_str(), "w");
-  if (f == nullptr) return false;
-  std::fprintf(
-      f,
-      "{\"seconds\":%.3f,\"ranks\":%d,\"lattice_cells\":%u,\"depth\":%u,"
-      "\"source_samples\":%llu,\"lattice_samples\":%llu,\"patches\":%llu,"
-      "\"triangles\":%llu,\"root_error_m\":%.3f,\"dataset_bytes\":%llu,"
-      "\"cpu_seconds\":{",
-      s.seconds, s.ranks, s.latticeCells, s.depth, static_cast<unsigned long long>(s.sourceSamples),
-      static_cast<unsigned long long>(s.latticeSamples), static_cast<unsigned long long>(s.patches),
-      static_cast<unsigned long long>(s.totalTriangles), s.rootErrorMeters,
-      static_cast<unsigned long long>(s.datasetBytes));
+  nlohmann::ordered_json j;
+  j["seconds"] = s.seconds;
+  j["ranks"] = s.ranks;
+  j["lattice_cells"] = s.latticeCells;
+  j["depth"] = s.depth;
+  j["source_samples"] = s.sourceSamples;
+  j["lattice_samples"] = s.latticeSamples;
+  j["patches"] = s.patches;
+  j["triangles"] = s.totalTriangles;
+  j["root_error_m"] = s.rootErrorMeters;
+  j["dataset_bytes"] = s.datasetBytes;
+  nlohmann::ordered_json cpu = nlohmann::ordered_json::object();
   double total = 0.0;
-  for (std::size_t k = 0; k < s.cpuSeconds.size(); ++k) {
-    total += s.cpuSeconds[k].second;
-    std::fprintf(f, "%s\"%s\":%.3f", k == 0 ? "" : ",", s.cpuSeconds[k].first.c_str(),
-                 s.cpuSeconds[k].second);
+  for (const auto& [stage, seconds] : s.cpuSeconds) {
+    total += seconds;
+    cpu[stage] = seconds;
   }
-  std::fprintf(f, "%s\"total\":%.3f}}\n", s.cpuSeconds.empty() ? "" : ",", total);
-  return std::fclose(f) == 0;
+  cpu["total"] = total;
+  j["cpu_seconds"] = cpu;
+  nlohmann::ordered_json insets = nlohmann::ordered_json::array();
+  for (const builder::InsetSurfaceSummary& inset : s.insets) {
+    const builder::VoidReport& v = inset.voids;
+    insets.push_back({{"name", inset.name},
+                      {"tiles", inset.tiles},
+                      {"voids", v.voids},
+                      {"void_samples", v.voidSamples},
+                      {"filled_voids", v.filledVoids},
+                      {"filled_samples", v.filledSamples},
+                      {"voids_left_to_surface_below", v.largeVoids},
+                      {"samples_left_to_surface_below", v.belowSamples}});
+  }
+  j["insets"] = insets;
+  std::ofstream out(path);
+  out << j.dump() << "\n";
+  return static_cast<bool>(out);
 }
 
 int runBuild(const BuildCliOptions& c) {

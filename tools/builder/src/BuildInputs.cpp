@@ -285,6 +285,17 @@ std::vector<std::pair<std::string, std::string>> fingerprintOf(const BuildOption
   return f;
 }
 
+std::vector<InsetSurfaceSummary> insetSummaries(const BuildOptions& o, const BuildInputs& in) {
+  std::vector<InsetSurfaceSummary> out;
+  if (!in.composite) return out;
+  const std::vector<ManifestInset> records = manifestInsets(o, in);
+  for (std::size_t m = 0; m < records.size(); ++m) {
+    const auto& surface = in.composite->insets()[in.composite->insetOfManifestIndex(m)];
+    out.push_back(InsetSurfaceSummary{records[m].file, surface.tiles, surface.voids});
+  }
+  return out;
+}
+
 /// The manifest's record of each inset surface, ordered by the first spec it holds.
 std::vector<ManifestInset> manifestInsets(const BuildOptions& o, const BuildInputs& in) {
   std::vector<ManifestInset> out;

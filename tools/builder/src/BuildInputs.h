@@ -42,6 +42,10 @@ struct BuildInputs final {
 
 class ForestPlan;
 
+/// What the build did with each inset surface (its name, tiles and voids), in the manifest's
+/// order; empty without insets.
+std::vector<InsetSurfaceSummary> insetSummaries(const BuildOptions& o, const BuildInputs& in);
+
 /// The manifest's record of each inset, in the order of the options (empty without insets).
 std::vector<formats::ManifestInset> manifestInsets(const BuildOptions& o, const BuildInputs& in);
 

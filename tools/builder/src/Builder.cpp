@@ -884,13 +884,7 @@ Result<void> DatasetBuild::assemble(BuildSummary& summary) {
 Result<BuildSummary> DatasetBuild::run(double cpuSince) {
   BuildSummary summary;
   summary.latticeCells = in_.n;
-  if (in_.composite) {
-    const std::vector<formats::ManifestInset> records = manifestInsets(o_, in_);
-    for (std::size_t m = 0; m < records.size(); ++m) {
-      const auto& surface = in_.composite->insets()[in_.composite->insetOfManifestIndex(m)];
-      summary.insets.push_back(InsetSurfaceSummary{records[m].file, surface.tiles, surface.voids});
-    }
-  }
+  summary.insets = insetSummaries(o_, in_);
   summary.depth = in_.depth;
   summary.ranks = comm_.size();
   state_.fingerprint = fingerprintOf(o_, in_);
