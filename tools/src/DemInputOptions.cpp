@@ -73,8 +73,10 @@ void addInsetOptions(CLI::App& command, std::vector<std::string>& paths,
   command
       .add_option("--inset", paths,
                   "A local high-resolution DEM joined to the base (repeatable; any format "
-                  "`pbdam dem info` reads; the finest wins where insets overlap)")
-      ->type_name("FILE");
+                  "`pbdam dem info` reads, or a set of tiles: a directory or a quoted glob). "
+                  "Tiles that touch at one spacing are one surface; voids are filled from their "
+                  "rims; the finest wins where insets overlap")
+      ->type_name("FILE|DIR|GLOB");
   command
       .add_option("--inset-offset", offsets,
                   "Metres added to the insets' heights (one for all, or one per --inset): "
@@ -86,9 +88,10 @@ void addInsetTextureOption(CLI::App& command, std::vector<std::string>& textures
   command
       .add_option("--inset-texture", textures,
                   "Imagery for each --inset, in order ('-' keeps its shaded relief): any image "
-                  "`--texture` reads; georeferenced (projected ones warped), or else taken to "
-                  "cover its inset's footprint. Blended into the base across the band")
-      ->type_name("FILE");
+                  "`--texture` reads, or a directory or glob of georeferenced imagery tiles; "
+                  "georeferenced (projected ones warped), or else taken to cover its inset's "
+                  "footprint. Blended into the base across the band")
+      ->type_name("FILE|DIR|GLOB");
 }
 
 }  // namespace pbdam::tools
