@@ -83,7 +83,9 @@ Result<std::vector<fs::path>> expandDemSet(const fs::path& path) {
       if (entry.is_regular_file(ec) && !isSideFile(entry.path())) files.push_back(entry.path());
     }
     if (files.empty()) {
-      return invalidArgument(path.string() + ": the directory holds no tiles (side files such as .prj, .aux.xml and .txt do not count)");
+      return invalidArgument(path.string() +
+                             ": the directory holds no tiles (side files such as .prj, .aux.xml "
+                             "and .txt do not count)");
     }
   } else if (!fs::exists(path, ec) && hasGlobCharacter(path.string())) {
     glob_t matches{};
