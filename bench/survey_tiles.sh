@@ -23,10 +23,10 @@ ground() {  # dataset lat lon: the rendered height there
 frames=()
 for dataset in files dir vrt; do
   # Along the east-west seam, heading east; along the north-south seam, heading north.
-  for view in "$seam_lat $(echo "$seam_lon - 6" | bc -l) 90" \
-              "$(echo "$seam_lat - 3" | bc -l) $seam_lon 0"; do
+  for view in "$seam_lat $(awk -v x="$seam_lon" 'BEGIN { print x - 6 }') 90" \
+              "$(awk -v x="$seam_lat" 'BEGIN { print x - 3 }') $seam_lon 0"; do
     read -r lat lon heading <<<"$view"
-    alt=$(echo "$(ground "$out/$dataset" "$lat" "$lon") + 2000" | bc -l)
+    alt=$(awk -v g="$(ground "$out/$dataset" "$lat" "$lon")" 'BEGIN { print g + 2000 }')
     frame="$out/seam-$dataset-$heading.png"
     "$pbdam" render "$out/$dataset" --camera "$lat,$lon,$alt,$heading,-12,0" --width 640 \
       --height 360 --clear 255,0,255 --out "$frame" >/dev/null
