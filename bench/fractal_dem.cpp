@@ -10,6 +10,7 @@
 // then be regional too (the box inside its samples).
 //   pbdam_fractal_dem --dem IN --out OUT.tif --width W [--seed S] [--amplitude-m A]
 //                     [--hurst H] [--planet-radius-m R] [--bounds S,W,N,E] [--float32]
+//                     [--wgs84]
 // --float32 writes Float32 heights, unrounded: detail finer than a metre (a lidar-class inset)
 // survives.
 #include <cpl_conv.h>
@@ -44,6 +45,7 @@ struct Options {
   bool float32 = false;            ///< Float32 samples (unrounded) instead of Int16
   double hurst = 0.8;              ///< roughness: amplitude ∝ wavelength^H
   double radiusMeters = 0.0;       ///< 0: the source CRS's semi-major axis (or Mars)
+  bool wgs84 = false;  ///< georeferenced on WGS 84 (a source without a CRS is otherwise Mars)
   /// A regional output (an inset): S, W, N, E in degrees, --width columns across W..E; empty:
   /// the whole globe.
   std::vector<double> bounds;
@@ -55,6 +57,9 @@ struct Options {
       "pbdam_fractal_dem: %s\n"
       "usage: pbdam_fractal_dem --dem IN --out OUT.tif --width W [--seed S]\n"
       "       [--amplitude-m A] [--hurst H] [--planet-radius-m R] [--bounds S,W,N,E] [--float32]\n"
+      "       [--wgs84]\n"
+      "  --wgs84: georeference on WGS 84 (a source without a CRS, such as ETOPO, is otherwise "
+      "taken as Mars)\n"
       "  W: output columns over 360 degrees (rows = W/2); must be even and > the "
       "source's width\n"
       "  --bounds: a regional grid (an inset) of W columns across W..E, as many rows "
@@ -94,6 +99,8 @@ Options parse(int argc, char** argv) {
       o.amplitudeMeters = number(0, 1e5);
     } else if (a == "--float32") {
       o.float32 = true;
+    } else if (a == "--wgs84") {
+      o.wgs84 = true;
     } else if (a == "--hurst") {
       o.hurst = number(0.05, 1.0);
     } else if (a == "--planet-radius-m") {
@@ -132,8 +139,8 @@ Options parse(int argc, char** argv) {
 std::unique_ptr<GDALDataset> createGeoTiff(const std::string& tmp, std::int64_t width,
                                            std::int64_t height, double spacingDegrees,
                                            double westDegrees, double northDegrees,
-                                           const pbdam::formats::HeightGrid& dem,
-                                           GDALDataType type) {
+                                           const pbdam::formats::HeightGrid& dem, GDALDataType type,
+                                           bool wgs84) {
   GDALAllRegister();
   GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
   if (driver == nullptr) {
@@ -158,8 +165,12 @@ std::unique_ptr<GDALDataset> createGeoTiff(const std::string& tmp, std::int64_t 
   out->SetGeoTransform(geoTransform);
   OGRSpatialReference srs;
   const double flattening = dem.source().semiMajorMeters > 0.0 ? dem.source().flattening : 0.0;
-  srs.SetGeogCS("fractal", "fractal_datum", "body", semiMajor,
-                flattening > 0.0 ? 1.0 / flattening : 0.0);
+  if (wgs84) {
+    srs.SetWellKnownGeogCS("WGS84");
+  } else {
+    srs.SetGeogCS("fractal", "fractal_datum", "body", semiMajor,
+                  flattening > 0.0 ? 1.0 / flattening : 0.0);
+  }
   out->SetSpatialRef(&srs);
   return out;
 }
@@ -232,8 +243,9 @@ int run(int argc, char** argv) {
   perlin.SetNoiseQuality(noise::QUALITY_STD);
 
   const std::string tmp = o.out + ".tmp.tif";
-  std::unique_ptr<GDALDataset> out = createGeoTiff(tmp, width, height, spacingDegrees, west, north,
-                                                   *dem, o.float32 ? GDT_Float32 : GDT_Int16);
+  std::unique_ptr<GDALDataset> out =
+      createGeoTiff(tmp, width, height, spacingDegrees, west, north, *dem,
+                    o.float32 ? GDT_Float32 : GDT_Int16, o.wgs84);
   if (!out) return 1;
   GDALRasterBand* band = out->GetRasterBand(1);
   band->SetNoDataValue(-32768.0);

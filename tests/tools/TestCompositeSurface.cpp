@@ -7,6 +7,7 @@
 // synthetic grids and on the real ETOPO5 + Luxembourg GeoTIFF pair.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -233,6 +234,36 @@ TEST(CompositeSurface, TilesOfDifferentSpacingsSideBySideMeetWithoutABandAlongTh
   // Where the data ends (the fine tile's west edge, the coarse tile's east edge), the band.
   EXPECT_LT(*s.heightAt(12.0, 30.1), 0.9 * terrain(12.0, 30.1));
   EXPECT_LT(*s.heightAt(12.0, 35.9), 0.9 * terrain(12.0, 35.9));
+
+  // The same tiles abutting cell to cell (pixel-is-area, no shared column): the fine tile's last
+  // sample centre is at 31.975°E, the coarse one's first at 32.05°E. Each is drawn to its cells'
+  // edge at 32°E, so the strip between the centres is theirs, not the base's.
+  const auto areaGrid = [&](std::int64_t w, std::int64_t h, double west, double step) {
+    std::vector<float> v(static_cast<std::size_t>(w * h));
+    for (std::int64_t r = 0; r < h; ++r) {
+      for (std::int64_t c = 0; c < w; ++c) {
+        v[static_cast<std::size_t>(r * w + c)] =
+            static_cast<float>(terrain(14.0 - (static_cast<double>(r) + 0.5) * step,
+                                       west + (static_cast<double>(c) + 0.5) * step));
+      }
+    }
+    return HeightGrid(GridGeometry{w, h, 14.0 - 0.5 * step, west + 0.5 * step, step, step, true},
+                      std::move(v), GridSource{});
+  };
+  std::vector<HeightGrid> abutting;
+  abutting.push_back(areaGrid(40, 80, 30.0, 0.05));
+  abutting.push_back(areaGrid(40, 40, 32.0, 0.1));
+  const CompositeSurface a = joined(CompositeSurface::make(
+      grid(360, 181, 90.0, 0.0, 1.0, [](double, double) { return 0.0; }),
+      {InsetSpec{"fine.tif", {}, {}}, InsetSpec{"coarse.tif", {}, {}}}, std::move(abutting)));
+  for (double lon = 31.9; lon <= 32.15; lon += 0.005) {
+    // Held at the outermost samples across the half cells: within a half cell's slope (5 m/°).
+    EXPECT_NEAR(*a.heightAt(12.0, lon), terrain(12.0, lon), 0.26) << lon;
+    EXPECT_EQ(a.sourceAt(12.0, lon).inset, lon < 32.0 ? 1 : 0) << lon;
+  }
+  // Beyond an edge where the data ends, the half cell stays the base's.
+  EXPECT_EQ(a.weightOf(0, 12.0, 36.04), 0.0);
+  EXPECT_EQ(a.weightOf(1, 12.0, 29.99), 0.0);
 }
 
 TEST(CompositeSurface, ItsSamplesAreEachSourcesOwnWhereItIsTheFinest) {
@@ -433,6 +464,128 @@ TEST(CompositeSurface, TilesThatTouchAreOneSurfaceWhateverGroupingTheyComeIn) {
       EXPECT_EQ(tiled->weightOf(0, la, lo), whole->weightOf(0, la, lo));
     }
   }
+}
+
+// The voids are found row by row over runs of nodata: the same regions as a plain 8-connected
+// flood fill over random masks from sparse specks to mostly nodata (spirals, diagonal-only
+// links and regions that reach the edge through a corner included by chance).
+TEST(CompositeSurface, VoidsAreTheEightConnectedRegionsThatDoNotReachTheEdge) {
+  std::mt19937_64 random(42);
+  for (const double density : {0.02, 0.2, 0.45, 0.6, 0.9}) {
+    for (int trial = 0; trial < 6; ++trial) {
+      const std::int64_t w = 37 + trial * 7, h = 29 + trial * 5;
+      std::bernoulli_distribution nodata(density);
+      std::vector<bool> mask(static_cast<std::size_t>(w * h));
+      for (std::size_t i = 0; i < mask.size(); ++i) mask[i] = nodata(random);
+      const HeightGrid g = grid(w, h, 20.0, 30.0, 0.01, [&](double lat, double lon) {
+        const auto r = static_cast<std::int64_t>(std::lround((20.0 - lat) / 0.01));
+        const auto c = static_cast<std::int64_t>(std::lround((lon - 30.0) / 0.01));
+        return mask[static_cast<std::size_t>(r * w + c)] ? std::numeric_limits<double>::quiet_NaN()
+                                                         : 10.0;
+      });
+      // The reference: flood fill.
+      std::int64_t voids = 0, voidSamples = 0, outside = 0;
+      std::vector<bool> seen(mask.size());
+      for (std::int64_t start = 0; start < w * h; ++start) {
+        if (!mask[static_cast<std::size_t>(start)] || seen[static_cast<std::size_t>(start)]) {
+          continue;
+        }
+        std::vector<std::int64_t> stack{start};
+        seen[static_cast<std::size_t>(start)] = true;
+        std::int64_t count = 0;
+        bool edge = false;
+        while (!stack.empty()) {
+          const std::int64_t i = stack.back();
+          stack.pop_back();
+          ++count;
+          const std::int64_t r = i / w, c = i % w;
+          edge = edge || r == 0 || c == 0 || r == h - 1 || c == w - 1;
+          for (std::int64_t dr = -1; dr <= 1; ++dr) {
+            for (std::int64_t dc = -1; dc <= 1; ++dc) {
+              const std::int64_t nr = r + dr, nc = c + dc;
+              if (nr < 0 || nc < 0 || nr >= h || nc >= w) continue;
+              const auto j = static_cast<std::size_t>(nr * w + nc);
+              if (mask[j] && !seen[j]) {
+                seen[j] = true;
+                stack.push_back(nr * w + nc);
+              }
+            }
+          }
+        }
+        if (edge) {
+          outside += count;
+        } else {
+          ++voids;
+          voidSamples += count;
+        }
+      }
+      const auto report = findVoids(g);
+      ASSERT_TRUE(report.ok()) << report.error().message;
+      SCOPED_TRACE("density " + std::to_string(density) + ", trial " + std::to_string(trial));
+      EXPECT_EQ(report->voids, voids);
+      EXPECT_EQ(report->voidSamples, voidSamples);
+      EXPECT_EQ(report->outsideSamples, outside);
+      EXPECT_EQ(report->filledVoids + report->largeVoids, voids);
+    }
+  }
+}
+
+// A tile set read out of core (its mosaic, the filled copy and the edge distances in mapped
+// scratch files, as `pbdam build` reads anything over 256 MB) is the same surface as read in
+// memory: the same samples, heights, weights and voids. On the Luxembourg GeoTIFF with voids
+// punched on its steepest slopes, cut into two tiles.
+TEST(CompositeSurface, ATileSetReadOutOfCoreIsTheSameSurface) {
+  PBDAM_REQUIRE_DATA(luxembourgPath, test::dataDir() / "geotiff/terra_elev_luxembourg.tif");
+  PBDAM_REQUIRE_DATA(etopoPath, PBDAM_ETOPO5_PATH);
+  auto etopo = readDem(etopoPath);
+  auto lux = readDem(luxembourgPath);
+  ASSERT_TRUE(etopo.ok() && lux.ok());
+  // Voids: a 3 × 3 one, filled from its rim, and a 13 × 13 one, beyond a fill search of 4
+  // samples: the surface below.
+  std::vector<float> heights(lux->heightsMeters().begin(), lux->heightsMeters().end());
+  const std::int64_t w = lux->width(), h = lux->height();
+  const auto punch = [&](std::int64_t r0, std::int64_t c0, std::int64_t n) {
+    for (std::int64_t r = r0; r < r0 + n; ++r) {
+      for (std::int64_t c = c0; c < c0 + n; ++c) {
+        heights[static_cast<std::size_t>(r * w + c)] = std::numeric_limits<float>::quiet_NaN();
+      }
+    }
+  };
+  punch(h / 3, w / 2, 3);
+  punch(h / 2 - 6, w / 2 - 6, 13);
+  const HeightGrid punched(lux->geometry(), std::move(heights), lux->source());
+  test::TempDir dir;
+  std::filesystem::create_directories(dir / "tiles");
+  std::filesystem::create_directories(dir / "scratch");
+  writeTile(dir / "tiles/west.asc", punched, 0, h - 1, 0, w / 2);
+  writeTile(dir / "tiles/east.asc", punched, 0, h - 1, w / 2 + 1, w - 1);
+  auto inMemory =
+      CompositeSurface::read(*etopo, {InsetSpec{dir / "tiles", {}, {}}}, {}, "earth",
+                             VoidFillOptions{.maxDistanceSamples = 4.0, .scratchDirectory = {}});
+  DemReadOptions mapped;
+  mapped.scratchDirectory = dir / "scratch";
+  mapped.mapAtBytes = 0;
+  auto outOfCore = CompositeSurface::read(
+      *etopo, {InsetSpec{dir / "tiles", {}, {}}}, mapped, "earth",
+      VoidFillOptions{.maxDistanceSamples = 4.0, .scratchDirectory = dir / "scratch"});
+  ASSERT_TRUE(inMemory.ok()) << inMemory.error().message;
+  ASSERT_TRUE(outOfCore.ok()) << outOfCore.error().message;
+  const CompositeSurface::Inset& a = inMemory->insets().at(0);
+  const CompositeSurface::Inset& b = outOfCore->insets().at(0);
+  EXPECT_FALSE(a.grid.fileBacked());
+  EXPECT_EQ(a.edgeDistanceFile, nullptr);
+  EXPECT_TRUE(b.grid.fileBacked());
+  ASSERT_NE(b.edgeDistanceFile, nullptr);
+  EXPECT_EQ(b.voids.voids, 2);
+  EXPECT_EQ(b.voids.filledVoids, 1);
+  EXPECT_EQ(b.voids.largeVoids, 1);
+  EXPECT_EQ(a.voids.voidSamples, b.voids.voidSamples);
+  EXPECT_EQ(a.voids.outsideSamples, b.voids.outsideSamples);
+  EXPECT_TRUE(std::equal(a.edgeDistance.begin(), a.edgeDistance.end(), b.edgeDistance.begin(),
+                         b.edgeDistance.end()));
+  EXPECT_TRUE(samplesOf(*inMemory) == samplesOf(*outOfCore));
+  outOfCore->releaseResident();
+  EXPECT_TRUE(samplesOf(*inMemory) == samplesOf(*outOfCore)) << "after letting the pages go";
 }
 
 TEST(CompositeSurface, TileSetsThatCannotBeReadAreRefusedNamingTheFile) {

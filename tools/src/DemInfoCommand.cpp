@@ -182,6 +182,10 @@ int runDemInfo(const DemInfoOptions& o) {
   auto raw = rawLayoutOf(o.raw);
   if (!raw) return reportError(raw.error());
   readOptions.raw = *raw;
+  // A grid of 256 MB or more (a tile set's mosaic) is read into a mapped scratch file, as the
+  // builder reads it, so that describing a country of tiles does not hold it in memory.
+  std::error_code ec;
+  readOptions.scratchDirectory = std::filesystem::temp_directory_path(ec);
   std::optional<std::pair<double, double>> point;
   if (!o.at.empty()) {
     auto parsed = parseLatLon(o.at);
@@ -210,8 +214,9 @@ int runDemInfo(const DemInfoOptions& o) {
   const std::size_t count = std::max<std::size_t>(1, surfaces.size());
   nlohmann::ordered_json all = nlohmann::ordered_json::array();
   for (std::size_t k = 0; k < count; ++k) {
-    auto grid = surfaces.empty() ? readDem(o.file, readOptions)
-                                 : readDemMosaic(surfaces[k].first, surfaces[k].second);
+    auto grid = surfaces.empty()
+                    ? readDem(o.file, readOptions)
+                    : readDemMosaic(surfaces[k].first, surfaces[k].second, readOptions);
     if (!grid) return reportError(grid.error());
     auto voids = builder::findVoids(*grid);
     if (!voids) return reportError(voids.error());

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <memory>
 #include <numeric>
 
 #include "pbdam/formats/DemTileSet.h"
@@ -36,14 +38,39 @@ bool continuedBeside(const HeightGrid& grid, const std::vector<const HeightGrid*
   return false;
 }
 
+/// Where an inset's edge distances go: beside a file-backed grid a mapped scratch file in
+/// `scratchDirectory` (memory when none is given or none can be made), else memory.
+struct DistanceArray final {
+  std::uint16_t* data = nullptr;
+  std::shared_ptr<const void> owner;
+  std::shared_ptr<MemoryMapping> file;
+};
+
+DistanceArray allocateDistances(const HeightGrid& grid,
+                                const std::filesystem::path& scratchDirectory) {
+  const auto n = static_cast<std::size_t>(grid.width() * grid.height());
+  if (grid.fileBacked() && !scratchDirectory.empty()) {
+    if (auto m = MemoryMapping::createScratch(scratchDirectory, n * sizeof(std::uint16_t))) {
+      auto file = std::make_shared<MemoryMapping>(std::move(m).value());
+      auto* data = reinterpret_cast<std::uint16_t*>(file->writableBytes().data());
+      return DistanceArray{data, file, file};
+    }
+  }
+  auto memory = std::make_shared_for_overwrite<std::uint16_t[]>(n);
+  std::uint16_t* data = memory.get();
+  return DistanceArray{data, std::move(memory), nullptr};
+}
+
 /// Per sample, the Chebyshev distance (in samples) to the nearest sample that is nodata or
-/// beyond the grid's edge, capped at `cap`: two passes of the 3 × 3 distance transform. Beyond
-/// the edge where another surface continues the grid side by side (continuedBeside) counts as
-/// inside: no band along a seam between surfaces of different spacings.
-std::vector<std::uint16_t> edgeDistances(const HeightGrid& grid, std::uint16_t cap,
-                                         const std::vector<const HeightGrid*>& others) {
+/// beyond the grid's edge, capped at `cap`, into `out`: two passes of the 3 × 3 distance
+/// transform, row by row (a mapped grid and a mapped `out` are read and written in order, their
+/// pages let go every few megabytes). Beyond the edge where another surface continues the grid
+/// side by side (continuedBeside) counts as inside: no band along a seam between surfaces of
+/// different spacings.
+void edgeDistances(const HeightGrid& grid, std::uint16_t cap,
+                   const std::vector<const HeightGrid*>& others, const DistanceArray& out) {
   const std::int64_t w = grid.width(), h = grid.height();
-  std::vector<std::uint16_t> d(static_cast<std::size_t>(w * h));
+  std::uint16_t* const d = out.data;
   const auto at = [&](std::int64_t r, std::int64_t c) -> std::uint16_t& {
     return d[static_cast<std::size_t>(r * w + c)];
   };
@@ -55,8 +82,16 @@ std::vector<std::uint16_t> edgeDistances(const HeightGrid& grid, std::uint16_t c
     const std::int64_t qc = std::clamp<std::int64_t>(c, 0, w - 1);
     return continuedBeside(grid, others, r, c, qr, qc) ? cap : std::uint16_t{0};
   };
+  // Rows between letting the mapped pages go: about 16 MB of heights.
+  const std::int64_t releaseEvery = std::max<std::int64_t>(1, (std::int64_t{4} << 20) / w);
+  const auto release = [&](std::int64_t r) {
+    if (r % releaseEvery != 0) return;
+    grid.releaseResident();
+    if (out.file) (void)out.file->releaseResident();
+  };
   for (std::int64_t r = 0; r < h; ++r) {
     for (std::int64_t c = 0; c < w; ++c) at(r, c) = std::isnan(grid.at(r, c)) ? 0 : cap;
+    release(r);
   }
   const auto relax = [&](std::int64_t r, std::int64_t c, std::int64_t dr) {
     std::uint16_t& v = at(r, c);
@@ -67,11 +102,17 @@ std::vector<std::uint16_t> edgeDistances(const HeightGrid& grid, std::uint16_t c
   };
   for (std::int64_t r = 0; r < h; ++r) {
     for (std::int64_t c = 0; c < w; ++c) relax(r, c, 1);
+    release(r);
   }
   for (std::int64_t r = h; r-- > 0;) {
     for (std::int64_t c = w; c-- > 0;) relax(r, c, -1);
+    release(r);
   }
-  return d;
+  grid.releaseResident();
+  if (out.file) {
+    (void)out.file->releaseResident();
+    (void)out.file->protectReadOnly();
+  }
 }
 
 double smoothstep(double x) noexcept {
@@ -186,9 +227,14 @@ Result<CompositeSurface> CompositeSurface::make(HeightGrid base, std::vector<Ins
         others.push_back(&other.grid);
       }
     }
-    inset.edgeDistance = edgeDistances(
-        filled->grid,
-        static_cast<std::uint16_t>(std::min<std::int64_t>(inset.bandSamples + 1, 65535)), others);
+    const DistanceArray distances = allocateDistances(filled->grid, fill.scratchDirectory);
+    edgeDistances(filled->grid,
+                  static_cast<std::uint16_t>(std::min<std::int64_t>(inset.bandSamples + 1, 65535)),
+                  others, distances);
+    inset.edgeDistance = std::span<const std::uint16_t>(
+        distances.data, static_cast<std::size_t>(filled->grid.width() * filled->grid.height()));
+    inset.edgeDistanceOwner = distances.owner;
+    inset.edgeDistanceFile = distances.file;
     inset.grid = std::move(filled).value().grid;
     inset.specs = std::move(input.specs);
     inset.specBounds = std::move(input.specBounds);
@@ -331,15 +377,24 @@ Result<CompositeSurface> CompositeSurface::read(HeightGrid base, std::vector<Ins
 double CompositeSurface::weightOf(std::size_t i, double lat, double lon) const noexcept {
   const Inset& inset = insets_[i];
   const GridGeometry& g = inset.grid.geometry();
-  const double row = (g.firstLatDegrees - lat) / g.latSpacingDegrees;
   double dl = std::fmod(lon - g.firstLonDegrees, 360.0);
   if (dl < 0.0) dl += 360.0;
-  const double col = dl / g.lonSpacingDegrees;
-  // Outside the hull of the sample centres the inset has no weight.
-  if (!(row >= 0.0 && col >= 0.0 && row <= static_cast<double>(g.height - 1) &&
-        col <= static_cast<double>(g.width - 1))) {
+  // Outside its cells (the hull of its sample centres, and for pixel-is-area samples the half
+  // cell beyond it) the inset has no weight. In that half cell it holds its outermost samples'
+  // weights, which are 0 where its data ends and above 0 only along a seam with a surface
+  // beside it (edgeDistances): two surfaces abutting cell to cell meet at their cells' shared
+  // edge, with no strip of the base between their sample centres.
+  const double margin = g.pixelIsArea ? 0.5 : 0.0;
+  const auto lastRow = static_cast<double>(g.height - 1);
+  const auto lastCol = static_cast<double>(g.width - 1);
+  double col = dl / g.lonSpacingDegrees;
+  if (col > lastCol + margin) col = (dl - 360.0) / g.lonSpacingDegrees;  // just west of it
+  double row = (g.firstLatDegrees - lat) / g.latSpacingDegrees;
+  if (!(row >= -margin && col >= -margin && row <= lastRow + margin && col <= lastCol + margin)) {
     return 0.0;
   }
+  row = std::clamp(row, 0.0, lastRow);
+  col = std::clamp(col, 0.0, lastCol);
   const auto r0 = std::min(static_cast<std::int64_t>(row), g.height - 1);
   const auto c0 = std::min(static_cast<std::int64_t>(col), g.width - 1);
   const std::int64_t r1 = std::min(r0 + 1, g.height - 1), c1 = std::min(c0 + 1, g.width - 1);

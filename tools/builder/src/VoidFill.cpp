@@ -19,11 +19,120 @@ namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
-/// One void: its samples (row-major indices into the grid) and their box.
-struct Void final {
-  std::vector<std::int64_t> samples;
-  std::int64_t row0 = 0, row1 = 0, col0 = 0, col1 = 0;
+/// A run of nodata samples along a row: columns [col0, col1].
+struct NodataRun final {
+  std::uint32_t row = 0, col0 = 0, col1 = 0;
 };
+
+/// One void: its runs (in row order) and their box.
+struct Void final {
+  std::vector<NodataRun> runs;
+  std::int64_t samples = 0;
+  std::int64_t row0 = 0, row1 = 0, col0 = 0, col1 = 0;
+  template <class F>
+  void forEachSample(F&& f) const {
+    for (const NodataRun& run : runs) {
+      for (std::int64_t c = run.col0; c <= std::int64_t{run.col1}; ++c) f(std::int64_t{run.row}, c);
+    }
+  }
+};
+
+/// The nodata regions of a grid: its voids (8-connected, not reaching the grid's edge) and the
+/// count of nodata samples that do reach it.
+struct NodataRegions final {
+  std::vector<Void> voids;
+  std::int64_t outsideSamples = 0;
+};
+
+/// Finds the 8-connected nodata regions row by row, as runs joined by union-find: the memory
+/// grows with the number of runs (a coastline's few per row), not with the grid's samples, and a
+/// mapped grid is read once in order with its pages let go as it goes.
+NodataRegions findNodataRegions(const HeightGrid& grid) {
+  const std::int64_t width = grid.width(), height = grid.height();
+  std::vector<NodataRun> runs;
+  std::vector<std::uint32_t> parent;
+  const auto find = [&](std::uint32_t i) {
+    while (parent[i] != i) {
+      parent[i] = parent[parent[i]];
+      i = parent[i];
+    }
+    return i;
+  };
+  const auto unite = [&](std::uint32_t a, std::uint32_t b) {
+    a = find(a);
+    b = find(b);
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+  };
+  const std::int64_t releaseEvery = std::max<std::int64_t>(1, (std::int64_t{4} << 20) / width);
+  std::size_t previous = 0;  // the first run of the previous row
+  for (std::int64_t r = 0; r < height; ++r) {
+    const std::size_t current = runs.size();
+    for (std::int64_t c = 0; c < width;) {
+      if (!std::isnan(grid.at(r, c))) {
+        ++c;
+        continue;
+      }
+      const std::int64_t first = c;
+      while (c < width && std::isnan(grid.at(r, c))) ++c;
+      runs.push_back(NodataRun{static_cast<std::uint32_t>(r), static_cast<std::uint32_t>(first),
+                               static_cast<std::uint32_t>(c - 1)});
+      parent.push_back(static_cast<std::uint32_t>(runs.size() - 1));
+    }
+    // Join with the previous row's runs that touch, corners included.
+    std::size_t j = previous;
+    for (std::size_t k = current; k < runs.size(); ++k) {
+      while (j < current && std::int64_t{runs[j].col1} + 1 < std::int64_t{runs[k].col0}) ++j;
+      for (std::size_t i = j;
+           i < current && std::int64_t{runs[i].col0} <= std::int64_t{runs[k].col1} + 1; ++i) {
+        unite(static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(k));
+      }
+    }
+    previous = current;
+    if (r % releaseEvery == 0) grid.releaseResident();
+  }
+  grid.releaseResident();
+  // Each region's size, box and whether it reaches the edge, by its root run.
+  struct Region final {
+    std::int64_t samples = 0, row0 = 0, row1 = 0, col0 = 0, col1 = 0;
+    bool reachesEdge = false;
+    std::int64_t voidIndex = -1;
+  };
+  std::vector<Region> regions;
+  std::vector<std::uint32_t> regionOf(runs.size());
+  std::vector<std::int64_t> regionOfRoot(runs.size(), -1);
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    const std::uint32_t root = find(static_cast<std::uint32_t>(k));
+    const NodataRun& run = runs[k];
+    if (regionOfRoot[root] < 0) {
+      regionOfRoot[root] = static_cast<std::int64_t>(regions.size());
+      regions.push_back(Region{0, run.row, run.row, run.col0, run.col1, false, -1});
+    }
+    Region& g = regions[static_cast<std::size_t>(regionOfRoot[root])];
+    regionOf[k] = static_cast<std::uint32_t>(regionOfRoot[root]);
+    g.samples += std::int64_t{run.col1} - run.col0 + 1;
+    g.row0 = std::min<std::int64_t>(g.row0, run.row);
+    g.row1 = std::max<std::int64_t>(g.row1, run.row);
+    g.col0 = std::min<std::int64_t>(g.col0, run.col0);
+    g.col1 = std::max<std::int64_t>(g.col1, run.col1);
+    g.reachesEdge = g.reachesEdge || run.row == 0 || run.row == height - 1 || run.col0 == 0 ||
+                    run.col1 == width - 1;
+  }
+  regionOfRoot = {};
+  NodataRegions out;
+  for (Region& g : regions) {
+    if (g.reachesEdge) {
+      out.outsideSamples += g.samples;
+      continue;
+    }
+    g.voidIndex = static_cast<std::int64_t>(out.voids.size());
+    out.voids.push_back(Void{{}, g.samples, g.row0, g.row1, g.col0, g.col1});
+  }
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    const Region& g = regions[regionOf[k]];
+    if (g.voidIndex >= 0) out.voids[static_cast<std::size_t>(g.voidIndex)].runs.push_back(runs[k]);
+  }
+  return out;
+}
 
 /// A window of the grid around a void, with room for the fill's search.
 struct Window final {
@@ -85,72 +194,71 @@ double smoothstep(double x) noexcept {
 
 using Below = std::function<std::optional<double>(double, double)>;
 
-/// Appends the runs of `samples` (one void's, any order) along their rows to `runs`.
-void appendRuns(std::vector<std::int64_t> samples, std::int64_t width, VoidKind kind,
-                std::vector<VoidRun>& runs) {
-  std::sort(samples.begin(), samples.end());
-  for (std::size_t k = 0; k < samples.size();) {
-    std::size_t end = k + 1;
-    while (end < samples.size() && samples[end] == samples[end - 1] + 1 &&
-           samples[end] / width == samples[k] / width) {
-      ++end;
-    }
-    runs.push_back(VoidRun{static_cast<std::uint32_t>(samples[k] / width),
-                           static_cast<std::uint32_t>(samples[k] % width),
-                           static_cast<std::uint32_t>(end - k), kind});
-    k = end;
+/// Appends the runs of `v` to `runs`.
+void appendRuns(const Void& v, VoidKind kind, std::vector<VoidRun>& runs) {
+  for (const NodataRun& run : v.runs) {
+    runs.push_back(VoidRun{run.row, run.col0, run.col1 - run.col0 + 1, kind});
   }
 }
 
-/// Finds every void and decides its heights: filled from the rim, or (with `below`) the
-/// surface below plus the rim's offset fading inwards. Without `below` only classifies.
-/// Appends (sample, height) writes to `writes` (NaN where no height can be given) and the
-/// voids' runs to `runs` (with `below`).
-Result<VoidReport> processVoids(const HeightGrid& grid, const VoidFillOptions& options,
-                                const Below* below,
-                                std::vector<std::pair<std::int64_t, float>>& writes,
+/// Where filled heights go: a writable copy of the grid's heights, in a scratch file for a
+/// file-backed grid when a scratch directory is given, in memory otherwise.
+struct WritableCopy final {
+  float* heights = nullptr;
+  std::shared_ptr<MemoryMapping> file;
+  std::shared_ptr<float[]> memory;
+};
+
+Result<WritableCopy> writableCopy(const HeightGrid& grid,
+                                  const std::filesystem::path& scratchDirectory) {
+  const std::span<const float> source = grid.heightsMeters();
+  WritableCopy copy;
+  if (grid.fileBacked() && !scratchDirectory.empty()) {
+    if (auto scratch = MemoryMapping::createScratch(scratchDirectory, source.size_bytes())) {
+      copy.file = std::make_shared<MemoryMapping>(std::move(scratch).value());
+      copy.heights = reinterpret_cast<float*>(copy.file->writableBytes().data());
+    }
+  }
+  if (copy.heights == nullptr) {
+    copy.memory = std::make_shared_for_overwrite<float[]>(source.size());
+    copy.heights = copy.memory.get();
+  }
+  constexpr std::size_t kPiece = std::size_t{4} << 20;  // floats
+  for (std::size_t at = 0; at < source.size(); at += kPiece) {
+    const std::size_t n = std::min(kPiece, source.size() - at);
+    std::memcpy(copy.heights + at, source.data() + at, n * sizeof(float));
+    if (copy.file) (void)copy.file->releaseResident(at * sizeof(float), n * sizeof(float));
+    grid.releaseResident();
+  }
+  return copy;
+}
+
+HeightGrid finish(const HeightGrid& grid, WritableCopy copy) {
+  if (copy.file) {
+    (void)copy.file->releaseResident();
+    (void)copy.file->protectReadOnly();
+    const float* first = copy.heights;
+    return HeightGrid(grid.geometry(), std::shared_ptr<const float>(std::move(copy.file), first),
+                      true, grid.source());
+  }
+  const float* first = copy.heights;
+  return HeightGrid(grid.geometry(), std::shared_ptr<const float>(std::move(copy.memory), first),
+                    false, grid.source());
+}
+
+/// Decides the heights of each void of `regions`: filled from the rim, or (with `below`) the
+/// surface below plus the rim's offset fading inwards. Without `below` only classifies. With
+/// `below`, writes the heights into `target` (NaN where no height can be given; the grid's
+/// layout) and appends the voids' runs to `runs`.
+Result<VoidReport> processVoids(const HeightGrid& grid, const NodataRegions& regions,
+                                const VoidFillOptions& options, const Below* below, float* target,
                                 std::vector<VoidRun>& runs) {
-  const std::int64_t width = grid.width(), height = grid.height();
   VoidReport report;
-  std::vector<bool> seen(static_cast<std::size_t>(width * height), false);
-  std::vector<std::int64_t> queue;
+  report.outsideSamples = regions.outsideSamples;
   const auto margin = static_cast<std::int64_t>(std::ceil(options.maxDistanceSamples)) + 2;
-  for (std::int64_t start = 0; start < width * height; ++start) {
-    if (seen[static_cast<std::size_t>(start)] || !std::isnan(grid.at(start / width, start % width)))
-      continue;
-    // The 8-connected nodata region from `start`.
-    Void v;
-    v.row0 = v.row1 = start / width;
-    v.col0 = v.col1 = start % width;
-    bool reachesEdge = false;
-    queue.assign(1, start);
-    seen[static_cast<std::size_t>(start)] = true;
-    while (!queue.empty()) {
-      const std::int64_t i = queue.back();
-      queue.pop_back();
-      v.samples.push_back(i);
-      const std::int64_t r = i / width, c = i % width;
-      v.row0 = std::min(v.row0, r);
-      v.row1 = std::max(v.row1, r);
-      v.col0 = std::min(v.col0, c);
-      v.col1 = std::max(v.col1, c);
-      if (r == 0 || c == 0 || r == height - 1 || c == width - 1) reachesEdge = true;
-      const std::int64_t next[8][2] = {{r - 1, c},     {r + 1, c},     {r, c - 1},
-                                       {r, c + 1},     {r - 1, c - 1}, {r - 1, c + 1},
-                                       {r + 1, c - 1}, {r + 1, c + 1}};
-      for (const auto& [nr, nc] : next) {
-        if (nr < 0 || nc < 0 || nr >= height || nc >= width) continue;
-        const std::int64_t j = nr * width + nc;
-        if (seen[static_cast<std::size_t>(j)] || !std::isnan(grid.at(nr, nc))) continue;
-        seen[static_cast<std::size_t>(j)] = true;
-        queue.push_back(j);
-      }
-    }
-    const auto count = static_cast<std::int64_t>(v.samples.size());
-    if (reachesEdge) {
-      report.outsideSamples += count;
-      continue;
-    }
+  const std::int64_t width = grid.width();
+  for (const Void& v : regions.voids) {
+    const std::int64_t count = v.samples;
     ++report.voids;
     report.voidSamples += count;
     // Filled from the rim when the fill reaches all of it.
@@ -160,17 +268,18 @@ Result<VoidReport> processVoids(const HeightGrid& grid, const VoidFillOptions& o
     if (auto r = fillNodata(heights, w.cols, w.rows, options.maxDistanceSamples); !r) {
       return r.error();
     }
-    const bool reached = std::all_of(v.samples.begin(), v.samples.end(), [&](std::int64_t i) {
-      return !std::isnan(heights[w.at(i / width, i % width)]);
+    bool reached = true;
+    v.forEachSample([&](std::int64_t r, std::int64_t c) {
+      reached = reached && !std::isnan(heights[w.at(r, c)]);
     });
     if (reached) {
       ++report.filledVoids;
       report.filledSamples += count;
       if (below != nullptr) {
-        for (const std::int64_t i : v.samples) {
-          writes.emplace_back(i, heights[w.at(i / width, i % width)]);
-        }
-        appendRuns(v.samples, width, VoidKind::FilledFromRim, runs);
+        v.forEachSample([&](std::int64_t r, std::int64_t c) {
+          target[static_cast<std::size_t>(r * width + c)] = heights[w.at(r, c)];
+        });
+        appendRuns(v, VoidKind::FilledFromRim, runs);
       }
       continue;
     }
@@ -185,14 +294,14 @@ Result<VoidReport> processVoids(const HeightGrid& grid, const VoidFillOptions& o
           grid.latOfRowDegrees(v.row0) + half, grid.lonOfColumnDegrees(v.col1) + halfLon};
     }
     if (below == nullptr) continue;
-    appendRuns(v.samples, width, VoidKind::SurfaceBelow, runs);
+    appendRuns(v, VoidKind::SurfaceBelow, runs);
     // The surface below, plus the inset's offset from it at the rim fading inwards across
     // half the void's inscribed radius (at most the search distance).
     const std::vector<std::int32_t> distance = distancesToValid(original, w);
     std::int32_t inscribed = 1;
-    for (const std::int64_t i : v.samples) {
-      inscribed = std::max(inscribed, distance[w.at(i / width, i % width)]);
-    }
+    v.forEachSample([&](std::int64_t r, std::int64_t c) {
+      inscribed = std::max(inscribed, distance[w.at(r, c)]);
+    });
     const double band = std::clamp(0.5 * inscribed, 2.0, options.maxDistanceSamples);
     std::vector<float> offset(original.size(), kNaN);
     std::vector<double> belowAt(original.size(), std::numeric_limits<double>::quiet_NaN());
@@ -209,71 +318,45 @@ Result<VoidReport> processVoids(const HeightGrid& grid, const VoidFillOptions& o
       }
     }
     if (auto r = fillNodata(offset, w.cols, w.rows, band + 1.0); !r) return r.error();
-    for (const std::int64_t i : v.samples) {
-      const std::size_t k = w.at(i / width, i % width);
+    v.forEachSample([&](std::int64_t r, std::int64_t c) {
+      const std::size_t k = w.at(r, c);
+      float& out = target[static_cast<std::size_t>(r * width + c)];
       if (std::isnan(belowAt[k])) {
-        writes.emplace_back(i, kNaN);
-        continue;
+        out = kNaN;
+        return;
       }
       const double fade = 1.0 - smoothstep((distance[k] - 1.0) / band);
       const double o = std::isnan(offset[k]) ? 0.0 : static_cast<double>(offset[k]);
-      writes.emplace_back(i, static_cast<float>(belowAt[k] + o * fade));
-    }
+      out = static_cast<float>(belowAt[k] + o * fade);
+    });
   }
   return report;
-}
-
-/// A writable copy of the grid's heights with `writes` applied: in a scratch file for a
-/// file-backed grid when a scratch directory is given, in memory otherwise.
-Result<HeightGrid> patchedCopy(const HeightGrid& grid,
-                               const std::vector<std::pair<std::int64_t, float>>& writes,
-                               const std::filesystem::path& scratchDirectory) {
-  const std::span<const float> source = grid.heightsMeters();
-  if (grid.fileBacked() && !scratchDirectory.empty()) {
-    auto scratch = MemoryMapping::createScratch(scratchDirectory, source.size_bytes());
-    if (scratch) {
-      auto owner = std::make_shared<MemoryMapping>(std::move(scratch).value());
-      auto* heights = reinterpret_cast<float*>(owner->writableBytes().data());
-      constexpr std::size_t kPiece = std::size_t{4} << 20;  // floats
-      for (std::size_t at = 0; at < source.size(); at += kPiece) {
-        const std::size_t n = std::min(kPiece, source.size() - at);
-        std::memcpy(heights + at, source.data() + at, n * sizeof(float));
-        (void)owner->releaseResident(at * sizeof(float), n * sizeof(float));
-        grid.releaseResident();
-      }
-      for (const auto& [i, h] : writes) heights[i] = h;
-      (void)owner->protectReadOnly();
-      const float* first = heights;
-      return HeightGrid(grid.geometry(), std::shared_ptr<const float>(std::move(owner), first),
-                        true, grid.source());
-    }
-  }
-  std::vector<float> heights(source.begin(), source.end());
-  for (const auto& [i, h] : writes) heights[static_cast<std::size_t>(i)] = h;
-  return HeightGrid(grid.geometry(), std::move(heights), grid.source());
 }
 
 }  // namespace
 
 Result<VoidReport> findVoids(const HeightGrid& grid, const VoidFillOptions& options) {
-  std::vector<std::pair<std::int64_t, float>> writes;
   std::vector<VoidRun> runs;
-  return processVoids(grid, options, nullptr, writes, runs);
+  return processVoids(grid, findNodataRegions(grid), options, nullptr, nullptr, runs);
 }
 
 Result<FilledGrid> fillVoids(const HeightGrid& grid, const VoidFillOptions& options,
                              const Below& below) {
-  std::vector<std::pair<std::int64_t, float>> writes;
+  const NodataRegions regions = findNodataRegions(grid);
   std::vector<VoidRun> runs;
-  auto report = processVoids(grid, options, &below, writes, runs);
+  if (regions.voids.empty()) {
+    VoidReport report;
+    report.outsideSamples = regions.outsideSamples;
+    return FilledGrid{grid, report, std::move(runs)};
+  }
+  auto copy = writableCopy(grid, options.scratchDirectory);
+  if (!copy) return std::move(copy).error();
+  auto report = processVoids(grid, regions, options, &below, copy->heights, runs);
   if (!report) return std::move(report).error();
   std::sort(runs.begin(), runs.end(), [](const VoidRun& a, const VoidRun& b) {
     return a.row != b.row ? a.row < b.row : a.column < b.column;
   });
-  if (writes.empty()) return FilledGrid{grid, *report, std::move(runs)};
-  auto copy = patchedCopy(grid, writes, options.scratchDirectory);
-  if (!copy) return std::move(copy).error();
-  return FilledGrid{std::move(copy).value(), *report, std::move(runs)};
+  return FilledGrid{finish(grid, std::move(copy).value()), *report, std::move(runs)};
 }
 
 }  // namespace pbdam::builder

@@ -13,13 +13,16 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "pbdam/builder/VoidFill.h"
 #include "pbdam/formats/DemReader.h"
 #include "pbdam/formats/HeightGrid.h"
+#include "pbdam/formats/MemoryMapping.h"
 #include "pbdam/formats/Result.h"
 
 namespace pbdam::builder {
@@ -79,10 +82,16 @@ class CompositeSurface final {
     formats::HeightGrid grid;
     double offsetMeters = 0.0;
     std::int64_t bandSamples = 16;
-    /// Per sample, the inset weight before smoothing: 0 on the footprint's outer ring (valid
-    /// samples next to nodata or the grid's edge), rising by 1/band per sample inward, 1 beyond
-    /// the band (Chebyshev distance to the nearest sample outside the footprint, minus 1).
-    std::vector<std::uint16_t> edgeDistance;
+    /// Per sample (row-major), the Chebyshev distance to the nearest sample outside the
+    /// footprint, capped at band + 1: the inset weight before smoothing is (d − 1)/band, 0 on
+    /// the footprint's outer ring (valid samples next to nodata or the grid's edge), 1 beyond
+    /// the band. Held like the grid's heights: a mapped scratch file beside a file-backed grid
+    /// (when the fill options name a scratch directory), so a tile set's surface is never
+    /// whole in memory; `edgeDistanceOwner` keeps it alive.
+    std::span<const std::uint16_t> edgeDistance;
+    std::shared_ptr<const void> edgeDistanceOwner;
+    /// The scratch mapping behind edgeDistance, or null when it is in memory.
+    std::shared_ptr<const formats::MemoryMapping> edgeDistanceFile;
     std::vector<std::size_t> specs;                 ///< the specs (indices into specs()) it joins
     std::vector<formats::LatLonBounds> specBounds;  ///< the footprint of each of those
     std::size_t tiles = 1;                          ///< the files it was read from
@@ -122,7 +131,10 @@ class CompositeSurface final {
   const std::vector<Inset>& insets() const noexcept { return insets_; }
   /// Lets the insets' mapped pages go from the process (HeightGrid::releaseResident).
   void releaseResident() const {
-    for (const Inset& inset : insets_) inset.grid.releaseResident();
+    for (const Inset& inset : insets_) {
+      inset.grid.releaseResident();
+      if (inset.edgeDistanceFile) (void)inset.edgeDistanceFile->releaseResident();
+    }
   }
   /// The specs as given (the options' order); each inset says which of them it holds.
   const std::vector<InsetSpec>& specs() const noexcept { return specs_; }
