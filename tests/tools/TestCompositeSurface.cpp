@@ -621,6 +621,11 @@ TEST(CompositeSurface, TileSetsThatCannotBeReadAreRefusedNamingTheFile) {
       << R"(GEOGCS["Mars 2000",DATUM["D_Mars_2000",SPHEROID["Mars_2000_IAU_IAG",3396190,)"
       << R"(169.894447223612]],PRIMEM["Reference_Meridian",0],UNIT["degree",0.0174532925199433]])";
   refused(dir / "planets", "planets/mars.asc: its CRS is on mars");
+  // Tiles no finer than the base, named by the tile.
+  std::filesystem::create_directories(dir / "coarse");
+  writeTile(dir / "coarse/a.asc", grid(8, 8, 50.0, 5.0, 0.5, [](double, double) { return 300.0; }),
+            0, 7, 0, 7);
+  refused(dir / "coarse", "coarse/a.asc: its samples");
 }
 
 }  // namespace

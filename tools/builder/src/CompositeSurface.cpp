@@ -340,7 +340,10 @@ Result<CompositeSurface> CompositeSurface::read(HeightGrid base, std::vector<Ins
     }
     auto grid = readDemMosaic(files, name, readOptions);
     if (!grid) return std::move(grid).error();
-    const InsetSpec& first = specs[input.specs.front()];
+    // Checked as the spec, named by its first tile when the spec is a set (a directory or
+    // glob): what cannot be joined is said of a file the user can find.
+    InsetSpec first = specs[input.specs.front()];
+    if (namesDemSet(first.path)) first.path = files.front();
     if (auto ok = checkInset(first, *grid, base, planetSpec); !ok) return std::move(ok).error();
     const LatLonBounds b = grid->bounds();
     if (!(b.southDegrees >= -90.0 && b.northDegrees <= 90.0)) {
