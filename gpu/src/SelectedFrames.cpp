@@ -163,6 +163,10 @@ Result<RenderedFrame> TerrainRenderer::renderSelected(GpuSelector& selector, con
     return makeError(ErrorCode::InvalidArgument,
                      "renderSelected() with frames in flight: collect() them first");
   }
+  if (settings.present) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "renderSelected() draws offscreen: FrameSettings::present is for submit()");
+  }
   if (!m.deviceList || m.deviceListSelector != &selector) {
     // Everything the selection may draw, made resident by drawing it once.
     const DiamondIndex& index = selector.index();

@@ -678,9 +678,10 @@ Result<FrameSlot*> TerrainRenderer::Impl::freeSlot() {
 }
 
 Result<void> TerrainRenderer::submit(const Cut& cut, const Camera& camera,
-                                     const FrameSettings& settings, bool readback,
-                                     const PresentTarget* present) {
+                                     const FrameSettings& settings) {
   Impl& m = *impl_;
+  const bool readback = settings.readback;
+  const PresentTarget* present = settings.present ? &*settings.present : nullptr;
   // A paged node table that no longer reads back as it did (DatasetView::damage) may have
   // given the cut empty leaves: no frame is drawn from it.
   if (auto damage = m.dataset->damage()) return std::move(*damage);
@@ -786,7 +787,9 @@ Result<RenderedFrame> TerrainRenderer::render(const Cut& cut, const Camera& came
     return makeError(ErrorCode::InvalidArgument,
                      "render() with frames in flight: collect() them first");
   }
-  if (Result<void> r = submit(cut, camera, settings, true); !r) return std::move(r).error();
+  FrameSettings readBack = settings;
+  readBack.readback = true;
+  if (Result<void> r = submit(cut, camera, readBack); !r) return std::move(r).error();
   return impl_->collectOldest();
 }
 

@@ -269,7 +269,9 @@ TEST_F(FramesInFlightTest, WithoutReadbackTheFrameHasNoImageAndTheSameStatistics
   ASSERT_TRUE(without.ok()) << without.error().message;
   for (const FlightFrame& f : frames) {
     ASSERT_TRUE(withPixels->submit(f.cut, f.camera).ok());
-    ASSERT_TRUE(without->submit(f.cut, f.camera, {}, false).ok());
+    FrameSettings noReadback;
+    noReadback.readback = false;
+    ASSERT_TRUE(without->submit(f.cut, f.camera, noReadback).ok());
     auto a = withPixels->collect();
     auto b = without->collect();
     ASSERT_TRUE(a.ok()) << a.error().message;

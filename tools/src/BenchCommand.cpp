@@ -411,7 +411,9 @@ struct PathReplay {
       checkDeviceDraws(view, camera, refinement, drawn->stats, run);
       run.frames.push_back(f);
     } else {
-      if (auto submitted = renderer.submit(cut, camera, {}, run.readback); !submitted) {
+      gpu::FrameSettings output;
+      output.readback = run.readback;
+      if (auto submitted = renderer.submit(cut, camera, output); !submitted) {
         return submitted.error();
       }
       source.cutDecoded();

@@ -638,7 +638,10 @@ Result<void> FlySession::frame(FlyControls& controls, double t) {
       present.overlayExtent = {hudPixels_.width, hudPixels_.height};
     }
   }
-  auto submitted = renderer_->submit(*selected, camera, settings_, screenshot, &present);
+  gpu::FrameSettings frame = settings_;
+  frame.readback = screenshot;
+  frame.present = present;
+  auto submitted = renderer_->submit(*selected, camera, frame);
   cuts_->cutDecoded();
   if (!submitted) return submitted;
   entry.faults = threadMajorFaults() - faults0;

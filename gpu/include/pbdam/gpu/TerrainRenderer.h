@@ -81,6 +81,13 @@ struct FrameSettings final {
   float ambient = 0.35f;
   /// Draped over the terrain when set.
   std::shared_ptr<const SurfaceOverlay> overlay;
+  /// Whether collect() reads the frame's pixels back; false gives its stats only (a benchmark
+  /// that keeps no frames). render() and renderSelected() always read back.
+  bool readback = true;
+  /// A window's image the frame is also copied into by the same submission
+  /// (OffscreenTarget::recordPresent; the target's semaphores waited for and signalled); none
+  /// for an offscreen frame. submit() only.
+  std::optional<PresentTarget> present;
 };
 
 /// What one frame did. Times are milliseconds; uploadMs and drawMs are GPU time from timestamp
@@ -156,20 +163,18 @@ class TerrainRenderer final {
                                         const FrameSettings& settings = {});
 
   /// Decodes and uploads what `cut` misses, records its frame into the next frame slot and
-  /// submits it without waiting for the device; with `readback` the frame's pixels are copied
-  /// for collect(). It waits only where the cache cannot hold the frame beside the entries
-  /// frames in flight draw (then for this renderer's oldest frame). The image is the one
-  /// render() gives for the same cut, camera and settings whatever else is in flight. The
-  /// camera's viewport must have the renderer's size. Errors: InvalidArgument for another
+  /// submits it without waiting for the device; with settings.readback the frame's pixels are
+  /// copied for collect(), with settings.present into a window's image too. It waits only
+  /// where the cache cannot hold the frame beside the entries frames in flight draw (then for
+  /// this renderer's oldest frame). The image is the one render() gives for the same cut,
+  /// camera and settings whatever else is in flight. The camera's viewport must have the
+  /// renderer's size. Errors: InvalidArgument for another
   /// size or when framesInFlight() frames are pending (collect one first); CorruptData when a
   /// patch or tile does not decode (the message names file and offset; nothing of the failed
   /// upload stays resident); DeviceError for Vulkan failures. After an error no frame was
   /// added.
-  /// With `present` the frame is also copied into a window's image by the same submission
-  /// (OffscreenTarget::recordPresent; the target's semaphores waited for and signalled).
   formats::Result<void> submit(const runtime::Cut& cut, const runtime::Camera& camera,
-                               const FrameSettings& settings = {}, bool readback = true,
-                               const PresentTarget* present = nullptr);
+                               const FrameSettings& settings = {});
   /// Waits for the oldest pending frame and returns it (its image empty when it was submitted
   /// without readback; its stats with the device's timings). InvalidArgument when none is
   /// pending, DeviceError for Vulkan failures.
