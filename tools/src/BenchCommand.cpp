@@ -29,25 +29,26 @@
 
 #include "BenchReport.h"
 #include "Commands.h"
-#include "CutSource.h"
-#include "FrameModes.h"
-#include "MemoryBudget.h"
 #include "MorphOption.h"
-#include "ProcessMemory.h"
 #include "Progress.h"
 #include "pbdam/formats/CameraPath.h"
+#include "pbdam/gpu/CutSource.h"
+#include "pbdam/gpu/FrameModes.h"
 #include "pbdam/gpu/GpuCache.h"
 #include "pbdam/gpu/GpuSelector.h"
 #include "pbdam/gpu/TerrainRenderer.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/streaming/MappedDataset.h"
+#include "pbdam/streaming/MemoryBudget.h"
 #include "pbdam/streaming/NoStallPolicy.h"
 #include "pbdam/streaming/PageCache.h"
 #include "pbdam/streaming/Prefetcher.h"
+#include "pbdam/streaming/ProcessMemory.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
 using namespace pbdam::streaming;
+using namespace pbdam::gpu;
 
 namespace pbdam::tools {
 namespace {

@@ -12,6 +12,7 @@
 #include <sstream>
 
 using namespace pbdam::formats;
+using namespace pbdam::gpu;
 
 namespace pbdam::tools {
 

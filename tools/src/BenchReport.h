@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "FrameModes.h"
 #include "pbdam/formats/Result.h"
+#include "pbdam/gpu/FrameModes.h"
 
 namespace pbdam::tools {
 
@@ -53,9 +53,10 @@ struct BenchFrame final {
 struct BenchRun final {
   bool prefetch = false;
   bool morph = false;  ///< the geomorph (docs/architecture.md "Geomorphing")
-  StreamingMode mode = StreamingMode::Paging;
+  gpu::StreamingMode mode = gpu::StreamingMode::Paging;
   bool cutReuse = false;  ///< the refinement tree kept from frame to frame (IncrementalRefiner)
-  CutSelection selection = CutSelection::Cpu;  ///< Gpu: the cut from the device's selection passes
+  gpu::CutSelection selection =
+      gpu::CutSelection::Cpu;  ///< Gpu: the cut from the device's selection passes
   /// With selection Gpu: frames whose device cut is not the host's (the same patches in the
   /// same order), and the largest screen error over the tolerance among the device cut's drawn
   /// inner patches, computed on the host in double (at most 1 + 1e-6 where the device's double
@@ -65,7 +66,7 @@ struct BenchRun final {
   /// With selection Gpu: Readback (the host lists the cut and its records) or Indirect (the draw
   /// list made on the device, TerrainRenderer::renderSelected; then the host cut is compared by
   /// its patch and triangle counts, and the screen ratio is not measured).
-  DrawList draws = DrawList::Readback;
+  gpu::DrawList draws = gpu::DrawList::Readback;
   bool popping = false;  ///< frames drawn twice for the popping measure
   /// Frames submitted and not yet collected (TerrainRendererOptions::framesInFlight): 1 with
   /// --popping and with the device-made draw list.

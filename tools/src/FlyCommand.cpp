@@ -27,18 +27,16 @@
 
 #include "BenchReport.h"
 #include "Commands.h"
-#include "CutSource.h"
 #include "FlyControls.h"
 #include "FlyHud.h"
 #include "FrameImage.h"
-#include "FrameModes.h"
 #include "FrameWriter.h"
-#include "MemoryBudget.h"
 #include "MorphOption.h"
-#include "ProcessMemory.h"
 #include "ViewshedOutput.h"
 #include "pbdam/formats/CameraPath.h"
 #include "pbdam/formats/NumberList.h"
+#include "pbdam/gpu/CutSource.h"
+#include "pbdam/gpu/FrameModes.h"
 #include "pbdam/gpu/GpuMemory.h"
 #include "pbdam/gpu/GpuViewshed.h"
 #include "pbdam/gpu/Swapchain.h"
@@ -47,12 +45,15 @@
 #include "pbdam/runtime/Camera.h"
 #include "pbdam/runtime/SurfaceQuery.h"
 #include "pbdam/streaming/MappedDataset.h"
+#include "pbdam/streaming/MemoryBudget.h"
 #include "pbdam/streaming/NoStallPolicy.h"
 #include "pbdam/streaming/Prefetcher.h"
+#include "pbdam/streaming/ProcessMemory.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
 using namespace pbdam::streaming;
+using namespace pbdam::gpu;
 
 namespace pbdam::tools {
 namespace {

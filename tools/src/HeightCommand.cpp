@@ -10,10 +10,10 @@
 
 #include "Commands.h"
 #include "HeightJson.h"
-#include "MemoryBudget.h"
 #include "pbdam/formats/NumberList.h"
 #include "pbdam/runtime/SurfaceQuery.h"
 #include "pbdam/streaming/MappedDataset.h"
+#include "pbdam/streaming/MemoryBudget.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;

@@ -25,7 +25,6 @@
 
 #include "Commands.h"
 #include "FocusOption.h"
-#include "MemoryBudget.h"
 #include "ViewshedOutput.h"
 #include "pbdam/builder/Checkpoint.h"
 #include "pbdam/formats/DemReader.h"
@@ -41,6 +40,7 @@
 #include "pbdam/runtime/SurfaceQuery.h"
 #include "pbdam/runtime/Viewshed.h"
 #include "pbdam/streaming/MappedDataset.h"
+#include "pbdam/streaming/MemoryBudget.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;

@@ -23,30 +23,31 @@
 #include <vector>
 
 #include "Commands.h"
-#include "CutSource.h"
 #include "FocusOption.h"
 #include "FrameImage.h"
-#include "FrameModes.h"
 #include "FrameWriter.h"
-#include "MemoryBudget.h"
 #include "MorphOption.h"
 #include "Progress.h"
 #include "ViewshedOutput.h"
 #include "ViewshedSpec.h"
 #include "pbdam/formats/CameraPath.h"
 #include "pbdam/formats/NumberList.h"
+#include "pbdam/gpu/CutSource.h"
+#include "pbdam/gpu/FrameModes.h"
 #include "pbdam/gpu/TerrainRenderer.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/runtime/Camera.h"
 #include "pbdam/runtime/Refinement.h"
 #include "pbdam/runtime/Selection.h"
 #include "pbdam/streaming/MappedDataset.h"
+#include "pbdam/streaming/MemoryBudget.h"
 
 extern char** environ;
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
 using namespace pbdam::streaming;
+using namespace pbdam::gpu;
 
 namespace pbdam::tools {
 namespace {

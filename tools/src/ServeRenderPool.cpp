@@ -1,7 +1,7 @@
 // Render contexts and the bounded request queue of `pbdam serve` (ServeRenderPool.h).
 #include "ServeRenderPool.h"
 
-#include "MemoryBudget.h"
+#include "pbdam/streaming/MemoryBudget.h"
 
 #include <algorithm>
 #include <exception>

@@ -26,8 +26,6 @@
 
 #include "FrameImage.h"
 #include "HeightJson.h"
-#include "MemoryBudget.h"
-#include "ProcessMemory.h"
 #include "ServeQueries.h"
 #include "ServeRequest.h"
 #include "ServeViewerHtml.h"
@@ -36,6 +34,8 @@
 #include "pbdam/formats/GuardedCopy.h"
 #include "pbdam/runtime/SurfaceQuery.h"
 #include "pbdam/streaming/MappedDataset.h"
+#include "pbdam/streaming/MemoryBudget.h"
+#include "pbdam/streaming/ProcessMemory.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;

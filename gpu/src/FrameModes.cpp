@@ -1,11 +1,11 @@
 // Parsing and spelling of the frame loop's modes (FrameModes.h).
-#include "FrameModes.h"
+#include "pbdam/gpu/FrameModes.h"
 
 #include <string>
 
 using namespace pbdam::formats;
 
-namespace pbdam::tools {
+namespace pbdam::gpu {
 namespace {
 
 Error unexpected(std::string_view option, std::string_view spelled, std::string_view expected) {
@@ -72,4 +72,4 @@ const char* toString(RunChoice choice) noexcept {
 
 const char* onOff(bool on) noexcept { return on ? "on" : "off"; }
 
-}  // namespace pbdam::tools
+}  // namespace pbdam::gpu

@@ -7,10 +7,10 @@
 #include <fstream>
 #include <string>
 
-#include "MemoryBudget.h"
 #include "TestData.h"
+#include "pbdam/streaming/MemoryBudget.h"
 
-namespace pbdam::tools {
+namespace pbdam::streaming {
 namespace {
 
 namespace fs = std::filesystem;
@@ -104,4 +104,4 @@ TEST(MemoryBudget, ABudgetIsSharedAndTooSmallOneIsRefusedNamingWhatItNeeds) {
 }
 
 }  // namespace
-}  // namespace pbdam::tools
+}  // namespace pbdam::streaming

@@ -1,5 +1,5 @@
 // The frame loop's cut sources (CutSource.h).
-#include "CutSource.h"
+#include "pbdam/gpu/CutSource.h"
 
 #include <utility>
 
@@ -11,7 +11,7 @@
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
 
-namespace pbdam::tools {
+namespace pbdam::gpu {
 namespace {
 
 class FreshRefinementCuts final : public CutSource {
@@ -54,7 +54,7 @@ class FocusCuts final : public CutSource {
 
 class DeviceSelectionCuts final : public CutSource {
  public:
-  DeviceSelectionCuts(gpu::GpuSelector selector, std::vector<FocusRegion> focus)
+  DeviceSelectionCuts(GpuSelector selector, std::vector<FocusRegion> focus)
       : selector_(std::move(selector)), focus_(std::move(focus)) {}
   Result<Cut> cut(const Camera& camera, const RefinementOptions& refinement) override {
     SelectionOptions options;
@@ -62,28 +62,28 @@ class DeviceSelectionCuts final : public CutSource {
     options.focus = focus_;
     return selector_.select(camera, options);
   }
-  gpu::GpuSelector* selector() noexcept override { return &selector_; }
+  GpuSelector* selector() noexcept override { return &selector_; }
 
  private:
-  gpu::GpuSelector selector_;
+  GpuSelector selector_;
   std::vector<FocusRegion> focus_;
 };
 
 class DeviceDrawListCuts final : public CutSource {
  public:
-  explicit DeviceDrawListCuts(gpu::GpuSelector selector) : selector_(std::move(selector)) {}
+  explicit DeviceDrawListCuts(GpuSelector selector) : selector_(std::move(selector)) {}
   Result<Cut> cut(const Camera& /*camera*/, const RefinementOptions& /*refinement*/) override {
     return Cut{};
   }
   bool drawsDeviceList() const noexcept override { return true; }
-  gpu::GpuSelector* selector() noexcept override { return &selector_; }
+  GpuSelector* selector() noexcept override { return &selector_; }
 
  private:
-  gpu::GpuSelector selector_;
+  GpuSelector selector_;
 };
 
 /// The GPU cache's residency as the no-stall policy asks for it (none without a cache).
-streaming::NoStallCached cachedIn(const std::shared_ptr<const gpu::GpuCache>& cache) {
+streaming::NoStallCached cachedIn(const std::shared_ptr<const GpuCache>& cache) {
   if (!cache) return {};
   return {[cache](const runtime::NodeKey& node) { return cache->holds(node); },
           [cache](const runtime::TileKey& tile) { return cache->holds(tile); }};
@@ -92,7 +92,7 @@ streaming::NoStallCached cachedIn(const std::shared_ptr<const gpu::GpuCache>& ca
 class NoStallCuts final : public CutSource {
  public:
   NoStallCuts(const streaming::MappedDataset& dataset, bool holdPages,
-              const std::shared_ptr<const gpu::GpuCache>& cache)
+              const std::shared_ptr<const GpuCache>& cache)
       : policy_(dataset, holdPages, cachedIn(cache)) {}
   Result<Cut> cut(const Camera& camera, const RefinementOptions& refinement) override {
     streaming::NoStallCut capped = policy_.cutAfter(camera, refinement, cap_);
@@ -120,25 +120,25 @@ std::unique_ptr<CutSource> focusCuts(const DatasetView& view, std::vector<FocusR
   return std::make_unique<FocusCuts>(view, std::move(focus));
 }
 
-Result<std::unique_ptr<CutSource>> deviceSelectionCuts(gpu::VulkanContext& context,
+Result<std::unique_ptr<CutSource>> deviceSelectionCuts(VulkanContext& context,
                                                        const DatasetView& view,
                                                        std::vector<FocusRegion> focus) {
-  auto selector = gpu::GpuSelector::create(context, view);
+  auto selector = GpuSelector::create(context, view);
   if (!selector) return std::move(selector).error();
   return std::unique_ptr<CutSource>(
       std::make_unique<DeviceSelectionCuts>(std::move(*selector), std::move(focus)));
 }
 
-Result<std::unique_ptr<CutSource>> deviceDrawListCuts(gpu::VulkanContext& context,
+Result<std::unique_ptr<CutSource>> deviceDrawListCuts(VulkanContext& context,
                                                       const DatasetView& view) {
-  auto selector = gpu::GpuSelector::create(context, view);
+  auto selector = GpuSelector::create(context, view);
   if (!selector) return std::move(selector).error();
   return std::unique_ptr<CutSource>(std::make_unique<DeviceDrawListCuts>(std::move(*selector)));
 }
 
 std::unique_ptr<CutSource> noStallCuts(const streaming::MappedDataset& dataset, bool holdPages,
-                                       const std::shared_ptr<const gpu::GpuCache>& cache) {
+                                       const std::shared_ptr<const GpuCache>& cache) {
   return std::make_unique<NoStallCuts>(dataset, holdPages, cache);
 }
 
-}  // namespace pbdam::tools
+}  // namespace pbdam::gpu

@@ -7,7 +7,7 @@
 
 #include "pbdam/formats/Result.h"
 
-namespace pbdam::tools {
+namespace pbdam::gpu {
 
 /// bench --mode: what a frame does about pages that are not resident.
 enum class StreamingMode {
@@ -59,4 +59,4 @@ constexpr bool includes(RunChoice choice, bool on) noexcept {
   return choice == RunChoice::Both || (choice == RunChoice::On) == on;
 }
 
-}  // namespace pbdam::tools
+}  // namespace pbdam::gpu

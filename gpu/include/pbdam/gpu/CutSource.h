@@ -16,17 +16,15 @@
 #include "pbdam/runtime/Refinement.h"
 #include "pbdam/runtime/Selection.h"
 
-namespace pbdam::gpu {
-class GpuCache;
-class GpuSelector;
-class VulkanContext;
-}  // namespace pbdam::gpu
-
 namespace pbdam::streaming {
 class MappedDataset;
 }  // namespace pbdam::streaming
 
-namespace pbdam::tools {
+namespace pbdam::gpu {
+
+class GpuCache;
+class GpuSelector;
+class VulkanContext;
 
 /// A frame's cut, one frame after another along a camera path: sources that keep state (a
 /// refinement tree, a level cap) assume consecutive frames. Non-copyable.
@@ -48,7 +46,7 @@ class CutSource {
   virtual bool drawsDeviceList() const noexcept { return false; }
 
   /// The device's selector of the device sources; null for host sources.
-  virtual gpu::GpuSelector* selector() noexcept { return nullptr; }
+  virtual GpuSelector* selector() noexcept { return nullptr; }
 
   /// The level cap of the last cut (refinement's maxLevel; no-stall mode); −1 for sources
   /// without one.
@@ -69,15 +67,15 @@ std::unique_ptr<CutSource> focusCuts(const runtime::DatasetView& view,
                                      std::vector<runtime::FocusRegion> focus);
 
 /// The device's selection passes (with `focus` regions, when any), the cut read back each frame.
-/// `context` and `view` must outlive the source. Errors as gpu::GpuSelector::create.
+/// `context` and `view` must outlive the source. Errors as GpuSelector::create.
 formats::Result<std::unique_ptr<CutSource>> deviceSelectionCuts(
-    gpu::VulkanContext& context, const runtime::DatasetView& view,
+    VulkanContext& context, const runtime::DatasetView& view,
     std::vector<runtime::FocusRegion> focus);
 
 /// The draw list the device makes from its own selection (TerrainRenderer::renderSelected): no
 /// host cut; drawsDeviceList() is true. `context` and `view` must outlive the source. Errors as
-/// gpu::GpuSelector::create.
-formats::Result<std::unique_ptr<CutSource>> deviceDrawListCuts(gpu::VulkanContext& context,
+/// GpuSelector::create.
+formats::Result<std::unique_ptr<CutSource>> deviceDrawListCuts(VulkanContext& context,
                                                                const runtime::DatasetView& view);
 
 /// No-stall mode: the finest cut whose data is resident, under a level cap that rises by at most
@@ -88,6 +86,6 @@ formats::Result<std::unique_ptr<CutSource>> deviceDrawListCuts(gpu::VulkanContex
 /// (the renderer's GPU cache, when given) holds counts as at hand without its pages.
 std::unique_ptr<CutSource> noStallCuts(const streaming::MappedDataset& dataset,
                                        bool holdPages = false,
-                                       const std::shared_ptr<const gpu::GpuCache>& cache = nullptr);
+                                       const std::shared_ptr<const GpuCache>& cache = nullptr);
 
-}  // namespace pbdam::tools
+}  // namespace pbdam::gpu

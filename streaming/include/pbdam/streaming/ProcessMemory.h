@@ -12,7 +12,7 @@
 #include <fstream>
 #include <string>
 
-namespace pbdam::tools {
+namespace pbdam::streaming {
 
 /// Resident set size of this process in bytes: the resident pages of /proc/self/statm times
 /// the page size; 0 when the file cannot be read.
@@ -54,4 +54,4 @@ inline std::uint64_t threadMajorFaults() {
   return static_cast<std::uint64_t>(usage.ru_majflt);
 }
 
-}  // namespace pbdam::tools
+}  // namespace pbdam::streaming

@@ -1,6 +1,6 @@
-#include "MemoryBudget.h"
+#include "pbdam/streaming/MemoryBudget.h"
 
-#include "ProcessMemory.h"
+#include "pbdam/streaming/ProcessMemory.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -11,7 +11,7 @@
 
 using namespace pbdam::formats;
 
-namespace pbdam::tools {
+namespace pbdam::streaming {
 namespace {
 
 namespace fs = std::filesystem;
@@ -176,4 +176,4 @@ Result<std::optional<MemoryPlan>> planRunMemory(double budgetMiB, MemoryDemand d
   return std::optional<MemoryPlan>(std::move(*plan));
 }
 
-}  // namespace pbdam::tools
+}  // namespace pbdam::streaming

@@ -16,7 +16,7 @@
 #include "pbdam/formats/DatasetFormat.h"
 #include "pbdam/formats/Result.h"
 
-namespace pbdam::tools {
+namespace pbdam::streaming {
 
 /// A limit on the process's memory and where it came from.
 struct MemoryLimit final {
@@ -104,4 +104,4 @@ formats::Result<MemoryPlan> planMemory(const MemoryLimit& limit, const MemoryDem
 formats::Result<std::optional<MemoryPlan>> planRunMemory(double budgetMiB, MemoryDemand demand,
                                                          bool report);
 
-}  // namespace pbdam::tools
+}  // namespace pbdam::streaming
