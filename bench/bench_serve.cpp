@@ -81,6 +81,11 @@ struct Phase {
   double cacheHitRate = 0.0;
   double cacheUploadedMiB = 0.0;
   double cacheResidentMiB = 0.0;  ///< after the run
+  /// The cache's lock during the run: passes' reservations, and per frame the milliseconds a
+  /// pass waited for another context's reservation and held the lock itself.
+  double leases = 0.0;
+  double lockWaitMsPerFrame = 0.0;
+  double lockHeldMsPerFrame = 0.0;
 };
 
 /// The GPU cache counters of GET /stats (zeros when the request fails).
@@ -89,6 +94,9 @@ struct CacheCounters {
   double misses = 0.0;
   double uploadedBytes = 0.0;
   double residentBytes = 0.0;
+  double leases = 0.0;
+  double lockWaitMs = 0.0;
+  double lockHeldMs = 0.0;
 };
 
 CacheCounters cacheCounters(int port) {
@@ -104,6 +112,9 @@ CacheCounters cacheCounters(int port) {
   c.misses = cache.value("misses", 0.0);
   c.uploadedBytes = cache.value("bytes_uploaded", 0.0);
   c.residentBytes = cache.value("resident_bytes", 0.0);
+  c.leases = cache.value("leases", 0.0);
+  c.lockWaitMs = cache.value("lock_wait_ms", 0.0);
+  c.lockHeldMs = cache.value("lock_held_ms", 0.0);
   return c;
 }
 
@@ -267,6 +278,10 @@ Phase measureLevel(int port, pid_t server, int c, int& first, const Options& o) 
   phase.cacheHitRate = lookups > 0.0 ? (after.hits - before.hits) / lookups : 0.0;
   phase.cacheUploadedMiB = (after.uploadedBytes - before.uploadedBytes) / 1048576.0;
   phase.cacheResidentMiB = after.residentBytes / 1048576.0;
+  phase.leases = after.leases - before.leases;
+  const double frames = std::max(1, phase.ok);
+  phase.lockWaitMsPerFrame = (after.lockWaitMs - before.lockWaitMs) / frames;
+  phase.lockHeldMsPerFrame = (after.lockHeldMs - before.lockHeldMs) / frames;
   first += o.requests;
   phase.rssWarmMiB = warmRss;
   phase.rssWarmPeakMiB = warmPeak;
@@ -279,13 +294,14 @@ Phase measureLevel(int port, pid_t server, int c, int& first, const Options& o) 
       "  RSS idle after warm-up %.0f MiB, idle after the run %.0f MiB (%+.1f%%); peak during "
       "warm-up %.0f MiB, during the run %.0f MiB (%+.1f%%)\n"
       "  GPU cache during the run: hit rate %.1f%%, %.1f MiB uploaded, %.1f MiB resident after "
-      "it\n",
+      "it; its lock a frame: waited %.2f ms, held %.2f ms (%.0f reservations)\n",
       c, phase.sent, phase.seconds, phase.ok / phase.seconds, phase.p50Ms, phase.p99Ms, phase.maxMs,
       phase.refused + phase.failed, phase.refused, phase.failed,
       phase.timedOut ? " (time limit reached)" : "", phase.rssWarmMiB, phase.rssEndMiB,
       change(phase.rssWarmMiB, phase.rssEndMiB), phase.rssWarmPeakMiB, phase.rssMaxMiB,
       change(phase.rssWarmPeakMiB, phase.rssMaxMiB), 100.0 * phase.cacheHitRate,
-      phase.cacheUploadedMiB, phase.cacheResidentMiB);
+      phase.cacheUploadedMiB, phase.cacheResidentMiB, phase.lockWaitMsPerFrame,
+      phase.lockHeldMsPerFrame, phase.leases);
   return phase;
 }
 
@@ -303,7 +319,9 @@ void writeJson(const std::string& path, const std::vector<Phase>& phases) {
         << ", \"rss_max_mib\": " << p.rssMaxMiB << ", \"rss_end_mib\": " << p.rssEndMiB
         << ", \"cache_hit_rate\": " << p.cacheHitRate
         << ", \"cache_uploaded_mib\": " << p.cacheUploadedMiB
-        << ", \"cache_resident_mib\": " << p.cacheResidentMiB << "}"
+        << ", \"cache_resident_mib\": " << p.cacheResidentMiB
+        << ", \"cache_lock_wait_ms_per_frame\": " << p.lockWaitMsPerFrame
+        << ", \"cache_lock_held_ms_per_frame\": " << p.lockHeldMsPerFrame << "}"
         << (i + 1 < phases.size() ? "," : "") << "\n";
   }
   out << "]\n";

@@ -3,16 +3,43 @@
 
 #include <algorithm>
 #include <cassert>
+#include <chrono>
 
 using namespace pbdam::formats;
 using namespace pbdam::streaming;
 
 namespace pbdam::gpu {
 
-CacheLease::CacheLease(GpuCache::State& cache) : cache_(&cache), lock_(cache.mutex) {}
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double millisecondsBetween(Clock::time_point from, Clock::time_point to) {
+  return std::chrono::duration<double, std::milli>(to - from).count();
+}
+
+}  // namespace
+
+CacheLease::CacheLease(GpuCache::State& cache)
+    : cache_(&cache), lock_(cache.mutex, std::defer_lock) {
+  lock();
+  ++cache_->leases;
+}
+
+void CacheLease::lock() {
+  const Clock::time_point asked = Clock::now();
+  lock_.lock();
+  heldSince_ = Clock::now();
+  cache_->lockWaitMs += millisecondsBetween(asked, heldSince_);
+}
+
+void CacheLease::unlock() {
+  cache_->lockHeldMs += millisecondsBetween(heldSince_, Clock::now());
+  lock_.unlock();
+}
 
 CacheLease::~CacheLease() {
-  if (!lock_.owns_lock()) lock_.lock();
+  if (!lock_.owns_lock()) lock();
   ResidencyLru& l = *cache_->lru;
   for (const ResidentKey key : inserted_) {
     if (committed_) {
@@ -23,6 +50,7 @@ CacheLease::~CacheLease() {
   }
   for (const ResidentKey key : hits_) l.unpin(key);
   if (!inserted_.empty() || !hits_.empty()) cache_->unpinned.notify_all();
+  cache_->lockHeldMs += millisecondsBetween(heldSince_, Clock::now());
 }
 
 Result<void> CacheLease::reserve(std::span<const ResidentKey> entries,
@@ -61,7 +89,9 @@ Result<void> CacheLease::reserve(std::span<const ResidentKey> entries,
     }
     // Other renderers' passes in flight pin the rest: wait for one of them to finish.
     ++c.waits;
+    c.lockHeldMs += millisecondsBetween(heldSince_, Clock::now());
     c.unpinned.wait(lock_);
+    heldSince_ = Clock::now();
   }
   counters.hits += hits_.size();
 

@@ -8,6 +8,7 @@
 // state.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <mutex>
@@ -58,9 +59,9 @@ class CacheLease final {
   std::vector<streaming::ResidentKey> keepPins();
 
   /// Lets other renderers use the cache while this pass draws (its entries stay pinned).
-  void unlock() { lock_.unlock(); }
+  void unlock();
   /// Takes the lock again after unlock().
-  void lock() { lock_.lock(); }
+  void lock();
 
   /// The cache's bookkeeping; the lock must be held.
   streaming::ResidencyLru& lru() noexcept { return *cache_->lru; }
@@ -68,6 +69,8 @@ class CacheLease final {
  private:
   GpuCache::State* cache_;
   std::unique_lock<std::mutex> lock_;
+  /// When the lock was last taken (for GpuCache::State::lockHeldMs).
+  std::chrono::steady_clock::time_point heldSince_;
   std::vector<streaming::ResidentKey> hits_;
   std::vector<streaming::ResidentKey> inserted_;
   bool committed_ = false;

@@ -163,6 +163,9 @@ GpuCacheStats GpuCache::stats() const {
   s.residentPatches = state_->lru->count(ResidentKind::Patch);
   s.residentTiles = state_->lru->count(ResidentKind::Tile);
   s.waits = state_->waits;
+  s.leases = state_->leases;
+  s.lockWaitMs = state_->lockWaitMs;
+  s.lockHeldMs = state_->lockHeldMs;
   return s;
 }
 

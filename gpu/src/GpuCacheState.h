@@ -56,6 +56,11 @@ struct GpuCache::State {
   /// Pass numbers, over every renderer of the cache.
   std::uint64_t epoch = 0;
   std::uint64_t waits = 0;
+  /// What the passes' leases (CacheLease) cost the other renderers: leases taken, the time spent
+  /// waiting to take the lock, and the time it was held (waits for room excluded), in ms.
+  std::uint64_t leases = 0;
+  double lockWaitMs = 0.0;
+  double lockHeldMs = 0.0;
 };
 
 }  // namespace pbdam::gpu

@@ -42,6 +42,12 @@ struct GpuCacheStats final {
   /// Passes that found the budget pinned by other renderers' passes in flight and waited for
   /// them to finish before making room.
   std::uint64_t waits = 0;
+  /// Passes' reservations (from reserving their entries through their uploads, under the
+  /// cache's lock), the milliseconds they spent waiting to take the lock (another renderer's
+  /// pass held it), and the milliseconds they held it: how much the shared cache serialises.
+  std::uint64_t leases = 0;
+  double lockWaitMs = 0.0;
+  double lockHeldMs = 0.0;
 };
 
 /// Created once per (VulkanContext, DatasetView); both must outlive it and every renderer that
