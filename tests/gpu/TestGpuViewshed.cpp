@@ -225,7 +225,8 @@ void expectAgreement(VulkanContext& context, const DatasetView& view, const Heig
 }
 
 // The small test dataset (10.4 km lattice, leaves within tens to hundreds of metres of MOLA) at
-// its default cell; the large-data dataset is measured in docs/performance.md "Viewshed".
+// its default cell; the large-data dataset is measured in docs/performance.md "Focus cuts and
+// viewsheds on the large-data dataset and ETOPO5".
 TEST_F(GpuViewshedTest, MarsAgreesWithARayMarchOverMola) {
   PBDAM_REQUIRE_DATASET(dir, "mola");
   PBDAM_REQUIRE_DATA(demPath, pbdam::test::dataDir() / "mars/megt90n000cb.lbl");
