@@ -14,8 +14,9 @@ foreach(layer IN LISTS PBDAM_INSTALLED_LAYERS)
   set(target pbdam_${layer})
   # pbdam::<layer> in this tree too, so that code written against the package builds in it.
   add_library(pbdam::${layer} ALIAS ${target})
+  # Shared, each finds the layers below it and the image codec module beside itself ($ORIGIN).
   set_target_properties(${target} PROPERTIES EXPORT_NAME ${layer} VERSION ${PROJECT_VERSION}
-                                             SOVERSION ${PBDAM_SOVERSION})
+                                             SOVERSION ${PBDAM_SOVERSION} INSTALL_RPATH $ORIGIN)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/${layer}/include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
           FILES_MATCHING PATTERN "*.h")
   list(APPEND installedTargets ${target})
@@ -53,13 +54,15 @@ file(RELATIVE_PATH PBDAM_PC_PREFIX_FROM_PCDIR
      /prefix/${CMAKE_INSTALL_LIBDIR}/pkgconfig /prefix)
 string(REGEX REPLACE "/$" "" PBDAM_PC_PREFIX_FROM_PCDIR "${PBDAM_PC_PREFIX_FROM_PCDIR}")
 set(PBDAM_PC_REQUIRES "vulkan glm")
-set(PBDAM_PC_LIBS "-lpbdam_gpu -lpbdam_streaming -lpbdam_runtime -lpbdam_formats -pthread")
+# The RUNPATH is where a program finds the shared libraries, or (static) the image codec module
+# (Module.h), whatever the prefix.
+set(PBDAM_PC_LIBS
+    "-lpbdam_gpu -lpbdam_streaming -lpbdam_runtime -lpbdam_formats -pthread -Wl,-rpath,\${libdir}")
 set(privateRequires "tbb gdal zlib lzo2 geographiclib")
 set(privateLibs "-lmeshoptimizer -lsquish -ldl")
 if(PBDAM_STATIC_LIBRARIES)
   string(APPEND PBDAM_PC_REQUIRES " ${privateRequires}")
-  # The executable's RUNPATH is where the image codec module is found (Module.h).
-  string(APPEND PBDAM_PC_LIBS " -Wl,-rpath,\${libdir} ${privateLibs}")
+  string(APPEND PBDAM_PC_LIBS " ${privateLibs}")
   set(PBDAM_PC_PRIVATE "")
 else()
   set(PBDAM_PC_PRIVATE "Requires.private: ${privateRequires}\nLibs.private: ${privateLibs}\n")

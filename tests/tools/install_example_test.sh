@@ -28,8 +28,9 @@ for file in lib/cmake/pbdam/pbdamConfig.cmake lib/cmake/pbdam/pbdamConfigVersion
             include/pbdam/gpu/TerrainRenderer.h include/pbdam/formats/Result.h; do
   [[ -f "$prefix/$file" ]] || fail "the install has no $file"
 done
-# Nothing installed names the source or build tree (an installed package must not reach back).
-if leaks=$(grep -rIl -e "$src" -e "$(realpath "$build")" "$prefix"); then
+# Nothing installed names the source or build tree, binaries included (a RUNPATH, a module path):
+# an installed package must not reach back into them.
+if leaks=$(grep -rlF -e "$src" -e "$(realpath "$build")" "$prefix"); then
   fail "installed files name the source or build tree: $leaks"
 fi
 step "installed into a scratch prefix"
@@ -45,7 +46,7 @@ step "example configured and built"
 LD_DEBUG=files LD_DEBUG_OUTPUT="$tmp/ld" \
   "$tmp/example/pbdam_headless" "$dataset" "$camera" "$tmp/example.png" $width $height |
   tee "$tmp/example.txt"
-grep -q "file=$prefix/lib/libpbdam_oiio.so " "$tmp"/ld.* ||
+grep -qF "file=$prefix/lib/libpbdam_oiio.so " "$tmp"/ld.* ||
   fail "libpbdam_oiio.so was not loaded from the prefix: $(grep -h 'file=.*pbdam_oiio' "$tmp"/ld.* || true)"
 grep -qE ": [1-9][0-9]* patches, [1-9][0-9]* triangles" "$tmp/example.txt" || fail "no patches drawn"
 "$pbdam" render "$dataset" --camera "$camera" --width $width --height $height \
