@@ -21,11 +21,12 @@ function(pbdam_target_settings target)
 endfunction()
 
 # pbdam_add_library(NAME SOURCES... [DEPS ...]): a module library with public headers under
-# <module>/include.
+# <module>/include (installed under include/: cmake/PbdamInstall.cmake).
 function(pbdam_add_library name)
   cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
   add_library(${name} ${ARG_SOURCES})
-  target_include_directories(${name} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
+  target_include_directories(${name} PUBLIC $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
+                                            $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
   target_link_libraries(${name} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
   pbdam_target_settings(${name})
 endfunction()

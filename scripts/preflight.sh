@@ -43,7 +43,7 @@ test_commands=(
   "clang++ clang the libFuzzer targets"
   "curl curl the README's serve example"
   "gdal_translate gdal-bin the GeoTIFF tests"
-  "gdalinfo gdal-bin the README's examples"
+  "gdalinfo gdal-bin the README's examples and the install test"
   "gdalsrsinfo gdal-bin the README's examples"
 )
 # file  package  what needs it

@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Static analysis: clang-tidy with the root .clang-tidy over every translation unit of the
-# project in a build's compile_commands.json (formats runtime streaming gpu tools bench tests,
-# and the unity batches CMake writes under build/ for the command line, each of which includes
-# its sources; nothing else generated, nothing third-party), one clang-tidy per core. Any finding
-# fails (.clang-tidy sets WarningsAsErrors '*'); only the failing files' output is printed.
+# project in a build's compile_commands.json (formats runtime streaming gpu tools bench tests
+# examples, and the unity batches CMake writes under build/ for the command line, each of which
+# includes its sources; nothing else generated, nothing third-party), one clang-tidy per core.
+# Any finding fails (.clang-tidy sets WarningsAsErrors '*'); only the failing files' output is
+# printed.
 # A batch is checked once for all its sources: the heavy headers they share (CLI11,
 # nlohmann-json) are analysed once instead of six times.
 #   scripts/tidy.sh                      every project translation unit of build/release
@@ -37,7 +38,7 @@ fi
 # targets appears twice and is checked once. A unity batch is selected by its sources' paths.
 unity="$root/build/[^/]+/(tools|tests/[a-z]+)/CMakeFiles/[a-z_]+\.dir/Unity/unity_[0-9]+_cxx\.cxx"
 mapfile -t files < <(sed -n 's/^ *"file": "\(.*\)",\{0,1\}$/\1/p' "$db" |
-  grep -E "^($root/(formats|runtime|streaming|gpu|tools|bench|tests)/|$unity\$)" | sort -u |
+  grep -E "^($root/(formats|runtime|streaming|gpu|tools|bench|tests|examples)/|$unity\$)" | sort -u |
   while read -r file; do
     if [[ $file =~ ^$unity$ ]]; then
       sed -n 's/^#include "\(.*\)"$/\1/p' "$file" | grep -q -E -e "${only:-.}" && echo "$file"

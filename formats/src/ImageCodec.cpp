@@ -9,8 +9,7 @@ namespace pbdam::formats {
 
 Result<const ImageCodec*> imageCodec() {
   static const Result<const ImageCodec*> codec = []() -> Result<const ImageCodec*> {
-    const Result<void*> module =
-        openModule("libpbdam_oiio.so", PBDAM_OIIO_MODULE, RTLD_NOW | RTLD_LOCAL);
+    const Result<void*> module = openModule("libpbdam_oiio.so", {}, RTLD_NOW | RTLD_LOCAL);
     if (!module) {
       return makeError(ErrorCode::Internal, "no image codec: " + module.error().message);
     }

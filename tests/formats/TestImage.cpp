@@ -21,8 +21,8 @@ namespace {
 constexpr const char* kEarthImage = "/usr/share/xplanet/images/earth.jpg";
 
 // OpenImageIO is a module loaded on first use (ImageCodec.h): it loads in a test executable too
-// (from where the build wrote it), and a module that is nowhere is a NotFound naming every place
-// looked at and why.
+// (found by name through the RUNPATH the build gives executables that link pbdam_formats), and a
+// module that is nowhere is a NotFound naming every place looked at and why.
 TEST(Image, TheCodecModuleLoadsAndAMissingModuleSaysWhereItLooked) {
   const Result<const ImageCodec*> codec = imageCodec();
   ASSERT_TRUE(codec.ok()) << codec.error().message;
@@ -37,6 +37,7 @@ TEST(Image, TheCodecModuleLoadsAndAMissingModuleSaysWhereItLooked) {
   EXPECT_NE(message.find("libpbdam_nowhere.so did not load"), std::string::npos) << message;
   EXPECT_NE(message.find("/nonexistent/libpbdam_nowhere.so: missing"), std::string::npos)
       << message;
+  EXPECT_NE(message.find("libpbdam_nowhere.so by name: "), std::string::npos) << message;
 
   // A file that is not a shared object: dlopen's own reason.
   test::TempDir dir;

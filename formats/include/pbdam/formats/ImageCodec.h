@@ -2,7 +2,8 @@
 // beside the pbdam executable). Debian's OpenImageIO links about 260 shared libraries (OpenCV,
 // FFmpeg, DCMTK, OpenVDB, ...): loading them took 0.12 s of every process start, 0.2 s under the
 // sanitizers, while most pbdam commands never read or write an image. The module is looked for
-// beside the running executable, then where this build wrote it (Module.h).
+// beside the running executable, then by name through the dynamic linker (Module.h): installed,
+// it is libpbdam_oiio.so in the package's lib directory.
 // Thread-safety: imageCodec() is safe from any thread; the codec's functions are reentrant.
 #pragma once
 
