@@ -33,7 +33,8 @@ Result<void*> openModule(const std::string& fileName, const std::filesystem::pat
     return module;
   }
   // By name: the dynamic linker's search (the caller's RUNPATH, LD_LIBRARY_PATH, ld.so.cache).
-  tried += (tried.empty() ? "" : "; ") + fileName + " by name: ";
+  if (!tried.empty()) tried += "; ";
+  tried += fileName + " by name: ";
   if (void* module = ::dlopen(fileName.c_str(), flags)) return module;
   const char* why = ::dlerror();
   tried += why != nullptr ? why : "dlopen failed";
