@@ -18,6 +18,7 @@
 #include <deque>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <memory>
 #include <numeric>
@@ -302,10 +303,14 @@ void installCallbacks(GLFWwindow* window, WindowInput& input) {
 
 /// Applies a script's events due by `t`; returns false once a close event was applied.
 bool applyScript(const std::vector<FlyScriptEvent>& events, std::size_t& next, double t,
-                 FlyControls& controls, GLFWwindow* window) {
+                 FlyControls& controls, GLFWwindow* window,
+                 const std::function<void(double)>& advanceTo) {
   bool open = true;
   while (next < events.size() && events[next].tSeconds <= t) {
     const FlyScriptEvent& e = events[next++];
+    // The controls move up to the event's own time first: a key held from 0.5 s to 2.5 s
+    // moves the camera for 2 s however few frames fall between.
+    advanceTo(e.tSeconds);
     switch (e.kind) {
       case FlyScriptEvent::Kind::KeyDown:
         controls.press(e.key);
@@ -674,7 +679,14 @@ int FlySession::run(FlyControls& controls, const std::vector<FlyScriptEvent>& sc
     glfwPollEvents();
     const auto now = Clock::now();
     const double t = secondsBetween(start, now);
-    if (!applyScript(script, nextEvent, t, controls, window_)) open = false;
+    const auto advanceTo = [&](double eventSeconds) {
+      const auto at = start + std::chrono::duration_cast<Clock::duration>(
+                                  std::chrono::duration<double>(eventSeconds));
+      if (at <= lastUpdate) return;
+      controls.update(secondsBetween(lastUpdate, at));
+      lastUpdate = at;
+    };
+    if (!applyScript(script, nextEvent, t, controls, window_, advanceTo)) open = false;
     if (c_.exitAfterSeconds > 0.0 && t >= c_.exitAfterSeconds) open = false;
     if (!replay.empty()) {
       if (t > replay.back().tSeconds) open = false;
