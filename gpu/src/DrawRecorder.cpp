@@ -14,9 +14,29 @@ void DrawRecorder::record(VkCommandBuffer cmd, const OffscreenTarget& target,
   } else {
     target.recordResumeRendering(cmd, !placement.last);
   }
+  recordBindingsAndDraws(cmd, pipeline_->pipeline(), push, items);
+  vkCmdEndRendering(cmd);
+}
+
+void DrawRecorder::recordDraws(VkCommandBuffer cmd, VkPipeline pipeline, std::uint32_t width,
+                               std::uint32_t height, std::span<const std::byte> push,
+                               std::span<const DrawItem> items) const {
+  VkViewport viewport{};
+  viewport.width = static_cast<float>(width);
+  viewport.height = static_cast<float>(height);
+  viewport.maxDepth = 1.0f;
+  const VkRect2D scissor{{0, 0}, {width, height}};
+  vkCmdSetViewport(cmd, 0, 1, &viewport);
+  vkCmdSetScissor(cmd, 0, 1, &scissor);
+  recordBindingsAndDraws(cmd, pipeline, push, items);
+}
+
+void DrawRecorder::recordBindingsAndDraws(VkCommandBuffer cmd, VkPipeline boundPipeline,
+                                          std::span<const std::byte> push,
+                                          std::span<const DrawItem> items) const {
   const PatchPipeline& pipeline = *pipeline_;
   constexpr VkShaderStageFlags kStages = VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.pipeline());
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, boundPipeline);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 0, 1,
                           &recordsSet_, 0, nullptr);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 3, 1,
@@ -54,7 +74,6 @@ void DrawRecorder::record(VkCommandBuffer cmd, const OffscreenTarget& target,
     vkCmdDrawIndexed(cmd, item.indexCount, 1, patches_->firstIndex(patch.local),
                      static_cast<std::int32_t>(patches_->firstVertex(patch.local)), 0);
   }
-  vkCmdEndRendering(cmd);
 }
 
 }  // namespace pbdam::gpu

@@ -47,8 +47,20 @@ class DrawRecorder final {
   /// `push` (PatchPush bytes), and the end of rendering.
   void record(VkCommandBuffer cmd, const OffscreenTarget& target, const PassPlacement& placement,
               std::span<const std::byte> push, std::span<const DrawItem> items) const;
+  /// Records only the draws, with `pipeline` (the patch pipeline or one made for a host's pass
+  /// from its layout), into rendering the caller has begun: viewport and scissor `width` x
+  /// `height` at the origin, depth range 0..1.
+  void recordDraws(VkCommandBuffer cmd, VkPipeline pipeline, std::uint32_t width,
+                   std::uint32_t height, std::span<const std::byte> push,
+                   std::span<const DrawItem> items) const;
 
  private:
+  /// Binds `boundPipeline`, the records and overlay sets and the push constants, then draws
+  /// `items` binding chunks and tile pages as they change.
+  void recordBindingsAndDraws(VkCommandBuffer cmd, VkPipeline boundPipeline,
+                              std::span<const std::byte> push,
+                              std::span<const DrawItem> items) const;
+
   const PatchPipeline* pipeline_;
   const PatchPool* patches_;
   const TilePool* tiles_;

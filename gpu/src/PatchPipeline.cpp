@@ -112,10 +112,11 @@ Result<UniquePipelineLayout> createPatchLayout(
   return UniquePipelineLayout(device, rawLayout);
 }
 
-/// The graphics pipeline: the patch shaders and their fixed-function state (reversed-Z depth,
-/// back-face culling, dynamic viewport and scissor) for dynamic rendering to these formats.
+/// The graphics pipeline: the patch shaders and their fixed-function state (the depth test of
+/// the pass's convention, back-face culling, dynamic viewport and scissor) for the pass's
+/// attachments.
 Result<UniquePipeline> createPatchGraphicsPipeline(VkDevice device, VkPipelineLayout layout,
-                                                   VkFormat colorFormat, VkFormat depthFormat,
+                                                   const HostPass& pass,
                                                    std::span<const uint32_t> vertexSpirv,
                                                    const char* vertexName) {
   Result<UniqueShaderModule> vert = createShaderModule(device, vertexSpirv, vertexName);
@@ -174,12 +175,12 @@ Result<UniquePipeline> createPatchGraphicsPipeline(VkDevice device, VkPipelineLa
   raster.lineWidth = 1.0f;
   VkPipelineMultisampleStateCreateInfo multisample{};
   multisample.sType = VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO;
-  multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+  multisample.rasterizationSamples = pass.samples;
   VkPipelineDepthStencilStateCreateInfo depth{};
   depth.sType = VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO;
   depth.depthTestEnable = VK_TRUE;
   depth.depthWriteEnable = VK_TRUE;
-  depth.depthCompareOp = VK_COMPARE_OP_GREATER_OR_EQUAL;  // reversed-Z
+  depth.depthCompareOp = nearerPasses(pass.depth);
   VkPipelineColorBlendAttachmentState blendAttachment{};
   blendAttachment.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
                                    VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
@@ -197,12 +198,15 @@ Result<UniquePipeline> createPatchGraphicsPipeline(VkDevice device, VkPipelineLa
   VkPipelineRenderingCreateInfo rendering{};
   rendering.sType = VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO;
   rendering.colorAttachmentCount = 1;
-  rendering.pColorAttachmentFormats = &colorFormat;
-  rendering.depthAttachmentFormat = depthFormat;
+  rendering.pColorAttachmentFormats = &pass.colorFormat;
+  rendering.depthAttachmentFormat = pass.depthFormat;
 
   VkGraphicsPipelineCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO;
-  info.pNext = &rendering;
+  // A render pass's subpass, or dynamic rendering to the formats.
+  info.pNext = pass.renderPass == VK_NULL_HANDLE ? &rendering : nullptr;
+  info.renderPass = pass.renderPass;
+  info.subpass = pass.subpass;
   info.stageCount = static_cast<uint32_t>(stages.size());
   info.pStages = stages.data();
   info.pVertexInputState = &vertexInput;
@@ -258,19 +262,28 @@ Result<PatchPipeline> PatchPipeline::create(const VulkanContext& context, VkForm
                                  result.tilesSetLayout_.get(), result.overlaySetLayout_.get()});
   if (!layout) return std::move(layout).error();
   result.layout_ = std::move(*layout);
-  auto pipeline = createPatchGraphicsPipeline(device, result.layout_.get(), colorFormat,
-                                              depthFormat, kPatchVert, "patch.vert");
+  HostPass own;
+  own.colorFormat = colorFormat;
+  own.depthFormat = depthFormat;
+  auto pipeline =
+      createPatchGraphicsPipeline(device, result.layout_.get(), own, kPatchVert, "patch.vert");
   if (!pipeline) return std::move(pipeline).error();
   result.pipeline_ = std::move(*pipeline);
   const DeviceCaps& caps = context.caps();
   if (caps.shaderDrawParameters && caps.drawIndirectCount && caps.multiDrawIndirect) {
     auto indirect =
-        createPatchGraphicsPipeline(device, result.layout_.get(), colorFormat, depthFormat,
-                                    kPatchIndirectVert, "patch_indirect.vert");
+        createPatchGraphicsPipeline(device, result.layout_.get(), own, kPatchIndirectVert,
+                                    "patch_indirect.vert");
     if (!indirect) return std::move(indirect).error();
     result.indirectPipeline_ = std::move(*indirect);
   }
   return result;
+}
+
+Result<UniquePipeline> PatchPipeline::createForHostPass(const VulkanContext& context,
+                                                       const HostPass& pass) const {
+  return createPatchGraphicsPipeline(context.device(), layout_.get(), pass, kPatchVert,
+                                     "patch.vert (host pass)");
 }
 
 }  // namespace pbdam::gpu

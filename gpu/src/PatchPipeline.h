@@ -10,6 +10,7 @@
 #include <cstdint>
 
 #include "pbdam/formats/Result.h"
+#include "pbdam/gpu/HostPass.h"
 #include "pbdam/gpu/UniqueHandle.h"
 #include "pbdam/streaming/DecodeScheduler.h"
 
@@ -40,6 +41,11 @@ class PatchPipeline final {
   /// GREATER_OR_EQUAL with writes, dynamic viewport and scissor.
   static formats::Result<PatchPipeline> create(const VulkanContext& context, VkFormat colorFormat,
                                                VkFormat depthFormat);
+
+  /// The same shaders and layout (so the cache's descriptor sets bind to it) for a host's pass:
+  /// its formats, render pass or dynamic rendering, samples and depth test (HostPass.h).
+  formats::Result<UniquePipeline> createForHostPass(const VulkanContext& context,
+                                                    const HostPass& pass) const;
 
   VkPipeline pipeline() const noexcept { return pipeline_.get(); }
   /// The same pipeline with patch_indirect.vert (the record index from gl_DrawID) for draw

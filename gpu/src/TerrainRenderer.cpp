@@ -33,6 +33,7 @@
 #include "CacheLease.h"
 #include "DrawRecorder.h"
 #include "GpuCacheState.h"
+#include "PassDrawer.h"
 #include "TerrainRendererImpl.h"
 #include "pbdam/gpu/GpuCache.h"
 #include "pbdam/gpu/GpuMemory.h"
@@ -56,84 +57,6 @@ namespace {
 
 double millisecondsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
-
-/// One pass of a frame: the cut's range [begin, end) and how it sits in the frame.
-struct PassInput {
-  const Cut& cut;
-  const std::vector<NodeRecord>& nodes;
-  std::size_t begin = 0;
-  std::size_t end = 0;
-  const Camera& camera;
-  std::span<const std::byte> push;  ///< the PatchPush bytes
-  PassPlacement placement;
-};
-
-/// What a reserved pass uploads and draws.
-struct PassWork {
-  std::vector<DecodeJob> misses;
-  std::vector<std::uint32_t> missSlots;  ///< pool slot of each miss
-  std::vector<DrawItem> draws;           ///< the pass's drawable patches in cut order
-};
-
-/// The pass's cache entries: its drawable patches, then its distinct tiles in first-use order.
-std::vector<DecodeJob> passEntries(const PassInput& in) {
-  std::vector<DecodeJob> entries;
-  entries.reserve(2 * (in.end - in.begin));
-  for (std::size_t i = in.begin; i < in.end; ++i) {
-    if (!drawable(in.nodes[i])) continue;
-    DecodeJob entry;
-    entry.key = ResidentKey::patch(in.cut.patches[i].node);
-    entry.node = in.cut.patches[i].node;
-    entries.push_back(entry);
-  }
-  std::unordered_set<std::uint64_t> seenTiles;
-  const auto addTile = [&](const TileKey& key) {
-    const ResidentKey tile = ResidentKey::tile(key);
-    if (!seenTiles.insert(tile.packed).second) return;
-    DecodeJob entry;
-    entry.key = tile;
-    entry.tile = key;
-    entries.push_back(entry);
-  };
-  for (std::size_t i = in.begin; i < in.end; ++i) {
-    if (!drawable(in.nodes[i])) continue;
-    addTile(in.cut.patches[i].tile);
-    if (in.cut.patches[i].blendsTile()) addTile(in.cut.patches[i].morphTile);
-  }
-  return entries;
-}
-
-/// Passes: the longest prefixes of the cut whose slot bytes fit the budget; returns each
-/// pass's end (one past its last patch).
-std::vector<std::size_t> planPasses(const GpuCache::State& c, const Cut& cut,
-                                    const std::vector<NodeRecord>& nodes) {
-  std::vector<std::size_t> passEnds;
-  const std::uint64_t budget = c.lru->budgetBytes();
-  std::uint64_t bytes = 0;
-  std::unordered_set<std::uint64_t> passTiles;
-  for (std::size_t i = 0; i < nodes.size(); ++i) {
-    if (!drawable(nodes[i])) continue;
-    const std::uint64_t tile = ResidentKey::tile(cut.patches[i].tile).packed;
-    const std::uint64_t morphTile = ResidentKey::tile(cut.patches[i].morphTile).packed;
-    const auto tileBytes = [&] {
-      std::uint64_t b = passTiles.count(tile) != 0 ? 0 : c.texture.slotBytes;
-      if (morphTile != tile && passTiles.count(morphTile) == 0) b += c.texture.slotBytes;
-      return b;
-    };
-    std::uint64_t need = c.patchSlot + tileBytes();
-    if (bytes > 0 && bytes + need > budget) {
-      passEnds.push_back(i);
-      bytes = 0;
-      passTiles.clear();
-      need = c.patchSlot + tileBytes();
-    }
-    bytes += need;
-    passTiles.insert(tile);
-    passTiles.insert(morphTile);
-  }
-  passEnds.push_back(nodes.size());
-  return passEnds;
 }
 
 }  // namespace
@@ -173,9 +96,13 @@ void bindRecords(VkDevice device, VkDescriptorSet set, VkBuffer buffer) {
   vkUpdateDescriptorSets(device, 1, &write, 0, nullptr);
 }
 
-PatchPush patchPush(const Camera& camera, const FrameSettings& settings) {
+PatchPush patchPush(const Camera& camera, const FrameSettings& settings, DepthConvention depth) {
   PatchPush push{};
-  const glm::mat4 viewProjection = camera.projection() * camera.viewRotation();
+  // Reversed-Z: the float product the offscreen frames have always used (byte-identical).
+  const glm::mat4 viewProjection =
+      depth == DepthConvention::ReversedZ
+          ? camera.projection() * camera.viewRotation()
+          : glm::mat4(hostProjection(camera, depth)) * camera.viewRotation();
   std::memcpy(push.viewProjection, glm::value_ptr(viewProjection), sizeof push.viewProjection);
   const glm::dvec3 sun =
       glm::normalize(settings.sunDirectionEcef ? *settings.sunDirectionEcef
@@ -192,187 +119,6 @@ std::array<float, 4> clearColour(const FrameSettings& settings) {
           static_cast<float>(settings.clearRgb[1]) / 255.0f,
           static_cast<float>(settings.clearRgb[2]) / 255.0f, 1.0f};
 }
-
-namespace {}  // namespace
-
-/// A pass's work in a slot, from reservation to submission.
-class PassDrawer final {
- public:
-  PassDrawer(TerrainRenderer::Impl& m, FrameSlot& slot, const PassInput& in, FrameStats& stats)
-      : m_(m), slot_(slot), in_(in), stats_(stats) {}
-
-  /// Draws the pass; a frame's last pass is submitted without waiting.
-  Result<void> draw(bool readback, const PresentTarget* present) {
-    const std::vector<DecodeJob> entries = passEntries(in_);
-    {
-      // Under the cache lock from here through the uploads: nothing another renderer does can
-      // evict what this pass pins, and nobody sees an entry before its upload has completed.
-      // The lease hands the pass's pins (and failed uploads) back on every path, or to the
-      // slot when the pass stays in flight.
-      CacheLease lease(*m_.shared);
-      if (Result<void> r = reserve(lease, entries); !r) return r;
-      if (Result<void> r = stage(); !r) return r;
-      if (Result<void> r = record(readback, present); !r) return r;
-      if (Result<void> r = submit(lease, present); !r) return r;
-    }
-    if (!in_.placement.last) m_.readTimestamps(slot_, true, stats_);
-    stats_.misses += work_.misses.size();
-    for (const DecodeJob& job : work_.misses) stats_.bytesUploaded += job.bytes;
-    return {};
-  }
-
- private:
-  Result<void> reserve(CacheLease& lease, const std::vector<DecodeJob>& entries) {
-    std::vector<ResidentKey> keys;
-    keys.reserve(entries.size());
-    for (const DecodeJob& entry : entries) keys.push_back(entry.key);
-    std::vector<std::size_t> missIndices;
-    LeaseCounters counters;
-    counters.peakResidentBytes = stats_.peakResidentBytes;
-    if (Result<void> r = lease.reserve(keys, missIndices, work_.missSlots, counters,
-                                       [this] { return m_.finishOldestLocked(); });
-        !r) {
-      return r;
-    }
-    stats_.hits += counters.hits;
-    stats_.evictions += counters.evictions;
-    stats_.peakResidentBytes = counters.peakResidentBytes;
-    for (const std::size_t i : missIndices) work_.misses.push_back(entries[i]);
-
-    // Patch and tile slots of the whole pass; pools grow to cover them.
-    const ResidencyLru& lru = lease.lru();
-    std::uint32_t patchSlotCount = 0, tileSlotCount = 0;
-    for (std::size_t i = in_.begin; i < in_.end; ++i) {
-      if (!drawable(in_.nodes[i])) continue;
-      DrawItem item;
-      item.patchSlot = *lru.find(ResidentKey::patch(in_.cut.patches[i].node));
-      item.tileSlot = *lru.find(ResidentKey::tile(in_.cut.patches[i].tile));
-      item.morphTileSlot = *lru.find(ResidentKey::tile(in_.cut.patches[i].morphTile));
-      item.recordIndex = static_cast<std::uint32_t>(i);
-      item.indexCount = 3 * in_.nodes[i].triangleCount;
-      patchSlotCount = std::max(patchSlotCount, item.patchSlot + 1);
-      tileSlotCount = std::max({tileSlotCount, item.tileSlot + 1, item.morphTileSlot + 1});
-      work_.draws.push_back(item);
-    }
-    slot_.lastPassEntries.clear();
-    for (const DecodeJob& entry : entries) {
-      slot_.lastPassEntries.emplace_back(entry.key, *lru.find(entry.key));
-    }
-    if (Result<void> r = m_.shared->patches.ensureSlots(*m_.context, patchSlotCount); !r) return r;
-    return m_.shared->tiles.ensureSlots(*m_.context, tileSlotCount);
-  }
-
-  Result<void> stage() {
-    // Staging layout, then decoding straight into it on TBB workers.
-    const std::uint64_t stagingBytes = m_.decoder->layout(work_.misses);
-    if (Result<void> r = slot_.uploader.ensure(*m_.context, stagingBytes, m_.garbage, m_.submitted);
-        !r) {
-      return r;
-    }
-    const auto decodeStart = Clock::now();
-    Result<void> decoded = m_.decoder->decode(work_.misses, slot_.uploader.mappedBytes());
-    stats_.decodeMs += millisecondsSince(decodeStart);
-    if (!decoded) return decoded;
-
-    // Per-draw records, with each patch's tile layer.
-    const std::span<std::byte> recordBytes = slot_.records.mappedBytes();
-    for (const DrawItem& item : work_.draws) {
-      PatchDrawInput input;
-      input.node = in_.cut.patches[item.recordIndex].node;
-      input.record = in_.nodes[item.recordIndex];
-      input.textureLayer = m_.shared->tiles.locate(item.tileSlot).local;
-      const CutPatch& patch = in_.cut.patches[item.recordIndex];
-      input.morph = patch.morph;
-      if (patch.blendsTile()) {
-        input.morphTile = patch.morphTile;
-        input.morphTextureLayer = m_.shared->tiles.locate(item.morphTileSlot).local;
-      }
-      const PatchDrawRecord record = makePatchDrawRecord(*m_.dataset, input, in_.camera.position());
-      std::memcpy(recordBytes.data() + std::size_t{item.recordIndex} * sizeof(PatchDrawRecord),
-                  &record, sizeof record);
-    }
-    if (Result<void> r = slot_.uploader.flush(); !r) return r;
-    return slot_.records.flushHostWrites();
-  }
-
-  Result<void> record(bool readback, const PresentTarget* present) {
-    // Timestamps: 0 and 3 around the uploads, 1 and 2 around the render pass. The draw buffer
-    // resets its own two queries, so that redrawLast() can submit it alone.
-    VkQueryPool timestamps = m_.queries.get();
-    const std::uint32_t q = slot_.firstQuery;
-    Result<void> recorded = recordCommands(
-        slot_.commands[FrameSlot::kUploadCommands], "terrain uploads", [&](VkCommandBuffer cmd) {
-          if (timestamps != VK_NULL_HANDLE) {
-            vkCmdResetQueryPool(cmd, timestamps, q, 1);
-            vkCmdResetQueryPool(cmd, timestamps, q + 3, 1);
-            vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, timestamps, q);
-          }
-          if (!work_.misses.empty()) {
-            slot_.uploader.record(cmd, work_.misses, work_.missSlots, m_.shared->patches,
-                                  m_.shared->tiles);
-          }
-          if (timestamps != VK_NULL_HANDLE) {
-            vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, timestamps, q + 3);
-          }
-        });
-    if (!recorded) return recorded;
-    const DrawRecorder recorder(m_.shared->pipeline, m_.shared->patches, m_.shared->tiles,
-                                slot_.recordsSet, slot_.overlay->set());
-    recorded = recordCommands(
-        slot_.commands[FrameSlot::kDrawCommands], "terrain frame", [&](VkCommandBuffer cmd) {
-          if (timestamps != VK_NULL_HANDLE) {
-            vkCmdResetQueryPool(cmd, timestamps, q + 1, 2);
-            vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, timestamps, q + 1);
-          }
-          recorder.record(cmd, slot_.target, in_.placement, in_.push, work_.draws);
-          if (timestamps != VK_NULL_HANDLE) {
-            vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, timestamps, q + 2);
-          }
-          if (in_.placement.last && readback) slot_.target.recordReadback(cmd);
-        });
-    if (!recorded || !in_.placement.last || present == nullptr) return recorded;
-    return recordCommands(
-        slot_.commands[FrameSlot::kPresentCommands], "terrain present",
-        [&](VkCommandBuffer cmd) { slot_.target.recordPresent(cmd, *present, readback); });
-  }
-
-  Result<void> submit(CacheLease& lease, const PresentTarget* present) {
-    const bool wait = !in_.placement.last;
-    // The window's copy goes with the frame's last pass.
-    const PresentTarget* shown = in_.placement.last ? present : nullptr;
-    const std::span<const VkCommandBuffer> all(slot_.commands.data(), shown ? 3 : 2);
-    if (m_.privateCache) {
-      // Nobody else uses the cache: uploads and draw go in one submission, and later frames
-      // (on the same queue, after the uploads' barriers) may use its entries at once.
-      if (Result<void> r = m_.submitSlot(slot_, all, shown, "terrain frame", wait); !r) {
-        return r;
-      }
-      lease.commitUploads();
-      if (!wait) slot_.pins = lease.keepPins();
-      return {};
-    }
-    // Uploads under the lock; once they have completed the entries are usable by every
-    // renderer of the cache, and the draw runs outside the lock with its entries pinned.
-    const std::array<VkCommandBuffer, 1> uploads = {slot_.commands[FrameSlot::kUploadCommands]};
-    if (Result<void> r = m_.submitSlot(slot_, uploads, nullptr, "terrain uploads", true); !r) {
-      return r;
-    }
-    lease.commitUploads();
-    lease.unlock();
-    const std::span<const VkCommandBuffer> draw(slot_.commands.data() + FrameSlot::kDrawCommands,
-                                                shown ? 2 : 1);
-    Result<void> drawn = m_.submitSlot(slot_, draw, shown, "terrain frame", wait);
-    lease.lock();
-    if (drawn && !wait) slot_.pins = lease.keepPins();
-    return drawn;
-  }
-
-  TerrainRenderer::Impl& m_;
-  FrameSlot& slot_;
-  const PassInput& in_;
-  FrameStats& stats_;
-  PassWork work_;
-};
 
 TerrainRenderer::Impl::~Impl() {
   // A shared cache outlives the renderer: its frames in flight must finish and hand their pins
@@ -442,16 +188,22 @@ Result<void> TerrainRenderer::Impl::submitSlot(FrameSlot& slot,
 }
 
 Result<void> TerrainRenderer::Impl::finish(FrameSlot& slot, bool cacheLocked) {
-  if (!slot.running) return {};
+  if (!slot.running && slot.hostSignal == 0) return {};
   Result<void> result;
   VkFence submitFence = slot.fence.get();
-  if (VkResult r =
-          vkWaitForFences(context->device(), 1, &submitFence, VK_TRUE, kSubmitTimeoutNanoseconds);
+  if (VkResult r = slot.running ? vkWaitForFences(context->device(), 1, &submitFence, VK_TRUE,
+                                                  kSubmitTimeoutNanoseconds)
+                                : VK_SUCCESS;
       r != VK_SUCCESS) {
     // The work may still be running: wait it out so that re-recording the buffers and reusing
     // the slots it read is legal.
     (void)context->waitIdle();
     result = vulkanError(r, "vkWaitForFences (terrain frame)");
+  }
+  if (slot.hostSignal != 0) {
+    if (Result<void> r = waitForHost(slot.hostSignal); !r && result) result = std::move(r);
+    std::erase(hostOrder, static_cast<std::size_t>(&slot - slots.data()));
+    slot.hostSignal = 0;
   }
   slot.running = false;
   if (!slot.pins.empty()) {
@@ -461,9 +213,10 @@ Result<void> TerrainRenderer::Impl::finish(FrameSlot& slot, bool cacheLocked) {
     slot.pins.clear();
     shared->unpinned.notify_all();
   }
+  // A host-pass frame's draws read what its uploads' submission kept alive.
   std::uint64_t oldestRunning = submitted + 1;
   for (const FrameSlot& s : slots) {
-    if (s.running) oldestRunning = std::min(oldestRunning, s.submission);
+    if (s.running || s.hostSignal != 0) oldestRunning = std::min(oldestRunning, s.submission);
   }
   completed = oldestRunning - 1;
   garbage.collect(completed);
@@ -476,6 +229,11 @@ bool TerrainRenderer::Impl::finishOldestLocked() {
     if (!slot.running) continue;
     // An error stays with the slot's frame: collect() reports the device's state then.
     (void)finish(slot, true);
+    return true;
+  }
+  if (!hostOrder.empty()) {
+    // The host has submitted its earlier frames by the time it draws the next one.
+    (void)finish(slots[hostOrder.front()], true);
     return true;
   }
   return false;
@@ -674,6 +432,7 @@ Result<FrameSlot*> TerrainRenderer::Impl::freeSlot() {
                      "all " + std::to_string(slots.size()) +
                          " frames in flight are pending: collect() one before submitting more");
   }
+  if (Result<void> r = finish(slot, false); !r) return std::move(r).error();
   return &slot;
 }
 

@@ -35,6 +35,7 @@
 #include "GpuCacheState.h"
 #include "StagingUploader.h"
 #include "SurfaceOverlayBinding.h"
+#include "pbdam/gpu/HostPass.h"
 #include "pbdam/gpu/OffscreenTarget.h"
 #include "pbdam/gpu/TerrainRenderer.h"
 #include "pbdam/gpu/UniqueHandle.h"
@@ -51,8 +52,10 @@ formats::Result<void> recordCommands(VkCommandBuffer cmd, const char* what,
                                      const std::function<void(VkCommandBuffer)>& record);
 /// Points a records set (binding 0 of the patch pipeline's set 0) at `buffer`.
 void bindRecords(VkDevice device, VkDescriptorSet set, VkBuffer buffer);
-/// The push constants of a frame: view-projection, sun direction and ambient.
-PatchPush patchPush(const runtime::Camera& camera, const FrameSettings& settings);
+/// The push constants of a frame: view-projection (for the depth convention of the pass it is
+/// drawn in), sun direction and ambient.
+PatchPush patchPush(const runtime::Camera& camera, const FrameSettings& settings,
+                    DepthConvention depth = DepthConvention::ReversedZ);
 /// The clear colour of `settings`, linear 0..1.
 std::array<float, 4> clearColour(const FrameSettings& settings);
 std::string mebibytes(std::uint64_t bytes);
@@ -77,6 +80,10 @@ struct FrameSlot final {
   std::uint64_t submission = 0;
   /// Submitted and not yet seen to complete (its fence not waited for).
   bool running = false;
+  /// A frame drawn into a host's pass (drawInto): the value of the renderer's timeline semaphore
+  /// the host's submission signals once the draws are done; 0: none outstanding. Its pins and
+  /// buffers are kept until the semaphore has been seen to reach it.
+  std::uint64_t hostSignal = 0;
   /// Submitted and not yet collected (running, or complete and unread).
   bool pending = false;
   bool readback = true;
@@ -110,6 +117,13 @@ struct TerrainRenderer::Impl {
   std::vector<FrameSlot> slots;
   /// Pending slots, oldest first.
   std::deque<std::size_t> pendingOrder;
+  /// Slots of frames drawn into a host's pass whose semaphore value has not been seen, oldest
+  /// first; the timeline semaphore the host's submissions signal and its last value handed out.
+  std::deque<std::size_t> hostOrder;
+  UniqueSemaphore hostTimeline;
+  std::uint64_t hostSignalled = 0;
+  /// The patch pipelines made for the hosts' passes this renderer has drawn into.
+  std::vector<std::pair<HostPass, UniquePipeline>> hostPipelines;
   /// The slot the next frame takes.
   std::size_t nextSlot = 0;
   /// Submissions are numbered 1, 2, … over every slot: `submitted` is the latest made,
@@ -141,17 +155,24 @@ struct TerrainRenderer::Impl {
   /// waits for them (finish()).
   formats::Result<void> submitSlot(FrameSlot& slot, std::span<const VkCommandBuffer> buffers,
                                    const PresentTarget* present, const char* what, bool wait);
-  /// Waits for `slot`'s submission if it is running, then unpins its entries (the cache lock is
-  /// taken unless `cacheLocked`), advances `completed` and destroys what waited for it.
+  /// Waits for `slot`'s submission if it is running and for the host's draws of a host-pass
+  /// frame, then unpins its entries (the cache lock is taken unless `cacheLocked`), advances
+  /// `completed` and destroys what waited for it.
   formats::Result<void> finish(FrameSlot& slot, bool cacheLocked);
-  /// Waits for the oldest running slot (the cache lock held by the caller): false when none runs.
+  /// Waits until the host's submissions have signalled `value` on hostTimeline; DeviceError
+  /// after kSubmitTimeoutNanoseconds (a frame drawn into a host's pass that was never submitted
+  /// with its signal).
+  formats::Result<void> waitForHost(std::uint64_t value);
+  /// Waits for the oldest running slot, offscreen frames first, then frames in hosts' passes
+  /// (the cache lock held by the caller): false when none runs.
   bool finishOldestLocked();
   /// Reads the slot's draw timestamps (1, 2) and, with `withUploads`, its upload timestamps
   /// (0, 3) into `stats`.
   void readTimestamps(const FrameSlot& slot, bool withUploads, FrameStats& stats) const;
   /// The camera's viewport must be the renderer's size.
   formats::Result<void> checkViewport(const runtime::Camera& camera) const;
-  /// The slot the next frame takes, or InvalidArgument when it has not been collected.
+  /// The slot the next frame takes (a host-pass frame it held is waited for), or
+  /// InvalidArgument when it has not been collected.
   formats::Result<FrameSlot*> freeSlot();
   /// Takes the pending slot off the queue and returns its frame (pixels read back if asked).
   formats::Result<RenderedFrame> collectOldest();

@@ -141,7 +141,11 @@ double Camera::screenError(double errorMeters, const glm::dvec3& centre,
   return errorMeters * pixelScale_ / distance;
 }
 
-glm::mat4 Camera::viewRotation() const noexcept {
+glm::mat4 Camera::viewRotation() const noexcept { return glm::mat4(viewRotationDouble()); }
+
+glm::mat4 Camera::projection() const noexcept { return glm::mat4(projectionDouble()); }
+
+glm::dmat4 Camera::viewRotationDouble() const noexcept {
   // Rows: right, up, −forward (columns of the transpose in glm's column-major storage).
   glm::dmat4 m(1.0);
   for (int c = 0; c < 3; ++c) {
@@ -149,10 +153,10 @@ glm::mat4 Camera::viewRotation() const noexcept {
     m[c][1] = up_[c];
     m[c][2] = -forward_[c];
   }
-  return glm::mat4(m);
+  return m;
 }
 
-glm::mat4 Camera::projection() const noexcept {
+glm::dmat4 Camera::projectionDouble() const noexcept {
   const double aspect =
       static_cast<double>(viewport_.width) / static_cast<double>(viewport_.height);
   const double f = 2.0 * pixelScale_ / static_cast<double>(viewport_.height);
@@ -161,7 +165,7 @@ glm::mat4 Camera::projection() const noexcept {
   m[1][1] = -f;  // Vulkan clip space has y down
   m[2][3] = -1.0;
   m[3][2] = nearMeters_;  // depth = near / −z_view: 1 at the near plane, 0 at infinity
-  return glm::mat4(m);
+  return m;
 }
 
 }  // namespace pbdam::runtime

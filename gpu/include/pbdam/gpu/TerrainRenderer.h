@@ -22,6 +22,7 @@
 
 #include "pbdam/formats/Result.h"
 #include "pbdam/gpu/GpuCache.h"
+#include "pbdam/gpu/HostPass.h"
 #include "pbdam/gpu/OffscreenTarget.h"
 #include "pbdam/gpu/RgbaImage.h"
 #include "pbdam/runtime/Camera.h"
@@ -119,6 +120,18 @@ struct RenderedFrame final {
   FrameStats stats;
 };
 
+/// A frame drawn into a host's pass (TerrainRenderer::drawInto): the host's submission of the
+/// command buffer must signal `semaphore` (a timeline semaphore the renderer owns) with
+/// `signalValue`, so that the renderer knows when the draws are done and may reuse their slot
+/// and cache entries.
+struct HostFrame final {
+  VkSemaphore semaphore = VK_NULL_HANDLE;
+  std::uint64_t signalValue = 0;
+  /// The cut's patches, triangles and tiles, decode time, cache hits, misses, evictions and
+  /// bytes uploaded; no device timings (the host submits the draws).
+  FrameStats stats;
+};
+
 /// Draws cuts of one dataset. Move-only. The VulkanContext and the DatasetView (and the bytes
 /// under it) must outlive the renderer.
 ///
@@ -175,6 +188,23 @@ class TerrainRenderer final {
   /// added.
   formats::Result<void> submit(const runtime::Cut& cut, const runtime::Camera& camera,
                                const FrameSettings& settings = {});
+  /// Draws `cut` into the host's rendering: `cmd` is the host's primary command buffer, recording,
+  /// inside a render pass or dynamic rendering that matches `pass` (one colour and one depth
+  /// attachment; the viewport the camera's, at the origin). Misses are decoded and their uploads
+  /// submitted on the context's queue now, so the host must submit `cmd` on that queue, after
+  /// this call, through VulkanContext::submit, signalling the returned semaphore value; until
+  /// then the frame's slot (one of framesInFlight()) and cache entries stay taken. The draws
+  /// bind the patch pipeline for `pass` (made on first use of each distinct pass), the records,
+  /// tile pages and overlay sets, viewport and scissor: the host rebinds its own state after.
+  /// With DepthConvention::ReversedZ, a colour attachment cleared as settings.clearRgb and depth
+  /// cleared to 0, the pixels equal render()'s for the same cut and camera. Errors:
+  /// InvalidArgument while offscreen frames are pending, for settings.present or a cut that
+  /// does not fit the cache's budget in one pass (the message names both), for a camera of
+  /// another size; the others as submit(). After an error nothing was recorded into `cmd`.
+  formats::Result<HostFrame> drawInto(VkCommandBuffer cmd, const HostPass& pass,
+                                      const runtime::Cut& cut, const runtime::Camera& camera,
+                                      const FrameSettings& settings = {});
+
   /// Waits for the oldest pending frame and returns it (its image empty when it was submitted
   /// without readback; its stats with the device's timings). InvalidArgument when none is
   /// pending, DeviceError for Vulkan failures.

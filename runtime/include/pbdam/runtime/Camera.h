@@ -82,9 +82,15 @@ class Camera final {
   Camera withFrustumMargin(double marginDegrees) const noexcept;
 
   /// World-to-view rotation for camera-relative positions (view looks along −z, y up), and the
-  /// infinite reversed-Z Vulkan projection (depth 1 at the near plane, → 0 at infinity, y down).
+  /// infinite reversed-Z Vulkan projection (depth 1 at the near plane, → 0 at infinity, y down):
+  /// the float matrices the terrain's shaders take.
   glm::mat4 viewRotation() const noexcept;
   glm::mat4 projection() const noexcept;
+  /// The same two in double precision, from which the float ones are rounded: what a host that
+  /// draws its own objects beside the terrain composes with its positions relative to
+  /// position() (docs/embedding.md "Drawing into your own pass").
+  glm::dmat4 viewRotationDouble() const noexcept;
+  glm::dmat4 projectionDouble() const noexcept;
   double nearMeters() const noexcept { return nearMeters_; }
   /// Sets the near plane (default 0.1 m; reversed-Z float depth keeps precision far away).
   void setNearMeters(double nearMeters) noexcept;
