@@ -6,8 +6,9 @@
 #                                on lavapipe, the built-in default data, ffmpeg
 #   scripts/preflight.sh test    all of that, and what the test suite runs: xvfb-run and xauth
 #                                (pbdam fly), chromium and node (the browser test), mpirun, clang
-#                                and libFuzzer (the fuzzers), curl and GDAL's tools, the shared
-#                                data ($PBDAM_DATA_DIR, default ../shared/data)
+#                                and libFuzzer (the fuzzers), curl and GDAL's tools, doxygen (the
+#                                API reference), the shared data ($PBDAM_DATA_DIR, default
+#                                ../shared/data)
 #   scripts/preflight.sh --list MODE   the commands MODE needs, one a line
 # Exit status 0 when everything is there, 1 (after naming each missing thing) otherwise. The
 # shared data is the exception outside CI: its absence is reported and the tests that read it
@@ -45,6 +46,7 @@ test_commands=(
   "gdal_translate gdal-bin the GeoTIFF tests"
   "gdalinfo gdal-bin the README's examples and the install test"
   "gdalsrsinfo gdal-bin the README's examples"
+  "doxygen doxygen the API reference's test (api_reference)"
 )
 # file  package  what needs it
 main_files=(

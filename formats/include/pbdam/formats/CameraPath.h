@@ -16,14 +16,15 @@ namespace pbdam::formats {
 
 /// One row of a camera path.
 struct CameraPathPoint final {
-  double tSeconds = 0.0;
-  double latDegrees = 0.0;
-  double lonDegrees = 0.0;
-  double altitudeMeters = 0.0;
-  double headingDegrees = 0.0;
-  double pitchDegrees = -90.0;
-  double rollDegrees = 0.0;
+  double tSeconds = 0.0;        ///< t: time of the pose from the path's start
+  double latDegrees = 0.0;      ///< lat
+  double lonDegrees = 0.0;      ///< lon
+  double altitudeMeters = 0.0;  ///< alt: above the reference surface
+  double headingDegrees = 0.0;  ///< heading: clockwise from north
+  double pitchDegrees = -90.0;  ///< pitch: up from the horizon (−90 looks straight down)
+  double rollDegrees = 0.0;     ///< roll: clockwise about the view direction
 
+  /// Field by field.
   friend bool operator==(const CameraPathPoint&, const CameraPathPoint&) = default;
 };
 

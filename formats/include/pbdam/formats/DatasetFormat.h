@@ -24,9 +24,13 @@
 
 namespace pbdam::formats {
 
+/// The face-file version this build writes and reads (FaceHeader::version); others are refused.
 inline constexpr std::uint32_t kDatasetFormatVersion = 4;
+/// Bytes of a face file's header, at offset 0.
 inline constexpr std::size_t kFaceHeaderBytes = 128;
+/// Bytes of one node-table record (NodeRecord).
 inline constexpr std::size_t kNodeRecordBytes = 192;
+/// Bytes of one texture-table record (TextureRecord).
 inline constexpr std::size_t kTextureRecordBytes = 32;
 /// Deepest bintree level a face file may declare (heap indices below 2^(depth+1)).
 inline constexpr std::uint32_t kMaxBintreeDepth = 40;
@@ -37,23 +41,23 @@ inline constexpr std::uint32_t kRecordLeaf = 1;
 
 /// The header of one face file.
 struct FaceHeader final {
-  std::uint32_t version = kDatasetFormatVersion;
-  std::uint32_t face = 0;           ///< 0..5 (runtime/CubeMap.h)
-  std::uint32_t latticeCells = 0;   ///< N: lattice cells per face side
-  std::uint32_t leafCells = 0;      ///< L: leaf leg length in cells
-  std::uint32_t depth = 0;          ///< D: deepest bintree level (the deepest leaves)
-  std::uint32_t textureLevels = 0;  ///< quadtree levels 0 .. textureLevels−1
-  std::uint32_t textureTileTexels = 0;
-  std::uint32_t textureBorderTexels = 0;
+  std::uint32_t version = kDatasetFormatVersion;  ///< kDatasetFormatVersion
+  std::uint32_t face = 0;                         ///< 0..5 (runtime/CubeMap.h)
+  std::uint32_t latticeCells = 0;                 ///< N: lattice cells per face side
+  std::uint32_t leafCells = 0;                    ///< L: leaf leg length in cells
+  std::uint32_t depth = 0;                        ///< D: deepest bintree level (the deepest leaves)
+  std::uint32_t textureLevels = 0;                ///< quadtree levels 0 .. textureLevels−1
+  std::uint32_t textureTileTexels = 0;            ///< texels on a tile's side, its border included
+  std::uint32_t textureBorderTexels = 0;          ///< texels of border on each side of a tile
   std::uint64_t nodeCount = 0;  ///< records of both trees (2 · (2^(D+1) − 1) when complete)
-  std::uint64_t nodeTableOffset = 0;
-  std::uint64_t textureNodeCount = 0;  ///< tiles ((4^textureLevels − 1) / 3 when complete)
-  std::uint64_t textureTableOffset = 0;
-  std::uint64_t blobsOffset = 0;
-  std::uint64_t fileBytes = 0;
-  std::uint32_t nodeTableCrc = 0;
-  std::uint32_t textureTableCrc = 0;
-  std::uint64_t tree1FirstNode = 0;  ///< table index of tree 1's root (tree 0's node count)
+  std::uint64_t nodeTableOffset = 0;     ///< byte offset of the node table (128, after the header)
+  std::uint64_t textureNodeCount = 0;    ///< tiles ((4^textureLevels − 1) / 3 when complete)
+  std::uint64_t textureTableOffset = 0;  ///< byte offset of the texture table
+  std::uint64_t blobsOffset = 0;         ///< byte offset of the first blob (page-aligned)
+  std::uint64_t fileBytes = 0;           ///< the file's size; must equal it
+  std::uint32_t nodeTableCrc = 0;        ///< CRC-32 of the node table
+  std::uint32_t textureTableCrc = 0;     ///< CRC-32 of the texture table
+  std::uint64_t tree1FirstNode = 0;      ///< table index of tree 1's root (tree 0's node count)
 };
 
 /// One bintree node: corners, bounding sphere, errors, and where its patch blob is.
@@ -61,17 +65,17 @@ struct NodeRecord final {
   std::array<double, 9> cornerPositions{};  ///< P0 (apex), P1 (left), P2 (right), planetocentric m
   std::array<float, 9> cornerNormals{};     ///< N0, N1, N2 (unit surface normals)
   std::array<double, 3> sphereCenter{};     ///< saturated: shared by diamond partners, nested
-  float sphereRadiusMeters = 0.0f;
-  float errorMeters = 0.0f;          ///< saturated object-space error
-  float measuredErrorMeters = 0.0f;  ///< the patch's own measured error
-  float minHeightMeters = 0.0f;      ///< of its vertices
-  float maxHeightMeters = 0.0f;
-  std::uint64_t blobOffset = 0;  ///< from the start of the file
-  std::uint32_t blobBytes = 0;
-  std::uint32_t vertexCount = 0;
-  std::uint32_t triangleCount = 0;
-  std::uint32_t flags = 0;      ///< kRecordLeaf
-  std::uint64_t heapIndex = 0;  ///< within its tree
+  float sphereRadiusMeters = 0.0f;          ///< the bounding sphere's radius, rounded up
+  float errorMeters = 0.0f;                 ///< saturated object-space error
+  float measuredErrorMeters = 0.0f;         ///< the patch's own measured error
+  float minHeightMeters = 0.0f;             ///< of its vertices
+  float maxHeightMeters = 0.0f;             ///< of its vertices
+  std::uint64_t blobOffset = 0;             ///< from the start of the file
+  std::uint32_t blobBytes = 0;              ///< bytes of the patch blob (PatchCodec.h)
+  std::uint32_t vertexCount = 0;            ///< vertices of the patch
+  std::uint32_t triangleCount = 0;          ///< triangles of the patch
+  std::uint32_t flags = 0;                  ///< kRecordLeaf
+  std::uint64_t heapIndex = 0;              ///< within its tree
   /// Of a leaf of a dataset with insets: the sources its stored error was measured against,
   /// bit 0 the base DEM, bit 1 + i the manifest's inset i; 0 otherwise.
   std::uint32_t sources = 0;
@@ -80,26 +84,30 @@ struct NodeRecord final {
   std::uint32_t morphBytes = 0;
   /// The bytes of its patch blob and morph-target blob together (adjacent in the file).
   std::uint64_t blobsBytes() const noexcept { return std::uint64_t{blobBytes} + morphBytes; }
+  /// Whether the node has no children (kRecordLeaf).
   bool leaf() const noexcept { return (flags & kRecordLeaf) != 0; }
 };
 
 /// One texture quadtree node: its tile blob and its texture error.
 struct TextureRecord final {
-  std::uint64_t blobOffset = 0;
-  std::uint32_t blobBytes = 0;
-  float errorMeters = 0.0f;     ///< largest texel footprint on the ground
-  std::uint64_t heapIndex = 0;  ///< textureHeapIndex(level, qi, qj)
-  std::uint32_t flags = 0;      ///< kRecordLeaf
+  std::uint64_t blobOffset = 0;  ///< of the tile blob, from the start of the file
+  std::uint32_t blobBytes = 0;   ///< bytes of the tile blob (TextureTile.h)
+  float errorMeters = 0.0f;      ///< largest texel footprint on the ground
+  std::uint64_t heapIndex = 0;   ///< textureHeapIndex(level, qi, qj)
+  std::uint32_t flags = 0;       ///< kRecordLeaf
+  /// Whether the tile has no children (kRecordLeaf).
   bool leaf() const noexcept { return (flags & kRecordLeaf) != 0; }
 };
 
 /// Serialises into exactly k*Bytes bytes (the header's own CRC is computed here).
+/// @{
 void encodeFaceHeader(const FaceHeader& header,
                       std::span<std::byte, kFaceHeaderBytes> out) noexcept;
 void encodeNodeRecord(const NodeRecord& record,
                       std::span<std::byte, kNodeRecordBytes> out) noexcept;
 void encodeTextureRecord(const TextureRecord& record,
                          std::span<std::byte, kTextureRecordBytes> out) noexcept;
+/// @}
 
 /// Decodes a header: magic, version, CRC, and internal consistency (counts within what the depth
 /// and texture levels allow, tables and blobs lie in order inside `fileBytes`). `context` names
@@ -109,12 +117,16 @@ Result<FaceHeader> decodeFaceHeader(std::span<const std::byte> bytes, std::strin
 /// fewer, `fileBytes` the file's size).
 Result<FaceHeader> decodeFaceHeader(std::span<const std::byte> bytes, std::uint64_t fileBytes,
                                     std::string_view context);
+/// Decodes a table record as it is, without checks: the table's CRC and the trees' shape are
+/// checked as a whole when a file opens (FaceView::open).
+/// @{
 NodeRecord decodeNodeRecord(std::span<const std::byte, kNodeRecordBytes> bytes) noexcept;
 TextureRecord decodeTextureRecord(std::span<const std::byte, kTextureRecordBytes> bytes) noexcept;
+/// @}
 
 /// A node's patch blob and its morph-target blob, read together (they are adjacent in the file).
 struct PatchBlobs final {
-  std::span<const std::byte> patch;
+  std::span<const std::byte> patch;  ///< the patch blob (PatchCodec.h)
   std::span<const std::byte> morph;  ///< empty when the node has none
 };
 
@@ -152,7 +164,9 @@ class FaceView final {
   static Result<FaceView> open(std::span<const std::byte> file, std::string context,
                                const FaceViewOptions& options = {});
 
+  /// The file's header, as checked at open.
   const FaceHeader& header() const noexcept { return header_; }
+  /// The name of the file in error messages (open's `context`).
   const std::string& context() const noexcept { return context_; }
   /// Whether both bintrees are complete to the header's depth (every leaf at depth D).
   bool completeForest() const noexcept;
@@ -164,6 +178,8 @@ class FaceView final {
   std::optional<std::uint64_t> findNode(std::uint32_t tree, std::uint64_t heapIndex) const noexcept;
   /// Node `heapIndex` of tree `tree` (0 or 1); the node must exist (findNode).
   NodeRecord node(std::uint32_t tree, std::uint64_t heapIndex) const noexcept;
+  /// The node at row `tableIndex` of the node table (below header().nodeCount); an empty leaf
+  /// once a paged table has failed to read back (damage()).
   NodeRecord nodeAt(std::uint64_t tableIndex) const noexcept;
   /// Table index of the first child of the node at `tableIndex` (the second follows it); the
   /// node must not be a leaf.
@@ -197,6 +213,7 @@ class FaceView final {
   Result<PatchBlobs> readPatchBlobs(const NodeRecord& node, std::vector<std::byte>& buffer) const;
   /// Tile `heapIndex`; the tile must exist (findTexture).
   TextureRecord textureNode(std::uint64_t heapIndex) const noexcept;
+  /// The tile at row `tableIndex` of the texture table (below header().textureNodeCount).
   TextureRecord textureAt(std::uint64_t tableIndex) const noexcept;
   /// The same for a tile blob.
   Result<std::span<const std::byte>> readTextureBlob(const TextureRecord& record,

@@ -22,12 +22,12 @@ enum class RawSampleType { UInt8, Int16, UInt16, Int32, UInt32, Float32, Float64
 
 /// How a headerless raw grid is laid out: rows north to south, no padding after `headerBytes`.
 struct RawLayout final {
-  std::int64_t width = 0;
-  std::int64_t height = 0;
-  RawSampleType type = RawSampleType::Int16;
-  bool bigEndian = false;
-  LatLonBounds bounds;           ///< area bounds of the whole grid (pixel-is-area)
-  std::int64_t headerBytes = 0;  ///< bytes to skip before the first sample
+  std::int64_t width = 0;                     ///< samples per row
+  std::int64_t height = 0;                    ///< rows
+  RawSampleType type = RawSampleType::Int16;  ///< each sample's type
+  bool bigEndian = false;                     ///< byte order of multi-byte samples
+  LatLonBounds bounds;                        ///< area bounds of the whole grid (pixel-is-area)
+  std::int64_t headerBytes = 0;               ///< bytes to skip before the first sample
 };
 
 /// Parses a raw type name: uint8, int16be, int16le, uint16be, uint16le, int32be, int32le,
@@ -35,8 +35,10 @@ struct RawLayout final {
 Result<RawLayout> parseRawType(std::string_view name);
 
 /// Parses "W,H" into the layout's size and "S,W,N,E" into its bounds; checks them.
+/// @{
 Result<void> parseRawSize(std::string_view text, RawLayout& layout);
 Result<void> parseRawBounds(std::string_view text, RawLayout& layout);
+/// @}
 
 /// Options for readDem.
 struct DemReadOptions final {
@@ -50,6 +52,7 @@ struct DemReadOptions final {
   /// only the pages it touches (HeightGrid::releaseResident drops those). Where no such file
   /// can be made (a full disk, no unnamed-file support), the grid is read into memory instead.
   std::filesystem::path scratchDirectory;
+  /// The heights' size in bytes from which a grid is mapped (with `scratchDirectory`).
   std::uint64_t mapAtBytes = std::uint64_t{256} << 20;
 };
 

@@ -31,9 +31,9 @@ Result<std::vector<std::filesystem::path>> expandDemSet(const std::filesystem::p
 
 /// A tile as GDAL describes it, without its heights.
 struct DemTileProbe final {
-  std::filesystem::path path;
-  std::int64_t width = 0;
-  std::int64_t height = 0;
+  std::filesystem::path path;  ///< the tile's file
+  std::int64_t width = 0;      ///< columns
+  std::int64_t height = 0;     ///< rows
   /// GDAL's geotransform in the tile's own CRS: x0, dx, rx, y0, ry, dy.
   std::array<double, 6> geoTransform{};
   std::string crsWkt;  ///< the CRS as WKT, empty when the file has none

@@ -16,14 +16,16 @@
 
 namespace pbdam::formats {
 
+/// A single-band byte raster to write as GeoTIFF (encodeByteGeoTiff): its cells, where they
+/// lie, and how GIS tools should show them.
 struct ByteRaster final {
-  int width = 0;
-  int height = 0;
+  int width = 0;                        ///< columns
+  int height = 0;                       ///< rows
   std::span<const std::uint8_t> cells;  ///< width·height, row-major, row 0 at the top
   /// GDAL's: x = gt[0] + col·gt[1] + row·gt[2], y = gt[3] + col·gt[4] + row·gt[5] (cell corners).
   std::array<double, 6> geoTransform{0.0, 1.0, 0.0, 0.0, 0.0, -1.0};
-  std::string srsWkt;
-  std::optional<std::uint8_t> noData;
+  std::string srsWkt;                  ///< the CRS as WKT; empty writes none
+  std::optional<std::uint8_t> noData;  ///< the value that means "no data", if any
   /// Colour table entries (value, RGBA); values not listed are transparent black.
   std::vector<std::pair<std::uint8_t, std::array<std::uint8_t, 4>>> colours;
   /// Dataset metadata items (name, value).

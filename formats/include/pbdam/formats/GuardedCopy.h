@@ -23,8 +23,8 @@ namespace pbdam::formats {
 /// Where a guarded copy stopped: the first unreadable byte, as an offset from the copy's source,
 /// and the signal that reported it (SIGBUS or SIGSEGV).
 struct CopyFault final {
-  std::size_t offset = 0;
-  int signalNumber = 0;
+  std::size_t offset = 0;  ///< bytes from the copy's source to the first unreadable one
+  int signalNumber = 0;    ///< SIGBUS or SIGSEGV
 };
 
 /// Installs the fault handlers once per process (later calls do nothing); the previous
@@ -55,9 +55,12 @@ void reportUnreadableMappingsAndExit(int exitCode) noexcept;
 
 /// Registers `bytes` bytes at `begin`, a mapping of `file`, for the report above; returns a
 /// slot to pass to unregisterMappedRange (or -1 when every slot is taken: such a range is not
-/// reported). MemoryMapping calls these; nobody else needs to.
+/// reported); unregisterMappedRange frees the slot. MemoryMapping calls these; nobody else
+/// needs to.
+/// @{
 int registerMappedRange(const std::byte* begin, std::size_t bytes, std::string_view file) noexcept;
 void unregisterMappedRange(int slot) noexcept;
+/// @}
 
 /// Copies bytes [offset, offset + out.size()) of `mapped` (a whole file's mapping, or bytes in
 /// memory) into `out` through guardedCopy. Errors, naming `file` and the offset: CorruptData

@@ -33,10 +33,10 @@ struct GridGeometry final {
 
 /// Area bounds in degrees: south ≤ north, west < east (east may exceed 180 or 360).
 struct LatLonBounds final {
-  double southDegrees = 0.0;
-  double westDegrees = 0.0;
-  double northDegrees = 0.0;
-  double eastDegrees = 0.0;
+  double southDegrees = 0.0;  ///< latitude of the south edge
+  double westDegrees = 0.0;   ///< longitude of the west edge
+  double northDegrees = 0.0;  ///< latitude of the north edge
+  double eastDegrees = 0.0;   ///< longitude of the east edge
 };
 
 /// Descriptive facts about where a grid came from.
@@ -56,15 +56,15 @@ struct GridSource final {
 
 /// Extremes and mean of the valid samples, with where the extremes are.
 struct GridStats final {
-  double minMeters = 0.0;
-  double minLatDegrees = 0.0;
-  double minLonDegrees = 0.0;
-  double maxMeters = 0.0;
-  double maxLatDegrees = 0.0;
-  double maxLonDegrees = 0.0;
-  double meanMeters = 0.0;
-  std::int64_t validCount = 0;
-  std::int64_t noDataCount = 0;
+  double minMeters = 0.0;        ///< the lowest valid height
+  double minLatDegrees = 0.0;    ///< latitude of the lowest sample's centre
+  double minLonDegrees = 0.0;    ///< longitude of the lowest sample's centre
+  double maxMeters = 0.0;        ///< the highest valid height
+  double maxLatDegrees = 0.0;    ///< latitude of the highest sample's centre
+  double maxLonDegrees = 0.0;    ///< longitude of the highest sample's centre
+  double meanMeters = 0.0;       ///< mean of the valid heights
+  std::int64_t validCount = 0;   ///< samples with a height
+  std::int64_t noDataCount = 0;  ///< nodata (NaN) samples
 };
 
 /// A regular lat/lon grid of heights in metres; nodata samples are NaN.
@@ -87,13 +87,18 @@ class HeightGrid final {
     return copy;
   }
 
+  /// Where the samples are.
   const GridGeometry& geometry() const noexcept { return geometry_; }
+  /// Where the grid came from.
   const GridSource& source() const noexcept { return source_; }
+  /// Columns (samples west to east).
   std::int64_t width() const noexcept { return geometry_.width; }
+  /// Rows (samples north to south).
   std::int64_t height() const noexcept { return geometry_.height; }
 
   /// The stored height of (row, col) in metres, NaN for nodata. Indices must be in range.
   float at(std::int64_t row, std::int64_t col) const noexcept;
+  /// All heights in metres, row-major from the north row, NaN for nodata.
   std::span<const float> heightsMeters() const noexcept { return heights_; }
 
   /// True when the heights are a mapped file rather than process memory.
@@ -103,7 +108,9 @@ class HeightGrid final {
   /// leave it in the process's RSS. No effect on heights held in memory. Thread-safe.
   void releaseResident() const noexcept;
 
+  /// Latitude of the centre of row `row`.
   double latOfRowDegrees(std::int64_t row) const noexcept;
+  /// Longitude of the centre of column `col` (in the grid's own range, not wrapped).
   double lonOfColumnDegrees(std::int64_t col) const noexcept;
 
   /// True when the columns cover the full 360° of longitude (sampling then wraps the seam).

@@ -21,14 +21,20 @@ namespace pbdam::formats {
 class GeoImage final {
  public:
   GeoImage() = default;
+  /// Takes `rgba` (width·height·4 bytes, row 0 north) covering `bounds`; `georeferenced` says
+  /// whether the bounds came from the file (georeferenced()).
   GeoImage(std::int64_t width, std::int64_t height, std::vector<std::uint8_t> rgba,
            LatLonBounds bounds, bool georeferenced);
 
+  /// Columns (pixels west to east).
   std::int64_t width() const noexcept { return width_; }
+  /// Rows (pixels north to south).
   std::int64_t height() const noexcept { return height_; }
+  /// The area the image covers.
   const LatLonBounds& bounds() const noexcept { return bounds_; }
   /// True when the bounds came from the file's georeference rather than the global default.
   bool georeferenced() const noexcept { return georeferenced_; }
+  /// The pixels, RGBA8, row-major from the north row.
   const std::vector<std::uint8_t>& rgba() const noexcept { return rgba_; }
 
   /// The RGBA of the pixel in column x of row y (row 0 at the top), the argument order of every

@@ -18,17 +18,17 @@ namespace pbdam::formats {
 
 /// Pixels of 8-bit channels, `channels` bytes a pixel, rows top to bottom, tightly packed.
 struct Pixels8 final {
-  std::int64_t width = 0;
-  std::int64_t height = 0;
-  int channels = 0;
-  std::vector<std::uint8_t> bytes;
+  std::int64_t width = 0;           ///< pixels a row
+  std::int64_t height = 0;          ///< rows
+  int channels = 0;                 ///< 1 to 4
+  std::vector<std::uint8_t> bytes;  ///< width·height·channels
 };
 
 /// RGBA8 pixels to encode (not owned): 4 bytes a pixel, rows top to bottom, tightly packed.
 struct RgbaPixels final {
-  const std::uint8_t* rgba = nullptr;
-  std::uint32_t width = 0;
-  std::uint32_t height = 0;
+  const std::uint8_t* rgba = nullptr;  ///< width·height·4 bytes
+  std::uint32_t width = 0;             ///< pixels a row
+  std::uint32_t height = 0;            ///< rows
 };
 
 /// The module's functions. Their errors carry OpenImageIO's message; callers add the file name.

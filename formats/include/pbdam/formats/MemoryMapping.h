@@ -18,12 +18,19 @@ namespace pbdam::formats {
 /// The access pattern the kernel should assume for a mapping.
 enum class MappingAdvice { Normal, Random, Sequential };
 
+/// A file mapped into memory (mmap), unmapped when the owner goes: read-only for a dataset's
+/// files, writable for the builder's outputs and scratch grids. Move-only; a moved-from mapping
+/// is empty. Reads that must survive a truncated file or a failing disk go through read() and
+/// touch() (guarded copies). Thread-safety: const members from any thread.
 class MemoryMapping final {
  public:
   MemoryMapping() = default;
   ~MemoryMapping();
+  /// Takes over `other`'s mapping, leaving it empty.
+  /// @{
   MemoryMapping(MemoryMapping&& other) noexcept;
   MemoryMapping& operator=(MemoryMapping&& other) noexcept;
+  /// @}
   MemoryMapping(const MemoryMapping&) = delete;
   MemoryMapping& operator=(const MemoryMapping&) = delete;
 
@@ -59,7 +66,9 @@ class MemoryMapping final {
   std::span<std::byte> writableBytes() const noexcept {
     return writable_ ? std::span<std::byte>(data_, size_) : std::span<std::byte>();
   }
+  /// Bytes mapped.
   std::size_t size() const noexcept { return size_; }
+  /// Whether the mapping is writable (create, createScratch).
   bool writable() const noexcept { return writable_; }
   /// The mapped file's path (the directory for a scratch mapping).
   const std::filesystem::path& path() const noexcept { return path_; }

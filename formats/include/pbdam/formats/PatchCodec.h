@@ -19,19 +19,22 @@ namespace pbdam::formats {
 /// heightStep metres; dataset format 2, formats/FORMAT.md).
 /// Valid vertices have b1 + b2 <= kPatchBarycentricOne.
 struct PatchVertex final {
-  std::uint16_t b1 = 0;
-  std::uint16_t b2 = 0;
-  std::int32_t heightSteps = 0;
+  std::uint16_t b1 = 0;          ///< weight of P1 (left), 2^-15 units
+  std::uint16_t b2 = 0;          ///< weight of P2 (right), 2^-15 units
+  std::int32_t heightSteps = 0;  ///< the lattice point's height in height steps
 
+  /// Field by field.
   friend bool operator==(const PatchVertex&, const PatchVertex&) = default;
 };
 
 /// A patch's TIN: vertices and a CCW triangle list of 16-bit indices (3 per triangle).
 struct PatchMesh final {
-  std::vector<PatchVertex> vertices;
-  std::vector<std::uint16_t> indices;
+  std::vector<PatchVertex> vertices;   ///< at most kMaxPatchVertices
+  std::vector<std::uint16_t> indices;  ///< three a triangle, counter-clockwise
 
+  /// Triangles of the mesh (indices / 3).
   std::size_t triangleCount() const noexcept { return indices.size() / 3; }
+  /// Vertices and indices equal, in order.
   friend bool operator==(const PatchMesh&, const PatchMesh&) = default;
 };
 
@@ -78,8 +81,8 @@ Result<void> decodePatch(std::span<const std::byte> blob, PatchMesh& out, std::s
 
 /// What a blob's header declares.
 struct PatchBlobInfo final {
-  std::uint32_t vertexCount = 0;
-  std::uint32_t triangleCount = 0;
+  std::uint32_t vertexCount = 0;      ///< vertices of the patch
+  std::uint32_t triangleCount = 0;    ///< triangles of the patch
   std::uint32_t compressedBytes = 0;  ///< size of the LZO block (blob size - header)
   std::uint32_t rawBytes = 0;         ///< size of the payload before compression
   std::uint32_t wideIndexCount = 0;   ///< index codes >= 15, stored as 16 bits (PatchBlob.md)

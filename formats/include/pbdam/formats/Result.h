@@ -7,6 +7,13 @@
 #include <utility>
 #include <variant>
 
+/// @namespace pbdam
+/// The library: four layers, one namespace each, each using only the ones before it — formats →
+/// runtime → streaming → gpu (docs/architecture.md "Modules").
+
+/// The formats layer: the dataset's file formats (manifest, face files, patches, texture tiles,
+/// void maps), DEM and image input, camera paths, checked file mappings and writes, and the
+/// Result type every fallible call of every layer returns. No Vulkan, no threads of its own.
 namespace pbdam::formats {
 
 /// What went wrong, coarsely, so callers can map it to an exit code or an HTTP status.
@@ -27,8 +34,8 @@ const char* errorCodeName(ErrorCode code) noexcept;
 /// An error: a code and a human-readable message that names what was wrong (file, offset,
 /// field). Messages are single lines without a trailing period.
 struct Error final {
-  ErrorCode code = ErrorCode::Internal;
-  std::string message;
+  ErrorCode code = ErrorCode::Internal;  ///< the kind of failure
+  std::string message;                   ///< what failed and where, one line
 };
 
 /// Either a T or an Error. Access the value only after checking ok(); doing otherwise is a
@@ -36,12 +43,19 @@ struct Error final {
 template <typename T>
 class [[nodiscard]] Result final {
  public:
-  Result(T value) : state_(std::in_place_index<0>, std::move(value)) {}      // NOLINT
+  /// A success holding `value` (implicit, so that a function can `return value;`).
+  Result(T value) : state_(std::in_place_index<0>, std::move(value)) {}  // NOLINT
+  /// A failure holding `error` (implicit, so that a function can `return error;`).
   Result(Error error) : state_(std::in_place_index<1>, std::move(error)) {}  // NOLINT
 
+  /// Whether it holds a value rather than an error.
+  /// @{
   bool ok() const noexcept { return state_.index() == 0; }
   explicit operator bool() const noexcept { return ok(); }
+  /// @}
 
+  /// The value; it must hold one (ok()).
+  /// @{
   T& value() & {
     assert(ok());
     return std::get<0>(state_);
@@ -58,7 +72,10 @@ class [[nodiscard]] Result final {
   const T* operator->() const { return &value(); }
   T& operator*() & { return value(); }
   const T& operator*() const& { return value(); }
+  /// @}
 
+  /// The error; it must hold one (not ok()).
+  /// @{
   const Error& error() const& {
     assert(!ok());
     return std::get<1>(state_);
@@ -67,6 +84,7 @@ class [[nodiscard]] Result final {
     assert(!ok());
     return std::get<1>(std::move(state_));
   }
+  /// @}
 
  private:
   std::variant<T, Error> state_;
@@ -76,10 +94,17 @@ class [[nodiscard]] Result final {
 template <>
 class [[nodiscard]] Result<void> final {
  public:
+  /// A success.
   Result() = default;
+  /// A failure holding `error` (implicit, so that a function can `return error;`).
   Result(Error error) : error_(std::move(error)), ok_(false) {}  // NOLINT
+  /// Whether it succeeded.
+  /// @{
   bool ok() const noexcept { return ok_; }
   explicit operator bool() const noexcept { return ok_; }
+  /// @}
+  /// The error; it must hold one (not ok()).
+  /// @{
   const Error& error() const& {
     assert(!ok_);
     return error_;
@@ -88,6 +113,7 @@ class [[nodiscard]] Result<void> final {
     assert(!ok_);
     return std::move(error_);
   }
+  /// @}
 
  private:
   Error error_;

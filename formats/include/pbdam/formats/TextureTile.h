@@ -35,11 +35,12 @@ inline constexpr std::uint32_t kMaxTextureTileTexels = 4096;
 /// `borderTexels` texels on each side lie beyond the tile's quadtree square (filtering border);
 /// the codec stores the number and checks 2·borderTexels < sizeTexels, nothing more.
 struct TextureTileImage final {
-  std::uint32_t sizeTexels = 0;
-  TexelFormat format = TexelFormat::Rgba8;
-  std::uint32_t borderTexels = 0;
-  std::vector<std::uint8_t> data;
+  std::uint32_t sizeTexels = 0;             ///< texels on a side, the border included
+  TexelFormat format = TexelFormat::Rgba8;  ///< how `data` holds the texels
+  std::uint32_t borderTexels = 0;           ///< texels of border on each side
+  std::vector<std::uint8_t> data;           ///< the texels, laid out as above
 
+  /// Field by field, the texel bytes included.
   friend bool operator==(const TextureTileImage&, const TextureTileImage&) = default;
 };
 

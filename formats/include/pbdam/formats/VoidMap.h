@@ -28,23 +28,25 @@ enum class VoidKind : std::uint32_t {
 
 /// Consecutive void samples along one row of a surface's grid.
 struct VoidRun final {
-  std::uint32_t row = 0;
-  std::uint32_t column = 0;  ///< the first
-  std::uint32_t length = 0;  ///< ≥ 1
-  VoidKind kind = VoidKind::FilledFromRim;
+  std::uint32_t row = 0;                    ///< row 0 north
+  std::uint32_t column = 0;                 ///< the first
+  std::uint32_t length = 0;                 ///< ≥ 1
+  VoidKind kind = VoidKind::FilledFromRim;  ///< what its samples became
+  /// Field by field.
   bool operator==(const VoidRun&) const = default;
 };
 
 /// One inset surface's voids on its grid (GridGeometry's conventions: row 0 north, sample
 /// centres at firstLat − row·latSpacing, firstLon + col·lonSpacing).
 struct VoidGrid final {
-  double firstLatDegrees = 0.0;
-  double firstLonDegrees = 0.0;
-  double latSpacingDegrees = 0.0;
-  double lonSpacingDegrees = 0.0;
-  std::uint32_t width = 0;
-  std::uint32_t height = 0;
-  std::vector<VoidRun> runs;  ///< sorted by (row, column), not overlapping
+  double firstLatDegrees = 0.0;    ///< latitude of the centre of row 0
+  double firstLonDegrees = 0.0;    ///< longitude of the centre of column 0
+  double latSpacingDegrees = 0.0;  ///< between rows, > 0
+  double lonSpacingDegrees = 0.0;  ///< between columns, > 0
+  std::uint32_t width = 0;         ///< columns
+  std::uint32_t height = 0;        ///< rows
+  std::vector<VoidRun> runs;       ///< sorted by (row, column), not overlapping
+  /// Field by field, the runs included.
   bool operator==(const VoidGrid&) const = default;
 
   /// What the sample nearest (lat, lon) was, if it was a void's; nullopt outside the grid or
@@ -52,8 +54,11 @@ struct VoidGrid final {
   std::optional<VoidKind> at(double latDegrees, double lonDegrees) const noexcept;
 };
 
+/// The contents of a dataset's voids.bin: for each inset surface, where its voids were and what
+/// they became (docs/builder.md "Insets").
 struct VoidMap final {
   std::vector<VoidGrid> surfaces;  ///< the manifest's insets, in its order
+  /// Surface by surface.
   bool operator==(const VoidMap&) const = default;
 };
 

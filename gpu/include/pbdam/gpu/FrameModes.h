@@ -47,10 +47,12 @@ formats::Result<bool> parseOnOff(std::string_view option, std::string_view spell
 
 /// The command line's spelling of each value ("paging", "no-stall", "cpu", "gpu", "readback",
 /// "indirect", "off", "on", "both"): what frames.csv and summary.json write.
+/// @{
 const char* toString(StreamingMode mode) noexcept;
 const char* toString(CutSelection selection) noexcept;
 const char* toString(DrawList draws) noexcept;
 const char* toString(RunChoice choice) noexcept;
+/// @}
 /// "on" or "off".
 const char* onOff(bool on) noexcept;
 

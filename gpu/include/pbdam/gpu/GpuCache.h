@@ -33,21 +33,23 @@ struct GpuCacheOptions final {
 
 /// What a cache holds now, and how often renderers waited for room.
 struct GpuCacheStats final {
-  std::uint64_t budgetBytes = 0;
-  std::uint64_t residentBytes = 0;  ///< slot bytes resident
-  std::uint64_t pinnedBytes = 0;    ///< slot bytes pinned by passes in flight
-  std::uint64_t poolBytes = 0;      ///< device memory the pools hold (allocated capacity)
-  std::uint32_t residentPatches = 0;
-  std::uint32_t residentTiles = 0;
+  std::uint64_t budgetBytes = 0;      ///< GpuCacheOptions::budgetBytes
+  std::uint64_t residentBytes = 0;    ///< slot bytes resident
+  std::uint64_t pinnedBytes = 0;      ///< slot bytes pinned by passes in flight
+  std::uint64_t poolBytes = 0;        ///< device memory the pools hold (allocated capacity)
+  std::uint32_t residentPatches = 0;  ///< patches resident
+  std::uint32_t residentTiles = 0;    ///< texture tiles resident
   /// Passes that found the budget pinned by other renderers' passes in flight and waited for
   /// them to finish before making room.
   std::uint64_t waits = 0;
   /// Passes' reservations (from reserving their entries through their uploads, under the
   /// cache's lock), the milliseconds they spent waiting to take the lock (another renderer's
   /// pass held it), and the milliseconds they held it: how much the shared cache serialises.
+  /// @{
   std::uint64_t leases = 0;
   double lockWaitMs = 0.0;
   double lockHeldMs = 0.0;
+  /// @}
 };
 
 /// Created once per (VulkanContext, DatasetView); both must outlive it and every renderer that
@@ -77,19 +79,24 @@ class GpuCache final {
   GpuCache& operator=(const GpuCache&) = delete;
   ~GpuCache();
 
+  /// The budget it was made with (GpuCacheOptions::budgetBytes).
   std::uint64_t budgetBytes() const noexcept;
   /// Whether tiles are sampled as BC1 on the device (else RGBA8).
   bool usesBc1Textures() const noexcept;
+  /// What it holds now, and its waits and leases so far.
   GpuCacheStats stats() const;
   /// Whether the patch (the tile) is resident now, drawable without a decode. Until the
   /// caller's next pass through this cache plans its uploads it stays so, unless a pass of
   /// another renderer of the cache, or an earlier pass of the same frame (a cut larger than the
   /// budget), makes room in between.
+  /// @{
   bool holds(const runtime::NodeKey& patch) const;
   bool holds(const runtime::TileKey& tile) const;
+  /// @}
 
   /// The state behind the cache (gpu/src/GpuCacheState.h); only pbdam_gpu's sources see inside.
   struct State;
+  /// The state behind the cache, for pbdam_gpu's own sources.
   State& state() noexcept { return *state_; }
 
  private:

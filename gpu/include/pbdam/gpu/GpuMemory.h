@@ -38,15 +38,22 @@ enum class MemoryUse {
 class GpuBuffer final {
  public:
   GpuBuffer() noexcept = default;
+  /// Takes over `other`'s buffer and memory, leaving it empty.
+  /// @{
   GpuBuffer(GpuBuffer&& other) noexcept;
   GpuBuffer& operator=(GpuBuffer&& other) noexcept;
+  /// @}
   GpuBuffer(const GpuBuffer&) = delete;
   GpuBuffer& operator=(const GpuBuffer&) = delete;
   ~GpuBuffer() = default;  // members: the buffer is destroyed before its memory
 
+  /// The buffer (VK_NULL_HANDLE when empty); ownership stays here.
   VkBuffer buffer() const noexcept { return buffer_.get(); }
+  /// The memory bound to it; ownership stays here.
   VkDeviceMemory memory() const noexcept { return memory_.get(); }
+  /// The buffer's size.
   VkDeviceSize sizeBytes() const noexcept { return sizeBytes_; }
+  /// Whether it holds a buffer.
   explicit operator bool() const noexcept { return static_cast<bool>(buffer_); }
 
   /// The mapped bytes (sizeBytes() of them); empty unless the memory is host-visible.
@@ -81,12 +88,12 @@ formats::Result<GpuBuffer> createBuffer(const VulkanContext& context, VkDeviceSi
 /// What createImage2D makes: a single-mip, optimal-tiling 2D image, or a 2D array of
 /// `arrayLayers` layers (viewed as VK_IMAGE_VIEW_TYPE_2D_ARRAY when `arrayView` is set).
 struct ImageDesc final {
-  VkFormat format = VK_FORMAT_R8G8B8A8_UNORM;
-  uint32_t widthPixels = 0;
-  uint32_t heightPixels = 0;
-  VkImageUsageFlags usage = 0;
+  VkFormat format = VK_FORMAT_R8G8B8A8_UNORM;             ///< the texel format
+  uint32_t widthPixels = 0;                               ///< the image's size
+  uint32_t heightPixels = 0;                              ///< the image's size
+  VkImageUsageFlags usage = 0;                            ///< what it will be used for
   VkImageAspectFlags aspect = VK_IMAGE_ASPECT_COLOR_BIT;  ///< for the view
-  uint32_t arrayLayers = 1;
+  uint32_t arrayLayers = 1;                               ///< 1 for a plain 2D image
   bool arrayView = false;  ///< view type 2D_ARRAY (required for sampler2DArray)
 };
 
@@ -96,16 +103,24 @@ struct ImageDesc final {
 class GpuImage final {
  public:
   GpuImage() noexcept = default;
+  /// Takes over `other`'s image, view and memory, leaving it empty.
+  /// @{
   GpuImage(GpuImage&& other) noexcept;
   GpuImage& operator=(GpuImage&& other) noexcept;
+  /// @}
   GpuImage(const GpuImage&) = delete;
   GpuImage& operator=(const GpuImage&) = delete;
   ~GpuImage() = default;  // members: view, then image, then memory
 
+  /// The image (VK_NULL_HANDLE when empty); ownership stays here.
   VkImage image() const noexcept { return image_.get(); }
+  /// The view of the whole image; ownership stays here.
   VkImageView view() const noexcept { return view_.get(); }
+  /// What it was created as.
   const ImageDesc& desc() const noexcept { return desc_; }
+  /// Its size in pixels.
   VkExtent2D extent() const noexcept { return {desc_.widthPixels, desc_.heightPixels}; }
+  /// Whether it holds an image.
   explicit operator bool() const noexcept { return static_cast<bool>(image_); }
 
  private:

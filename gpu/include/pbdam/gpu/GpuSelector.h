@@ -26,6 +26,10 @@ namespace pbdam::gpu {
 
 class VulkanContext;
 
+/// runtime::CutSelector's cut made on the device: the dataset's node tables in a device
+/// buffer, the predicate, the closure and the drawn flags as compute passes, and the cut listed
+/// on the host from what they read back — bit for bit the host's on lavapipe. Move-only; used by
+/// one thread at a time; the context and the dataset must outlive it.
 class GpuSelector final {
  public:
   /// Uploads the node tables (64 bytes a node) and creates the passes. InvalidArgument when the
@@ -39,8 +43,11 @@ class GpuSelector final {
                                              std::uint64_t tableBudgetBytes = std::uint64_t{256}
                                                                               << 20,
                                              std::uint32_t groupsPerRow = 65535);
+  /// Takes over another selector, leaving it empty.
+  /// @{
   GpuSelector(GpuSelector&&) noexcept;
   GpuSelector& operator=(GpuSelector&&) noexcept;
+  /// @}
   GpuSelector(const GpuSelector&) = delete;
   GpuSelector& operator=(const GpuSelector&) = delete;
   ~GpuSelector();
@@ -57,11 +64,16 @@ class GpuSelector final {
   /// screen error) and screen errors stay on the device, in index() order. Errors as select().
   formats::Result<void> recordSelection(VkCommandBuffer cmd, const runtime::Camera& camera,
                                         const runtime::SelectionOptions& selection);
+  /// The dataset's nodes in the order of the device's tables.
   const runtime::DiamondIndex& index() const noexcept;
   /// The row width of its dispatches (create's `groupsPerRow`).
   std::uint32_t groupsPerRow() const noexcept;
+  /// The device buffers recordSelection() leaves its screen errors and node states in (index()
+  /// order).
+  /// @{
   const GpuBuffer& screenErrors() const noexcept;
   const GpuBuffer& nodeStates() const noexcept;
+  /// @}
 
  private:
   struct Impl;

@@ -16,8 +16,9 @@ namespace pbdam::gpu {
 
 class VulkanContext;
 
+/// Whether a segment is clear of a mesh, and where it first crosses it.
 struct SightlineResult final {
-  bool visible = true;
+  bool visible = true;           ///< no triangle crosses the segment
   std::uint64_t crossings = 0;   ///< triangles the segment crosses
   double nearestFraction = 1.0;  ///< of the segment, to the first crossing (1 when visible)
 };
@@ -34,18 +35,21 @@ formats::Result<SightlineResult> testSightline(VulkanContext& context,
 
 /// A point `heightAboveGroundMeters` above the rendered terrain at (lat, lon).
 struct GroundPoint final {
-  double latDegrees = 0.0;
-  double lonDegrees = 0.0;
-  double heightAboveGroundMeters = 0.0;
+  double latDegrees = 0.0;               ///< latitude
+  double lonDegrees = 0.0;               ///< longitude
+  double heightAboveGroundMeters = 0.0;  ///< above the rendered terrain
 };
 
 /// The line of sight between two points above a dataset's terrain.
 struct TerrainSightline final {
-  SightlineResult result;
-  glm::dvec3 from{0.0};  ///< planetocentric metres
-  glm::dvec3 to{0.0};
-  double groundFromMeters = 0.0;  ///< the rendered terrain's height under each point
+  SightlineResult result;  ///< the test of the segment from–to
+  glm::dvec3 from{0.0};    ///< planetocentric metres
+  glm::dvec3 to{0.0};      ///< planetocentric metres
+  /// The rendered terrain's height under each point.
+  /// @{
+  double groundFromMeters = 0.0;
   double groundToMeters = 0.0;
+  /// @}
   std::uint64_t triangles = 0;  ///< of the mesh tested
 };
 

@@ -20,22 +20,22 @@ class VulkanContext;
 
 /// What the passes took.
 struct ViewshedPassStats final {
-  std::uint64_t triangles = 0;  ///< rasterised (those near the disc)
-  std::uint32_t rays = 0;
+  std::uint64_t triangles = 0;       ///< rasterised (those near the disc)
+  std::uint32_t rays = 0;            ///< rays cast from the observer
   double projectMilliseconds = 0.0;  ///< the mesh into the grid, on the host
   double deviceMilliseconds = 0.0;   ///< buffers, the three passes, readback
 };
 
 /// A viewshed and what it took.
 struct TerrainViewshed final {
-  runtime::ViewshedGrid grid;
+  runtime::ViewshedGrid grid;  ///< the grid the mask covers
   /// cells × cells, row 0 north: runtime::kViewshedVisible, kViewshedHidden or kViewshedOutside.
   std::vector<std::uint8_t> mask;
-  runtime::ViewshedStats stats;
-  std::uint64_t patches = 0;  ///< of the cut
-  ViewshedPassStats passes;
+  runtime::ViewshedStats stats;      ///< the mask's figures
+  std::uint64_t patches = 0;         ///< of the cut
+  ViewshedPassStats passes;          ///< what the passes took
   double extractMilliseconds = 0.0;  ///< selection and decoding
-  double totalMilliseconds = 0.0;
+  double totalMilliseconds = 0.0;    ///< the whole call
 };
 
 /// The three passes over `mesh` (the viewshed's grid around `grid.eyeEcef`). Triangles with a

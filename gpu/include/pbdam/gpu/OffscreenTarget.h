@@ -21,17 +21,19 @@ class VulkanContext;
 /// semaphores of its acquisition and presentation, and an optional panel copied over it (the
 /// heads-up display; not part of the frame's read-back pixels).
 struct PresentTarget final {
-  VkImage image = VK_NULL_HANDLE;
-  VkExtent2D extent{};
+  VkImage image = VK_NULL_HANDLE;  ///< the acquired swapchain image
+  VkExtent2D extent{};             ///< its size in pixels
   /// Binary semaphores: waited for before the copy; signalled when the image is written.
+  /// @{
   VkSemaphore acquired = VK_NULL_HANDLE;
   VkSemaphore rendered = VK_NULL_HANDLE;
+  /// @}
   /// Tightly packed pixels in the swapchain image's format, copied to `overlayOffset` (clipped
   /// to the image); VK_NULL_HANDLE: none. The buffer must stay unchanged until the frame that
   /// reads it has been collected.
   VkBuffer overlay = VK_NULL_HANDLE;
-  VkOffset2D overlayOffset{};
-  VkExtent2D overlayExtent{};
+  VkOffset2D overlayOffset{};  ///< where the panel's top-left pixel goes in the image
+  VkExtent2D overlayExtent{};  ///< the panel's size in pixels
 };
 
 /// Colour + depth attachments of a fixed size plus a host-visible staging buffer for readback.
@@ -43,7 +45,9 @@ struct PresentTarget final {
 /// Thread-safety: none; one thread records and reads back at a time.
 class OffscreenTarget final {
  public:
+  /// The colour attachment's format (what readPixels() returns).
   static constexpr VkFormat kColorFormat = VK_FORMAT_R8G8B8A8_UNORM;
+  /// The depth attachment's format.
   static constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
   /// The reversed-Z depth clear value: the far plane.
   static constexpr float kFarDepth = 0.0f;
@@ -54,16 +58,24 @@ class OffscreenTarget final {
                                                  uint32_t heightPixels);
 
   OffscreenTarget() noexcept = default;
+  /// Takes over another target, leaving it empty.
+  /// @{
   OffscreenTarget(OffscreenTarget&&) noexcept = default;
   OffscreenTarget& operator=(OffscreenTarget&&) noexcept = default;
+  /// @}
   OffscreenTarget(const OffscreenTarget&) = delete;
   OffscreenTarget& operator=(const OffscreenTarget&) = delete;
   ~OffscreenTarget() = default;
 
+  /// The attachments' size.
+  /// @{
   uint32_t widthPixels() const noexcept { return color_.desc().widthPixels; }
   uint32_t heightPixels() const noexcept { return color_.desc().heightPixels; }
   VkExtent2D extent() const noexcept { return color_.extent(); }
+  /// @}
+  /// The colour attachment (kColorFormat).
   const GpuImage& colorImage() const noexcept { return color_; }
+  /// The depth attachment (kDepthFormat, reversed Z).
   const GpuImage& depthImage() const noexcept { return depth_; }
 
   /// Records: both images to attachment layouts (previous contents discarded), begin dynamic

@@ -21,13 +21,13 @@ namespace pbdam::gpu {
 struct PhysicalDeviceInfo final {
   uint32_t index = 0;  ///< position in vkEnumeratePhysicalDevices order
   std::string name;    ///< "llvmpipe (LLVM 15.0.6, 256 bits)"
-  VkPhysicalDeviceType type = VK_PHYSICAL_DEVICE_TYPE_OTHER;
+  VkPhysicalDeviceType type = VK_PHYSICAL_DEVICE_TYPE_OTHER;  ///< discrete, integrated, CPU, ...
   VkDriverId driverId = VkDriverId{};  ///< 0 where the driver predates Vulkan 1.2
   std::string driverName;              ///< "llvmpipe"
   std::string driverInfo;              ///< "Mesa 22.3.6 (LLVM 15.0.6)"
   uint32_t apiVersion = 0;             ///< VK_MAKE_API_VERSION-encoded
-  uint32_t vendorId = 0;
-  uint32_t deviceId = 0;
+  uint32_t vendorId = 0;               ///< the PCI vendor id (VkPhysicalDeviceProperties::vendorID)
+  uint32_t deviceId = 0;  ///< the vendor's device id (VkPhysicalDeviceProperties::deviceID)
 
   /// True for Mesa's lavapipe (llvmpipe driver, CPU device type).
   bool isLavapipe() const noexcept;

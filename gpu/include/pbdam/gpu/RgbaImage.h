@@ -13,8 +13,8 @@ namespace pbdam::gpu {
 /// A tightly packed RGBA8 image; pixel (x, y) starts at byte 4·(y·widthPixels + x), y = 0 is
 /// the top row. A plain value.
 struct RgbaImage final {
-  uint32_t widthPixels = 0;
-  uint32_t heightPixels = 0;
+  uint32_t widthPixels = 0;   ///< pixels a row
+  uint32_t heightPixels = 0;  ///< rows
   std::vector<uint8_t> rgba;  ///< 4·widthPixels·heightPixels bytes
 
   /// The RGBA bytes of pixel (x, y); x must be < widthPixels and y < heightPixels.

@@ -25,15 +25,16 @@ enum class PresentMode { Fifo, Mailbox, Immediate };
 
 /// "fifo", "mailbox" or "immediate"; nullopt for anything else.
 std::optional<PresentMode> parsePresentMode(std::string_view text);
+/// "fifo", "mailbox" or "immediate": what parsePresentMode reads.
 const char* toString(PresentMode mode) noexcept;
 
 /// One acquired image: where a frame is copied to (TerrainRenderer's PresentTarget) and what to
 /// hand back to present().
 struct AcquiredImage final {
-  VkImage image = VK_NULL_HANDLE;
-  VkExtent2D extent{};
-  VkFormat format = VK_FORMAT_UNDEFINED;
-  std::uint32_t index = 0;
+  VkImage image = VK_NULL_HANDLE;         ///< the swapchain's image
+  VkExtent2D extent{};                    ///< its size in pixels
+  VkFormat format = VK_FORMAT_UNDEFINED;  ///< its format
+  std::uint32_t index = 0;                ///< its index in the swapchain
   /// Signalled when the image may be written (the semaphore acquire() was given).
   VkSemaphore acquired = VK_NULL_HANDLE;
   /// To be signalled by the submission that writes the image; present() waits for it.
@@ -53,8 +54,11 @@ class Swapchain final {
                                            std::uint32_t height, PresentMode mode);
 
   Swapchain() noexcept = default;
+  /// Takes over another swapchain, leaving it empty.
+  /// @{
   Swapchain(Swapchain&&) noexcept = default;
   Swapchain& operator=(Swapchain&&) noexcept = default;
+  /// @}
   Swapchain(const Swapchain&) = delete;
   Swapchain& operator=(const Swapchain&) = delete;
   ~Swapchain() = default;
@@ -73,9 +77,13 @@ class Swapchain final {
   /// when the swapchain is out of date or suboptimal (recreate before the next acquire).
   formats::Result<bool> present(const AcquiredImage& image);
 
+  /// The images' size in pixels (the surface's, near what was asked).
   VkExtent2D extent() const noexcept { return extent_; }
+  /// The images' format.
   VkFormat format() const noexcept { return format_; }
+  /// How images are presented.
   PresentMode mode() const noexcept { return mode_; }
+  /// The swapchain's images.
   std::size_t imageCount() const noexcept { return images_.size(); }
 
  private:

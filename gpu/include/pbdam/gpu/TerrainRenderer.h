@@ -38,8 +38,8 @@ class GpuSelector;
 
 /// How a TerrainRenderer is set up.
 struct TerrainRendererOptions final {
-  std::uint32_t widthPixels = 1280;
-  std::uint32_t heightPixels = 720;
+  std::uint32_t widthPixels = 1280;  ///< the frames' size
+  std::uint32_t heightPixels = 720;  ///< the frames' size
   /// Budget of the renderer's private GPU cache (GpuCacheOptions::budgetBytes). Unused with a
   /// shared cache.
   std::uint64_t gpuCacheBytes = std::uint64_t{256} << 20;
@@ -65,10 +65,10 @@ struct TerrainRendererOptions final {
 /// row 0 north, blended over the terrain's texels by their alpha before lighting. The image is
 /// uploaded when a frame first uses this object, so keep one object per overlay.
 struct SurfaceOverlay final {
-  RgbaImage image;  ///< cells × cells, square
-  double latDegrees = 0.0;
-  double lonDegrees = 0.0;
-  double cellMeters = 0.0;
+  RgbaImage image;          ///< cells × cells, square
+  double latDegrees = 0.0;  ///< the grid's centre
+  double lonDegrees = 0.0;  ///< the grid's centre
+  double cellMeters = 0.0;  ///< the side of a cell
 };
 
 /// Per-frame settings that do not change what is resident.
@@ -94,9 +94,9 @@ struct FrameSettings final {
 /// What one frame did. Times are milliseconds; uploadMs and drawMs are GPU time from timestamp
 /// queries (on lavapipe, the CPU time the driver spent on them).
 struct FrameStats final {
-  std::uint64_t patches = 0;
-  std::uint64_t triangles = 0;
-  std::uint64_t tiles = 0;
+  std::uint64_t patches = 0;    ///< patches drawn
+  std::uint64_t triangles = 0;  ///< triangles drawn
+  std::uint64_t tiles = 0;      ///< texture tiles the patches used
   double decodeMs = 0.0;  ///< decoding misses into the staging buffer (TBB-parallel), wall time
   double uploadMs = 0.0;  ///< staging → pool copies
   double drawMs = 0.0;    ///< the render pass(es)
@@ -108,16 +108,16 @@ struct FrameStats final {
   std::uint64_t poolBytes = 0;          ///< device memory the cache's pools hold (capacity)
   std::uint64_t hits = 0;               ///< patches + tiles found resident
   std::uint64_t misses = 0;             ///< patches + tiles decoded and uploaded
-  std::uint64_t evictions = 0;
-  std::uint64_t bytesUploaded = 0;  ///< bytes copied to the pools (vertices, indices, texels)
-  std::uint32_t passes = 1;         ///< render passes the frame took (> 1: over budget)
-  bool budgetExceeded = false;      ///< the cut did not fit the budget (passes > 1)
+  std::uint64_t evictions = 0;          ///< patches + tiles evicted to make room
+  std::uint64_t bytesUploaded = 0;      ///< bytes copied to the pools (vertices, indices, texels)
+  std::uint32_t passes = 1;             ///< render passes the frame took (> 1: over budget)
+  bool budgetExceeded = false;          ///< the cut did not fit the budget (passes > 1)
 };
 
 /// A frame read back: tightly packed RGBA8, top row first.
 struct RenderedFrame final {
-  RgbaImage image;  ///< empty for a frame submitted without readback
-  FrameStats stats;
+  RgbaImage image;   ///< empty for a frame submitted without readback
+  FrameStats stats;  ///< what the frame did
 };
 
 /// A frame drawn into a host's pass (TerrainRenderer::drawInto): the host's submission of the
@@ -164,8 +164,11 @@ class TerrainRenderer final {
   /// and up, so views are lit with visible relief.
   static glm::dvec3 defaultSunDirection(const runtime::Camera& camera);
 
+  /// Takes over another renderer, leaving it empty.
+  /// @{
   TerrainRenderer(TerrainRenderer&&) noexcept;
   TerrainRenderer& operator=(TerrainRenderer&&) noexcept;
+  /// @}
   TerrainRenderer(const TerrainRenderer&) = delete;
   TerrainRenderer& operator=(const TerrainRenderer&) = delete;
   ~TerrainRenderer();
@@ -211,6 +214,7 @@ class TerrainRenderer final {
   formats::Result<RenderedFrame> collect();
   /// Frames submitted and not yet collected.
   std::size_t framesPending() const noexcept;
+  /// The most frames that may be pending (TerrainRendererOptions::framesInFlight).
   std::uint32_t framesInFlight() const noexcept;
 
   /// Draws the previous render() call's frame again and reads it back: the command buffer that
@@ -256,8 +260,11 @@ class TerrainRenderer final {
   /// Errors as create() for the size, and InvalidArgument while frames are pending; the
   /// renderer keeps its old size then.
   formats::Result<void> resize(std::uint32_t widthPixels, std::uint32_t heightPixels);
+  /// The frames' size now.
+  /// @{
   std::uint32_t widthPixels() const noexcept;
   std::uint32_t heightPixels() const noexcept;
+  /// @}
 
   /// Slot bytes resident now in the renderer's cache (shared or private).
   std::uint64_t residentBytes() const;

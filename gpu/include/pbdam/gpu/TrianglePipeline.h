@@ -39,7 +39,9 @@ class TrianglePipeline final {
   /// set (OffscreenTarget::recordBeginRendering does that).
   void record(VkCommandBuffer cmd, const TriangleDraw& draw, VkExtent2D viewportPixels) const;
 
+  /// The graphics pipeline; ownership stays here.
   VkPipeline pipeline() const noexcept { return pipeline_.get(); }
+  /// Its layout (the push constants record() sets); ownership stays here.
   VkPipelineLayout layout() const noexcept { return layout_.get(); }
 
  private:

@@ -35,6 +35,9 @@ class UniqueHandle final {
   UniqueHandle(const UniqueHandle&) = delete;
   UniqueHandle& operator=(const UniqueHandle&) = delete;
 
+  /// Takes over `other`'s handle, leaving it empty (an assigned-to owner destroys its own
+  /// first).
+  /// @{
   UniqueHandle(UniqueHandle&& other) noexcept
       : parent_(std::exchange(other.parent_, Parent{})),
         handle_(std::exchange(other.handle_, Handle{})) {}
@@ -47,6 +50,7 @@ class UniqueHandle final {
     }
     return *this;
   }
+  /// @}
 
   ~UniqueHandle() { reset(); }
 
@@ -54,6 +58,7 @@ class UniqueHandle final {
   Handle get() const noexcept { return handle_; }
   /// The parent the handle was created from (null when empty).
   Parent parent() const noexcept { return parent_; }
+  /// Whether it owns a handle.
   explicit operator bool() const noexcept { return handle_ != Handle{}; }
 
   /// Gives up ownership without destroying; the caller now owns the returned handle.
@@ -85,6 +90,9 @@ class UniqueHandle final {
 void destroyDebugMessenger(VkInstance instance, VkDebugUtilsMessengerEXT messenger,
                            const VkAllocationCallbacks* allocator) noexcept;
 
+/// The owner of each kind of Vulkan handle pbdam creates: UniqueX owns a VkX and destroys it
+/// with vkDestroyX (vkFreeMemory for memory) through the parent it was created from.
+/// @{
 using UniqueInstance = UniqueHandle<VkInstance, NoParent, &vkDestroyInstance>;
 using UniqueDevice = UniqueHandle<VkDevice, NoParent, &vkDestroyDevice>;
 using UniqueDebugMessenger =
@@ -106,5 +114,6 @@ using UniqueSampler = UniqueHandle<VkSampler, VkDevice, &vkDestroySampler>;
 using UniqueQueryPool = UniqueHandle<VkQueryPool, VkDevice, &vkDestroyQueryPool>;
 using UniqueSurface = UniqueHandle<VkSurfaceKHR, VkInstance, &vkDestroySurfaceKHR>;
 using UniqueSwapchain = UniqueHandle<VkSwapchainKHR, VkDevice, &vkDestroySwapchainKHR>;
+/// @}
 
 }  // namespace pbdam::gpu

@@ -13,8 +13,9 @@ namespace pbdam::gpu {
 
 /// One message received by the debug messenger.
 struct ValidationMessage final {
+  /// How severe: error, warning, info or verbose.
   VkDebugUtilsMessageSeverityFlagBitsEXT severity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
-  VkDebugUtilsMessageTypeFlagsEXT types = 0;
+  VkDebugUtilsMessageTypeFlagsEXT types = 0;  ///< general, validation and/or performance
   std::string idName;  ///< the VUID or message id name ("VUID-vkCmdDraw-None-02859"); may be ""
   std::string text;    ///< the full message
 };

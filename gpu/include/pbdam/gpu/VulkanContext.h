@@ -20,6 +20,9 @@
 #include <string_view>
 #include <vector>
 
+/// The gpu layer: the Vulkan context and device choice, the terrain renderer and its GPU cache,
+/// offscreen targets and swapchains, the device-side selection of cuts, and GPU sightlines and
+/// viewsheds. Every Vulkan object is owned by a move-only handle (UniqueHandle.h).
 namespace pbdam::gpu {
 
 /// Whether validation is on when ContextOptions does not say: on in Debug builds
@@ -88,8 +91,11 @@ class VulkanContext final {
   /// a Vulkan call fails or the device lacks a required feature; messages list the devices.
   static formats::Result<VulkanContext> create(const ContextOptions& options = {});
 
+  /// Takes over another context, leaving it moved-from (operator bool false).
+  /// @{
   VulkanContext(VulkanContext&&) noexcept;
   VulkanContext& operator=(VulkanContext&&) noexcept;
+  /// @}
   VulkanContext(const VulkanContext&) = delete;
   VulkanContext& operator=(const VulkanContext&) = delete;
   ~VulkanContext();
@@ -97,21 +103,30 @@ class VulkanContext final {
   /// False only for a moved-from context, which may only be destroyed or assigned to.
   explicit operator bool() const noexcept { return impl_ != nullptr; }
 
+  /// The Vulkan instance, the chosen physical device and the logical device; ownership stays
+  /// here.
+  /// @{
   VkInstance instance() const noexcept;
   VkPhysicalDevice physicalDevice() const noexcept;
   VkDevice device() const noexcept;
+  /// @}
   /// The graphics queue (it also does transfers); family queueFamilyIndex().
   VkQueue queue() const noexcept;
+  /// The family of queue().
   uint32_t queueFamilyIndex() const noexcept;
 
+  /// What the chosen device is.
   const PhysicalDeviceInfo& deviceInfo() const noexcept;
+  /// The optional features enabled on it and its limits.
   const DeviceCaps& caps() const noexcept;
+  /// Its memory types and heaps.
   const VkPhysicalDeviceMemoryProperties& memoryProperties() const noexcept;
 
   /// Whether the validation layer is loaded (the messenger feeds validationLog()).
   bool validationEnabled() const noexcept;
   /// The log the debug messenger writes to (empty forever when validation is off).
   ValidationLog& validationLog() const noexcept;
+  /// The same log, as a shared pointer that keeps it alive beyond the context.
   std::shared_ptr<ValidationLog> sharedValidationLog() const noexcept;
 
   /// Records commands with `record` into a fresh primary command buffer, submits it to the
@@ -140,11 +155,13 @@ class VulkanContext final {
   formats::Result<UniqueSemaphore> createTimelineSemaphore(uint64_t initialValue = 0) const;
 
   /// Names a Vulkan object for validation messages (no-op when validation is off).
+  /// @{
   void setObjectName(VkObjectType type, uint64_t handle, const char* name) const noexcept;
   template <typename Handle>
   void setObjectName(VkObjectType type, Handle handle, const char* name) const noexcept {
     setObjectName(type, reinterpret_cast<uint64_t>(handle), name);
   }
+  /// @}
 
  private:
   struct Impl;

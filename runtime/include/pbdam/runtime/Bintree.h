@@ -26,13 +26,13 @@ using PointKey = std::uint64_t;
 /// root), heap index within its tree, and its corners. The hypotenuse is left–right; the right
 /// angle is at the apex.
 struct BinTriangle final {
-  int face = 0;
-  int tree = 0;
-  int level = 0;
-  std::uint64_t index = 0;
-  LatticeXY apex{0};
-  LatticeXY left{0};
-  LatticeXY right{0};
+  int face = 0;             ///< 0..5 (CubeMap.h)
+  int tree = 0;             ///< 0 or 1
+  int level = 0;            ///< 0 = root
+  std::uint64_t index = 0;  ///< heap index within its tree
+  LatticeXY apex{0};        ///< the right-angle corner, in lattice cells
+  LatticeXY left{0};        ///< one end of the hypotenuse, in lattice cells
+  LatticeXY right{0};       ///< the other end of the hypotenuse, in lattice cells
 };
 
 /// The root of tree `tree` (0 or 1) of `face` on a lattice of `sideCells` cells: tree 0 =

@@ -23,12 +23,12 @@ namespace pbdam::runtime {
 /// planet's sphere or ellipsoid, not the terrain), heading clockwise from north, pitch up from
 /// the horizon (−90 = straight down), roll clockwise about the view direction.
 struct CameraPose final {
-  double latDegrees = 0.0;
-  double lonDegrees = 0.0;
-  double altitudeMeters = 0.0;
-  double headingDegrees = 0.0;
-  double pitchDegrees = -90.0;
-  double rollDegrees = 0.0;
+  double latDegrees = 0.0;      ///< latitude of the eye
+  double lonDegrees = 0.0;      ///< longitude of the eye
+  double altitudeMeters = 0.0;  ///< above the reference surface
+  double headingDegrees = 0.0;  ///< clockwise from north
+  double pitchDegrees = -90.0;  ///< up from the horizon
+  double rollDegrees = 0.0;     ///< clockwise about the view direction
 };
 
 /// Parses "LAT,LON,ALT[,HEADING,PITCH,ROLL]" (pitch defaults to −90: looking down).
@@ -40,14 +40,17 @@ formats::Result<void> validateCameraPose(const CameraPose& pose, const Planet& p
 
 /// The image a camera renders: size in pixels and vertical field of view.
 struct Viewport final {
-  std::uint32_t width = 1280;
-  std::uint32_t height = 720;
-  double fovYDegrees = 60.0;
+  std::uint32_t width = 1280;  ///< pixels
+  std::uint32_t height = 720;  ///< pixels
+  double fovYDegrees = 60.0;   ///< the vertical field of view
 };
 
 /// Checks 1 ≤ width, height ≤ 16384 and 0 < fov < 179°.
 formats::Result<void> validateViewport(const Viewport& viewport);
 
+/// A double-precision perspective camera: position and axes in planetocentric metres, the
+/// viewport, the frustum's planes for culling, the screen-space error of an object-space one,
+/// and the camera-relative view and projection handed to the GPU. A plain value.
 class Camera final {
  public:
   /// A camera at `positionEcef` with orthonormal world-space axes (right, up, forward).
@@ -58,10 +61,15 @@ class Camera final {
   static Camera fromPose(const Planet& planet, const CameraPose& pose,
                          const Viewport& viewport) noexcept;
 
+  /// The eye, planetocentric metres.
   const glm::dvec3& position() const noexcept { return position_; }
+  /// The unit world-space axes: screen right, screen up, and the view direction.
+  /// @{
   const glm::dvec3& right() const noexcept { return right_; }
   const glm::dvec3& up() const noexcept { return up_; }
   const glm::dvec3& forward() const noexcept { return forward_; }
+  /// @}
+  /// The image it renders.
   const Viewport& viewport() const noexcept { return viewport_; }
 
   /// Pixels per unit of (size / distance): viewport height / (2·tan(fov/2)).
@@ -84,13 +92,18 @@ class Camera final {
   /// World-to-view rotation for camera-relative positions (view looks along −z, y up), and the
   /// infinite reversed-Z Vulkan projection (depth 1 at the near plane, → 0 at infinity, y down):
   /// the float matrices the terrain's shaders take.
+  /// @{
   glm::mat4 viewRotation() const noexcept;
   glm::mat4 projection() const noexcept;
+  /// @}
   /// The same two in double precision, from which the float ones are rounded: what a host that
   /// draws its own objects beside the terrain composes with its positions relative to
   /// position() (docs/embedding.md "Drawing into your own pass").
+  /// @{
   glm::dmat4 viewRotationDouble() const noexcept;
   glm::dmat4 projectionDouble() const noexcept;
+  /// @}
+  /// The near plane's distance from the eye.
   double nearMeters() const noexcept { return nearMeters_; }
   /// Sets the near plane (default 0.1 m; reversed-Z float depth keeps precision far away).
   void setNearMeters(double nearMeters) noexcept;

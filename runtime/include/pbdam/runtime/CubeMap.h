@@ -54,6 +54,7 @@ namespace pbdam::runtime {
 /// One of the six cube faces; the numeric value is the face index used in datasets.
 enum class CubeFace : std::uint8_t { PosX = 0, PosY = 1, NegX = 2, NegY = 3, PosZ = 4, NegZ = 5 };
 
+/// Faces of the cube map.
 inline constexpr int kCubeFaceCount = 6;
 
 /// Returns the face with index `index`, which must be in [0, 6).
@@ -73,8 +74,8 @@ enum class CubeEdge : std::uint8_t {
 
 /// A point of the cube map: a face and (u,v) in [0, 1]².
 struct FaceUv final {
-  CubeFace face = CubeFace::PosX;
-  glm::dvec2 uv{0.0};
+  CubeFace face = CubeFace::PosX;  ///< the face
+  glm::dvec2 uv{0.0};              ///< (u, v) on it
 };
 
 /// The axes of a face (see the table at the top of this file).
@@ -87,27 +88,28 @@ struct CubeFaceFrame final {
 /// The face on the other side of an edge, which of its edges it is, and whether the parameter
 /// along the edge runs the other way there (neighbour parameter = 1 - ours).
 struct CubeEdgeNeighbor final {
-  CubeFace face = CubeFace::PosX;
-  CubeEdge edge = CubeEdge::Bottom;
-  bool reversed = false;
+  CubeFace face = CubeFace::PosX;    ///< the neighbouring face
+  CubeEdge edge = CubeEdge::Bottom;  ///< the shared edge, as that face names it
+  bool reversed = false;             ///< whether the parameter along it runs the other way
 };
 
 /// A point of a face's integer lattice of side `sideCells` cells: i along u, j along v, both in
 /// [0, sideCells]; (u, v) = (i, j) / sideCells.
 struct CubeLatticePoint final {
-  CubeFace face = CubeFace::PosX;
-  std::uint32_t i = 0;
-  std::uint32_t j = 0;
+  CubeFace face = CubeFace::PosX;  ///< the face
+  std::uint32_t i = 0;             ///< cells along u
+  std::uint32_t j = 0;             ///< cells along v
 
   // clang-tidy 14 mistakes the 0 its defaulted <=> compares against for a null pointer.
+  /// Ordered by face, then i, then j.
   friend auto operator<=>(const CubeLatticePoint&,
                           const CubeLatticePoint&) = default;  // NOLINT(modernize-use-nullptr)
 };
 
 /// The (one to three) lattice points, on different faces, that are the same point of the sphere.
 struct CubeLatticeAliases final {
-  std::array<CubeLatticePoint, 3> points{};
-  int count = 0;  ///< 1 inside a face, 2 on an edge, 3 at a cube corner
+  std::array<CubeLatticePoint, 3> points{};  ///< the first `count` are used
+  int count = 0;                             ///< 1 inside a face, 2 on an edge, 3 at a cube corner
 };
 
 /// The tangent-adjusted cube map. Stateless: every member is static.
@@ -120,10 +122,12 @@ class CubeMap final {
 
   /// Returns the unit geocentric direction of (u,v) on `face`. (u,v) is normally in [0, 1]²;
   /// values in (-0.5, 1.5) extend the face beyond its edges (past the neighbour's area).
+  /// @{
   static glm::dvec3 faceUvToDirection(CubeFace face, const glm::dvec2& uv) noexcept;
   static glm::dvec3 faceUvToDirection(const FaceUv& point) noexcept {
     return faceUvToDirection(point.face, point.uv);
   }
+  /// @}
 
   /// The plane coordinate tan(π/4·(2u − 1)) of face coordinate u (exactly ±1 at the edges).
   static double uvToPlaneCoordinate(double uv) noexcept;
@@ -163,8 +167,10 @@ class CubeMap final {
                                                 std::uint32_t sideCells) noexcept;
 
   /// Planetocentric lat/lon <-> face (u,v) shortcuts (Direction.h for the angle conventions).
+  /// @{
   static FaceUv latLonToFaceUv(double latDegrees, double lonDegrees) noexcept;
   static LatLonDegrees faceUvToLatLon(CubeFace face, const glm::dvec2& uv) noexcept;
+  /// @}
 };
 
 }  // namespace pbdam::runtime

@@ -15,10 +15,10 @@ namespace pbdam::runtime {
 
 /// A welded triangle mesh in planetocentric metres.
 struct CutMesh final {
-  std::vector<glm::dvec3> vertices;
-  std::vector<std::uint32_t> indices;
-  int minLevel = 1 << 30;
-  int maxLevel = -1;
+  std::vector<glm::dvec3> vertices;    ///< each shared point once
+  std::vector<std::uint32_t> indices;  ///< three a triangle, counter-clockwise
+  int minLevel = 1 << 30;              ///< the coarsest patch level in it
+  int maxLevel = -1;                   ///< the finest patch level in it
 };
 
 /// The mesh of `cut`'s patches. CorruptData naming the file and offset for a patch that does not

@@ -31,6 +31,7 @@
 
 namespace pbdam::runtime {
 
+/// What the last IncrementalRefiner::update() did.
 struct CutReuseStats final {
   /// Split or cull decisions evaluated this frame (a stateless refinement evaluates one per
   /// node it visits: Cut::nodesVisited).
@@ -44,6 +45,9 @@ struct CutReuseStats final {
   std::uint64_t treeNodes = 0;
 };
 
+/// Refinement that keeps its tree from frame to frame: each update() re-evaluates only the
+/// decisions the camera's move can have changed, and returns the cut refine() would. Holds a
+/// reference to the dataset, which must outlive it; used by one thread at a time.
 class IncrementalRefiner final {
  public:
   /// `marginDegrees` widens the frustum the tree is culled against (≥ 0).
@@ -58,6 +62,7 @@ class IncrementalRefiner final {
   /// refine() itself.
   Cut update(const Camera& camera, const RefinementOptions& options);
 
+  /// What the last update() did.
   const CutReuseStats& lastStats() const noexcept { return stats_; }
 
  private:

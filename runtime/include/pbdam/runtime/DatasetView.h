@@ -18,6 +18,9 @@
 #include "pbdam/runtime/Bintree.h"
 #include "pbdam/runtime/Planet.h"
 
+/// The runtime layer: the planet and its cube map, the camera, a dataset's view over bytes held
+/// elsewhere, and the CPU side of each frame — refinement into a cut, the cut's mesh and draw
+/// records, height, sightline and viewshed queries. No I/O and no GPU.
 namespace pbdam::runtime {
 
 /// Heap indices of node and tile keys stay below 2^kMaxKeyHeapBits, faces below 8 and trees
@@ -27,16 +30,18 @@ inline constexpr int kMaxKeyHeapBits = 59;
 
 /// Identifies one bintree node of a dataset: face, tree (0/1) and heap index.
 struct NodeKey final {
-  std::uint8_t face = 0;
-  std::uint8_t tree = 0;
-  std::uint64_t heap = 0;
+  std::uint8_t face = 0;   ///< 0..5
+  std::uint8_t tree = 0;   ///< 0 or 1
+  std::uint64_t heap = 0;  ///< heap index within the tree (root 0)
+  /// Field by field.
   friend bool operator==(const NodeKey&, const NodeKey&) = default;
 };
 
 /// Identifies one texture quadtree node: face and heap index (formats/DatasetFormat.h).
 struct TileKey final {
-  std::uint8_t face = 0;
-  std::uint64_t heap = 0;
+  std::uint8_t face = 0;   ///< 0..5
+  std::uint64_t heap = 0;  ///< heap index in the face's quadtree (textureHeapIndex)
+  /// Field by field.
   friend bool operator==(const TileKey&, const TileKey&) = default;
 };
 
@@ -53,6 +58,10 @@ constexpr std::uint64_t packKey(const TileKey& key) noexcept {
   return (std::uint64_t{1} << 63) | (std::uint64_t{key.face} << 60) | key.heap;
 }
 
+/// A whole dataset as the runtime reads it: its manifest, its planet and a validated FaceView
+/// of each face file, over bytes someone else owns (streaming::MappedDataset maps them), with
+/// the per-level figures refinement needs. Read-only after open; any number of threads may use
+/// one view.
 class DatasetView final {
  public:
   /// Validates the six faces against the manifest (lattice, depth, texture levels and sizes,
@@ -69,11 +78,15 @@ class DatasetView final {
   /// Node-table chunks read back from the files since open (paged tables only).
   std::uint64_t nodeChunkReads() const noexcept;
 
+  /// The dataset's manifest.
   const formats::Manifest& manifest() const noexcept { return manifest_; }
+  /// The planet the manifest names.
   const Planet& planet() const noexcept { return planet_; }
+  /// Face file `f` (0..5).
   const formats::FaceView& face(int f) const noexcept {
     return faces_[static_cast<std::size_t>(f)];
   }
+  /// N: lattice cells per face side.
   std::uint32_t latticeCells() const noexcept { return manifest_.latticeCells; }
   /// The lattice's spacing along the surface: a face's quarter meridian (on the equatorial
   /// radius) over its cells. The cube map stretches cells towards the face corners; this is
@@ -81,6 +94,7 @@ class DatasetView final {
   double latticeSpacingMeters() const noexcept;
   /// The deepest level of any leaf (leaves may be shallower elsewhere: NodeRecord::leaf()).
   int depth() const noexcept { return static_cast<int>(manifest_.depth); }
+  /// Levels of the texture quadtree.
   std::uint32_t textureLevels() const noexcept { return manifest_.textureLevels; }
 
   /// Whether the dataset has node `key`.
@@ -91,9 +105,11 @@ class DatasetView final {
   formats::NodeRecord node(const NodeKey& key) const noexcept {
     return faces_[key.face].node(key.tree, key.heap);
   }
+  /// Node `key`'s lattice triangle (it follows from the key; the node need not exist).
   BinTriangle triangle(const NodeKey& key) const noexcept {
     return bintreeTriangle(manifest_.latticeCells, key.face, key.tree, key.heap);
   }
+  /// Tile `key`, which must exist (every tile of a cut does).
   formats::TextureRecord textureNode(const TileKey& key) const noexcept {
     return faces_[key.face].textureNode(key.heap);
   }
@@ -120,8 +136,10 @@ class DatasetView final {
   }
 
   /// The largest vertex and triangle counts of any patch (pool slot sizes).
+  /// @{
   std::uint32_t maxPatchVertices() const noexcept { return maxPatchVertices_; }
   std::uint32_t maxPatchTriangles() const noexcept { return maxPatchTriangles_; }
+  /// @}
 
  private:
   formats::Manifest manifest_;

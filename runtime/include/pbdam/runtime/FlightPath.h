@@ -15,14 +15,15 @@ namespace pbdam::runtime {
 
 /// A waypoint: degrees and metres above the reference surface.
 struct Waypoint final {
-  double latDegrees = 0.0;
-  double lonDegrees = 0.0;
-  double altitudeMeters = 0.0;
+  double latDegrees = 0.0;      ///< latitude
+  double lonDegrees = 0.0;      ///< longitude
+  double altitudeMeters = 0.0;  ///< above the reference surface
 };
 
+/// How long a flight takes, how densely it is sampled, and its pitch.
 struct FlightOptions final {
-  double durationSeconds = 10.0;
-  double framesPerSecond = 30.0;
+  double durationSeconds = 10.0;  ///< from the first waypoint to the last
+  double framesPerSecond = 30.0;  ///< poses per second of flight
   /// Fixed pitch in degrees; unset: −15° at 1 km altitude easing to −90° at one planet radius.
   std::optional<double> pitchDegrees;
 };

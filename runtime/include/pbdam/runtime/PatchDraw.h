@@ -99,10 +99,10 @@ static_assert(sizeof(PatchDrawRecord) == std::size_t{27} * 16);
 
 /// Where a patch's texture tile lies on its cube face.
 struct PatchTextureTile final {
-  CubeFace face = CubeFace::PosX;
+  CubeFace face = CubeFace::PosX;  ///< the face the tile is on
   glm::dvec2 centerFaceUv{0.5};    ///< the tile's centre (texture coordinate 0.5, 0.5)
   double texCoordPerFaceUv = 1.0;  ///< k: d(tc.x)/du = d(tc.y)/dv
-  std::uint32_t textureLayer = 0;
+  std::uint32_t textureLayer = 0;  ///< the tile's layer in the texture array
 };
 
 /// The tile of a texture quadtree node (level, column qi, row qj) on a face of a lattice with
@@ -128,14 +128,14 @@ glm::vec2 shaderTexCoord(const PatchDrawRecord& draw, const glm::vec3& cameraRel
 
 /// What a draw needs besides the node record.
 struct PatchDrawInput final {
-  NodeKey node;
-  formats::NodeRecord record;
-  std::uint32_t textureLayer = 0;
+  NodeKey node;                    ///< the patch's node
+  formats::NodeRecord record;      ///< its record
+  std::uint32_t textureLayer = 0;  ///< the layer of its tile in the texture array
   /// The geomorph (CutPatch::morph): 1 − f of the parent's and grandparent's diamonds.
   std::array<float, 2> morph{0.0f, 0.0f};
   /// Where the patch blends in its parent's tile (CutPatch::blendsTile): that tile, its layer.
   std::optional<TileKey> morphTile{};
-  std::uint32_t morphTextureLayer = 0;
+  std::uint32_t morphTextureLayer = 0;  ///< the layer of `morphTile`, when there is one
 };
 
 /// Computes the per-draw record of a patch for a camera at `cameraEcef` (double precision):
@@ -148,26 +148,39 @@ PatchDrawRecord makePatchDrawRecord(const DatasetView& dataset, const PatchDrawI
 /// the device (gpu/shaders/draw_list.comp) keeps one per resident patch and repeats
 /// placePatchDraw's operations, so both give the same record bit for bit.
 struct PatchDrawTemplate final {
-  struct Edge final {           ///< edge k, its corners a, b in canonical key order
-    glm::dvec3 start{0.0};      ///< P_a
-    glm::dvec3 direction{0.0};  ///< E = P_b − P_a
-    double lengthSquared = 0.0;
+  /// Edge k, its corners a, b in canonical key order.
+  struct Edge final {
+    glm::dvec3 start{0.0};        ///< P_a
+    glm::dvec3 direction{0.0};    ///< E = P_b − P_a
+    double lengthSquared = 0.0;   ///< E·E
     glm::dvec3 normal{0.0};       ///< N_a
     glm::dvec3 normalDelta{0.0};  ///< float(N_b − N_a)
     double sag = 0.0;             ///< E·E / (8 · equatorial radius): the edge's bow
   };
   PatchDrawRecord record;  ///< every field but the camera's: corners, origins, reference weights
   std::array<glm::dvec3, 3> corner{};  ///< P_k
-  std::array<Edge, 3> edges{};
-  glm::dvec3 axis1{0.0}, axis2{0.0};                    ///< E1 = P_1 − P_0, E2 = P_2 − P_0
-  double a11 = 0.0, a12 = 0.0, a22 = 0.0, det = 0.0;    ///< E_i · E_j, a11·a22 − a12²
-  glm::dvec3 normal0{0.0};                              ///< N_0
-  glm::dvec3 normalDelta1{0.0}, normalDelta2{0.0};      ///< float(N_1 − N_0), float(N_2 − N_0)
-  double minHeightMeters = 0.0, maxHeightMeters = 0.0;  ///< the node's, the interior's clamp
-  glm::dvec3 texCenter{0.0};                            ///< Q of the patch's tile
+  std::array<Edge, 3> edges{};         ///< its three edges, k = 0, 1, 2
+  /// E1 = P_1 − P_0, E2 = P_2 − P_0
+  /// @{
+  glm::dvec3 axis1{0.0}, axis2{0.0};
+  /// @}
+  /// E_i · E_j, and det = a11·a22 − a12²
+  /// @{
+  double a11 = 0.0, a12 = 0.0, a22 = 0.0, det = 0.0;
+  /// @}
+  glm::dvec3 normal0{0.0};  ///< N_0
+  /// float(N_1 − N_0), float(N_2 − N_0)
+  /// @{
+  glm::dvec3 normalDelta1{0.0}, normalDelta2{0.0};
+  /// @}
+  /// The node's lowest and highest vertex heights, the interior's clamp
+  /// @{
+  double minHeightMeters = 0.0, maxHeightMeters = 0.0;
+  /// @}
+  glm::dvec3 texCenter{0.0};  ///< Q of the patch's tile
   /// The record's morphTexture and morph.w when the patch blends in `morphTile`.
   std::array<float, 4> blendTexture{0.0f, 0.0f, 1.0f, 0.0f};
-  float blendLayer = 0.0f;
+  float blendLayer = 0.0f;  ///< the layer of `morphTile` when the patch blends it in
 };
 
 /// The template of `node` (record `record`) with its tile in `textureLayer`, and where it
@@ -180,9 +193,10 @@ PatchDrawTemplate makePatchDrawTemplate(const DatasetView& dataset, const NodeKe
 
 /// Dataset-wide numbers placePatchDraw uses.
 struct PatchDrawConstants final {
-  double heightStepMeters = 0.0;
+  double heightStepMeters = 0.0;  ///< the manifest's height step
   double heightSpanMeters = 0.0;  ///< highest − lowest height of the dataset
 };
+/// The constants of `dataset`.
 PatchDrawConstants patchDrawConstants(const DatasetView& dataset) noexcept;
 
 /// Sets the camera's fields of `draw` (a copy of `t.record`): corners, edge and interior
@@ -227,6 +241,7 @@ PatchVertexDisplacement patchVertexDisplacement(const PatchVertexBase& base,
 /// decoded patch from its node and record.
 class PatchVertexPlacement final {
  public:
+  /// The placement of the vertices of `node`, whose record is `record`.
   PatchVertexPlacement(const DatasetView& dataset, const NodeKey& node,
                        const formats::NodeRecord& record) noexcept;
 

@@ -25,8 +25,8 @@ struct GeodeticPosition final {
 /// A local east-north-up frame (what GeographicLib::LocalCartesian computes), in ECEF metres.
 /// `axes` has the unit vectors east, north, up as its columns 0, 1, 2: ecef = origin + axes * enu.
 struct EnuFrame final {
-  glm::dvec3 originEcef{0.0};
-  glm::dmat3 axes{1.0};
+  glm::dvec3 originEcef{0.0};  ///< the frame's origin
+  glm::dmat3 axes{1.0};        ///< columns: unit east, north, up
 
   /// Returns the ECEF position of a point given in this frame's east/north/up metres.
   glm::dvec3 enuToEcef(const glm::dvec3& enuMeters) const noexcept;
@@ -47,7 +47,7 @@ struct GeodesicInverse final {
 
 /// Result of the direct geodesic problem: where a geodesic of given start, azimuth and length ends.
 struct GeodesicDirect final {
-  double latDegrees = 0.0;
+  double latDegrees = 0.0;       ///< the end point's latitude
   double lonDegrees = 0.0;       ///< in [-180, 180]
   double azimuth2Degrees = 0.0;  ///< forward azimuth at the end point
 };
@@ -94,15 +94,21 @@ class Planet final {
   /// A one-line human-readable description, e.g. "Mars sphere, R = 3396190 m".
   std::string description() const;
 
+  /// The reference surface's semi-major axis.
   double equatorialRadiusMeters() const noexcept { return equatorialRadiusMeters_; }
+  /// The reference surface's semi-minor axis (the equatorial radius for a sphere).
   double polarRadiusMeters() const noexcept { return polarRadiusMeters_; }
+  /// (a − b) / a; 0 for a sphere.
   double flattening() const noexcept { return flattening_; }
+  /// Whether the reference surface is a sphere (flattening 0).
   bool isSphere() const noexcept { return flattening_ == 0.0; }
 
   /// Returns the ECEF position of a geodetic position. Inputs must be finite.
+  /// @{
   glm::dvec3 geodeticToEcef(double latDegrees, double lonDegrees,
                             double heightMeters) const noexcept;
   glm::dvec3 geodeticToEcef(const GeodeticPosition& position) const noexcept;
+  /// @}
   /// Returns the geodetic position of an ECEF position (exact to round-off at any height).
   GeodeticPosition ecefToGeodetic(const glm::dvec3& ecefMeters) const noexcept;
 

@@ -31,7 +31,10 @@
 
 namespace pbdam::runtime {
 
+/// How refine() chooses a cut: the screen-space tolerance, culling, a level limit, the geomorph
+/// window and no-stall refinement.
 struct RefinementOptions final {
+  /// τ: a node is refined while its screen-space error exceeds this many pixels.
   double tolerancePixels = 3.0;
   /// Drop nodes outside the frustum. Off, the cut covers the whole planet (watertight tests).
   bool frustumCulling = true;
@@ -51,8 +54,8 @@ struct RefinementOptions final {
 
 /// One patch of a cut.
 struct CutPatch final {
-  NodeKey node;
-  int level = 0;
+  NodeKey node;                    ///< the bintree node drawn
+  int level = 0;                   ///< its level (0 = root)
   TileKey tile;                    ///< the texture tile it is drawn with
   float screenErrorPixels = 0.0f;  ///< of max(geometry error, texture term), at its sphere
   /// 1 − f, the weight of the coarser surface, for the vertices the patch's parent diamond
@@ -61,16 +64,19 @@ struct CutPatch final {
   /// The parent's tile, blended in with weight morph[0] where it differs from `tile` (the
   /// texture quadtree steps at this level); equal to `tile` otherwise.
   TileKey morphTile;
+  /// Whether it blends its parent's tile in (morphTile differs from tile).
   bool blendsTile() const noexcept { return !(morphTile == tile); }
 };
 
+/// A cut: the patches to draw for one camera, the texture tiles they use, and what refinement
+/// cost. A plain value; refine(), IncrementalRefiner and CutSelector make one.
 struct Cut final {
-  std::vector<CutPatch> patches;  ///< depth-first order of the 12 trees
-  std::vector<TileKey> tiles;     ///< distinct tiles of the patches, in first-use order
-  std::uint64_t triangles = 0;
-  std::uint64_t vertices = 0;
-  std::uint64_t nodesVisited = 0;
-  std::uint64_t nodesCulled = 0;
+  std::vector<CutPatch> patches;   ///< depth-first order of the 12 trees
+  std::vector<TileKey> tiles;      ///< distinct tiles of the patches, in first-use order
+  std::uint64_t triangles = 0;     ///< of all patches
+  std::uint64_t vertices = 0;      ///< of all patches (shared edge vertices counted per patch)
+  std::uint64_t nodesVisited = 0;  ///< node records refinement read
+  std::uint64_t nodesCulled = 0;   ///< nodes dropped outside the frustum
   /// With RefinementOptions::residentRecordsOnly, the shallowest level of children that were
   /// not descended into because their records were not resident; −1 when none were.
   int unresidentRecordLevel = -1;
@@ -104,10 +110,11 @@ void refreshMorph(const DatasetView& dataset, const Camera& camera,
 /// What a cut's geomorph does: patches whose parent's or grandparent's weight is strictly
 /// between 0 and 1, patches blending their parent's tile in, and the largest weight.
 struct CutMorphSummary final {
-  std::uint64_t morphingPatches = 0;
-  std::uint64_t blendingPatches = 0;
-  double largestWeight = 0.0;
+  std::uint64_t morphingPatches = 0;  ///< with a weight strictly between 0 and 1
+  std::uint64_t blendingPatches = 0;  ///< blending their parent's tile in
+  double largestWeight = 0.0;         ///< the largest 1 − f of any patch
 };
+/// Counts what `cut`'s geomorph does (CutMorphSummary).
 CutMorphSummary summarizeMorph(const Cut& cut) noexcept;
 
 /// InvalidArgument unless 0 ≤ `range` ≤ the dataset's error margin (manifest error_margin):

@@ -39,7 +39,7 @@ namespace pbdam::runtime {
 struct FocusRegion final {
   std::vector<glm::dvec3> line;  ///< planetocentric metres; consecutive points form segments
   double widthMeters = 0.0;      ///< the circle's radius, the path's half width
-  double errorMeters = 0.0;
+  double errorMeters = 0.0;      ///< split nodes near it while their error exceeds this (0: all)
 
   /// Whether a sphere comes within the width of the centre line (the predicate's test).
   bool reaches(const glm::dvec3& centre, double radius) const noexcept;
@@ -58,6 +58,8 @@ formats::Result<FocusRegion> focusPath(const Planet& planet,
                                        const std::vector<std::array<double, 2>>& latLonDegrees,
                                        double halfWidthMeters, double errorMeters);
 
+/// What CutSelector::select() splits: the refinement's criterion, focus regions, and any
+/// further predicate.
 struct SelectionOptions final {
   RefinementOptions refinement;    ///< tolerance, culling, level cap, morph range
   std::vector<FocusRegion> focus;  ///< any number; a node near any of them is split
@@ -78,19 +80,24 @@ struct SelectionStats final {
 /// hypotenuse, found by the hypotenuse's canonical corner keys, so across cube faces too. What
 /// the closure walks, on the host and on the device.
 struct DiamondIndex final {
+  /// One node of the index.
   struct Node final {
-    NodeKey key;
-    std::uint32_t parent = 0;   ///< index into nodes (a root: itself)
-    std::uint32_t partner = 0;  ///< the node across the hypotenuse (itself when none)
-    std::uint32_t firstChild = 0;
-    bool leaf = true;
-    int level = 0;
+    NodeKey key;                   ///< the node in the dataset
+    std::uint32_t parent = 0;      ///< index into nodes (a root: itself)
+    std::uint32_t partner = 0;     ///< the node across the hypotenuse (itself when none)
+    std::uint32_t firstChild = 0;  ///< index into nodes of its first child (the second follows)
+    bool leaf = true;              ///< whether it has no children (firstChild unused)
+    int level = 0;                 ///< its bintree level (0 = root)
   };
+  /// Indexes every node of `dataset` (reads each face's whole node table).
   explicit DiamondIndex(const DatasetView& dataset);
-  std::vector<Node> nodes;
+  std::vector<Node> nodes;           ///< face by face, each in node-table order
   std::vector<std::uint32_t> roots;  ///< the 12 roots, face by face, tree 0 then 1
 };
 
+/// Cuts selected by a predicate and closed upward (the file comment): the host's refinement
+/// when focus regions or a caller's predicate decide too. Holds the dataset's DiamondIndex and a
+/// pointer to the dataset, which must outlive it; select() is const and may run on any thread.
 class CutSelector final {
  public:
   /// Indexes the dataset's nodes (DiamondIndex).

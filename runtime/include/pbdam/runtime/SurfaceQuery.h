@@ -18,11 +18,12 @@
 
 namespace pbdam::runtime {
 
+/// The rendered surface's height at a point, and the leaf patch it was read from.
 struct SurfaceHeight final {
-  double heightMeters = 0.0;     ///< above the reference surface, along the geodetic normal
-  NodeKey leaf;                  ///< the leaf patch whose triangle was hit
-  double leafErrorMeters = 0.0;  ///< its saturated stored error
-  double leafMeasuredErrorMeters = 0.0;
+  double heightMeters = 0.0;             ///< above the reference surface, along the geodetic normal
+  NodeKey leaf;                          ///< the leaf patch whose triangle was hit
+  double leafErrorMeters = 0.0;          ///< its saturated stored error
+  double leafMeasuredErrorMeters = 0.0;  ///< its own measured error (against its sources)
   /// The leaf's sources (formats::NodeRecord::sources): 0 when the dataset has no insets.
   std::uint32_t leafSources = 0;
 };
@@ -45,16 +46,17 @@ formats::Result<SurfaceHeight> surfaceHeightAt(const DatasetView& dataset, doubl
 /// lives. Not thread-safe.
 class SurfaceLeafCache final {
  public:
+  /// An empty cache of at most `maxLeaves` leaves.
   explicit SurfaceLeafCache(std::size_t maxLeaves = 256) : maxLeaves_(maxLeaves) {}
   /// Leaves decoded through this cache so far (each decode, not each use).
   std::size_t decodedLeaves() const noexcept { return decodedLeaves_; }
 
   /// One leaf's triangles where they are drawn, and a sphere around them (surfaceHeightAt's).
   struct Leaf final {
-    std::vector<glm::dvec3> positions;
-    std::vector<std::uint16_t> indices;
-    glm::dvec3 centre{0.0};
-    double radius = 0.0;
+    std::vector<glm::dvec3> positions;   ///< planetocentric metres, as drawn
+    std::vector<std::uint16_t> indices;  ///< three a triangle
+    glm::dvec3 centre{0.0};              ///< of a sphere holding every position
+    double radius = 0.0;                 ///< of that sphere, metres
   };
 
  private:

@@ -23,6 +23,7 @@ glm::dvec3 latticeDirection(std::uint32_t latticeCells, int face, LatticeXY p) n
 /// for every point of a row in turn.
 class LatticeRowDirections final {
  public:
+  /// The directions of row `y` of face `face`'s lattice of `latticeCells` cells a side.
   LatticeRowDirections(std::uint32_t latticeCells, int face, std::int32_t y) noexcept;
   /// latticeDirection(latticeCells, face, {x, y}).
   glm::dvec3 at(std::int32_t x) const noexcept;

@@ -22,35 +22,39 @@ namespace pbdam::runtime {
 
 /// What a user asks for. A radius or cell size left out takes the default (viewshedGrid).
 struct ViewshedRequest final {
-  double latDegrees = 0.0;
-  double lonDegrees = 0.0;
+  double latDegrees = 0.0;               ///< of the observer
+  double lonDegrees = 0.0;               ///< of the observer
   double heightAboveGroundMeters = 0.0;  ///< of the eye above the rendered terrain
-  std::optional<double> radiusMeters;
-  std::optional<double> cellMeters;
+  std::optional<double> radiusMeters;    ///< how far around the observer, along the surface
+  std::optional<double> cellMeters;      ///< the side of a grid cell
 };
 
-/// The mask's cell values.
+/// The mask's cell values: hidden from the eye, visible, and outside (beyond the radius or
+/// without terrain).
+/// @{
 inline constexpr std::uint8_t kViewshedHidden = 0;
 inline constexpr std::uint8_t kViewshedVisible = 1;
-inline constexpr std::uint8_t kViewshedOutside = 255;  ///< beyond the radius or without terrain
+inline constexpr std::uint8_t kViewshedOutside = 255;
+/// @}
 
 /// The most cells a side of the grid may have.
 inline constexpr int kViewshedMaxCells = 4097;
 
 /// The grid of a viewshed around an eye.
 struct ViewshedGrid final {
-  Planet planet = Planet::mars();
-  double latDegrees = 0.0;  ///< of the observer (the projection's centre)
-  double lonDegrees = 0.0;
-  double groundMeters = 0.0;     ///< the rendered terrain's height under the observer
-  double eyeHeightMeters = 0.0;  ///< above the reference surface: ground + height above ground
-  glm::dvec3 eyeEcef{0.0};
-  double radiusMeters = 0.0;
-  double cellMeters = 0.0;
-  int cells = 1;  ///< per side (odd)
+  Planet planet = Planet::mars();  ///< the dataset's planet
+  double latDegrees = 0.0;         ///< of the observer (the projection's centre)
+  double lonDegrees = 0.0;         ///< of the observer
+  double groundMeters = 0.0;       ///< the rendered terrain's height under the observer
+  double eyeHeightMeters = 0.0;    ///< above the reference surface: ground + height above ground
+  glm::dvec3 eyeEcef{0.0};         ///< the eye, planetocentric metres
+  double radiusMeters = 0.0;       ///< the request's or the default (viewshedGrid)
+  double cellMeters = 0.0;         ///< the side of a cell in the projection
+  int cells = 1;                   ///< per side (odd)
   /// The horizon limit the radius was checked against (see viewshedGrid).
   double horizonLimitMeters = 0.0;
 
+  /// The observer's cell's column and row: (cells − 1) / 2.
   int half() const noexcept { return (cells - 1) / 2; }
   /// East and north metres of a cell's centre in the projection.
   glm::dvec2 cellCentreMeters(int col, int row) const noexcept {
@@ -94,21 +98,23 @@ std::vector<std::uint8_t> viewshedByRayMarch(const ViewshedGrid& grid,
 
 /// Figures of a mask over its grid.
 struct ViewshedStats final {
-  std::uint64_t cellsInRadius = 0;  ///< with terrain
-  std::uint64_t visibleCells = 0;
-  double visibleAreaSquareMeters = 0.0;
-  double farthestVisibleMeters = 0.0;  ///< along the surface
-  GeodeticPosition farthestVisible;    ///< height 0
+  std::uint64_t cellsInRadius = 0;       ///< with terrain
+  std::uint64_t visibleCells = 0;        ///< kViewshedVisible
+  double visibleAreaSquareMeters = 0.0;  ///< true area of the visible cells
+  double farthestVisibleMeters = 0.0;    ///< along the surface
+  GeodeticPosition farthestVisible;      ///< height 0
 };
+/// The figures of `mask` (cells × cells, row 0 north) over `grid`.
 ViewshedStats viewshedStats(const ViewshedGrid& grid, const std::vector<std::uint8_t>& mask);
 
 /// How two masks of one grid agree over the cells both have in their radius.
 struct ViewshedAgreement final {
-  std::uint64_t compared = 0;
-  std::uint64_t agree = 0;
-  std::uint64_t visibleOnlyInFirst = 0;
-  std::uint64_t visibleOnlyInSecond = 0;
-  std::uint64_t visibleInBoth = 0;
+  std::uint64_t compared = 0;             ///< cells both masks have in their radius
+  std::uint64_t agree = 0;                ///< of those, cells both call visible or both hidden
+  std::uint64_t visibleOnlyInFirst = 0;   ///< visible in the first mask, hidden in the second
+  std::uint64_t visibleOnlyInSecond = 0;  ///< visible in the second mask, hidden in the first
+  std::uint64_t visibleInBoth = 0;        ///< visible in both
+  /// agree / compared (1 when nothing was compared).
   double fraction() const noexcept {
     return compared == 0 ? 1.0 : static_cast<double>(agree) / static_cast<double>(compared);
   }
@@ -118,6 +124,7 @@ struct ViewshedAgreement final {
     return either == 0 ? 1.0 : static_cast<double>(visibleInBoth) / static_cast<double>(either);
   }
 };
+/// How `first` and `second`, two masks of one grid, agree.
 ViewshedAgreement compareViewsheds(const std::vector<std::uint8_t>& first,
                                    const std::vector<std::uint8_t>& second);
 

@@ -23,20 +23,20 @@ namespace pbdam::streaming {
 /// (runtime/PatchDraw.h PatchVertexDisplacement: computed in double here, once per residency,
 /// so that the shader draws the vertex at its terrain point, or morphs it towards its target).
 struct PatchGpuVertex final {
-  std::uint16_t b1;
-  std::uint16_t b2;
-  float heightMeters;
-  float targetHeightMeters;
-  std::array<float, 3> offsetMeters;
+  std::uint16_t b1;                   ///< formats::PatchVertex::b1
+  std::uint16_t b2;                   ///< formats::PatchVertex::b2
+  float heightMeters;                 ///< h, the displacement along the interpolated normal
+  float targetHeightMeters;           ///< h of its morph target
+  std::array<float, 3> offsetMeters;  ///< o, the sideways offset to its terrain point
 };
 static_assert(sizeof(PatchGpuVertex) == 24);
 
 /// One missing patch (key.kind() Patch: `node`) or tile (Tile: `tile`) and where its decoded
 /// bytes go in the output.
 struct DecodeJob final {
-  ResidentKey key;
-  runtime::NodeKey node;
-  runtime::TileKey tile;
+  ResidentKey key;                ///< which patch or tile, and its kind
+  runtime::NodeKey node;          ///< the patch's node (kind Patch)
+  runtime::TileKey tile;          ///< the tile (kind Tile)
   std::uint64_t offset = 0;       ///< first byte in the output (layout() sets it)
   std::uint64_t bytes = 0;        ///< patches: vertices then 16-bit indices; tiles: texels
   std::uint64_t vertexBytes = 0;  ///< patches: the vertex part of `bytes`

@@ -20,7 +20,7 @@ namespace pbdam::streaming {
 
 /// A limit on the process's memory and where it came from.
 struct MemoryLimit final {
-  std::uint64_t bytes = 0;
+  std::uint64_t bytes = 0;  ///< the limit
   /// "cgroup v2 memory.max of /sys/fs/cgroup/...", "cgroup v1 memory.limit_in_bytes of ...",
   /// "--memory-budget-mib".
   std::string source;
@@ -40,9 +40,9 @@ std::optional<MemoryLimit> memoryLimitOf(double budgetMiB);
 
 /// What a frame loop asks of memory.
 struct MemoryDemand final {
-  std::uint32_t widthPixels = 1280;
-  std::uint32_t heightPixels = 720;
-  std::uint32_t framesInFlight = 2;
+  std::uint32_t widthPixels = 1280;  ///< the frames' size
+  std::uint32_t heightPixels = 720;  ///< the frames' size
+  std::uint32_t framesInFlight = 2;  ///< frames drawn at once, each with its own targets
   /// The GPU cache asked for (--gpu-cache-mib); with `cacheInHostMemory` it is lowered to fit.
   std::uint64_t gpuCacheBytes = 0;
   /// Whether the device's memory is the host's (a CPU device such as lavapipe): then the GPU
@@ -56,8 +56,8 @@ struct MemoryDemand final {
 
 /// How a budget is shared.
 struct MemoryPlan final {
-  std::uint64_t budgetBytes = 0;
-  std::string source;
+  std::uint64_t budgetBytes = 0;    ///< the limit shared out (MemoryLimit::bytes)
+  std::string source;               ///< where the limit came from (MemoryLimit::source)
   std::uint64_t residentBytes = 0;  ///< held already when the plan was made
   std::uint64_t frameBytes = 0;     ///< the frames in flight's targets and buffers
   std::uint64_t gpuCacheBytes = 0;  ///< the GPU cache's budget (lowered to fit on a CPU device)
@@ -79,11 +79,14 @@ struct MemoryPlan final {
 /// through a cache of that size (FaceViewOptions) instead of held whole, so that a dataset's
 /// tables need not fit in memory; without one, tables are held whole.
 formats::FaceViewOptions faceOptionsFor(const std::optional<MemoryLimit>& limit);
+/// The share of a memory limit the node tables may take: limit / kNodeCacheShare.
 inline constexpr std::uint64_t kNodeCacheShare = 32;
 
 /// The smallest GPU cache and page room a frame loop is allowed to run with.
+/// @{
 inline constexpr std::uint64_t kMinGpuCacheBytes = std::uint64_t{16} << 20;
 inline constexpr std::uint64_t kMinPageRoomBytes = std::uint64_t{48} << 20;
+/// @}
 
 /// Bytes the frames in flight hold besides the cache: per frame an RGBA8 colour target, a
 /// 32-bit depth target, the readback buffer, and a staging allowance for the frame's uploads.

@@ -31,13 +31,17 @@ namespace pbdam::streaming {
 class HeldPages final {
  public:
   HeldPages() = default;
+  /// Takes over `other`'s locks, leaving it holding nothing.
+  /// @{
   HeldPages(HeldPages&& other) noexcept;
   HeldPages& operator=(HeldPages&& other) noexcept;
+  /// @}
   HeldPages(const HeldPages&) = delete;
   HeldPages& operator=(const HeldPages&) = delete;
   ~HeldPages();
   /// Locks the pages overlapping [offset, offset + bytes) of `file`; false when mlock refused.
   bool hold(const MappedFile& file, std::uint64_t offset, std::uint64_t bytes);
+  /// Bytes of the pages locked.
   std::uint64_t bytes() const noexcept { return bytes_; }
   /// Drops this process's page-table entries of [offset, offset + bytes) of `file`
   /// (MappedFile::releaseResident) except on the pages held here, which madvise cannot drop
@@ -53,7 +57,7 @@ class HeldPages final {
 
 /// A cut and the global level cap it was refined under.
 struct NoStallCut final {
-  runtime::Cut cut;
+  runtime::Cut cut;  ///< what to draw
   /// The finest level drawn (refinement's maxLevel); the dataset's depth when nothing was
   /// capped; -1 (and an empty cut) when not even the roots are resident.
   int levelCap = -1;
@@ -68,8 +72,8 @@ struct NoStallCut final {
 /// budget nothing is locked: under other processes' memory pressure the roots went, and frames
 /// were drawn empty). Empty functions hold nothing.
 struct NoStallCached final {
-  std::function<bool(const runtime::NodeKey&)> patch;
-  std::function<bool(const runtime::TileKey&)> tile;
+  std::function<bool(const runtime::NodeKey&)> patch;  ///< whether a patch is held decoded
+  std::function<bool(const runtime::TileKey&)> tile;   ///< whether a tile is held decoded
 };
 
 /// Chooses no-stall cuts over one mapped dataset, which must outlive it.

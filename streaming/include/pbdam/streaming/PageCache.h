@@ -14,8 +14,9 @@ namespace pbdam::streaming {
 
 /// Resident and total pages of one or more files.
 struct PageResidency final {
-  std::size_t residentPages = 0;
-  std::size_t totalPages = 0;
+  std::size_t residentPages = 0;  ///< in the page cache (mincore)
+  std::size_t totalPages = 0;     ///< of the files
+  /// residentPages / totalPages (0 for no pages).
   double residentFraction() const noexcept {
     return totalPages == 0 ? 0.0
                            : static_cast<double>(residentPages) / static_cast<double>(totalPages);

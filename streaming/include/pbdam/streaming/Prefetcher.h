@@ -28,10 +28,12 @@ namespace pbdam::streaming {
 /// velocity of the last two observations (axes re-orthonormalised). Not thread-safe.
 class CameraPredictor final {
  public:
+  /// Records `camera` as the pose at `timeSeconds`.
   void observe(double timeSeconds, const runtime::Camera& camera);
   /// The camera predicted at `timeSeconds`; nullopt before the first observation. With one
   /// observation it is that camera.
   std::optional<runtime::Camera> predict(double timeSeconds) const;
+  /// The time of the last observation; nullopt before the first.
   std::optional<double> lastTime() const;
 
  private:
@@ -44,17 +46,18 @@ class CameraPredictor final {
 
 /// A patch's or tile's byte range of a predicted cut, as the prefetcher handled it.
 struct PrefetchRange final {
-  ResidentKey key;  ///< the patch or tile (packKey() of its NodeKey or TileKey)
-  int face = 0;     ///< the face file the range is in
-  std::uint64_t offset = 0;
-  std::uint64_t bytes = 0;
+  ResidentKey key;           ///< the patch or tile (packKey() of its NodeKey or TileKey)
+  int face = 0;              ///< the face file the range is in
+  std::uint64_t offset = 0;  ///< first byte in the face file
+  std::uint64_t bytes = 0;   ///< the range's length
   bool wasResident = false;  ///< already in the page cache: not advised
   std::uint64_t cycle = 0;   ///< which prediction (1, 2, …) asked for it
 };
 
+/// How far ahead a Prefetcher predicts and how it refines and advises the predicted cuts.
 struct PrefetchOptions final {
-  double lookaheadSeconds = 0.5;
-  runtime::RefinementOptions refinement;
+  double lookaheadSeconds = 0.5;          ///< the farthest prediction, from the last observed frame
+  runtime::RefinementOptions refinement;  ///< the frames' own refinement options
   /// Beyond the nearest horizon (which asks for exactly the predicted camera's cut, first), the
   /// predicted cameras see this much more (degrees added to the vertical field of view, the
   /// image grown with it so that pixels per radian and so levels of detail stay the same), so
@@ -87,8 +90,13 @@ struct PrefetchStats final {
   std::uint64_t rangesDeferred = 0;  ///< ranges left to a later prediction (pageRoomBytes)
 };
 
+/// Reads ahead of the camera: a worker thread extrapolates the observed cameras
+/// (CameraPredictor), refines the predicted cuts and advises the kernel (MADV_WILLNEED) of their
+/// patches' and tiles' pages not yet resident, so that the render thread's faults find them.
+/// observe() and stats() may be called from any thread; the dataset must outlive it.
 class Prefetcher final {
  public:
+  /// Starts the worker over `dataset`.
   Prefetcher(const MappedDataset& dataset, const PrefetchOptions& options);
   ~Prefetcher();
   Prefetcher(const Prefetcher&) = delete;
@@ -98,6 +106,7 @@ class Prefetcher final {
   void observe(double timeSeconds, const runtime::Camera& camera);
   /// Stops the worker and waits for it (also done by the destructor).
   void stop();
+  /// What it did so far.
   PrefetchStats stats() const;
 
  private:

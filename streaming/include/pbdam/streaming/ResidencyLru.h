@@ -26,13 +26,17 @@ enum class ResidentKind : std::uint8_t {
 /// A patch or a tile as one integer: packKey() of its NodeKey or TileKey (DatasetView.h), whose
 /// top bit tells the kinds apart.
 struct ResidentKey final {
-  std::uint64_t packed = 0;
+  std::uint64_t packed = 0;  ///< runtime::packKey() of the key
 
+  /// The key of patch `key`.
   static ResidentKey patch(const runtime::NodeKey& key) noexcept { return {runtime::packKey(key)}; }
+  /// The key of tile `key`.
   static ResidentKey tile(const runtime::TileKey& key) noexcept { return {runtime::packKey(key)}; }
+  /// Patch or Tile, from the packed key's top bit.
   ResidentKind kind() const noexcept {
     return (packed >> 63) != 0 ? ResidentKind::Tile : ResidentKind::Patch;
   }
+  /// Equal packed keys.
   friend bool operator==(const ResidentKey&, const ResidentKey&) = default;
 };
 
@@ -50,13 +54,17 @@ class ResidencyLru final {
   /// `slotBytes[kind]` must be > 0.
   ResidencyLru(std::uint64_t budgetBytes, std::array<std::uint64_t, 2> slotBytes) noexcept;
 
+  /// The budget it was made with.
   std::uint64_t budgetBytes() const noexcept { return budgetBytes_; }
+  /// Slot bytes of the resident entries (at most the budget).
   std::uint64_t residentBytes() const noexcept { return residentBytes_; }
+  /// What an entry of `kind` costs.
   std::uint64_t slotBytes(ResidentKind kind) const noexcept {
     return slotBytes_[static_cast<std::size_t>(kind)];
   }
   /// The most entries of `kind` the budget allows (budget / slot bytes).
   std::uint32_t capacity(ResidentKind kind) const noexcept;
+  /// Entries resident now, of both kinds.
   std::size_t size() const noexcept { return entries_.size(); }
   /// Entries of `kind` resident now.
   std::uint32_t count(ResidentKind kind) const noexcept {
