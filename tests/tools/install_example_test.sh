@@ -3,7 +3,11 @@
 # prefix, examples/headless configured and built against it with find_package(pbdam) (a fresh
 # build directory, the same compiler, warnings as errors), its frame of the MOLA test dataset
 # compared byte for byte with `pbdam render`'s of the same camera, and pbdam.pc resolved, its
-# cflags compiling the headers and its libs linking the example again.
+# cflags compiling the headers and its libs linking the example again. Then examples/marker, built
+# the same way, draws the terrain and a marker of its own into its own pass and depth buffer,
+# looking east at Olympus Mons from 420 km west: a marker on the far flank, behind the summit,
+# is hidden (the frame is `pbdam render`'s, byte for byte, and the terrain's line-of-sight query
+# agrees); one on the near flank is drawn, under either depth convention.
 #   install_example_test.sh BUILD_DIR SOURCE_DIR PBDAM CXX GENERATOR DATASET ARTIFACTS_DIR
 # Exit code 77 (skipped): the dataset was not built (a failure under CI=true).
 set -euo pipefail
@@ -69,3 +73,28 @@ objects=$(find "$tmp/example" -name '*.o')
 "$tmp/pc_headless" "$dataset" "$camera" "$tmp/pc.png" $width $height >/dev/null
 cmp "$tmp/pc.png" "$tmp/render.png" || fail "the pkg-config link's frame is not pbdam render's"
 step "pbdam.pc compiles, links and renders the same"
+
+cmake -S "$src/examples/marker" -B "$tmp/marker" -G "$generator" -DCMAKE_BUILD_TYPE=Release \
+      -DCMAKE_CXX_COMPILER="$cxx" -DCMAKE_PREFIX_PATH="$prefix" \
+      -DCMAKE_COMPILE_WARNING_AS_ERROR=ON >"$tmp/marker-configure.log" ||
+  { cat "$tmp/marker-configure.log"; fail "configuring the marker example against the installed package"; }
+cmake --build "$tmp/marker" >"$tmp/marker-build.log" ||
+  { cat "$tmp/marker-build.log"; fail "building the marker example"; }
+marker=$tmp/marker/pbdam_marker
+"$marker" "$dataset" "$camera" "$tmp/none.png" $width $height | tee "$tmp/none.txt"
+cmp "$tmp/none.png" "$tmp/render.png" || fail "the marker example's frame without a marker is not pbdam render's"
+eye=18.65,219,30000,90,-3,0  # 30 km up, 420 km west of the summit, looking east
+"$pbdam" render "$dataset" --camera "$eye" --width $width --height $height \
+  --out "$tmp/eye.png" --quiet
+"$marker" "$dataset" "$eye" "$tmp/behind.png" $width $height 18.65,229.5,0 | tee "$tmp/behind.txt"
+grep -qF "marker hidden (line of sight), 0 pixels drawn" "$tmp/behind.txt" ||
+  fail "the marker behind the summit is not hidden"
+cmp "$tmp/behind.png" "$tmp/eye.png" || fail "the frame with the hidden marker is not pbdam render's"
+for depth in reversed-z zero-near; do
+  "$marker" "$dataset" "$eye" "$tmp/front-$depth.png" $width $height 18.65,222,0 $depth |
+    tee "$tmp/front-$depth.txt"
+  grep -qE "marker visible \(line of sight\), [1-9][0-9]{2,} pixels drawn" "$tmp/front-$depth.txt" ||
+    fail "the marker on the near flank is not drawn ($depth)"
+done
+cp "$tmp/front-reversed-z.png" "$artifacts/marker.png"
+step "marker hidden behind the summit, drawn in front"

@@ -31,13 +31,14 @@ enum class DepthConvention {
 /// dynamic rendering (vkCmdBeginRendering) with one colour attachment and a depth attachment.
 /// The terrain makes one pipeline per distinct HostPass and keeps it.
 struct HostPass final {
-  VkFormat colorFormat = VK_FORMAT_R8G8B8A8_UNORM;
-  VkFormat depthFormat = VK_FORMAT_D32_SFLOAT;
+  VkFormat colorFormat = VK_FORMAT_R8G8B8A8_UNORM;  ///< the colour attachment's format
+  VkFormat depthFormat = VK_FORMAT_D32_SFLOAT;      ///< the depth attachment's format
   VkRenderPass renderPass = VK_NULL_HANDLE;  ///< VK_NULL_HANDLE: dynamic rendering
   std::uint32_t subpass = 0;                 ///< the subpass of renderPass the terrain draws in
-  VkSampleCountFlagBits samples = VK_SAMPLE_COUNT_1_BIT;
-  DepthConvention depth = DepthConvention::ReversedZ;
+  VkSampleCountFlagBits samples = VK_SAMPLE_COUNT_1_BIT;  ///< of both attachments
+  DepthConvention depth = DepthConvention::ReversedZ;     ///< what the depth attachment holds
 
+  /// Passes that take the same pipeline.
   bool operator==(const HostPass&) const = default;
 };
 

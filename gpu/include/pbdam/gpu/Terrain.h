@@ -65,6 +65,7 @@ enum class TerrainMode {
 /// How a Terrain is opened. Defaults: exact mode, 3 px, the dataset's morph range, a 256 MiB GPU
 /// cache, no memory plan, 1280 x 720 at 60°, one frame in flight.
 struct TerrainOptions final {
+  /// What a frame does about data that is not resident.
   TerrainMode mode = TerrainMode::Exact;
   /// Tolerance in pixels, morph range and level cap of every frame's cut.
   runtime::RefinementOptions refinement;
@@ -77,7 +78,7 @@ struct TerrainOptions final {
   /// Paging and NoStall: advise the pages of the cut predicted `lookaheadSeconds` ahead
   /// (update() with the frames' times). NoStall without it fetches the current camera's cut.
   bool prefetch = false;
-  double lookaheadSeconds = 0.5;
+  double lookaheadSeconds = 0.5;  ///< how far ahead the prefetcher predicts the camera
   /// Called on the prefetcher's worker for each range it advises (benchmarks count their use).
   std::function<void(const streaming::PrefetchRange&)> onPrefetchRange;
   /// The GPU cache's budget of patch and tile slots.
@@ -91,15 +92,17 @@ struct TerrainOptions final {
   bool reportMemoryPlan = false;
   /// The image every frame is drawn at: the cameras given to update() must have this size.
   runtime::Viewport viewport;
+  /// Frames submitted (or drawn into hosts' passes) and not yet done, 1 to
+  /// TerrainRenderer::kMaxFramesInFlight.
   std::uint32_t framesInFlight = 1;
 };
 
 /// What update() made for a camera.
 struct TerrainUpdate final {
-  runtime::Cut cut;
+  runtime::Cut cut;          ///< the patches to draw, in draw order
   double traversalMs = 0.0;  ///< selecting the cut, wall time
   int levelCap = -1;         ///< NoStall: the level cap of the cut; −1 otherwise
-  runtime::CutMorphSummary morph;
+  runtime::CutMorphSummary morph;  ///< how many of its patches morph or blend
 };
 
 /// One dataset, its renderer and its frame loop's parts, driven by a host. Not copyable or
@@ -163,10 +166,12 @@ class Terrain final {
   formats::Result<TerrainViewshed> viewshed(const runtime::ViewshedRequest& request);
 
   /// The parts, for hosts and commands that go further (benchmarks' figures).
+  /// @{
   const runtime::DatasetView& view() const noexcept { return dataset_->view(); }
   const streaming::MappedDataset& dataset() const noexcept { return *dataset_; }
   TerrainRenderer& renderer() noexcept { return *renderer_; }
   CutSource& cutSource() noexcept { return *cuts_; }
+  /// @}
   /// The memory plan the terrain was sized by; unset without a budget.
   const std::optional<streaming::MemoryPlan>& memoryPlan() const noexcept { return plan_; }
   /// The prefetcher (Paging with prefetch, NoStall); null otherwise.
@@ -175,7 +180,9 @@ class Terrain final {
   void stopPrefetcher();
   /// NoStall: the coarse levels that could not be preloaded (the level cap keeps them out).
   const std::vector<formats::Error>& preloadSkipped() const noexcept { return preloadSkipped_; }
+  /// The options it was opened with (the memory plan may have lowered the cache since).
   const TerrainOptions& options() const noexcept { return options_; }
+  /// The device it draws on.
   VulkanContext& context() noexcept { return *context_; }
 
  private:

@@ -125,8 +125,8 @@ struct RenderedFrame final {
 /// `signalValue`, so that the renderer knows when the draws are done and may reuse their slot
 /// and cache entries.
 struct HostFrame final {
-  VkSemaphore semaphore = VK_NULL_HANDLE;
-  std::uint64_t signalValue = 0;
+  VkSemaphore semaphore = VK_NULL_HANDLE;  ///< the renderer's timeline semaphore
+  std::uint64_t signalValue = 0;           ///< the value the host's submission signals
   /// The cut's patches, triangles and tiles, decode time, cache hits, misses, evictions and
   /// bytes uploaded; no device timings (the host submits the draws).
   FrameStats stats;
