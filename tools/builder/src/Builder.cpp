@@ -24,7 +24,6 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
-#include <ctime>
 #include <functional>
 #include <limits>
 #include <mutex>
@@ -36,6 +35,7 @@
 #include "DatasetAssembly.h"
 #include "DiamondBuilder.h"
 #include "ForestPlan.h"
+#include "StageClock.h"
 #include "pbdam/builder/Checkpoint.h"
 #include "pbdam/builder/Lattice.h"
 #include "pbdam/builder/PatchBuilder.h"
@@ -65,20 +65,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
-
-/// CPU seconds (user + system) this process has used so far.
-double processCpuSeconds() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-}
-
-/// Appends the CPU seconds since the last mark to the summary's stages.
-void markCpu(BuildSummary& summary, std::string stage, double& since) {
-  const double now = processCpuSeconds();
-  summary.cpuSeconds.emplace_back(std::move(stage), now - since);
-  since = now;
-}
 
 /// Contiguous share [begin, end) of `count` items for `rank` of `ranks`.
 std::pair<std::uint64_t, std::uint64_t> shareOf(std::uint64_t count, int rank, int ranks) {
@@ -161,8 +147,8 @@ class DatasetBuild {
         tiles_(plan_.latticeTiles()),
         checkpoint_(o.outDir) {}
 
-  /// Builds from the CPU time `cpuSince` on (processCpuSeconds) and reports each stage's.
-  Result<BuildSummary> run(double cpuSince);
+  /// Builds, marking each stage's CPU time on `clock`.
+  Result<BuildSummary> run(StageClock& clock);
 
  private:
   bool root() const noexcept { return comm_.rank() == 0; }
@@ -881,7 +867,7 @@ Result<void> DatasetBuild::assemble(BuildSummary& summary) {
   return assembleDataset(inputs, summary);
 }
 
-Result<BuildSummary> DatasetBuild::run(double cpuSince) {
+Result<BuildSummary> DatasetBuild::run(StageClock& clock) {
   BuildSummary summary;
   summary.latticeCells = in_.n;
   summary.insets = insetSummaries(o_, in_);
@@ -937,7 +923,7 @@ Result<BuildSummary> DatasetBuild::run(double cpuSince) {
   // ---- Resample (each rank a share of the lattice rows and of the DEM rows, into files that
   // every rank then maps).
   if (auto r = resample(); !r) return std::move(r).error();
-  markCpu(summary, "resample", cpuSince);
+  clock.mark(summary, "resample");
   summary.sourceSamples = grid_->sourceSampleCount();
   summary.latticeSamples = tiles_.pointCount();
   summary.noDataPoints = grid_->noDataPoints();
@@ -960,13 +946,13 @@ Result<BuildSummary> DatasetBuild::run(double cpuSince) {
   }
   for (int level = next; level >= 0; --level) {
     if (auto r = buildLevel(level); !r) return std::move(r).error();
-    markCpu(summary, "level " + std::to_string(level), cpuSince);
+    clock.mark(summary, "level " + std::to_string(level));
   }
 
   // ---- Texture quadtree.
   if (!start.textureComplete) {
     if (auto r = buildTextures(); !r) return std::move(r).error();
-    markCpu(summary, "textures", cpuSince);
+    clock.mark(summary, "textures");
   }
 
   // RSS bound: the assembly reads checkpoint files only, so the DEM the textures read again
@@ -993,7 +979,7 @@ Result<BuildSummary> DatasetBuild::run(double cpuSince) {
   // ---- Face files, then the manifest (rank 0).
   if (root()) {
     if (auto r = assemble(summary); !r) return fail("writing the dataset", r.error());
-    markCpu(summary, "assembly", cpuSince);
+    clock.mark(summary, "assembly");
   }
   return summary;
 }
@@ -1002,7 +988,7 @@ Result<BuildSummary> DatasetBuild::run(double cpuSince) {
 
 Result<BuildSummary> buildDataset(const BuildOptions& o) {
   const auto start = Clock::now();
-  double cpuSince = processCpuSeconds();
+  StageClock clock;
   LocalCommunicator local;
   Communicator& comm = o.communicator ? *o.communicator : local;
   auto inputs = prepareInputs(o);
@@ -1014,9 +1000,9 @@ Result<BuildSummary> buildDataset(const BuildOptions& o) {
   Result<BuildSummary> result = Error{};
   arena.execute([&] {
     BuildSummary inputsCpu;
-    markCpu(inputsCpu, "inputs", cpuSince);
+    clock.mark(inputsCpu, "inputs");
     DatasetBuild build(o, comm, *inputs);
-    result = build.run(cpuSince);
+    result = build.run(clock);
     if (result) result->cpuSeconds.insert(result->cpuSeconds.begin(), inputsCpu.cpuSeconds[0]);
   });
   if (!result) return withResumeHint(std::move(result).error());
