@@ -4,7 +4,7 @@
 // heads-up display over it (FlyHud.h). The controls (FlyControls.h) move the camera; no-stall
 // mode with prefetch from the live camera keeps the render thread off the disk. The flight can
 // be recorded as a camera path (`pbdam bench`, `pbdam render --path`), replayed, and driven by a
-// script of timed events (tests).
+// script of timed events (tests): FlyScriptDriver.h.
 #define GLFW_INCLUDE_VULKAN
 #include <GLFW/glfw3.h>
 #include <nlohmann/json.hpp>
@@ -30,6 +30,7 @@
 #include "Commands.h"
 #include "FlyControls.h"
 #include "FlyHud.h"
+#include "FlyScriptDriver.h"
 #include "FrameImage.h"
 #include "FrameWriter.h"
 #include "MorphOption.h"
@@ -158,28 +159,6 @@ int checkFlyOptions(const FlyCliOptions& c, FlyModes& modes) {
   return kExitOk;
 }
 
-/// The pose along a recorded path at `t` seconds (linear between rows; heading the short way).
-CameraPose poseAt(const std::vector<CameraPathPoint>& path, double t) {
-  const auto pose = [](const CameraPathPoint& p) {
-    return CameraPose{p.latDegrees,     p.lonDegrees,   p.altitudeMeters,
-                      p.headingDegrees, p.pitchDegrees, p.rollDegrees};
-  };
-  if (t <= path.front().tSeconds) return pose(path.front());
-  if (t >= path.back().tSeconds) return pose(path.back());
-  const auto next =
-      std::upper_bound(path.begin(), path.end(), t,
-                       [](double v, const CameraPathPoint& p) { return v < p.tSeconds; });
-  const CameraPathPoint& b = *next;
-  const CameraPathPoint& a = *(next - 1);
-  const double s = (t - a.tSeconds) / (b.tSeconds - a.tSeconds);
-  const auto mix = [s](double x, double y) { return x + (y - x) * s; };
-  const auto mixAngle = [s](double x, double y) { return x + std::remainder(y - x, 360.0) * s; };
-  return CameraPose{
-      mix(a.latDegrees, b.latDegrees),         mixAngle(a.lonDegrees, b.lonDegrees),
-      mix(a.altitudeMeters, b.altitudeMeters), mixAngle(a.headingDegrees, b.headingDegrees),
-      mix(a.pitchDegrees, b.pitchDegrees),     mixAngle(a.rollDegrees, b.rollDegrees)};
-}
-
 std::string poseText(const CameraPose& p) {
   char text[256];
   std::snprintf(text, sizeof text, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g", p.latDegrees,
@@ -301,47 +280,6 @@ void installCallbacks(GLFWwindow* window, WindowInput& input) {
   });
 }
 
-/// Applies a script's events due by `t`; returns false once a close event was applied.
-bool applyScript(const std::vector<FlyScriptEvent>& events, std::size_t& next, double t,
-                 FlyControls& controls, GLFWwindow* window,
-                 const std::function<void(double)>& advanceTo) {
-  bool open = true;
-  while (next < events.size() && events[next].tSeconds <= t) {
-    const FlyScriptEvent& e = events[next++];
-    // The controls move up to the event's own time first: a key held from 0.5 s to 2.5 s
-    // moves the camera for 2 s however few frames fall between.
-    advanceTo(e.tSeconds);
-    switch (e.kind) {
-      case FlyScriptEvent::Kind::KeyDown:
-        controls.press(e.key);
-        break;
-      case FlyScriptEvent::Kind::KeyUp:
-        controls.release(e.key);
-        break;
-      case FlyScriptEvent::Kind::KeyTap:
-        controls.press(e.key);
-        controls.release(e.key);
-        break;
-      case FlyScriptEvent::Kind::Drag:
-        controls.drag(e.x, e.y);
-        break;
-      case FlyScriptEvent::Kind::Wheel:
-        controls.wheel(e.x);
-        break;
-      case FlyScriptEvent::Kind::Type:
-        controls.type(e.text);
-        break;
-      case FlyScriptEvent::Kind::Resize:
-        glfwSetWindowSize(window, static_cast<int>(e.x), static_cast<int>(e.y));
-        break;
-      case FlyScriptEvent::Kind::Close:
-        open = false;
-        break;
-    }
-  }
-  return open;
-}
-
 /// A frame submitted and not yet collected.
 struct InFlight final {
   std::size_t frame = 0;
@@ -380,8 +318,7 @@ class FlySession final {
         context_(context),
         window_(window) {}
 
-  int run(FlyControls& controls, const std::vector<FlyScriptEvent>& script,
-          const std::vector<CameraPathPoint>& replay);
+  int run(FlyControls& controls, FlyScriptDriver& driver);
 
  private:
   Result<void> setUp();
@@ -664,17 +601,18 @@ Result<void> FlySession::frame(FlyControls& controls, double t) {
   return {};
 }
 
-int FlySession::run(FlyControls& controls, const std::vector<FlyScriptEvent>& script,
-                    const std::vector<CameraPathPoint>& replay) {
+int FlySession::run(FlyControls& controls, FlyScriptDriver& driver) {
   if (auto r = setUp(); !r) return reportError(r.error());
   WindowInput input;
   input.controls = &controls;
   installCallbacks(window_, input);
   const auto start = Clock::now();
-  std::size_t nextEvent = 0;
   auto last = start;        // the end of the last frame shown
   auto lastUpdate = start;  // the time the controls were last advanced to
   bool open = true;
+  const std::function<void(int, int)> resizeWindow = [this](int width, int height) {
+    glfwSetWindowSize(window_, width, height);
+  };
   while (open && glfwWindowShouldClose(window_) == GLFW_FALSE) {
     glfwPollEvents();
     const auto now = Clock::now();
@@ -686,12 +624,9 @@ int FlySession::run(FlyControls& controls, const std::vector<FlyScriptEvent>& sc
       controls.update(secondsBetween(lastUpdate, at));
       lastUpdate = at;
     };
-    if (!applyScript(script, nextEvent, t, controls, window_, advanceTo)) open = false;
+    if (!driver.applyScript(t, controls, resizeWindow, advanceTo)) open = false;
     if (c_.exitAfterSeconds > 0.0 && t >= c_.exitAfterSeconds) open = false;
-    if (!replay.empty()) {
-      if (t > replay.back().tSeconds) open = false;
-      controls.setPose(poseAt(replay, t));
-    }
+    if (!driver.applyReplay(t, controls)) open = false;
     if (!open) break;
     int fbw = 0;
     int fbh = 0;
@@ -806,26 +741,16 @@ int runFly(const FlyCliOptions& c) {
   const DatasetView& view = (*dataset)->view();
   if (auto r = checkMorphOptions(c.morph, view, false); !r) return reportError(r.error());
   modes.morph = c.morph.morph == "on";
-  std::vector<FlyScriptEvent> script;
-  if (!c.script.empty()) {
-    auto events = readFlyScript(c.script);
-    if (!events) return reportError(events.error());
-    script = std::move(*events);
-  }
-  std::vector<CameraPathPoint> replay;
-  if (!c.replay.empty()) {
-    auto points = readCameraPath(c.replay);
-    if (!points) return reportError(points.error());
-    replay = std::move(*points);
-  }
+  auto driver = FlyScriptDriver::load(c.script, c.replay);
+  if (!driver) return reportError(driver.error());
   const Planet& planet = view.planet();
   CameraPose start{0.0, 0.0, 2.0 * planet.equatorialRadiusMeters(), 0.0, -90.0, 0.0};
   if (!c.camera.empty()) {
     auto pose = parseCameraPose(c.camera);
     if (!pose) return reportError(pose.error());
     start = *pose;
-  } else if (!replay.empty()) {
-    start = poseAt(replay, 0.0);
+  } else if (const std::optional<CameraPose> replayStart = driver->replayStart()) {
+    start = *replayStart;
   }
   if (auto r = validateCameraPose(start, planet); !r) return reportError(r.error());
   std::optional<std::vector<double>> goTo;
@@ -908,7 +833,7 @@ int runFly(const FlyCliOptions& c) {
     }
     {
       FlySession session(c, modes, **dataset, *context, window.handle);
-      status = session.run(controls, script, replay);
+      status = session.run(controls, *driver);
     }
     if (c.validation && context->validationLog().count() > 0) {
       std::cerr << "pbdam: " << context->validationLog().count() << " Vulkan validation messages\n";

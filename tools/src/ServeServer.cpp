@@ -2,7 +2,6 @@
 #include "ServeServer.h"
 
 #include <httplib.h>
-#include <malloc.h>
 #include <sys/stat.h>
 
 #include <array>
@@ -28,6 +27,7 @@
 #include "HeightJson.h"
 #include "ServeQueries.h"
 #include "ServeRequest.h"
+#include "ServeStats.h"
 #include "ServeViewerHtml.h"
 #include "ViewshedOutput.h"
 #include "pbdam/formats/DatasetFormat.h"
@@ -182,16 +182,6 @@ int statusFor(const Error& error) {
     default:
       return 500;
   }
-}
-
-/// The C heap as glibc's allocator sees it, summed over its arenas: what the program holds
-/// (small blocks in arenas plus blocks mapped on their own), and what the arenas keep free
-/// without giving it back. Growth of the first is the program's; of the second, fragmentation.
-Json heapJson() {
-  const struct mallinfo2 m = ::mallinfo2();
-  return {{"in_use_bytes", m.uordblks + m.hblkhd},
-          {"mapped_blocks_bytes", m.hblkhd},
-          {"free_in_arenas_bytes", m.fordblks}};
 }
 
 /// Whether a peer address is this machine's loopback (IPv4 127/8, IPv6 ::1, or IPv4-mapped).
@@ -639,70 +629,25 @@ Json FrameServer::Impl::statsJson() const {
   const std::shared_ptr<Generation> g = current();
   const RenderPool* pool = g->pool.get();
   const RenderPoolStats s = pool->stats();
-  Json j;
-  j["uptime_s"] = std::chrono::duration<double>(Clock::now() - started).count();
+  ServeCounters counters;
+  counters.uptimeSeconds = std::chrono::duration<double>(Clock::now() - started).count();
   {
     const std::lock_guard<std::mutex> lock(generationMutex);
-    j["dataset"] = {{"directory", directory},
-                    {"generation", g->number},
-                    {"reloads", reloads},
-                    {"failed_reloads", failedReloads},
-                    {"last_reload_error", lastReloadError}};
+    counters.directory = directory;
+    counters.generation = g->number;
+    counters.reloads = reloads;
+    counters.failedReloads = failedReloads;
+    counters.lastReloadError = lastReloadError;
   }
   {
     const std::lock_guard<std::mutex> lock(countersMutex);
-    Json byStatus = Json::object();
-    for (const auto& [status, count] : responsesByStatus) byStatus[std::to_string(status)] = count;
-    Json byPath = Json::object();
-    for (const auto& [path, count] : requestsByPath) byPath[path] = count;
-    j["server"] = {{"requests", requests},
-                   {"responses", byStatus},
-                   {"paths", byPath},
-                   {"http_threads", httpThreads},
-                   {"rss_bytes", residentSetBytes()}};
+    counters.requests = requests;
+    counters.responsesByStatus = responsesByStatus;
+    counters.requestsByPath = requestsByPath;
+    counters.httpThreads = httpThreads;
+    counters.rssBytes = residentSetBytes();
   }
-  // Outside the counters' lock: mallinfo2 takes every arena's lock in turn.
-  j["server"]["heap"] = heapJson();
-  const ServeQueryStats q = g->queries->stats();
-  j["queries"] = {{"sightlines", q.sightlines},
-                  {"viewsheds", q.viewsheds},
-                  {"viewshed_hits", q.viewshedHits},
-                  {"busy", q.busy}};
-  j["queue"] = {{"capacity", s.queueCapacity},
-                {"queued", s.queued},
-                {"rendering", s.rendering},
-                {"peak_queued", s.peakQueued},
-                {"rejected_full", s.rejectedQueueFull},
-                {"expired", s.expired},
-                {"deadline_s", options.deadlineSeconds}};
-  const double frames = static_cast<double>(std::max<std::uint64_t>(1, s.frames));
-  j["render"] = {{"contexts", s.workers},
-                 {"frames_in_flight", options.framesInFlight},
-                 {"device", pool->deviceName()},
-                 {"frames", s.frames},
-                 {"errors", s.renderErrors},
-                 {"mean_render_ms", s.frames > 0 ? s.renderMsTotal / frames : 0.0},
-                 {"mean_queue_ms", s.frames > 0 ? s.queueMsTotal / frames : 0.0},
-                 {"multi_pass_frames", s.multiPassFrames}};
-  const std::uint64_t lookups = s.hits + s.misses;
-  j["cache"] = {
-      {"shared_by_contexts", s.workers},
-      {"budget_bytes", s.cache.budgetBytes},
-      {"resident_bytes", s.cache.residentBytes},
-      {"pinned_bytes", s.cache.pinnedBytes},
-      {"pool_bytes", s.cache.poolBytes},
-      {"resident_patches", s.cache.residentPatches},
-      {"resident_tiles", s.cache.residentTiles},
-      {"waits_for_room", s.cache.waits},
-      {"leases", s.cache.leases},
-      {"lock_wait_ms", s.cache.lockWaitMs},
-      {"lock_held_ms", s.cache.lockHeldMs},
-      {"hits", s.hits},
-      {"misses", s.misses},
-      {"hit_rate", lookups > 0 ? static_cast<double>(s.hits) / static_cast<double>(lookups) : 0.0},
-      {"evictions", s.evictions},
-      {"bytes_uploaded", s.bytesUploaded}};
-  return j;
+  return serveStatsJson(counters, s, g->queries->stats(), options, pool->deviceName());
 }
 
 std::span<const FrameServer::Impl::Route> FrameServer::Impl::routeTable() noexcept {

@@ -8,7 +8,8 @@
 // between levels (a small all-gather of per-rank statistics); rank 0 records the checkpoint
 // state and finally assembles the dataset from the part files through mappings. The inputs are
 // prepared in BuildInputs.cpp, each diamond is built by DiamondBuilder, the part files' bytes are
-// Checkpoint's, and the assembly is DatasetAssembly.cpp.
+// Checkpoint's, the texture stage is TextureStage.cpp (both define DatasetBuild.h's members) and
+// the assembly is DatasetAssembly.cpp.
 #include "pbdam/builder/Builder.h"
 
 #include <tbb/parallel_for.h>
@@ -24,7 +25,6 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
-#include <ctime>
 #include <functional>
 #include <limits>
 #include <mutex>
@@ -34,8 +34,10 @@
 
 #include "BuildInputs.h"
 #include "DatasetAssembly.h"
+#include "DatasetBuild.h"
 #include "DiamondBuilder.h"
 #include "ForestPlan.h"
+#include "StageClock.h"
 #include "pbdam/builder/Checkpoint.h"
 #include "pbdam/builder/Lattice.h"
 #include "pbdam/builder/PatchBuilder.h"
@@ -61,25 +63,6 @@ std::string LocalCommunicator::hostName() const {
 
 void LocalCommunicator::abortJob(int exitCode) { std::_Exit(exitCode); }
 
-namespace {
-
-namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
-
-/// CPU seconds (user + system) this process has used so far.
-double processCpuSeconds() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-}
-
-/// Appends the CPU seconds since the last mark to the summary's stages.
-void markCpu(BuildSummary& summary, std::string stage, double& since) {
-  const double now = processCpuSeconds();
-  summary.cpuSeconds.emplace_back(std::move(stage), now - since);
-  since = now;
-}
-
 /// Contiguous share [begin, end) of `count` items for `rank` of `ranks`.
 std::pair<std::uint64_t, std::uint64_t> shareOf(std::uint64_t count, int rank, int ranks) {
   const auto r = static_cast<std::uint64_t>(rank);
@@ -96,6 +79,17 @@ Error withResumeHint(Error error) {
   }
   return error;
 }
+
+std::string rangeText(std::uint64_t begin, std::uint64_t end) {
+  char text[48];
+  std::snprintf(text, sizeof text, "[%llu, %llu)", static_cast<unsigned long long>(begin),
+                static_cast<unsigned long long>(end));
+  return text;
+}
+
+namespace {
+
+namespace fs = std::filesystem;
 
 /// Collective: the first failure of any rank (lowest rank first) on every rank.
 Result<void> agree(Communicator& comm, const Result<void>& mine) {
@@ -119,13 +113,6 @@ Result<void> agree(Communicator& comm, const Result<void>& mine) {
   return {};
 }
 
-/// What rank 0 decided about the output directory and the checkpoint, sent to every rank.
-struct StartPoint {
-  std::optional<int> completeLevel;      // resume after this level
-  std::uint32_t completeLevelParts = 1;  // its part files (the rank count that wrote them)
-  bool textureComplete = false;
-};
-
 /// The nodes of a level's diamonds (a leaf without partner is a diamond of one).
 std::uint64_t nodesOf(std::span<const Diamond> diamonds) {
   return static_cast<std::uint64_t>(
@@ -134,157 +121,7 @@ std::uint64_t nodesOf(std::span<const Diamond> diamonds) {
          diamonds.size();
 }
 
-std::string rangeText(std::uint64_t begin, std::uint64_t end) {
-  char text[48];
-  std::snprintf(text, sizeof text, "[%llu, %llu)", static_cast<unsigned long long>(begin),
-                static_cast<unsigned long long>(end));
-  return text;
-}
-
-/// One build of the dataset, on however many ranks `comm` has: one for a plain `pbdam build`
-/// (a LocalCommunicator), several under MPI or with thread-ranks in the tests. Every rank runs
-/// the same stages on its share; rank 0 also decides the start point and assembles the dataset.
-class DatasetBuild {
- public:
-  DatasetBuild(const BuildOptions& o, Communicator& comm, BuildInputs& in)
-      : o_(o),
-        comm_(comm),
-        in_(in),
-        lattice_(in.n),
-        d_(static_cast<int>(in.depth)),
-        nodesPerTree_(Lattice::nodesPerTree(d_)),
-        plan_(in.deepRegions.empty()
-                  ? ForestPlan(lattice_, d_, in.leafCells)
-                  : ForestPlan(lattice_, in.leafCells,
-                               ForestShape::make(lattice_, *in.planet,
-                                                 static_cast<int>(in.baseDepth), in.deepRegions))),
-        tiles_(plan_.latticeTiles()),
-        checkpoint_(o.outDir) {}
-
-  /// Builds from the CPU time `cpuSince` on (processCpuSeconds) and reports each stage's.
-  Result<BuildSummary> run(double cpuSince);
-
- private:
-  bool root() const noexcept { return comm_.rank() == 0; }
-  void report(std::string_view stage, double fraction) const {
-    if (root() && o_.progress) o_.progress(stage, fraction);
-  }
-  void log(const std::string& line) const {
-    if (root() && o_.log) o_.log(line);
-  }
-  /// Tells the caller what every rank works on in the stage starting now.
-  void announce(const std::string& stage, const std::string& unit, std::uint64_t count) const {
-    if (!o_.stageStarted) return;
-    std::string text = stage + " (";
-    for (int r = 0; r < comm_.size(); ++r) {
-      const auto [b, e] = shareOf(count, r, comm_.size());
-      text +=
-          (r == 0 ? "rank " : ", rank ") + std::to_string(r) + ": " + unit + " " + rangeText(b, e);
-    }
-    text += " of " + std::to_string(count) + "); checkpointed: ";
-    if (completeLevel_) {
-      text += *completeLevel_ == d_
-                  ? "level " + std::to_string(d_)
-                  : "levels " + std::to_string(d_) + ".." + std::to_string(*completeLevel_);
-      if (textureComplete_) text += " and the textures";
-    } else {
-      text += "nothing yet";
-    }
-    o_.stageStarted(text);
-  }
-  /// A failure after the ranks started: one process returns it; several print it, naming
-  /// this rank, its host and its work item, and stop the job.
-  /// A full disk stops the job with exit code 2 (like bad input: the user's to fix), any
-  /// other failure with 1.
-  Error fail(const std::string& item, const Error& error) {
-    Error e = withResumeHint(error);
-    if (comm_.size() == 1) return e;
-    std::fprintf(stderr, "pbdam: rank %d of %d on %s failed while %s: %s\n", comm_.rank(),
-                 comm_.size(), comm_.hostName().c_str(), item.c_str(), e.message.c_str());
-    std::fflush(stderr);
-    comm_.abortJob(e.code == ErrorCode::NoSpace ? 2 : 1);
-    return e;  // not reached: abortJob does not return
-  }
-
-  Result<StartPoint> setUpOutput();
-  Result<void> resample();
-  Result<void> buildLevel(int level);
-  Result<void> buildTextures();
-  /// Drops the pages of every mapping in use from this process (ResidentTrimmer).
-  void releaseResident();
-  /// Lets the DEM go (memory, or its scratch mapping), under the trimmer's lock.
-  void releaseDem() {
-    // The composite shares the base's heights and keeps the insets: with insets the DEM stays
-    // (its pages are still dropped by the trimmer when it is mapped).
-    if (in_.composite) return;
-    std::lock_guard lock(residentMutex_);
-    in_.dem.reset();
-  }
-  /// Reads the DEM again (for the textures) and checks it is the one the build started with.
-  Result<void> rereadDem();
-  Result<void> assemble(BuildSummary& summary);
-
-  /// The part files one rank writes for a level, and the index of its carry records.
-  struct LevelFiles {
-    Checkpoint::PartWriter nodes;
-    std::optional<Checkpoint::PartWriter> carry;                      // every level but 0
-    std::vector<std::pair<std::uint64_t, std::uint64_t>> carryIndex;  // node id, record offset
-  };
-  /// The test hook BuildOptions::fault: this rank fails (or is killed) at `level`.
-  Result<void> injectFault(int level, const std::string& item);
-  Result<LevelFiles> startLevel(int level, const std::string& item);
-  /// Builds diamonds [begin, end) of `diamonds` in batches (TBB within a batch) into `files`.
-  Result<LevelPartFooter> buildShare(int level, const std::vector<Diamond>& diamonds,
-                                     std::uint64_t begin, std::uint64_t end, LevelFiles& files,
-                                     const std::string& item);
-  /// Appends one batch's bytes (diamonds from `first` on) to the part files, in diamond order.
-  Result<void> appendBatch(const std::vector<DiamondBytes>& batch, const Diamond* first,
-                           LevelFiles& files);
-  Result<void> finishLevel(const LevelPartFooter& footer, LevelFiles& files);
-  /// Rank 0 records `level` as complete in the checkpoint state; every rank waits for it.
-  Result<void> recordLevel(int level);
-  void logLevel(int level, const std::vector<Diamond>& diamonds,
-                const std::vector<std::vector<std::byte>>& gathered, Clock::time_point t0);
-  TextureSource textureSource() const;
-  /// Tile `k` (face-major, heap order within a face) as its blob and rounded-up error.
-  bool buildTile(const TextureSource& source, std::uint64_t k, std::uint64_t tilesPerFace,
-                 std::vector<std::byte>& blob, float& errorMeters) const;
-  Result<void> recordTextures(const std::vector<std::vector<std::byte>>& gathered,
-                              std::uint64_t tiles);
-
-  const BuildOptions& o_;
-  Communicator& comm_;
-  BuildInputs& in_;
-  Lattice lattice_;
-  int d_;
-  std::uint64_t nodesPerTree_;
-  ForestPlan plan_;
-  LatticeTiles tiles_;  // the lattice points the patches use
-  Checkpoint checkpoint_;
-  CheckpointState state_;
-  std::optional<SampleGrid> grid_;
-  float minHeightMeters_ = 0.0f;  ///< the grid's, kept for the manifest once it is gone
-  float maxHeightMeters_ = 0.0f;
-
-  // The carry of the level below the one being built (its diamonds' saturated errors and
-  // spheres and its working patches, by node id), read from its part files.
-  CarryReader below_;
-  std::uint32_t belowParts_ = 0;  // part files of each level's output: the rank count
-  bool verifyBelow_ = false;      // check the CRCs of a carry that a resume found
-  // Mappings ResidentTrimmer releases: the grid and carry above, and while assembling these.
-  std::mutex residentMutex_;
-  AssemblyMappings assembling_;
-
-  // What the checkpoint holds (every rank keeps track, for messages).
-  std::optional<int> completeLevel_;
-  bool textureComplete_ = false;
-
-  // Progress of the simplification (rank 0).
-  Clock::time_point simplifyStart_;
-  std::uint64_t patchesDone_ = 0;
-  std::uint64_t blockPatchesDone_ = 0;  // by this run's block levels, for the ETA
-  double blockSeconds_ = 0.0;
-};
+}  // namespace
 
 Result<StartPoint> DatasetBuild::setUpOutput() {
   std::error_code ec;
@@ -671,193 +508,6 @@ Result<void> DatasetBuild::buildLevel(int level) {
   return {};
 }
 
-Result<void> DatasetBuild::rereadDem() {
-  const auto t0 = Clock::now();
-  auto dem = readDem(o_.demPath, demReadOptions(o_));
-  if (!dem) return std::move(dem).error();
-  const std::string crc = demCrc32(*dem);
-  for (const auto& [key, value] : state_.fingerprint) {
-    if (key == "dem-crc32" && value != crc) {
-      return invalidArgument(o_.demPath.string()
-                                 .append(": changed during the build (CRC-32 ")
-                                 .append(crc)
-                                 .append(", was ")
-                                 .append(value)
-                                 .append(" when the build started)"));
-    }
-  }
-  {
-    std::lock_guard lock(residentMutex_);  // the trimmer releases the DEM's pages too
-    in_.dem = std::move(dem).value();
-  }
-  char line[120];
-  std::snprintf(line, sizeof line, "texture: DEM read again in %.1f s",
-                std::chrono::duration<double>(Clock::now() - t0).count());
-  log(line);
-  return {};
-}
-
-TextureSource DatasetBuild::textureSource() const {
-  const SampleGrid& grid = *grid_;
-  TextureSource source;
-  source.planet = *in_.planet;
-  if (in_.composite) {
-    // Shaded relief of the composite: the insets' texels at their own density.
-    const CompositeSurface* composite = &*in_.composite;
-    source.heightMeters = [composite](double lat, double lon) {
-      return composite->heightAt(lat, lon);
-    };
-  } else {
-    source.heightMeters = heightFunctionFromGrid(*in_.dem, true);
-  }
-  source.ramp.hasOcean = grid.minHeightMeters() < 0.0f && in_.demSource.body == "earth";
-  if (!source.ramp.hasOcean && in_.planet->name() == "earth") source.ramp.hasOcean = true;
-  source.ramp.minMeters = static_cast<double>(grid.minHeightMeters());
-  source.ramp.maxMeters =
-      std::max(static_cast<double>(grid.maxHeightMeters()), source.ramp.minMeters + 1.0);
-  if (in_.imagery) source.imagery = &*in_.imagery;
-  // Insets with imagery draw it over what lies below, with the weight their heights blend by
-  // (each spec's imagery over its own tiles of its surface).
-  for (std::size_t i = 0; i < in_.insetImagery.size(); ++i) {
-    if (!in_.insetImagery[i]) continue;
-    const CompositeSurface* composite = &*in_.composite;
-    source.layers.push_back({&*in_.insetImagery[i], [composite, i](double lat, double lon) {
-                               return composite->specWeight(i, lat, lon);
-                             }});
-  }
-  if (source.imagery != nullptr || !source.layers.empty()) source.imageryShadingStrength = 0.35;
-  return source;
-}
-
-bool DatasetBuild::buildTile(const TextureSource& source, std::uint64_t key,
-                             std::uint64_t tilesPerFace, std::vector<std::byte>& blob,
-                             float& errorMeters) const {
-  const auto face = static_cast<int>(key / tilesPerFace);
-  const std::uint64_t heap = key % tilesPerFace;
-  std::uint32_t level = 0;
-  while (((std::uint64_t{1} << (2 * (level + 1))) - 1) / 3 <= heap) ++level;
-  const std::uint64_t within = heap - ((std::uint64_t{1} << (2 * level)) - 1) / 3;
-  TextureTileRequest request;
-  request.face = face;
-  request.level = static_cast<int>(level);
-  request.qi = static_cast<std::uint32_t>(within & ((std::uint64_t{1} << level) - 1));
-  request.qj = static_cast<std::uint32_t>(within >> level);
-  request.sizeTexels = o_.textureTileTexels;
-  request.borderTexels = kTextureBorderTexels;
-  auto tile = buildTextureTile(source, request);
-  if (!tile) return false;
-  TextureTileImage image = std::move(tile->image);
-  if (o_.textureFormat == TexelFormat::Bc1) {
-    auto bc1 = compressBc1(image, o_.bc1Quality);
-    if (!bc1) return false;
-    image = std::move(bc1).value();
-  }
-  auto encoded = encodeTextureTile(image);
-  if (!encoded) return false;
-  blob = std::move(encoded).value();
-  errorMeters = roundUpToFloat(tile->textureErrorMeters);
-  return true;
-}
-
-Result<void> DatasetBuild::recordTextures(const std::vector<std::vector<std::byte>>& gathered,
-                                          std::uint64_t tiles) {
-  report("texture", 1.0);
-  const std::string writing = "writing the texture checkpoint";
-  state_.textureComplete = true;
-  state_.textureParts = static_cast<std::uint32_t>(comm_.size());
-  if (auto w = checkpoint_.writeState(state_); !w) return fail(writing, w.error());
-  textureComplete_ = true;
-  std::string line = "texture: " + std::to_string(tiles) + " tiles";
-  char buf[120];
-  for (std::size_t r = 0; r < gathered.size(); ++r) {
-    const auto footer = decodeTexturePartFooter(gathered[r], "rank " + std::to_string(r));
-    const std::uint64_t count = footer ? footer->tiles : 0;
-    const double s = footer ? footer->seconds : 0.0;
-    std::snprintf(buf, sizeof buf, "%s rank %zu %llu in %.1f s (%.1f/s)", r == 0 ? ";" : ",", r,
-                  static_cast<unsigned long long>(count), s,
-                  s > 0.0 ? static_cast<double>(count) / s : 0.0);
-    line += buf;
-  }
-  log(line);
-  return {};
-}
-
-Result<void> DatasetBuild::buildTextures() {
-  const std::uint32_t textureLevels =
-      textureLevelCount(in_.n, o_.textureTileTexels, kTextureBorderTexels);
-  const std::uint64_t tilesPerFace = ((std::uint64_t{1} << (2 * textureLevels)) - 1) / 3;
-  // The tiles that exist (face · tilesPerFace + heap index); all of them for a complete forest.
-  const std::vector<std::uint64_t> keys = plan_.tiles(textureLevels);
-  const std::uint64_t tiles = keys.empty() ? 6 * tilesPerFace : keys.size();
-  // Named copies, not a structured binding: the tile lambda below captures `begin`.
-  const auto share = shareOf(tiles, comm_.rank(), comm_.size());
-  const std::uint64_t begin = share.first;
-  const std::uint64_t end = share.second;
-  const std::string item =
-      "building texture tiles " + rangeText(begin, end) + " of " + std::to_string(tiles);
-  announce("texture", "tiles", tiles);
-  if (!in_.dem) {
-    if (auto r = rereadDem(); !r) return fail(item, r.error());
-  }
-  const TextureSource source = textureSource();
-  const auto t0 = Clock::now();
-  const std::uint64_t mine = end - begin;
-  const auto ranks = static_cast<std::uint32_t>(comm_.size());
-  auto file = checkpoint_.startFile(Checkpoint::Kind::Texture, 0,
-                                    static_cast<std::uint32_t>(comm_.rank()), ranks);
-  if (!file) return fail(item, file.error());
-  const auto threads =
-      static_cast<std::uint64_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
-  const std::uint64_t batch = 16 * threads;  // tiles in memory at once
-  std::vector<std::vector<std::byte>> blobs;
-  std::vector<float> errors;
-  std::atomic<std::uint64_t> done{0};
-  std::atomic<std::int64_t> failedTile{-1};
-  const auto caller = std::this_thread::get_id();
-  auto lastReport = Clock::now();
-  for (std::uint64_t first = 0; first < mine && failedTile < 0; first += batch) {
-    const std::uint64_t count = std::min(batch, mine - first);
-    blobs.assign(count, {});
-    errors.assign(count, 0.0f);
-    tbb::parallel_for(std::uint64_t{0}, count, [&](std::uint64_t j) {
-      const std::uint64_t k = begin + first + j;
-      if (!buildTile(source, keys.empty() ? k : keys[k], tilesPerFace, blobs[j], errors[j])) {
-        failedTile = static_cast<std::int64_t>(k);
-        return;
-      }
-      releaseResident();  // a coarse tile's DEM pages go with it, not at the trimmer's tick
-      ++done;
-      if (std::this_thread::get_id() == caller && root() &&
-          Clock::now() - lastReport > std::chrono::milliseconds(100)) {
-        lastReport = Clock::now();
-        report("texture", static_cast<double>(done.load()) /
-                              static_cast<double>(std::max<std::uint64_t>(mine, 1)));
-      }
-    });
-    if (failedTile >= 0) break;
-    ByteWriter w;
-    for (std::uint64_t j = 0; j < count; ++j) putTileEntry(w, errors[j], blobs[j]);
-    if (auto r = file->append(w.bytes()); !r) return fail(item, r.error());
-  }
-  blobs.clear();
-  if (failedTile >= 0) {
-    return fail(item,
-                makeError(ErrorCode::Internal, "texture tile " + std::to_string(failedTile.load()) +
-                                                   " could not be built"));
-  }
-  const TexturePartFooter footer{begin, mine,
-                                 std::chrono::duration<double>(Clock::now() - t0).count()};
-  const std::vector<std::byte> summary = encodeTexturePartFooter(footer);
-  if (auto r = file->append(summary); !r) return fail(item, r.error());
-  if (auto r = file->finish(); !r) return fail(item, r.error());
-  auto gathered = comm_.allGather(summary);
-  if (!root()) {
-    textureComplete_ = true;
-    return {};
-  }
-  return recordTextures(gathered, tiles);
-}
-
 /// Rank 0: the face files and the manifest from the checkpointed levels and tiles.
 Result<void> DatasetBuild::assemble(BuildSummary& summary) {
   const AssemblyInputs inputs{o_,
@@ -881,7 +531,7 @@ Result<void> DatasetBuild::assemble(BuildSummary& summary) {
   return assembleDataset(inputs, summary);
 }
 
-Result<BuildSummary> DatasetBuild::run(double cpuSince) {
+Result<BuildSummary> DatasetBuild::run(StageClock& clock) {
   BuildSummary summary;
   summary.latticeCells = in_.n;
   summary.insets = insetSummaries(o_, in_);
@@ -937,7 +587,7 @@ Result<BuildSummary> DatasetBuild::run(double cpuSince) {
   // ---- Resample (each rank a share of the lattice rows and of the DEM rows, into files that
   // every rank then maps).
   if (auto r = resample(); !r) return std::move(r).error();
-  markCpu(summary, "resample", cpuSince);
+  clock.mark(summary, "resample");
   summary.sourceSamples = grid_->sourceSampleCount();
   summary.latticeSamples = tiles_.pointCount();
   summary.noDataPoints = grid_->noDataPoints();
@@ -960,13 +610,13 @@ Result<BuildSummary> DatasetBuild::run(double cpuSince) {
   }
   for (int level = next; level >= 0; --level) {
     if (auto r = buildLevel(level); !r) return std::move(r).error();
-    markCpu(summary, "level " + std::to_string(level), cpuSince);
+    clock.mark(summary, "level " + std::to_string(level));
   }
 
   // ---- Texture quadtree.
   if (!start.textureComplete) {
     if (auto r = buildTextures(); !r) return std::move(r).error();
-    markCpu(summary, "textures", cpuSince);
+    clock.mark(summary, "textures");
   }
 
   // RSS bound: the assembly reads checkpoint files only, so the DEM the textures read again
@@ -993,16 +643,14 @@ Result<BuildSummary> DatasetBuild::run(double cpuSince) {
   // ---- Face files, then the manifest (rank 0).
   if (root()) {
     if (auto r = assemble(summary); !r) return fail("writing the dataset", r.error());
-    markCpu(summary, "assembly", cpuSince);
+    clock.mark(summary, "assembly");
   }
   return summary;
 }
 
-}  // namespace
-
 Result<BuildSummary> buildDataset(const BuildOptions& o) {
   const auto start = Clock::now();
-  double cpuSince = processCpuSeconds();
+  StageClock clock;
   LocalCommunicator local;
   Communicator& comm = o.communicator ? *o.communicator : local;
   auto inputs = prepareInputs(o);
@@ -1014,9 +662,9 @@ Result<BuildSummary> buildDataset(const BuildOptions& o) {
   Result<BuildSummary> result = Error{};
   arena.execute([&] {
     BuildSummary inputsCpu;
-    markCpu(inputsCpu, "inputs", cpuSince);
+    clock.mark(inputsCpu, "inputs");
     DatasetBuild build(o, comm, *inputs);
-    result = build.run(cpuSince);
+    result = build.run(clock);
     if (result) result->cpuSeconds.insert(result->cpuSeconds.begin(), inputsCpu.cpuSeconds[0]);
   });
   if (!result) return withResumeHint(std::move(result).error());

@@ -8,6 +8,7 @@
 #include <numeric>
 
 #include "pbdam/formats/DemTileSet.h"
+#include "pbdam/formats/ScratchArray.h"
 
 using namespace pbdam::formats;
 
@@ -40,25 +41,11 @@ bool continuedBeside(const HeightGrid& grid, const std::vector<const HeightGrid*
 
 /// Where an inset's edge distances go: beside a file-backed grid a mapped scratch file in
 /// `scratchDirectory` (memory when none is given or none can be made), else memory.
-struct DistanceArray final {
-  std::uint16_t* data = nullptr;
-  std::shared_ptr<const void> owner;
-  std::shared_ptr<MemoryMapping> file;
-};
-
-DistanceArray allocateDistances(const HeightGrid& grid,
-                                const std::filesystem::path& scratchDirectory) {
+ScratchArray<std::uint16_t> allocateDistances(const HeightGrid& grid,
+                                              const std::filesystem::path& scratchDirectory) {
   const auto n = static_cast<std::size_t>(grid.width() * grid.height());
-  if (grid.fileBacked() && !scratchDirectory.empty()) {
-    if (auto m = MemoryMapping::createScratch(scratchDirectory, n * sizeof(std::uint16_t))) {
-      auto file = std::make_shared<MemoryMapping>(std::move(m).value());
-      auto* data = reinterpret_cast<std::uint16_t*>(file->writableBytes().data());
-      return DistanceArray{data, file, file};
-    }
-  }
-  auto memory = std::make_shared_for_overwrite<std::uint16_t[]>(n);
-  std::uint16_t* data = memory.get();
-  return DistanceArray{data, std::move(memory), nullptr};
+  return ScratchArray<std::uint16_t>::allocate(
+      n, grid.fileBacked() ? scratchDirectory : std::filesystem::path());
 }
 
 /// Per sample, the Chebyshev distance (in samples) to the nearest sample that is nodata or
@@ -68,9 +55,10 @@ DistanceArray allocateDistances(const HeightGrid& grid,
 /// side by side (continuedBeside) counts as inside: no band along a seam between surfaces of
 /// different spacings.
 void edgeDistances(const HeightGrid& grid, std::uint16_t cap,
-                   const std::vector<const HeightGrid*>& others, const DistanceArray& out) {
+                   const std::vector<const HeightGrid*>& others,
+                   const ScratchArray<std::uint16_t>& out) {
   const std::int64_t w = grid.width(), h = grid.height();
-  std::uint16_t* const d = out.data;
+  std::uint16_t* const d = out.elements().data();
   const auto at = [&](std::int64_t r, std::int64_t c) -> std::uint16_t& {
     return d[static_cast<std::size_t>(r * w + c)];
   };
@@ -87,7 +75,7 @@ void edgeDistances(const HeightGrid& grid, std::uint16_t cap,
   const auto release = [&](std::int64_t r) {
     if (r % releaseEvery != 0) return;
     grid.releaseResident();
-    if (out.file) (void)out.file->releaseResident();
+    if (out.file()) (void)out.file()->releaseResident();
   };
   for (std::int64_t r = 0; r < h; ++r) {
     for (std::int64_t c = 0; c < w; ++c) at(r, c) = std::isnan(grid.at(r, c)) ? 0 : cap;
@@ -109,9 +97,9 @@ void edgeDistances(const HeightGrid& grid, std::uint16_t cap,
     release(r);
   }
   grid.releaseResident();
-  if (out.file) {
-    (void)out.file->releaseResident();
-    (void)out.file->protectReadOnly();
+  if (out.file()) {
+    (void)out.file()->releaseResident();
+    (void)out.file()->protectReadOnly();
   }
 }
 
@@ -227,14 +215,14 @@ Result<CompositeSurface> CompositeSurface::make(HeightGrid base, std::vector<Ins
         others.push_back(&other.grid);
       }
     }
-    const DistanceArray distances = allocateDistances(filled->grid, fill.scratchDirectory);
+    const ScratchArray<std::uint16_t> distances =
+        allocateDistances(filled->grid, fill.scratchDirectory);
     edgeDistances(filled->grid,
                   static_cast<std::uint16_t>(std::min<std::int64_t>(inset.bandSamples + 1, 65535)),
                   others, distances);
-    inset.edgeDistance = std::span<const std::uint16_t>(
-        distances.data, static_cast<std::size_t>(filled->grid.width() * filled->grid.height()));
-    inset.edgeDistanceOwner = distances.owner;
-    inset.edgeDistanceFile = distances.file;
+    inset.edgeDistance = distances.elements();
+    inset.edgeDistanceOwner = distances.share();
+    inset.edgeDistanceFile = distances.file();
     inset.grid = std::move(filled).value().grid;
     inset.specs = std::move(input.specs);
     inset.specBounds = std::move(input.specBounds);

@@ -11,6 +11,7 @@
 
 #include "pbdam/formats/MemoryMapping.h"
 #include "pbdam/formats/NodataFill.h"
+#include "pbdam/formats/ScratchArray.h"
 
 using namespace pbdam::formats;
 
@@ -203,47 +204,30 @@ void appendRuns(const Void& v, VoidKind kind, std::vector<VoidRun>& runs) {
 
 /// Where filled heights go: a writable copy of the grid's heights, in a scratch file for a
 /// file-backed grid when a scratch directory is given, in memory otherwise.
-struct WritableCopy final {
-  float* heights = nullptr;
-  std::shared_ptr<MemoryMapping> file;
-  std::shared_ptr<float[]> memory;
-};
+using WritableCopy = ScratchArray<float>;
 
 Result<WritableCopy> writableCopy(const HeightGrid& grid,
                                   const std::filesystem::path& scratchDirectory) {
   const std::span<const float> source = grid.heightsMeters();
-  WritableCopy copy;
-  if (grid.fileBacked() && !scratchDirectory.empty()) {
-    if (auto scratch = MemoryMapping::createScratch(scratchDirectory, source.size_bytes())) {
-      copy.file = std::make_shared<MemoryMapping>(std::move(scratch).value());
-      copy.heights = reinterpret_cast<float*>(copy.file->writableBytes().data());
-    }
-  }
-  if (copy.heights == nullptr) {
-    copy.memory = std::make_shared_for_overwrite<float[]>(source.size());
-    copy.heights = copy.memory.get();
-  }
+  WritableCopy copy = WritableCopy::allocate(
+      source.size(), grid.fileBacked() ? scratchDirectory : std::filesystem::path());
+  float* const heights = copy.elements().data();
   constexpr std::size_t kPiece = std::size_t{4} << 20;  // floats
   for (std::size_t at = 0; at < source.size(); at += kPiece) {
     const std::size_t n = std::min(kPiece, source.size() - at);
-    std::memcpy(copy.heights + at, source.data() + at, n * sizeof(float));
-    if (copy.file) (void)copy.file->releaseResident(at * sizeof(float), n * sizeof(float));
+    std::memcpy(heights + at, source.data() + at, n * sizeof(float));
+    if (copy.file()) (void)copy.file()->releaseResident(at * sizeof(float), n * sizeof(float));
     grid.releaseResident();
   }
   return copy;
 }
 
-HeightGrid finish(const HeightGrid& grid, WritableCopy copy) {
-  if (copy.file) {
-    (void)copy.file->releaseResident();
-    (void)copy.file->protectReadOnly();
-    const float* first = copy.heights;
-    return HeightGrid(grid.geometry(), std::shared_ptr<const float>(std::move(copy.file), first),
-                      true, grid.source());
+HeightGrid finish(const HeightGrid& grid, const WritableCopy& copy) {
+  if (copy.file()) {
+    (void)copy.file()->releaseResident();
+    (void)copy.file()->protectReadOnly();
   }
-  const float* first = copy.heights;
-  return HeightGrid(grid.geometry(), std::shared_ptr<const float>(std::move(copy.memory), first),
-                    false, grid.source());
+  return HeightGrid(grid.geometry(), copy.share(), copy.file() != nullptr, grid.source());
 }
 
 /// Decides the heights of each void of `regions`: filled from the rim, or (with `below`) the
@@ -351,12 +335,12 @@ Result<FilledGrid> fillVoids(const HeightGrid& grid, const VoidFillOptions& opti
   }
   auto copy = writableCopy(grid, options.scratchDirectory);
   if (!copy) return std::move(copy).error();
-  auto report = processVoids(grid, regions, options, &below, copy->heights, runs);
+  auto report = processVoids(grid, regions, options, &below, copy->elements().data(), runs);
   if (!report) return std::move(report).error();
   std::sort(runs.begin(), runs.end(), [](const VoidRun& a, const VoidRun& b) {
     return a.row != b.row ? a.row < b.row : a.column < b.column;
   });
-  return FilledGrid{finish(grid, std::move(copy).value()), *report, std::move(runs)};
+  return FilledGrid{finish(grid, *copy), *report, std::move(runs)};
 }
 
 }  // namespace pbdam::builder
