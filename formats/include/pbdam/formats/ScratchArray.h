@@ -15,6 +15,8 @@
 
 namespace pbdam::formats {
 
+/// `count` elements of T in memory or in a mapped scratch file (see the file comment).
+/// Move-only.
 template <class T>
 class ScratchArray final {
   static_assert(std::is_trivially_copyable_v<T>, "scratch files hold trivially copyable elements");
@@ -41,8 +43,11 @@ class ScratchArray final {
     return array;
   }
 
+  /// Moves the elements' ownership; the moved-from array is empty.
+  /// @{
   ScratchArray(ScratchArray&&) noexcept = default;
   ScratchArray& operator=(ScratchArray&&) noexcept = default;
+  /// @}
   ScratchArray(const ScratchArray&) = delete;
   ScratchArray& operator=(const ScratchArray&) = delete;
   ~ScratchArray() = default;
