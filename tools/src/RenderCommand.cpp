@@ -32,8 +32,8 @@
 #include "ViewshedSpec.h"
 #include "pbdam/formats/CameraPath.h"
 #include "pbdam/formats/NumberList.h"
-#include "pbdam/gpu/CutSource.h"
 #include "pbdam/gpu/FrameModes.h"
+#include "pbdam/gpu/Terrain.h"
 #include "pbdam/gpu/TerrainRenderer.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/runtime/Camera.h"
@@ -248,48 +248,38 @@ int planFrames(const RenderCliOptions& c, const DatasetView& view, RenderPlan& p
   return kExitOk;
 }
 
-/// The cut selection: on the device (GpuSelector.h), or on the host with focus regions closed
-/// upward (Selection.h) or by the screen error alone. Without focus the refinement tree is kept
-/// from frame to frame: a path's frames re-evaluate only the decisions the camera's movement may
-/// change (IncrementalRefiner: the same cuts as refine()).
-Result<std::unique_ptr<CutSource>> renderCutSource(gpu::VulkanContext& context,
-                                                   const DatasetView& view, CutSelection selection,
-                                                   std::vector<FocusRegion> focus) {
-  if (selection == CutSelection::Gpu) return deviceSelectionCuts(context, view, std::move(focus));
-  if (!focus.empty()) return focusCuts(view, std::move(focus));
-  return hostRefinementCuts(view, true);
-}
-
 /// Renders and writes every frame of the plan, with a statistics line each (and a JSON line
 /// in `statsFile` when it is open).
-int renderFrames(const RenderCliOptions& c, const RenderModes& modes, const DatasetView& view,
-                 const Viewport& viewport, const gpu::FrameSettings& settings,
-                 const RenderPlan& plan, std::ofstream& statsFile) {
+/// The terrain's exact-mode frames (gpu::Terrain): the cut selected on the device, or on the host
+/// with focus regions closed upward or by the screen error alone, the refinement tree kept from
+/// frame to frame (the same cuts, fewer decisions).
+int renderFrames(const RenderCliOptions& c, const RenderModes& modes,
+                 std::unique_ptr<MappedDataset> dataset, const Viewport& viewport,
+                 const gpu::FrameSettings& settings, const RenderPlan& plan,
+                 std::ofstream& statsFile) {
+  const DatasetView& view = dataset->view();
   gpu::ContextOptions contextOptions;
   contextOptions.device = c.device;
   auto context = gpu::VulkanContext::create(contextOptions);
   if (!context) return reportError(context.error());
-  gpu::TerrainRendererOptions rendererOptions;
-  rendererOptions.widthPixels = c.width;
-  rendererOptions.heightPixels = c.height;
-  rendererOptions.gpuCacheBytes = static_cast<std::uint64_t>(c.gpuCacheMiB * 1048576.0);
-  rendererOptions.framesInFlight = c.framesInFlight;
-  auto renderer = gpu::TerrainRenderer::create(*context, view, rendererOptions);
-  if (!renderer) return reportError(renderer.error());
-
-  RefinementOptions refinement;
-  refinement.tolerancePixels = c.tolerancePixels;
-  refinement.morphRange = morphRangeOf(c.morph, modes.morph);
+  gpu::TerrainOptions options;
+  options.refinement.tolerancePixels = c.tolerancePixels;
+  options.refinement.morphRange = morphRangeOf(c.morph, modes.morph);
+  options.selection = modes.selection;
   auto focus = focusRegions(c.focus, view.planet());
   if (!focus) return reportError(focus.error());
-  auto cuts = renderCutSource(*context, view, modes.selection, std::move(*focus));
-  if (!cuts) return reportError(cuts.error());
-  CutSource& source = **cuts;
+  options.focus = std::move(*focus);
+  options.gpuCacheBytes = static_cast<std::uint64_t>(c.gpuCacheMiB * 1048576.0);
+  options.viewport = viewport;
+  options.framesInFlight = c.framesInFlight;
+  auto terrain = gpu::Terrain::open(*context, std::move(dataset), std::move(options));
+  if (!terrain) return reportError(terrain.error());
+  gpu::Terrain& t = **terrain;
   gpu::FrameSettings frameSettings = settings;
   if (!c.viewshed.empty()) {
     auto request = parseViewshedSpec("--viewshed", c.viewshed);
     if (!request) return reportError(request.error());
-    auto viewshed = gpu::viewshedOverTerrain(*context, view, *request);
+    auto viewshed = t.viewshed(*request);
     if (!viewshed) return reportError(viewshed.error());
     frameSettings.overlay = viewshedOverlay(*viewshed);
   }
@@ -306,7 +296,7 @@ int renderFrames(const RenderCliOptions& c, const RenderModes& modes, const Data
   std::deque<Pending> pending;
   FrameWriter writer(std::max(1u, std::thread::hardware_concurrency()));
   const auto collectOne = [&]() -> Result<void> {
-    auto frame = renderer->collect();
+    auto frame = t.collect();
     if (!frame) return frame.error();
     const Pending p = pending.front();
     pending.pop_front();
@@ -336,16 +326,11 @@ int renderFrames(const RenderCliOptions& c, const RenderModes& modes, const Data
   for (std::size_t i = 0; i < plan.jobs.size(); ++i) {
     const FrameJob& job = plan.jobs[i];
     const Camera camera = Camera::fromPose(view.planet(), job.pose, viewport);
-    const auto traversalStart = std::chrono::steady_clock::now();
-    auto selected = source.cut(camera, refinement);
-    if (!selected) return reportError(selected.error());
-    const Cut& cut = *selected;
-    const double traversalMs =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - traversalStart)
-            .count();
-    if (auto r = renderer->submit(cut, camera, frameSettings); !r) return reportError(r.error());
-    pending.push_back({i, traversalMs, summarizeMorph(cut)});
-    while (pending.size() >= renderer->framesInFlight() ||
+    auto updated = t.update(camera);
+    if (!updated) return reportError(updated.error());
+    if (auto r = t.submit(frameSettings); !r) return reportError(r.error());
+    pending.push_back({i, (*updated)->traversalMs, (*updated)->morph});
+    while (pending.size() >= t.renderer().framesInFlight() ||
            (i + 1 == plan.jobs.size() && !pending.empty())) {
       if (auto r = collectOne(); !r) return reportError(r.error());
     }
@@ -399,7 +384,8 @@ int runRender(const RenderCliOptions& c) {
     statsFile.open(c.stats, std::ios::trunc);
     if (!statsFile) return badInput("--stats '" + c.stats + "': cannot create the file");
   }
-  if (const int status = renderFrames(c, modes, view, viewport, settings, plan, statsFile);
+  if (const int status =
+          renderFrames(c, modes, std::move(*dataset), viewport, settings, plan, statsFile);
       status != kExitOk) {
     return status;
   }

@@ -43,7 +43,7 @@ class ScratchArray final {
     return array;
   }
 
-  /// Moves the elements' ownership; the moved-from array is empty.
+  /// Moves the elements' ownership to the new array.
   /// @{
   ScratchArray(ScratchArray&&) noexcept = default;
   ScratchArray& operator=(ScratchArray&&) noexcept = default;
