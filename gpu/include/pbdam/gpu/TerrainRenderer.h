@@ -196,7 +196,8 @@ class TerrainRenderer final {
   /// attachment; the viewport the camera's, at the origin). Misses are decoded and their uploads
   /// submitted on the context's queue now, so the host must submit `cmd` on that queue, after
   /// this call, through VulkanContext::submit, signalling the returned semaphore value; until
-  /// then the frame's slot (one of framesInFlight()) and cache entries stay taken. The draws
+  /// then the frame's slot (one of framesInFlight()) and cache entries stay taken. `cmd` must
+  /// not be one VulkanContext::submitAndWait is recording (a growing pool uses it). The draws
   /// bind the patch pipeline for `pass` (made on first use of each distinct pass), the records,
   /// tile pages and overlay sets, viewport and scissor: the host rebinds its own state after.
   /// With DepthConvention::ReversedZ, a colour attachment cleared as settings.clearRgb and depth
