@@ -1,5 +1,5 @@
-// pbdam_headless: what embedding pbdam takes — open a dataset, refine a cut for one camera, draw
-// it offscreen with TerrainRenderer and write a PNG; `pbdam render DIR --camera ... --width W
+// pbdam_headless: what embedding pbdam takes — open a dataset as a gpu::Terrain, update it with
+// one camera (the frame's cut), draw it offscreen and write a PNG; `pbdam render DIR --camera ... --width W
 // --height H` gives the same bytes (docs/embedding.md).
 //   pbdam_headless DATASET LAT,LON,ALT[,HEADING,PITCH,ROLL] OUT.png [WIDTH HEIGHT]
 #include <charconv>
@@ -9,11 +9,9 @@
 #include <string_view>
 
 #include "pbdam/formats/ImageCodec.h"
-#include "pbdam/gpu/TerrainRenderer.h"
+#include "pbdam/gpu/Terrain.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/runtime/Camera.h"
-#include "pbdam/runtime/Refinement.h"
-#include "pbdam/streaming/MappedDataset.h"
 
 namespace {
 
@@ -36,28 +34,25 @@ int run(int argc, char** argv) {
                  "[WIDTH HEIGHT]\n");
     return 2;
   }
-  auto dataset = pbdam::streaming::MappedDataset::open(argv[1]);
-  if (!dataset) return fail(dataset.error());
-  const pbdam::runtime::DatasetView& view = (*dataset)->view();
-  auto pose = pbdam::runtime::parseCameraPose(argv[2]);
-  if (!pose) return fail(pose.error());
-  if (auto valid = pbdam::runtime::validateCameraPose(*pose, view.planet()); !valid) {
-    return fail(valid.error());
-  }
   if (auto valid = pbdam::runtime::validateViewport(viewport); !valid) return fail(valid.error());
-
   // The device: PBDAM_DEVICE if set (e.g. "lavapipe"), else the machine's best.
   auto context = pbdam::gpu::VulkanContext::create();
   if (!context) return fail(context.error());
-  pbdam::gpu::TerrainRendererOptions options;
-  options.widthPixels = viewport.width;
-  options.heightPixels = viewport.height;
-  auto renderer = pbdam::gpu::TerrainRenderer::create(*context, view, options);
-  if (!renderer) return fail(renderer.error());
+  pbdam::gpu::TerrainOptions options;  // exact mode, 3 px tolerance, a 256 MiB GPU cache
+  options.viewport = viewport;
+  auto terrain = pbdam::gpu::Terrain::open(*context, argv[1], options);
+  if (!terrain) return fail(terrain.error());
+  const pbdam::runtime::Planet& planet = (*terrain)->view().planet();
+  auto pose = pbdam::runtime::parseCameraPose(argv[2]);
+  if (!pose) return fail(pose.error());
+  if (auto valid = pbdam::runtime::validateCameraPose(*pose, planet); !valid) {
+    return fail(valid.error());
+  }
 
-  const auto camera = pbdam::runtime::Camera::fromPose(view.planet(), *pose, viewport);
-  const pbdam::runtime::Cut cut = pbdam::runtime::refine(view, camera, {});  // 3 px tolerance
-  auto frame = renderer->render(cut, camera);
+  const auto camera = pbdam::runtime::Camera::fromPose(planet, *pose, viewport);
+  if (auto cut = (*terrain)->update(camera); !cut) return fail(cut.error());
+  if (auto submitted = (*terrain)->submit(); !submitted) return fail(submitted.error());
+  auto frame = (*terrain)->collect();  // RGBA8, top row first
   if (!frame) return fail(frame.error());
 
   auto codec = pbdam::formats::imageCodec();
