@@ -48,6 +48,9 @@ Result<void> checkOptions(const TerrainOptions& o) {
       (o.selection != CutSelection::Cpu || !o.focus.empty())) {
     return invalid("no-stall terrain selects its cuts on the host, without focus regions");
   }
+  if (o.draws == DrawList::Indirect && (o.selection != CutSelection::Gpu || !o.focus.empty())) {
+    return invalid("terrain draw lists made on the device need device selection, no focus");
+  }
   return {};
 }
 
@@ -100,6 +103,12 @@ Result<void> Terrain::start() {
   TerrainRendererOptions rendererOptions;
   rendererOptions.widthPixels = o.viewport.width;
   rendererOptions.heightPixels = o.viewport.height;
+  if (o.draws == DrawList::Indirect) {
+    // The device's draw list needs the whole dataset resident, in one pool chunk.
+    gpuCacheBytes = GpuCache::bytesForEverything(*context_, view);
+    rendererOptions.poolChunkBytes = gpuCacheBytes;
+  }
+  gpuCacheBytes_ = gpuCacheBytes;
   rendererOptions.gpuCacheBytes = gpuCacheBytes;
   rendererOptions.framesInFlight = o.framesInFlight;
   auto renderer = TerrainRenderer::create(*context_, view, rendererOptions);
@@ -114,14 +123,14 @@ Result<void> Terrain::start() {
     cuts_ = noStallCuts(*dataset_, plan_.has_value(), renderer_->cache());
     preloadSkipped_ = NoStallPolicy(*dataset_).preloadCoarseLevels(&coarse_);
   } else if (o.selection == CutSelection::Gpu) {
-    auto device = deviceSelectionCuts(*context_, view, o.focus);
+    auto device = o.draws == DrawList::Indirect ? deviceDrawListCuts(*context_, view)
+                                                : deviceSelectionCuts(*context_, view, o.focus);
     if (!device) return std::move(device).error();
     cuts_ = std::move(*device);
   } else if (!o.focus.empty()) {
     cuts_ = focusCuts(view, o.focus);
   } else {
-    // The refinement tree kept from frame to frame: the same cuts, fewer decisions.
-    cuts_ = hostRefinementCuts(view, true);
+    cuts_ = hostRefinementCuts(view, o.reuseRefinementTree);
   }
   if (o.prefetch || noStall) {
     // No-stall always has a loader thread; without prefetch it fetches the current camera's cut
@@ -140,7 +149,15 @@ void Terrain::stopPrefetcher() {
   if (prefetcher_) prefetcher_->stop();
 }
 
-Result<const TerrainUpdate*> Terrain::update(const Camera& camera, double tSeconds) {
+Result<void> Terrain::resize(std::uint32_t widthPixels, std::uint32_t heightPixels) {
+  if (auto r = renderer_->resize(widthPixels, heightPixels); !r) return r;
+  options_.viewport.width = widthPixels;
+  options_.viewport.height = heightPixels;
+  return {};
+}
+
+Result<const TerrainUpdate*> Terrain::update(const Camera& camera, double tSeconds,
+                                             bool complete) {
   const Viewport& want = options_.viewport;
   if (camera.viewport().width != want.width || camera.viewport().height != want.height) {
     return invalid("terrain update: the camera is " + std::to_string(camera.viewport().width) +
@@ -150,14 +167,17 @@ Result<const TerrainUpdate*> Terrain::update(const Camera& camera, double tSecon
   }
   if (prefetcher_ && std::isfinite(tSeconds)) prefetcher_->observe(tSeconds, camera);
   const auto start = std::chrono::steady_clock::now();
-  auto cut = cuts_->cut(camera, options_.refinement);
+  if (complete && !completeCuts_) completeCuts_ = hostRefinementCuts(dataset_->view(), false);
+  CutSource& source = complete ? *completeCuts_ : *cuts_;
+  auto cut = source.cut(camera, options_.refinement);
   if (!cut) return std::move(cut).error();
   TerrainUpdate frame;
   frame.cut = std::move(*cut);
   frame.traversalMs = std::chrono::duration<double, std::milli>(
                           std::chrono::steady_clock::now() - start)
                           .count();
-  frame.levelCap = cuts_->levelCap();
+  frame.levelCap = source.levelCap();
+  lastSource_ = &source;
   frame.morph = summarizeMorph(frame.cut);
   camera_ = camera;
   frame_ = std::move(frame);
@@ -167,7 +187,7 @@ Result<const TerrainUpdate*> Terrain::update(const Camera& camera, double tSecon
 Result<void> Terrain::submit(const FrameSettings& settings) {
   if (!frame_) return invalid("terrain submit: update() with a camera first");
   if (auto r = renderer_->submit(frame_->cut, *camera_, settings); !r) return r;
-  cuts_->cutDecoded();
+  lastSource_->cutDecoded();
   return {};
 }
 
@@ -177,7 +197,7 @@ Result<HostFrame> Terrain::drawInto(VkCommandBuffer cmd, const HostPass& pass,
                                     const FrameSettings& settings) {
   if (!frame_) return invalid("terrain drawInto: update() with a camera first");
   auto frame = renderer_->drawInto(cmd, pass, frame_->cut, *camera_, settings);
-  if (frame) cuts_->cutDecoded();
+  if (frame) lastSource_->cutDecoded();
   return frame;
 }
 

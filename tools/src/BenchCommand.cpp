@@ -33,6 +33,7 @@
 #include "Progress.h"
 #include "pbdam/formats/CameraPath.h"
 #include "pbdam/gpu/CutSource.h"
+#include "pbdam/gpu/Terrain.h"
 #include "pbdam/gpu/FrameModes.h"
 #include "pbdam/gpu/GpuCache.h"
 #include "pbdam/gpu/GpuSelector.h"
@@ -255,42 +256,6 @@ BenchRun describeRun(const BenchCliOptions& o, const BenchModes& modes, bool pre
   return run;
 }
 
-gpu::TerrainRendererOptions rendererOptions(const gpu::VulkanContext& context,
-                                            const DatasetView& view, const BenchCliOptions& o,
-                                            const BenchRun& run) {
-  gpu::TerrainRendererOptions ro;
-  ro.widthPixels = o.width;
-  ro.heightPixels = o.height;
-  ro.gpuCacheBytes = run.gpuCacheBytes;
-  ro.framesInFlight = run.framesInFlight;
-  if (run.draws == DrawList::Indirect) {
-    // The device's draw list needs the whole dataset resident, in one pool chunk.
-    ro.gpuCacheBytes = gpu::GpuCache::bytesForEverything(context, view);
-    ro.poolChunkBytes = ro.gpuCacheBytes;
-  }
-  return ro;
-}
-
-/// Where a run's frames take their cut from: no-stall mode's capped resident cut (its level cap
-/// changes from frame to frame, so it refines from the roots); in paging mode the device's
-/// selection passes, with the cut read back or the draw list made on the device, or the host's
-/// refinement with the refinement tree kept from frame to frame (the same cuts, fewer decisions)
-/// or from the roots.
-Result<std::unique_ptr<CutSource>> runCutSource(gpu::VulkanContext& context,
-                                                const MappedDataset& dataset, const BenchRun& run,
-                                                const gpu::TerrainRenderer& renderer) {
-  // Under a memory budget the page cache is tight: each cut's pages are held until its frame
-  // has decoded them (NoStallPolicy's holdPages). What the GPU cache holds needs no page.
-  if (run.mode == StreamingMode::NoStall) {
-    return noStallCuts(dataset, run.memoryBudgetBytes > 0, renderer.cache());
-  }
-  if (run.selection == CutSelection::Gpu) {
-    return run.draws == DrawList::Indirect ? deviceDrawListCuts(context, dataset.view())
-                                           : deviceSelectionCuts(context, dataset.view(), {});
-  }
-  return hostRefinementCuts(dataset.view(), run.cutReuse);
-}
-
 /// The timed frame loop of one run: the path's frames drawn with frames in flight (frame i is
 /// refined, decoded and recorded while the device draws the frames before it; a frame is
 /// collected, its device timings and cache figures filled in, once framesInFlight frames are
@@ -328,19 +293,20 @@ struct PrefetchUse {
 
 struct PathReplay {
   PathReplay(const BenchCliOptions& options, const std::vector<CameraPathPoint>& cameraPath,
-             const MappedDataset& mapped, gpu::TerrainRenderer& frameRenderer, CutSource& cuts,
-             const RefinementOptions& refine, const SelectionOptions& selection, BenchRun& into)
+             gpu::Terrain& runTerrain, const SelectionOptions& selection, BenchRun& into)
       : o(options),
         path(cameraPath),
-        dataset(mapped),
-        renderer(frameRenderer),
-        source(cuts),
-        refinement(refine),
+        terrain(runTerrain),
+        dataset(runTerrain.dataset()),
+        renderer(runTerrain.renderer()),
+        source(runTerrain.cutSource()),
+        refinement(runTerrain.options().refinement),
         deviceSelection(selection),
         run(into) {}
 
   const BenchCliOptions& o;
   const std::vector<CameraPathPoint>& path;
+  gpu::Terrain& terrain;
   const MappedDataset& dataset;
   gpu::TerrainRenderer& renderer;
   CutSource& source;
@@ -355,7 +321,6 @@ struct PathReplay {
   std::uint64_t page = static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
   Clock::time_point runEnd{};          // the end of the last frame so far
   PrefetchUse* prefetchUse = nullptr;  // with prefetch on
-  HeldPages heldCoarse;                // no-stall under a budget: the preloaded coarse levels
 
   Result<void> replay(Prefetcher* prefetcher) {
     const DatasetView& view = dataset.view();
@@ -395,10 +360,10 @@ struct PathReplay {
     f.pathSeconds = path[i].tSeconds;
     const std::uint64_t faults0 = threadMajorFaults();
     // The device's draw list: an empty cut, the selection runs inside the frame's submission.
-    auto selected = source.cut(camera, refinement);
+    auto selected = terrain.update(camera);
     if (!selected) return selected.error();
-    const Cut cut = std::move(*selected);
-    f.drawnLevelCap = source.levelCap();
+    const Cut& cut = (*selected)->cut;
+    f.drawnLevelCap = (*selected)->levelCap;
     f.traversalMs = msSince(t0);
     f.decisions = deviceList ? source.selector()->index().nodes.size() : cut.nodesVisited;
     f.morphingPatches = summarizeMorph(cut).morphingPatches;
@@ -414,10 +379,7 @@ struct PathReplay {
     } else {
       gpu::FrameSettings output;
       output.readback = run.readback;
-      if (auto submitted = renderer.submit(cut, camera, output); !submitted) {
-        return submitted.error();
-      }
-      source.cutDecoded();
+      if (auto submitted = terrain.submit(output); !submitted) return submitted.error();
       run.frames.push_back(f);
       pending.push_back(i);
       while (pending.size() >= run.framesInFlight) {
@@ -426,7 +388,7 @@ struct PathReplay {
     }
     BenchFrame& done = run.frames.back();
     done.rssFileBytes = residentFileBytes();
-    releaseBlobPages(dataset, heldCoarse);
+    releaseBlobPages(dataset, terrain.coarseLevels());
     runEnd = Clock::now();
     done.frameMs = msBetween(t0, runEnd);
     done.renderThreadMajorFaults = threadMajorFaults() - faults0;
@@ -448,7 +410,7 @@ struct PathReplay {
   /// Collects the oldest frame in flight into its record (and with --popping, one frame in
   /// flight, measures it against the previous cut).
   Result<void> collectOne() {
-    auto drawn = renderer.collect();
+    auto drawn = terrain.collect();
     if (!drawn) return drawn.error();
     BenchFrame& f = run.frames[pending.front()];
     pending.pop_front();
@@ -470,78 +432,67 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   if (o.cold) {
     if (auto r = evictForColdRun(o.dir, run); !r) return r.error();
   }
-  auto dataset = MappedDataset::open(o.dir, faceOptionsFor(memoryLimitOf(o.memoryBudgetMiB)));
-  if (!dataset) return dataset.error();
-  const DatasetView& view = (*dataset)->view();
-  run.gpuCacheBytes = static_cast<std::uint64_t>(o.gpuCacheMiB * 1048576.0);
-  // Sized once the dataset's node tables and the driver are in memory.
-  MemoryDemand demand;
-  demand.widthPixels = o.width;
-  demand.heightPixels = o.height;
-  demand.framesInFlight = run.framesInFlight;
-  demand.gpuCacheBytes = run.gpuCacheBytes;
-  demand.cacheInHostMemory = context.deviceInfo().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
-  auto plan = planRunMemory(o.memoryBudgetMiB, demand, !o.quiet);
-  if (!plan) return plan.error();
-  if (*plan) {
-    run.gpuCacheBytes = (*plan)->gpuCacheBytes;
-    run.memoryBudgetBytes = (*plan)->budgetBytes;
-    run.memoryBudgetSource = (*plan)->source;
-  }
-
-  auto renderer =
-      gpu::TerrainRenderer::create(context, view, rendererOptions(context, view, o, run));
-  if (!renderer) return renderer.error();
+  // No-stall mode: the coarse levels preloaded and locked for the run (the kernel would
+  // otherwise evict them, under a budget or other processes' memory pressure, and a frame could
+  // have nothing to draw); each cut's pages held until its frame has decoded them under a
+  // budget. Paging mode: the device's selection passes (the cut read back or the draw list made
+  // on the device), or the host's refinement with the tree kept from frame to frame or from the
+  // roots. No-stall always has a loader thread; without prefetch it fetches the current
+  // camera's cut (look-ahead 0) instead of the predicted one.
   const bool noStall = run.mode == StreamingMode::NoStall;
-  // The preloaded coarse levels are also locked in memory for the run: the kernel would
-  // otherwise evict them (under a budget, or under other processes' memory pressure), and a
-  // frame could have nothing to draw.
-  HeldPages coarse;
-  if (noStall) {
-    // What cannot be read is skipped (the level cap keeps it out of the frames) and reported.
-    for (const Error& e : NoStallPolicy(**dataset).preloadCoarseLevels(&coarse)) {
-      std::fprintf(stderr, "pbdam: warning: preload skipped: %s\n", e.message.c_str());
-    }
+  gpu::TerrainOptions options;
+  options.mode = noStall ? gpu::TerrainMode::NoStall
+                         : (prefetch ? gpu::TerrainMode::Paging : gpu::TerrainMode::Exact);
+  options.refinement.tolerancePixels = o.tolerance;
+  options.refinement.morphRange = morphRangeOf(o.morph, morph);
+  options.selection = run.selection;
+  options.draws = run.draws;
+  options.reuseRefinementTree = run.cutReuse;
+  options.prefetch = prefetch;
+  options.lookaheadSeconds = o.lookahead;
+  PrefetchUse prefetchUse;  // outlives the terrain's prefetcher, whose worker adds to it
+  if (prefetch) {
+    options.onPrefetchRange = [&prefetchUse](const PrefetchRange& r) { prefetchUse.advised(r); };
   }
-  RefinementOptions refinement;
-  refinement.tolerancePixels = o.tolerance;
-  refinement.morphRange = morphRangeOf(o.morph, morph);
-  auto cuts = runCutSource(context, **dataset, run, *renderer);
-  if (!cuts) return cuts.error();
-  CutSource& source = **cuts;
-  const bool deviceList = source.drawsDeviceList();
+  options.gpuCacheBytes = static_cast<std::uint64_t>(o.gpuCacheMiB * 1048576.0);
+  options.memoryBudgetMiB = o.memoryBudgetMiB;
+  options.reportMemoryPlan = !o.quiet;
+  options.viewport = Viewport{o.width, o.height, o.fovDegrees};
+  options.framesInFlight = run.framesInFlight;
+  auto opened = gpu::Terrain::open(context, o.dir, std::move(options));
+  if (!opened) return opened.error();
+  gpu::Terrain& terrain = **opened;
+  const DatasetView& view = terrain.view();
+  run.gpuCacheBytes = static_cast<std::uint64_t>(o.gpuCacheMiB * 1048576.0);
+  if (const auto& plan = terrain.memoryPlan()) {
+    run.gpuCacheBytes = plan->gpuCacheBytes;
+    run.memoryBudgetBytes = plan->budgetBytes;
+    run.memoryBudgetSource = plan->source;
+  }
+  // What cannot be read is skipped (the level cap keeps it out of the frames) and reported.
+  for (const Error& e : terrain.preloadSkipped()) {
+    std::fprintf(stderr, "pbdam: warning: preload skipped: %s\n", e.message.c_str());
+  }
+  CutSource& source = terrain.cutSource();
   SelectionOptions deviceSelection;
-  deviceSelection.refinement = refinement;
-  if (deviceList && !path.empty()) {
+  deviceSelection.refinement = terrain.options().refinement;
+  if (source.drawsDeviceList() && !path.empty()) {
     // Untimed: the first call makes every patch and tile resident.
-    auto primed = renderer->renderSelected(
-        *source.selector(), cameraOf(view, path.front(), {o.width, o.height, o.fovDegrees}),
+    auto primed = terrain.renderer().renderSelected(
+        *source.selector(), cameraOf(view, path.front(), terrain.options().viewport),
         deviceSelection);
     if (!primed) return primed.error();
   }
-  PrefetchUse prefetchUse;  // outlives the prefetcher, whose worker adds to it
-  std::optional<Prefetcher> prefetcher;
-  if (prefetch || noStall) {
-    // No-stall always has a loader thread; without prefetch it fetches the current camera's cut
-    // (look-ahead 0) instead of the predicted one.
-    PrefetchOptions po;
-    po.lookaheadSeconds = prefetch ? o.lookahead : 0.0;
-    po.refinement = refinement;
-    if (*plan) po.pageRoomBytes = (*plan)->pageRoomBytes;
-    if (prefetch) po.onRange = [&prefetchUse](const PrefetchRange& r) { prefetchUse.advised(r); };
-    prefetcher.emplace(**dataset, po);
-  }
   run.baselineRssFileBytes = residentFileBytes();
-  PathReplay replay(o, path, **dataset, *renderer, source, refinement, deviceSelection, run);
-  replay.heldCoarse = std::move(coarse);
+  PathReplay replay(o, path, terrain, deviceSelection, run);
   if (prefetch) replay.prefetchUse = &prefetchUse;
-  if (auto r = replay.replay(prefetcher ? &*prefetcher : nullptr); !r) return r.error();
-  if (prefetcher) {
-    prefetcher->stop();
+  if (auto r = replay.replay(terrain.prefetcher()); !r) return r.error();
+  if (Prefetcher* prefetcher = terrain.prefetcher()) {
+    terrain.stopPrefetcher();
     run.prefetchRangesAdvised = prefetcher->stats().rangesAdvised;
     run.prefetchBytesAdvised = prefetcher->stats().bytesAdvised;
     run.prefetchRangesDeferred = prefetcher->stats().rangesDeferred;
-    prefetchUse.sample(**dataset);
+    prefetchUse.sample(terrain.dataset());
     run.prefetchRangesUsed = prefetchUse.used;
     run.prefetchRangesEvictedBeforeUse = prefetchUse.evictedBeforeUse;
   }

@@ -72,6 +72,13 @@ struct TerrainOptions final {
   /// Cuts selected on the host, or by the selection's compute passes on the device (Exact and
   /// Paging; the same cuts on lavapipe).
   CutSelection selection = CutSelection::Cpu;
+  /// With device selection: the cut read back (Readback), or the draw list made on the device
+  /// (Indirect: frames through renderer().renderSelected() with cutSource().selector(); the
+  /// whole dataset resident, the cache sized for it in one pool chunk; no focus regions).
+  DrawList draws = DrawList::Readback;
+  /// Host selection without focus: keep the refinement tree from frame to frame (the same cuts,
+  /// fewer decisions), or refine from the roots every frame.
+  bool reuseRefinementTree = true;
   /// Regions drawn at full detail whatever the screen error (Exact and Paging, host selection
   /// or device selection): runtime/Selection.h.
   std::vector<runtime::FocusRegion> focus;
@@ -131,8 +138,11 @@ class Terrain final {
   /// source; with a prefetcher the camera is first shown to it at `tSeconds` (the frame's time;
   /// NaN: not shown). The result stays valid until the next update(). Errors: InvalidArgument
   /// for a camera of another size; DeviceError from device selection.
+  /// With `complete`, the cut is the host's refinement from the roots whatever the mode (a
+  /// screenshot of a no-stall flight: every patch at the tolerance, pages read as touched).
   formats::Result<const TerrainUpdate*> update(const runtime::Camera& camera,
-                                               double tSeconds = std::nan(""));
+                                               double tSeconds = std::nan(""),
+                                               bool complete = false);
 
   /// Draws the last update()'s cut offscreen (TerrainRenderer::submit) without waiting; collect()
   /// returns it. Errors as TerrainRenderer::submit, and InvalidArgument before any update().
@@ -144,6 +154,11 @@ class Terrain final {
   /// before any update().
   formats::Result<HostFrame> drawInto(VkCommandBuffer cmd, const HostPass& pass,
                                       const FrameSettings& settings = {});
+
+  /// The image size every frame is drawn at (the cameras' viewport), and changes it: a new
+  /// offscreen target while the cache keeps what is resident (TerrainRenderer::resize). Errors as
+  /// that; InvalidArgument while frames are pending.
+  formats::Result<void> resize(std::uint32_t widthPixels, std::uint32_t heightPixels);
 
   /// The camera of the last update() (call one first): the frame's camera-relative origin is
   /// its position().
@@ -180,6 +195,11 @@ class Terrain final {
   void stopPrefetcher();
   /// NoStall: the coarse levels that could not be preloaded (the level cap keeps them out).
   const std::vector<formats::Error>& preloadSkipped() const noexcept { return preloadSkipped_; }
+  /// NoStall: the pages of the preloaded coarse levels, locked for the terrain's life.
+  const streaming::HeldPages& coarseLevels() const noexcept { return coarse_; }
+  /// The GPU cache's budget: the options', or what the memory plan lowered it to, or (device
+  /// draw lists) what the whole dataset takes.
+  std::uint64_t gpuCacheBytes() const noexcept { return gpuCacheBytes_; }
   /// The options it was opened with (the memory plan may have lowered the cache since).
   const TerrainOptions& options() const noexcept { return options_; }
   /// The device it draws on.
@@ -196,6 +216,9 @@ class Terrain final {
   std::optional<streaming::MemoryPlan> plan_;
   std::optional<TerrainRenderer> renderer_;
   std::unique_ptr<CutSource> cuts_;
+  std::unique_ptr<CutSource> completeCuts_;  ///< made on the first update(..., true)
+  CutSource* lastSource_ = nullptr;           ///< the source of the last update()'s cut
+  std::uint64_t gpuCacheBytes_ = 0;
   streaming::HeldPages coarse_;
   std::vector<formats::Error> preloadSkipped_;
   std::optional<streaming::Prefetcher> prefetcher_;
