@@ -56,7 +56,7 @@ Result<void> checkOptions(const TerrainOptions& o) {
 
 }  // namespace
 
-Terrain::Terrain(VulkanContext& context, std::unique_ptr<MappedDataset> dataset,
+Terrain::Terrain(VulkanContext& context, std::shared_ptr<MappedDataset> dataset,
                  TerrainOptions options)
     : context_(&context), dataset_(std::move(dataset)), options_(std::move(options)) {}
 
@@ -71,11 +71,11 @@ Result<std::unique_ptr<Terrain>> Terrain::open(VulkanContext& context,
                                                : cgroupMemoryLimit();
   auto opened = MappedDataset::open(dataset, faceOptionsFor(limit));
   if (!opened) return std::move(opened).error();
-  return open(context, std::move(*opened), std::move(options));
+  return open(context, std::shared_ptr<MappedDataset>(std::move(*opened)), std::move(options));
 }
 
 Result<std::unique_ptr<Terrain>> Terrain::open(VulkanContext& context,
-                                               std::unique_ptr<MappedDataset> dataset,
+                                               std::shared_ptr<MappedDataset> dataset,
                                                TerrainOptions options) {
   if (auto r = checkOptions(options); !r) return std::move(r).error();
   std::unique_ptr<Terrain> terrain(new Terrain(context, std::move(dataset), std::move(options)));
@@ -147,6 +147,14 @@ Result<void> Terrain::start() {
 
 void Terrain::stopPrefetcher() {
   if (prefetcher_) prefetcher_->stop();
+}
+
+Result<void> Terrain::setRefinement(const RefinementOptions& refinement) {
+  if (!std::isfinite(refinement.tolerancePixels) || refinement.tolerancePixels <= 0.0) {
+    return invalid("terrain tolerance must be a positive number of pixels");
+  }
+  options_.refinement = refinement;
+  return {};
 }
 
 Result<void> Terrain::resize(std::uint32_t widthPixels, std::uint32_t heightPixels) {

@@ -37,7 +37,7 @@
 #include "ViewshedOutput.h"
 #include "pbdam/formats/CameraPath.h"
 #include "pbdam/formats/NumberList.h"
-#include "pbdam/gpu/CutSource.h"
+#include "pbdam/gpu/Terrain.h"
 #include "pbdam/gpu/FrameModes.h"
 #include "pbdam/gpu/GpuMemory.h"
 #include "pbdam/gpu/GpuViewshed.h"
@@ -309,12 +309,13 @@ struct HudBuffers final {
 
 class FlySession final {
  public:
-  FlySession(const FlyCliOptions& c, const FlyModes& modes, const MappedDataset& dataset,
-             gpu::VulkanContext& context, GLFWwindow* window)
+  FlySession(const FlyCliOptions& c, const FlyModes& modes,
+             std::shared_ptr<MappedDataset> dataset, gpu::VulkanContext& context,
+             GLFWwindow* window)
       : c_(c),
         modes_(modes),
-        dataset_(dataset),
-        view_(dataset.view()),
+        dataset_(std::move(dataset)),
+        view_(dataset_->view()),
         context_(context),
         window_(window) {}
 
@@ -331,16 +332,13 @@ class FlySession final {
 
   const FlyCliOptions& c_;
   const FlyModes& modes_;
-  const MappedDataset& dataset_;
+  std::shared_ptr<MappedDataset> dataset_;  ///< the terrain's, and the HUD's view
   const DatasetView& view_;
   gpu::VulkanContext& context_;
   GLFWwindow* window_;
 
   gpu::Swapchain swapchain_;
-  std::optional<gpu::TerrainRenderer> renderer_;
-  std::unique_ptr<CutSource> cuts_;
-  std::unique_ptr<CutSource> exactCuts_;
-  std::optional<Prefetcher> prefetcher_;
+  std::unique_ptr<gpu::Terrain> terrain_;
   std::vector<gpu::UniqueSemaphore> acquired_;
   HudBuffers hud_;
   HudPixels hudPixels_;
@@ -351,9 +349,6 @@ class FlySession final {
   std::vector<CameraPathPoint> recorded_;
   std::size_t frames_ = 0;
   std::size_t shotsTaken_ = 0;
-  std::uint64_t gpuCacheBytes_ = 0;
-  std::uint64_t pageRoomBytes_ = 0;  ///< the memory plan's page room (0: no budget)
-  HeldPages heldCoarse_;             ///< no-stall: the coarse levels, locked
   bool viewshedOn_ = false;
   gpu::FrameSettings settings_;
   bool recreate_ = false;
@@ -368,46 +363,27 @@ Result<void> FlySession::setUp() {
                              static_cast<std::uint32_t>(std::max(fbh, 1)), modes_.present);
   if (!swapchain) return swapchain.error();
   swapchain_ = std::move(*swapchain);
-  gpu::TerrainRendererOptions options;
-  options.widthPixels = swapchain_.extent().width;
-  options.heightPixels = swapchain_.extent().height;
-  options.gpuCacheBytes = static_cast<std::uint64_t>(c_.gpuCacheMiB * 1048576.0);
-  MemoryDemand demand;
-  demand.widthPixels = options.widthPixels;
-  demand.heightPixels = options.heightPixels;
-  demand.framesInFlight = c_.framesInFlight;
-  demand.gpuCacheBytes = options.gpuCacheBytes;
-  demand.cacheInHostMemory = context_.deviceInfo().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
-  auto plan = planRunMemory(c_.memoryBudgetMiB, demand, true);
-  if (!plan) return plan.error();
-  if (*plan) {
-    options.gpuCacheBytes = (*plan)->gpuCacheBytes;
-    pageRoomBytes_ = (*plan)->pageRoomBytes;
-  }
-
-  gpuCacheBytes_ = options.gpuCacheBytes;
-  options.framesInFlight = c_.framesInFlight;
-  auto renderer = gpu::TerrainRenderer::create(context_, view_, options);
-  if (!renderer) return renderer.error();
-  renderer_.emplace(std::move(*renderer));
+  // The terrain as bench runs it: no-stall keeps the coarse levels locked and holds each cut's
+  // pages until decoded under a budget; the memory plan is printed when it changed anything.
   const bool noStall = modes_.mode == StreamingMode::NoStall;
-  if (noStall) {
-    // The coarse levels stay locked in memory (as in bench).
-    for (const Error& e : NoStallPolicy(dataset_).preloadCoarseLevels(&heldCoarse_)) {
-      std::fprintf(stderr, "pbdam: warning: preload skipped: %s\n", e.message.c_str());
-    }
-    cuts_ = noStallCuts(dataset_, pageRoomBytes_ > 0, renderer_->cache());
-  } else {
-    cuts_ = hostRefinementCuts(view_, true);
-  }
-  exactCuts_ = hostRefinementCuts(view_, false);
-  if (modes_.prefetch || noStall) {
-    PrefetchOptions po;
-    po.lookaheadSeconds = modes_.prefetch ? c_.lookahead : 0.0;
-    po.refinement.tolerancePixels = c_.tolerancePixels;
-    po.refinement.morphRange = morphRangeOf(c_.morph, modes_.morph);
-    po.pageRoomBytes = pageRoomBytes_;
-    prefetcher_.emplace(dataset_, po);
+  gpu::TerrainOptions options;
+  options.mode = noStall ? gpu::TerrainMode::NoStall
+                         : (modes_.prefetch ? gpu::TerrainMode::Paging : gpu::TerrainMode::Exact);
+  options.refinement.tolerancePixels = c_.tolerancePixels;
+  options.refinement.morphRange = morphRangeOf(c_.morph, modes_.morph);
+  options.prefetch = modes_.prefetch;
+  options.lookaheadSeconds = c_.lookahead;
+  options.gpuCacheBytes = static_cast<std::uint64_t>(c_.gpuCacheMiB * 1048576.0);
+  options.memoryBudgetMiB = c_.memoryBudgetMiB;
+  options.reportMemoryPlan = true;
+  options.viewport = Viewport{swapchain_.extent().width, swapchain_.extent().height,
+                              c_.fovDegrees};
+  options.framesInFlight = c_.framesInFlight;
+  auto terrain = gpu::Terrain::open(context_, dataset_, std::move(options));
+  if (!terrain) return terrain.error();
+  terrain_ = std::move(*terrain);
+  for (const Error& e : terrain_->preloadSkipped()) {
+    std::fprintf(stderr, "pbdam: warning: preload skipped: %s\n", e.message.c_str());
   }
   // One acquisition semaphore (and HUD buffer) more than frames in flight: the one a new frame
   // takes was waited for by a frame that has been collected.
@@ -428,7 +404,7 @@ Result<void> FlySession::setUp() {
 }
 
 Result<void> FlySession::collectOne() {
-  auto frame = renderer_->collect();
+  auto frame = terrain_->collect();
   if (!frame) return frame.error();
   const InFlight done = inFlight_.front();
   inFlight_.pop_front();
@@ -453,7 +429,7 @@ Result<void> FlySession::resizeTo(std::uint32_t width, std::uint32_t height) {
   if (auto r = drain(); !r) return r;
   if (auto r = swapchain_.recreate(width, height); !r) return r;
   recreate_ = false;
-  return renderer_->resize(swapchain_.extent().width, swapchain_.extent().height);
+  return terrain_->resize(swapchain_.extent().width, swapchain_.extent().height);
 }
 
 std::vector<std::string> FlySession::hudLines(const FlyControls& controls, double fps) const {
@@ -470,8 +446,8 @@ std::vector<std::string> FlySession::hudLines(const FlyControls& controls, doubl
                 static_cast<unsigned long long>(s.tiles));
   lines.emplace_back(line);
   std::snprintf(line, sizeof line, "GPU cache %.1f / %.0f MiB  faults %llu  data stalls %zu",
-                static_cast<double>(renderer_->residentBytes()) / 1048576.0,
-                static_cast<double>(gpuCacheBytes_) / 1048576.0,
+                static_cast<double>(terrain_->renderer().residentBytes()) / 1048576.0,
+                static_cast<double>(terrain_->gpuCacheBytes()) / 1048576.0,
                 static_cast<unsigned long long>(figures_.faults), figures_.dataStalls);
   lines.emplace_back(line);
   const CameraPose& p = controls.pose();
@@ -500,13 +476,12 @@ std::vector<std::string> FlySession::hudLines(const FlyControls& controls, doubl
 Result<void> FlySession::frame(FlyControls& controls, double t) {
   const Viewport viewport{swapchain_.extent().width, swapchain_.extent().height, c_.fovDegrees};
   const Camera camera = Camera::fromPose(view_.planet(), controls.pose(), viewport);
-  if (prefetcher_) prefetcher_->observe(t, camera);
   if (controls.viewshed != viewshedOn_) {
     viewshedOn_ = controls.viewshed;
     settings_.overlay.reset();
     if (viewshedOn_) {
       ViewshedRequest request{controls.pose().latDegrees, controls.pose().lonDegrees, 10.0, {}, {}};
-      auto viewshed = gpu::viewshedOverTerrain(context_, view_, request);
+      auto viewshed = terrain_->viewshed(request);
       if (!viewshed) {
         controls.message = "viewshed: " + viewshed.error().message;
         controls.viewshed = viewshedOn_ = false;
@@ -518,6 +493,7 @@ Result<void> FlySession::frame(FlyControls& controls, double t) {
   RefinementOptions refinement;
   refinement.tolerancePixels = c_.tolerancePixels;
   refinement.morphRange = morphRangeOf(c_.morph, controls.morph);
+  if (auto r = terrain_->setRefinement(refinement); !r) return r;
 
   const std::uint64_t faults0 = threadMajorFaults();
   const auto t0 = Clock::now();
@@ -525,8 +501,7 @@ Result<void> FlySession::frame(FlyControls& controls, double t) {
   entry.frame = frames_;
   // A screenshot is the exact-mode frame `pbdam render` draws for this camera.
   const bool screenshot = controls.screenshotsWanted > 0;
-  CutSource& source = screenshot ? *exactCuts_ : *cuts_;
-  auto selected = source.cut(camera, refinement);
+  auto selected = terrain_->update(camera, t, screenshot);
   if (!selected) return selected.error();
   entry.traversalMs = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   if (screenshot) {
@@ -584,15 +559,13 @@ Result<void> FlySession::frame(FlyControls& controls, double t) {
   gpu::FrameSettings frame = settings_;
   frame.readback = screenshot;
   frame.present = present;
-  auto submitted = renderer_->submit(*selected, camera, frame);
-  cuts_->cutDecoded();
-  if (!submitted) return submitted;
+  if (auto submitted = terrain_->submit(frame); !submitted) return submitted;
   entry.faults = threadMajorFaults() - faults0;
   inFlight_.push_back(entry);
   auto shown = swapchain_.present(**image);
   if (!shown) return shown.error();
   if (!*shown) recreate_ = true;
-  while (inFlight_.size() >= renderer_->framesInFlight()) {
+  while (inFlight_.size() >= terrain_->renderer().framesInFlight()) {
     if (auto r = collectOne(); !r) return r;
   }
   figures_.faults += entry.faults;
@@ -679,7 +652,7 @@ int FlySession::run(FlyControls& controls, FlyScriptDriver& driver) {
 int FlySession::finish(int status) {
   if (auto r = drain(); !r && status == kExitOk) status = reportError(r.error());
   if (auto r = writer_.finish(); !r && status == kExitOk) status = reportError(r.error());
-  if (prefetcher_) prefetcher_->stop();
+  if (terrain_) terrain_->stopPrefetcher();
   (void)context_.waitIdle();
   if (!c_.record.empty() && !recorded_.empty()) {
     if (auto r = writeCameraPath(c_.record, recorded_); !r && status == kExitOk) {
@@ -736,9 +709,11 @@ int runFly(const FlyCliOptions& c) {
   FlyModes modes;
   if (const int status = checkFlyOptions(c, modes); status != kExitOk) return status;
   // Everything about the data first: nothing opens a window for a dataset that cannot be read.
-  auto dataset = MappedDataset::open(c.dir, faceOptionsFor(memoryLimitOf(c.memoryBudgetMiB)));
-  if (!dataset) return reportError(dataset.error());
-  const DatasetView& view = (*dataset)->view();
+  auto opened = MappedDataset::open(c.dir, faceOptionsFor(memoryLimitOf(c.memoryBudgetMiB)));
+  if (!opened) return reportError(opened.error());
+  // Shared: the controls' ground heights read it beside the session's terrain.
+  const std::shared_ptr<MappedDataset> dataset = std::move(*opened);
+  const DatasetView& view = dataset->view();
   if (auto r = checkMorphOptions(c.morph, view, false); !r) return reportError(r.error());
   modes.morph = c.morph.morph == "on";
   auto driver = FlyScriptDriver::load(c.script, c.replay);
@@ -832,7 +807,7 @@ int runFly(const FlyCliOptions& c) {
       if (auto r = controls.goTo((*goTo)[0], (*goTo)[1]); !r) return reportError(r.error());
     }
     {
-      FlySession session(c, modes, **dataset, *context, window.handle);
+      FlySession session(c, modes, dataset, *context, window.handle);
       status = session.run(controls, *driver);
     }
     if (c.validation && context->validationLog().count() > 0) {

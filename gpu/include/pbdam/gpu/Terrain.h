@@ -125,9 +125,10 @@ class Terrain final {
   static formats::Result<std::unique_ptr<Terrain>> open(VulkanContext& context,
                                                         const std::filesystem::path& dataset,
                                                         TerrainOptions options);
-  /// The same for a dataset the host has opened already (to check it before making a device).
+  /// The same for a dataset the host has opened already (to check it before making a device, or
+  /// to keep using it beside the terrain).
   static formats::Result<std::unique_ptr<Terrain>> open(
-      VulkanContext& context, std::unique_ptr<streaming::MappedDataset> dataset,
+      VulkanContext& context, std::shared_ptr<streaming::MappedDataset> dataset,
       TerrainOptions options);
 
   Terrain(const Terrain&) = delete;
@@ -154,6 +155,11 @@ class Terrain final {
   /// before any update().
   formats::Result<HostFrame> drawInto(VkCommandBuffer cmd, const HostPass& pass,
                                       const FrameSettings& settings = {});
+
+  /// Changes the tolerance, morph range or level cap of later frames' cuts (a host's controls);
+  /// the prefetcher keeps predicting with the options' refinement. InvalidArgument for a
+  /// tolerance that is not a positive number of pixels.
+  formats::Result<void> setRefinement(const runtime::RefinementOptions& refinement);
 
   /// The image size every frame is drawn at (the cameras' viewport), and changes it: a new
   /// offscreen target while the cache keeps what is resident (TerrainRenderer::resize). Errors as
@@ -206,12 +212,12 @@ class Terrain final {
   VulkanContext& context() noexcept { return *context_; }
 
  private:
-  Terrain(VulkanContext& context, std::unique_ptr<streaming::MappedDataset> dataset,
+  Terrain(VulkanContext& context, std::shared_ptr<streaming::MappedDataset> dataset,
           TerrainOptions options);
   formats::Result<void> start();
 
   VulkanContext* context_;
-  std::unique_ptr<streaming::MappedDataset> dataset_;
+  std::shared_ptr<streaming::MappedDataset> dataset_;
   TerrainOptions options_;
   std::optional<streaming::MemoryPlan> plan_;
   std::optional<TerrainRenderer> renderer_;
