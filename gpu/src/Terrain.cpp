@@ -56,7 +56,7 @@ Result<void> checkOptions(const TerrainOptions& o) {
 
 }  // namespace
 
-Terrain::Terrain(VulkanContext& context, std::shared_ptr<MappedDataset> dataset,
+Terrain::Terrain(VulkanContext& context, std::shared_ptr<const MappedDataset> dataset,
                  TerrainOptions options)
     : context_(&context), dataset_(std::move(dataset)), options_(std::move(options)) {}
 
@@ -71,11 +71,12 @@ Result<std::unique_ptr<Terrain>> Terrain::open(VulkanContext& context,
                                                : cgroupMemoryLimit();
   auto opened = MappedDataset::open(dataset, faceOptionsFor(limit));
   if (!opened) return std::move(opened).error();
-  return open(context, std::shared_ptr<MappedDataset>(std::move(*opened)), std::move(options));
+  return open(context, std::shared_ptr<const MappedDataset>(std::move(*opened)),
+              std::move(options));
 }
 
 Result<std::unique_ptr<Terrain>> Terrain::open(VulkanContext& context,
-                                               std::shared_ptr<MappedDataset> dataset,
+                                               std::shared_ptr<const MappedDataset> dataset,
                                                TerrainOptions options) {
   if (auto r = checkOptions(options); !r) return std::move(r).error();
   std::unique_ptr<Terrain> terrain(new Terrain(context, std::move(dataset), std::move(options)));
@@ -108,8 +109,11 @@ Result<void> Terrain::start() {
     gpuCacheBytes = GpuCache::bytesForEverything(*context_, view);
     rendererOptions.poolChunkBytes = gpuCacheBytes;
   }
-  gpuCacheBytes_ = gpuCacheBytes;
   rendererOptions.gpuCacheBytes = gpuCacheBytes;
+  rendererOptions.sharedCache = o.sharedCache;
+  rendererOptions.warnWhenBudgetExceeded = o.warnWhenBudgetExceeded;
+  if (o.sharedCache) gpuCacheBytes = o.sharedCache->budgetBytes();
+  gpuCacheBytes_ = gpuCacheBytes;
   rendererOptions.framesInFlight = o.framesInFlight;
   auto renderer = TerrainRenderer::create(*context_, view, rendererOptions);
   if (!renderer) return std::move(renderer).error();

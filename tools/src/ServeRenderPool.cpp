@@ -8,7 +8,6 @@
 #include <future>
 #include <string>
 
-#include "pbdam/runtime/CutReuse.h"
 #include "pbdam/runtime/Refinement.h"
 
 using namespace pbdam::formats;
@@ -71,17 +70,22 @@ Result<std::unique_ptr<RenderPool>> RenderPool::create(const MappedDataset& data
     return error;
   }
   pool->cache_ = std::move(*cache);
-  gpu::TerrainRendererOptions rendererOptions;
-  rendererOptions.widthPixels = options.initialWidthPixels;
-  rendererOptions.heightPixels = options.initialHeightPixels;
-  rendererOptions.sharedCache = pool->cache_;
+  gpu::TerrainOptions terrainOptions;
+  terrainOptions.viewport.width = options.initialWidthPixels;
+  terrainOptions.viewport.height = options.initialHeightPixels;
+  terrainOptions.sharedCache = pool->cache_;
   // A cut over the budget is still the exact frame (drawn in passes); /stats counts them.
-  rendererOptions.warnWhenBudgetExceeded = false;
-  rendererOptions.framesInFlight = options.framesInFlight;
+  terrainOptions.warnWhenBudgetExceeded = false;
+  terrainOptions.framesInFlight = options.framesInFlight;
+  // The server's dataset outlives the pool: the terrains share it without owning it. Each keeps
+  // its refinement tree between frames, so a viewer's consecutive requests re-evaluate only the
+  // decisions its movement may change (the same cuts as refine()).
+  const std::shared_ptr<const MappedDataset> shared(std::shared_ptr<const MappedDataset>(),
+                                                    &dataset);
   for (std::uint32_t i = 0; i < options.workers; ++i) {
-    auto renderer = gpu::TerrainRenderer::create(*pool->context_, dataset.view(), rendererOptions);
-    if (!renderer) return std::move(renderer).error();
-    pool->renderers_.push_back(std::move(*renderer));
+    auto terrain = gpu::Terrain::open(*pool->context_, shared, terrainOptions);
+    if (!terrain) return std::move(terrain).error();
+    pool->terrains_.push_back(std::move(*terrain));
   }
   pool->stats_.workers = options.workers;
   pool->stats_.queueCapacity = options.queueCapacity;
@@ -179,7 +183,7 @@ void RenderPool::collectOldest(std::uint32_t index, std::deque<InFlight>& inFlig
   inFlight.pop_front();
   Result<FrameResult> frame = makeError(ErrorCode::Internal, "frame not drawn");
   try {
-    Result<gpu::RenderedFrame> drawn = renderers_[index].collect();
+    Result<gpu::RenderedFrame> drawn = terrains_[index]->collect();
     if (!drawn) {
       frame = std::move(drawn).error();
     } else {
@@ -198,11 +202,9 @@ void RenderPool::collectOldest(std::uint32_t index, std::deque<InFlight>& inFlig
 }
 
 void RenderPool::workerLoop(std::uint32_t index) {
-  gpu::TerrainRenderer& renderer = renderers_[index];
+  gpu::Terrain& terrain = *terrains_[index];
+  const gpu::TerrainRenderer& renderer = terrain.renderer();
   const DatasetView& view = dataset_.view();
-  // Each worker keeps its refinement tree between frames: a viewer's consecutive requests
-  // re-evaluate only the decisions its movement may change (the same cuts as refine()).
-  IncrementalRefiner incremental(view);
   // Frames in flight: the next request is refined, decoded and recorded while the device draws
   // the previous ones; a frame is collected (and its request answered) when every slot is taken
   // or no request is waiting, so a lone viewer never waits for a next request.
@@ -239,7 +241,7 @@ void RenderPool::workerLoop(std::uint32_t index) {
           r.viewport.height != renderer.heightPixels()) {
         while (!inFlight.empty()) collectOldest(index, inFlight);
       }
-      if (Result<void> resized = renderer.resize(r.viewport.width, r.viewport.height); !resized) {
+      if (Result<void> resized = terrain.resize(r.viewport.width, r.viewport.height); !resized) {
         finishJob(job, start, std::move(resized).error());
         continue;
       }
@@ -247,11 +249,18 @@ void RenderPool::workerLoop(std::uint32_t index) {
       RefinementOptions refinement;
       refinement.tolerancePixels = r.tolerancePixels;
       refinement.morphRange = r.morphRange;
-      const Cut cut = incremental.update(camera, refinement);
+      if (Result<void> set = terrain.setRefinement(refinement); !set) {
+        finishJob(job, start, std::move(set).error());
+        continue;
+      }
+      if (auto cut = terrain.update(camera); !cut) {
+        finishJob(job, start, std::move(cut).error());
+        continue;
+      }
       const double traversalMs = millisecondsBetween(start, Clock::now());
       gpu::FrameSettings settings;
       settings.overlay = r.overlay;
-      if (Result<void> submitted = renderer.submit(cut, camera, settings); !submitted) {
+      if (Result<void> submitted = terrain.submit(settings); !submitted) {
         finishJob(job, start, std::move(submitted).error());
         continue;
       }

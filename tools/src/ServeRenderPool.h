@@ -1,4 +1,4 @@
-// The render contexts of `pbdam serve`: N worker threads, each owning a TerrainRenderer (with
+// The render contexts of `pbdam serve`: N worker threads, each driving a gpu::Terrain (with
 // frames in flight: a context records its next request while the device draws), all
 // created from ONE VulkanContext (device, queue), drawing ONE shared read-only dataset mapping
 // from ONE GPU cache (gpu/GpuCache.h: one budget, one LRU, one set of pools — what one context
@@ -19,6 +19,7 @@
 
 #include "pbdam/formats/Result.h"
 #include "pbdam/gpu/RgbaImage.h"
+#include "pbdam/gpu/Terrain.h"
 #include "pbdam/gpu/TerrainRenderer.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/runtime/Camera.h"
@@ -137,7 +138,7 @@ class RenderPool final {
   std::string deviceName_;
   std::optional<gpu::VulkanContext> context_;
   std::shared_ptr<gpu::GpuCache> cache_;
-  std::vector<gpu::TerrainRenderer> renderers_;
+  std::vector<std::unique_ptr<gpu::Terrain>> terrains_;  ///< one a context, sharing cache_
   std::vector<std::thread> threads_;
 
   mutable std::mutex mutex_;

@@ -90,6 +90,12 @@ struct TerrainOptions final {
   std::function<void(const streaming::PrefetchRange&)> onPrefetchRange;
   /// The GPU cache's budget of patch and tile slots.
   std::uint64_t gpuCacheBytes = std::uint64_t{256} << 20;
+  /// A cache shared with other terrains of the same context and dataset (a server's render
+  /// contexts: what one uploads the others draw); unset, the terrain makes its own from
+  /// gpuCacheBytes. The memory plan, if any, does not size a shared cache.
+  std::shared_ptr<GpuCache> sharedCache;
+  /// Print a warning on stderr the first time a frame's cut is drawn in several passes.
+  bool warnWhenBudgetExceeded = true;
   /// The process's memory budget in MiB: unset, no plan (node tables paged under the cgroup's
   /// limit, if any); 0, the memory cgroup's limit; above 0, this many MiB. With a budget the
   /// GPU cache is lowered to fit, the prefetcher keeps within the page room left, and no-stall
@@ -128,7 +134,7 @@ class Terrain final {
   /// The same for a dataset the host has opened already (to check it before making a device, or
   /// to keep using it beside the terrain).
   static formats::Result<std::unique_ptr<Terrain>> open(
-      VulkanContext& context, std::shared_ptr<streaming::MappedDataset> dataset,
+      VulkanContext& context, std::shared_ptr<const streaming::MappedDataset> dataset,
       TerrainOptions options);
 
   Terrain(const Terrain&) = delete;
@@ -212,12 +218,12 @@ class Terrain final {
   VulkanContext& context() noexcept { return *context_; }
 
  private:
-  Terrain(VulkanContext& context, std::shared_ptr<streaming::MappedDataset> dataset,
+  Terrain(VulkanContext& context, std::shared_ptr<const streaming::MappedDataset> dataset,
           TerrainOptions options);
   formats::Result<void> start();
 
   VulkanContext* context_;
-  std::shared_ptr<streaming::MappedDataset> dataset_;
+  std::shared_ptr<const streaming::MappedDataset> dataset_;
   TerrainOptions options_;
   std::optional<streaming::MemoryPlan> plan_;
   std::optional<TerrainRenderer> renderer_;
