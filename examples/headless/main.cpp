@@ -1,6 +1,6 @@
 // pbdam_headless: what embedding pbdam takes — open a dataset as a gpu::Terrain, update it with
-// one camera (the frame's cut), draw it offscreen and write a PNG; `pbdam render DIR --camera ... --width W
-// --height H` gives the same bytes (docs/embedding.md).
+// one camera (the frame's cut), draw it offscreen and write a PNG; `pbdam render DIR --camera ...
+// --width W --height H` gives the same bytes (docs/embedding.md).
 //   pbdam_headless DATASET LAT,LON,ALT[,HEADING,PITCH,ROLL] OUT.png [WIDTH HEIGHT]
 #include <charconv>
 #include <cstdint>

@@ -55,7 +55,8 @@ struct Failure {
 };
 
 void check(VkResult r, const char* what) {
-  if (r != VK_SUCCESS) throw Failure{std::string(what) + " failed (VkResult " + std::to_string(r) + ")"};
+  if (r != VK_SUCCESS)
+    throw Failure{std::string(what) + " failed (VkResult " + std::to_string(r) + ")"};
 }
 template <class T>
 T take(pbdam::formats::Result<T> result) {
@@ -103,8 +104,8 @@ struct Attachment {
 };
 
 Attachment makeAttachment(const gpu::VulkanContext& context, VkFormat format,
-                          VkImageUsageFlags usage, VkImageAspectFlags aspect,
-                          std::uint32_t width, std::uint32_t height) {
+                          VkImageUsageFlags usage, VkImageAspectFlags aspect, std::uint32_t width,
+                          std::uint32_t height) {
   VkDevice device = context.device();
   VkImageCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
@@ -259,17 +260,17 @@ std::vector<float> markerTriangles(const pbdam::runtime::Planet& planet, const M
   const glm::dvec3 centre = planet.geodeticToEcef(
       m.latDegrees, m.lonDegrees, groundMeters + m.heightAboveGroundMeters + m.sizeMeters / 2);
   const double r = m.sizeMeters / 2;
-  const std::array<glm::dvec3, 6> corner = {
-      glm::dvec3(r, 0, 0), glm::dvec3(-r, 0, 0), glm::dvec3(0, r, 0),
-      glm::dvec3(0, -r, 0), glm::dvec3(0, 0, r), glm::dvec3(0, 0, -r)};
+  const std::array<glm::dvec3, 6> corner = {glm::dvec3(r, 0, 0), glm::dvec3(-r, 0, 0),
+                                            glm::dvec3(0, r, 0), glm::dvec3(0, -r, 0),
+                                            glm::dvec3(0, 0, r), glm::dvec3(0, 0, -r)};
   const int faces[8][3] = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4},
                            {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
   std::vector<float> out;
   for (const auto& face : faces) {
     for (const int v : face) {
       const glm::dvec3 p = centre + corner[static_cast<std::size_t>(v)] - origin;
-      out.insert(out.end(), {static_cast<float>(p.x), static_cast<float>(p.y),
-                             static_cast<float>(p.z)});
+      out.insert(out.end(),
+                 {static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)});
     }
   }
   return out;
@@ -302,13 +303,15 @@ int run(int argc, char** argv) {
   pbdam::runtime::Viewport viewport;
   std::optional<Marker> marker;
   gpu::DepthConvention depth = gpu::DepthConvention::ReversedZ;
-  const bool sizeOk = argc >= 6 && parseNumber(argv[4], viewport.width) &&
-                      parseNumber(argv[5], viewport.height);
+  const bool sizeOk =
+      argc >= 6 && parseNumber(argv[4], viewport.width) && parseNumber(argv[5], viewport.height);
   if (argc >= 7) marker = parseMarker(argv[6]);
   if (argc == 8) {
     const std::string_view d = argv[7];
-    if (d == "zero-near") depth = gpu::DepthConvention::ZeroNearOneFar;
-    else if (d != "reversed-z") argc = 0;
+    if (d == "zero-near")
+      depth = gpu::DepthConvention::ZeroNearOneFar;
+    else if (d != "reversed-z")
+      argc = 0;
   }
   if (!sizeOk || argc < 6 || argc > 8 || (argc >= 7 && !marker)) {
     std::fprintf(stderr,
@@ -334,9 +337,9 @@ int run(int argc, char** argv) {
   Attachment colour = makeAttachment(
       context, kColorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
       VK_IMAGE_ASPECT_COLOR_BIT, width, height);
-  Attachment depthImage = makeAttachment(context, kDepthFormat,
-                                         VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
-                                         VK_IMAGE_ASPECT_DEPTH_BIT, width, height);
+  Attachment depthImage =
+      makeAttachment(context, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                     VK_IMAGE_ASPECT_DEPTH_BIT, width, height);
   gpu::GpuBuffer readback = take(gpu::createBuffer(
       context, std::uint64_t{width} * height * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
       gpu::MemoryUse::HostReadback, "marker readback"));
@@ -348,10 +351,10 @@ int run(int argc, char** argv) {
     triangles = markerTriangles(planet, *marker, groundMeters, terrain->origin());
     // What the terrain's own line-of-sight query says of the marker's centre from the eye.
     const double eyeGround = take(terrain->heightAt(pose.latDegrees, pose.lonDegrees)).heightMeters;
-    const auto line = take(terrain->lineOfSight(
-        {pose.latDegrees, pose.lonDegrees, pose.altitudeMeters - eyeGround},
-        {marker->latDegrees, marker->lonDegrees,
-         marker->heightAboveGroundMeters + marker->sizeMeters / 2}));
+    const auto line = take(
+        terrain->lineOfSight({pose.latDegrees, pose.lonDegrees, pose.altitudeMeters - eyeGround},
+                             {marker->latDegrees, marker->lonDegrees,
+                              marker->heightAboveGroundMeters + marker->sizeMeters / 2}));
     sight = line.result.visible ? "visible" : "hidden";
   }
   gpu::GpuBuffer vertices = take(gpu::createBuffer(
@@ -498,12 +501,13 @@ int run(int argc, char** argv) {
   const pbdam::formats::RgbaPixels pixels{reinterpret_cast<const std::uint8_t*>(bytes.data()),
                                           width, height};
   take(codec->write(argv[3], pixels, 3, false));
-  std::printf("%s: %u x %u on %s: %llu patches, %llu triangles; marker %s (line of sight), "
-              "%llu pixels drawn\n",
-              argv[3], width, height, context.deviceInfo().name.c_str(),
-              static_cast<unsigned long long>(frame->cut.patches.size()),
-              static_cast<unsigned long long>(frame->cut.triangles), sight,
-              static_cast<unsigned long long>(markerPixels));
+  std::printf(
+      "%s: %u x %u on %s: %llu patches, %llu triangles; marker %s (line of sight), "
+      "%llu pixels drawn\n",
+      argv[3], width, height, context.deviceInfo().name.c_str(),
+      static_cast<unsigned long long>(frame->cut.patches.size()),
+      static_cast<unsigned long long>(frame->cut.triangles), sight,
+      static_cast<unsigned long long>(markerPixels));
   return 0;
 }
 

@@ -117,8 +117,8 @@ Result<void> PassDrawer::drawIntoHost(VkCommandBuffer hostCmd, VkPipeline pipeli
     // With a private cache the uploads' barriers order them before the host's submission on
     // the same queue; with a shared one they complete before any renderer sees the entries.
     const std::array<VkCommandBuffer, 1> uploads = {slot_.commands[FrameSlot::kUploadCommands]};
-    if (Result<void> r = m_.submitSlot(slot_, uploads, nullptr, "terrain uploads (host pass)",
-                                       !m_.privateCache);
+    if (Result<void> r =
+            m_.submitSlot(slot_, uploads, nullptr, "terrain uploads (host pass)", !m_.privateCache);
         !r) {
       return r;
     }
@@ -288,6 +288,5 @@ Result<void> PassDrawer::submit(CacheLease& lease, const PresentTarget* present)
   if (drawn && !wait) slot_.pins = lease.keepPins();
   return drawn;
 }
-
 
 }  // namespace pbdam::gpu

@@ -271,9 +271,8 @@ Result<PatchPipeline> PatchPipeline::create(const VulkanContext& context, VkForm
   result.pipeline_ = std::move(*pipeline);
   const DeviceCaps& caps = context.caps();
   if (caps.shaderDrawParameters && caps.drawIndirectCount && caps.multiDrawIndirect) {
-    auto indirect =
-        createPatchGraphicsPipeline(device, result.layout_.get(), own, kPatchIndirectVert,
-                                    "patch_indirect.vert");
+    auto indirect = createPatchGraphicsPipeline(device, result.layout_.get(), own,
+                                                kPatchIndirectVert, "patch_indirect.vert");
     if (!indirect) return std::move(indirect).error();
     result.indirectPipeline_ = std::move(*indirect);
   }
@@ -281,7 +280,7 @@ Result<PatchPipeline> PatchPipeline::create(const VulkanContext& context, VkForm
 }
 
 Result<UniquePipeline> PatchPipeline::createForHostPass(const VulkanContext& context,
-                                                       const HostPass& pass) const {
+                                                        const HostPass& pass) const {
   return createPatchGraphicsPipeline(context.device(), layout_.get(), pass, kPatchVert,
                                      "patch.vert (host pass)");
 }

@@ -18,9 +18,7 @@ using namespace pbdam::streaming;
 namespace pbdam::gpu {
 namespace {
 
-Error invalid(const std::string& message) {
-  return makeError(ErrorCode::InvalidArgument, message);
-}
+Error invalid(const std::string& message) { return makeError(ErrorCode::InvalidArgument, message); }
 
 /// The options that need no dataset, checked before anything is opened.
 Result<void> checkOptions(const TerrainOptions& o) {
@@ -35,17 +33,14 @@ Result<void> checkOptions(const TerrainOptions& o) {
   if (o.prefetch && o.mode == TerrainMode::Exact) {
     return invalid("terrain prefetch is for the paging and no-stall modes, not exact");
   }
-  if (!std::isfinite(o.lookaheadSeconds) || o.lookaheadSeconds < 0.0 ||
-      o.lookaheadSeconds > 60.0) {
+  if (!std::isfinite(o.lookaheadSeconds) || o.lookaheadSeconds < 0.0 || o.lookaheadSeconds > 60.0) {
     return invalid("terrain prefetch look-ahead must be in [0, 60] s");
   }
-  if (o.memoryBudgetMiB &&
-      (!std::isfinite(*o.memoryBudgetMiB) || *o.memoryBudgetMiB < 0.0 ||
-       *o.memoryBudgetMiB > 16777216.0)) {
+  if (o.memoryBudgetMiB && (!std::isfinite(*o.memoryBudgetMiB) || *o.memoryBudgetMiB < 0.0 ||
+                            *o.memoryBudgetMiB > 16777216.0)) {
     return invalid("terrain memory budget must be a number of MiB >= 0 (0: the cgroup's limit)");
   }
-  if (o.mode == TerrainMode::NoStall &&
-      (o.selection != CutSelection::Cpu || !o.focus.empty())) {
+  if (o.mode == TerrainMode::NoStall && (o.selection != CutSelection::Cpu || !o.focus.empty())) {
     return invalid("no-stall terrain selects its cuts on the host, without focus regions");
   }
   if (o.draws == DrawList::Indirect && (o.selection != CutSelection::Gpu || !o.focus.empty())) {
@@ -66,9 +61,8 @@ Result<std::unique_ptr<Terrain>> Terrain::open(VulkanContext& context,
                                                const std::filesystem::path& dataset,
                                                TerrainOptions options) {
   if (auto r = checkOptions(options); !r) return std::move(r).error();
-  const std::optional<MemoryLimit> limit = options.memoryBudgetMiB
-                                               ? memoryLimitOf(*options.memoryBudgetMiB)
-                                               : cgroupMemoryLimit();
+  const std::optional<MemoryLimit> limit =
+      options.memoryBudgetMiB ? memoryLimitOf(*options.memoryBudgetMiB) : cgroupMemoryLimit();
   auto opened = MappedDataset::open(dataset, faceOptionsFor(limit));
   if (!opened) return std::move(opened).error();
   return open(context, std::shared_ptr<const MappedDataset>(std::move(*opened)),
@@ -168,8 +162,7 @@ Result<void> Terrain::resize(std::uint32_t widthPixels, std::uint32_t heightPixe
   return {};
 }
 
-Result<const TerrainUpdate*> Terrain::update(const Camera& camera, double tSeconds,
-                                             bool complete) {
+Result<const TerrainUpdate*> Terrain::update(const Camera& camera, double tSeconds, bool complete) {
   const Viewport& want = options_.viewport;
   if (camera.viewport().width != want.width || camera.viewport().height != want.height) {
     return invalid("terrain update: the camera is " + std::to_string(camera.viewport().width) +
@@ -185,9 +178,8 @@ Result<const TerrainUpdate*> Terrain::update(const Camera& camera, double tSecon
   if (!cut) return std::move(cut).error();
   TerrainUpdate frame;
   frame.cut = std::move(*cut);
-  frame.traversalMs = std::chrono::duration<double, std::milli>(
-                          std::chrono::steady_clock::now() - start)
-                          .count();
+  frame.traversalMs =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   frame.levelCap = source.levelCap();
   lastSource_ = &source;
   frame.morph = summarizeMorph(frame.cut);

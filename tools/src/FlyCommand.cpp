@@ -37,11 +37,11 @@
 #include "ViewshedOutput.h"
 #include "pbdam/formats/CameraPath.h"
 #include "pbdam/formats/NumberList.h"
-#include "pbdam/gpu/Terrain.h"
 #include "pbdam/gpu/FrameModes.h"
 #include "pbdam/gpu/GpuMemory.h"
 #include "pbdam/gpu/GpuViewshed.h"
 #include "pbdam/gpu/Swapchain.h"
+#include "pbdam/gpu/Terrain.h"
 #include "pbdam/gpu/TerrainRenderer.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/runtime/Camera.h"
@@ -309,9 +309,8 @@ struct HudBuffers final {
 
 class FlySession final {
  public:
-  FlySession(const FlyCliOptions& c, const FlyModes& modes,
-             std::shared_ptr<MappedDataset> dataset, gpu::VulkanContext& context,
-             GLFWwindow* window)
+  FlySession(const FlyCliOptions& c, const FlyModes& modes, std::shared_ptr<MappedDataset> dataset,
+             gpu::VulkanContext& context, GLFWwindow* window)
       : c_(c),
         modes_(modes),
         dataset_(std::move(dataset)),
@@ -376,8 +375,7 @@ Result<void> FlySession::setUp() {
   options.gpuCacheBytes = static_cast<std::uint64_t>(c_.gpuCacheMiB * 1048576.0);
   options.memoryBudgetMiB = c_.memoryBudgetMiB;
   options.reportMemoryPlan = true;
-  options.viewport = Viewport{swapchain_.extent().width, swapchain_.extent().height,
-                              c_.fovDegrees};
+  options.viewport = Viewport{swapchain_.extent().width, swapchain_.extent().height, c_.fovDegrees};
   options.framesInFlight = c_.framesInFlight;
   auto terrain = gpu::Terrain::open(context_, dataset_, std::move(options));
   if (!terrain) return terrain.error();

@@ -33,8 +33,8 @@ enum class DepthConvention {
 struct HostPass final {
   VkFormat colorFormat = VK_FORMAT_R8G8B8A8_UNORM;  ///< the colour attachment's format
   VkFormat depthFormat = VK_FORMAT_D32_SFLOAT;      ///< the depth attachment's format
-  VkRenderPass renderPass = VK_NULL_HANDLE;  ///< VK_NULL_HANDLE: dynamic rendering
-  std::uint32_t subpass = 0;                 ///< the subpass of renderPass the terrain draws in
+  VkRenderPass renderPass = VK_NULL_HANDLE;         ///< VK_NULL_HANDLE: dynamic rendering
+  std::uint32_t subpass = 0;  ///< the subpass of renderPass the terrain draws in
   VkSampleCountFlagBits samples = VK_SAMPLE_COUNT_1_BIT;  ///< of both attachments
   DepthConvention depth = DepthConvention::ReversedZ;     ///< what the depth attachment holds
 

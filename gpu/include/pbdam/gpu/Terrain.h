@@ -112,9 +112,9 @@ struct TerrainOptions final {
 
 /// What update() made for a camera.
 struct TerrainUpdate final {
-  runtime::Cut cut;          ///< the patches to draw, in draw order
-  double traversalMs = 0.0;  ///< selecting the cut, wall time
-  int levelCap = -1;         ///< NoStall: the level cap of the cut; −1 otherwise
+  runtime::Cut cut;                ///< the patches to draw, in draw order
+  double traversalMs = 0.0;        ///< selecting the cut, wall time
+  int levelCap = -1;               ///< NoStall: the level cap of the cut; −1 otherwise
   runtime::CutMorphSummary morph;  ///< how many of its patches morph or blend
 };
 
@@ -229,7 +229,7 @@ class Terrain final {
   std::optional<TerrainRenderer> renderer_;
   std::unique_ptr<CutSource> cuts_;
   std::unique_ptr<CutSource> completeCuts_;  ///< made on the first update(..., true)
-  CutSource* lastSource_ = nullptr;           ///< the source of the last update()'s cut
+  CutSource* lastSource_ = nullptr;          ///< the source of the last update()'s cut
   std::uint64_t gpuCacheBytes_ = 0;
   streaming::HeldPages coarse_;
   std::vector<formats::Error> preloadSkipped_;
