@@ -7,7 +7,8 @@
 # the same way, draws the terrain and a marker of its own into its own pass and depth buffer,
 # looking east at Olympus Mons from 420 km west: a marker on the far flank, behind the summit,
 # is hidden (the frame is `pbdam render`'s, byte for byte, and the terrain's line-of-sight query
-# agrees); one on the near flank is drawn, under either depth convention.
+# agrees), one out of view leaves the frame `pbdam render`'s too, and one on the near flank is
+# drawn, under either depth convention.
 #   install_example_test.sh BUILD_DIR SOURCE_DIR PBDAM CXX GENERATOR DATASET ARTIFACTS_DIR
 # Exit code 77 (skipped): the dataset was not built (a failure under CI=true).
 set -euo pipefail
@@ -90,6 +91,10 @@ eye=18.65,219,30000,90,-3,0  # 30 km up, 420 km west of the summit, looking east
 grep -qF "marker hidden (line of sight), 0 pixels drawn" "$tmp/behind.txt" ||
   fail "the marker behind the summit is not hidden"
 cmp "$tmp/behind.png" "$tmp/eye.png" || fail "the frame with the hidden marker is not pbdam render's"
+# Out of view (west of the eye, behind it): nothing of it drawn, the frame is render's.
+"$marker" "$dataset" "$eye" "$tmp/away.png" $width $height 18.65,214,0 | tee "$tmp/away.txt"
+grep -qF ", 0 pixels drawn" "$tmp/away.txt" || fail "the marker out of view was drawn"
+cmp "$tmp/away.png" "$tmp/eye.png" || fail "the frame with the marker out of view is not pbdam render's"
 for depth in reversed-z zero-near; do
   "$marker" "$dataset" "$eye" "$tmp/front-$depth.png" $width $height 18.65,222,0 $depth |
     tee "$tmp/front-$depth.txt"
