@@ -36,7 +36,6 @@
 namespace {
 
 namespace gpu = pbdam::gpu;
-using pbdam::formats::Error;
 
 // glslc -mfmt=c writes a braced initializer list.
 const std::uint32_t kMarkerVert[] =
@@ -63,7 +62,7 @@ T take(pbdam::formats::Result<T> result) {
   if (!result) throw Failure{result.error().message};
   return std::move(*result);
 }
-void take(pbdam::formats::Result<void> result) {
+void take(const pbdam::formats::Result<void>& result) {
   if (!result) throw Failure{result.error().message};
 }
 
@@ -299,211 +298,269 @@ void transition(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, V
   vkCmdPipelineBarrier2(cmd, &dependency);
 }
 
-int run(int argc, char** argv) {
+/// What the command line asks for.
+struct Request {
   pbdam::runtime::Viewport viewport;
   std::optional<Marker> marker;
   gpu::DepthConvention depth = gpu::DepthConvention::ReversedZ;
-  const bool sizeOk =
-      argc >= 6 && parseNumber(argv[4], viewport.width) && parseNumber(argv[5], viewport.height);
-  if (argc >= 7) marker = parseMarker(argv[6]);
+};
+
+std::optional<Request> parseRequest(int argc, char** argv) {
+  Request r;
+  if (argc < 6 || argc > 8 || !parseNumber(argv[4], r.viewport.width) ||
+      !parseNumber(argv[5], r.viewport.height)) {
+    return std::nullopt;
+  }
+  if (argc >= 7) {
+    r.marker = parseMarker(argv[6]);
+    if (!r.marker) return std::nullopt;
+  }
   if (argc == 8) {
     const std::string_view d = argv[7];
-    if (d == "zero-near")
-      depth = gpu::DepthConvention::ZeroNearOneFar;
-    else if (d != "reversed-z")
-      argc = 0;
+    if (d == "zero-near") {
+      r.depth = gpu::DepthConvention::ZeroNearOneFar;
+    } else if (d != "reversed-z") {
+      return std::nullopt;
+    }
   }
-  if (!sizeOk || argc < 6 || argc > 8 || (argc >= 7 && !marker)) {
+  return r;
+}
+
+/// The host's side of one frame: its attachments, readback buffer, marker and command buffer.
+class MarkerFrame {
+ public:
+  MarkerFrame(gpu::VulkanContext& context, const Request& request)
+      : context_(context),
+        request_(request),
+        width_(request.viewport.width),
+        height_(request.viewport.height),
+        colour_(
+            makeAttachment(context, kColorFormat,
+                           VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                           VK_IMAGE_ASPECT_COLOR_BIT, width_, height_)),
+        depth_(makeAttachment(context, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                              VK_IMAGE_ASPECT_DEPTH_BIT, width_, height_)),
+        readback_(take(gpu::createBuffer(context, std::uint64_t{width_} * height_ * 4,
+                                         VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                         gpu::MemoryUse::HostReadback, "marker readback"))),
+        pipeline_(makeMarkerPipeline(context.device(), request.depth)) {
+    VkCommandPoolCreateInfo poolInfo{};
+    poolInfo.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    poolInfo.queueFamilyIndex = context.queueFamilyIndex();
+    VkCommandPool pool = VK_NULL_HANDLE;
+    check(vkCreateCommandPool(context.device(), &poolInfo, nullptr, &pool), "vkCreateCommandPool");
+    pool_ = gpu::UniqueCommandPool(context.device(), pool);
+    VkCommandBufferAllocateInfo allocate{};
+    allocate.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    allocate.commandPool = pool;
+    allocate.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    allocate.commandBufferCount = 1;
+    check(vkAllocateCommandBuffers(context.device(), &allocate, &cmd_), "vkAllocateCommandBuffers");
+  }
+
+  /// The marker's triangles relative to the terrain's origin, in a vertex buffer.
+  void placeMarker(const std::vector<float>& triangles) {
+    markerVertices_ = static_cast<std::uint32_t>(triangles.size() / 3);
+    vertices_ = take(gpu::createBuffer(
+        context_, std::max<std::uint64_t>(triangles.size() * sizeof(float), 16),
+        VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, gpu::MemoryUse::HostUpload, "marker vertices"));
+    if (triangles.empty()) return;
+    std::memcpy(vertices_.mappedBytes().data(), triangles.data(), triangles.size() * sizeof(float));
+    take(vertices_.flushHostWrites());
+  }
+
+  /// Records the frame: attachments cleared, the terrain (its uploads submitted now), the marker
+  /// depth-tested against it, the colour image copied for the host. Returns the terrain's
+  /// timeline value the submission must signal.
+  gpu::HostFrame record(gpu::Terrain& terrain) {
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    check(vkBeginCommandBuffer(cmd_, &begin), "vkBeginCommandBuffer");
+    beginRendering();
+    gpu::HostPass pass;
+    pass.colorFormat = kColorFormat;
+    pass.depthFormat = kDepthFormat;
+    pass.depth = request_.depth;
+    const gpu::HostFrame drawn = take(terrain.drawInto(cmd_, pass));
+    if (markerVertices_ > 0) drawMarker(terrain);
+    vkCmdEndRendering(cmd_);
+    recordReadback();
+    check(vkEndCommandBuffer(cmd_), "vkEndCommandBuffer");
+    return drawn;
+  }
+
+  /// One submission on the context's queue, signalling the terrain's timeline value; waited for.
+  void submit(const gpu::HostFrame& drawn) {
+    VkCommandBufferSubmitInfo buffers{};
+    buffers.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO;
+    buffers.commandBuffer = cmd_;
+    VkSemaphoreSubmitInfo signal{};
+    signal.sType = VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO;
+    signal.semaphore = drawn.semaphore;
+    signal.value = drawn.signalValue;
+    signal.stageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
+    VkSubmitInfo2 submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO_2;
+    submit.commandBufferInfoCount = 1;
+    submit.pCommandBufferInfos = &buffers;
+    submit.signalSemaphoreInfoCount = 1;
+    submit.pSignalSemaphoreInfos = &signal;
+    VkFenceCreateInfo fenceInfo{};
+    fenceInfo.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+    VkFence fence = VK_NULL_HANDLE;
+    check(vkCreateFence(context_.device(), &fenceInfo, nullptr, &fence), "vkCreateFence");
+    const gpu::UniqueFence owner(context_.device(), fence);
+    take(context_.submit(submit, fence, "marker frame"));
+    check(vkWaitForFences(context_.device(), 1, &fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+    take(readback_.invalidateForHostRead());
+  }
+
+  /// The frame's RGBA bytes (after submit()).
+  std::span<const std::byte> pixels() const { return readback_.mappedBytes(); }
+
+ private:
+  void beginRendering() {
+    transition(cmd_, colour_.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+               VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, 0,
+               VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+               VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
+    transition(cmd_, depth_.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+               VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, 0,
+               VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT,
+               VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
+    VkRenderingAttachmentInfo colourAttachment{};
+    colourAttachment.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
+    colourAttachment.imageView = colour_.view.get();
+    colourAttachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    colourAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    colourAttachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    colourAttachment.clearValue.color = {{0.0f, 0.0f, 0.0f, 1.0f}};  // pbdam render's --clear
+    VkRenderingAttachmentInfo depthAttachment{};
+    depthAttachment.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
+    depthAttachment.imageView = depth_.view.get();
+    depthAttachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    depthAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    depthAttachment.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    depthAttachment.clearValue.depthStencil = {gpu::farDepth(request_.depth), 0};
+    VkRenderingInfo rendering{};
+    rendering.sType = VK_STRUCTURE_TYPE_RENDERING_INFO;
+    rendering.renderArea = {{0, 0}, {width_, height_}};
+    rendering.layerCount = 1;
+    rendering.colorAttachmentCount = 1;
+    rendering.pColorAttachments = &colourAttachment;
+    rendering.pDepthAttachment = &depthAttachment;
+    vkCmdBeginRendering(cmd_, &rendering);
+  }
+
+  void drawMarker(const gpu::Terrain& terrain) {
+    // The marker's view-projection: the terrain's double matrices, multiplied, then rounded.
+    const glm::mat4 viewProjection =
+        glm::mat4(terrain.projection(request_.depth) * terrain.viewRotation());
+    vkCmdBindPipeline(cmd_, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_.pipeline.get());
+    const VkViewport view{0.0f, 0.0f, static_cast<float>(width_), static_cast<float>(height_),
+                          0.0f, 1.0f};
+    const VkRect2D scissor{{0, 0}, {width_, height_}};
+    vkCmdSetViewport(cmd_, 0, 1, &view);
+    vkCmdSetScissor(cmd_, 0, 1, &scissor);
+    vkCmdPushConstants(cmd_, pipeline_.layout.get(), VK_SHADER_STAGE_VERTEX_BIT, 0,
+                       sizeof(float) * 16, glm::value_ptr(viewProjection));
+    VkBuffer buffer = vertices_.buffer();
+    const VkDeviceSize zero = 0;
+    vkCmdBindVertexBuffers(cmd_, 0, 1, &buffer, &zero);
+    vkCmdDraw(cmd_, markerVertices_, 1, 0, 0);
+  }
+
+  void recordReadback() {
+    transition(cmd_, colour_.image.get(), VK_IMAGE_ASPECT_COLOR_BIT,
+               VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+               VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+               VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT,
+               VK_ACCESS_2_TRANSFER_READ_BIT);
+    VkBufferImageCopy copy{};
+    copy.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    copy.imageExtent = {width_, height_, 1};
+    vkCmdCopyImageToBuffer(cmd_, colour_.image.get(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                           readback_.buffer(), 1, &copy);
+    VkBufferMemoryBarrier2 toHost{};
+    toHost.sType = VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2;
+    toHost.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+    toHost.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+    toHost.dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT;
+    toHost.dstAccessMask = VK_ACCESS_2_HOST_READ_BIT;
+    toHost.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    toHost.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    toHost.buffer = readback_.buffer();
+    toHost.size = VK_WHOLE_SIZE;
+    VkDependencyInfo dependency{};
+    dependency.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
+    dependency.bufferMemoryBarrierCount = 1;
+    dependency.pBufferMemoryBarriers = &toHost;
+    vkCmdPipelineBarrier2(cmd_, &dependency);
+  }
+
+  gpu::VulkanContext& context_;
+  const Request& request_;
+  std::uint32_t width_, height_;
+  Attachment colour_;
+  Attachment depth_;
+  gpu::GpuBuffer readback_;
+  MarkerPipeline pipeline_;
+  gpu::GpuBuffer vertices_;
+  std::uint32_t markerVertices_ = 0;
+  gpu::UniqueCommandPool pool_;
+  VkCommandBuffer cmd_ = VK_NULL_HANDLE;
+};
+
+int run(int argc, char** argv) {
+  const std::optional<Request> request = parseRequest(argc, argv);
+  if (!request) {
     std::fprintf(stderr,
                  "usage: pbdam_marker DATASET LAT,LON,ALT[,HEADING,PITCH,ROLL] OUT.png WIDTH "
                  "HEIGHT [MLAT,MLON,HEIGHT_ABOVE_GROUND_M[,SIZE_M] [reversed-z|zero-near]]\n");
     return 2;
   }
-
   // The device: PBDAM_DEVICE if set (e.g. "lavapipe"), else the machine's best.
   gpu::VulkanContext context = take(gpu::VulkanContext::create());
-  VkDevice device = context.device();
   gpu::TerrainOptions options;  // exact mode, 3 px, 256 MiB of GPU cache
-  options.viewport = viewport;
+  options.viewport = request->viewport;
   auto terrain = take(gpu::Terrain::open(context, argv[1], options));
   const auto& planet = terrain->view().planet();
   const auto pose = take(pbdam::runtime::parseCameraPose(argv[2]));
   take(pbdam::runtime::validateCameraPose(pose, planet));
-  const auto camera = pbdam::runtime::Camera::fromPose(planet, pose, viewport);
-  const gpu::TerrainUpdate* frame = take(terrain->update(camera));
+  const gpu::TerrainUpdate* frame =
+      take(terrain->update(pbdam::runtime::Camera::fromPose(planet, pose, request->viewport)));
 
-  // The host's attachments, command buffer and readback buffer.
-  const std::uint32_t width = viewport.width, height = viewport.height;
-  Attachment colour = makeAttachment(
-      context, kColorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
-      VK_IMAGE_ASPECT_COLOR_BIT, width, height);
-  Attachment depthImage =
-      makeAttachment(context, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
-                     VK_IMAGE_ASPECT_DEPTH_BIT, width, height);
-  gpu::GpuBuffer readback = take(gpu::createBuffer(
-      context, std::uint64_t{width} * height * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-      gpu::MemoryUse::HostReadback, "marker readback"));
-  std::vector<float> triangles;
-  double groundMeters = 0.0;
+  MarkerFrame host(context, *request);
   const char* sight = "no marker";
-  if (marker) {
-    groundMeters = take(terrain->heightAt(marker->latDegrees, marker->lonDegrees)).heightMeters;
-    triangles = markerTriangles(planet, *marker, groundMeters, terrain->origin());
+  std::vector<float> triangles;
+  if (const std::optional<Marker>& m = request->marker) {
+    const double ground = take(terrain->heightAt(m->latDegrees, m->lonDegrees)).heightMeters;
+    triangles = markerTriangles(planet, *m, ground, terrain->origin());
     // What the terrain's own line-of-sight query says of the marker's centre from the eye.
     const double eyeGround = take(terrain->heightAt(pose.latDegrees, pose.lonDegrees)).heightMeters;
-    const auto line = take(
-        terrain->lineOfSight({pose.latDegrees, pose.lonDegrees, pose.altitudeMeters - eyeGround},
-                             {marker->latDegrees, marker->lonDegrees,
-                              marker->heightAboveGroundMeters + marker->sizeMeters / 2}));
+    const auto line = take(terrain->lineOfSight(
+        {pose.latDegrees, pose.lonDegrees, pose.altitudeMeters - eyeGround},
+        {m->latDegrees, m->lonDegrees, m->heightAboveGroundMeters + m->sizeMeters / 2}));
     sight = line.result.visible ? "visible" : "hidden";
   }
-  gpu::GpuBuffer vertices = take(gpu::createBuffer(
-      context, std::max<std::uint64_t>(triangles.size() * sizeof(float), 16),
-      VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, gpu::MemoryUse::HostUpload, "marker vertices"));
-  if (!triangles.empty()) {
-    std::memcpy(vertices.mappedBytes().data(), triangles.data(), triangles.size() * sizeof(float));
-    take(vertices.flushHostWrites());
-  }
-  const MarkerPipeline markerPipeline = makeMarkerPipeline(device, depth);
-  // The marker's view-projection: the terrain's double matrices, multiplied, then rounded.
-  const glm::mat4 markerViewProjection =
-      glm::mat4(terrain->projection(depth) * terrain->viewRotation());
+  host.placeMarker(triangles);
+  host.submit(host.record(*terrain));
 
-  VkCommandPoolCreateInfo poolInfo{};
-  poolInfo.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
-  poolInfo.queueFamilyIndex = context.queueFamilyIndex();
-  VkCommandPool rawPool = VK_NULL_HANDLE;
-  check(vkCreateCommandPool(device, &poolInfo, nullptr, &rawPool), "vkCreateCommandPool");
-  const gpu::UniqueCommandPool pool(device, rawPool);
-  VkCommandBufferAllocateInfo allocate{};
-  allocate.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
-  allocate.commandPool = rawPool;
-  allocate.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-  allocate.commandBufferCount = 1;
-  VkCommandBuffer cmd = VK_NULL_HANDLE;
-  check(vkAllocateCommandBuffers(device, &allocate, &cmd), "vkAllocateCommandBuffers");
-  VkCommandBufferBeginInfo begin{};
-  begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
-  begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-  check(vkBeginCommandBuffer(cmd, &begin), "vkBeginCommandBuffer");
-
-  transition(cmd, colour.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-             VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, 0,
-             VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-             VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
-  transition(cmd, depthImage.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-             VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, 0,
-             VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT,
-             VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
-  VkRenderingAttachmentInfo colourAttachment{};
-  colourAttachment.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
-  colourAttachment.imageView = colour.view.get();
-  colourAttachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-  colourAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  colourAttachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  colourAttachment.clearValue.color = {{0.0f, 0.0f, 0.0f, 1.0f}};  // pbdam render's --clear
-  VkRenderingAttachmentInfo depthAttachment{};
-  depthAttachment.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
-  depthAttachment.imageView = depthImage.view.get();
-  depthAttachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  depthAttachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  depthAttachment.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-  depthAttachment.clearValue.depthStencil = {gpu::farDepth(depth), 0};
-  VkRenderingInfo rendering{};
-  rendering.sType = VK_STRUCTURE_TYPE_RENDERING_INFO;
-  rendering.renderArea = {{0, 0}, {width, height}};
-  rendering.layerCount = 1;
-  rendering.colorAttachmentCount = 1;
-  rendering.pColorAttachments = &colourAttachment;
-  rendering.pDepthAttachment = &depthAttachment;
-  vkCmdBeginRendering(cmd, &rendering);
-
-  // The terrain first (its uploads are submitted now), then the marker, depth-tested against it.
-  gpu::HostPass pass;
-  pass.colorFormat = kColorFormat;
-  pass.depthFormat = kDepthFormat;
-  pass.depth = depth;
-  const gpu::HostFrame drawn = take(terrain->drawInto(cmd, pass));
-  if (!triangles.empty()) {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, markerPipeline.pipeline.get());
-    const VkViewport view{0.0f, 0.0f, static_cast<float>(width), static_cast<float>(height),
-                          0.0f, 1.0f};
-    const VkRect2D scissor{{0, 0}, {width, height}};
-    vkCmdSetViewport(cmd, 0, 1, &view);
-    vkCmdSetScissor(cmd, 0, 1, &scissor);
-    vkCmdPushConstants(cmd, markerPipeline.layout.get(), VK_SHADER_STAGE_VERTEX_BIT, 0,
-                       sizeof(float) * 16, glm::value_ptr(markerViewProjection));
-    const VkBuffer buffer = vertices.buffer();
-    const VkDeviceSize zero = 0;
-    vkCmdBindVertexBuffers(cmd, 0, 1, &buffer, &zero);
-    vkCmdDraw(cmd, static_cast<std::uint32_t>(triangles.size() / 3), 1, 0, 0);
-  }
-  vkCmdEndRendering(cmd);
-
-  transition(cmd, colour.image.get(), VK_IMAGE_ASPECT_COLOR_BIT,
-             VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-             VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-             VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT,
-             VK_ACCESS_2_TRANSFER_READ_BIT);
-  VkBufferImageCopy copy{};
-  copy.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-  copy.imageExtent = {width, height, 1};
-  vkCmdCopyImageToBuffer(cmd, colour.image.get(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                         readback.buffer(), 1, &copy);
-  VkBufferMemoryBarrier2 toHost{};
-  toHost.sType = VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2;
-  toHost.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-  toHost.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  toHost.dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT;
-  toHost.dstAccessMask = VK_ACCESS_2_HOST_READ_BIT;
-  toHost.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  toHost.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  toHost.buffer = readback.buffer();
-  toHost.size = VK_WHOLE_SIZE;
-  VkDependencyInfo dependency{};
-  dependency.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
-  dependency.bufferMemoryBarrierCount = 1;
-  dependency.pBufferMemoryBarriers = &toHost;
-  vkCmdPipelineBarrier2(cmd, &dependency);
-  check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
-
-  // One submission on the context's queue, signalling the terrain's timeline value.
-  VkCommandBufferSubmitInfo buffers{};
-  buffers.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO;
-  buffers.commandBuffer = cmd;
-  VkSemaphoreSubmitInfo signal{};
-  signal.sType = VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO;
-  signal.semaphore = drawn.semaphore;
-  signal.value = drawn.signalValue;
-  signal.stageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
-  VkSubmitInfo2 submit{};
-  submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO_2;
-  submit.commandBufferInfoCount = 1;
-  submit.pCommandBufferInfos = &buffers;
-  submit.signalSemaphoreInfoCount = 1;
-  submit.pSignalSemaphoreInfos = &signal;
-  VkFenceCreateInfo fenceInfo{};
-  fenceInfo.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
-  VkFence rawFence = VK_NULL_HANDLE;
-  check(vkCreateFence(device, &fenceInfo, nullptr, &rawFence), "vkCreateFence");
-  const gpu::UniqueFence fence(device, rawFence);
-  take(context.submit(submit, rawFence, "marker frame"));
-  check(vkWaitForFences(device, 1, &rawFence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
-
-  take(readback.invalidateForHostRead());
-  const std::span<const std::byte> bytes = readback.mappedBytes();
+  const std::span<const std::byte> bytes = host.pixels();
   std::uint64_t markerPixels = 0;
   for (std::size_t i = 0; i + 3 < bytes.size(); i += 4) {
     markerPixels += bytes[i] == std::byte{255} && bytes[i + 1] == std::byte{0} &&
                     bytes[i + 2] == std::byte{255};
   }
-  auto codec = take(pbdam::formats::imageCodec());
+  const auto* codec = take(pbdam::formats::imageCodec());
+  const std::uint32_t width = request->viewport.width, height = request->viewport.height;
   const pbdam::formats::RgbaPixels pixels{reinterpret_cast<const std::uint8_t*>(bytes.data()),
                                           width, height};
   take(codec->write(argv[3], pixels, 3, false));
   std::printf(
-      "%s: %u x %u on %s: %llu patches, %llu triangles; marker %s (line of sight), "
-      "%llu pixels drawn\n",
+      "%s: %u x %u on %s: %llu patches, %llu triangles; marker %s (line of sight), %llu pixels "
+      "drawn\n",
       argv[3], width, height, context.deviceInfo().name.c_str(),
       static_cast<unsigned long long>(frame->cut.patches.size()),
       static_cast<unsigned long long>(frame->cut.triangles), sight,

@@ -22,7 +22,7 @@ using namespace pbdam::runtime;
 
 namespace pbdam::gpu {
 
-Result<void> TerrainRenderer::Impl::waitForHost(std::uint64_t value) {
+Result<void> TerrainRenderer::Impl::waitForHost(std::uint64_t value) const {
   VkSemaphore semaphore = hostTimeline.get();
   VkSemaphoreWaitInfo wait{};
   wait.sType = VK_STRUCTURE_TYPE_SEMAPHORE_WAIT_INFO;

@@ -162,7 +162,7 @@ struct TerrainRenderer::Impl {
   /// Waits until the host's submissions have signalled `value` on hostTimeline; DeviceError
   /// after kSubmitTimeoutNanoseconds (a frame drawn into a host's pass that was never submitted
   /// with its signal).
-  formats::Result<void> waitForHost(std::uint64_t value);
+  formats::Result<void> waitForHost(std::uint64_t value) const;
   /// Waits for the oldest running slot, offscreen frames first, then frames in hosts' passes
   /// (the cache lock held by the caller): false when none runs.
   bool finishOldestLocked();
