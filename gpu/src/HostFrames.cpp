@@ -5,7 +5,6 @@
 // recorded into the host's command buffer with a patch pipeline made for the host's attachments
 // and depth convention, and the host's submission signals the renderer's timeline semaphore. The
 // slot keeps the frame's pins until that value has been seen (TerrainRendererImpl.h).
-#include <mutex>
 #include <string>
 #include <vector>
 
@@ -57,8 +56,7 @@ Result<HostFrame> TerrainRenderer::drawInto(VkCommandBuffer cmd, const HostPass&
   if (Result<void> r = m.checkViewport(camera); !r) return std::move(r).error();
 
   GpuCache::State& c = *m.shared;
-  std::vector<NodeRecord> nodes(cut.patches.size());
-  for (std::size_t i = 0; i < nodes.size(); ++i) nodes[i] = m.dataset->node(cut.patches[i].node);
+  const std::vector<NodeRecord> nodes = m.cutNodes(cut);
   if (planPasses(c, cut, nodes).size() > 1) {
     return makeError(ErrorCode::InvalidArgument,
                      "drawInto(): the cut (" + std::to_string(cut.patches.size()) + " patches, " +
@@ -99,18 +97,9 @@ Result<HostFrame> TerrainRenderer::drawInto(VkCommandBuffer cmd, const HostPass&
   FrameSlot& slot = **taken;
   m.lastFrame.reset();
   HostFrame frame;
+  frame.stats = m.frameOpening(cut);
   FrameStats& stats = frame.stats;
-  stats.patches = cut.patches.size();
-  stats.triangles = cut.triangles;
-  stats.tiles = cut.tiles.size();
-  {
-    const std::lock_guard<std::mutex> lock(c.mutex);
-    stats.peakResidentBytes = c.lru->residentBytes();
-  }
-  if (Result<void> r = m.ensureRecords(slot, cut.patches.size()); !r) return std::move(r).error();
-  if (Result<void> r =
-          slot.overlay->prepare(settings.overlay, m.dataset->planet(), camera.position());
-      !r) {
+  if (Result<void> r = m.prepareSlot(slot, cut, camera, settings); !r) {
     return std::move(r).error();
   }
   const PatchPush push = patchPush(camera, settings, pass.depth);
@@ -124,12 +113,7 @@ Result<HostFrame> TerrainRenderer::drawInto(VkCommandBuffer cmd, const HostPass&
   if (Result<void> r = PassDrawer(m, slot, in, stats).drawIntoHost(cmd, pipeline); !r) {
     return std::move(r).error();
   }
-  if (stats.evictions > 0) m.deviceList.reset();
-  {
-    const std::lock_guard<std::mutex> lock(c.mutex);
-    stats.residentBytes = c.lru->residentBytes();
-    stats.poolBytes = c.patches.allocatedBytes() + c.tiles.allocatedBytes();
-  }
+  m.frameClosing(stats);
   slot.hostSignal = ++m.hostSignalled;
   m.hostOrder.push_back(m.nextSlot);
   m.nextSlot = (m.nextSlot + 1) % m.slots.size();

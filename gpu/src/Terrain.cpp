@@ -20,11 +20,16 @@ namespace {
 
 Error invalid(const std::string& message) { return makeError(ErrorCode::InvalidArgument, message); }
 
-/// The options that need no dataset, checked before anything is opened.
-Result<void> checkOptions(const TerrainOptions& o) {
-  if (!std::isfinite(o.refinement.tolerancePixels) || o.refinement.tolerancePixels <= 0.0) {
+Result<void> checkTolerance(const RefinementOptions& refinement) {
+  if (!std::isfinite(refinement.tolerancePixels) || refinement.tolerancePixels <= 0.0) {
     return invalid("terrain tolerance must be a positive number of pixels");
   }
+  return {};
+}
+
+/// The options that need no dataset, checked before anything is opened.
+Result<void> checkOptions(const TerrainOptions& o) {
+  if (auto r = checkTolerance(o.refinement); !r) return r;
   if (o.framesInFlight < 1 || o.framesInFlight > TerrainRenderer::kMaxFramesInFlight) {
     return invalid("terrain frames in flight must be in 1.." +
                    std::to_string(TerrainRenderer::kMaxFramesInFlight));
@@ -148,9 +153,7 @@ void Terrain::stopPrefetcher() {
 }
 
 Result<void> Terrain::setRefinement(const RefinementOptions& refinement) {
-  if (!std::isfinite(refinement.tolerancePixels) || refinement.tolerancePixels <= 0.0) {
-    return invalid("terrain tolerance must be a positive number of pixels");
-  }
+  if (auto r = checkTolerance(refinement); !r) return r;
   options_.refinement = refinement;
   return {};
 }

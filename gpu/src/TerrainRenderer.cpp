@@ -450,18 +450,9 @@ Result<void> TerrainRenderer::submit(const Cut& cut, const Camera& camera,
   FrameSlot& slot = **taken;
   m.lastFrame.reset();
   if (Result<void> r = m.checkViewport(camera); !r) return r;
-  FrameStats stats;
-  stats.patches = cut.patches.size();
-  stats.triangles = cut.triangles;
-  stats.tiles = cut.tiles.size();
+  FrameStats stats = m.frameOpening(cut);
   GpuCache::State& c = *m.shared;
-  {
-    const std::lock_guard<std::mutex> lock(c.mutex);
-    stats.peakResidentBytes = c.lru->residentBytes();
-  }
-
-  std::vector<NodeRecord> nodes(cut.patches.size());
-  for (std::size_t i = 0; i < nodes.size(); ++i) nodes[i] = m.dataset->node(cut.patches[i].node);
+  const std::vector<NodeRecord> nodes = m.cutNodes(cut);
   const std::vector<std::size_t> passEnds = planPasses(c, cut, nodes);
   stats.passes = static_cast<std::uint32_t>(passEnds.size());
   stats.budgetExceeded = passEnds.size() > 1;
@@ -474,12 +465,7 @@ Result<void> TerrainRenderer::submit(const Cut& cut, const Camera& camera,
                  cut.patches.size(), cut.tiles.size(), mebibytes(c.lru->budgetBytes()).c_str(),
                  passEnds.size());
   }
-  if (Result<void> r = m.ensureRecords(slot, cut.patches.size()); !r) return r;
-  if (Result<void> r =
-          slot.overlay->prepare(settings.overlay, m.dataset->planet(), camera.position());
-      !r) {
-    return r;
-  }
+  if (Result<void> r = m.prepareSlot(slot, cut, camera, settings); !r) return r;
 
   const PatchPush push = patchPush(camera, settings);
   const std::array<float, 4> clear = clearColour(settings);
@@ -495,13 +481,7 @@ Result<void> TerrainRenderer::submit(const Cut& cut, const Camera& camera,
     if (Result<void> r = PassDrawer(m, slot, pass, stats).draw(readback, present); !r) return r;
     begin = passEnds[p];
   }
-  if (stats.evictions > 0) m.deviceList.reset();  // it knew where the evicted entries were
-  {
-    // What the frame left resident (later frames submitted before it is collected change it).
-    const std::lock_guard<std::mutex> lock(c.mutex);
-    stats.residentBytes = c.lru->residentBytes();
-    stats.poolBytes = c.patches.allocatedBytes() + c.tiles.allocatedBytes();
-  }
+  m.frameClosing(stats);
   slot.pending = true;
   slot.readback = readback;
   slot.stats = stats;
@@ -509,6 +489,37 @@ Result<void> TerrainRenderer::submit(const Cut& cut, const Camera& camera,
   m.pendingOrder.push_back(m.nextSlot);
   m.nextSlot = (m.nextSlot + 1) % m.slots.size();
   return {};
+}
+
+FrameStats TerrainRenderer::Impl::frameOpening(const Cut& cut) const {
+  FrameStats stats;
+  stats.patches = cut.patches.size();
+  stats.triangles = cut.triangles;
+  stats.tiles = cut.tiles.size();
+  const std::lock_guard<std::mutex> lock(shared->mutex);
+  stats.peakResidentBytes = shared->lru->residentBytes();
+  return stats;
+}
+
+std::vector<NodeRecord> TerrainRenderer::Impl::cutNodes(const Cut& cut) const {
+  std::vector<NodeRecord> nodes(cut.patches.size());
+  for (std::size_t i = 0; i < nodes.size(); ++i) nodes[i] = dataset->node(cut.patches[i].node);
+  return nodes;
+}
+
+Result<void> TerrainRenderer::Impl::prepareSlot(FrameSlot& slot, const Cut& cut,
+                                                const Camera& camera,
+                                                const FrameSettings& settings) {
+  if (Result<void> r = ensureRecords(slot, cut.patches.size()); !r) return r;
+  return slot.overlay->prepare(settings.overlay, dataset->planet(), camera.position());
+}
+
+void TerrainRenderer::Impl::frameClosing(FrameStats& stats) {
+  if (stats.evictions > 0) deviceList.reset();  // it knew where the evicted entries were
+  // What the frame left resident (later frames submitted before it is collected change it).
+  const std::lock_guard<std::mutex> lock(shared->mutex);
+  stats.residentBytes = shared->lru->residentBytes();
+  stats.poolBytes = shared->patches.allocatedBytes() + shared->tiles.allocatedBytes();
 }
 
 Result<RenderedFrame> TerrainRenderer::Impl::collectOldest() {

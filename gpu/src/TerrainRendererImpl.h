@@ -169,6 +169,16 @@ struct TerrainRenderer::Impl {
   /// Reads the slot's draw timestamps (1, 2) and, with `withUploads`, its upload timestamps
   /// (0, 3) into `stats`.
   void readTimestamps(const FrameSlot& slot, bool withUploads, FrameStats& stats) const;
+  /// A frame's opening figures: the cut's counts and what is resident before it.
+  FrameStats frameOpening(const runtime::Cut& cut) const;
+  /// The node records of the cut's patches, in cut order.
+  std::vector<formats::NodeRecord> cutNodes(const runtime::Cut& cut) const;
+  /// Readies `slot` for a frame of `cut`: records buffer room and the settings' overlay.
+  formats::Result<void> prepareSlot(FrameSlot& slot, const runtime::Cut& cut,
+                                    const runtime::Camera& camera, const FrameSettings& settings);
+  /// A frame's closing figures (what it left resident, the pools' size); a device draw list
+  /// that knew where evicted entries were is dropped.
+  void frameClosing(FrameStats& stats);
   /// The camera's viewport must be the renderer's size.
   formats::Result<void> checkViewport(const runtime::Camera& camera) const;
   /// The slot the next frame takes (a host-pass frame it held is waited for), or

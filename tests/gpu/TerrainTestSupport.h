@@ -10,6 +10,7 @@
 #include <glm/geometric.hpp>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "pbdam/gpu/RgbaImage.h"
 #include "pbdam/runtime/Camera.h"
@@ -35,6 +36,18 @@ inline runtime::Camera cameraAt(const runtime::DatasetView& view, const runtime:
   viewport.height = height;
   viewport.fovYDegrees = fovDegrees;
   return runtime::Camera::fromPose(view.planet(), pose, viewport);
+}
+
+/// `frames` poses descending east over Tharsis towards Olympus Mons, looking ahead and down: the
+/// cut changes every frame, by refinement and by what comes into view.
+inline std::vector<runtime::CameraPose> tharsisDescent(std::size_t frames) {
+  std::vector<runtime::CameraPose> poses;
+  for (std::size_t k = 0; k < frames; ++k) {
+    const double s = static_cast<double>(k) / static_cast<double>(frames - 1);
+    poses.push_back({10.0 + 8.0 * s, -150.0 + 25.0 * s, 900e3 - 700e3 * s, 80.0 + 20.0 * s,
+                     -35.0 - 10.0 * s, 0.0});
+  }
+  return poses;
 }
 
 inline std::string describe(const runtime::CameraPose& p) {

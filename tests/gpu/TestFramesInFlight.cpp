@@ -39,17 +39,7 @@ struct FlightFrame {
   Cut cut;
 };
 
-/// Descending east over Tharsis towards Olympus Mons, looking ahead and down: the cut changes
-/// every frame, by refinement and by what comes into view.
-std::vector<CameraPose> flightPoses() {
-  std::vector<CameraPose> poses;
-  for (std::size_t k = 0; k < kFrames; ++k) {
-    const double s = static_cast<double>(k) / static_cast<double>(kFrames - 1);
-    poses.push_back({10.0 + 8.0 * s, -150.0 + 25.0 * s, 900e3 - 700e3 * s, 80.0 + 20.0 * s,
-                     -35.0 - 10.0 * s, 0.0});
-  }
-  return poses;
-}
+std::vector<CameraPose> flightPoses() { return test::tharsisDescent(kFrames); }
 
 enum class CutKind { Fresh, Reused, NoStall };
 

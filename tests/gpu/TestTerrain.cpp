@@ -31,16 +31,7 @@ namespace {
 constexpr std::uint32_t kWidth = 320;
 constexpr std::uint32_t kHeight = 240;
 
-/// Descending east over Tharsis towards Olympus Mons: the cut changes every frame.
-std::vector<CameraPose> flightPoses(std::size_t frames) {
-  std::vector<CameraPose> poses;
-  for (std::size_t k = 0; k < frames; ++k) {
-    const double s = static_cast<double>(k) / static_cast<double>(frames - 1);
-    poses.push_back({10.0 + 8.0 * s, -150.0 + 25.0 * s, 900e3 - 700e3 * s, 80.0 + 20.0 * s,
-                     -35.0 - 10.0 * s, 0.0});
-  }
-  return poses;
-}
+std::vector<CameraPose> flightPoses(std::size_t frames) { return test::tharsisDescent(frames); }
 
 TerrainOptions smallFrames() {
   TerrainOptions options;

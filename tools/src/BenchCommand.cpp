@@ -366,7 +366,7 @@ struct PathReplay {
     f.drawnLevelCap = (*selected)->levelCap;
     f.traversalMs = msSince(t0);
     f.decisions = deviceList ? source.selector()->index().nodes.size() : cut.nodesVisited;
-    f.morphingPatches = summarizeMorph(cut).morphingPatches;
+    f.morphingPatches = (*selected)->morph.morphingPatches;
     f.triangles = cut.triangles;
     f.patches = cut.patches.size();
     if (deviceList) {
