@@ -192,6 +192,41 @@ TEST(PatchBuilder, ErrorsBoundedThroughTheChildrenAreAtLeastThoseOfTheSamples) {
   EXPECT_GT(looser, 0);  // the bound is an upper bound, not the measurement again
 }
 
+TEST(PatchBuilder, AFewTrianglesMeasuredAloneHaveTheErrorsOfTheWholePatch) {
+  // A patch's few doubtful triangles are walked one by one over their own buckets, a whole
+  // patch's in one binned walk over the samples under it: the two walks make the same visits,
+  // so each triangle's sample error is the same double either way.
+  const HeightGrid dem = roughDem();
+  const Lattice lattice(64);
+  for (const std::uint32_t bucketCells : {1u, 4u}) {
+    const SampleGrid grid = SampleGrid::build(dem, Planet::mars(), lattice, bucketCells);
+    int compared = 0;
+    for (const Diamond& d : diamondsOfLevel(lattice, 4, 3)) {
+      const std::array<BinTriangle, 2> tri = {triangleOfNode(lattice, d[0], 4),
+                                              triangleOfNode(lattice, d[1], 4)};
+      const DiamondLeaves kids(tri);
+      const BlockResult block =
+          simplifyBlock(grid, tri, kids.children, BlockTargets{200.0, 40, 65535});
+      const std::array<const WorkPatch*, 2> halves = {&block.first, &block.second};
+      for (std::size_t s = 0; s < 2; ++s) {
+        const WorkPatch& patch = *halves[s];
+        ASSERT_GE(patch.indices.size() / 3, 40u);
+        const MeasuredPatch whole = measurePatch(grid, tri[s], patch, 1.0 / 64.0);
+        for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
+          WorkPatch one;
+          one.points = patch.points;
+          one.indices = {patch.indices[k], patch.indices[k + 1], patch.indices[k + 2]};
+          const MeasuredPatch alone = measurePatch(grid, tri[s], one, 1.0 / 64.0);
+          ASSERT_EQ(alone.triangleSampleErrors.size(), 1u);
+          EXPECT_EQ(alone.triangleSampleErrors[0], whole.triangleSampleErrors[k / 3]);
+          ++compared;
+        }
+      }
+    }
+    EXPECT_GT(compared, 1000);
+  }
+}
+
 TEST(PatchBuilder, SampleErrorAndSagAddPerTriangle) {
   // A point of a triangle is off by its sample error plus that triangle's own sag: the stored
   // error is the largest such sum, at most (and on rough data less than) the two maxima added.

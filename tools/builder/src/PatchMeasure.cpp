@@ -10,6 +10,7 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <span>
 
 #include "DiamondBuilder.h"
 #include "PatchBound.h"
@@ -347,6 +348,23 @@ std::vector<double> chordErrors(const SampleGrid& grid, const WorkPatch& patch,
   return sag;
 }
 
+/// The triangles' bounding boxes' areas together, in lattice cells (each at least one cell a
+/// side: a triangle's walk reads at least the bucket it lies in).
+std::int64_t boxCells(std::span<const std::array<LatticeXY, 3>> triangles) noexcept {
+  std::int64_t cells = 0;
+  for (const auto& c : triangles) {
+    const std::int64_t w = std::max({c[0].x, c[1].x, c[2].x}) - std::min({c[0].x, c[1].x, c[2].x});
+    const std::int64_t h = std::max({c[0].y, c[1].y, c[2].y}) - std::min({c[0].y, c[1].y, c[2].y});
+    cells += std::max<std::int64_t>(w, 1) * std::max<std::int64_t>(h, 1);
+  }
+  return cells;
+}
+
+/// Triangles are walked one by one (each over the buckets of its box) while their boxes cover
+/// less than this fraction of the patch's: a box holds about twice its triangle's samples, and
+/// the binned walk reads every sample under the patch once, with a dearer test per sample.
+constexpr std::int64_t kBinnedWalkShare = 4;
+
 /// Sample error of each triangle: the largest |patch − sample| over the lattice samples and the
 /// source DEM's own samples inside or on it.
 std::vector<double> sampleErrors(const SampleGrid& grid, const BinTriangle& t,
@@ -374,6 +392,20 @@ std::vector<double> sampleErrors(const SampleGrid& grid, const BinTriangle& t,
     const double hp = l0 * heights[k][0] + l1 * heights[k][1] + l2 * heights[k][2];
     error[k] = std::max(error[k], std::abs(hp - static_cast<double>(s.heightMeters)));
   };
+  // A few triangles of a large patch (those whose bound through the children left doubt) read
+  // only the buckets under each of them: the binned walk reads every sample under the outline,
+  // which for a scattered tenth of the triangles is most of the work. Both make the same visits
+  // (forEachSourceSampleInTriangles is forEachSourceSampleIn of each triangle), so the errors are
+  // the same either way.
+  const std::array<std::array<LatticeXY, 3>, 1> outline = {{{t.apex, t.left, t.right}}};
+  if (boxCells(corners) * kBinnedWalkShare < boxCells(outline)) {
+    for (std::size_t k = 0; k < count; ++k) {
+      grid.forEachSourceSampleIn(
+          face, corners[k][0], corners[k][1], corners[k][2],
+          [&](double l0, double l1, double l2, const SourceSample& s) { visit(k, l0, l1, l2, s); });
+    }
+    return error;
+  }
   grid.forEachSourceSampleInTriangles(face, {t.apex, t.left, t.right}, corners, visit);
   return error;
 }
