@@ -44,6 +44,7 @@ struct BuildCliOptions {
   std::string textureFormat = "bc1";
   std::string textureQuality = "fast";
   int threads = 0;
+  std::uint64_t residentMib = 768;
   bool force = false;
   bool resume = false;
   std::string freeCheckpoint = "auto";
@@ -297,6 +298,7 @@ int runBuild(const BuildCliOptions& c) {
   o.errorMargin = c.errorMargin;
   o.textureTileTexels = c.textureTile;
   o.threads = c.threads;
+  o.residentBudgetBytes = c.residentMib << 20;
   o.force = c.force;
   if (c.levels != "auto") {
     try {
@@ -391,6 +393,12 @@ void addBuildCommand(CLI::App& app, CommandStatus& status) {
   addInsetTextureOption(*cmd, c->insetTextures);
   cmd->add_option("--threads", c->threads, "Worker threads (0: all cores)")
       ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
+  cmd->add_option("--resident-mib", c->residentMib,
+                  "File pages (the lattice, source samples, checkpoint parts) kept resident "
+                  "before they are dropped, per process, in MiB (0: drop them every quarter "
+                  "second, the lowest memory and the most page faults)")
+      ->check(CLI::Range(std::uint64_t{0}, std::uint64_t{1} << 30))
       ->capture_default_str();
   cmd->add_flag("--force", c->force, "Replace an existing dataset in --out");
   cmd->add_flag("--resume", c->resume,

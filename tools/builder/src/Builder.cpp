@@ -287,6 +287,7 @@ Result<void> DatasetBuild::resample() {
   {
     std::lock_guard lock(residentMutex_);
     grid_.emplace(std::move(grid).value());
+    grid_->setResidentBudget(o_.residentBudgetBytes);
   }
   const double s = std::chrono::duration<double>(Clock::now() - t0).count();
   char line[160];
@@ -582,7 +583,8 @@ Result<BuildSummary> DatasetBuild::run(StageClock& clock) {
 
   // RSS bound: mapped data (heights, samples, carry, checkpoint files) stays in the page cache,
   // not in this process, beyond what its threads touched in the last quarter second.
-  ResidentTrimmer trimmer(std::chrono::milliseconds(250), [this] { releaseResident(); });
+  ResidentTrimmer trimmer(
+      std::chrono::milliseconds(250), [this] { releaseResident(); }, o_.residentBudgetBytes);
 
   // ---- Resample (each rank a share of the lattice rows and of the DEM rows, into files that
   // every rank then maps).

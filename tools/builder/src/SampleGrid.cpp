@@ -4,6 +4,7 @@
 // process count.
 #include "pbdam/builder/SampleGrid.h"
 
+#include "pbdam/builder/ResidentTrimmer.h"
 #include "pbdam/formats/FileWrite.h"
 #include "pbdam/formats/MemoryMapping.h"
 #include "pbdam/runtime/TerrainPoint.h"
@@ -330,7 +331,9 @@ void SampleGrid::noteMappedSampleReads(const void* lo, const void* hi) const noe
   const std::uint64_t before = mappedSampleReads_->fetch_add(bytes, std::memory_order_relaxed);
   // The one call that crosses the bound releases; pages counted meanwhile start the next round.
   if (before < kReleaseSamplesAfterBytes && before + bytes >= kReleaseSamplesAfterBytes) {
-    for (const MappedFile& m : samplesMappings_) (void)m.releaseResident();
+    if (overResidentBudget(residentBudget_)) {
+      for (const MappedFile& m : samplesMappings_) (void)m.releaseResident();
+    }
     mappedSampleReads_->fetch_sub(before + bytes, std::memory_order_relaxed);
   }
 }

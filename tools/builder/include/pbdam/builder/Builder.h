@@ -52,7 +52,10 @@ struct BuildOptions final {
   /// A DEM whose heights take at least this many bytes is read into a mapped scratch file on
   /// the output's filesystem instead of memory (DemReadOptions::mapAtBytes).
   std::uint64_t demMapAtBytes = std::uint64_t{16} << 20;
-  int threads = 0;      ///< 0: all cores (per rank)
+  int threads = 0;  ///< 0: all cores (per rank)
+  /// File pages (the lattice, bucketed samples, checkpoint parts, a mapped DEM) a process keeps
+  /// resident before the trimmer drops them (ResidentTrimmer.h); 0: dropped every period.
+  std::uint64_t residentBudgetBytes = std::uint64_t{768} << 20;
   bool force = false;   ///< replace an existing dataset
   bool resume = false;  ///< continue from OUT/.build-checkpoint after its last complete level
   /// Whether the assembly frees each checkpoint level file's pages (punches holes) once the

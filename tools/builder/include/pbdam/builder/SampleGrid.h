@@ -164,6 +164,9 @@ class SampleGrid final {
   /// page cache; the next read is a minor fault), so that RSS counts only what was touched
   /// since. Safe while other threads read. No-op for an in-memory grid.
   void releaseResident() const noexcept;
+  /// The resident file bytes (ResidentTrimmer.h) above which reading 32 MiB of bucket pages
+  /// drops them; 0 (the default): they are dropped every time.
+  void setResidentBudget(std::uint64_t bytes) noexcept { residentBudget_ = bytes; }
   /// Out of core, the samples' mappings are also released each time the pages read from them
   /// since the last release reach this many bytes, so that the pages a build's error
   /// measurement holds are bounded by its reads, not by a timer against the CPU's speed: a
@@ -627,6 +630,7 @@ class SampleGrid final {
   /// that the grid stays movable).
   std::unique_ptr<std::atomic<std::uint64_t>> mappedSampleReads_ =
       std::make_unique<std::atomic<std::uint64_t>>(0);
+  std::uint64_t residentBudget_ = 0;
   std::uint64_t noDataPoints_ = 0;
   float minHeight_ = 0.0f;
   float maxHeight_ = 0.0f;
