@@ -167,11 +167,13 @@ class TexelRows final {
     for (std::size_t k = 0; k < planeU_.size(); ++k) {
       const glm::dvec3 direction = CubeMap::planeToDirection(face_, planeU_[k], planeV);
       row.surface[k] = planet_.directionToSurfaceEcef(direction);
-      if (!withPositions_) continue;
-      row.positions[k] = planet_.directionToGeodetic(direction);
-      if (heightMeters_ != nullptr) {
-        row.heights[k] = (*heightMeters_)(row.positions[k].latDegrees, row.positions[k].lonDegrees);
-      }
+      if (withPositions_) row.positions[k] = planet_.directionToGeodetic(direction);
+    }
+    // The heights in a pass of their own: the lookups are independent of each other, so their
+    // DEM reads overlap instead of each waiting behind a texel's trigonometry.
+    if (heightMeters_ == nullptr) return;
+    for (std::size_t k = 0; k < planeU_.size(); ++k) {
+      row.heights[k] = (*heightMeters_)(row.positions[k].latDegrees, row.positions[k].lonDegrees);
     }
   }
 
