@@ -71,6 +71,16 @@ constexpr std::array<RampStop, 9> kDryStops{{
     {1.00, {255, 255, 255}},
 }};
 
+// std::lround(std::clamp(value, 0, 255)) without the library call (two per channel of every
+// texel): on [0, 255] truncation is exact and so is the fraction it leaves, so rounding half
+// away from zero is one comparison. NaN goes through lround, whatever it makes of it.
+std::uint8_t toChannel(double value) noexcept {
+  const double clamped = std::clamp(value, 0.0, 255.0);
+  if (std::isnan(clamped)) return static_cast<std::uint8_t>(std::lround(clamped));
+  const int whole = static_cast<int>(clamped);
+  return static_cast<std::uint8_t>(whole + (clamped - whole >= 0.5 ? 1 : 0));
+}
+
 Rgb8 interpolate(std::span<const RampStop> stops, double at) noexcept {
   if (at <= stops.front().at) return stops.front().colour;
   if (at >= stops.back().at) return stops.back().colour;
@@ -82,7 +92,7 @@ Rgb8 interpolate(std::span<const RampStop> stops, double at) noexcept {
   Rgb8 colour{};
   for (std::size_t c = 0; c < 3; ++c) {
     const double value = a.colour[c] + t * (b.colour[c] - a.colour[c]);
-    colour[c] = static_cast<std::uint8_t>(std::lround(std::clamp(value, 0.0, 255.0)));
+    colour[c] = toChannel(value);
   }
   return colour;
 }
@@ -103,59 +113,93 @@ LocalAxes localAxes(double latDegrees, double lonDegrees) noexcept {
   return {glm::dvec3(-sinLon, cosLon, 0.0), glm::dvec3(-sinLat * cosLon, -sinLat * sinLon, cosLat)};
 }
 
-// Surface points of texel centres (x, y) for x, y in [first, first + count), row-major.
-struct TexelGrid final {
-  int first = 0;
-  int count = 0;
-  std::vector<glm::dvec3> directions;
+// Texel centres of a tile, one row at a time: a texel's relief and spacing read only its own
+// row and the rows above and below, so three rows are held instead of the whole tile (a tile's
+// worth of centres is megabytes, freshly mapped and faulted in for every tile otherwise).
+// Columns are [first, first + count); row y lives in slot (y − first) mod 3.
+struct TexelRow final {
   std::vector<glm::dvec3> surface;
-
-  std::size_t index(int x, int y) const noexcept {
-    return static_cast<std::size_t>(y - first) * static_cast<std::size_t>(count) +
-           static_cast<std::size_t>(x - first);
-  }
+  std::vector<GeodeticPosition> positions;     // empty unless positions were asked for
+  std::vector<std::optional<double>> heights;  // empty without a height function
 };
 
-TexelGrid makeTexelGrid(const Planet& planet, const TextureTileRequest& request, int first,
-                        int count) {
-  TexelGrid grid;
-  grid.first = first;
-  grid.count = count;
-  const auto total = static_cast<std::size_t>(count) * static_cast<std::size_t>(count);
-  grid.directions.resize(total);
-  grid.surface.resize(total);
-  const CubeFace face = cubeFaceFromIndex(request.face);
-  // A texel's u depends on its column only and v on its row: each plane coordinate is computed
-  // once per column or row (CubeMap::faceUvToDirection's two tangents, not two per texel).
-  std::vector<double> planeU(static_cast<std::size_t>(count));
-  std::vector<double> planeV(static_cast<std::size_t>(count));
-  for (int k = 0; k < count; ++k) {
-    const glm::dvec2 uv = textureTexelFaceUv(request, first + k, first + k);
-    planeU[static_cast<std::size_t>(k)] = CubeMap::uvToPlaneCoordinate(uv.x);
-    planeV[static_cast<std::size_t>(k)] = CubeMap::uvToPlaneCoordinate(uv.y);
-  }
-  for (int y = first; y < first + count; ++y) {
-    for (int x = first; x < first + count; ++x) {
-      const glm::dvec3 direction =
-          CubeMap::planeToDirection(face, planeU[static_cast<std::size_t>(x - first)],
-                                    planeV[static_cast<std::size_t>(y - first)]);
-      grid.directions[grid.index(x, y)] = direction;
-      grid.surface[grid.index(x, y)] = planet.directionToSurfaceEcef(direction);
+using HeightFunction = std::function<std::optional<double>(double, double)>;
+
+class TexelRows final {
+ public:
+  // `heightMeters` (may be null: no heights) must outlive the object; positions are computed
+  // when asked for or when heights are (heights are looked up at them).
+  TexelRows(const Planet& planet, const TextureTileRequest& request, int first, int count,
+            bool withPositions, const HeightFunction* heightMeters)
+      : planet_(planet),
+        face_(cubeFaceFromIndex(request.face)),
+        first_(first),
+        heightMeters_(heightMeters),
+        withPositions_(withPositions || heightMeters != nullptr) {
+    // A texel's u depends on its column only and v on its row: each plane coordinate is
+    // computed once per column or row (CubeMap::faceUvToDirection's two tangents, not two per
+    // texel).
+    const auto n = static_cast<std::size_t>(count);
+    planeU_.resize(n);
+    planeV_.resize(n);
+    for (int k = 0; k < count; ++k) {
+      const glm::dvec2 uv = textureTexelFaceUv(request, first + k, first + k);
+      planeU_[static_cast<std::size_t>(k)] = CubeMap::uvToPlaneCoordinate(uv.x);
+      planeV_[static_cast<std::size_t>(k)] = CubeMap::uvToPlaneCoordinate(uv.y);
+    }
+    for (TexelRow& row : rows_) {
+      row.surface.resize(n);
+      if (withPositions_) row.positions.resize(n);
+      if (heightMeters_ != nullptr) row.heights.resize(n);
     }
   }
-  return grid;
-}
 
-// Largest distance between adjacent texel centres among texels [lo, hi)² of `grid`.
-double largestSpacing(const TexelGrid& grid, int lo, int hi) noexcept {
+  // Index of column x in a row's vectors.
+  std::size_t column(int x) const noexcept { return static_cast<std::size_t>(x - first_); }
+
+  // Row y, which must be one of the last three loaded.
+  const TexelRow& row(int y) const noexcept { return rows_[slot(y)]; }
+
+  // Computes row y (first <= y < first + count) into its slot, replacing row y − 3.
+  void load(int y) {
+    TexelRow& row = rows_[slot(y)];
+    const double planeV = planeV_[static_cast<std::size_t>(y - first_)];
+    for (std::size_t k = 0; k < planeU_.size(); ++k) {
+      const glm::dvec3 direction = CubeMap::planeToDirection(face_, planeU_[k], planeV);
+      row.surface[k] = planet_.directionToSurfaceEcef(direction);
+      if (withPositions_) row.positions[k] = planet_.directionToGeodetic(direction);
+    }
+    // The heights in a pass of their own: the lookups are independent of each other, so their
+    // DEM reads overlap instead of each waiting behind a texel's trigonometry.
+    if (heightMeters_ == nullptr) return;
+    for (std::size_t k = 0; k < planeU_.size(); ++k) {
+      row.heights[k] = (*heightMeters_)(row.positions[k].latDegrees, row.positions[k].lonDegrees);
+    }
+  }
+
+ private:
+  std::size_t slot(int y) const noexcept { return static_cast<std::size_t>(y - first_) % 3; }
+
+  const Planet& planet_;
+  CubeFace face_;
+  int first_;
+  const HeightFunction* heightMeters_;
+  bool withPositions_;
+  std::vector<double> planeU_;
+  std::vector<double> planeV_;
+  std::array<TexelRow, 3> rows_;
+};
+
+// Largest distance from each texel of row y, columns [lo, hi), to its right neighbour (within
+// the columns) and, when `next` is given, to the texel above it in row `next`.
+double largestSpacingInRow(const TexelRows& rows, const TexelRow& here, const TexelRow* next,
+                           int lo, int hi) noexcept {
   double largest = 0.0;
-  for (int y = lo; y < hi; ++y) {
-    for (int x = lo; x < hi; ++x) {
-      const glm::dvec3& p = grid.surface[grid.index(x, y)];
-      if (x + 1 < hi)
-        largest = std::max(largest, glm::distance(p, grid.surface[grid.index(x + 1, y)]));
-      if (y + 1 < hi)
-        largest = std::max(largest, glm::distance(p, grid.surface[grid.index(x, y + 1)]));
+  for (int x = lo; x < hi; ++x) {
+    const glm::dvec3& p = here.surface[rows.column(x)];
+    if (x + 1 < hi) largest = std::max(largest, glm::distance(p, here.surface[rows.column(x + 1)]));
+    if (next != nullptr) {
+      largest = std::max(largest, glm::distance(p, next->surface[rows.column(x)]));
     }
   }
   return largest;
@@ -170,34 +214,13 @@ struct ReliefSample final {
   double relief = 1.0;            // lit fraction relative to flat ground: 0 .. 1/sin(elevation)
 };
 
-// Heights and geodetic positions of every centre of a texel grid, each looked up once: a
-// texel's relief reads its four grid neighbours (Horn-style central differences over the
-// 3×3 neighbourhood's cross), so the DEM is sampled once per texel, not five times.
-struct TexelHeights final {
-  std::vector<GeodeticPosition> positions;
-  std::vector<std::optional<double>> heights;  // empty without a height function
-};
-
-TexelHeights sampleTexelHeights(const TextureSource& source, const TexelGrid& grid,
-                                bool withHeights) {
-  TexelHeights out;
-  out.positions.resize(grid.directions.size());
-  if (withHeights) out.heights.resize(grid.directions.size());
-  for (std::size_t k = 0; k < grid.directions.size(); ++k) {
-    out.positions[k] = source.planet.directionToGeodetic(grid.directions[k]);
-    if (withHeights) {
-      out.heights[k] =
-          source.heightMeters(out.positions[k].latDegrees, out.positions[k].lonDegrees);
-    }
-  }
-  return out;
-}
-
+// A texel's relief reads its four grid neighbours (Horn-style central differences over the
+// 3×3 neighbourhood's cross) from TexelRows, where each centre's height was looked up once: the
+// DEM is sampled once per texel, not five times.
 class ReliefSampler final {
  public:
-  ReliefSampler(const TextureSource& source, const TexelGrid& grid, const TexelHeights& heights)
-      : grid_(grid),
-        heights_(heights),
+  ReliefSampler(const TextureSource& source, const TexelRows& rows)
+      : rows_(rows),
         exaggeration_(source.shading.verticalExaggeration),
         sinElevation_(std::sin(source.shading.lightElevationDegrees * kDegrees)) {
     const double azimuth = source.shading.lightAzimuthDegrees * kDegrees;
@@ -206,21 +229,27 @@ class ReliefSampler final {
                         sinElevation_);
   }
 
-  // Relief of texel (x, y) (not on the grid's outer ring) from its grid neighbours.
+  // Relief of texel (x, y) (not on the rows' outer ring) from its neighbours; rows y − 1, y and
+  // y + 1 must be loaded.
   ReliefSample sample(int x, int y) const {
     ReliefSample result;
-    const std::size_t at = grid_.index(x, y);
-    const std::optional<double>& centre = heights_.heights[at];
-    const std::array<std::size_t, 4> around = {grid_.index(x + 1, y), grid_.index(x - 1, y),
-                                               grid_.index(x, y + 1), grid_.index(x, y - 1)};
+    const TexelRow& here = rows_.row(y);
+    const TexelRow& above = rows_.row(y + 1);
+    const TexelRow& below = rows_.row(y - 1);
+    const std::size_t at = rows_.column(x);
+    const std::optional<double>& centre = here.heights[at];
+    // The four neighbours in the order east (x + 1), west, north (y + 1), south.
+    const std::array<Neighbour, 4> around = {Neighbour{&here, rows_.column(x + 1)},
+                                             Neighbour{&here, rows_.column(x - 1)},
+                                             Neighbour{&above, at}, Neighbour{&below, at}};
     double weightSum = 0.0;
     double weighted = 0.0;
     if (centre) {
       weighted += 0.5 * *centre;
       weightSum += 0.5;
     }
-    for (const std::size_t k : around) {
-      if (const std::optional<double>& h = heights_.heights[k]) {
+    for (const Neighbour& k : around) {
+      if (const std::optional<double>& h = k.height()) {
         weighted += 0.125 * *h;
         weightSum += 0.125;
       }
@@ -232,30 +261,30 @@ class ReliefSampler final {
     // The height difference along each grid axis (central where both neighbours have data,
     // else one-sided to the centre) and the ground step it spans, in the texel's east/north
     // plane; the slope is the gradient that explains both.
-    const GeodeticPosition& position = heights_.positions[at];
+    const GeodeticPosition& position = here.positions[at];
     const LocalAxes axes = localAxes(position.latDegrees, position.lonDegrees);
     struct Difference {
       bool valid = false;
       glm::dvec2 step{0.0};  // east, north metres
       double dh = 0.0;
     };
-    const auto difference = [&](std::size_t plus, std::size_t minus) {
+    const auto difference = [&](const Neighbour& plus, const Neighbour& minus) {
       Difference d;
-      const std::optional<double>& hp = heights_.heights[plus];
-      const std::optional<double>& hm = heights_.heights[minus];
+      const std::optional<double>& hp = plus.height();
+      const std::optional<double>& hm = minus.height();
       glm::dvec3 from;
       glm::dvec3 to;
       if (hp && hm) {
-        to = grid_.surface[plus];
-        from = grid_.surface[minus];
+        to = plus.surface();
+        from = minus.surface();
         d.dh = *hp - *hm;
       } else if (hp && centre) {
-        to = grid_.surface[plus];
-        from = grid_.surface[at];
+        to = plus.surface();
+        from = here.surface[at];
         d.dh = *hp - *centre;
       } else if (hm && centre) {
-        to = grid_.surface[at];
-        from = grid_.surface[minus];
+        to = here.surface[at];
+        from = minus.surface();
         d.dh = *centre - *hm;
       } else {
         return d;
@@ -285,8 +314,15 @@ class ReliefSampler final {
   }
 
  private:
-  const TexelGrid& grid_;
-  const TexelHeights& heights_;
+  // A texel of one of the loaded rows.
+  struct Neighbour final {
+    const TexelRow* row;
+    std::size_t column;
+    const std::optional<double>& height() const noexcept { return row->heights[column]; }
+    const glm::dvec3& surface() const noexcept { return row->surface[column]; }
+  };
+
+  const TexelRows& rows_;
   double exaggeration_;
   double sinElevation_;
   glm::dvec3 light_;
@@ -311,7 +347,7 @@ std::array<double, 3> toDouble(const Rgb8& colour) noexcept {
 
 void store(std::uint8_t* texel, const std::array<double, 3>& colour) noexcept {
   for (std::size_t c = 0; c < 3; ++c) {
-    texel[c] = static_cast<std::uint8_t>(std::lround(std::clamp(colour[c], 0.0, 255.0)));
+    texel[c] = toChannel(colour[c]);
   }
   texel[3] = 255;
 }
@@ -365,6 +401,113 @@ std::optional<SeenColour> supersample(const GeoImage& image, const ImagePixelSiz
   seen.alpha /= count;
   return seen;
 }
+
+// The colour of each texel of a tile from its loaded rows (TextureBuilder.h, buildTextureTile).
+class TexelColouring final {
+ public:
+  TexelColouring(const TextureSource& source, const TextureTileRequest& request,
+                 const TexelRows& rows)
+      : source_(source),
+        request_(request),
+        rows_(rows),
+        relief_(source, rows),
+        face_(cubeFaceFromIndex(request.face)),
+        texelUv_(
+            std::ldexp(1.0 / static_cast<double>(request.sizeTexels - 2 * request.borderTexels),
+                       -request.level)),
+        haveHeights_(static_cast<bool>(source.heightMeters)),
+        imageryStrength_(std::clamp(source.imageryShadingStrength, 0.0, 1.0)),
+        wantRelief_(haveHeights_ && (source.imagery == nullptr || imageryStrength_ > 0.0)),
+        reliefStrength_(std::clamp(source.shading.strength, 0.0, 1.0)),
+        pixel_(source.imagery != nullptr ? imagePixelSize(*source.imagery, source.planet)
+                                         : ImagePixelSize{}) {
+    for (const TextureSource::ImageryLayer& layer : source.layers) {
+      layerPixels_.push_back(imagePixelSize(*layer.image, source.planet));
+    }
+  }
+
+  // Writes texel (x, y) (RGBA) to `texel`; rows y − 1 .. y + 1 must be loaded.
+  void colour(int x, int y, std::uint8_t* texel) const {
+    const TexelRow& here = rows_.row(y);
+    const std::size_t at = rows_.column(x);
+    const GeodeticPosition& position = here.positions[at];
+    const bool anyImagery = source_.imagery != nullptr || !source_.layers.empty();
+    // The texel's footprint: only the image samples need it.
+    double spacing = 0.0;
+    glm::dvec2 centreUv(0.0);
+    if (anyImagery) {
+      const double spacingU =
+          0.5 * glm::distance(here.surface[rows_.column(x + 1)], here.surface[rows_.column(x - 1)]);
+      const double spacingV =
+          0.5 * glm::distance(rows_.row(y + 1).surface[at], rows_.row(y - 1).surface[at]);
+      spacing = std::max(spacingU, spacingV);
+      centreUv = textureTexelFaceUv(request_, x, y);
+    }
+
+    // Relief is needed for the tint and for shaded imagery.
+    ReliefSample reliefSample;
+    if (wantRelief_) reliefSample = relief_.sample(x, y);
+
+    std::optional<std::array<double, 3>> colour;
+    double strength = reliefStrength_;
+    if (source_.imagery != nullptr) {
+      if (const auto seen = supersample(*source_.imagery, pixel_, source_.planet, face_, centreUv,
+                                        texelUv_, spacing, position.latDegrees)) {
+        colour = seen->colour;
+        strength = imageryStrength_;
+        if (source_.ramp.hasOcean && reliefSample.valid && reliefSample.tintHeightMeters < 0.0) {
+          strength *= 0.5;
+        }
+      } else if (haveHeights_ && !wantRelief_) {
+        // Outside the image: fall back to the shaded relief.
+        reliefSample = relief_.sample(x, y);
+      }
+    }
+    if (!colour && reliefSample.valid) {
+      colour = toDouble(hypsometricTint(reliefSample.tintHeightMeters, source_.ramp));
+      // Water is shaded more softly than land: bathymetry reads as depth, not as mountains.
+      if (source_.ramp.hasOcean && reliefSample.tintHeightMeters < 0.0) strength *= 0.5;
+    }
+    for (std::size_t i = 0; i < source_.layers.size(); ++i) {
+      const TextureSource::ImageryLayer& layer = source_.layers[i];
+      const double w = layer.weight(position.latDegrees, position.lonDegrees);
+      if (!(w > 0.0)) continue;
+      const auto seen = supersample(*layer.image, layerPixels_[i], source_.planet, face_, centreUv,
+                                    texelUv_, spacing, position.latDegrees);
+      if (!seen) continue;
+      const double a = std::clamp(w * seen->alpha / 255.0, 0.0, 1.0);
+      if (!colour) {
+        if (a < 1.0) continue;  // nothing below to blend with
+        colour = seen->colour;
+      } else {
+        for (std::size_t c = 0; c < 3; ++c) (*colour)[c] += a * (seen->colour[c] - (*colour)[c]);
+      }
+      strength += a * (imageryStrength_ - strength);
+    }
+    if (!colour) {
+      store(texel, toDouble(kNoDataTint));
+      return;
+    }
+    if (reliefSample.valid && strength > 0.0) {
+      colour = shade(*colour, reliefSample.relief, strength);
+    }
+    store(texel, *colour);
+  }
+
+ private:
+  const TextureSource& source_;
+  const TextureTileRequest& request_;
+  const TexelRows& rows_;
+  ReliefSampler relief_;
+  CubeFace face_;
+  double texelUv_;
+  bool haveHeights_;
+  double imageryStrength_;
+  bool wantRelief_;
+  double reliefStrength_;
+  ImagePixelSize pixel_;
+  std::vector<ImagePixelSize> layerPixels_;
+};
 
 }  // namespace
 
@@ -426,8 +569,17 @@ glm::dvec2 textureTexelFaceUv(const TextureTileRequest& request, double x, doubl
 double textureTileErrorMeters(const Planet& planet, const TextureTileRequest& request) noexcept {
   const int border = static_cast<int>(request.borderTexels);
   const int inner = static_cast<int>(request.sizeTexels) - 2 * border;
-  const TexelGrid grid = makeTexelGrid(planet, request, border, inner);
-  return largestSpacing(grid, border, border + inner);
+  TexelRows rows(planet, request, border, inner, false, nullptr);
+  double largest = 0.0;
+  rows.load(border);
+  for (int y = border; y < border + inner; ++y) {
+    const bool last = y + 1 == border + inner;
+    if (!last) rows.load(y + 1);
+    largest =
+        std::max(largest, largestSpacingInRow(rows, rows.row(y), last ? nullptr : &rows.row(y + 1),
+                                              border, border + inner));
+  }
+  return largest;
 }
 
 Result<TextureTileResult> buildTextureTile(const TextureSource& source,
@@ -447,93 +599,32 @@ Result<TextureTileResult> buildTextureTile(const TextureSource& source,
 
   const int size = static_cast<int>(request.sizeTexels);
   const int border = static_cast<int>(request.borderTexels);
-  // Texel centres one beyond the tile on every side, for the spacing at the outermost texels.
-  const TexelGrid grid = makeTexelGrid(source.planet, request, -1, size + 2);
-  const double texelUv = std::ldexp(1.0 / static_cast<double>(size - 2 * border), -request.level);
-  const CubeFace face = cubeFaceFromIndex(request.face);
+  // Texel centres one beyond the tile on every side, for the spacing and relief at the
+  // outermost texels.
+  TexelRows rows(source.planet, request, -1, size + 2, true,
+                 haveHeights ? &source.heightMeters : nullptr);
+  const TexelColouring colouring(source, request, rows);
 
   TextureTileResult result;
-  result.textureErrorMeters = largestSpacing(grid, border, size - border);
   result.image.sizeTexels = request.sizeTexels;
   result.image.format = TexelFormat::Rgba8;
   result.image.borderTexels = request.borderTexels;
   result.image.data.resize(textureTileDataBytes(request.sizeTexels, TexelFormat::Rgba8));
 
-  const double imageryStrength = std::clamp(source.imageryShadingStrength, 0.0, 1.0);
-  const bool wantRelief = haveHeights && (source.imagery == nullptr || imageryStrength > 0.0);
-  const TexelHeights texelHeights = sampleTexelHeights(source, grid, haveHeights);
-  const ReliefSampler relief(source, grid, texelHeights);
-  const double reliefStrength = std::clamp(source.shading.strength, 0.0, 1.0);
-  const ImagePixelSize pixel =
-      source.imagery != nullptr ? imagePixelSize(*source.imagery, source.planet) : ImagePixelSize{};
-  std::vector<ImagePixelSize> layerPixels;
-  for (const TextureSource::ImageryLayer& layer : source.layers) {
-    layerPixels.push_back(imagePixelSize(*layer.image, source.planet));
-  }
-
+  rows.load(-1);
+  rows.load(0);
   for (int y = 0; y < size; ++y) {
-    for (int x = 0; x < size; ++x) {
-      const std::size_t at = grid.index(x, y);
-      const double spacingU = 0.5 * glm::distance(grid.surface[grid.index(x + 1, y)],
-                                                  grid.surface[grid.index(x - 1, y)]);
-      const double spacingV = 0.5 * glm::distance(grid.surface[grid.index(x, y + 1)],
-                                                  grid.surface[grid.index(x, y - 1)]);
-      const double spacing = std::max(spacingU, spacingV);
-      const GeodeticPosition& position = texelHeights.positions[at];
-
-      // Relief is needed for the tint and for shaded imagery.
-      ReliefSample reliefSample;
-      if (wantRelief) reliefSample = relief.sample(x, y);
-
-      std::optional<std::array<double, 3>> colour;
-      double strength = reliefStrength;
-      const glm::dvec2 centreUv = textureTexelFaceUv(request, x, y);
-      if (source.imagery != nullptr) {
-        if (const auto seen = supersample(*source.imagery, pixel, source.planet, face, centreUv,
-                                          texelUv, spacing, position.latDegrees)) {
-          colour = seen->colour;
-          strength = imageryStrength;
-          if (source.ramp.hasOcean && reliefSample.valid && reliefSample.tintHeightMeters < 0.0) {
-            strength *= 0.5;
-          }
-        } else if (haveHeights && !wantRelief) {
-          // Outside the image: fall back to the shaded relief.
-          reliefSample = relief.sample(x, y);
-        }
-      }
-      if (!colour && reliefSample.valid) {
-        colour = toDouble(hypsometricTint(reliefSample.tintHeightMeters, source.ramp));
-        // Water is shaded more softly than land: bathymetry reads as depth, not as mountains.
-        if (source.ramp.hasOcean && reliefSample.tintHeightMeters < 0.0) strength *= 0.5;
-      }
-      for (std::size_t i = 0; i < source.layers.size(); ++i) {
-        const TextureSource::ImageryLayer& layer = source.layers[i];
-        const double w = layer.weight(position.latDegrees, position.lonDegrees);
-        if (!(w > 0.0)) continue;
-        const auto seen = supersample(*layer.image, layerPixels[i], source.planet, face, centreUv,
-                                      texelUv, spacing, position.latDegrees);
-        if (!seen) continue;
-        const double a = std::clamp(w * seen->alpha / 255.0, 0.0, 1.0);
-        if (!colour) {
-          if (a < 1.0) continue;  // nothing below to blend with
-          colour = seen->colour;
-        } else {
-          for (std::size_t c = 0; c < 3; ++c) (*colour)[c] += a * (seen->colour[c] - (*colour)[c]);
-        }
-        strength += a * (imageryStrength - strength);
-      }
-      std::uint8_t* texel =
-          result.image.data.data() +
-          (static_cast<std::size_t>(y) * request.sizeTexels + static_cast<std::size_t>(x)) * 4;
-      if (!colour) {
-        store(texel, toDouble(kNoDataTint));
-        continue;
-      }
-      if (reliefSample.valid && strength > 0.0) {
-        colour = shade(*colour, reliefSample.relief, strength);
-      }
-      store(texel, *colour);
+    rows.load(y + 1);
+    // The texture error spans the inner texels only.
+    if (y >= border && y < size - border) {
+      const TexelRow* next = y + 1 < size - border ? &rows.row(y + 1) : nullptr;
+      result.textureErrorMeters =
+          std::max(result.textureErrorMeters,
+                   largestSpacingInRow(rows, rows.row(y), next, border, size - border));
     }
+    std::uint8_t* line =
+        result.image.data.data() + static_cast<std::size_t>(y) * request.sizeTexels * 4;
+    for (int x = 0; x < size; ++x) colouring.colour(x, y, line + static_cast<std::size_t>(x) * 4);
   }
   return result;
 }
