@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "DatasetBuild.h"
+#include "pbdam/builder/ResidentTrimmer.h"
 #include "pbdam/formats/DemReader.h"
 #include "pbdam/formats/TextureTile.h"
 
@@ -178,7 +179,9 @@ Result<void> DatasetBuild::buildTextures() {
         failedTile = static_cast<std::int64_t>(k);
         return;
       }
-      releaseResident();  // a coarse tile's DEM pages go with it, not at the trimmer's tick
+      // Over the resident budget, a coarse tile's DEM pages go with it, not at the trimmer's
+      // tick (a coarse tile samples the DEM across its whole area).
+      if (overResidentBudget(o_.residentBudgetBytes)) releaseResident();
       ++done;
       if (std::this_thread::get_id() == caller && root() &&
           Clock::now() - lastReport > std::chrono::milliseconds(100)) {
