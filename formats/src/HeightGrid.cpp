@@ -138,8 +138,8 @@ bool HeightGrid::toGrid(double latDegrees, double lonDegrees, double& row,
   col = (lonDegrees - geometry_.firstLonDegrees) / dLon;
   if (wrapsLongitude_) {
     const double period = static_cast<double>(wrapColumns_);
-    // fmod is exact and returns col itself for col in [0, period): skip it there.
-    if (!(col >= 0.0 && col < period)) col = std::fmod(col, period);
+    // fmod is exact and returns col itself for col in (-period, period): skip it there.
+    if (!(col > -period && col < period)) col = std::fmod(col, period);
     if (col < 0.0) col += period;
     return true;
   }

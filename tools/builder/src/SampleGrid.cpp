@@ -82,11 +82,15 @@ std::uint64_t resampleRow(const HeightAt& heightAt, const Planet& planet, const 
   // Shared edge/corner points are computed from their canonical direction, so every face (and
   // every tile) stores the same value.
   const CubeFace face = cubeFaceFromIndex(row.face);
+  // The row's positions first, its heights after: the surface's reads (cache misses on a large
+  // DEM) of successive points then overlap rather than each waiting behind its own trigonometry.
+  std::vector<GeodeticPosition> positions(row.points);
   for (std::uint32_t i = 0; i < row.points; ++i) {
-    const glm::dvec3 d = plane.direction(
-        face, row.first.x + static_cast<std::int32_t>(i) * row.spacing, row.first.y);
-    const GeodeticPosition g = planet.directionToGeodetic(d);
-    const std::optional<double> h = heightAt(g.latDegrees, g.lonDegrees);
+    positions[i] = planet.directionToGeodetic(plane.direction(
+        face, row.first.x + static_cast<std::int32_t>(i) * row.spacing, row.first.y));
+  }
+  for (std::uint32_t i = 0; i < row.points; ++i) {
+    const std::optional<double> h = heightAt(positions[i].latDegrees, positions[i].lonDegrees);
     if (!h) ++missing;
     out[i] = h ? static_cast<float>(*h) : 0.0f;
   }
