@@ -138,8 +138,8 @@ bool HeightGrid::toGrid(double latDegrees, double lonDegrees, double& row,
   col = (lonDegrees - geometry_.firstLonDegrees) / dLon;
   if (wrapsLongitude_) {
     const double period = static_cast<double>(wrapColumns_);
-    // fmod is exact and returns col itself for col in [0, period): skip it there.
-    if (!(col >= 0.0 && col < period)) col = std::fmod(col, period);
+    // fmod is exact and returns col itself for col in (-period, period): skip it there.
+    if (!(col > -period && col < period)) col = std::fmod(col, period);
     if (col < 0.0) col += period;
     return true;
   }
@@ -233,16 +233,24 @@ std::optional<double> HeightGrid::sampleBicubic(double latDegrees,
   const std::int64_t turnColumns = wrapsLongitude_ ? wrapColumns_ : geometry_.width;
   if (ir - 1 >= 1 && ir + 2 <= geometry_.height - 2 && ic - 1 >= 0 && ic + 2 < turnColumns) {
     const float* taps = heights_.data() + (ir - 1) * geometry_.width + (ic - 1);
-    double sum = 0.0;
+    // Every tap read and checked first, then the four row sums as four independent chains (each
+    // in the order of the loop over the taps below, so the same doubles).
+    std::array<std::array<double, 4>, 4> v{};
+    bool nodata = false;
     for (std::size_t i = 0; i < 4; ++i) {
       const float* line = taps + static_cast<std::ptrdiff_t>(i) * geometry_.width;
-      double rowSum = 0.0;
       for (std::size_t j = 0; j < 4; ++j) {
-        if (std::isnan(line[j])) return sampleBilinear(latDegrees, lonDegrees);
-        rowSum += wc[j] * static_cast<double>(line[j]);
+        nodata |= std::isnan(line[j]);
+        v[i][j] = static_cast<double>(line[j]);
       }
-      sum += wr[i] * rowSum;
     }
+    if (nodata) return sampleBilinear(latDegrees, lonDegrees);
+    std::array<double, 4> rowSum{};
+    for (std::size_t j = 0; j < 4; ++j) {
+      for (std::size_t i = 0; i < 4; ++i) rowSum[i] += wc[j] * v[i][j];
+    }
+    double sum = 0.0;
+    for (std::size_t i = 0; i < 4; ++i) sum += wr[i] * rowSum[i];
     return sum;
   }
   double sum = 0.0;

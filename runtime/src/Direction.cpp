@@ -7,14 +7,18 @@
 
 namespace pbdam::runtime {
 
+SinCosDegrees sinCosDegrees(double degrees) noexcept {
+  SinCosDegrees result;
+  GeographicLib::Math::sincosd(degrees, result.sin, result.cos);
+  return result;
+}
+
 glm::dvec3 planetocentricToDirection(double latDegrees, double lonDegrees) noexcept {
-  double sinLat = 0.0;
-  double cosLat = 0.0;
-  double sinLon = 0.0;
-  double cosLon = 0.0;
-  GeographicLib::Math::sincosd(latDegrees, sinLat, cosLat);
-  GeographicLib::Math::sincosd(lonDegrees, sinLon, cosLon);
-  return {cosLat * cosLon, cosLat * sinLon, sinLat};
+  return planetocentricToDirection(sinCosDegrees(latDegrees), sinCosDegrees(lonDegrees));
+}
+
+glm::dvec3 planetocentricToDirection(const SinCosDegrees& lat, const SinCosDegrees& lon) noexcept {
+  return {lat.cos * lon.cos, lat.cos * lon.sin, lat.sin};
 }
 
 LatLonDegrees directionToPlanetocentric(const glm::dvec3& direction) noexcept {

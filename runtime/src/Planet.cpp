@@ -294,9 +294,14 @@ GeodeticPosition Planet::directionToGeodetic(const glm::dvec3& direction) const 
 }
 
 glm::dvec3 Planet::geodeticToDirection(double latDegrees, double lonDegrees) const noexcept {
+  return geodeticToDirection(sinCosDegrees(latDegrees), sinCosDegrees(lonDegrees));
+}
+
+glm::dvec3 Planet::geodeticToDirection(const SinCosDegrees& lat,
+                                       const SinCosDegrees& lon) const noexcept {
   // Inverse of directionToGeodetic: tan(geocentric lat) = (1 - f)² tan(geodetic lat).
   const double oneMinusF = 1.0 - flattening_;
-  const glm::dvec3 normal = planetocentricToDirection(latDegrees, lonDegrees);
+  const glm::dvec3 normal = planetocentricToDirection(lat, lon);
   const glm::dvec3 scaled(normal.x, normal.y, normal.z * oneMinusF * oneMinusF);
   return scaled / glm::length(scaled);
 }

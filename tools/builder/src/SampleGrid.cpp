@@ -22,6 +22,8 @@
 #include <mutex>
 #include <optional>
 #include <span>
+#include <utility>
+#include <vector>
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
@@ -47,19 +49,49 @@ Error ioError(const fs::path& path, const std::string& what) {
                    path.string() + ": " + what + " (" + std::strerror(errno) + ")");
 }
 
+/// The plane coordinates (tangents) of a lattice's columns and rows, computed once for every row
+/// that resampling asks for: LatticeRowDirections::at's directions, bit for bit, without a
+/// tangent at every point.
+class LatticePlane final {
+ public:
+  explicit LatticePlane(std::uint32_t sideCells) : cells_(sideCells), plane_(sideCells + 1) {
+    for (std::uint32_t v = 0; v <= sideCells; ++v) {
+      plane_[v] =
+          CubeMap::uvToPlaneCoordinate(static_cast<double>(v) / static_cast<double>(sideCells));
+    }
+  }
+  /// latticeDirection(sideCells, face, {x, y}).
+  glm::dvec3 direction(CubeFace face, std::int32_t x, std::int32_t y) const noexcept {
+    // Points on a face edge take their canonical alias's direction (latticeDirection).
+    if (!inside(x) || !inside(y)) return latticeDirection(cells_, cubeFaceIndex(face), {x, y});
+    return CubeMap::planeToDirection(face, plane_[static_cast<std::size_t>(x)],
+                                     plane_[static_cast<std::size_t>(y)]);
+  }
+
+ private:
+  bool inside(std::int32_t v) const noexcept { return v > 0 && std::cmp_less(v, cells_); }
+  std::uint32_t cells_;
+  std::vector<double> plane_;
+};
+
 /// Resamples one storage row into `out` (row.points heights); returns its no-data count.
 /// `heightAt(lat, lon)` is the surface's height there, or nullopt.
 template <typename HeightAt>
-std::uint64_t resampleRow(const HeightAt& heightAt, const Planet& planet, const Lattice& lattice,
+std::uint64_t resampleRow(const HeightAt& heightAt, const Planet& planet, const LatticePlane& plane,
                           const LatticeTiles::Row& row, float* out) {
   std::uint64_t missing = 0;
   // Shared edge/corner points are computed from their canonical direction, so every face (and
   // every tile) stores the same value.
-  const LatticeRowDirections directions(lattice.sideCells(), row.face, row.first.y);
+  const CubeFace face = cubeFaceFromIndex(row.face);
+  // The row's positions first, its heights after: the surface's reads (cache misses on a large
+  // DEM) of successive points then overlap rather than each waiting behind its own trigonometry.
+  std::vector<GeodeticPosition> positions(row.points);
   for (std::uint32_t i = 0; i < row.points; ++i) {
-    const glm::dvec3 d = directions.at(row.first.x + static_cast<std::int32_t>(i) * row.spacing);
-    const GeodeticPosition g = planet.directionToGeodetic(d);
-    const std::optional<double> h = heightAt(g.latDegrees, g.lonDegrees);
+    positions[i] = planet.directionToGeodetic(plane.direction(
+        face, row.first.x + static_cast<std::int32_t>(i) * row.spacing, row.first.y));
+  }
+  for (std::uint32_t i = 0; i < row.points; ++i) {
+    const std::optional<double> h = heightAt(positions[i].latDegrees, positions[i].lonDegrees);
     if (!h) ++missing;
     out[i] = h ? static_cast<float>(*h) : 0.0f;
   }
@@ -82,13 +114,10 @@ struct DemHeightAt final {
   }
 };
 
-/// Places a sample of height `value` at (lat, lon) (see Placed).
-Placed placeAt(const Planet& planet, double n, std::uint32_t bucketCells,
-               std::uint32_t bucketsPerSide, double lat, double lon, float value) {
+/// Places a sample of height `value` whose unit direction is `d` (see Placed).
+Placed placeDirection(const glm::dvec3& d, double n, std::uint32_t bucketCells,
+                      std::uint32_t bucketsPerSide, float value) {
   Placed p;
-  p.bucket = std::numeric_limits<std::uint32_t>::max();
-  if (std::isnan(value) || lat < -90.0 || lat > 90.0) return p;
-  const glm::dvec3 d = planet.geodeticToDirection(lat, lon);
   const FaceUv fuv = CubeMap::directionToFaceUv(d);
   // The bucket of the position, and the position from the bucket's corner in lattice cells
   // (which the inside tests add back to the corner exactly): within [0, bucketCells] as stored.
@@ -108,19 +137,62 @@ Placed placeAt(const Planet& planet, double n, std::uint32_t bucketCells,
   return p;
 }
 
-/// Places DEM sample (row, col) (see Placed).
-Placed place(const HeightGrid& dem, const Planet& planet, double n, std::uint32_t bucketCells,
-             std::uint32_t bucketsPerSide, std::size_t row, std::size_t col) {
-  const double lat = dem.latOfRowDegrees(static_cast<std::int64_t>(row));
-  const float value = dem.at(static_cast<std::int64_t>(row), static_cast<std::int64_t>(col));
+/// Places a sample of height `value` at (lat, lon) (see Placed).
+Placed placeAt(const Planet& planet, double n, std::uint32_t bucketCells,
+               std::uint32_t bucketsPerSide, double lat, double lon, float value) {
   if (std::isnan(value) || lat < -90.0 || lat > 90.0) {
     Placed none;
     none.bucket = std::numeric_limits<std::uint32_t>::max();
     return none;
   }
-  return placeAt(planet, n, bucketCells, bucketsPerSide, lat,
-                 dem.lonOfColumnDegrees(static_cast<std::int64_t>(col)), value);
+  return placeDirection(planet.geodeticToDirection(lat, lon), n, bucketCells, bucketsPerSide,
+                        value);
 }
+
+/// Places a DEM's samples a row at a time (see Placed), as placeAt does each at its row's
+/// latitude and column's longitude, bit for bit: the sines and cosines of the columns'
+/// longitudes are computed once for all rows, a row's latitude's once for the row.
+class DemPlacer final {
+ public:
+  DemPlacer(const HeightGrid& dem, const Planet& planet, double n, std::uint32_t bucketCells,
+            std::uint32_t bucketsPerSide)
+      : dem_(dem), planet_(planet), n_(n), cells_(bucketCells), perSide_(bucketsPerSide) {
+    lon_.resize(static_cast<std::size_t>(dem.width()));
+    for (std::size_t col = 0; col < lon_.size(); ++col) {
+      lon_[col] = sinCosDegrees(dem.lonOfColumnDegrees(static_cast<std::int64_t>(col)));
+    }
+  }
+  /// Calls fn(col, placed) for every column of DEM row `row`, in order.
+  template <typename Fn>
+  void forEachInRow(std::size_t row, const Fn& fn) const {
+    const double lat = dem_.latOfRowDegrees(static_cast<std::int64_t>(row));
+    Placed none;
+    none.bucket = std::numeric_limits<std::uint32_t>::max();
+    if (lat < -90.0 || lat > 90.0) {
+      for (std::size_t col = 0; col < lon_.size(); ++col) fn(col, none);
+      return;
+    }
+    const SinCosDegrees sinCosLat = sinCosDegrees(lat);
+    const float* values = dem_.heightsMeters().data() + row * lon_.size();
+    for (std::size_t col = 0; col < lon_.size(); ++col) {
+      const float value = values[col];
+      if (std::isnan(value)) {
+        fn(col, none);
+      } else {
+        fn(col, placeDirection(planet_.geodeticToDirection(sinCosLat, lon_[col]), n_, cells_,
+                               perSide_, value));
+      }
+    }
+  }
+
+ private:
+  const HeightGrid& dem_;
+  const Planet& planet_;
+  double n_;
+  std::uint32_t cells_;
+  std::uint32_t perSide_;
+  std::vector<SinCosDegrees> lon_;
+};
 
 /// A table's dense buckets (SampleGrid::subBucketsPerSide) and their sub-bucket offsets: chosen
 /// from the bucket counts, then each dense bucket's samples counted per sub-bucket (count(),
@@ -357,12 +429,13 @@ SampleGrid SampleGrid::build(const HeightGrid& dem, const Planet& planet, const 
   // 1. Heights at lattice points, a chunk of storage rows at a time.
   const std::size_t rows = static_cast<std::size_t>(tiles.rowCount());
   const std::size_t chunk = std::max<std::size_t>(1, rows / 6);
+  const LatticePlane plane(n);
   for (std::size_t first = 0; first < rows; first += chunk) {
     const std::size_t last = std::min(rows, first + chunk);
     tbb::parallel_for(first, last, [&](std::size_t r) {
       const LatticeTiles::Row row = tiles.row(r);
       noData +=
-          resampleRow(DemHeightAt{dem}, planet, lattice, row, grid.heights_.data() + row.offset);
+          resampleRow(DemHeightAt{dem}, planet, plane, row, grid.heights_.data() + row.offset);
     });
     if (progress) progress(last, rows);
   }
@@ -379,11 +452,10 @@ SampleGrid SampleGrid::build(const HeightGrid& dem, const Planet& planet, const 
   const auto w = static_cast<std::size_t>(dem.width());
   const auto h = static_cast<std::size_t>(dem.height());
   std::vector<Placed> placed(w * h);
+  const DemPlacer placer(dem, planet, static_cast<double>(n), grid.bucketCells_,
+                         grid.bucketsPerSide_);
   tbb::parallel_for(std::size_t{0}, h, [&](std::size_t row) {
-    for (std::size_t col = 0; col < w; ++col) {
-      placed[row * w + col] = place(dem, planet, static_cast<double>(n), grid.bucketCells_,
-                                    grid.bucketsPerSide_, row, col);
-    }
+    placer.forEachInRow(row, [&](std::size_t col, const Placed& p) { placed[row * w + col] = p; });
   });
   constexpr auto kInvalid = std::numeric_limits<std::uint32_t>::max();
   grid.bucketStart_.assign(buckets + 1, 0);
@@ -459,6 +531,7 @@ Result<HeightRowStats> SampleGrid::writeRows(
     ::close(fd);
     return std::move(r).error();
   }
+  const LatticePlane plane(lattice.sideCells());
   std::atomic<std::uint64_t> noData{0};
   std::atomic<std::size_t> rowsDone{0};
   std::atomic<bool> failed{false};
@@ -475,7 +548,7 @@ Result<HeightRowStats> SampleGrid::writeRows(
       if (failed) return;
       const LatticeTiles::Row at = tiles.row(row);
       std::vector<float> heights(at.points);
-      noData += resampleRow(heightAt, planet, lattice, at, heights.data());
+      noData += resampleRow(heightAt, planet, plane, at, heights.data());
       const auto [mn, mx] = std::minmax_element(heights.begin(), heights.end());
       {
         std::lock_guard lock(statsMutex);
@@ -524,12 +597,18 @@ Result<void> SampleGrid::writeSourceBuckets(const HeightGrid& dem, const Planet&
 
   // Pass 1: count per bucket (32 bits: a bucket is a few lattice cells; the table is up to
   // 6·4096² entries, so it is kept as small as it can be; the offsets go straight to the file).
+  // The first chunk's placements are kept for pass 2, in the buffer pass 2 places its chunks in:
+  // a share of one chunk is placed once, not two or three times, in no more memory.
+  const DemPlacer placer(dem, planet, n, cells, perSide);
+  const std::size_t keptEnd = std::min(endRow, beginRow + chunkRows);
+  std::vector<Placed> placed((keptEnd - beginRow) * w);
   std::vector<std::atomic<std::uint32_t>> counts(buckets);
   tbb::parallel_for(beginRow, endRow, [&](std::size_t row) {
-    for (std::size_t col = 0; col < w; ++col) {
-      const Placed p = place(dem, planet, n, cells, perSide, row, col);
+    Placed* kept = row < keptEnd ? placed.data() + (row - beginRow) * w : nullptr;
+    placer.forEachInRow(row, [&](std::size_t col, const Placed& p) {
+      if (kept) kept[col] = p;
       if (p.bucket != kInvalid) counts[p.bucket].fetch_add(1, std::memory_order_relaxed);
-    }
+    });
   });
   std::uint64_t total = 0;
   for (std::size_t b = 0; b < buckets; ++b) total += counts[b].load(std::memory_order_relaxed);
@@ -539,9 +618,13 @@ Result<void> SampleGrid::writeSourceBuckets(const HeightGrid& dem, const Planet&
   });
   if (!layout.empty()) {
     tbb::parallel_for(beginRow, endRow, [&](std::size_t row) {
-      for (std::size_t col = 0; col < w; ++col) {
-        const Placed p = place(dem, planet, n, cells, perSide, row, col);
+      const auto count = [&](std::size_t, const Placed& p) {
         if (p.bucket != kInvalid) layout.count(p.bucket, p.sample);
+      };
+      if (row < keptEnd) {
+        for (std::size_t col = 0; col < w; ++col) count(col, placed[(row - beginRow) * w + col]);
+      } else {
+        placer.forEachInRow(row, count);
       }
     });
   }
@@ -565,16 +648,17 @@ Result<void> SampleGrid::writeSourceBuckets(const HeightGrid& dem, const Planet&
   (void)map->releaseResident();  // the offsets' pages (8 bytes a bucket) stay in the page cache
   auto* samples = reinterpret_cast<SourceSample*>(at + parts.samples);
 
-  // Pass 2: place chunk by chunk (in parallel), scatter in row order (stable).
-  std::vector<Placed> placed;
+  // Pass 2: place chunk by chunk (in parallel; the first chunk's are kept from pass 1), scatter
+  // in row order (stable).
   for (std::size_t first = beginRow; first < endRow; first += chunkRows) {
     const std::size_t last = std::min(endRow, first + chunkRows);
-    placed.resize((last - first) * w);
-    tbb::parallel_for(first, last, [&](std::size_t row) {
-      for (std::size_t col = 0; col < w; ++col) {
-        placed[(row - first) * w + col] = place(dem, planet, n, cells, perSide, row, col);
-      }
-    });
+    if (first != beginRow) {
+      placed.resize((last - first) * w);
+      tbb::parallel_for(first, last, [&](std::size_t row) {
+        placer.forEachInRow(
+            row, [&](std::size_t col, const Placed& p) { placed[(row - first) * w + col] = p; });
+      });
+    }
     for (const Placed& p : placed) {
       if (p.bucket == kInvalid) continue;
       if (const auto inBucket = layout.place(p.bucket, p.sample)) {

@@ -127,6 +127,8 @@ class Planet final {
   /// Returns the unit geocentric direction of the surface point at a geodetic latitude/longitude;
   /// the inverse of directionToGeodetic.
   glm::dvec3 geodeticToDirection(double latDegrees, double lonDegrees) const noexcept;
+  /// geodeticToDirection from the angles' sines and cosines (sinCosDegrees), bit for bit.
+  glm::dvec3 geodeticToDirection(const SinCosDegrees& lat, const SinCosDegrees& lon) const noexcept;
 
   /// Solves the inverse geodesic problem on this surface (GeographicLib::Geodesic; accurate to
   /// round-off). Latitudes must be in [-90, 90].
