@@ -53,6 +53,20 @@ struct Tiles {
   std::uint64_t perFace = 0;
 };
 
+/// The morph targets of a batch of a face's nodes as they are made, on several threads.
+struct MorphBatch final {
+  MorphGeometry geometry;
+  std::uint64_t firstSlot = 0;
+  std::vector<std::vector<std::byte>> blobs;  ///< by node, from firstSlot
+  std::mutex failedMutex;
+  std::optional<Error> failed;  ///< the first error met
+  std::atomic<std::uint64_t> missed{0};
+  void fail(Error e) {
+    std::lock_guard lock(failedMutex);
+    if (!failed) failed = std::move(e);
+  }
+};
+
 /// The assembly of one dataset: the mappings it keeps and what it has located in them.
 class Assembly final {
  public:
@@ -100,6 +114,12 @@ class Assembly final {
                                     std::uint64_t firstSlot, std::uint64_t& at);
   Result<std::vector<std::vector<std::byte>>> faceMorphTargets(std::uint64_t firstSlot,
                                                                std::uint64_t count);
+  /// Decodes node `id`'s patch into `mesh`: false when it has none, or on an error (recorded in
+  /// `batch`).
+  bool decodeNode(MorphBatch& batch, std::uint64_t id, formats::PatchMesh& mesh) const;
+  /// The morph targets of the batch's nodes [begin, end), a group that shares its coarser
+  /// patches (faceMorphTargets).
+  void groupMorphTargets(MorphBatch& batch, std::uint64_t begin, std::uint64_t end) const;
 
   const AssemblyInputs& in_;
   BuildSummary& summary_;
@@ -330,60 +350,161 @@ Manifest Assembly::makeManifest() const {
 Result<std::vector<std::vector<std::byte>>> Assembly::faceMorphTargets(std::uint64_t firstSlot,
                                                                        std::uint64_t count) {
   // Every node's targets from its own, its parent's and its grandparent's patches (decoded
-  // again here: LZO decodes at GB/s, and the checkpoint keeps no meshes).
-  std::vector<std::vector<std::byte>> blobs(count);
+  // again here: the checkpoint keeps no meshes). In heap order a grandparent's grandchildren
+  // are adjacent (on level 1, a root's children, next to its grandchildren on level 2), so the
+  // nodes go in groups of adjacent nodes with the same grandparent, or parent where they have
+  // none: a group decodes each of its coarser patches once and makes each of their surfaces
+  // once, over the union of the regions its nodes ask, where node by node each was decoded
+  // and made again for every child and grandchild. Surfaces answer the same over any region
+  // that holds the point asked (CoarserSurface), so the targets are those made node by node.
   const Lattice lattice(in_.latticeCells);
-  const MorphGeometry geometry{&in_.planet, &lattice, in_.options.heightStepMeters};
-  std::mutex failedMutex;
-  std::optional<Error> failed;
-  std::atomic<std::uint64_t> missed{0};
-  const auto fail = [&](Error e) {
-    std::lock_guard lock(failedMutex);
-    if (!failed) failed = std::move(e);
+  MorphBatch batch;
+  batch.geometry = MorphGeometry{&in_.planet, &lattice, in_.options.heightStepMeters};
+  batch.firstSlot = firstSlot;
+  batch.blobs.resize(count);
+  const auto groupKey = [&](std::uint64_t k) -> std::optional<std::uint64_t> {
+    const NodeAncestors a = nodeAncestors(idAt(firstSlot + k), nodesPerTree_);
+    return a.grandparent ? a.grandparent : a.parent;
   };
-  tbb::parallel_for(std::uint64_t{0}, count, [&](std::uint64_t k) {
-    const std::uint64_t id = idAt(firstSlot + k);
-    const NodeAncestors ancestors = nodeAncestors(id, nodesPerTree_);
-    if (!ancestors.parent) return;
-    thread_local std::array<PatchMesh, 3> meshes;
-    const auto decode = [&](std::uint64_t nodeId, PatchMesh& mesh) {
-      const std::uint64_t slot = slotOf(nodeId);
-      if (slot >= located_.size()) {
-        fail(makeError(ErrorCode::CorruptData, in_.checkpoint.directory().string() + ": node " +
-                                                   std::to_string(nodeId) + " is missing"));
-        return false;
-      }
-      if (located_[slot].blob.empty()) return false;  // no patch: no targets
-      auto r = decodePatch(located_[slot].blob, mesh, "node " + std::to_string(nodeId));
-      if (r) return true;
-      fail(std::move(r).error());
-      return false;
-    };
-    if (!decode(id, meshes[0]) || !decode(*ancestors.parent, meshes[1])) return;
-    if (ancestors.grandparent && !decode(*ancestors.grandparent, meshes[2])) return;
-    std::uint64_t misses = 0;
-    auto targets = nodeMorphTargets(geometry, id, d_, meshes[0], &meshes[1],
-                                    ancestors.grandparent ? &meshes[2] : nullptr, misses);
-    if (!targets) {
-      fail(makeError(ErrorCode::CorruptData,
-                     "node " + std::to_string(id) + ": a patch vertex is not on the lattice"));
-      return;
-    }
-    missed += misses;
-    auto blob = encodeMorphTargets(meshes[0], *targets);
-    if (!blob) {
-      fail(std::move(blob).error());
-      return;
-    }
-    blobs[k] = std::move(blob).value();
+  std::vector<std::uint64_t> groupStarts;  // the groups' first nodes, then `count`
+  for (std::uint64_t k = 0; k < count; ++k) {
+    if (k == 0 || !groupKey(k) || groupKey(k) != groupKey(k - 1)) groupStarts.push_back(k);
+  }
+  groupStarts.push_back(count);
+  tbb::parallel_for(std::size_t{0}, groupStarts.size() - 1, [&](std::size_t g) {
+    groupMorphTargets(batch, groupStarts[g], groupStarts[g + 1]);
   });
-  if (failed) return std::move(*failed);
-  if (missed.load() != 0) {
+  if (batch.failed) return std::move(*batch.failed);
+  if (batch.missed.load() != 0) {
     return makeError(ErrorCode::Internal,
-                     std::to_string(missed.load()) +
+                     std::to_string(batch.missed.load()) +
                          " patch vertices lie outside their coarser patch; no morph target");
   }
-  return blobs;
+  return std::move(batch.blobs);
+}
+
+bool Assembly::decodeNode(MorphBatch& batch, std::uint64_t id, PatchMesh& mesh) const {
+  const std::uint64_t slot = slotOf(id);
+  if (slot >= located_.size()) {
+    batch.fail(makeError(ErrorCode::CorruptData, in_.checkpoint.directory().string() + ": node " +
+                                                     std::to_string(id) + " is missing"));
+    return false;
+  }
+  if (located_[slot].blob.empty()) return false;  // no patch: no targets
+  auto r = decodePatch(located_[slot].blob, mesh, "node " + std::to_string(id));
+  if (r) return true;
+  batch.fail(std::move(r).error());
+  return false;
+}
+
+void Assembly::groupMorphTargets(MorphBatch& batch, std::uint64_t begin, std::uint64_t end) const {
+  /// A coarser patch of the group, decoded on first use, and its surfaces as a parent and as a
+  /// grandparent, made on first use.
+  struct Coarse {
+    std::uint64_t id = 0;
+    bool usable = false;
+    PatchMesh mesh;
+    std::array<bool, 2> surfaceTried{};
+    std::array<std::optional<CoarserSurface>, 2> surface;
+  };
+  constexpr std::size_t kMaxGroup = 6;   // a root's children and grandchildren
+  constexpr std::size_t kMaxCoarse = 3;  // the key node and its two children
+  constexpr std::size_t kAsParent = 0;
+  constexpr std::size_t kAsGrandparent = 1;
+  if (end - begin > kMaxGroup) {
+    batch.fail(makeError(ErrorCode::Internal,
+                         "a morph-target group of " + std::to_string(end - begin) + " nodes"));
+    return;
+  }
+  const Lattice& lattice = *batch.geometry.lattice;
+  std::array<runtime::BinTriangle, kMaxGroup> self{};
+  std::array<NodeAncestors, kMaxGroup> ancestors{};
+  for (std::uint64_t k = begin; k < end; ++k) {
+    const std::uint64_t id = idAt(batch.firstSlot + k);
+    self[k - begin] = triangleOfNode(lattice, id, d_);
+    ancestors[k - begin] = nodeAncestors(id, nodesPerTree_);
+  }
+  thread_local std::array<Coarse, kMaxCoarse> coarse;
+  thread_local PatchMesh mesh;
+  std::size_t coarseUsed = 0;
+  const auto coarsePatch = [&](std::uint64_t id) -> Coarse* {
+    for (std::size_t c = 0; c < coarseUsed; ++c) {
+      if (coarse[c].id == id) return coarse[c].usable ? &coarse[c] : nullptr;
+    }
+    if (coarseUsed == kMaxCoarse) {
+      batch.fail(makeError(ErrorCode::Internal, "a morph-target group of too many patches"));
+      return nullptr;
+    }
+    Coarse& c = coarse[coarseUsed++];
+    c.id = id;
+    c.usable = decodeNode(batch, id, c.mesh);
+    return c.usable ? &c : nullptr;
+  };
+  // The surface of coarser patch `c` as the parent or grandparent of the group's nodes, over
+  // the union of the boxes they ask it: their own boxes, or their hypotenuses'.
+  const auto surfaceOf = [&](Coarse& c, std::size_t role) -> const CoarserSurface* {
+    if (!c.surfaceTried[role]) {
+      c.surfaceTried[role] = true;
+      bool asked = false;
+      runtime::LatticeXY low{0};
+      runtime::LatticeXY high{0};
+      for (std::uint64_t k = 0; k < end - begin; ++k) {
+        const auto& by = role == kAsParent ? ancestors[k].parent : ancestors[k].grandparent;
+        if (by != c.id) continue;
+        const runtime::BinTriangle& t = self[k];
+        runtime::LatticeXY lo = glm::min(t.left, t.right);
+        runtime::LatticeXY hi = glm::max(t.left, t.right);
+        if (role == kAsParent) {
+          lo = glm::min(lo, t.apex);
+          hi = glm::max(hi, t.apex);
+        }
+        low = asked ? glm::min(low, lo) : lo;
+        high = asked ? glm::max(high, hi) : hi;
+        asked = true;
+      }
+      const runtime::BinTriangle t = triangleOfNode(lattice, c.id, d_);
+      auto corners = patchLatticePoints(t, c.mesh);
+      if (asked && corners) {
+        c.surface[role].emplace(batch.geometry, t, c.mesh, std::move(*corners), low, high);
+      }
+    }
+    return c.surface[role] ? &*c.surface[role] : nullptr;
+  };
+  for (std::uint64_t k = begin; k < end; ++k) {
+    const std::uint64_t id = idAt(batch.firstSlot + k);
+    const NodeAncestors& a = ancestors[k - begin];
+    if (!a.parent || !decodeNode(batch, id, mesh)) continue;
+    Coarse* parent = coarsePatch(*a.parent);
+    Coarse* grandparent =
+        parent != nullptr && a.grandparent ? coarsePatch(*a.grandparent) : nullptr;
+    if (parent == nullptr || (a.grandparent && grandparent == nullptr)) continue;
+    const CoarserSurface* up = surfaceOf(*parent, kAsParent);
+    const CoarserSurface* upUp =
+        grandparent != nullptr ? surfaceOf(*grandparent, kAsGrandparent) : nullptr;
+    std::uint64_t misses = 0;
+    std::optional<std::vector<std::int32_t>> targets;
+    if (up != nullptr && (grandparent == nullptr || upUp != nullptr)) {
+      targets = nodeMorphTargets(self[k - begin], mesh, *up, upUp, misses);
+    }
+    if (!targets) {
+      batch.fail(makeError(ErrorCode::CorruptData, "node " + std::to_string(id) +
+                                                       ": a patch vertex is not on the lattice"));
+      continue;
+    }
+    batch.missed += misses;
+    auto blob = encodeMorphTargets(mesh, *targets);
+    if (!blob) {
+      batch.fail(std::move(blob).error());
+      continue;
+    }
+    batch.blobs[k] = std::move(blob).value();
+  }
+  // The surfaces refer to this batch's geometry: none outlives the group. The meshes keep
+  // their capacity for the next.
+  for (std::size_t c = 0; c < coarseUsed; ++c) {
+    for (auto& surface : coarse[c].surface) surface.reset();
+    coarse[c].surfaceTried = {};
+  }
 }
 
 Result<std::uint32_t> Assembly::appendNodes(AtomicFileWriter& file, const FaceHeader& h,

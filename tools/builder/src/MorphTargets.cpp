@@ -6,7 +6,10 @@
 #include <cmath>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
+#include <utility>
+#include <vector>
 
+#include "pbdam/runtime/CubeMap.h"
 #include "pbdam/runtime/TerrainPoint.h"
 
 using namespace pbdam::formats;
@@ -21,6 +24,31 @@ std::int64_t orient(LatticeXY a, LatticeXY b, LatticeXY q) noexcept {
          (std::int64_t{b.y} - a.y) * (std::int64_t{q.x} - a.x);
 }
 
+/// runtime::latticeDirection with the plane coordinates of the lattice's lines from a table:
+/// the morph targets ask the direction of every vertex of every patch and of its coarser
+/// patches' corners, two tangents each, over a few thousand lines. The same operations on the
+/// same doubles, so the same bits; a point on the face's edge, which has aliases, takes the
+/// runtime's path.
+glm::dvec3 latticeDirectionOf(std::uint32_t cells, int face, LatticeXY q) {
+  if (q.x <= 0 || q.y <= 0 || std::cmp_greater_equal(q.x, cells) ||
+      std::cmp_greater_equal(q.y, cells)) {
+    return runtime::latticeDirection(cells, face, q);
+  }
+  thread_local std::uint32_t tableCells = 0;
+  thread_local std::vector<double> table;
+  if (tableCells != cells) {
+    table.resize(std::size_t{cells} + 1);
+    for (std::uint32_t v = 0; v <= cells; ++v) {
+      table[v] = runtime::CubeMap::uvToPlaneCoordinate(static_cast<double>(v) /
+                                                       static_cast<double>(cells));
+    }
+    tableCells = cells;
+  }
+  return runtime::CubeMap::planeToDirection(runtime::cubeFaceFromIndex(face),
+                                            table[static_cast<std::size_t>(q.x)],
+                                            table[static_cast<std::size_t>(q.y)]);
+}
+
 /// The line of a lattice point's terrain points: T(h) = origin + h·normal.
 struct HeightLine final {
   glm::dvec3 origin{0.0};
@@ -28,11 +56,22 @@ struct HeightLine final {
 };
 
 HeightLine heightLine(const MorphGeometry& g, int face, LatticeXY q) {
-  // latticeTerrainPoint at heights 0 and 1, with the direction computed once.
-  const glm::dvec3 d = runtime::latticeDirection(g.lattice->sideCells(), face, q);
-  const glm::dvec3 origin = runtime::terrainPointOfDirection(*g.planet, d, 0.0);
-  const glm::dvec3 up = runtime::terrainPointOfDirection(*g.planet, d, 1.0);
-  return {origin, up - origin};
+  // latticeTerrainPoint at heights 0 and 1, with the direction, and on an ellipsoid its point
+  // and normal, computed once: runtime::terrainPointOfDirection's operations in its order, so
+  // the same doubles (every patch vertex asks for its line; this halves the square roots).
+  const glm::dvec3 d = latticeDirectionOf(g.lattice->sideCells(), face, q);
+  const runtime::Planet& planet = *g.planet;
+  const double a = planet.equatorialRadiusMeters();
+  if (planet.isSphere()) {
+    const glm::dvec3 origin = (a + 0.0) * d;
+    return {origin, (a + 1.0) * d - origin};
+  }
+  const double b = planet.polarRadiusMeters();
+  const glm::dvec3 e(d.x / a, d.y / a, d.z / b);
+  const glm::dvec3 s = d * (1.0 / std::sqrt(glm::dot(e, e)));
+  const glm::dvec3 n = glm::normalize(glm::dvec3(s.x / (a * a), s.y / (a * a), s.z / (b * b)));
+  const glm::dvec3 origin = s + 0.0 * n;
+  return {origin, (s + 1.0 * n) - origin};
 }
 
 /// The height of the line's point closest to the segment a–b's line.
@@ -99,41 +138,60 @@ CoarserSurface::CoarserSurface(const MorphGeometry& geometry, const runtime::Bin
     boxes[t] = {glm::max(lo, low_), glm::min(hi, high_)};
     if (boxes[t][0].x <= boxes[t][1].x && boxes[t][0].y <= boxes[t][1].y) ++reaching;
   }
-  // About two triangles per bucket.
+  // About two buckets per triangle: a finer grid costs the construction little and saves each
+  // query triangles to test (measured against one and four buckets per triangle, and two
+  // triangles per bucket).
   const std::int64_t extent = std::max<std::int64_t>(
       1, std::max(std::int64_t{high_.x} - low_.x, std::int64_t{high_.y} - low_.y));
   const auto perSide = static_cast<std::int64_t>(std::max(
-      1.0, std::ceil(std::sqrt(static_cast<double>(std::max<std::size_t>(reaching, 1)) / 2.0))));
+      1.0, std::ceil(std::sqrt(static_cast<double>(std::max<std::size_t>(reaching, 1)) * 2.0))));
   cell_ = std::max<std::int64_t>(1, (extent + perSide - 1) / perSide);
   columns_ = (std::int64_t{high_.x} - low_.x) / cell_ + 1;
   rows_ = (std::int64_t{high_.y} - low_.y) / cell_ + 1;
   const auto buckets = static_cast<std::size_t>(columns_ * rows_);
   // Counting sort of (bucket, triangle) pairs: each triangle in every bucket its box overlaps.
-  std::vector<std::uint32_t> count(buckets + 1, 0);
-  const auto forBuckets = [&](std::size_t t, auto&& visit) {
-    const auto& [lo, hi] = boxes[t];
-    if (lo.x > hi.x || lo.y > hi.y) return;  // the triangle does not reach the region
-    for (std::int64_t row = (lo.y - low_.y) / cell_; row <= (hi.y - low_.y) / cell_; ++row) {
-      for (std::int64_t col = (lo.x - low_.x) / cell_; col <= (hi.x - low_.x) / cell_; ++col) {
-        visit(static_cast<std::size_t>(row * columns_ + col));
-      }
-    }
+  // The reaching triangles' bucket spans are found once, for both passes (offsets in the
+  // region and the cell fit 32 bits: lattice coordinates do).
+  struct Span {
+    std::uint32_t triangle, col0, col1, row0, row1;
+  };
+  thread_local std::vector<Span> spans;
+  spans.clear();
+  const auto cell = static_cast<std::uint32_t>(cell_);
+  const auto offset = [](std::int32_t v, std::int32_t from) {
+    return static_cast<std::uint32_t>(std::int64_t{v} - from);
   };
   for (std::size_t t = 0; t < triangles; ++t) {
-    forBuckets(t, [&](std::size_t b) { ++count[b + 1]; });
+    const auto& [lo, hi] = boxes[t];
+    if (lo.x > hi.x || lo.y > hi.y) continue;  // the triangle does not reach the region
+    spans.push_back({static_cast<std::uint32_t>(t), offset(lo.x, low_.x) / cell,
+                     offset(hi.x, low_.x) / cell, offset(lo.y, low_.y) / cell,
+                     offset(hi.y, low_.y) / cell});
+  }
+  const auto columns = static_cast<std::size_t>(columns_);
+  std::vector<std::uint32_t> count(buckets + 1, 0);
+  for (const Span& span : spans) {
+    for (std::size_t row = span.row0; row <= span.row1; ++row) {
+      for (std::size_t col = span.col0; col <= span.col1; ++col) ++count[row * columns + col + 1];
+    }
   }
   for (std::size_t b = 0; b < buckets; ++b) count[b + 1] += count[b];
   first_ = count;
   triangles_.resize(count[buckets]);
-  for (std::size_t t = 0; t < triangles; ++t) {
-    forBuckets(t, [&](std::size_t b) { triangles_[count[b]++] = static_cast<std::uint32_t>(t); });
+  for (const Span& span : spans) {
+    for (std::size_t row = span.row0; row <= span.row1; ++row) {
+      for (std::size_t col = span.col0; col <= span.col1; ++col) {
+        triangles_[count[row * columns + col]++] = span.triangle;
+      }
+    }
   }
 }
 
 const glm::dvec3& CoarserSurface::terrainOf(std::size_t v) const {
   if (!hasTerrain_[v]) {
-    terrain_[v] = runtime::latticeTerrainPoint(
-        *geometry_.planet, geometry_.lattice->sideCells(), face_, points_[v],
+    // runtime::latticeTerrainPoint, with the direction from the table.
+    terrain_[v] = runtime::terrainPointOfDirection(
+        *geometry_.planet, latticeDirectionOf(geometry_.lattice->sideCells(), face_, points_[v]),
         static_cast<double>(mesh_.vertices[v].heightSteps) * geometry_.heightStepMeters);
     hasTerrain_[v] = true;
   }
@@ -202,8 +260,6 @@ std::optional<std::vector<std::int32_t>> nodeMorphTargets(
   const Lattice& lattice = *geometry.lattice;
   const NodeAncestors ancestors = nodeAncestors(id, Lattice::nodesPerTree(depth));
   const runtime::BinTriangle self = triangleOfNode(lattice, id, depth);
-  const auto points = patchLatticePoints(self, mesh);
-  if (!points) return std::nullopt;
   // The boxes of what each ancestor is asked: the parent the node's interior and leg vertices
   // (its whole box), the grandparent its hypotenuse vertices (the box of its hypotenuse).
   const LatticeXY nodeLow = glm::min(self.apex, glm::min(self.left, self.right));
@@ -224,11 +280,21 @@ std::optional<std::vector<std::int32_t>> nodeMorphTargets(
                                glm::min(self.left, self.right), glm::max(self.left, self.right))
                      : std::nullopt;
   if (hasGrandparent && !upUp) return std::nullopt;
+  return nodeMorphTargets(self, mesh, *up, upUp ? &*upUp : nullptr, missed);
+}
+
+std::optional<std::vector<std::int32_t>> nodeMorphTargets(const runtime::BinTriangle& self,
+                                                          const PatchMesh& mesh,
+                                                          const CoarserSurface& parent,
+                                                          const CoarserSurface* grandparent,
+                                                          std::uint64_t& missed) {
+  const auto points = patchLatticePoints(self, mesh);
+  if (!points) return std::nullopt;
   std::vector<std::int32_t> targets(mesh.vertices.size());
   for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
     const PatchVertex& vertex = mesh.vertices[v];
     const bool hypotenuse = std::uint32_t{vertex.b1} + vertex.b2 == kPatchBarycentricOne;
-    const CoarserSurface* governing = hypotenuse ? (upUp ? &*upUp : nullptr) : &*up;
+    const CoarserSurface* governing = hypotenuse ? grandparent : &parent;
     std::optional<std::int32_t> h;
     if (governing != nullptr) {
       h = governing->targetAt((*points)[v]);

@@ -91,4 +91,15 @@ std::optional<std::vector<std::int32_t>> nodeMorphTargets(
     const MorphGeometry& geometry, std::uint64_t id, int depth, const formats::PatchMesh& mesh,
     const formats::PatchMesh* parent, const formats::PatchMesh* grandparent, std::uint64_t& missed);
 
+/// The same targets from coarser surfaces already made, which siblings can share: node triangle
+/// `self` with patch `mesh`, its parent's surface over (at least) the node's box and its
+/// grandparent's over (at least) its hypotenuse's box (null where it has none). A surface's
+/// answers do not depend on its region beyond that (CoarserSurface), so the bytes are those of
+/// the overload above. Not thread-safe for the surfaces it is given.
+std::optional<std::vector<std::int32_t>> nodeMorphTargets(const runtime::BinTriangle& self,
+                                                          const formats::PatchMesh& mesh,
+                                                          const CoarserSurface& parent,
+                                                          const CoarserSurface* grandparent,
+                                                          std::uint64_t& missed);
+
 }  // namespace pbdam::builder
