@@ -47,15 +47,20 @@ glm::dvec3 LatticeRowDirections::at(std::int32_t x) const noexcept {
                                    planeCoordinate(static_cast<std::uint32_t>(x), cells_), planeV_);
 }
 
-glm::dvec3 terrainPointOfDirection(const Planet& planet, const glm::dvec3& d,
-                                   double heightMeters) noexcept {
-  const double a = planet.equatorialRadiusMeters();
-  if (planet.isSphere()) return (a + heightMeters) * d;
+TerrainLine::TerrainLine(const Planet& planet, const glm::dvec3& d) noexcept
+    : sphere_(planet.isSphere()), radius_(planet.equatorialRadiusMeters()), direction_(d) {
+  if (sphere_) return;
+  const double a = radius_;
   const double b = planet.polarRadiusMeters();
   const glm::dvec3 e(d.x / a, d.y / a, d.z / b);
-  const glm::dvec3 s = d * (1.0 / std::sqrt(glm::dot(e, e)));
-  const glm::dvec3 n = glm::normalize(glm::dvec3(s.x / (a * a), s.y / (a * a), s.z / (b * b)));
-  return s + heightMeters * n;
+  surface_ = d * (1.0 / std::sqrt(glm::dot(e, e)));
+  const glm::dvec3& s = surface_;
+  normal_ = glm::normalize(glm::dvec3(s.x / (a * a), s.y / (a * a), s.z / (b * b)));
+}
+
+glm::dvec3 terrainPointOfDirection(const Planet& planet, const glm::dvec3& d,
+                                   double heightMeters) noexcept {
+  return TerrainLine(planet, d).at(heightMeters);
 }
 
 glm::dvec3 latticeTerrainPoint(const Planet& planet, std::uint32_t latticeCells, int face,

@@ -56,22 +56,11 @@ struct HeightLine final {
 };
 
 HeightLine heightLine(const MorphGeometry& g, int face, LatticeXY q) {
-  // latticeTerrainPoint at heights 0 and 1, with the direction, and on an ellipsoid its point
-  // and normal, computed once: runtime::terrainPointOfDirection's operations in its order, so
-  // the same doubles (every patch vertex asks for its line; this halves the square roots).
-  const glm::dvec3 d = latticeDirectionOf(g.lattice->sideCells(), face, q);
-  const runtime::Planet& planet = *g.planet;
-  const double a = planet.equatorialRadiusMeters();
-  if (planet.isSphere()) {
-    const glm::dvec3 origin = (a + 0.0) * d;
-    return {origin, (a + 1.0) * d - origin};
-  }
-  const double b = planet.polarRadiusMeters();
-  const glm::dvec3 e(d.x / a, d.y / a, d.z / b);
-  const glm::dvec3 s = d * (1.0 / std::sqrt(glm::dot(e, e)));
-  const glm::dvec3 n = glm::normalize(glm::dvec3(s.x / (a * a), s.y / (a * a), s.z / (b * b)));
-  const glm::dvec3 origin = s + 0.0 * n;
-  return {origin, (s + 1.0 * n) - origin};
+  // latticeTerrainPoint at heights 0 and 1 from one TerrainLine (the same doubles; every patch
+  // vertex asks for its line, and the ellipsoid's point and normal are then made once).
+  const runtime::TerrainLine line(*g.planet, latticeDirectionOf(g.lattice->sideCells(), face, q));
+  const glm::dvec3 origin = line.at(0.0);
+  return {origin, line.at(1.0) - origin};
 }
 
 /// The height of the line's point closest to the segment a–b's line.

@@ -35,6 +35,26 @@ class LatticeRowDirections final {
   double planeV_;
 };
 
+/// The line of terrain points of one direction, h ↦ T(h): (R + h)·d on a sphere; on an
+/// ellipsoid S + h·n(S) with S = d / |(dx/a, dy/a, dz/b)| and n(S) ∝ (Sx/a², Sy/a², Sz/b²).
+/// Made once for a direction whose points at several heights are wanted (the builder's morph
+/// targets): `at` is terrainPointOfDirection's arithmetic, so the same doubles.
+class TerrainLine final {
+ public:
+  TerrainLine(const Planet& planet, const glm::dvec3& unitDirection) noexcept;
+  /// The terrain point at `heightMeters`.
+  glm::dvec3 at(double heightMeters) const noexcept {
+    return sphere_ ? (radius_ + heightMeters) * direction_ : surface_ + heightMeters * normal_;
+  }
+
+ private:
+  bool sphere_ = true;
+  double radius_ = 0.0;        // a sphere's
+  glm::dvec3 direction_{0.0};  // a sphere's
+  glm::dvec3 surface_{0.0};    // an ellipsoid's S
+  glm::dvec3 normal_{0.0};     // an ellipsoid's n(S)
+};
+
 /// The reference-surface point on the ray along `unitDirection` raised by `heightMeters` along
 /// the planet's surface normal there: (R + h)·d on a sphere; on an ellipsoid S + h·n(S) with
 /// S = d / |(dx/a, dy/a, dz/b)| and n(S) ∝ (Sx/a², Sy/a², Sz/b²), closed form (no trigonometry).
