@@ -3,22 +3,20 @@
 
 #include <unistd.h>
 
-#include <cstdio>
+#include <fstream>
 
 namespace pbdam::builder {
 
 std::optional<std::uint64_t> residentFileBytes() noexcept {
   // statm: size resident shared text lib data dt, in pages; "shared" is RssFile + RssShmem.
-  std::FILE* f = std::fopen("/proc/self/statm", "r");
-  if (f == nullptr) return std::nullopt;
-  unsigned long long size = 0;
-  unsigned long long resident = 0;
-  unsigned long long shared = 0;
-  const int read = std::fscanf(f, "%llu %llu %llu", &size, &resident, &shared);
-  std::fclose(f);
+  std::ifstream statm("/proc/self/statm");
+  std::uint64_t size = 0;
+  std::uint64_t resident = 0;
+  std::uint64_t shared = 0;
+  if (!(statm >> size >> resident >> shared)) return std::nullopt;
   const long page = ::sysconf(_SC_PAGESIZE);
-  if (read != 3 || page <= 0) return std::nullopt;
-  return static_cast<std::uint64_t>(shared) * static_cast<std::uint64_t>(page);
+  if (page <= 0) return std::nullopt;
+  return shared * static_cast<std::uint64_t>(page);
 }
 
 }  // namespace pbdam::builder
