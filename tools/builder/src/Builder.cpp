@@ -582,7 +582,8 @@ Result<BuildSummary> DatasetBuild::run(StageClock& clock) {
   }
 
   // RSS bound: mapped data (heights, samples, carry, checkpoint files) stays in the page cache,
-  // not in this process, beyond what its threads touched in the last quarter second.
+  // and in this process only up to the resident budget (beyond it, what its threads touched in
+  // the last quarter second).
   ResidentTrimmer trimmer(
       std::chrono::milliseconds(250), [this] { releaseResident(); }, o_.residentBudgetBytes);
 
