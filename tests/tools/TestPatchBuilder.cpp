@@ -105,6 +105,30 @@ struct DiamondLeaves final {
   std::array<std::array<const WorkPatch*, 2>, 2> children{};
 };
 
+/// Calls f(triangle, half) for both halves of every block of level 3 on a depth-4 lattice of 64
+/// cells, simplified from their leaves to 200 m with at least 40 triangles.
+template <class F>
+void forEachBlockHalf(const SampleGrid& grid, F&& f) {
+  const Lattice& lattice = grid.lattice();
+  for (const Diamond& d : diamondsOfLevel(lattice, 4, 3)) {
+    const std::array<BinTriangle, 2> tri = {triangleOfNode(lattice, d[0], 4),
+                                            triangleOfNode(lattice, d[1], 4)};
+    const DiamondLeaves kids(tri);
+    const BlockResult block =
+        simplifyBlock(grid, tri, kids.children, BlockTargets{200.0, 40, 65535});
+    f(tri[0], block.first);
+    f(tri[1], block.second);
+  }
+}
+
+/// Triangle k of `patch` alone (the same points).
+WorkPatch triangleAlone(const WorkPatch& patch, std::size_t k) {
+  WorkPatch one;
+  one.points = patch.points;
+  one.indices = {patch.indices[3 * k], patch.indices[3 * k + 1], patch.indices[3 * k + 2]};
+  return one;
+}
+
 TEST(PatchBuilder, MeasuredSampleErrorEqualsAScanOfEveryCandidate) {
   const HeightGrid dem = roughDem();
   const Lattice lattice(64);
@@ -197,32 +221,19 @@ TEST(PatchBuilder, AFewTrianglesMeasuredAloneHaveTheErrorsOfTheWholePatch) {
   // patch's in one binned walk over the samples under it: the two walks make the same visits,
   // so each triangle's sample error is the same double either way.
   const HeightGrid dem = roughDem();
-  const Lattice lattice(64);
   for (const std::uint32_t bucketCells : {1u, 4u}) {
-    const SampleGrid grid = SampleGrid::build(dem, Planet::mars(), lattice, bucketCells);
+    const SampleGrid grid = SampleGrid::build(dem, Planet::mars(), Lattice(64), bucketCells);
     int compared = 0;
-    for (const Diamond& d : diamondsOfLevel(lattice, 4, 3)) {
-      const std::array<BinTriangle, 2> tri = {triangleOfNode(lattice, d[0], 4),
-                                              triangleOfNode(lattice, d[1], 4)};
-      const DiamondLeaves kids(tri);
-      const BlockResult block =
-          simplifyBlock(grid, tri, kids.children, BlockTargets{200.0, 40, 65535});
-      const std::array<const WorkPatch*, 2> halves = {&block.first, &block.second};
-      for (std::size_t s = 0; s < 2; ++s) {
-        const WorkPatch& patch = *halves[s];
-        ASSERT_GE(patch.indices.size() / 3, 40u);
-        const MeasuredPatch whole = measurePatch(grid, tri[s], patch, 1.0 / 64.0);
-        for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
-          WorkPatch one;
-          one.points = patch.points;
-          one.indices = {patch.indices[k], patch.indices[k + 1], patch.indices[k + 2]};
-          const MeasuredPatch alone = measurePatch(grid, tri[s], one, 1.0 / 64.0);
-          ASSERT_EQ(alone.triangleSampleErrors.size(), 1u);
-          EXPECT_EQ(alone.triangleSampleErrors[0], whole.triangleSampleErrors[k / 3]);
-          ++compared;
-        }
+    forEachBlockHalf(grid, [&](const BinTriangle& t, const WorkPatch& patch) {
+      ASSERT_GE(patch.indices.size() / 3, 40u);
+      const MeasuredPatch whole = measurePatch(grid, t, patch, 1.0 / 64.0);
+      for (std::size_t k = 0; k < patch.indices.size() / 3; ++k) {
+        const MeasuredPatch alone = measurePatch(grid, t, triangleAlone(patch, k), 1.0 / 64.0);
+        ASSERT_EQ(alone.triangleSampleErrors.size(), 1u);
+        EXPECT_EQ(alone.triangleSampleErrors[0], whole.triangleSampleErrors[k]);
+        ++compared;
       }
-    }
+    });
     EXPECT_GT(compared, 1000);
   }
 }
@@ -231,34 +242,22 @@ TEST(PatchBuilder, SampleErrorAndSagAddPerTriangle) {
   // A point of a triangle is off by its sample error plus that triangle's own sag: the stored
   // error is the largest such sum, at most (and on rough data less than) the two maxima added.
   const HeightGrid dem = roughDem();
-  const Lattice lattice(64);
-  const SampleGrid grid = SampleGrid::build(dem, Planet::mars(), lattice, 1);
+  const SampleGrid grid = SampleGrid::build(dem, Planet::mars(), Lattice(64), 1);
   int tighter = 0;
-  for (const Diamond& d : diamondsOfLevel(lattice, 4, 3)) {
-    const std::array<BinTriangle, 2> tri = {triangleOfNode(lattice, d[0], 4),
-                                            triangleOfNode(lattice, d[1], 4)};
-    const DiamondLeaves kids(tri);
-    const BlockResult block =
-        simplifyBlock(grid, tri, kids.children, BlockTargets{200.0, 40, 65535});
-    const std::array<const WorkPatch*, 2> halves = {&block.first, &block.second};
-    for (std::size_t s = 0; s < 2; ++s) {
-      const WorkPatch& patch = *halves[s];
-      const MeasuredPatch m = measurePatch(grid, tri[s], patch, 1.0 / 64.0);
-      double worst = 0.0;
-      for (std::size_t k = 0; k < patch.indices.size(); k += 3) {
-        WorkPatch one;
-        one.points = patch.points;
-        one.indices = {patch.indices[k], patch.indices[k + 1], patch.indices[k + 2]};
-        const double sag = measurePatch(grid, tri[s], one, 1.0 / 64.0).chordErrorMeters;
-        worst = std::max(worst, sampleErrorByScan(grid, tri[s].face, one) + sag);
-      }
-      EXPECT_EQ(m.errorMeters, worst + m.representationErrorMeters);
-      const double sumOfMaxima =
-          m.sampleErrorMeters + m.chordErrorMeters + m.representationErrorMeters;
-      EXPECT_LE(m.errorMeters, sumOfMaxima);
-      if (m.errorMeters < sumOfMaxima) ++tighter;
+  forEachBlockHalf(grid, [&](const BinTriangle& t, const WorkPatch& patch) {
+    const MeasuredPatch m = measurePatch(grid, t, patch, 1.0 / 64.0);
+    double worst = 0.0;
+    for (std::size_t k = 0; k < patch.indices.size() / 3; ++k) {
+      const WorkPatch one = triangleAlone(patch, k);
+      const double sag = measurePatch(grid, t, one, 1.0 / 64.0).chordErrorMeters;
+      worst = std::max(worst, sampleErrorByScan(grid, t.face, one) + sag);
     }
-  }
+    EXPECT_EQ(m.errorMeters, worst + m.representationErrorMeters);
+    const double sumOfMaxima =
+        m.sampleErrorMeters + m.chordErrorMeters + m.representationErrorMeters;
+    EXPECT_LE(m.errorMeters, sumOfMaxima);
+    if (m.errorMeters < sumOfMaxima) ++tighter;
+  });
   EXPECT_GT(tighter, 0);
 }
 
