@@ -17,8 +17,8 @@ struct LatLonDegrees final {
 /// The sine and cosine of an angle in degrees, the angle reduced exactly first (multiples of 90°
 /// give exact values): what planetocentricToDirection takes of each angle.
 struct SinCosDegrees final {
-  double sin = 0.0;
-  double cos = 1.0;
+  double sin = 0.0;  ///< the angle's sine
+  double cos = 1.0;  ///< the angle's cosine
 };
 
 /// Returns the sine and cosine of `degrees` (finite) as planetocentricToDirection computes them.

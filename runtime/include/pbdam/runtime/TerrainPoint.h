@@ -41,6 +41,7 @@ class LatticeRowDirections final {
 /// targets): `at` is terrainPointOfDirection's arithmetic, so the same doubles.
 class TerrainLine final {
  public:
+  /// The line of `unitDirection` (unit length) on `planet`'s reference surface.
   TerrainLine(const Planet& planet, const glm::dvec3& unitDirection) noexcept;
   /// The terrain point at `heightMeters`.
   glm::dvec3 at(double heightMeters) const noexcept {
