@@ -6,9 +6,11 @@
 #include <cmath>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
+#include <optional>
 #include <utility>
 #include <vector>
 
+#include "LatticePlane.h"
 #include "pbdam/runtime/CubeMap.h"
 #include "pbdam/runtime/TerrainPoint.h"
 
@@ -24,29 +26,13 @@ std::int64_t orient(LatticeXY a, LatticeXY b, LatticeXY q) noexcept {
          (std::int64_t{b.y} - a.y) * (std::int64_t{q.x} - a.x);
 }
 
-/// runtime::latticeDirection with the plane coordinates of the lattice's lines from a table:
-/// the morph targets ask the direction of every vertex of every patch and of its coarser
-/// patches' corners, two tangents each, over a few thousand lines. The same operations on the
-/// same doubles, so the same bits; a point on the face's edge, which has aliases, takes the
-/// runtime's path.
+/// runtime::latticeDirection through a LatticePlane kept per thread: the morph targets ask the
+/// direction of every vertex of every patch and of its coarser patches' corners, two tangents
+/// each, over a few thousand lines.
 glm::dvec3 latticeDirectionOf(std::uint32_t cells, int face, LatticeXY q) {
-  if (q.x <= 0 || q.y <= 0 || std::cmp_greater_equal(q.x, cells) ||
-      std::cmp_greater_equal(q.y, cells)) {
-    return runtime::latticeDirection(cells, face, q);
-  }
-  thread_local std::uint32_t tableCells = 0;
-  thread_local std::vector<double> table;
-  if (tableCells != cells) {
-    table.resize(std::size_t{cells} + 1);
-    for (std::uint32_t v = 0; v <= cells; ++v) {
-      table[v] = runtime::CubeMap::uvToPlaneCoordinate(static_cast<double>(v) /
-                                                       static_cast<double>(cells));
-    }
-    tableCells = cells;
-  }
-  return runtime::CubeMap::planeToDirection(runtime::cubeFaceFromIndex(face),
-                                            table[static_cast<std::size_t>(q.x)],
-                                            table[static_cast<std::size_t>(q.y)]);
+  thread_local std::optional<LatticePlane> plane;
+  if (!plane || plane->sideCells() != cells) plane.emplace(cells);
+  return plane->direction(runtime::cubeFaceFromIndex(face), q.x, q.y);
 }
 
 /// The line of a lattice point's terrain points: T(h) = origin + h·normal.

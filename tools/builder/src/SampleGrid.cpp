@@ -4,6 +4,8 @@
 // process count.
 #include "pbdam/builder/SampleGrid.h"
 
+#include "LatticePlane.h"
+#include "SamplePlacement.h"
 #include "pbdam/builder/ResidentTrimmer.h"
 #include "pbdam/formats/FileWrite.h"
 #include "pbdam/formats/MemoryMapping.h"
@@ -49,31 +51,6 @@ Error ioError(const fs::path& path, const std::string& what) {
                    path.string() + ": " + what + " (" + std::strerror(errno) + ")");
 }
 
-/// The plane coordinates (tangents) of a lattice's columns and rows, computed once for every row
-/// that resampling asks for: LatticeRowDirections::at's directions, bit for bit, without a
-/// tangent at every point.
-class LatticePlane final {
- public:
-  explicit LatticePlane(std::uint32_t sideCells) : cells_(sideCells), plane_(sideCells + 1) {
-    for (std::uint32_t v = 0; v <= sideCells; ++v) {
-      plane_[v] =
-          CubeMap::uvToPlaneCoordinate(static_cast<double>(v) / static_cast<double>(sideCells));
-    }
-  }
-  /// latticeDirection(sideCells, face, {x, y}).
-  glm::dvec3 direction(CubeFace face, std::int32_t x, std::int32_t y) const noexcept {
-    // Points on a face edge take their canonical alias's direction (latticeDirection).
-    if (!inside(x) || !inside(y)) return latticeDirection(cells_, cubeFaceIndex(face), {x, y});
-    return CubeMap::planeToDirection(face, plane_[static_cast<std::size_t>(x)],
-                                     plane_[static_cast<std::size_t>(y)]);
-  }
-
- private:
-  bool inside(std::int32_t v) const noexcept { return v > 0 && std::cmp_less(v, cells_); }
-  std::uint32_t cells_;
-  std::vector<double> plane_;
-};
-
 /// Resamples one storage row into `out` (row.points heights); returns its no-data count.
 /// `heightAt(lat, lon)` is the surface's height there, or nullopt.
 template <typename HeightAt>
@@ -97,102 +74,6 @@ std::uint64_t resampleRow(const HeightAt& heightAt, const Planet& planet, const 
   }
   return missing;
 }
-
-/// Where a valid DEM sample goes: its face, its bucket (face-major global index) and itself.
-struct Placed {
-  std::uint32_t bucket = 0;  // UINT32_MAX: not a valid sample
-  SourceSample sample;
-};
-
-/// The DEM's height at (lat, lon): bicubic, bilinear where bicubic lacks data.
-struct DemHeightAt final {
-  const HeightGrid& dem;
-  std::optional<double> operator()(double lat, double lon) const noexcept {
-    auto h = dem.sampleBicubic(lat, lon);
-    if (!h) h = dem.sampleBilinear(lat, lon);
-    return h;
-  }
-};
-
-/// Places a sample of height `value` whose unit direction is `d` (see Placed).
-Placed placeDirection(const glm::dvec3& d, double n, std::uint32_t bucketCells,
-                      std::uint32_t bucketsPerSide, float value) {
-  Placed p;
-  const FaceUv fuv = CubeMap::directionToFaceUv(d);
-  // The bucket of the position, and the position from the bucket's corner in lattice cells
-  // (which the inside tests add back to the corner exactly): within [0, bucketCells] as stored.
-  const double last = static_cast<double>(bucketsPerSide - 1);
-  const double x = fuv.uv.x * n;
-  const double y = fuv.uv.y * n;
-  const double bx = std::clamp(std::floor(x / bucketCells), 0.0, last);
-  const double by = std::clamp(std::floor(y / bucketCells), 0.0, last);
-  const auto within = [bucketCells](double cells) {
-    return std::clamp(static_cast<float>(cells), 0.0f, static_cast<float>(bucketCells));
-  };
-  const SourceSample sample{within(x - bx * bucketCells), within(y - by * bucketCells), value};
-  const auto face = static_cast<std::uint32_t>(cubeFaceIndex(fuv.face));
-  p.bucket = (face * bucketsPerSide + static_cast<std::uint32_t>(by)) * bucketsPerSide +
-             static_cast<std::uint32_t>(bx);
-  p.sample = sample;
-  return p;
-}
-
-/// Places a sample of height `value` at (lat, lon) (see Placed).
-Placed placeAt(const Planet& planet, double n, std::uint32_t bucketCells,
-               std::uint32_t bucketsPerSide, double lat, double lon, float value) {
-  if (std::isnan(value) || lat < -90.0 || lat > 90.0) {
-    Placed none;
-    none.bucket = std::numeric_limits<std::uint32_t>::max();
-    return none;
-  }
-  return placeDirection(planet.geodeticToDirection(lat, lon), n, bucketCells, bucketsPerSide,
-                        value);
-}
-
-/// Places a DEM's samples a row at a time (see Placed), as placeAt does each at its row's
-/// latitude and column's longitude, bit for bit: the sines and cosines of the columns'
-/// longitudes are computed once for all rows, a row's latitude's once for the row.
-class DemPlacer final {
- public:
-  DemPlacer(const HeightGrid& dem, const Planet& planet, double n, std::uint32_t bucketCells,
-            std::uint32_t bucketsPerSide)
-      : dem_(dem), planet_(planet), n_(n), cells_(bucketCells), perSide_(bucketsPerSide) {
-    lon_.resize(static_cast<std::size_t>(dem.width()));
-    for (std::size_t col = 0; col < lon_.size(); ++col) {
-      lon_[col] = sinCosDegrees(dem.lonOfColumnDegrees(static_cast<std::int64_t>(col)));
-    }
-  }
-  /// Calls fn(col, placed) for every column of DEM row `row`, in order.
-  template <typename Fn>
-  void forEachInRow(std::size_t row, const Fn& fn) const {
-    const double lat = dem_.latOfRowDegrees(static_cast<std::int64_t>(row));
-    Placed none;
-    none.bucket = std::numeric_limits<std::uint32_t>::max();
-    if (lat < -90.0 || lat > 90.0) {
-      for (std::size_t col = 0; col < lon_.size(); ++col) fn(col, none);
-      return;
-    }
-    const SinCosDegrees sinCosLat = sinCosDegrees(lat);
-    const float* values = dem_.heightsMeters().data() + row * lon_.size();
-    for (std::size_t col = 0; col < lon_.size(); ++col) {
-      const float value = values[col];
-      if (std::isnan(value)) {
-        fn(col, none);
-      } else {
-        fn(col, placeDirection(planet_.geodeticToDirection(sinCosLat, lon_[col]), n_, cells_,
-                               perSide_, value));
-      }
-    }
-  }
-
- private:
-  const HeightGrid& dem_;
-  const Planet& planet_;
-  double n_;
-  std::uint32_t cells_;
-  std::uint32_t perSide_;
-  std::vector<SinCosDegrees> lon_;
-};
 
 /// A table's dense buckets (SampleGrid::subBucketsPerSide) and their sub-bucket offsets: chosen
 /// from the bucket counts, then each dense bucket's samples counted per sub-bucket (count(),
