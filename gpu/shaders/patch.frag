@@ -1,5 +1,6 @@
 // P-BDAM patch shading: the tile's texel (linear filtering; tiles carry a filtering border) lit
-// by a directional sun. The shading normal averages the interpolated corner normal N(w) with the
+// by a directional sun (behind the horizon of the reference surface, for the real sun, no direct
+// light: the terminator). The shading normal averages the interpolated corner normal N(w) with the
 // facet normal of the drawn triangles (screen-space derivatives of the camera-relative position),
 // so that the relief shows on imagery too. Ambient + Lambert diffuse; nothing view-dependent.
 // Where the texture quadtree steps, the texture morph blends the parent's coarser tile (set 2,
@@ -13,6 +14,7 @@ layout(push_constant) uniform PatchPush {
   mat4 viewProjection;
   vec4 sunAmbient;  // xyz: unit direction towards the sun (world), w: ambient term
   uint recordIndex;
+  float sunDisc;  // sine of the sun's angular radius; 0: a light with no horizon (the camera's)
 } pc;
 
 layout(set = 1, binding = 0) uniform sampler2DArray tiles;
@@ -44,7 +46,13 @@ void main() {
     shadingNormal = normalize(smoothNormal + (dot(f, smoothNormal) < 0.0 ? -f : f));
   }
   const float ambient = pc.sunAmbient.w;
-  const float diffuse = max(dot(shadingNormal, pc.sunAmbient.xyz), 0.0);
+  float diffuse = max(dot(shadingNormal, pc.sunAmbient.xyz), 0.0);
+  if (pc.sunDisc > 0.0) {
+    // The real sun sets: direct light is the share of its disc above the reference surface's
+    // horizon (the terminator; linear in the sine of its elevation across the disc).
+    diffuse *= clamp((dot(smoothNormal, pc.sunAmbient.xyz) + pc.sunDisc) / (2.0 * pc.sunDisc),
+                     0.0, 1.0);
+  }
   vec3 texel = texture(tiles, vec3(inTexCoord, inLayer)).rgb;
   // Derivatives outside the branch: its condition is per primitive, not per quad.
   const vec2 morphDx = dFdx(inMorphTexCoord);

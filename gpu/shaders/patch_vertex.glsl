@@ -8,6 +8,7 @@ layout(push_constant) uniform PatchPush {
   mat4 viewProjection;  // projection * viewRotation (camera-relative world -> clip)
   vec4 sunAmbient;      // xyz: unit direction towards the sun (world), w: ambient term
   uint recordIndex;     // this draw's PatchDrawRecord
+  float sunDisc;        // sine of the sun's angular radius; 0: a light with no horizon
 } pc;
 
 layout(location = 0) in uvec2 inBarycentric;

@@ -18,14 +18,15 @@ namespace pbdam::gpu {
 
 class VulkanContext;
 
-/// Mirrors `PatchPush` in patch.vert/patch.frag (std430 push constants, 84 bytes). The frame
+/// Mirrors `PatchPush` in patch.vert/patch.frag (std430 push constants, 88 bytes). The frame
 /// sets it once; recordIndex is pushed again before each draw.
 struct PatchPush final {
   float viewProjection[16];   ///< column-major projection · viewRotation
   float sunAmbient[4];        ///< xyz: unit direction towards the sun (ECEF axes), w: ambient
   std::uint32_t recordIndex;  ///< the draw's PatchDrawRecord in the records buffer
+  float sunDisc;              ///< sine of the sun's angular radius; 0: a light with no horizon
 };
-static_assert(sizeof(PatchPush) == 84);
+static_assert(sizeof(PatchPush) == 88);
 inline constexpr std::uint32_t kRecordIndexOffset = 80;
 static_assert(offsetof(PatchPush, recordIndex) == kRecordIndexOffset);
 

@@ -111,6 +111,9 @@ PatchPush patchPush(const Camera& camera, const FrameSettings& settings, DepthCo
   push.sunAmbient[1] = static_cast<float>(sun.y);
   push.sunAmbient[2] = static_cast<float>(sun.z);
   push.sunAmbient[3] = std::clamp(settings.ambient, 0.0f, 1.0f);
+  push.sunDisc = settings.sunDirectionEcef && settings.sunAngularRadiusRadians > 0.0f
+                     ? std::sin(std::min(settings.sunAngularRadiusRadians, 0.1f))
+                     : 0.0f;
   return push;
 }
 

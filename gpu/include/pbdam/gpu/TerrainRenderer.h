@@ -78,6 +78,11 @@ struct FrameSettings final {
   /// Unit direction towards the sun in planetocentric (ECEF) axes. Unset: a light from above
   /// and behind the camera's upper right, so that the visible side is lit (defaultSunDirection).
   std::optional<glm::dvec3> sunDirectionEcef;
+  /// With sunDirectionEcef, the sun's angular radius in radians (runtime::sunAngularRadiusRadians)
+  /// when that is the real sun: direct light is then the share of the sun's disc above the
+  /// reference surface's horizon, so the night side gets the ambient term alone. 0: a light with
+  /// no horizon (every surface facing it is lit).
+  float sunAngularRadiusRadians = 0.0f;
   /// Fraction of the texel colour that faces away from the sun keep (0..1).
   float ambient = 0.35f;
   /// Draped over the terrain when set.

@@ -1,0 +1,139 @@
+// The sun where it is: Mars and Earth rendered whole with no ambient light under the sun of an
+// instant, the boundary of direct light on the equator row found in the image, and its longitude
+// compared with the terminator of a published subsolar point — 90° east of it on the equator,
+// whatever the season. Published points: the two worked examples of Mars24 (NASA GISS) and the
+// first of them 6 h later (Mars turns 360° in a mean sol of 88,775.244 s; the equation of time
+// moves by hundredths of a degree in that time); for Earth, Meeus's equation of time on 1992
+// October 13.0 TD (Astronomical Algorithms, Example 28.b: E = +13m42.6s) at three times of that
+// day (E moves by 0.1 min in it). The image's sun comes from the runtime's ephemeris.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <glm/geometric.hpp>
+
+#include "GpuTestSupport.h"
+#include "TerrainTestSupport.h"
+#include "TestData.h"
+#include "pbdam/gpu/TerrainRenderer.h"
+#include "pbdam/runtime/Sun.h"
+
+using namespace pbdam::runtime;
+
+namespace pbdam::gpu {
+namespace {
+
+constexpr std::uint32_t kSize = 512;
+
+struct PublishedSun {
+  const char* dataset;
+  const char* utc;
+  double subsolarLonDegrees;  ///< east
+};
+
+/// Longitude 180° − 15°·UT − E of the sun over a UTC instant, E the equation of time in minutes.
+double lonFromEquationOfTime(double hoursUt, double equationOfTimeMinutes) {
+  return 180.0 - 15.0 * hoursUt - equationOfTimeMinutes / 4.0;
+}
+
+double wrap180(double degrees) {
+  double d = std::fmod(degrees + 180.0, 360.0);
+  if (d < 0.0) d += 360.0;
+  return d - 180.0;
+}
+
+class Sunlight : public test::GpuTest, public ::testing::WithParamInterface<PublishedSun> {};
+
+TEST_P(Sunlight, TheTerminatorOnTheEquatorIsNinetyDegreesFromThePublishedSubsolarPoint) {
+  const PublishedSun& published = GetParam();
+  PBDAM_REQUIRE_DATASET(dir, published.dataset);
+  auto dataset = test::openDataset(dir);
+  ASSERT_TRUE(dataset);
+  const DatasetView& view = dataset->view();
+  const Planet& planet = view.planet();
+  auto t = parseUtcTime(published.utc);
+  ASSERT_TRUE(t.ok()) << t.error().message;
+  auto subsolar = subsolarPoint(planet, *t);
+  ASSERT_TRUE(subsolar.ok()) << subsolar.error().message;
+  // The terminator's evening side crosses the equator 90° east of the subsolar point; the camera
+  // looks straight down on it from 2.2 radii, north up, so the day is on the left.
+  const double terminatorLon = wrap180(published.subsolarLonDegrees + 90.0);
+  const double radius = planet.equatorialRadiusMeters();
+  const Camera camera =
+      test::cameraAt(view, {0.0, terminatorLon, 2.2 * radius, 0.0, -90.0, 0.0}, kSize, kSize, 50.0);
+  TerrainRendererOptions options;
+  options.widthPixels = kSize;
+  options.heightPixels = kSize;
+  auto renderer = TerrainRenderer::create(context(), view, options);
+  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+  FrameSettings settings;
+  settings.ambient = 0.0f;
+  settings.sunDirectionEcef = sunDirectionEcef(planet, *subsolar);
+  settings.sunAngularRadiusRadians =
+      static_cast<float>(sunAngularRadiusRadians(subsolar->distanceAu));
+  auto frame = renderer->render(refine(view, camera, RefinementOptions{}), camera, settings);
+  ASSERT_TRUE(frame.ok()) << frame.error().message;
+
+  // The row through the equator: the one whose pixel centres lie closest to latitude 0.
+  const std::uint32_t row = kSize / 2;
+  double lastLitLon = -1000.0;
+  std::uint32_t planetPixels = 0;
+  std::uint32_t litPixels = 0;
+  std::uint32_t litFarOnTheDaySide = 0;
+  std::uint32_t farOnTheDaySide = 0;
+  for (std::uint32_t x = 0; x < kSize; ++x) {
+    const glm::dvec3 ray = test::pixelRay(camera, x, row);
+    const glm::dvec3 origin = camera.position();
+    // The reference surface along the ray (a sphere through the equator is exact on the
+    // equator row: the ellipsoid's equator is a circle of the equatorial radius).
+    const double b = glm::dot(origin, ray);
+    const double c = glm::dot(origin, origin) - radius * radius;
+    if (b * b - c < 0.0) continue;
+    const glm::dvec3 hit = origin + (-b - std::sqrt(b * b - c)) * ray;
+    const double lon = std::atan2(hit.y, hit.x) * 180.0 / M_PI;
+    const std::size_t i = (static_cast<std::size_t>(row) * kSize + x) * 4;
+    const auto& rgba = frame->image.rgba;
+    const bool lit = rgba[i] + rgba[i + 1] + rgba[i + 2] > 0;
+    ++planetPixels;
+    if (lit) {
+      ++litPixels;
+      lastLitLon = lon;
+    }
+    if (wrap180(lon - terminatorLon) < -10.0) {
+      ++farOnTheDaySide;
+      if (lit) ++litFarOnTheDaySide;
+    }
+  }
+  ASSERT_GT(planetPixels, kSize / 3);
+  ASSERT_GT(litPixels, 0u) << "no direct light on the equator row";
+  // More than 10° into the day, the sun is high enough that nearly all the surface is lit.
+  EXPECT_GT(litFarOnTheDaySide, farOnTheDaySide * 9 / 10);
+  EXPECT_LT(std::abs(wrap180(lastLitLon - terminatorLon)), 1.0)
+      << "the boundary of direct light is at longitude " << lastLitLon << "°, the terminator at "
+      << terminatorLon << "° (ephemeris' subsolar longitude " << subsolar->lonDegrees << "°)";
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    PublishedSubsolarPoints, Sunlight,
+    ::testing::Values(
+        // Mars24 examples A and B: subsolar longitudes 174.727° W and 4.706° W; A + 6 h is
+        // 6 · 3600 / 88775.244 · 360° = 87.60° further west.
+        PublishedSun{"mola", "2000-01-06T00:00:00Z", -174.727},
+        PublishedSun{"mola", "2004-01-03T13:46:31Z", -4.706},
+        PublishedSun{"mola", "2000-01-06T06:00:00Z", -174.727 - 87.60},
+        // Meeus: 1992 Oct 13.0 TD is 23:59:00.816 UT on Oct 12; E = +13.709 min.
+        PublishedSun{"earth", "1992-10-12T23:59:00.816Z",
+                     lonFromEquationOfTime(23.0 + 59.0 / 60.0 + 0.816 / 3600.0, 13.709)},
+        PublishedSun{"earth", "1992-10-13T07:59:00.816Z",
+                     lonFromEquationOfTime(7.0 + 59.0 / 60.0 + 0.816 / 3600.0, 13.709)},
+        PublishedSun{"earth", "1992-10-13T15:59:00.816Z",
+                     lonFromEquationOfTime(15.0 + 59.0 / 60.0 + 0.816 / 3600.0, 13.709)}),
+    [](const ::testing::TestParamInfo<PublishedSun>& param) {
+      std::string name = std::string(param.param.dataset) + "_" + param.param.utc;
+      for (char& c : name) {
+        if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+      }
+      return name;
+    });
+
+}  // namespace
+}  // namespace pbdam::gpu
