@@ -106,6 +106,13 @@ TEST(FlyControls, TogglesAndScreenshots) {
   EXPECT_EQ(c.screenshotsWanted, 2);
   c.press(FlyKey::V);
   EXPECT_TRUE(c.viewshed);
+  // [ and ] move the sun's time by an hour.
+  c.press(FlyKey::BracketRight);
+  c.press(FlyKey::BracketRight);
+  c.press(FlyKey::BracketLeft);
+  EXPECT_DOUBLE_EQ(c.sunHours, 1.0);
+  EXPECT_EQ(parseFlyKey("["), FlyKey::BracketLeft);
+  EXPECT_EQ(parseFlyKey("]"), FlyKey::BracketRight);
 }
 
 TEST(FlyScript, ParsesEveryActionAndNamesTheLineOfAnError) {
@@ -161,9 +168,11 @@ TEST(FlyCli, HelpListsTheOptions) {
   const auto run = runPbdam("fly --help");
   EXPECT_EQ(run.exitCode, 0) << run.err;
   for (const char* option :
-       {"--width", "--height", "--fullscreen", "--device", "--tolerance-px", "--morph", "--camera",
-        "--goto", "--gpu-cache-mib", "--present", "--record", "--replay", "--script",
-        "--exit-after-s", "--frames-in-flight", "--mode", "--prefetch"}) {
+       {"--width",  "--height",   "--fullscreen", "--device",        "--tolerance-px",
+        "--morph",  "--camera",   "--goto",       "--gpu-cache-mib", "--present",
+        "--record", "--replay",   "--script",     "--exit-after-s",  "--frames-in-flight",
+        "--mode",   "--prefetch", "--time",       "--sun",           "--time-scale",
+        "--ambient"}) {
     EXPECT_NE(run.out.find(option), std::string::npos) << option;
   }
 }
@@ -185,8 +194,9 @@ TEST(FlyCli, BadInputExitsTwoBeforeAnyWindow) {
                  "env -u DISPLAY -u WAYLAND_DISPLAY");
   EXPECT_EQ(run.exitCode, 2);
   EXPECT_NE(run.err.find("script.txt:2: times must not decrease"), std::string::npos) << run.err;
-  for (const char* options : {"--present vsync", "--frames-in-flight 0", "--width 5",
-                              "--mode sometimes", "--camera 95,0,1e6", "--goto north"}) {
+  for (const char* options :
+       {"--present vsync", "--frames-in-flight 0", "--width 5", "--mode sometimes",
+        "--camera 95,0,1e6", "--goto north", "--time 2024-13-01", "--sun 10,100"}) {
     run = runPbdam("fly " + ds + " " + options, "env -u DISPLAY -u WAYLAND_DISPLAY");
     EXPECT_EQ(run.exitCode, 2) << options;
     EXPECT_EQ(run.err.find("no display"), std::string::npos) << options << ": " << run.err;

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "TestData.h"
+#include "pbdam/formats/Image.h"
 
 namespace pbdam::tools {
 namespace {
@@ -161,6 +162,70 @@ TEST(RenderCli, CameraPathToFramesAndVideo) {
   EXPECT_TRUE(std::filesystem::exists(tmp / "bare_000002.png"));
   EXPECT_FALSE(std::filesystem::exists(tmp / "bare.mp4"));
   EXPECT_NE(bare.out.find("MP4 skipped"), std::string::npos) << bare.out;
+}
+
+/// The mean of R, G and B over a PNG's pixels.
+double meanBrightness(const std::filesystem::path& png) {
+  auto image = formats::readImage(png);
+  EXPECT_TRUE(image.ok()) << png;
+  if (!image.ok()) return 0.0;
+  double sum = 0.0;
+  const std::vector<std::uint8_t>& rgba = image->rgba();
+  for (std::size_t i = 0; i < rgba.size(); i += 4) sum += rgba[i] + rgba[i + 1] + rgba[i + 2];
+  return sum / static_cast<double>(rgba.size() / 4 * 3);
+}
+
+// --time lights Mars by the sun of that instant (Mars24's example B: the sun over 13.42°S,
+// 4.706°W): the hemisphere under it is lit, the one opposite gets the night's small ambient,
+// where the camera light lights whatever the camera sees. A fixed camera over the midnight
+// meridian with --time-scale half a sol per path second flies to noon. Bad times and a sun given
+// twice are refused.
+TEST(RenderCli, TheSunOfAnInstantLightsTheDayAndAPathFliesToNoon) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  test::TempDir tmp;
+  const std::string time = " --time 2004-01-03T13:46:31Z";
+  const auto render = [&](const std::string& camera, const std::string& light,
+                          const std::string& name) {
+    const CliRun run = runPbdam("render " + quoted(dir) + " --camera " + camera + light +
+                                " --out " + quoted(tmp / name) + kSmall);
+    EXPECT_EQ(run.exitCode, 0) << run.err;
+    return run;
+  };
+  const CliRun day = render("-13.42,-4.706,8e6", time, "day.png");
+  EXPECT_NE(day.out.find("sun over 13.42°S 4.71°W at 2004-01-03T13:46:31Z (Ls 327.3°)"),
+            std::string::npos)
+      << day.out;
+  render("13.42,175.294,8e6", time, "night.png");
+  render("13.42,175.294,8e6", "", "camera.png");
+  const double dayMean = meanBrightness(tmp / "day.png");
+  const double nightMean = meanBrightness(tmp / "night.png");
+  EXPECT_GT(nightMean, 0.0);  // the ambient term
+  EXPECT_GT(dayMean, 5.0 * nightMean);
+  EXPECT_GT(meanBrightness(tmp / "camera.png"), 5.0 * nightMean);
+
+  const auto path = tmp / "noon.csv";
+  {
+    std::ofstream out(path);
+    out << "t,lat,lon,alt,heading,pitch,roll\n0,0,175.294,8e6,0,-90,0\n1,0,175.294,8e6,0,-90,0\n";
+  }
+  const CliRun noon = runPbdam("render " + quoted(dir) + " --path " + quoted(path) + time +
+                                   " --time-scale 44387.622 --out " + quoted(tmp / "noon") + kSmall,
+                               "PATH=/nonexistent");
+  ASSERT_EQ(noon.exitCode, 0) << noon.err;
+  EXPECT_GT(meanBrightness(tmp / "noon_000001.png"), 5.0 * meanBrightness(tmp / "noon_000000.png"));
+
+  for (const auto& [args, message] : std::vector<std::pair<std::string, std::string>>{
+           {" --time 2004-02-30T00:00Z", "--time: time '2004-02-30T00:00Z': no such date"},
+           {" --time yesterday", "--time: time 'yesterday'"},
+           {time + " --sun 90,10", "--sun ('90,10') and --time"},
+           {" --sun 90,91", "--sun ('90,91'): expected camera or AZ,EL"},
+           {" --ambient 1.5", "--ambient must be in 0..1"}}) {
+    const CliRun bad = runPbdam("render " + quoted(dir) + " --camera 0,0,8e6" + args + " --out " +
+                                quoted(tmp / "bad.png") + kSmall);
+    EXPECT_EQ(bad.exitCode, 2) << args;
+    EXPECT_NE(bad.err.find(message), std::string::npos) << args << ": " << bad.err;
+    EXPECT_FALSE(std::filesystem::exists(tmp / "bad.png")) << args;
+  }
 }
 
 // A path drawn with 1, 2 and 3 frames in flight (frames encoded on writer threads): the same

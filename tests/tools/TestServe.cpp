@@ -266,6 +266,11 @@ TEST(Serve, FramesEqualPbdamRenderByteForByte) {
        "18.4,-133.9,60e3,30,-20,5 --fov-deg 50 --tolerance-px 2", "200 120"},
       {"lat=-10&lon=-70&alt=2e6&pitch=-60&width=173&height=97", "-10,-70,2e6,0,-60,0", "173 97"},
       {"lat=18.65&lon=226.2&alt=3e6&width=160&height=90", "18.65,226.2,3e6", "160 90"},
+      // The sun of an instant, and one placed over the view's target with an ambient term.
+      {"lat=-13.42&lon=-4.706&alt=8e6&width=160&height=90&time=2004-01-03T13:46:31Z",
+       "-13.42,-4.706,8e6 --time 2004-01-03T13:46:31Z", "160 90"},
+      {"lat=-10&lon=-70&alt=2e6&pitch=-60&width=173&height=97&sun=250,12&ambient=0.1",
+       "-10,-70,2e6,0,-60,0 --sun 250,12 --ambient 0.1", "173 97"},
   };
   int index = 0;
   for (const Case& c : cases) {
@@ -325,6 +330,11 @@ TEST(Serve, MalformedRequestsGet4xxWithJsonError) {
       "/frame?" + ok + "&quality=80",                           // quality without jpeg
       "/frame?" + ok + "&format=jpeg&quality=0",                // quality bounds
       "/frame?" + ok + "&colour=red",                           // unknown parameter
+      "/frame?" + ok + "&time=2024-02-30",                      // no such date
+      "/frame?" + ok + "&time=%01%02",                          // not printable
+      "/frame?" + ok + "&time=2024-01-01&sun=10,10",            // the sun given twice
+      "/frame?" + ok + "&sun=10,95",                            // elevation bounds
+      "/frame?" + ok + "&ambient=2",                            // ambient bounds
       "/frame?" + ok + "&lat=1",                                // repeated
       "/height",                                                // nothing
       "/height?lat=100&lon=0",                                  // out of range

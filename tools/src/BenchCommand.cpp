@@ -29,6 +29,7 @@
 
 #include "BenchReport.h"
 #include "Commands.h"
+#include "LightOption.h"
 #include "MorphOption.h"
 #include "Progress.h"
 #include "pbdam/formats/CameraPath.h"
@@ -72,6 +73,7 @@ struct BenchCliOptions {
   std::string device;
   bool quiet = false;
   MorphCliOptions morph;
+  LightCliOptions light;
   std::uint32_t framesInFlight = 2;
   std::string readback = "off";
   double memoryBudgetMiB = 0.0;
@@ -86,6 +88,7 @@ struct BenchModes final {
   CutSelection selection = CutSelection::Cpu;
   DrawList draws = DrawList::Readback;
   bool readback = false;  ///< --readback: pixels copied back for every frame
+  Light light;            ///< --time, --sun, --time-scale, --ambient
 };
 
 /// RMS and largest difference over every R, G and B value of two images of one size (0–255).
@@ -111,7 +114,8 @@ std::pair<double, double> imageDifference(const gpu::RgbaImage& a, const gpu::Rg
 /// keeps this frame's level of detail in `previous` for the next frame.
 Result<void> measurePopping(gpu::TerrainRenderer& renderer, const DatasetView& view,
                             const RefinementOptions& options, std::optional<Cut>& previous,
-                            const Camera& camera, const gpu::RgbaImage& image, BenchFrame& f) {
+                            const Camera& camera, const gpu::FrameSettings& settings,
+                            const gpu::RgbaImage& image, BenchFrame& f) {
   // For the next frame: this frame's level of detail, not culled. Culled against this frustum
   // it would lack what the next frame turns or moves into view, and the difference would count
   // those holes instead of the change of level of detail.
@@ -124,7 +128,7 @@ Result<void> measurePopping(gpu::TerrainRenderer& renderer, const DatasetView& v
     return {};
   }
   refreshMorph(view, camera, options, *previous);
-  auto before = renderer.render(*previous, camera);
+  auto before = renderer.render(*previous, camera, settings);
   if (!before) return before.error();
   const auto [rms, max] = imageDifference(image, before->image);
   f.poppingRms = rms;
@@ -321,6 +325,17 @@ struct PathReplay {
   std::uint64_t page = static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
   Clock::time_point runEnd{};          // the end of the last frame so far
   PrefetchUse* prefetchUse = nullptr;  // with prefetch on
+  Light light;                         // the frames' light
+  std::optional<Camera> lightTarget;   // the path's first camera: a placed sun stands over it
+
+  /// The light of frame i.
+  gpu::FrameSettings settingsOf(std::size_t i) {
+    if (!lightTarget) lightTarget = cameraOf(dataset.view(), path.front(), viewport);
+    gpu::FrameSettings settings;
+    settings.readback = run.readback;
+    applyLight(light, dataset.view().planet(), *lightTarget, path[i].tSeconds, settings);
+    return settings;
+  }
 
   Result<void> replay(Prefetcher* prefetcher) {
     const DatasetView& view = dataset.view();
@@ -370,16 +385,15 @@ struct PathReplay {
     f.triangles = cut.triangles;
     f.patches = cut.patches.size();
     if (deviceList) {
-      auto drawn = renderer.renderSelected(*source.selector(), camera, deviceSelection);
+      auto drawn =
+          renderer.renderSelected(*source.selector(), camera, deviceSelection, settingsOf(i));
       if (!drawn) return drawn.error();
       copyRenderStats(drawn->stats, f);
       f.gpuPoolBytes = drawn->stats.poolBytes;
       checkDeviceDraws(view, camera, refinement, drawn->stats, run);
       run.frames.push_back(f);
     } else {
-      gpu::FrameSettings output;
-      output.readback = run.readback;
-      if (auto submitted = terrain.submit(output); !submitted) return submitted.error();
+      if (auto submitted = terrain.submit(settingsOf(i)); !submitted) return submitted.error();
       run.frames.push_back(f);
       pending.push_back(i);
       while (pending.size() >= run.framesInFlight) {
@@ -420,8 +434,8 @@ struct PathReplay {
     // After the frame's own figures: the previous cut drawn with this camera, compared (one
     // frame in flight: this is the frame just submitted).
     const Camera camera = cameraOf(dataset.view(), path[f.frame], viewport);
-    return measurePopping(renderer, dataset.view(), refinement, previousCut, camera, drawn->image,
-                          f);
+    return measurePopping(renderer, dataset.view(), refinement, previousCut, camera,
+                          settingsOf(f.frame), drawn->image, f);
   }
 };
 
@@ -486,6 +500,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   run.baselineRssFileBytes = residentFileBytes();
   PathReplay replay(o, path, terrain, deviceSelection, run);
   if (prefetch) replay.prefetchUse = &prefetchUse;
+  replay.light = modes.light;
   if (auto r = replay.replay(terrain.prefetcher()); !r) return r.error();
   if (Prefetcher* prefetcher = terrain.prefetcher()) {
     terrain.stopPrefetcher();
@@ -523,6 +538,9 @@ int parseBenchModes(const BenchCliOptions& o, BenchModes& modes) {
   auto readback = parseOnOff("--readback", o.readback);
   if (!readback) return reportError(readback.error());
   modes.readback = *readback;
+  auto light = parseLight(o.light);
+  if (!light) return reportError(light.error());
+  modes.light = *light;
   modes.prefetch = *prefetch;
   modes.cutReuse = *cutReuse;
   modes.selection = *selection;
@@ -562,6 +580,9 @@ int runBench(const BenchCliOptions& o) {
   if (auto r = checkMorphOptions(o.morph, (*probe)->view(), true); !r)
     return reportError(r.error());
   modes.morph = parseRunChoice("--morph", o.morph.morph).value();  // checked just above
+  if (auto r = checkLightFor(modes.light, (*probe)->view().planet()); !r) {
+    return reportError(r.error());
+  }
   for (const CameraPathPoint& p : *path) {
     if (auto v = validateCameraPose({p.latDegrees, p.lonDegrees, p.altitudeMeters, p.headingDegrees,
                                      p.pitchDegrees, p.rollDegrees},
@@ -668,6 +689,7 @@ void addBenchCommand(CLI::App& app, CommandStatus& status) {
                   "on: copy every frame's pixels back to the host, as render and serve do; off: "
                   "the frame stays on the device (implied on by --popping)")
       ->capture_default_str();
+  addLightOptions(*cmd, o->light, true);
   cmd->add_flag("--quiet", o->quiet, "No per-frame progress");
   cmd->callback([o, &status] { status.exitCode = runBench(*o); });
 }

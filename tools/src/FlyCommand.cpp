@@ -33,6 +33,7 @@
 #include "FlyScriptDriver.h"
 #include "FrameImage.h"
 #include "FrameWriter.h"
+#include "LightOption.h"
 #include "MorphOption.h"
 #include "ViewshedOutput.h"
 #include "pbdam/formats/CameraPath.h"
@@ -72,6 +73,7 @@ struct FlyCliOptions {
   double tolerancePixels = 3.0;
   double fovDegrees = 60.0;
   MorphCliOptions morph;
+  LightCliOptions light;
   std::string camera;
   std::string goTo;
   double gpuCacheMiB = 256.0;
@@ -96,6 +98,7 @@ struct FlyModes final {
   bool prefetch = true;
   bool morph = true;
   gpu::PresentMode present = gpu::PresentMode::Fifo;
+  Light light;  ///< --time, --sun, --time-scale, --ambient; [ and ] move the time by an hour
 };
 
 int badInput(const std::string& message) {
@@ -139,6 +142,9 @@ int checkFlyOptions(const FlyCliOptions& c, FlyModes& modes) {
     return badInput("--present '" + c.present + "': expected fifo, mailbox or immediate");
   }
   modes.present = *present;
+  auto light = parseLight(c.light);
+  if (!light) return badInput(light.error().message);
+  modes.light = *light;
   auto mode = parseStreamingMode(c.mode);
   if (!mode) return badInput(mode.error().message);
   modes.mode = *mode;
@@ -239,6 +245,10 @@ std::optional<FlyKey> keyOf(int glfwKey) {
       return FlyKey::Escape;
     case GLFW_KEY_BACKSPACE:
       return FlyKey::Backspace;
+    case GLFW_KEY_LEFT_BRACKET:
+      return FlyKey::BracketLeft;
+    case GLFW_KEY_RIGHT_BRACKET:
+      return FlyKey::BracketRight;
     default:
       return std::nullopt;
   }
@@ -349,6 +359,8 @@ class FlySession final {
   std::size_t frames_ = 0;
   std::size_t shotsTaken_ = 0;
   bool viewshedOn_ = false;
+  std::optional<Camera> lightTarget_;  // the first frame's camera: a placed sun stands over it
+  std::string sunLine_;                // the light, for the HUD
   gpu::FrameSettings settings_;
   bool recreate_ = false;
 };
@@ -456,13 +468,15 @@ std::vector<std::string> FlySession::hudLines(const FlyControls& controls, doubl
                 p.pitchDegrees, controls.morph ? "on" : "off", toString(modes_.mode),
                 controls.viewshed ? "  viewshed" : "");
   lines.emplace_back(line);
+  if (!sunLine_.empty()) lines.push_back(sunLine_);
   if (controls.typing) lines.push_back("go to LAT,LON: " + controls.typed + "_");
   if (!controls.message.empty()) lines.push_back(controls.message);
   if (controls.help) {
     for (const char* help :
          {"W/S or up/down: forward/back   A/D: sideways", "left/right or drag: turn and look",
           "Q/E or wheel: height   R/F: pitch", "M: morph   V: viewshed below   P: screenshot",
-          "G: go to LAT,LON (Enter)   H: this display   F1: help"}) {
+          "G: go to LAT,LON (Enter)   H: this display   F1: help",
+          "[ ]: the sun's time an hour back / on (with --time)"}) {
       lines.emplace_back(help);
     }
   } else {
@@ -492,6 +506,12 @@ Result<void> FlySession::frame(FlyControls& controls, double t) {
   refinement.tolerancePixels = c_.tolerancePixels;
   refinement.morphRange = morphRangeOf(c_.morph, controls.morph);
   if (auto r = terrain_->setRefinement(refinement); !r) return r;
+
+  if (!lightTarget_) lightTarget_ = camera;
+  Light light = modes_.light;
+  light.unixSeconds += controls.sunHours * 3600.0;
+  applyLight(light, view_.planet(), *lightTarget_, t, settings_);
+  sunLine_ = describeLight(light, view_.planet(), *lightTarget_, t);
 
   const std::uint64_t faults0 = threadMajorFaults();
   const auto t0 = Clock::now();
@@ -714,6 +734,7 @@ int runFly(const FlyCliOptions& c) {
   const DatasetView& view = dataset->view();
   if (auto r = checkMorphOptions(c.morph, view, false); !r) return reportError(r.error());
   modes.morph = c.morph.morph == "on";
+  if (auto r = checkLightFor(modes.light, view.planet()); !r) return reportError(r.error());
   auto driver = FlyScriptDriver::load(c.script, c.replay);
   if (!driver) return reportError(driver.error());
   const Planet& planet = view.planet();
@@ -822,7 +843,8 @@ void addFlyCommand(CLI::App& app, CommandStatus& status) {
   auto o = std::make_shared<FlyCliOptions>();
   CLI::App* fly = app.add_subcommand(
       "fly",
-      "Fly over a dataset in a window: WASD/arrows, drag, wheel or Q/E, R/F, M, V, G, P, H, F1 "
+      "Fly over a dataset in a window: WASD/arrows, drag, wheel or Q/E, R/F, M, V, G, P, H, [ ], "
+      "F1 "
       "(F1 in the window lists them); record the flight as a camera path, replay one, or drive "
       "it with a script");
   fly->add_option("DIR", o->dir, "Dataset directory (pbdam build --out)")->required();
@@ -835,6 +857,7 @@ void addFlyCommand(CLI::App& app, CommandStatus& status) {
   fly->add_option("--fov-deg", o->fovDegrees, "Vertical field of view in degrees")
       ->capture_default_str();
   addMorphOptions(*fly, o->morph, false);
+  addLightOptions(*fly, o->light, true);
   fly->add_option("--camera", o->camera,
                   "Start pose LAT,LON,ALT[,HEADING,PITCH,ROLL] (default: the whole planet from "
                   "twice its radius)");

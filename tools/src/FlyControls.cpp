@@ -24,14 +24,30 @@ constexpr double kHeightFactorPerClick = 1.15;  // the wheel
 constexpr double kMinPitch = -90.0;
 constexpr double kMaxPitch = 30.0;
 
-constexpr std::array<std::pair<std::string_view, FlyKey>, 21> kKeyNames = {{
-    {"w", FlyKey::W},         {"a", FlyKey::A},           {"s", FlyKey::S},
-    {"d", FlyKey::D},         {"q", FlyKey::Q},           {"e", FlyKey::E},
-    {"r", FlyKey::R},         {"f", FlyKey::F},           {"up", FlyKey::Up},
-    {"down", FlyKey::Down},   {"left", FlyKey::Left},     {"right", FlyKey::Right},
-    {"m", FlyKey::M},         {"v", FlyKey::V},           {"h", FlyKey::H},
-    {"p", FlyKey::P},         {"g", FlyKey::G},           {"f1", FlyKey::F1},
-    {"enter", FlyKey::Enter}, {"escape", FlyKey::Escape}, {"backspace", FlyKey::Backspace},
+constexpr std::array<std::pair<std::string_view, FlyKey>, 23> kKeyNames = {{
+    {"w", FlyKey::W},
+    {"a", FlyKey::A},
+    {"s", FlyKey::S},
+    {"d", FlyKey::D},
+    {"q", FlyKey::Q},
+    {"e", FlyKey::E},
+    {"r", FlyKey::R},
+    {"f", FlyKey::F},
+    {"up", FlyKey::Up},
+    {"down", FlyKey::Down},
+    {"left", FlyKey::Left},
+    {"right", FlyKey::Right},
+    {"m", FlyKey::M},
+    {"v", FlyKey::V},
+    {"h", FlyKey::H},
+    {"p", FlyKey::P},
+    {"g", FlyKey::G},
+    {"f1", FlyKey::F1},
+    {"enter", FlyKey::Enter},
+    {"escape", FlyKey::Escape},
+    {"backspace", FlyKey::Backspace},
+    {"[", FlyKey::BracketLeft},
+    {"]", FlyKey::BracketRight},
 }};
 
 double wrapLongitude(double lon) { return std::remainder(lon, 360.0); }
@@ -147,6 +163,12 @@ void FlyControls::press(FlyKey key) {
       break;
     case FlyKey::P:
       ++screenshotsWanted;
+      break;
+    case FlyKey::BracketLeft:
+      sunHours -= 1.0;
+      break;
+    case FlyKey::BracketRight:
+      sunHours += 1.0;
       break;
     case FlyKey::G:
       typing = true;

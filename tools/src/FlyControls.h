@@ -43,9 +43,12 @@ enum class FlyKey {
   Enter,
   Escape,
   Backspace,
+  BracketLeft,   ///< the sun's time an hour back
+  BracketRight,  ///< the sun's time an hour on
 };
 
-/// "w", "up", "f1", "enter", "escape", "backspace"... (lower case); nullopt for other names.
+/// "w", "up", "f1", "enter", "escape", "backspace", "[", "]"... (lower case); nullopt for other
+/// names.
 std::optional<FlyKey> parseFlyKey(std::string_view name);
 
 /// The camera and the toggles, moved by input and time.
@@ -83,6 +86,8 @@ class FlyControls final {
   bool viewshed = false;
   bool hud = true;
   bool help = false;
+  /// Hours the sun's time is moved from --time's ([ and ]).
+  double sunHours = 0.0;
   /// Screenshots asked for and not yet taken (P).
   int screenshotsWanted = 0;
   /// G's place entry: active, the text so far, and the last message (a bad entry).

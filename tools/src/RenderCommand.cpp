@@ -26,6 +26,7 @@
 #include "FocusOption.h"
 #include "FrameImage.h"
 #include "FrameWriter.h"
+#include "LightOption.h"
 #include "MorphOption.h"
 #include "Progress.h"
 #include "ViewshedOutput.h"
@@ -74,12 +75,14 @@ struct RenderCliOptions {
   std::string viewshed;
   std::string selection = "cpu";
   std::uint32_t framesInFlight = 2;
+  LightCliOptions light;
 };
 
 /// The frame loop's modes, parsed from RenderCliOptions when the options are checked.
 struct RenderModes final {
   CutSelection selection = CutSelection::Cpu;
   bool morph = true;
+  Light light;
 };
 
 int badInput(const std::string& message) {
@@ -193,6 +196,9 @@ int checkRenderOptions(const RenderCliOptions& c, const Viewport& viewport,
   auto selection = parseCutSelection(c.selection);
   if (!selection) return badInput(selection.error().message);
   modes.selection = *selection;
+  auto light = parseLight(c.light);
+  if (!light) return reportError(light.error());
+  modes.light = *light;
   if (!std::isfinite(c.gpuCacheMiB) || c.gpuCacheMiB <= 0.0 || c.gpuCacheMiB > 1048576.0) {
     return badInput("--gpu-cache-mib (--gpu-cache-mb) must be a positive number of MiB");
   }
@@ -323,11 +329,18 @@ int renderFrames(const RenderCliOptions& c, const RenderModes& modes,
     frameLines.status(line, p.index + 1 == plan.jobs.size());
     return {};
   };
+  // A sun placed by azimuth and elevation stands over the first frame's target for the whole path.
+  const Camera first = Camera::fromPose(view.planet(), plan.jobs.front().pose, viewport);
+  if (const std::string sun = describeLight(modes.light, view.planet(), first, 0.0);
+      !sun.empty() && !c.quiet) {
+    std::printf("%s\n", sun.c_str());
+  }
   for (std::size_t i = 0; i < plan.jobs.size(); ++i) {
     const FrameJob& job = plan.jobs[i];
     const Camera camera = Camera::fromPose(view.planet(), job.pose, viewport);
     auto updated = t.update(camera);
     if (!updated) return reportError(updated.error());
+    applyLight(modes.light, view.planet(), first, job.tSeconds, frameSettings);
     if (auto r = t.submit(frameSettings); !r) return reportError(r.error());
     pending.push_back({i, (*updated)->traversalMs, (*updated)->morph});
     while (pending.size() >= t.renderer().framesInFlight() ||
@@ -376,6 +389,7 @@ int runRender(const RenderCliOptions& c) {
   const DatasetView& view = (*dataset)->view();
   if (auto r = checkMorphOptions(c.morph, view, false); !r) return reportError(r.error());
   modes.morph = parseOnOff("--morph", c.morph.morph).value();  // checked just above
+  if (auto r = checkLightFor(modes.light, view.planet()); !r) return reportError(r.error());
   RenderPlan plan;
   if (const int status = planFrames(c, view, plan); status != kExitOk) return status;
 
@@ -449,6 +463,7 @@ void addRenderCommand(CLI::App& app, CommandStatus& status) {
           "--frames-in-flight", o->framesInFlight,
           std::string(kFramesInFlightHelp) + "; frames are encoded and written on worker threads")
       ->capture_default_str();
+  addLightOptions(*render, o->light, true);
   render->add_flag("--quiet", o->quiet, "No per-frame lines on stdout");
   render->callback([o, &status] { status.exitCode = runRender(*o); });
 }

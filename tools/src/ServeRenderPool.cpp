@@ -260,6 +260,7 @@ void RenderPool::workerLoop(std::uint32_t index) {
       const double traversalMs = millisecondsBetween(start, Clock::now());
       gpu::FrameSettings settings;
       settings.overlay = r.overlay;
+      applyLight(r.light, terrain.view().planet(), camera, 0.0, settings);
       if (Result<void> submitted = terrain.submit(settings); !submitted) {
         finishJob(job, start, std::move(submitted).error());
         continue;

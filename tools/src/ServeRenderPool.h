@@ -17,6 +17,7 @@
 #include <thread>
 #include <vector>
 
+#include "LightOption.h"
 #include "pbdam/formats/Result.h"
 #include "pbdam/gpu/RgbaImage.h"
 #include "pbdam/gpu/Terrain.h"
@@ -34,6 +35,8 @@ struct FrameRequest final {
   double tolerancePixels = 3.0;
   double morphRange = 0.25;  ///< RefinementOptions::morphRange (0: no morph)
   std::shared_ptr<const gpu::SurfaceOverlay> overlay;  ///< draped over the terrain (a viewshed)
+  Light
+      light;  ///< time=, sun=, ambient= (LightOption.h); a placed sun stands over the view's target
 };
 
 /// A drawn frame and what it cost.

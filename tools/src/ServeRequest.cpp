@@ -107,9 +107,9 @@ Result<double> inRange(Result<double> v, const std::string& name, double lo, dou
 }  // namespace
 
 Result<FrameQuery> parseFrameQuery(const QueryParams& params, const Planet& planet) {
-  if (auto r =
-          checkNames(params, {"lat", "lon", "alt", "heading", "pitch", "roll", "width", "height",
-                              "fov", "tolerance", "format", "quality", "morph", "viewshed"});
+  if (auto r = checkNames(params, {"lat", "lon", "alt", "heading", "pitch", "roll", "width",
+                                   "height", "fov", "tolerance", "format", "quality", "morph",
+                                   "viewshed", "time", "sun", "ambient"});
       !r) {
     return std::move(r).error();
   }
@@ -153,6 +153,27 @@ Result<FrameQuery> parseFrameQuery(const QueryParams& params, const Planet& plan
     }
     q.morph = *morph == "on";
   }
+
+  std::optional<double> ambient;
+  if (params.count("ambient") != 0) {
+    auto a = number(params, "ambient", std::nullopt);
+    if (!a) return std::move(a).error();
+    ambient = *a;
+  }
+  const std::string time = value(params, "time").value_or("");
+  const std::string sun = value(params, "sun").value_or("");
+  for (const auto& [name, text] : {std::pair{"time", &time}, std::pair{"sun", &sun}}) {
+    if (shown(*text) != *text) {  // parseLight echoes what it refuses: printable text only
+      return invalidArgument(std::string("parameter '") + name + "': '" + shown(*text) +
+                             "' is not a " + (name == std::string("time") ? "time" : "sun"));
+    }
+  }
+  auto light = parseLight(time, sun, 1.0, ambient, false);
+  if (!light) return std::move(light).error();
+  if (auto r = checkLightFor(*light, planet); !r) {
+    return invalidArgument("parameter 'time': " + r.error().message);
+  }
+  q.request.light = *light;
 
   if (const std::optional<std::string> viewshed = value(params, "viewshed")) {
     auto spec = parseViewshedSpec("parameter 'viewshed'", shown(*viewshed));

@@ -1,0 +1,72 @@
+// `--time`, `--sun`, `--time-scale` and `--ambient`, shared by the commands users fly with
+// (render, bench, fly; serve takes them as the query parameters time=, sun=, ambient=): the light
+// of docs/architecture.md "Light" — a light over the camera's shoulder (the default), the real
+// sun of an instant (runtime/Sun.h), or a sun at an azimuth and elevation over the view's target.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "pbdam/formats/Result.h"
+#include "pbdam/gpu/TerrainRenderer.h"
+#include "pbdam/runtime/Camera.h"
+#include "pbdam/runtime/Planet.h"
+
+namespace pbdam::tools {
+
+struct LightCliOptions final {
+  std::string time;               ///< ISO 8601 UTC; empty: none
+  std::string sun;                ///< camera, or AZ,EL; empty: the sun of --time, else camera
+  double timeScale = 1.0;         ///< seconds of sun time per second of path time
+  std::optional<double> ambient;  ///< unset: kCameraLightAmbient or kSunlightAmbient
+};
+
+/// Adds the options to `cmd`; `withTimeScale`: --time-scale too (commands that replay a path).
+void addLightOptions(CLI::App& cmd, LightCliOptions& o, bool withTimeScale);
+
+/// The ambient term of the camera light (a light with no night side).
+inline constexpr float kCameraLightAmbient = 0.35f;
+/// The ambient term under the real sun: the night side's faint light.
+inline constexpr float kSunlightAmbient = 0.05f;
+
+/// What lights the frames.
+struct Light final {
+  enum class Kind { Camera, Ephemeris, Horizon };
+  Kind kind = Kind::Camera;
+  double unixSeconds = 0.0;       ///< Ephemeris: the instant of path time 0
+  double timeScale = 1.0;         ///< Ephemeris: seconds of sun time per second of path time
+  double azimuthDegrees = 0.0;    ///< Horizon: clockwise from north
+  double elevationDegrees = 0.0;  ///< Horizon: above the target's horizon
+  float ambient = kCameraLightAmbient;
+};
+
+/// The light of the option values, named as options ("--time") or, without `cliNames`, as query
+/// parameters ("parameter 'time'"): InvalidArgument
+/// naming the option for a malformed time, azimuth/elevation out of range, --sun AZ,EL with
+/// --time, --sun camera with --time, a time scale that is not finite, an ambient outside [0, 1].
+formats::Result<Light> parseLight(std::string_view time, std::string_view sun, double timeScale,
+                                  std::optional<double> ambient, bool cliNames = true);
+
+/// parseLight of the command-line options.
+formats::Result<Light> parseLight(const LightCliOptions& o);
+
+/// InvalidArgument when `light` needs an ephemeris `planet` has none of (the Moon, custom bodies).
+formats::Result<void> checkLightFor(const Light& light, const runtime::Planet& planet);
+
+/// The geodetic point the view looks at: where the centre ray meets the sphere of the equatorial
+/// radius, else the point beneath the camera. {lat, lon} in degrees.
+std::pair<double, double> viewTarget(const runtime::Planet& planet, const runtime::Camera& camera);
+
+/// Sets `settings`' sun and ambient for the frame at `pathSeconds`; `target`: the camera whose
+/// view's target a Horizon light stands over (a path's first camera, so the light stays put).
+void applyLight(const Light& light, const runtime::Planet& planet, const runtime::Camera& target,
+                double pathSeconds, gpu::FrameSettings& settings);
+
+/// One line describing the light at `pathSeconds` (e.g. "sun over 12.3°S 45.6°E at
+/// 2024-03-20T06:00:00Z, Ls 123.4°"); empty for the camera light.
+std::string describeLight(const Light& light, const runtime::Planet& planet,
+                          const runtime::Camera& target, double pathSeconds);
+
+}  // namespace pbdam::tools
