@@ -10,11 +10,14 @@
 // taken on the sphere of the surface's radius of curvature there.
 #version 450
 
+#include "atmosphere.glsl"
+
 layout(push_constant) uniform PatchPush {
   mat4 viewProjection;
   vec4 sunAmbient;  // xyz: unit direction towards the sun (world), w: ambient term
   uint recordIndex;
   float sunDisc;  // sine of the sun's angular radius; 0: a light with no horizon (the camera's)
+  vec4 camera;    // xyz: the camera, planet-centred (km); w: exposure (0: no atmosphere)
 } pc;
 
 layout(set = 1, binding = 0) uniform sampler2DArray tiles;
@@ -72,6 +75,25 @@ void main() {
     const vec2 uv = vec2(0.5) + vec2(metres.x, -metres.y) / (overlay.north.w * overlay.up.w);
     const vec4 cell = texture(overlayImage, uv);
     texel = mix(texel, cell.rgb, cell.a);
+  }
+  if (pc.camera.w > 0.0) {
+    // The atmosphere: the texel as albedo under the sun and the sky, seen through the air
+    // between the camera and the fragment (aerial perspective), then exposed and tone-mapped.
+    const vec3 point = pc.camera.xyz + toAtmosphereOffsetKm(inCameraRelative);
+    const vec3 sun = toAtmosphereDirection(pc.sunAmbient.xyz);
+    vec3 sunIrradiance;
+    vec3 skyIrradiance;
+    sunAndSkyIrradiance(point, toAtmosphereDirection(shadingNormal), sun, sunIrradiance,
+                        skyIrradiance);
+    const vec3 albedo = srgbToLinear(texel);
+    const float lit = max(dot(shadingNormal, pc.sunAmbient.xyz), 0.0);
+    vec3 radiance = albedo * (1.0 / kPi) * (sunIrradiance * lit + skyIrradiance);
+    vec3 transmittance;
+    const vec3 inScatter = skyRadianceToPoint(pc.camera.xyz, point, sun, transmittance);
+    radiance = radiance * transmittance + inScatter;
+    // The night side's faint light: at least the ambient share of the texel.
+    outColor = vec4(max(toneMap(radiance, pc.camera.w), texel * ambient), 1.0);
+    return;
   }
   outColor = vec4(texel * (ambient + (1.0 - ambient) * diffuse), 1.0);
 }

@@ -9,6 +9,7 @@ layout(push_constant) uniform PatchPush {
   vec4 sunAmbient;      // xyz: unit direction towards the sun (world), w: ambient term
   uint recordIndex;     // this draw's PatchDrawRecord
   float sunDisc;        // sine of the sun's angular radius; 0: a light with no horizon
+  vec4 camera;          // xyz: the camera, planet-centred (km); w: exposure (0: no atmosphere)
 } pc;
 
 layout(location = 0) in uvec2 inBarycentric;

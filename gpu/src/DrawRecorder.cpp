@@ -1,9 +1,16 @@
 // One pass's render pass and per-patch draws (DrawRecorder.h; [P-BDAM 2003] §4.2).
 #include "DrawRecorder.h"
 
+#include <algorithm>
+#include <cstring>
 #include <limits>
 
 namespace pbdam::gpu {
+
+void recordSky(VkCommandBuffer cmd, const PatchPipeline& pipeline) {
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.skyPipeline());
+  vkCmdDraw(cmd, 3, 1, 0, 0);
+}
 
 void DrawRecorder::record(VkCommandBuffer cmd, const OffscreenTarget& target,
                           const PassPlacement& placement, std::span<const std::byte> push,
@@ -11,6 +18,18 @@ void DrawRecorder::record(VkCommandBuffer cmd, const OffscreenTarget& target,
   if (placement.first) {
     target.recordBeginRendering(cmd, placement.clearRgba, OffscreenTarget::kFarDepth,
                                 !placement.last);
+    PatchPush values{};
+    std::memcpy(&values, push.data(), std::min(push.size(), sizeof values));
+    if (values.camera[3] > 0.0f) {
+      // The sky first, behind everything: the frame has the atmosphere.
+      const PatchPipeline& pipeline = *pipeline_;
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 4, 1,
+                              &atmosphereSet_, 0, nullptr);
+      vkCmdPushConstants(cmd, pipeline.layout(),
+                         VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
+                         static_cast<std::uint32_t>(push.size()), push.data());
+      recordSky(cmd, pipeline);
+    }
   } else {
     target.recordResumeRendering(cmd, !placement.last);
   }
@@ -41,6 +60,8 @@ void DrawRecorder::recordBindingsAndDraws(VkCommandBuffer cmd, VkPipeline boundP
                           &recordsSet_, 0, nullptr);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 3, 1,
                           &overlaySet_, 0, nullptr);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 4, 1,
+                          &atmosphereSet_, 0, nullptr);
   vkCmdPushConstants(cmd, pipeline.layout(), kStages, 0, static_cast<std::uint32_t>(push.size()),
                      push.data());
   std::uint32_t boundChunk = std::numeric_limits<std::uint32_t>::max();

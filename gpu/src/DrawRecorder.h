@@ -32,16 +32,23 @@ struct PassPlacement final {
   std::array<float, 4> clearRgba{0.0f, 0.0f, 0.0f, 1.0f};
 };
 
+/// The sky (PatchPipeline::skyPipeline): one triangle over the viewport, inside rendering begun
+/// by the caller with the patch layout's sets and push constants bound (the atmosphere's set 4
+/// and a PatchPush whose camera.w is the exposure).
+void recordSky(VkCommandBuffer cmd, const PatchPipeline& pipeline);
+
 class DrawRecorder final {
  public:
   /// Everything referenced must outlive the recorder and the command buffers it records.
   DrawRecorder(const PatchPipeline& pipeline, const PatchPool& patches, const TilePool& tiles,
-               VkDescriptorSet recordsSet, VkDescriptorSet overlaySet) noexcept
+               VkDescriptorSet recordsSet, VkDescriptorSet overlaySet,
+               VkDescriptorSet atmosphereSet) noexcept
       : pipeline_(&pipeline),
         patches_(&patches),
         tiles_(&tiles),
         recordsSet_(recordsSet),
-        overlaySet_(overlaySet) {}
+        overlaySet_(overlaySet),
+        atmosphereSet_(atmosphereSet) {}
 
   /// Records begin (or resume) rendering into `target`, the draws of `items` in order with
   /// `push` (PatchPush bytes), and the end of rendering.
@@ -66,6 +73,7 @@ class DrawRecorder final {
   const TilePool* tiles_;
   VkDescriptorSet recordsSet_;
   VkDescriptorSet overlaySet_;
+  VkDescriptorSet atmosphereSet_;
 };
 
 }  // namespace pbdam::gpu

@@ -102,7 +102,7 @@ Result<HostFrame> TerrainRenderer::drawInto(VkCommandBuffer cmd, const HostPass&
   if (Result<void> r = m.prepareSlot(slot, cut, camera, settings); !r) {
     return std::move(r).error();
   }
-  const PatchPush push = patchPush(camera, settings, pass.depth);
+  const PatchPush push = patchPush(camera, settings, *m.atmosphere, pass.depth);
   const PassInput in{cut,
                      nodes,
                      0,

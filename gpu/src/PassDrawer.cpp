@@ -126,7 +126,7 @@ Result<void> PassDrawer::drawIntoHost(VkCommandBuffer hostCmd, VkPipeline pipeli
     slot_.pins = lease.keepPins();
   }
   const DrawRecorder recorder(m_.shared->pipeline, m_.shared->patches, m_.shared->tiles,
-                              slot_.recordsSet, slot_.overlay->set());
+                              slot_.recordsSet, slot_.overlay->set(), m_.atmosphere->set());
   const runtime::Viewport& viewport = in_.camera.viewport();
   recorder.recordDraws(hostCmd, pipeline, viewport.width, viewport.height, in_.push, work_.draws);
   countUploads();
@@ -239,7 +239,7 @@ Result<void> PassDrawer::record(bool readback, const PresentTarget* present) {
   VkQueryPool timestamps = m_.queries.get();
   const std::uint32_t q = slot_.firstQuery;
   const DrawRecorder recorder(m_.shared->pipeline, m_.shared->patches, m_.shared->tiles,
-                              slot_.recordsSet, slot_.overlay->set());
+                              slot_.recordsSet, slot_.overlay->set(), m_.atmosphere->set());
   recorded = recordCommands(
       slot_.commands[FrameSlot::kDrawCommands], "terrain frame", [&](VkCommandBuffer cmd) {
         if (timestamps != VK_NULL_HANDLE) {

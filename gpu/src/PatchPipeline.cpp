@@ -28,6 +28,12 @@ const uint32_t kPatchIndirectVert[] =
 const uint32_t kPatchFrag[] =
 #include "patch.frag.inc"
     ;
+const uint32_t kSkyVert[] =
+#include "sky.vert.inc"
+    ;
+const uint32_t kSkyFrag[] =
+#include "sky.frag.inc"
+    ;
 
 Result<UniqueDescriptorSetLayout> createSetLayout(VkDevice device, VkDescriptorType type,
                                                   VkShaderStageFlags stages, const char* what) {
@@ -90,10 +96,33 @@ Result<UniqueDescriptorSetLayout> createOverlaySetLayout(VkDevice device) {
   return UniqueDescriptorSetLayout(device, raw);
 }
 
-/// The pipeline layout: the four descriptor sets (records, the patch's tile page, the page of
-/// the coarser tile it blends in, the surface overlay) and the per-draw push constants.
+/// Set 4: the atmosphere's tables (transmittance, scattering, single Mie scattering, irradiance)
+/// and its uniform block, all read by the fragment shaders.
+Result<UniqueDescriptorSetLayout> createAtmosphereSetLayout(VkDevice device) {
+  std::array<VkDescriptorSetLayoutBinding, 5> bindings{};
+  for (std::uint32_t i = 0; i < bindings.size(); ++i) {
+    bindings[i].binding = i;
+    bindings[i].descriptorType =
+        i < 4 ? VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER : VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+    bindings[i].descriptorCount = 1;
+    bindings[i].stageFlags = VK_SHADER_STAGE_FRAGMENT_BIT;
+  }
+  VkDescriptorSetLayoutCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
+  info.bindingCount = static_cast<std::uint32_t>(bindings.size());
+  info.pBindings = bindings.data();
+  VkDescriptorSetLayout raw = VK_NULL_HANDLE;
+  if (VkResult r = vkCreateDescriptorSetLayout(device, &info, nullptr, &raw); r != VK_SUCCESS) {
+    return vulkanError(r, "vkCreateDescriptorSetLayout (atmosphere)");
+  }
+  return UniqueDescriptorSetLayout(device, raw);
+}
+
+/// The pipeline layout: the five descriptor sets (records, the patch's tile page, the page of
+/// the coarser tile it blends in, the surface overlay, the atmosphere) and the per-draw push
+/// constants.
 Result<UniquePipelineLayout> createPatchLayout(
-    VkDevice device, const std::array<VkDescriptorSetLayout, 4>& setLayouts) {
+    VkDevice device, const std::array<VkDescriptorSetLayout, 5>& setLayouts) {
   VkPushConstantRange range{};
   range.stageFlags = VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
   range.offset = 0;
@@ -227,6 +256,86 @@ Result<UniquePipeline> createPatchGraphicsPipeline(VkDevice device, VkPipelineLa
   return UniquePipeline(device, rawPipeline);
 }
 
+/// The sky's pipeline: one triangle over the viewport (sky.vert, sky.frag), no vertex input, no
+/// culling, no depth test or write, for the pass's attachments and the patch layout.
+Result<UniquePipeline> createSkyPipeline(VkDevice device, VkPipelineLayout layout,
+                                         const HostPass& pass) {
+  Result<UniqueShaderModule> vert = createShaderModule(device, kSkyVert, "sky.vert");
+  if (!vert) return std::move(vert).error();
+  Result<UniqueShaderModule> frag = createShaderModule(device, kSkyFrag, "sky.frag");
+  if (!frag) return std::move(frag).error();
+  std::array<VkPipelineShaderStageCreateInfo, 2> stages{};
+  stages[0].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+  stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
+  stages[0].module = vert->get();
+  stages[0].pName = "main";
+  stages[1].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+  stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
+  stages[1].module = frag->get();
+  stages[1].pName = "main";
+  VkPipelineVertexInputStateCreateInfo vertexInput{};
+  vertexInput.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO;
+  VkPipelineInputAssemblyStateCreateInfo inputAssembly{};
+  inputAssembly.sType = VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO;
+  inputAssembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+  VkPipelineViewportStateCreateInfo viewport{};
+  viewport.sType = VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO;
+  viewport.viewportCount = 1;
+  viewport.scissorCount = 1;
+  VkPipelineRasterizationStateCreateInfo raster{};
+  raster.sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO;
+  raster.polygonMode = VK_POLYGON_MODE_FILL;
+  raster.cullMode = VK_CULL_MODE_NONE;
+  raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+  raster.lineWidth = 1.0f;
+  VkPipelineMultisampleStateCreateInfo multisample{};
+  multisample.sType = VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO;
+  multisample.rasterizationSamples = pass.samples;
+  VkPipelineDepthStencilStateCreateInfo depth{};
+  depth.sType = VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO;
+  VkPipelineColorBlendAttachmentState blendAttachment{};
+  blendAttachment.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
+                                   VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
+  VkPipelineColorBlendStateCreateInfo blend{};
+  blend.sType = VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO;
+  blend.attachmentCount = 1;
+  blend.pAttachments = &blendAttachment;
+  const std::array<VkDynamicState, 2> dynamicStates = {VK_DYNAMIC_STATE_VIEWPORT,
+                                                       VK_DYNAMIC_STATE_SCISSOR};
+  VkPipelineDynamicStateCreateInfo dynamic{};
+  dynamic.sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO;
+  dynamic.dynamicStateCount = static_cast<uint32_t>(dynamicStates.size());
+  dynamic.pDynamicStates = dynamicStates.data();
+  VkPipelineRenderingCreateInfo rendering{};
+  rendering.sType = VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO;
+  rendering.colorAttachmentCount = 1;
+  rendering.pColorAttachmentFormats = &pass.colorFormat;
+  rendering.depthAttachmentFormat = pass.depthFormat;
+  VkGraphicsPipelineCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO;
+  info.pNext = pass.renderPass == VK_NULL_HANDLE ? &rendering : nullptr;
+  info.renderPass = pass.renderPass;
+  info.subpass = pass.subpass;
+  info.stageCount = static_cast<uint32_t>(stages.size());
+  info.pStages = stages.data();
+  info.pVertexInputState = &vertexInput;
+  info.pInputAssemblyState = &inputAssembly;
+  info.pViewportState = &viewport;
+  info.pRasterizationState = &raster;
+  info.pMultisampleState = &multisample;
+  info.pDepthStencilState = &depth;
+  info.pColorBlendState = &blend;
+  info.pDynamicState = &dynamic;
+  info.layout = layout;
+  VkPipeline rawPipeline = VK_NULL_HANDLE;
+  if (VkResult r =
+          vkCreateGraphicsPipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &rawPipeline);
+      r != VK_SUCCESS) {
+    return vulkanError(r, "vkCreateGraphicsPipelines (sky)");
+  }
+  return UniquePipeline(device, rawPipeline);
+}
+
 }  // namespace
 
 Result<PatchPipeline> PatchPipeline::create(const VulkanContext& context, VkFormat colorFormat,
@@ -257,9 +366,13 @@ Result<PatchPipeline> PatchPipeline::create(const VulkanContext& context, VkForm
                     VK_BORDER_COLOR_FLOAT_TRANSPARENT_BLACK, "surface overlay");
   if (!overlaySampler) return std::move(overlaySampler).error();
   result.overlaySampler_ = std::move(*overlaySampler);
+  auto atmosphereLayout = createAtmosphereSetLayout(device);
+  if (!atmosphereLayout) return std::move(atmosphereLayout).error();
+  result.atmosphereSetLayout_ = std::move(*atmosphereLayout);
   auto layout =
       createPatchLayout(device, {result.recordsSetLayout_.get(), result.tilesSetLayout_.get(),
-                                 result.tilesSetLayout_.get(), result.overlaySetLayout_.get()});
+                                 result.tilesSetLayout_.get(), result.overlaySetLayout_.get(),
+                                 result.atmosphereSetLayout_.get()});
   if (!layout) return std::move(layout).error();
   result.layout_ = std::move(*layout);
   HostPass own;
@@ -269,6 +382,9 @@ Result<PatchPipeline> PatchPipeline::create(const VulkanContext& context, VkForm
       createPatchGraphicsPipeline(device, result.layout_.get(), own, kPatchVert, "patch.vert");
   if (!pipeline) return std::move(pipeline).error();
   result.pipeline_ = std::move(*pipeline);
+  auto sky = createSkyPipeline(device, result.layout_.get(), own);
+  if (!sky) return std::move(sky).error();
+  result.skyPipeline_ = std::move(*sky);
   const DeviceCaps& caps = context.caps();
   if (caps.shaderDrawParameters && caps.drawIndirectCount && caps.multiDrawIndirect) {
     auto indirect = createPatchGraphicsPipeline(device, result.layout_.get(), own,

@@ -18,15 +18,18 @@ namespace pbdam::gpu {
 
 class VulkanContext;
 
-/// Mirrors `PatchPush` in patch.vert/patch.frag (std430 push constants, 88 bytes). The frame
+/// Mirrors `PatchPush` in patch.vert/patch.frag (std430 push constants, 112 bytes). The frame
 /// sets it once; recordIndex is pushed again before each draw.
 struct PatchPush final {
   float viewProjection[16];   ///< column-major projection · viewRotation
   float sunAmbient[4];        ///< xyz: unit direction towards the sun (ECEF axes), w: ambient
   std::uint32_t recordIndex;  ///< the draw's PatchDrawRecord in the records buffer
   float sunDisc;              ///< sine of the sun's angular radius; 0: a light with no horizon
+  float pad[2];               ///< std430: the vec4 below starts at 96
+  float camera[4];  ///< xyz: the camera, planet-centred (km); w: exposure (0: no atmosphere)
 };
-static_assert(sizeof(PatchPush) == 88);
+static_assert(sizeof(PatchPush) == 112);
+static_assert(offsetof(PatchPush, camera) == 96);
 inline constexpr std::uint32_t kRecordIndexOffset = 80;
 static_assert(offsetof(PatchPush, recordIndex) == kRecordIndexOffset);
 
@@ -61,6 +64,10 @@ class PatchPipeline final {
   VkDescriptorSetLayout overlaySetLayout() const noexcept { return overlaySetLayout_.get(); }
   /// Nearest, transparent black outside the image.
   VkSampler overlaySampler() const noexcept { return overlaySampler_.get(); }
+  /// Set 4: the atmosphere (bindings 0–3: its tables, binding 4: its uniform block).
+  VkDescriptorSetLayout atmosphereSetLayout() const noexcept { return atmosphereSetLayout_.get(); }
+  /// The sky behind the terrain (sky.vert, sky.frag) for this pipeline's attachments and layout.
+  VkPipeline skyPipeline() const noexcept { return skyPipeline_.get(); }
 
  private:
   UniqueDescriptorSetLayout recordsSetLayout_;
@@ -68,7 +75,9 @@ class PatchPipeline final {
   UniqueSampler sampler_;
   UniqueDescriptorSetLayout overlaySetLayout_;
   UniqueSampler overlaySampler_;
+  UniqueDescriptorSetLayout atmosphereSetLayout_;
   UniquePipelineLayout layout_;
+  UniquePipeline skyPipeline_;
   UniquePipeline pipeline_;
   UniquePipeline indirectPipeline_;
 };

@@ -9,6 +9,7 @@
 #include <unordered_set>
 #include <vector>
 
+#include "DrawRecorder.h"
 #include "GpuCacheState.h"
 #include "TerrainRendererImpl.h"
 #include "pbdam/gpu/GpuSelector.h"
@@ -95,7 +96,7 @@ Result<void> TerrainRenderer::Impl::recordSelectedFrame(FrameSlot& slot, GpuSele
                                                         const Camera& camera,
                                                         const SelectionOptions& selection,
                                                         const FrameSettings& settings) {
-  const PatchPush push = patchPush(camera, settings);
+  const PatchPush push = patchPush(camera, settings, *atmosphere);
   const std::array<float, 4> clear = clearColour(settings);
   VkQueryPool timestamps = queries.get();
   const std::uint32_t q = slot.firstQuery;
@@ -116,15 +117,16 @@ Result<void> TerrainRenderer::Impl::recordSelectedFrame(FrameSlot& slot, GpuSele
         }
         target.recordBeginRendering(cmd, clear, OffscreenTarget::kFarDepth, false);
         const PatchPipeline& pipeline = shared->pipeline;
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.indirectPipeline());
         VkDescriptorSet page = shared->tiles.descriptorSet(0);
-        const std::array<VkDescriptorSet, 4> sets = {deviceRecordsSet, page, page,
-                                                     slot.overlay->set()};
+        const std::array<VkDescriptorSet, 5> sets = {deviceRecordsSet, page, page,
+                                                     slot.overlay->set(), atmosphere->set()};
         vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 0,
                                 static_cast<std::uint32_t>(sets.size()), sets.data(), 0, nullptr);
         vkCmdPushConstants(cmd, pipeline.layout(),
                            VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
                            sizeof push, &push);
+        if (push.camera[3] > 0.0f) recordSky(cmd, pipeline);
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.indirectPipeline());
         VkBuffer vertexBuffer = shared->patches.vertexBuffer(0);
         const VkDeviceSize zero = 0;
         vkCmdBindVertexBuffers(cmd, 0, 1, &vertexBuffer, &zero);

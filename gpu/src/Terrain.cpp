@@ -111,6 +111,7 @@ Result<void> Terrain::start() {
   rendererOptions.gpuCacheBytes = gpuCacheBytes;
   rendererOptions.sharedCache = o.sharedCache;
   rendererOptions.warnWhenBudgetExceeded = o.warnWhenBudgetExceeded;
+  rendererOptions.atmosphere = o.atmosphere;
   if (o.sharedCache) gpuCacheBytes = o.sharedCache->budgetBytes();
   gpuCacheBytes_ = gpuCacheBytes;
   rendererOptions.framesInFlight = o.framesInFlight;

@@ -96,7 +96,8 @@ void bindRecords(VkDevice device, VkDescriptorSet set, VkBuffer buffer) {
   vkUpdateDescriptorSets(device, 1, &write, 0, nullptr);
 }
 
-PatchPush patchPush(const Camera& camera, const FrameSettings& settings, DepthConvention depth) {
+PatchPush patchPush(const Camera& camera, const FrameSettings& settings,
+                    const AtmosphereBinding& atmosphere, DepthConvention depth) {
   PatchPush push{};
   // Reversed-Z: the float product the offscreen frames have always used (byte-identical).
   const glm::mat4 viewProjection =
@@ -114,6 +115,13 @@ PatchPush patchPush(const Camera& camera, const FrameSettings& settings, DepthCo
   push.sunDisc = settings.sunDirectionEcef && settings.sunAngularRadiusRadians > 0.0f
                      ? std::sin(std::min(settings.sunAngularRadiusRadians, 0.1f))
                      : 0.0f;
+  if (atmosphere.present() && settings.atmosphereExposure > 0.0f) {
+    const glm::dvec3 at = atmosphere.toAtmosphere(camera.position());
+    push.camera[0] = static_cast<float>(at.x);
+    push.camera[1] = static_cast<float>(at.y);
+    push.camera[2] = static_cast<float>(at.z);
+    push.camera[3] = settings.atmosphereExposure;
+  }
   return push;
 }
 
@@ -391,6 +399,10 @@ Result<TerrainRenderer> TerrainRenderer::create(VulkanContext& context, const Da
   auto probe = OffscreenTarget::create(context, options.widthPixels, options.heightPixels);
   if (!probe) return std::move(probe).error();
   impl->decoder.emplace(dataset, impl->shared->texture.texels);
+  auto atmosphere = AtmosphereBinding::create(context, impl->shared->pipeline, options.atmosphere,
+                                              dataset.planet());
+  if (!atmosphere) return std::move(atmosphere).error();
+  impl->atmosphere.emplace(std::move(*atmosphere));
   if (Result<void> r = impl->createFrameObjects(options.framesInFlight); !r) {
     return std::move(r).error();
   }
@@ -470,7 +482,7 @@ Result<void> TerrainRenderer::submit(const Cut& cut, const Camera& camera,
   }
   if (Result<void> r = m.prepareSlot(slot, cut, camera, settings); !r) return r;
 
-  const PatchPush push = patchPush(camera, settings);
+  const PatchPush push = patchPush(camera, settings, *m.atmosphere);
   const std::array<float, 4> clear = clearColour(settings);
   std::size_t begin = 0;
   for (std::size_t p = 0; p < passEnds.size(); ++p) {

@@ -29,6 +29,7 @@
 #include <utility>
 #include <vector>
 
+#include "AtmosphereBinding.h"
 #include "CacheLease.h"
 #include "DeferredDestruction.h"
 #include "DeviceDrawList.h"
@@ -53,8 +54,10 @@ formats::Result<void> recordCommands(VkCommandBuffer cmd, const char* what,
 /// Points a records set (binding 0 of the patch pipeline's set 0) at `buffer`.
 void bindRecords(VkDevice device, VkDescriptorSet set, VkBuffer buffer);
 /// The push constants of a frame: view-projection (for the depth convention of the pass it is
-/// drawn in), sun direction and ambient.
+/// drawn in), sun direction and ambient, and the camera and exposure of the atmosphere (none
+/// unless `atmosphere` has tables and the settings an exposure).
 PatchPush patchPush(const runtime::Camera& camera, const FrameSettings& settings,
+                    const AtmosphereBinding& atmosphere,
                     DepthConvention depth = DepthConvention::ReversedZ);
 /// The clear colour of `settings`, linear 0..1.
 std::array<float, 4> clearColour(const FrameSettings& settings);
@@ -106,6 +109,8 @@ struct TerrainRenderer::Impl {
   GpuCache::State* shared = nullptr;
   bool privateCache = true;
   std::optional<streaming::DecodeScheduler> decoder;
+  /// Set 4: the atmosphere's tables (TerrainRendererOptions::atmosphere; 1×1 ones without).
+  std::optional<AtmosphereBinding> atmosphere;
 
   UniqueDescriptorPool recordsPool;
   UniqueCommandPool commandPool;

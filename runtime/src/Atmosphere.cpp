@@ -10,6 +10,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <fstream>
 #include <glm/geometric.hpp>
 #include <numbers>
 
@@ -344,15 +346,23 @@ AtmosphereParameters AtmosphereParameters::mars() {
 }
 
 std::optional<AtmosphereParameters> AtmosphereParameters::of(const Planet& planet) {
+  std::optional<AtmosphereParameters> a;
   switch (solarBodyOf(planet)) {
     case SolarBody::Earth:
-      return earth();
-    case SolarBody::Mars:
-      return mars();
-    case SolarBody::None:
+      a = earth();
       break;
+    case SolarBody::Mars:
+      a = mars();
+      break;
+    case SolarBody::None:
+      return std::nullopt;
   }
-  return std::nullopt;
+  // The bottom sphere is the reference surface's equatorial radius: the renderer stretches an
+  // ellipsoid along its polar axis onto it.
+  const double thickness = a->topRadius - a->bottomRadius;
+  a->bottomRadius = planet.equatorialRadiusMeters();
+  a->topRadius = a->bottomRadius + thickness;
+  return a;
 }
 
 glm::dvec3 AtmosphereTable::texel(std::uint32_t x, std::uint32_t y,
@@ -697,6 +707,79 @@ glm::dvec3 AtmosphereTables::sunRadiance(const glm::dvec3& camera,
   const Vec3 t = r >= p.topRadius ? Vec3(1.0) : look.transmittanceToTop(r, mu);
   const double solidAngle = kPi * p.sunAngularRadius * p.sunAngularRadius;
   return p.solarIrradiance / solidAngle * t;
+}
+
+namespace {
+
+constexpr char kCacheMagic[8] = {'P', 'B', 'D', 'A', 'T', 'M', '0', '1'};
+
+/// The bytes the tables depend on: the parameters and the sizes (plain doubles and integers),
+/// stored whole at the head of a cache file and compared on reading.
+std::vector<std::byte> cacheKey(const AtmosphereParameters& p, const AtmosphereTableSizes& s) {
+  std::vector<std::byte> key(sizeof p + sizeof s);
+  std::memcpy(key.data(), &p, sizeof p);
+  std::memcpy(key.data() + sizeof p, &s, sizeof s);
+  return key;
+}
+
+}  // namespace
+
+AtmosphereTables AtmosphereTables::cached(const std::filesystem::path& path,
+                                          const AtmosphereParameters& parameters,
+                                          const AtmosphereTableSizes& sizes, bool* computed) {
+  const std::vector<std::byte> key = cacheKey(parameters, sizes);
+  AtmosphereTables made;
+  made.parameters_ = parameters;
+  made.sizes_ = sizes;
+  const std::uint32_t scatterWidth = sizes.scatteringNu * sizes.scatteringMuS;
+  made.transmittance_ = makeTable(sizes.transmittanceWidth, sizes.transmittanceHeight);
+  made.scattering_ = makeTable(scatterWidth, sizes.scatteringMu, sizes.scatteringR);
+  made.singleMie_ = makeTable(scatterWidth, sizes.scatteringMu, sizes.scatteringR);
+  made.irradiance_ = makeTable(sizes.irradianceWidth, sizes.irradianceHeight);
+  const std::array<AtmosphereTable*, 4> tables = {&made.transmittance_, &made.scattering_,
+                                                  &made.singleMie_, &made.irradiance_};
+  {
+    std::ifstream in(path, std::ios::binary);
+    char magic[8] = {};
+    std::vector<std::byte> stored(key.size());
+    if (in.read(magic, sizeof magic) && std::memcmp(magic, kCacheMagic, sizeof magic) == 0 &&
+        in.read(reinterpret_cast<char*>(stored.data()),
+                static_cast<std::streamsize>(stored.size())) &&
+        stored == key) {
+      bool whole = true;
+      for (AtmosphereTable* t : tables) {
+        whole = whole && static_cast<bool>(
+                             in.read(reinterpret_cast<char*>(t->rgb.data()),
+                                     static_cast<std::streamsize>(t->rgb.size() * sizeof(float))));
+      }
+      char extra = 0;
+      if (whole && !in.read(&extra, 1)) {
+        if (computed) *computed = false;
+        return made;
+      }
+    }
+  }
+  made = compute(parameters, sizes);
+  if (computed) *computed = true;
+  std::error_code ec;
+  std::filesystem::create_directories(path.parent_path(), ec);
+  const std::filesystem::path temporary = path.string() + ".tmp";
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    out.write(kCacheMagic, sizeof kCacheMagic);
+    out.write(reinterpret_cast<const char*>(key.data()), static_cast<std::streamsize>(key.size()));
+    for (const AtmosphereTable* t :
+         {&made.transmittance_, &made.scattering_, &made.singleMie_, &made.irradiance_}) {
+      out.write(reinterpret_cast<const char*>(t->rgb.data()),
+                static_cast<std::streamsize>(t->rgb.size() * sizeof(float)));
+    }
+    if (!out) {
+      std::filesystem::remove(temporary, ec);
+      return made;
+    }
+  }
+  std::filesystem::rename(temporary, path, ec);
+  return made;
 }
 
 }  // namespace pbdam::runtime

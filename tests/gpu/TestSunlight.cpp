@@ -10,11 +10,14 @@
 
 #include <cmath>
 #include <glm/geometric.hpp>
+#include <memory>
+#include <vector>
 
 #include "GpuTestSupport.h"
 #include "TerrainTestSupport.h"
 #include "TestData.h"
 #include "pbdam/gpu/TerrainRenderer.h"
+#include "pbdam/runtime/Atmosphere.h"
 #include "pbdam/runtime/Sun.h"
 
 using namespace pbdam::runtime;
@@ -134,6 +137,134 @@ INSTANTIATE_TEST_SUITE_P(
       }
       return name;
     });
+
+/// Small atmosphere tables (quick under the sanitizers): what the tests check holds at any size.
+std::shared_ptr<const AtmosphereTables> smallAtmosphere(const Planet& planet) {
+  AtmosphereTableSizes sizes;
+  sizes.scatteringR = 8;
+  sizes.scatteringMu = 32;
+  sizes.scatteringMuS = 8;
+  sizes.scatteringNu = 4;
+  return std::make_shared<const AtmosphereTables>(
+      AtmosphereTables::compute(*AtmosphereParameters::of(planet), sizes));
+}
+
+/// The mean RGB of row y over the middle half of the columns.
+glm::dvec3 rowMean(const RgbaImage& image, std::uint32_t y) {
+  glm::dvec3 sum(0.0);
+  const std::uint32_t from = image.widthPixels / 4;
+  const std::uint32_t to = image.widthPixels * 3 / 4;
+  for (std::uint32_t x = from; x < to; ++x) {
+    const std::size_t i = (static_cast<std::size_t>(y) * image.widthPixels + x) * 4;
+    sum += glm::dvec3(image.rgba[i], image.rgba[i + 1], image.rgba[i + 2]);
+  }
+  return sum / static_cast<double>(to - from);
+}
+
+class Atmosphere : public test::GpuTest {
+ protected:
+  /// A frame of `pose` over `dataset` with its planet's atmosphere (small tables) under a sun at
+  /// `azimuth`, `elevation` over the point below the camera; `exposure` 0: no atmosphere.
+  RgbaImage frame(const DatasetView& view, const CameraPose& pose, double azimuth, double elevation,
+                  float exposure, std::uint32_t width, std::uint32_t height) {
+    TerrainRendererOptions options;
+    options.widthPixels = width;
+    options.heightPixels = height;
+    options.atmosphere = smallAtmosphere(view.planet());
+    auto renderer = TerrainRenderer::create(context(), view, options);
+    EXPECT_TRUE(renderer.ok()) << renderer.error().message;
+    if (!renderer.ok()) return {};
+    const Camera camera = test::cameraAt(view, pose, width, height);
+    FrameSettings settings;
+    settings.sunDirectionEcef = sunDirectionFromHorizon(view.planet(), pose.latDegrees,
+                                                        pose.lonDegrees, azimuth, elevation);
+    settings.sunAngularRadiusRadians = static_cast<float>(sunAngularRadiusRadians(1.0));
+    settings.ambient = 0.0f;
+    settings.atmosphereExposure = exposure;
+    auto drawn = renderer->render(refine(view, camera, RefinementOptions{}), camera, settings);
+    EXPECT_TRUE(drawn.ok()) << drawn.error().message;
+    return drawn.ok() ? std::move(drawn->image) : RgbaImage{};
+  }
+};
+
+// Aerial perspective grows with distance: looking out over the Pacific from 2 km under a high
+// sun, the rows of ocean farther away (the ray's distance to the sea, from the pixel's ray) are
+// ever closer to the colour of the sky just above the horizon; without the atmosphere the sky
+// is the black background.
+TEST_F(Atmosphere, FarTerrainIsSeenThroughMoreAirAndNearerTheSkyColour) {
+  PBDAM_REQUIRE_DATASET(dir, "earth");
+  auto dataset = test::openDataset(dir);
+  ASSERT_TRUE(dataset);
+  const DatasetView& view = dataset->view();
+  constexpr std::uint32_t kW = 256;
+  constexpr std::uint32_t kH = 256;
+  const CameraPose pose{-30.0, -130.0, 2000.0, 0.0, -4.0, 0.0};
+  const RgbaImage image = frame(view, pose, 90.0, 50.0, 10.0f, kW, kH);
+  ASSERT_EQ(image.rgba.size(), std::size_t{kW} * kH * 4);
+  const Camera camera = test::cameraAt(view, pose, kW, kH);
+  const double radius =
+      glm::length(view.planet().geodeticToEcef(pose.latDegrees, pose.lonDegrees, 0.0));
+  // Each row's distance to the sea along the centre column's ray (0: above the horizon).
+  std::vector<double> distance(kH, 0.0);
+  std::uint32_t horizonRow = 0;
+  for (std::uint32_t y = 0; y < kH; ++y) {
+    const glm::dvec3 ray = test::pixelRay(camera, kW / 2, y);
+    const double b = glm::dot(camera.position(), ray);
+    const double c = glm::dot(camera.position(), camera.position()) - radius * radius;
+    if (b * b - c >= 0.0 && -b - std::sqrt(b * b - c) > 0.0) {
+      distance[y] = -b - std::sqrt(b * b - c);
+    } else {
+      horizonRow = y;
+    }
+  }
+  ASSERT_GT(horizonRow, 8u);
+  ASSERT_LT(horizonRow, kH - 8);
+  const glm::dvec3 sky = rowMean(image, horizonRow - 6);
+  EXPECT_GT(sky.z, sky.x) << "the sky above the horizon is blue";
+  double previous = 1e9;
+  for (const double km : {3.0, 8.0, 20.0, 60.0}) {
+    std::uint32_t row = kH - 1;
+    while (row > horizonRow && distance[row] < km * 1e3) --row;
+    ASSERT_GT(row, horizonRow) << km;
+    const double towardsSky = glm::length(rowMean(image, row) - sky);
+    EXPECT_LT(towardsSky, previous) << km << " km (row " << row << ")";
+    previous = towardsSky;
+  }
+  const RgbaImage bare = frame(view, pose, 90.0, 50.0, 0.0f, kW, kH);
+  EXPECT_EQ(rowMean(bare, horizonRow - 6), glm::dvec3(0.0));
+}
+
+// From orbit the day side's limb glows: just outside Mars's disc on the sunward side the sky is
+// lit; far from the disc, and beyond the night side's limb, space is black.
+TEST_F(Atmosphere, TheDayLimbGlowsAndSpaceIsBlack) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  auto dataset = test::openDataset(dir);
+  ASSERT_TRUE(dataset);
+  const DatasetView& view = dataset->view();
+  constexpr std::uint32_t kW = 320;
+  constexpr std::uint32_t kH = 320;
+  // Looking down on the terminator: the sun in the west, low over the camera's nadir.
+  const CameraPose pose{0.0, 0.0, 4000e3, 0.0, -90.0, 0.0};
+  const RgbaImage image = frame(view, pose, 270.0, 1.0, 23.0f, kW, kH);
+  ASSERT_EQ(image.rgba.size(), std::size_t{kW} * kH * 4);
+  const Camera camera = test::cameraAt(view, pose, kW, kH);
+  const double radius = view.planet().equatorialRadiusMeters() + 25e3;  // above the highest land
+  const std::uint32_t row = kH / 2;
+  // The first column (from the left: west, the day side) whose ray meets the planet.
+  std::uint32_t edge = 0;
+  while (edge < kW &&
+         !test::rayHitsSphere(camera.position(), test::pixelRay(camera, edge, row), radius)) {
+    ++edge;
+  }
+  ASSERT_GT(edge, 12u);
+  const auto brightness = [&](std::uint32_t x) {
+    const std::size_t i = (static_cast<std::size_t>(row) * kW + x) * 4;
+    return image.rgba[i] + image.rgba[i + 1] + image.rgba[i + 2];
+  };
+  EXPECT_GT(brightness(edge - 2) + brightness(edge - 3), 0) << "no glow beyond the day limb";
+  EXPECT_EQ(brightness(edge - 12), 0) << "space is not black";
+  EXPECT_EQ(brightness(2), 0);
+}
 
 }  // namespace
 }  // namespace pbdam::gpu

@@ -178,8 +178,9 @@ double meanBrightness(const std::filesystem::path& png) {
 // --time lights Mars by the sun of that instant (Mars24's example B: the sun over 13.42°S,
 // 4.706°W): the hemisphere under it is lit, the one opposite gets the night's small ambient,
 // where the camera light lights whatever the camera sees. A fixed camera over the midnight
-// meridian with --time-scale half a sol per path second flies to noon. Bad times and a sun given
-// twice are refused.
+// meridian with --time-scale half a sol per path second flies to noon. The atmosphere's sky is
+// drawn under the sun unless --atmosphere off. Bad times, a sun given twice, a bad atmosphere or
+// exposure are refused.
 TEST(RenderCli, TheSunOfAnInstantLightsTheDayAndAPathFliesToNoon) {
   PBDAM_REQUIRE_DATASET(dir, "mola");
   test::TempDir tmp;
@@ -191,11 +192,14 @@ TEST(RenderCli, TheSunOfAnInstantLightsTheDayAndAPathFliesToNoon) {
     EXPECT_EQ(run.exitCode, 0) << run.err;
     return run;
   };
-  const CliRun day = render("-13.42,-4.706,8e6", time, "day.png");
+  // The atmosphere off for the brightness of the surface alone: from the night side the day's
+  // limb glows around the disc.
+  const std::string bare = " --atmosphere off";
+  const CliRun day = render("-13.42,-4.706,8e6", time + bare, "day.png");
   EXPECT_NE(day.out.find("sun over 13.42°S 4.71°W at 2004-01-03T13:46:31Z (Ls 327.3°)"),
             std::string::npos)
       << day.out;
-  render("13.42,175.294,8e6", time, "night.png");
+  render("13.42,175.294,8e6", time + bare, "night.png");
   render("13.42,175.294,8e6", "", "camera.png");
   const double dayMean = meanBrightness(tmp / "day.png");
   const double nightMean = meanBrightness(tmp / "night.png");
@@ -208,13 +212,33 @@ TEST(RenderCli, TheSunOfAnInstantLightsTheDayAndAPathFliesToNoon) {
     std::ofstream out(path);
     out << "t,lat,lon,alt,heading,pitch,roll\n0,0,175.294,8e6,0,-90,0\n1,0,175.294,8e6,0,-90,0\n";
   }
-  const CliRun noon = runPbdam("render " + quoted(dir) + " --path " + quoted(path) + time +
+  const CliRun noon = runPbdam("render " + quoted(dir) + " --path " + quoted(path) + time + bare +
                                    " --time-scale 44387.622 --out " + quoted(tmp / "noon") + kSmall,
                                "PATH=/nonexistent");
   ASSERT_EQ(noon.exitCode, 0) << noon.err;
   EXPECT_GT(meanBrightness(tmp / "noon_000001.png"), 5.0 * meanBrightness(tmp / "noon_000000.png"));
 
+  // Under the sun the atmosphere is on by default: the sky above a low camera is lit; off, it is
+  // the black background.
+  const auto topRow = [](const std::filesystem::path& png) {
+    auto image = formats::readImage(png);
+    EXPECT_TRUE(image.ok()) << png;
+    double sum = 0.0;
+    if (!image.ok()) return sum;
+    for (std::int64_t x = 0; x < image->width(); ++x) {
+      const auto p = image->pixel(x, 1);
+      sum += p[0] + p[1] + p[2];
+    }
+    return sum;
+  };
+  render("-10,-68,10e3,90,5,0", time, "sky.png");
+  render("-10,-68,10e3,90,5,0", time + " --atmosphere off", "nosky.png");
+  EXPECT_GT(topRow(tmp / "sky.png"), 0.0);
+  EXPECT_EQ(topRow(tmp / "nosky.png"), 0.0);
+
   for (const auto& [args, message] : std::vector<std::pair<std::string, std::string>>{
+           {" --atmosphere thick", "--atmosphere ('thick'): expected auto, on or off"},
+           {" --exposure -1", "--exposure must be a number in (0, 1e6]"},
            {" --time 2004-02-30T00:00Z", "--time: time '2004-02-30T00:00Z': no such date"},
            {" --time yesterday", "--time: time 'yesterday'"},
            {time + " --sun 90,10", "--sun ('90,10') and --time"},

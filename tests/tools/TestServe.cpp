@@ -271,6 +271,11 @@ TEST(Serve, FramesEqualPbdamRenderByteForByte) {
        "-13.42,-4.706,8e6 --time 2004-01-03T13:46:31Z", "160 90"},
       {"lat=-10&lon=-70&alt=2e6&pitch=-60&width=173&height=97&sun=250,12&ambient=0.1",
        "-10,-70,2e6,0,-60,0 --sun 250,12 --ambient 0.1", "173 97"},
+      {"lat=-10&lon=-70&alt=2e6&pitch=-60&width=173&height=97&sun=250,12&atmosphere=off",
+       "-10,-70,2e6,0,-60,0 --sun 250,12 --atmosphere off", "173 97"},
+      {"lat=-10&lon=-68&alt=10e3&heading=90&pitch=-8&width=160&height=90"
+       "&time=2004-01-03T20:00:00Z&exposure=15",
+       "-10,-68,10e3,90,-8,0 --time 2004-01-03T20:00:00Z --exposure 15", "160 90"},
   };
   int index = 0;
   for (const Case& c : cases) {
@@ -335,6 +340,8 @@ TEST(Serve, MalformedRequestsGet4xxWithJsonError) {
       "/frame?" + ok + "&time=2024-01-01&sun=10,10",            // the sun given twice
       "/frame?" + ok + "&sun=10,95",                            // elevation bounds
       "/frame?" + ok + "&ambient=2",                            // ambient bounds
+      "/frame?" + ok + "&atmosphere=thick",                     // auto, on or off
+      "/frame?" + ok + "&exposure=0",                           // exposure bounds
       "/frame?" + ok + "&lat=1",                                // repeated
       "/height",                                                // nothing
       "/height?lat=100&lon=0",                                  // out of range

@@ -88,7 +88,8 @@ struct BenchModes final {
   CutSelection selection = CutSelection::Cpu;
   DrawList draws = DrawList::Readback;
   bool readback = false;  ///< --readback: pixels copied back for every frame
-  Light light;            ///< --time, --sun, --time-scale, --ambient
+  Light light;            ///< --time, --sun, --time-scale, --ambient, --atmosphere, --exposure
+  std::shared_ptr<const runtime::AtmosphereTables> atmosphere;  ///< made once, before the runs
 };
 
 /// RMS and largest difference over every R, G and B value of two images of one size (0–255).
@@ -473,6 +474,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
   options.reportMemoryPlan = !o.quiet;
   options.viewport = Viewport{o.width, o.height, o.fovDegrees};
   options.framesInFlight = run.framesInFlight;
+  options.atmosphere = modes.atmosphere;
   auto opened = gpu::Terrain::open(context, o.dir, std::move(options));
   if (!opened) return opened.error();
   gpu::Terrain& terrain = **opened;
@@ -583,6 +585,7 @@ int runBench(const BenchCliOptions& o) {
   if (auto r = checkLightFor(modes.light, (*probe)->view().planet()); !r) {
     return reportError(r.error());
   }
+  modes.atmosphere = atmosphereTablesFor(modes.light, (*probe)->view().planet(), o.quiet);
   for (const CameraPathPoint& p : *path) {
     if (auto v = validateCameraPose({p.latDegrees, p.lonDegrees, p.altitudeMeters, p.headingDegrees,
                                      p.pitchDegrees, p.rollDegrees},

@@ -389,6 +389,7 @@ Result<void> FlySession::setUp() {
   options.reportMemoryPlan = true;
   options.viewport = Viewport{swapchain_.extent().width, swapchain_.extent().height, c_.fovDegrees};
   options.framesInFlight = c_.framesInFlight;
+  options.atmosphere = atmosphereTablesFor(modes_.light, view_.planet(), false);
   auto terrain = gpu::Terrain::open(context_, dataset_, std::move(options));
   if (!terrain) return terrain.error();
   terrain_ = std::move(*terrain);

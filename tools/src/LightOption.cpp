@@ -1,8 +1,11 @@
 // The light options (LightOption.h).
 #include "LightOption.h"
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <filesystem>
 #include <glm/geometric.hpp>
 #include <vector>
 
@@ -14,6 +17,20 @@ namespace pbdam::tools {
 using formats::ErrorCode;
 using formats::makeError;
 using formats::Result;
+
+namespace {
+
+/// The table sizes of rendering: a few seconds to compute on two cores, then cached.
+runtime::AtmosphereTableSizes renderTableSizes() {
+  runtime::AtmosphereTableSizes s;
+  s.scatteringR = 16;
+  s.scatteringMu = 64;
+  s.scatteringMuS = 16;
+  s.scatteringNu = 8;
+  return s;
+}
+
+}  // namespace
 
 void addLightOptions(CLI::App& cmd, LightCliOptions& o, bool withTimeScale) {
   cmd.add_option("--time", o.time,
@@ -33,10 +50,19 @@ void addLightOptions(CLI::App& cmd, LightCliOptions& o, bool withTimeScale) {
   cmd.add_option("--ambient", o.ambient,
                  "Share of a texel's colour the unlit side keeps, 0..1 (default 0.35 under the "
                  "camera light, 0.05 under the sun: the night side)");
+  cmd.add_option("--atmosphere", o.atmosphere,
+                 "auto: the sky, the limb and the aerial perspective of Earth's or Mars's "
+                 "atmosphere under the sun of --time or --sun AZ,EL; on: also under the camera "
+                 "light; off: none")
+      ->capture_default_str();
+  cmd.add_option("--exposure", o.exposure,
+                 "The atmosphere's exposure: radiance times this through a 1 - e^-x curve "
+                 "(default 10 on Earth, 23 on Mars)");
 }
 
 Result<Light> parseLight(std::string_view time, std::string_view sun, double timeScale,
-                         std::optional<double> ambient, bool cliNames) {
+                         std::optional<double> ambient, bool cliNames, std::string_view atmosphere,
+                         std::optional<double> exposure) {
   const std::string timeName = cliNames ? "--time" : "parameter 'time'";
   const std::string sunName = cliNames ? "--sun" : "parameter 'sun'";
   const std::string ambientName = cliNames ? "--ambient" : "parameter 'ambient'";
@@ -75,17 +101,75 @@ Result<Light> parseLight(std::string_view time, std::string_view sun, double tim
     }
     light.ambient = static_cast<float>(*ambient);
   }
+  const std::string airName = cliNames ? "--atmosphere" : "parameter 'atmosphere'";
+  if (atmosphere == "auto") {
+    light.air = Light::Air::Auto;
+  } else if (atmosphere == "on") {
+    light.air = Light::Air::On;
+  } else if (atmosphere == "off") {
+    light.air = Light::Air::Off;
+  } else {
+    return makeError(ErrorCode::InvalidArgument,
+                     airName + " ('" + std::string(atmosphere) + "'): expected auto, on or off");
+  }
+  if (exposure) {
+    if (!std::isfinite(*exposure) || *exposure <= 0.0 || *exposure > 1e6) {
+      return makeError(ErrorCode::InvalidArgument,
+                       std::string(cliNames ? "--exposure" : "parameter 'exposure'") +
+                           " must be a number in (0, 1e6]");
+    }
+    light.exposure = *exposure;
+  }
   return light;
 }
 
 Result<Light> parseLight(const LightCliOptions& o) {
-  return parseLight(o.time, o.sun, o.timeScale, o.ambient, true);
+  return parseLight(o.time, o.sun, o.timeScale, o.ambient, true, o.atmosphere, o.exposure);
 }
 
 Result<void> checkLightFor(const Light& light, const runtime::Planet& planet) {
+  if (light.air == Light::Air::On && !runtime::AtmosphereParameters::of(planet)) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "no atmosphere for planet '" + planet.name() +
+                         "' (Earth and Mars have one): --atmosphere on needs one");
+  }
   if (light.kind != Light::Kind::Ephemeris) return {};
   if (auto p = runtime::subsolarPoint(planet, light.unixSeconds); !p) return p.error();
   return {};
+}
+
+bool atmosphereOn(const Light& light, const runtime::Planet& planet) {
+  if (light.air == Light::Air::Off || !runtime::AtmosphereParameters::of(planet)) return false;
+  return light.air == Light::Air::On || light.kind != Light::Kind::Camera;
+}
+
+std::shared_ptr<const runtime::AtmosphereTables> atmosphereTablesFor(const Light& light,
+                                                                     const runtime::Planet& planet,
+                                                                     bool quiet) {
+  if (!atmosphereOn(light, planet)) return nullptr;
+  std::filesystem::path dir;
+  if (const char* own = std::getenv("PBDAM_CACHE_DIR"); own && *own) {
+    dir = own;
+  } else if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) {
+    dir = std::filesystem::path(xdg) / "pbdam";
+  } else if (const char* home = std::getenv("HOME"); home && *home) {
+    dir = std::filesystem::path(home) / ".cache" / "pbdam";
+  } else {
+    dir = std::filesystem::temp_directory_path() / "pbdam";
+  }
+  const runtime::AtmosphereParameters parameters = *runtime::AtmosphereParameters::of(planet);
+  const runtime::AtmosphereTableSizes sizes = renderTableSizes();
+  const auto start = std::chrono::steady_clock::now();
+  bool computed = false;
+  const std::filesystem::path file = dir / ("atmosphere-" + planet.name() + ".bin");
+  auto tables = std::make_shared<const runtime::AtmosphereTables>(
+      runtime::AtmosphereTables::cached(file, parameters, sizes, &computed));
+  if (computed && !quiet) {
+    std::fprintf(stderr, "pbdam: atmosphere tables computed in %.1f s (kept in %s)\n",
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+                 file.string().c_str());
+  }
+  return tables;
 }
 
 std::pair<double, double> viewTarget(const runtime::Planet& planet, const runtime::Camera& camera) {
@@ -114,6 +198,13 @@ double meanDistanceAu(const runtime::Planet& planet) {
 void applyLight(const Light& light, const runtime::Planet& planet, const runtime::Camera& target,
                 double pathSeconds, gpu::FrameSettings& settings) {
   settings.ambient = light.ambient;
+  settings.atmosphereExposure = 0.0f;
+  if (atmosphereOn(light, planet)) {
+    const double sunlight = runtime::AtmosphereParameters::of(planet)->solarIrradiance.y /
+                            runtime::AtmosphereParameters::earth().solarIrradiance.y;
+    settings.atmosphereExposure =
+        static_cast<float>(light.exposure.value_or(kEarthExposure / sunlight));
+  }
   switch (light.kind) {
     case Light::Kind::Camera:
       settings.sunDirectionEcef.reset();

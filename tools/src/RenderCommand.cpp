@@ -278,6 +278,7 @@ int renderFrames(const RenderCliOptions& c, const RenderModes& modes,
   options.gpuCacheBytes = static_cast<std::uint64_t>(c.gpuCacheMiB * 1048576.0);
   options.viewport = viewport;
   options.framesInFlight = c.framesInFlight;
+  options.atmosphere = atmosphereTablesFor(modes.light, view.planet(), c.quiet);
   auto terrain = gpu::Terrain::open(*context, std::move(dataset), std::move(options));
   if (!terrain) return reportError(terrain.error());
   gpu::Terrain& t = **terrain;

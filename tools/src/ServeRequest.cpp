@@ -109,7 +109,7 @@ Result<double> inRange(Result<double> v, const std::string& name, double lo, dou
 Result<FrameQuery> parseFrameQuery(const QueryParams& params, const Planet& planet) {
   if (auto r = checkNames(params, {"lat", "lon", "alt", "heading", "pitch", "roll", "width",
                                    "height", "fov", "tolerance", "format", "quality", "morph",
-                                   "viewshed", "time", "sun", "ambient"});
+                                   "viewshed", "time", "sun", "ambient", "atmosphere", "exposure"});
       !r) {
     return std::move(r).error();
   }
@@ -160,18 +160,28 @@ Result<FrameQuery> parseFrameQuery(const QueryParams& params, const Planet& plan
     if (!a) return std::move(a).error();
     ambient = *a;
   }
+  std::optional<double> exposure;
+  if (params.count("exposure") != 0) {
+    auto e = number(params, "exposure", std::nullopt);
+    if (!e) return std::move(e).error();
+    exposure = *e;
+  }
   const std::string time = value(params, "time").value_or("");
   const std::string sun = value(params, "sun").value_or("");
-  for (const auto& [name, text] : {std::pair{"time", &time}, std::pair{"sun", &sun}}) {
+  const std::string air = value(params, "atmosphere").value_or("auto");
+  for (const auto& [name, text] :
+       {std::pair{"time", &time}, std::pair{"sun", &sun}, std::pair{"atmosphere", &air}}) {
     if (shown(*text) != *text) {  // parseLight echoes what it refuses: printable text only
       return invalidArgument(std::string("parameter '") + name + "': '" + shown(*text) +
-                             "' is not a " + (name == std::string("time") ? "time" : "sun"));
+                             "' is not printable text");
     }
   }
-  auto light = parseLight(time, sun, 1.0, ambient, false);
+  auto light = parseLight(time, sun, 1.0, ambient, false, air, exposure);
   if (!light) return std::move(light).error();
   if (auto r = checkLightFor(*light, planet); !r) {
-    return invalidArgument("parameter 'time': " + r.error().message);
+    return invalidArgument(std::string(light->air == Light::Air::On ? "parameter 'atmosphere': "
+                                                                    : "parameter 'time': ") +
+                           r.error().message);
   }
   q.request.light = *light;
 

@@ -60,7 +60,7 @@ struct ViewshedQuery final {
 /// (480), fov (60), tolerance (3), morph (on|off; unset: the server's), format (png|jpeg),
 /// quality (90, JPEG only), viewshed (LAT,LON,H[,RADIUS_M]: drape that viewshed), time (ISO 8601
 /// UTC: the sun of that instant), sun (camera or AZ,EL over the view's target), ambient (0..1;
-/// LightOption.h's defaults). InvalidArgument
+/// LightOption.h's defaults), atmosphere (auto|on|off), exposure (> 0). InvalidArgument
 /// naming the parameter for anything missing, unknown, repeated, not a finite number, or out of
 /// range (width/height 1..4096, fov (0, 179), tolerance 0.5..1000, the camera as
 /// validateCameraPose on `planet`, heading/roll within ±360).

@@ -96,6 +96,8 @@ struct TerrainOptions final {
   std::shared_ptr<GpuCache> sharedCache;
   /// Print a warning on stderr the first time a frame's cut is drawn in several passes.
   bool warnWhenBudgetExceeded = true;
+  /// The atmosphere's tables (TerrainRendererOptions::atmosphere); null: none.
+  std::shared_ptr<const runtime::AtmosphereTables> atmosphere;
   /// The process's memory budget in MiB: unset, no plan (node tables paged under the cgroup's
   /// limit, if any); 0, the memory cgroup's limit; above 0, this many MiB. With a budget the
   /// GPU cache is lowered to fit, the prefetcher keeps within the page room left, and no-stall

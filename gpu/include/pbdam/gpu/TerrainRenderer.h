@@ -25,6 +25,7 @@
 #include "pbdam/gpu/HostPass.h"
 #include "pbdam/gpu/OffscreenTarget.h"
 #include "pbdam/gpu/RgbaImage.h"
+#include "pbdam/runtime/Atmosphere.h"
 #include "pbdam/runtime/Camera.h"
 #include "pbdam/runtime/DatasetView.h"
 #include "pbdam/runtime/PatchDraw.h"
@@ -58,6 +59,10 @@ struct TerrainRendererOptions final {
   /// Print a warning on stderr, once per renderer, the first time a frame's cut does not fit
   /// the budget and is drawn in several passes.
   bool warnWhenBudgetExceeded = true;
+  /// The atmosphere's precomputed tables (runtime::AtmosphereTables, for this dataset's planet),
+  /// uploaded once: frames with FrameSettings::atmosphereExposure > 0 draw the sky behind the
+  /// terrain and light the terrain through the air. Null: no atmosphere.
+  std::shared_ptr<const runtime::AtmosphereTables> atmosphere;
 };
 
 /// A raster draped over the terrain (a viewshed: `pbdam render --viewshed`, `/frame?viewshed=`):
@@ -83,6 +88,11 @@ struct FrameSettings final {
   /// reference surface's horizon, so the night side gets the ambient term alone. 0: a light with
   /// no horizon (every surface facing it is lit).
   float sunAngularRadiusRadians = 0.0f;
+  /// > 0: the renderer's atmosphere (TerrainRendererOptions::atmosphere) drawn with this
+  /// exposure (radiance × exposure through a 1 − e⁻ˣ curve): the sky and sun behind the terrain,
+  /// the terrain lit by the sun and sky through the air and seen through it (aerial
+  /// perspective); the ambient term is then the night side's floor. 0 (or no atmosphere): none.
+  float atmosphereExposure = 0.0f;
   /// Fraction of the texel colour that faces away from the sun keep (0..1).
   float ambient = 0.35f;
   /// Draped over the terrain when set.

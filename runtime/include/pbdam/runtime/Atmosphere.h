@@ -13,6 +13,7 @@
 
 #include <array>
 #include <cstdint>
+#include <filesystem>
 #include <glm/vec3.hpp>
 #include <optional>
 #include <vector>
@@ -69,7 +70,8 @@ struct AtmosphereParameters final {
   /// 0.90 / 0.74 and g 0.63 / 0.70 / 0.78 for R / G / B: it absorbs blue and scatters it
   /// forward), sunlight at 1.524 AU.
   static AtmosphereParameters mars();
-  /// The atmosphere of `planet`'s body (SolarBody): Earth's or Mars's; nullopt for the others.
+  /// The atmosphere of `planet`'s body (SolarBody): Earth's or Mars's, its bottom the reference
+  /// surface's equatorial radius; nullopt for the others.
   static std::optional<AtmosphereParameters> of(const Planet& planet);
 };
 
@@ -106,6 +108,12 @@ class AtmosphereTables final {
   /// Computes the tables (in parallel with TBB; the same floats whatever the thread count).
   static AtmosphereTables compute(const AtmosphereParameters& parameters,
                                   const AtmosphereTableSizes& sizes = {});
+  /// The tables of `parameters` and `sizes` from the cache file `path` when it holds them (its
+  /// head: both, byte for byte), else computed and written there (atomically; a failure to write is
+  /// not an error: the tables are returned). `computed` says which happened.
+  static AtmosphereTables cached(const std::filesystem::path& path,
+                                 const AtmosphereParameters& parameters,
+                                 const AtmosphereTableSizes& sizes, bool* computed = nullptr);
 
   const AtmosphereParameters& parameters() const noexcept { return parameters_; }
   const AtmosphereTableSizes& sizes() const noexcept { return sizes_; }
