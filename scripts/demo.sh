@@ -3,7 +3,8 @@
 # Debian-packaged ETOPO5 Earth model, build a P-BDAM dataset from it textured with the xplanet
 # Earth image, verify it against the DEM and print its summary, then fly over the Himalayas:
 # write the camera path, replay it as a cold-cache benchmark with and without prefetch, and
-# render it to numbered PNGs and an H.264 MP4 (Debian's ffmpeg, which scripts/setup.sh installs).
+# render it under a morning sun with the atmosphere to numbered PNGs and an H.264 MP4 (Debian's
+# ffmpeg, which scripts/setup.sh installs).
 # It needs only what scripts/setup.sh installs from Debian: no npm, no network beyond apt.
 #   scripts/demo.sh [OUTDIR]     (default: build/demo/earth)
 # The demo lattice is 512 cells per face side (bintree depth 8); `--levels auto` builds ETOPO5
@@ -29,8 +30,10 @@ flight="$out/flight.csv"
 "$pbdam" bench "$out" --path "$flight" --out "$out/bench" --cold --width 640 --height 360 --quiet
 echo
 mkdir -p "$out/frames"
+# Under the sun of a June morning (its light low from the east over the Himalayas) with Earth's
+# atmosphere: the sky and the limb, haze with distance, and the relief in long light.
 "$pbdam" render "$out" --path "$flight" --out "$out/frames/himalaya" --width 640 --height 360 \
-  --stats "$out/frames/stats.jsonl" --quiet
+  --time 2024-06-20T01:30:00Z --stats "$out/frames/stats.jsonl" --quiet
 echo "frames: $out/frames/himalaya_*.png (per-frame statistics in $out/frames/stats.jsonl)"
 video="$out/frames/himalaya.mp4"
 if [ ! -s "$video" ]; then

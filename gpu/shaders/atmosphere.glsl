@@ -178,17 +178,17 @@ vec3 skyRadianceToPoint(vec3 camera, vec3 point, vec3 sun, out vec3 transmittanc
   return max(rayleigh, vec3(0.0)) * rayleighPhase(nu) + max(mie, vec3(0.0)) * miePhase(nu);
 }
 
-// The sun's irradiance (before the cosine with the normal) and the sky's at `point` (km) on a
-// surface of unit `normal`.
-void sunAndSkyIrradiance(vec3 point, vec3 normal, vec3 sun, out vec3 sunIrradiance,
-                         out vec3 skyIrradiance) {
+// The sun's irradiance through the air (before the cosine with a surface's normal) and the
+// sky's irradiance of a horizontal surface at `point` (km). A surface tilted by n sees the sky's
+// share (1 + n·up) / 2 of the latter (Bruneton's approximation).
+void sunAndSkyIrradiance(vec3 point, vec3 sun, out vec3 sunIrradiance, out vec3 skyIrradiance) {
   const float r = clampRadius(length(point));
   const vec3 up = point / length(point);
   const float muS = clampCosine(dot(up, sun));
   const vec2 size = vec2(textureSize(irradianceTable, 0));
   const float xR = (r - bottomRadius()) / (topRadius() - bottomRadius());
   const vec2 uv = vec2(texCoord(muS * 0.5 + 0.5, size.x), texCoord(xR, size.y));
-  skyIrradiance = texture(irradianceTable, uv).rgb * (1.0 + dot(normal, up)) * 0.5;
+  skyIrradiance = texture(irradianceTable, uv).rgb;
   sunIrradiance = atmosphere.solarIrradiance.xyz * transmittanceToSun(r, muS);
 }
 

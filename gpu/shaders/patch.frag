@@ -36,6 +36,10 @@ layout(location = 2) in vec3 inNormal;
 layout(location = 3) in vec3 inCameraRelative;
 layout(location = 4) in vec2 inMorphTexCoord;
 layout(location = 5) flat in vec2 inMorphTexture;
+layout(location = 6) in vec3 inInScatterLimit;
+layout(location = 7) in vec3 inExtinctionPerKm;
+layout(location = 8) in vec3 inSunIrradiance;
+layout(location = 9) in vec3 inSkyIrradiance;
 
 layout(location = 0) out vec4 outColor;
 
@@ -77,20 +81,15 @@ void main() {
     texel = mix(texel, cell.rgb, cell.a);
   }
   if (pc.camera.w > 0.0) {
-    // The atmosphere: the texel as albedo under the sun and the sky, seen through the air
-    // between the camera and the fragment (aerial perspective), then exposed and tone-mapped.
-    const vec3 point = pc.camera.xyz + toAtmosphereOffsetKm(inCameraRelative);
-    const vec3 sun = toAtmosphereDirection(pc.sunAmbient.xyz);
-    vec3 sunIrradiance;
-    vec3 skyIrradiance;
-    sunAndSkyIrradiance(point, toAtmosphereDirection(shadingNormal), sun, sunIrradiance,
-                        skyIrradiance);
+    // The atmosphere: the texel as albedo under the sun and the sky through the air, seen
+    // through the air between the camera and the fragment (aerial perspective; patch_vertex.glsl
+    // computes the air's part per vertex), then exposed and tone-mapped.
     const vec3 albedo = srgbToLinear(texel);
     const float lit = max(dot(shadingNormal, pc.sunAmbient.xyz), 0.0);
-    vec3 radiance = albedo * (1.0 / kPi) * (sunIrradiance * lit + skyIrradiance);
-    vec3 transmittance;
-    const vec3 inScatter = skyRadianceToPoint(pc.camera.xyz, point, sun, transmittance);
-    radiance = radiance * transmittance + inScatter;
+    const float skyShare = (1.0 + dot(shadingNormal, smoothNormal)) * 0.5;
+    vec3 radiance = albedo * (1.0 / kPi) * (inSunIrradiance * lit + inSkyIrradiance * skyShare);
+    const vec3 transmittance = exp(-inExtinctionPerKm * (length(inCameraRelative) * 0.001));
+    radiance = radiance * transmittance + inInScatterLimit * (vec3(1.0) - transmittance);
     // The night side's faint light: at least the ambient share of the texel.
     outColor = vec4(max(toneMap(radiance, pc.camera.w), texel * ambient), 1.0);
     return;

@@ -1,6 +1,7 @@
 // The patch vertex stage's body (patch.vert, patch_indirect.vert): its inputs, outputs and push
 // constants, and the vertex of the draw whose PatchDrawRecord is `r`. The two shaders differ only
 // in where r comes from.
+#include "atmosphere.glsl"
 #include "patch_position.glsl"
 #include "patch_texcoord.glsl"
 
@@ -22,6 +23,16 @@ layout(location = 2) out vec3 outNormal;
 layout(location = 3) out vec3 outCameraRelative;
 layout(location = 4) out vec2 outMorphTexCoord;
 layout(location = 5) flat out vec2 outMorphTexture;  // x: the coarser tile's weight, y: its layer
+// With the atmosphere (pc.camera.w > 0), what the air does at the vertex, interpolated over the
+// triangle: the aerial perspective as an extinction per km and the in-scattered light it tends
+// to (transmittance T = e^(−k·d), in-scattering S∞·(1 − T)), which vary slowly where T and S
+// themselves do not (a large triangle near the camera: the fragment applies them at its own
+// distance); the sun's irradiance through the air and the sky's irradiance of a horizontal
+// surface there.
+layout(location = 6) out vec3 outInScatterLimit;
+layout(location = 7) out vec3 outExtinctionPerKm;
+layout(location = 8) out vec3 outSunIrradiance;
+layout(location = 9) out vec3 outSkyIrradiance;
 
 // The vertex of the draw whose record is `r`.
 void emitPatchVertex(uint r) {
@@ -37,4 +48,19 @@ void emitPatchVertex(uint r) {
   outNormal = w.x * draws.records[r].normal[0].xyz + w.y * draws.records[r].normal[1].xyz +
               w.z * draws.records[r].normal[2].xyz;
   outCameraRelative = position;
+  outInScatterLimit = vec3(0.0);
+  outExtinctionPerKm = vec3(0.0);
+  outSunIrradiance = vec3(0.0);
+  outSkyIrradiance = vec3(0.0);
+  if (pc.camera.w > 0.0) {
+    const vec3 point = pc.camera.xyz + toAtmosphereOffsetKm(position);
+    const vec3 sun = toAtmosphereDirection(pc.sunAmbient.xyz);
+    sunAndSkyIrradiance(point, sun, outSunIrradiance, outSkyIrradiance);
+    vec3 transmittance;
+    const vec3 inScatter = skyRadianceToPoint(pc.camera.xyz, point, sun, transmittance);
+    const float km = max(length(position) * 0.001, 1e-3);
+    const vec3 t = clamp(transmittance, vec3(1e-6), vec3(1.0));
+    outExtinctionPerKm = -log(t) / km;
+    outInScatterLimit = inScatter / max(vec3(1.0) - t, vec3(1e-4));
+  }
 }

@@ -1,6 +1,7 @@
 // The sky behind the terrain (docs/architecture.md "Light"): one triangle covering the viewport at
-// the far plane; each fragment gets its view ray (camera-relative world axes) from the inverse of
-// the frame's view-projection. Drawn first in a frame with the atmosphere, without depth writes.
+// the far depth (0, reversed-Z); each fragment gets its view ray (camera-relative world axes) from
+// the inverse of the frame's view-projection. Drawn after the terrain where the depth is still the
+// far one, so that only the sky's own pixels are shaded.
 #version 450
 
 layout(push_constant) uniform PatchPush {

@@ -18,22 +18,15 @@ void DrawRecorder::record(VkCommandBuffer cmd, const OffscreenTarget& target,
   if (placement.first) {
     target.recordBeginRendering(cmd, placement.clearRgba, OffscreenTarget::kFarDepth,
                                 !placement.last);
-    PatchPush values{};
-    std::memcpy(&values, push.data(), std::min(push.size(), sizeof values));
-    if (values.camera[3] > 0.0f) {
-      // The sky first, behind everything: the frame has the atmosphere.
-      const PatchPipeline& pipeline = *pipeline_;
-      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.layout(), 4, 1,
-                              &atmosphereSet_, 0, nullptr);
-      vkCmdPushConstants(cmd, pipeline.layout(),
-                         VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
-                         static_cast<std::uint32_t>(push.size()), push.data());
-      recordSky(cmd, pipeline);
-    }
   } else {
     target.recordResumeRendering(cmd, !placement.last);
   }
   recordBindingsAndDraws(cmd, pipeline_->pipeline(), push, items);
+  PatchPush values{};
+  std::memcpy(&values, push.data(), std::min(push.size(), sizeof values));
+  // With the atmosphere, the sky last, where no patch of any pass has drawn (the depth kept
+  // across passes is still the far one there); its sets and push constants are bound.
+  if (placement.last && values.camera[3] > 0.0f) recordSky(cmd, *pipeline_);
   vkCmdEndRendering(cmd);
 }
 

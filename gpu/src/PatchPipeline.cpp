@@ -97,7 +97,8 @@ Result<UniqueDescriptorSetLayout> createOverlaySetLayout(VkDevice device) {
 }
 
 /// Set 4: the atmosphere's tables (transmittance, scattering, single Mie scattering, irradiance)
-/// and its uniform block, all read by the fragment shaders.
+/// and its uniform block, read by the patch vertex stage (the aerial perspective, per vertex)
+/// and the sky's fragment stage.
 Result<UniqueDescriptorSetLayout> createAtmosphereSetLayout(VkDevice device) {
   std::array<VkDescriptorSetLayoutBinding, 5> bindings{};
   for (std::uint32_t i = 0; i < bindings.size(); ++i) {
@@ -105,7 +106,7 @@ Result<UniqueDescriptorSetLayout> createAtmosphereSetLayout(VkDevice device) {
     bindings[i].descriptorType =
         i < 4 ? VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER : VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
     bindings[i].descriptorCount = 1;
-    bindings[i].stageFlags = VK_SHADER_STAGE_FRAGMENT_BIT;
+    bindings[i].stageFlags = VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
   }
   VkDescriptorSetLayoutCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
@@ -256,8 +257,10 @@ Result<UniquePipeline> createPatchGraphicsPipeline(VkDevice device, VkPipelineLa
   return UniquePipeline(device, rawPipeline);
 }
 
-/// The sky's pipeline: one triangle over the viewport (sky.vert, sky.frag), no vertex input, no
-/// culling, no depth test or write, for the pass's attachments and the patch layout.
+/// The sky's pipeline: one triangle over the viewport at the far depth (sky.vert, sky.frag), no
+/// vertex input, no culling, drawn after the terrain where the depth is still the far one
+/// (compare EQUAL, no writes: only the pixels no patch covered are shaded), for the pass's
+/// attachments and the patch layout.
 Result<UniquePipeline> createSkyPipeline(VkDevice device, VkPipelineLayout layout,
                                          const HostPass& pass) {
   Result<UniqueShaderModule> vert = createShaderModule(device, kSkyVert, "sky.vert");
@@ -293,6 +296,9 @@ Result<UniquePipeline> createSkyPipeline(VkDevice device, VkPipelineLayout layou
   multisample.rasterizationSamples = pass.samples;
   VkPipelineDepthStencilStateCreateInfo depth{};
   depth.sType = VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO;
+  depth.depthTestEnable = VK_TRUE;
+  depth.depthWriteEnable = VK_FALSE;
+  depth.depthCompareOp = VK_COMPARE_OP_EQUAL;
   VkPipelineColorBlendAttachmentState blendAttachment{};
   blendAttachment.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
                                    VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;

@@ -125,7 +125,6 @@ Result<void> TerrainRenderer::Impl::recordSelectedFrame(FrameSlot& slot, GpuSele
         vkCmdPushConstants(cmd, pipeline.layout(),
                            VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
                            sizeof push, &push);
-        if (push.camera[3] > 0.0f) recordSky(cmd, pipeline);
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.indirectPipeline());
         VkBuffer vertexBuffer = shared->patches.vertexBuffer(0);
         const VkDeviceSize zero = 0;
@@ -134,6 +133,7 @@ Result<void> TerrainRenderer::Impl::recordSelectedFrame(FrameSlot& slot, GpuSele
         vkCmdDrawIndexedIndirectCount(cmd, deviceList->commands().buffer(), 0,
                                       deviceList->count().buffer(), 0, deviceList->capacity(),
                                       sizeof(VkDrawIndexedIndirectCommand));
+        if (push.camera[3] > 0.0f) recordSky(cmd, pipeline);  // where no patch drew
         vkCmdEndRendering(cmd);
         if (timestamps != VK_NULL_HANDLE) {
           vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, timestamps, q + 2);
