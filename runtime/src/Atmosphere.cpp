@@ -412,48 +412,42 @@ glm::dvec3 AtmosphereTable::sample(double u, double v, double w) const noexcept 
   return a + (plane(az.i1) - a) * az.f;
 }
 
-AtmosphereTables AtmosphereTables::compute(const AtmosphereParameters& parameters,
-                                           const AtmosphereTableSizes& sizes) {
-  AtmosphereTables out;
-  out.parameters_ = parameters;
-  out.sizes_ = sizes;
-  const AtmosphereParameters& p = out.parameters_;
-  const AtmosphereTableSizes& s = out.sizes_;
-  const Shell shell{p, s};
+namespace {
 
-  // Transmittance to the top of the atmosphere.
-  out.transmittance_ = makeTable(s.transmittanceWidth, s.transmittanceHeight);
-  forEachTexel(out.transmittance_,
-               [&](std::uint32_t x, std::uint32_t y, std::uint32_t, std::size_t i) {
-                 const auto [r, mu] = shell.rMuFromTransmittanceUv(
-                     (x + 0.5) / s.transmittanceWidth, (y + 0.5) / s.transmittanceHeight);
-                 const Vec3 depth =
-                     p.rayleighScattering * shell.opticalLengthToTop(p.rayleighDensity, r, mu) +
-                     p.mieExtinction * shell.opticalLengthToTop(p.mieDensity, r, mu) +
-                     p.absorptionExtinction * shell.opticalLengthToTop(p.absorptionDensity, r, mu);
-                 store(out.transmittance_, i, exp3(-depth));
-               });
-  const Lookup look{shell, out.transmittance_};
+/// Transmittance to the top of the atmosphere, (μ, r).
+void computeTransmittance(const Shell& shell, AtmosphereTable& out) {
+  const AtmosphereParameters& p = shell.p;
+  forEachTexel(out, [&](std::uint32_t x, std::uint32_t y, std::uint32_t, std::size_t i) {
+    const auto [r, mu] = shell.rMuFromTransmittanceUv((x + 0.5) / shell.s.transmittanceWidth,
+                                                      (y + 0.5) / shell.s.transmittanceHeight);
+    const Vec3 depth =
+        p.rayleighScattering * shell.opticalLengthToTop(p.rayleighDensity, r, mu) +
+        p.mieExtinction * shell.opticalLengthToTop(p.mieDensity, r, mu) +
+        p.absorptionExtinction * shell.opticalLengthToTop(p.absorptionDensity, r, mu);
+    store(out, i, exp3(-depth));
+  });
+}
 
-  // Direct irradiance of the ground: only for the next orders (the shader adds the sun's own).
-  AtmosphereTable deltaIrradiance = makeTable(s.irradianceWidth, s.irradianceHeight);
-  forEachTexel(deltaIrradiance, [&](std::uint32_t x, std::uint32_t y, std::uint32_t,
-                                    std::size_t i) {
-    const auto [r, muS] =
-        shell.rMuSFromIrradianceUv((x + 0.5) / s.irradianceWidth, (y + 0.5) / s.irradianceHeight);
+/// The sun's irradiance of the ground through the air, (μ_s, r): only for the next orders (the
+/// shaders add the sun's own light themselves).
+void computeDirectIrradiance(const Shell& shell, const Lookup& look, AtmosphereTable& out) {
+  const AtmosphereParameters& p = shell.p;
+  forEachTexel(out, [&](std::uint32_t x, std::uint32_t y, std::uint32_t, std::size_t i) {
+    const auto [r, muS] = shell.rMuSFromIrradianceUv((x + 0.5) / shell.s.irradianceWidth,
+                                                     (y + 0.5) / shell.s.irradianceHeight);
     const double a = p.sunAngularRadius;
     const double cosineFactor =
         muS < -a ? 0.0 : (muS > a ? muS : (muS + a) * (muS + a) / (4.0 * a));
-    store(deltaIrradiance, i, p.solarIrradiance * look.transmittanceToTop(r, muS) * cosineFactor);
+    store(out, i, p.solarIrradiance * look.transmittanceToTop(r, muS) * cosineFactor);
   });
-  out.irradiance_ = makeTable(s.irradianceWidth, s.irradianceHeight);
+}
 
-  // Single scattering.
-  const std::uint32_t scatterWidth = s.scatteringNu * s.scatteringMuS;
-  AtmosphereTable deltaRayleigh = makeTable(scatterWidth, s.scatteringMu, s.scatteringR);
-  out.singleMie_ = makeTable(scatterWidth, s.scatteringMu, s.scatteringR);
-  forEachTexel(deltaRayleigh, [&](std::uint32_t x, std::uint32_t y, std::uint32_t z,
-                                  std::size_t i) {
+/// Single Rayleigh and Mie scattering, without their phase functions.
+void computeSingleScattering(const Shell& shell, const Lookup& look, AtmosphereTable& rayleighOut,
+                             AtmosphereTable& mieOut) {
+  const AtmosphereParameters& p = shell.p;
+  forEachTexel(rayleighOut, [&](std::uint32_t x, std::uint32_t y, std::uint32_t z,
+                                std::size_t i) {
     const Shell::RMuMuSNu q = shell.texelParameters(x, y, z);
     constexpr int kSamples = 50;
     const double dx = shell.distanceToNearestBoundary(q.r, q.mu, q.ground) / kSamples;
@@ -468,20 +462,41 @@ AtmosphereTables AtmosphereTables::compute(const AtmosphereParameters& parameter
       rayleigh += t * p.rayleighDensity.at(rD - p.bottomRadius) * weight;
       mie += t * p.mieDensity.at(rD - p.bottomRadius) * weight;
     }
-    store(deltaRayleigh, i, rayleigh * dx * p.solarIrradiance * p.rayleighScattering);
-    store(out.singleMie_, i, mie * dx * p.solarIrradiance * p.mieScattering);
+    store(rayleighOut, i, rayleigh * dx * p.solarIrradiance * p.rayleighScattering);
+    store(mieOut, i, mie * dx * p.solarIrradiance * p.mieScattering);
   });
-  out.scattering_ = deltaRayleigh;
+}
 
-  // Multiple scattering, order by order; the density's directions (θ, φ) over the sphere.
-  constexpr int kThetaSamples = 8;
-  constexpr double kDTheta = kPi / kThetaSamples;
-  struct Sphere {
-    std::array<double, kThetaSamples> cosTheta{};
-    std::array<double, kThetaSamples> sinTheta{};
-    std::array<double, 2 * kThetaSamples> cosPhi{};
-    std::array<double, 2 * kThetaSamples> sinPhi{};
-  } sphere;
+/// The light the previous order scatters towards (r, μ) with the sun at μ_s, ν: single
+/// scattering with its phase functions after the first order, else the previous multiple order.
+struct Incoming final {
+  const Lookup& look;
+  const AtmosphereTable& rayleigh;
+  const AtmosphereTable& mie;
+  const AtmosphereTable& multiple;
+  bool afterSingle = true;
+
+  Vec3 operator()(double r, double mu, double muS, double nu, bool ground) const {
+    if (afterSingle) {
+      return look.scattering(rayleigh, r, mu, muS, nu, ground) * rayleighPhase(nu) +
+             look.scattering(mie, r, mu, muS, nu, ground) * miePhase(look.shell.p.miePhaseG, nu);
+    }
+    return look.scattering(multiple, r, mu, muS, nu, ground);
+  }
+};
+
+/// The directions (θ, φ) of the sphere the scattering density integrates over.
+constexpr int kThetaSamples = 8;
+constexpr double kDTheta = kPi / kThetaSamples;
+struct SphereDirections final {
+  std::array<double, kThetaSamples> cosTheta{};
+  std::array<double, kThetaSamples> sinTheta{};
+  std::array<double, 2 * kThetaSamples> cosPhi{};
+  std::array<double, 2 * kThetaSamples> sinPhi{};
+};
+
+SphereDirections sphereDirections() {
+  SphereDirections sphere;
   for (std::size_t l = 0; l < kThetaSamples; ++l) {
     sphere.cosTheta[l] = std::cos((static_cast<double>(l) + 0.5) * kDTheta);
     sphere.sinTheta[l] = std::sin((static_cast<double>(l) + 0.5) * kDTheta);
@@ -490,105 +505,137 @@ AtmosphereTables AtmosphereTables::compute(const AtmosphereParameters& parameter
     sphere.cosPhi[m] = std::cos((static_cast<double>(m) + 0.5) * kDTheta);
     sphere.sinPhi[m] = std::sin((static_cast<double>(m) + 0.5) * kDTheta);
   }
+  return sphere;
+}
+
+/// The light scattered at each (r, μ, μ_s, ν) by the previous order's light, including what the
+/// ground reflects of its irradiance `groundIrradiance`.
+void computeScatteringDensity(const Shell& shell, const Lookup& look, const Incoming& incoming,
+                              const AtmosphereTable& groundIrradiance, AtmosphereTable& out) {
+  const AtmosphereParameters& p = shell.p;
+  const SphereDirections sphere = sphereDirections();
+  forEachTexel(out, [&](std::uint32_t x, std::uint32_t y, std::uint32_t z, std::size_t i) {
+    const Shell::RMuMuSNu q = shell.texelParameters(x, y, z);
+    const Vec3 zenith(0.0, 0.0, 1.0);
+    const Vec3 omega(safeSqrt(1.0 - q.mu * q.mu), 0.0, q.mu);
+    const double sunX = omega.x == 0.0 ? 0.0 : (q.nu - q.mu * q.muS) / omega.x;
+    const Vec3 omegaS(sunX, safeSqrt(1.0 - sunX * sunX - q.muS * q.muS), q.muS);
+    const double altitude = q.r - p.bottomRadius;
+    Vec3 result(0.0);
+    for (std::size_t l = 0; l < kThetaSamples; ++l) {
+      const double cosTheta = sphere.cosTheta[l];
+      const double sinTheta = sphere.sinTheta[l];
+      const bool ground = shell.rayIntersectsGround(q.r, cosTheta);
+      Vec3 groundTransmittance(0.0);
+      double distanceToGround = 0.0;
+      if (ground) {
+        distanceToGround = shell.distanceToBottom(q.r, cosTheta);
+        groundTransmittance = look.transmittance(q.r, cosTheta, distanceToGround, true);
+      }
+      for (std::size_t m = 0; m < 2 * kThetaSamples; ++m) {
+        const Vec3 omegaI(sphere.cosPhi[m] * sinTheta, sphere.sinPhi[m] * sinTheta, cosTheta);
+        const double dOmega = kDTheta * kDTheta * sinTheta;
+        Vec3 radiance = incoming(q.r, omegaI.z, q.muS, glm::dot(omegaS, omegaI), ground);
+        if (ground) {
+          const Vec3 normal = glm::normalize(zenith * q.r + omegaI * distanceToGround);
+          const Vec3 irradiance =
+              look.irradiance(groundIrradiance, p.bottomRadius, glm::dot(normal, omegaS));
+          radiance += groundTransmittance * p.groundAlbedo * (1.0 / kPi) * irradiance;
+        }
+        const double nu2 = glm::dot(omega, omegaI);
+        result += radiance *
+                  (p.rayleighScattering * p.rayleighDensity.at(altitude) * rayleighPhase(nu2) +
+                   p.mieScattering * p.mieDensity.at(altitude) * miePhase(p.miePhaseG, nu2)) *
+                  dOmega;
+      }
+    }
+    store(out, i, result);
+  });
+}
+
+/// The sky's irradiance of the ground from the previous order's light, (μ_s, r).
+void computeIndirectIrradiance(const Shell& shell, const Incoming& incoming,
+                               AtmosphereTable& out) {
+  forEachTexel(out, [&](std::uint32_t x, std::uint32_t y, std::uint32_t, std::size_t i) {
+    const auto [r, muS] = shell.rMuSFromIrradianceUv((x + 0.5) / shell.s.irradianceWidth,
+                                                     (y + 0.5) / shell.s.irradianceHeight);
+    constexpr int kSamples = 16;
+    constexpr double dPhi = kPi / kSamples;
+    constexpr double dTheta = kPi / kSamples;
+    const Vec3 omegaS(safeSqrt(1.0 - muS * muS), 0.0, muS);
+    Vec3 result(0.0);
+    for (int j = 0; j < kSamples / 2; ++j) {
+      const double theta = (j + 0.5) * dTheta;
+      for (int k = 0; k < 2 * kSamples; ++k) {
+        const double phi = (k + 0.5) * dPhi;
+        const Vec3 omega(std::cos(phi) * std::sin(theta), std::sin(phi) * std::sin(theta),
+                         std::cos(theta));
+        const double dOmega = dTheta * dPhi * std::sin(theta);
+        result += incoming(r, omega.z, muS, glm::dot(omega, omegaS), false) * omega.z * dOmega;
+      }
+    }
+    store(out, i, result);
+  });
+}
+
+/// This order's scattering, the density integrated along each ray, into `delta`; added to
+/// `accumulated` divided by the Rayleigh phase function (the shaders multiply it back).
+void computeMultipleScattering(const Shell& shell, const Lookup& look,
+                               const AtmosphereTable& density, AtmosphereTable& delta,
+                               AtmosphereTable& accumulated) {
+  forEachTexel(delta, [&](std::uint32_t x, std::uint32_t y, std::uint32_t z, std::size_t i) {
+    const Shell::RMuMuSNu q = shell.texelParameters(x, y, z);
+    constexpr int kSamples = 50;
+    const double dx = shell.distanceToNearestBoundary(q.r, q.mu, q.ground) / kSamples;
+    Vec3 sum(0.0);
+    for (int k = 0; k <= kSamples; ++k) {
+      const double d = k * dx;
+      const double rI = shell.clampRadius(std::sqrt(d * d + 2.0 * q.r * q.mu * d + q.r * q.r));
+      const double muI = clampCosine((q.r * q.mu + d) / rI);
+      const double muSI = clampCosine((q.r * q.muS + d * q.nu) / rI);
+      const double weight = k == 0 || k == kSamples ? 0.5 : 1.0;
+      sum += look.scattering(density, rI, muI, muSI, q.nu, q.ground) *
+             look.transmittance(q.r, q.mu, d, q.ground) * dx * weight;
+    }
+    store(delta, i, sum);
+    const double phase = rayleighPhase(q.nu);
+    for (std::size_t c = 0; c < 3; ++c) {
+      accumulated.rgb[i * 3 + c] += static_cast<float>(sum[static_cast<int>(c)] / phase);
+    }
+  });
+}
+
+}  // namespace
+
+AtmosphereTables AtmosphereTables::compute(const AtmosphereParameters& parameters,
+                                           const AtmosphereTableSizes& sizes) {
+  AtmosphereTables out;
+  out.parameters_ = parameters;
+  out.sizes_ = sizes;
+  const AtmosphereTableSizes& s = out.sizes_;
+  const Shell shell{out.parameters_, s};
+  out.transmittance_ = makeTable(s.transmittanceWidth, s.transmittanceHeight);
+  computeTransmittance(shell, out.transmittance_);
+  const Lookup look{shell, out.transmittance_};
+  AtmosphereTable deltaIrradiance = makeTable(s.irradianceWidth, s.irradianceHeight);
+  computeDirectIrradiance(shell, look, deltaIrradiance);
+  out.irradiance_ = makeTable(s.irradianceWidth, s.irradianceHeight);
+  const std::uint32_t scatterWidth = s.scatteringNu * s.scatteringMuS;
+  AtmosphereTable deltaRayleigh = makeTable(scatterWidth, s.scatteringMu, s.scatteringR);
+  out.singleMie_ = makeTable(scatterWidth, s.scatteringMu, s.scatteringR);
+  computeSingleScattering(shell, look, deltaRayleigh, out.singleMie_);
+  out.scattering_ = deltaRayleigh;
+  // Multiple scattering, order by order.
   AtmosphereTable deltaMultiple = makeTable(scatterWidth, s.scatteringMu, s.scatteringR);
   AtmosphereTable density = makeTable(scatterWidth, s.scatteringMu, s.scatteringR);
   for (std::uint32_t order = 2; order <= s.scatteringOrders; ++order) {
-    // The light scattered towards each direction at each point by the previous order.
-    const auto incoming = [&](double r, double mu, double muS, double nu, bool ground) {
-      if (order == 2) {
-        return look.scattering(deltaRayleigh, r, mu, muS, nu, ground) * rayleighPhase(nu) +
-               look.scattering(out.singleMie_, r, mu, muS, nu, ground) * miePhase(p.miePhaseG, nu);
-      }
-      return look.scattering(deltaMultiple, r, mu, muS, nu, ground);
-    };
-    forEachTexel(density, [&](std::uint32_t x, std::uint32_t y, std::uint32_t z, std::size_t i) {
-      const Shell::RMuMuSNu q = shell.texelParameters(x, y, z);
-      const Vec3 zenith(0.0, 0.0, 1.0);
-      const Vec3 omega(safeSqrt(1.0 - q.mu * q.mu), 0.0, q.mu);
-      const double sunX = omega.x == 0.0 ? 0.0 : (q.nu - q.mu * q.muS) / omega.x;
-      const Vec3 omegaS(sunX, safeSqrt(1.0 - sunX * sunX - q.muS * q.muS), q.muS);
-      Vec3 result(0.0);
-      for (int l = 0; l < kThetaSamples; ++l) {
-        const double cosTheta = sphere.cosTheta[static_cast<std::size_t>(l)];
-        const double sinTheta = sphere.sinTheta[static_cast<std::size_t>(l)];
-        const bool ground = shell.rayIntersectsGround(q.r, cosTheta);
-        Vec3 groundTransmittance(0.0);
-        double distanceToGround = 0.0;
-        if (ground) {
-          distanceToGround = shell.distanceToBottom(q.r, cosTheta);
-          groundTransmittance = look.transmittance(q.r, cosTheta, distanceToGround, true);
-        }
-        for (int m = 0; m < 2 * kThetaSamples; ++m) {
-          const Vec3 omegaI(sphere.cosPhi[static_cast<std::size_t>(m)] * sinTheta,
-                            sphere.sinPhi[static_cast<std::size_t>(m)] * sinTheta, cosTheta);
-          const double dOmega = kDTheta * kDTheta * sinTheta;
-          const double nu1 = glm::dot(omegaS, omegaI);
-          Vec3 radiance = incoming(q.r, omegaI.z, q.muS, nu1, ground);
-          if (ground) {
-            const Vec3 normal = glm::normalize(zenith * q.r + omegaI * distanceToGround);
-            const Vec3 groundIrradiance =
-                look.irradiance(deltaIrradiance, p.bottomRadius, glm::dot(normal, omegaS));
-            radiance += groundTransmittance * p.groundAlbedo * (1.0 / kPi) * groundIrradiance;
-          }
-          const double nu2 = glm::dot(omega, omegaI);
-          const double altitude = q.r - p.bottomRadius;
-          result += radiance *
-                    (p.rayleighScattering * p.rayleighDensity.at(altitude) * rayleighPhase(nu2) +
-                     p.mieScattering * p.mieDensity.at(altitude) * miePhase(p.miePhaseG, nu2)) *
-                    dOmega;
-        }
-      }
-      store(density, i, result);
-    });
-    // The ground irradiance of this order (from the previous order's scattering).
-    forEachTexel(deltaIrradiance,
-                 [&](std::uint32_t x, std::uint32_t y, std::uint32_t, std::size_t i) {
-                   const auto [r, muS] = shell.rMuSFromIrradianceUv((x + 0.5) / s.irradianceWidth,
-                                                                    (y + 0.5) / s.irradianceHeight);
-                   constexpr int kSamples = 16;
-                   constexpr double dPhi = kPi / kSamples;
-                   constexpr double dTheta = kPi / kSamples;
-                   const Vec3 omegaS(safeSqrt(1.0 - muS * muS), 0.0, muS);
-                   Vec3 result(0.0);
-                   for (int j = 0; j < kSamples / 2; ++j) {
-                     const double theta = (j + 0.5) * dTheta;
-                     for (int k = 0; k < 2 * kSamples; ++k) {
-                       const double phi = (k + 0.5) * dPhi;
-                       const Vec3 omega(std::cos(phi) * std::sin(theta),
-                                        std::sin(phi) * std::sin(theta), std::cos(theta));
-                       const double dOmega = dTheta * dPhi * std::sin(theta);
-                       const double nu = glm::dot(omega, omegaS);
-                       result += incoming(r, omega.z, muS, nu, false) * omega.z * dOmega;
-                     }
-                   }
-                   store(deltaIrradiance, i, result);
-                 });
+    const Incoming incoming{look, deltaRayleigh, out.singleMie_, deltaMultiple, order == 2};
+    computeScatteringDensity(shell, look, incoming, deltaIrradiance, density);
+    computeIndirectIrradiance(shell, incoming, deltaIrradiance);
     for (std::size_t k = 0; k < out.irradiance_.rgb.size(); ++k) {
       out.irradiance_.rgb[k] += deltaIrradiance.rgb[k];
     }
-    // This order's scattering: the density integrated along each ray.
-    forEachTexel(deltaMultiple, [&](std::uint32_t x, std::uint32_t y, std::uint32_t z,
-                                    std::size_t i) {
-      const Shell::RMuMuSNu q = shell.texelParameters(x, y, z);
-      constexpr int kSamples = 50;
-      const double dx = shell.distanceToNearestBoundary(q.r, q.mu, q.ground) / kSamples;
-      Vec3 sum(0.0);
-      for (int k = 0; k <= kSamples; ++k) {
-        const double d = k * dx;
-        const double rI = shell.clampRadius(std::sqrt(d * d + 2.0 * q.r * q.mu * d + q.r * q.r));
-        const double muI = clampCosine((q.r * q.mu + d) / rI);
-        const double muSI = clampCosine((q.r * q.muS + d * q.nu) / rI);
-        const double weight = k == 0 || k == kSamples ? 0.5 : 1.0;
-        sum += look.scattering(density, rI, muI, muSI, q.nu, q.ground) *
-               look.transmittance(q.r, q.mu, d, q.ground) * dx * weight;
-      }
-      store(deltaMultiple, i, sum);
-      const double phase = rayleighPhase(q.nu);
-      for (int c = 0; c < 3; ++c) {
-        out.scattering_.rgb[i * 3 + static_cast<std::size_t>(c)] +=
-            static_cast<float>(sum[c] / phase);
-      }
-    });
+    computeMultipleScattering(shell, look, density, deltaMultiple, out.scattering_);
   }
   return out;
 }

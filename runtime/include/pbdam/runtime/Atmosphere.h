@@ -34,7 +34,7 @@ struct DensityLayer final {
 
 /// An altitude profile of two layers (the lower one up to its width).
 struct DensityProfile final {
-  std::array<DensityLayer, 2> layers{};
+  std::array<DensityLayer, 2> layers{};  ///< the lower layer, then the one above it
   /// The density at `altitudeMeters` above the bottom of the atmosphere.
   double at(double altitudeMeters) const noexcept;
   /// An exponential profile of scale height `meters`.
@@ -47,17 +47,17 @@ struct AtmosphereParameters final {
   double sunAngularRadius = 0.004675;  ///< radians
   double bottomRadius = 0.0;           ///< the planet's (mean) radius
   double topRadius = 0.0;              ///< where the atmosphere is taken to end
-  DensityProfile rayleighDensity;
-  glm::dvec3 rayleighScattering{0.0};
-  DensityProfile mieDensity;
-  glm::dvec3 mieScattering{0.0};
-  glm::dvec3 mieExtinction{0.0};
+  DensityProfile rayleighDensity;         ///< molecules' density with altitude
+  glm::dvec3 rayleighScattering{0.0};     ///< molecules' scattering at the bottom, per metre
+  DensityProfile mieDensity;              ///< aerosols' (dust's) density with altitude
+  glm::dvec3 mieScattering{0.0};          ///< aerosols' scattering at the bottom, per metre
+  glm::dvec3 mieExtinction{0.0};          ///< aerosols' scattering plus absorption, per metre
   /// Asymmetry of Mie scattering (Cornette–Shanks phase function) per channel: dust scatters
   /// blue further forward than red (Mars's blue sunsets).
   glm::dvec3 miePhaseG{0.8};
-  DensityProfile absorptionDensity;
-  glm::dvec3 absorptionExtinction{0.0};
-  glm::dvec3 groundAlbedo{0.1};
+  DensityProfile absorptionDensity;       ///< an absorbing layer's density (Earth's ozone)
+  glm::dvec3 absorptionExtinction{0.0};   ///< its absorption at density 1, per metre
+  glm::dvec3 groundAlbedo{0.1};           ///< the ground's mean reflectance (multiple scattering)
   /// The cosine of the largest sun zenith angle the tables cover (below it the sky is dark).
   double muSMin = -0.2;
 
@@ -80,10 +80,10 @@ struct AtmosphereParameters final {
 struct AtmosphereTableSizes final {
   std::uint32_t transmittanceWidth = 256;  ///< μ
   std::uint32_t transmittanceHeight = 64;  ///< r
-  std::uint32_t scatteringR = 32;
+  std::uint32_t scatteringR = 32;    ///< radii (layers)
   std::uint32_t scatteringMu = 128;  ///< even: half below the horizon, half above
-  std::uint32_t scatteringMuS = 32;
-  std::uint32_t scatteringNu = 8;
+  std::uint32_t scatteringMuS = 32;  ///< sun zenith angles
+  std::uint32_t scatteringNu = 8;    ///< angles between the view and the sun
   std::uint32_t irradianceWidth = 64;   ///< μ_s
   std::uint32_t irradianceHeight = 16;  ///< r
   std::uint32_t scatteringOrders = 4;   ///< 1: single scattering only
@@ -92,11 +92,12 @@ struct AtmosphereTableSizes final {
 /// A table of RGB floats with linear filtering and clamp-to-edge addressing like a GPU texture:
 /// texel i's centre at (i + 0.5) / size.
 struct AtmosphereTable final {
-  std::uint32_t width = 0;
-  std::uint32_t height = 0;
-  std::uint32_t depth = 1;
-  std::vector<float> rgb;  ///< width · height · depth · 3, x fastest
+  std::uint32_t width = 0;   ///< texels a row
+  std::uint32_t height = 0;  ///< rows a layer
+  std::uint32_t depth = 1;   ///< layers
+  std::vector<float> rgb;    ///< width · height · depth · 3, x fastest
 
+  /// Texel (x, y) of layer z.
   glm::dvec3 texel(std::uint32_t x, std::uint32_t y, std::uint32_t z = 0) const noexcept;
   /// Bilinear (depth 1) or trilinear sample at texture coordinates in [0, 1].
   glm::dvec3 sample(double u, double v, double w = 0.5) const noexcept;
@@ -115,7 +116,9 @@ class AtmosphereTables final {
                                  const AtmosphereParameters& parameters,
                                  const AtmosphereTableSizes& sizes, bool* computed = nullptr);
 
+  /// What the tables were computed for.
   const AtmosphereParameters& parameters() const noexcept { return parameters_; }
+  /// Their sizes.
   const AtmosphereTableSizes& sizes() const noexcept { return sizes_; }
   /// Transmittance to the top of the atmosphere, (μ, r).
   const AtmosphereTable& transmittance() const noexcept { return transmittance_; }
@@ -148,11 +151,12 @@ class AtmosphereTables final {
   /// camera along the segment, and its transmittance.
   Radiance skyRadianceToPoint(const glm::dvec3& camera, const glm::dvec3& point,
                               const glm::dvec3& sunDirection) const noexcept;
-  /// The sun's and the sky's irradiance at `point` on a surface of unit `normal`.
+  /// Irradiance of a surface by the sun and by the sky.
   struct Irradiance final {
-    glm::dvec3 sun{0.0};
-    glm::dvec3 sky{0.0};
+    glm::dvec3 sun{0.0};  ///< the sun's, through the air, times the cosine with the normal
+    glm::dvec3 sky{0.0};  ///< the sky's
   };
+  /// The sun's and the sky's irradiance at `point` on a surface of unit `normal`.
   Irradiance sunAndSkyIrradiance(const glm::dvec3& point, const glm::dvec3& normal,
                                  const glm::dvec3& sunDirection) const noexcept;
   /// The radiance of the sun's disc seen through the whole atmosphere from `camera` towards the
