@@ -372,6 +372,10 @@ Result<TerrainRenderer> TerrainRenderer::create(VulkanContext& context, const Da
       return makeError(ErrorCode::InvalidArgument,
                        "the shared GPU cache was made for another Vulkan context or dataset");
     }
+    if (state.exaggeration != options.exaggeration) {
+      return makeError(ErrorCode::InvalidArgument,
+                       "the shared GPU cache holds patches of another vertical exaggeration");
+    }
     impl->cache = options.sharedCache;
     impl->privateCache = false;
   } else {
@@ -379,6 +383,7 @@ Result<TerrainRenderer> TerrainRenderer::create(VulkanContext& context, const Da
     cacheOptions.budgetBytes = options.gpuCacheBytes;
     cacheOptions.forceRgba8Textures = options.forceRgba8Textures;
     cacheOptions.chunkBytes = options.poolChunkBytes;
+    cacheOptions.exaggeration = options.exaggeration;
     auto cache = GpuCache::create(context, dataset, cacheOptions);
     if (!cache) return std::move(cache).error();
     impl->cache = std::move(*cache);
@@ -390,7 +395,7 @@ Result<TerrainRenderer> TerrainRenderer::create(VulkanContext& context, const Da
   // The size first: a bad one is an InvalidArgument naming it, before anything is allocated.
   auto probe = OffscreenTarget::create(context, options.widthPixels, options.heightPixels);
   if (!probe) return std::move(probe).error();
-  impl->decoder.emplace(dataset, impl->shared->texture.texels);
+  impl->decoder.emplace(dataset, impl->shared->texture.texels, impl->shared->exaggeration);
   if (Result<void> r = impl->createFrameObjects(options.framesInFlight); !r) {
     return std::move(r).error();
   }

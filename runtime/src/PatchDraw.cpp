@@ -256,11 +256,12 @@ PatchVertexDisplacement patchVertexDisplacement(const PatchVertexBase& base,
 }
 
 PatchVertexPlacement::PatchVertexPlacement(const DatasetView& dataset, const NodeKey& node,
-                                           const NodeRecord& record) noexcept
+                                           const NodeRecord& record, double exaggeration) noexcept
     : planet_(&dataset.planet()),
       latticeCells_(dataset.latticeCells()),
       face_(node.face),
-      heightStepMeters_(dataset.manifest().heightStepMeters) {
+      heightStepMeters_(dataset.manifest().heightStepMeters),
+      exaggeration_(exaggeration) {
   const BinTriangle tri = dataset.triangle(node);
   apex_ = tri.apex;
   leg1_ = tri.left - tri.apex;
@@ -303,7 +304,8 @@ bool PatchVertexPlacement::latticePoint(std::uint16_t b1, std::uint16_t b2,
 
 glm::dvec3 PatchVertexPlacement::terrainPoint(LatticeXY q,
                                               std::int32_t heightSteps) const noexcept {
-  const double h = static_cast<double>(heightSteps) * heightStepMeters_;
+  // Times exaggeration_ last, so that F = 1 gives the true height's bits.
+  const double h = static_cast<double>(heightSteps) * heightStepMeters_ * exaggeration_;
   // A point inside the face is its own canonical alias (latticeDirection): its direction from
   // the cached plane coordinates is the same bits. Points on face edges take the full path.
   const auto n = static_cast<std::int32_t>(latticeCells_);

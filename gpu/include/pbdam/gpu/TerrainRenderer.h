@@ -58,6 +58,10 @@ struct TerrainRendererOptions final {
   /// Print a warning on stderr, once per renderer, the first time a frame's cut does not fit
   /// the budget and is drawn in several passes.
   bool warnWhenBudgetExceeded = true;
+  /// Vertical exaggeration F of the patches drawn (GpuCacheOptions::exaggeration): a private
+  /// cache is made with it, and a shared cache must have been made with it. Cuts for such a
+  /// renderer must be refined with the same F (runtime::RefinementOptions::exaggeration).
+  double exaggeration = 1.0;
 };
 
 /// A raster draped over the terrain (a viewshed: `pbdam render --viewshed`, `/frame?viewshed=`):

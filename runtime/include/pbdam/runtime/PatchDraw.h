@@ -241,14 +241,17 @@ PatchVertexDisplacement patchVertexDisplacement(const PatchVertexBase& base,
 /// decoded patch from its node and record.
 class PatchVertexPlacement final {
  public:
-  /// The placement of the vertices of `node`, whose record is `record`.
+  /// The placement of the vertices of `node`, whose record is `record`, with their heights
+  /// times `exaggeration` (vertical exaggeration: each vertex drawn at T(q, F·height); 1 draws
+  /// the true terrain, bit for bit).
   PatchVertexPlacement(const DatasetView& dataset, const NodeKey& node,
-                       const formats::NodeRecord& record) noexcept;
+                       const formats::NodeRecord& record, double exaggeration = 1.0) noexcept;
 
   /// The lattice point of barycentrics (b1, b2) on the node's triangle, or false when they are
   /// not one (b1 + b2 > 2^15, or off the lattice: a blob that does not belong to the node).
   bool latticePoint(std::uint16_t b1, std::uint16_t b2, LatticeXY& q) const noexcept;
-  /// The vertex's terrain point T(q, heightSteps · heightStep), planetocentric metres.
+  /// The vertex's terrain point T(q, heightSteps · heightStep · exaggeration), planetocentric
+  /// metres.
   glm::dvec3 terrainPoint(LatticeXY q, std::int32_t heightSteps) const noexcept;
   /// patchVertexBase of (b1, b2) on the node's corner triangle.
   PatchVertexBase base(std::uint16_t b1, std::uint16_t b2) const noexcept {
@@ -263,6 +266,7 @@ class PatchVertexPlacement final {
   std::uint32_t latticeCells_;
   int face_;
   double heightStepMeters_;
+  double exaggeration_;
   LatticeXY apex_{0}, leg1_{0}, leg2_{0};
   // Plane coordinates of the columns x0.. and rows y0.. of the triangle's bounding box (the
   // tangents of the cube map, once per column and row instead of twice per vertex); empty
