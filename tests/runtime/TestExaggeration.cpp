@@ -16,6 +16,7 @@
 #include "RuntimeTestSupport.h"
 #include "TestData.h"
 #include "pbdam/runtime/Camera.h"
+#include "pbdam/runtime/CutReuse.h"
 #include "pbdam/runtime/PatchDraw.h"
 #include "pbdam/runtime/Refinement.h"
 #include "pbdam/runtime/TerrainPoint.h"
@@ -195,6 +196,37 @@ TEST(Exaggeration, CutsWithThreeFoldHeightsAreWatertight) {
     }
   }
   EXPECT_GT(differing, 0u) << "exaggeration refined no cut further";
+}
+
+// The refinement tree kept from frame to frame (IncrementalRefiner) gives refine()'s cuts with
+// exaggerated bounds, and a change of exaggeration rebuilds it.
+TEST(Exaggeration, ReusedRefinementTreesGiveTheSameCuts) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  const auto dataset = openMola(dir);
+  ASSERT_TRUE(dataset);
+  const DatasetView& view = dataset->view();
+  IncrementalRefiner reuse(view);
+  std::size_t differing = 0;
+  for (int k = 0; k < 24; ++k) {
+    const double f = k < 16 ? 3.0 : 0.5;
+    const CameraPose pose{
+        12.0 + 0.3 * k, -140.0 + 0.6 * k, 200000.0 - 4000.0 * k, 20.0, -25.0, 0.0};
+    const Camera camera = Camera::fromPose(view.planet(), pose, Viewport{640, 360, 60.0});
+    RefinementOptions options;
+    options.exaggeration = f;
+    const Cut expected = refine(view, camera, options);
+    const Cut got = reuse.update(camera, options);
+    ASSERT_EQ(got.patches.size(), expected.patches.size()) << "frame " << k;
+    for (std::size_t i = 0; i < got.patches.size(); ++i) {
+      ASSERT_TRUE(got.patches[i].node == expected.patches[i].node) << "frame " << k;
+      EXPECT_EQ(got.patches[i].screenErrorPixels, expected.patches[i].screenErrorPixels);
+      EXPECT_EQ(got.patches[i].morph, expected.patches[i].morph);
+    }
+    options.exaggeration = 1.0;
+    differing += static_cast<std::size_t>(test::serializeCut(refine(view, camera, options)) !=
+                                          test::serializeCut(expected));
+  }
+  EXPECT_GT(differing, 0u);
 }
 
 // What culling relies on: every exaggerated vertex of every node of a cut (and of its ancestors,
