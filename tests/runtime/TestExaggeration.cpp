@@ -11,6 +11,7 @@
 #include <unordered_set>
 #include <vector>
 
+#include "CameraPrecision.h"
 #include "ClosedManifold.h"
 #include "RefinementCuts.h"
 #include "RuntimeTestSupport.h"
@@ -196,6 +197,15 @@ TEST(Exaggeration, CutsWithThreeFoldHeightsAreWatertight) {
     }
   }
   EXPECT_GT(differing, 0u) << "exaggeration refined no cut further";
+}
+
+// Camera-relative drawing stays millimetre-accurate next to the camera with ten-fold heights
+// (Olympus Mons 213 km high): the reference heights follow the exaggerated relief.
+TEST(Exaggeration, MillimetreAccurateTwoMetresAboveTenFoldOlympusMons) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  const precision::PrecisionFigures f = precision::measurePrecision(dir, 18.4, -133.9, 300e3, 10.0);
+  ASSERT_GT(f.vertices, 0u);
+  EXPECT_LE(f.cameraRelative, 1e-3);
 }
 
 // The refinement tree kept from frame to frame (IncrementalRefiner) gives refine()'s cuts with

@@ -139,9 +139,12 @@ struct PatchDrawInput final {
 };
 
 /// Computes the per-draw record of a patch for a camera at `cameraEcef` (double precision):
-/// placePatchDraw of its template, then the geomorph of `input`.
+/// placePatchDraw of its template, then the geomorph of `input`. `exaggeration`: the one its
+/// vertices were decoded with (PatchVertexPlacement), which scales the reference heights'
+/// ranges (precision only: any reference height gives the same positions up to rounding).
 PatchDrawRecord makePatchDrawRecord(const DatasetView& dataset, const PatchDrawInput& input,
-                                    const glm::dvec3& cameraEcef) noexcept;
+                                    const glm::dvec3& cameraEcef,
+                                    double exaggeration = 1.0) noexcept;
 
 /// What a patch's record needs that does not depend on the camera: the record's fixed fields
 /// and the doubles placePatchDraw starts from. The host makes one per draw; a draw list made on
@@ -184,20 +187,24 @@ struct PatchDrawTemplate final {
 };
 
 /// The template of `node` (record `record`) with its tile in `textureLayer`, and where it
-/// would blend in `morphTile` (its parent's tile, in `morphTextureLayer`).
+/// would blend in `morphTile` (its parent's tile, in `morphTextureLayer`); its height range
+/// times `exaggeration` (the one its vertices were decoded with).
 PatchDrawTemplate makePatchDrawTemplate(const DatasetView& dataset, const NodeKey& node,
                                         const formats::NodeRecord& record,
                                         std::uint32_t textureLayer,
                                         const std::optional<TileKey>& morphTile,
-                                        std::uint32_t morphTextureLayer) noexcept;
+                                        std::uint32_t morphTextureLayer,
+                                        double exaggeration = 1.0) noexcept;
 
 /// Dataset-wide numbers placePatchDraw uses.
 struct PatchDrawConstants final {
   double heightStepMeters = 0.0;  ///< the manifest's height step
   double heightSpanMeters = 0.0;  ///< highest − lowest height of the dataset
 };
-/// The constants of `dataset`.
-PatchDrawConstants patchDrawConstants(const DatasetView& dataset) noexcept;
+/// The constants of `dataset`, its height span times `exaggeration` (the one the vertices were
+/// decoded with).
+PatchDrawConstants patchDrawConstants(const DatasetView& dataset,
+                                      double exaggeration = 1.0) noexcept;
 
 /// Sets the camera's fields of `draw` (a copy of `t.record`): corners, edge and interior
 /// origins and reference weights, the tile centre — in double, seen from `cameraEcef`.
