@@ -380,7 +380,9 @@ TEST(RenderCli, ABadExaggerationIsExitCode2NamingIt) {
           "bench " + ds + " --path " + quoted(tmp / "none.csv") + " --out " +
               quoted(tmp / "b.json"),
           "fly " + ds}) {
-      const std::string args = command + " --exaggeration " + value;
+      std::string args = command;
+      args += " --exaggeration ";
+      args += value;
       const CliRun run = runPbdam(args);
       EXPECT_EQ(run.exitCode, 2) << args << "\n" << run.err;
       EXPECT_EQ(lines(run.err).size(), 1u) << args << "\n" << run.err;
