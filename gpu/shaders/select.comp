@@ -30,11 +30,13 @@ layout(std430, set = 0, binding = 1) readonly buffer Frame {
   dvec4 position;   // xyz: the camera, w: pixels per radian
   dvec4 planes[5];  // inward frustum planes: n, d
   double tolerance;
-  double pad;
+  double radiusGrowth;  // vertical exaggeration: added to every sphere's radius (metres)
   uint maxLevel;
   uint culling;
   uint count;
   uint regionCount;
+  double errorScale;    // vertical exaggeration: times every node's refinement error
+  double pad;
 } frame;
 layout(std430, set = 0, binding = 2) buffer Screen { double screen[]; } errors;
 // bit 0: split, bit 1: drawn, bit 2: split because of its screen error (a morph window)
@@ -85,12 +87,16 @@ void main() {
   // Rows of groups (ComputeProgram.h, dispatchLinear): more than 65,535 × 64 nodes.
   const uint i = gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * 64u;
   if (i >= frame.count) return;
-  const SelectNode n = tree.nodes[i];
+  SelectNode n = tree.nodes[i];
+  // Runtime/Refinement.h's refinementBounds: the sphere and error widened for exaggeration.
+  precise double radius = n.sphere.w + frame.radiusGrowth;
+  precise double error = n.error * frame.errorScale;
+  n.sphere.w = radius;
   if (pass.mode == 0u) {
     precise dvec3 d = n.sphere.xyz - frame.position.xyz;
     precise double squared = (d.x * d.x + d.y * d.y) + d.z * d.z;
     precise double distance = sqrt(squared) - n.sphere.w;
-    precise double s = (n.error * frame.position.w) / distance;
+    precise double s = (error * frame.position.w) / distance;
     errors.screen[i] = distance <= 0.0 ? double(uintBitsToFloat(0x7F800000u)) : s;
     const uint level = (n.flags >> 8) & 0xFFu;
     const bool splittable = !leaf(i) && level < frame.maxLevel;

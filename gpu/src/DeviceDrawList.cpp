@@ -111,7 +111,7 @@ std::vector<std::uint32_t> depthFirstOrder(const DiamondIndex& index) {
 Result<DeviceDrawList> DeviceDrawList::create(VulkanContext& context, const DatasetView& dataset,
                                               const GpuSelector& selector,
                                               std::span<const ResidentDraw> residency,
-                                              bool readableRecords) {
+                                              bool readableRecords, double exaggeration) {
   const DiamondIndex& index = selector.index();
   if (residency.size() != index.nodes.size()) {
     return makeError(ErrorCode::InvalidArgument,
@@ -119,7 +119,7 @@ Result<DeviceDrawList> DeviceDrawList::create(VulkanContext& context, const Data
                          " residency entries for " + std::to_string(index.nodes.size()) + " nodes");
   }
   DeviceDrawList list;
-  list.constants_ = patchDrawConstants(dataset);
+  list.constants_ = patchDrawConstants(dataset, exaggeration);
   list.nodeCount_ = static_cast<std::uint32_t>(index.nodes.size());
   list.groups_ = (list.nodeCount_ + kGroupSize - 1) / kGroupSize;
   list.groupsPerRow_ = selector.groupsPerRow();
@@ -134,7 +134,7 @@ Result<DeviceDrawList> DeviceDrawList::create(VulkanContext& context, const Data
     ++list.capacity_;
     const PatchDrawTemplate t =
         makePatchDrawTemplate(dataset, place.key, dataset.node(place.key), where.textureLayer,
-                              where.parentTile, where.parentTextureLayer);
+                              where.parentTile, where.parentTextureLayer, exaggeration);
     table[i] = drawNode(t, where, place.level);
   }
   const std::vector<std::uint32_t> order = depthFirstOrder(index);

@@ -49,11 +49,14 @@ class DeviceDrawList final {
  public:
   /// `residency` has one entry per node of `selector.index()`. With `readableRecords` the
   /// records are kept in host-readable memory (tests compare them with the host's).
+  /// `exaggeration`: the one the resident patches were decoded with (runtime::
+  /// makePatchDrawTemplate).
   static formats::Result<DeviceDrawList> create(VulkanContext& context,
                                                 const runtime::DatasetView& dataset,
                                                 const GpuSelector& selector,
                                                 std::span<const ResidentDraw> residency,
-                                                bool readableRecords = false);
+                                                bool readableRecords = false,
+                                                double exaggeration = 1.0);
 
   /// Uploads the frame's camera and options and records the three passes into `cmd` after the
   /// selector's, then a barrier that makes the list visible to indirect draws and vertex

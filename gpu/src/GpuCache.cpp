@@ -72,6 +72,7 @@ Result<std::shared_ptr<GpuCache>> GpuCache::create(VulkanContext& context,
   state->context = &context;
   state->dataset = &dataset;
   state->texture = chooseTexture(context, dataset, options.forceRgba8Textures);
+  state->exaggeration = options.exaggeration;
   state->patchSlot = patchSlotBytes(dataset);
   state->maxIndices = 3 * dataset.maxPatchTriangles();
   if (state->texture.slotBytes == 0 || dataset.maxPatchVertices() == 0) {

@@ -41,6 +41,7 @@ struct GpuCache::State {
   VulkanContext* context = nullptr;
   const runtime::DatasetView* dataset = nullptr;
   TextureChoice texture;
+  double exaggeration = 1.0;  ///< GpuCacheOptions::exaggeration of the resident patches
   std::uint64_t patchSlot = 0;
   std::uint32_t maxIndices = 0;
   /// Immutable after creation; command buffers of every renderer bind it at once.

@@ -43,13 +43,15 @@ struct SelectFrame final {
   std::array<double, 4> position;
   std::array<std::array<double, 4>, 5> planes;
   double tolerance;
-  double pad;
+  double radiusGrowth;  ///< ExaggerationBounds::radiusGrowthMeters, added to every radius
   std::uint32_t maxLevel;
   std::uint32_t culling;
   std::uint32_t count;
   std::uint32_t regionCount;
+  double errorScale;  ///< ExaggerationBounds::errorScale, times every refinement error
+  double pad;
 };
-static_assert(sizeof(SelectFrame) == 224);
+static_assert(sizeof(SelectFrame) == 240);
 
 /// A focus region as select.comp reads it (std430): its points are in the point buffer.
 struct SelectRegion final {
@@ -220,6 +222,9 @@ Result<void> GpuSelector::recordSelection(VkCommandBuffer cmd, const Camera& cam
     f.planes[k] = {p.x, p.y, p.z, p.w};
   }
   f.tolerance = options.tolerancePixels;
+  const ExaggerationBounds bounds = exaggerationBounds(dataset, options.exaggeration);
+  f.radiusGrowth = bounds.radiusGrowthMeters;
+  f.errorScale = bounds.errorScale;
   f.maxLevel = static_cast<std::uint32_t>(
       options.maxLevel < 0 ? dataset.depth() : std::min(options.maxLevel, dataset.depth()));
   f.culling = options.frustumCulling ? 1U : 0U;

@@ -203,7 +203,8 @@ Result<void> PassDrawer::stage() {
       input.morphTile = patch.morphTile;
       input.morphTextureLayer = m_.shared->tiles.locate(item.morphTileSlot).local;
     }
-    const PatchDrawRecord record = makePatchDrawRecord(*m_.dataset, input, in_.camera.position());
+    const PatchDrawRecord record =
+        makePatchDrawRecord(*m_.dataset, input, in_.camera.position(), m_.shared->exaggeration);
     std::memcpy(recordBytes.data() + std::size_t{item.recordIndex} * sizeof(PatchDrawRecord),
                 &record, sizeof record);
   }

@@ -72,7 +72,8 @@ Result<void> TerrainRenderer::Impl::makeDeviceList(const GpuSelector& selector,
       }
     }
   }
-  auto list = DeviceDrawList::create(*context, *dataset, selector, residency, readableRecords);
+  auto list = DeviceDrawList::create(*context, *dataset, selector, residency, readableRecords,
+                                     shared->exaggeration);
   if (!list) return std::move(list).error();
   deviceList.emplace(std::move(*list));
   deviceListSelector = &selector;

@@ -24,6 +24,9 @@ Result<void> checkTolerance(const RefinementOptions& refinement) {
   if (!std::isfinite(refinement.tolerancePixels) || refinement.tolerancePixels <= 0.0) {
     return invalid("terrain tolerance must be a positive number of pixels");
   }
+  if (!(refinement.exaggeration > 0.0 && refinement.exaggeration <= 100.0)) {
+    return invalid("terrain exaggeration must be in (0, 100]");
+  }
   return {};
 }
 
@@ -112,6 +115,7 @@ Result<void> Terrain::start() {
   rendererOptions.sharedCache = o.sharedCache;
   rendererOptions.warnWhenBudgetExceeded = o.warnWhenBudgetExceeded;
   rendererOptions.atmosphere = o.atmosphere;
+  rendererOptions.exaggeration = o.refinement.exaggeration;
   if (o.sharedCache) gpuCacheBytes = o.sharedCache->budgetBytes();
   gpuCacheBytes_ = gpuCacheBytes;
   rendererOptions.framesInFlight = o.framesInFlight;
@@ -155,6 +159,10 @@ void Terrain::stopPrefetcher() {
 
 Result<void> Terrain::setRefinement(const RefinementOptions& refinement) {
   if (auto r = checkTolerance(refinement); !r) return r;
+  if (refinement.exaggeration != options_.refinement.exaggeration) {
+    // The GPU cache's patches were decoded under the terrain's exaggeration.
+    return invalid("a terrain's exaggeration is fixed when it is opened");
+  }
   options_.refinement = refinement;
   return {};
 }

@@ -380,6 +380,10 @@ Result<TerrainRenderer> TerrainRenderer::create(VulkanContext& context, const Da
       return makeError(ErrorCode::InvalidArgument,
                        "the shared GPU cache was made for another Vulkan context or dataset");
     }
+    if (state.exaggeration != options.exaggeration) {
+      return makeError(ErrorCode::InvalidArgument,
+                       "the shared GPU cache holds patches of another vertical exaggeration");
+    }
     impl->cache = options.sharedCache;
     impl->privateCache = false;
   } else {
@@ -387,6 +391,7 @@ Result<TerrainRenderer> TerrainRenderer::create(VulkanContext& context, const Da
     cacheOptions.budgetBytes = options.gpuCacheBytes;
     cacheOptions.forceRgba8Textures = options.forceRgba8Textures;
     cacheOptions.chunkBytes = options.poolChunkBytes;
+    cacheOptions.exaggeration = options.exaggeration;
     auto cache = GpuCache::create(context, dataset, cacheOptions);
     if (!cache) return std::move(cache).error();
     impl->cache = std::move(*cache);
@@ -398,7 +403,7 @@ Result<TerrainRenderer> TerrainRenderer::create(VulkanContext& context, const Da
   // The size first: a bad one is an InvalidArgument naming it, before anything is allocated.
   auto probe = OffscreenTarget::create(context, options.widthPixels, options.heightPixels);
   if (!probe) return std::move(probe).error();
-  impl->decoder.emplace(dataset, impl->shared->texture.texels);
+  impl->decoder.emplace(dataset, impl->shared->texture.texels, impl->shared->exaggeration);
   auto atmosphere = AtmosphereBinding::create(context, impl->shared->pipeline, options.atmosphere,
                                               dataset.planet());
   if (!atmosphere) return std::move(atmosphere).error();

@@ -44,6 +44,7 @@ class IncrementalRefiner::Tree final {
       : dataset_(dataset),
         marginDegrees_(marginDegrees),
         options_(options),
+        bounds_(exaggerationBounds(dataset, options.exaggeration)),
         viewport_(camera.viewport()),
         maxLevel_(options.maxLevel < 0 ? dataset.depth()
                                        : std::min(options.maxLevel, dataset.depth())),
@@ -59,9 +60,9 @@ class IncrementalRefiner::Tree final {
   bool matches(const Camera& camera, const RefinementOptions& o) const noexcept {
     const Viewport& v = camera.viewport();
     return o.tolerancePixels == options_.tolerancePixels && o.maxLevel == options_.maxLevel &&
-           o.morphRange == options_.morphRange && o.frustumCulling && v.width == viewport_.width &&
-           v.height == viewport_.height && v.fovYDegrees == viewport_.fovYDegrees &&
-           camera.nearMeters() == camera_.nearMeters();
+           o.morphRange == options_.morphRange && o.exaggeration == options_.exaggeration &&
+           o.frustumCulling && v.width == viewport_.width && v.height == viewport_.height &&
+           v.fovYDegrees == viewport_.fovYDegrees && camera.nearMeters() == camera_.nearMeters();
   }
 
   /// Moves to `camera`: re-evaluates the nodes that may have changed.
@@ -172,7 +173,7 @@ class IncrementalRefiner::Tree final {
     bool canSplit = false;
     glm::dvec3 centre{0.0};
     double radius = 0.0;
-    double error = 0.0;  ///< refinementErrorMeters
+    double error = 0.0;  ///< refinementBounds' errorMeters
     std::uint32_t triangles = 0;
     std::uint32_t vertices = 0;
     TileKey tile;
@@ -190,9 +191,10 @@ class IncrementalRefiner::Tree final {
       n.key = key;
       n.row = row;
       n.level = level;
-      n.centre = glm::dvec3(record.sphereCenter[0], record.sphereCenter[1], record.sphereCenter[2]);
-      n.radius = static_cast<double>(record.sphereRadiusMeters);
-      n.error = refinementErrorMeters(dataset_, level, static_cast<double>(record.errorMeters));
+      const RefinementBounds b = refinementBounds(dataset_, record, level, bounds_);
+      n.centre = b.centre;
+      n.radius = b.radiusMeters;
+      n.error = b.errorMeters;
       n.canSplit = level < maxLevel_ && !record.leaf();
       n.triangles = record.triangleCount;
       n.vertices = record.vertexCount;
@@ -266,6 +268,7 @@ class IncrementalRefiner::Tree final {
   const DatasetView& dataset_;
   double marginDegrees_;
   RefinementOptions options_;
+  ExaggerationBounds bounds_;
   Viewport viewport_;
   int maxLevel_;
   Camera camera_;

@@ -61,7 +61,8 @@ std::pair<std::size_t, std::size_t> edgeCorners(const std::array<PointKey, 3>& k
 PatchDrawTemplate makePatchDrawTemplate(const DatasetView& dataset, const NodeKey& node,
                                         const NodeRecord& n, std::uint32_t textureLayer,
                                         const std::optional<TileKey>& morphTile,
-                                        std::uint32_t morphTextureLayer) noexcept {
+                                        std::uint32_t morphTextureLayer,
+                                        double exaggeration) noexcept {
   const BinTriangle tri = dataset.triangle(node);
   const std::array<PointKey, 3> keys = cornerKeys(dataset.latticeCells(), node, tri);
   std::array<glm::dvec3, 3> p{}, nd{};
@@ -103,8 +104,8 @@ PatchDrawTemplate makePatchDrawTemplate(const DatasetView& dataset, const NodeKe
   t.normal0 = nd[0];
   t.normalDelta1 = glm::dvec3(nf[1] - nf[0]);
   t.normalDelta2 = glm::dvec3(nf[2] - nf[0]);
-  t.minHeightMeters = static_cast<double>(n.minHeightMeters);
-  t.maxHeightMeters = static_cast<double>(n.maxHeightMeters);
+  t.minHeightMeters = static_cast<double>(n.minHeightMeters) * exaggeration;
+  t.maxHeightMeters = static_cast<double>(n.maxHeightMeters) * exaggeration;
   d.axis1 = vec4(glm::vec3(t.axis1), 0.0f);
   d.axis2 = vec4(glm::vec3(t.axis2), 0.0f);
   d.normalDelta1 = vec4(nf[1] - nf[0], 0.0f);
@@ -158,9 +159,9 @@ PatchDrawTemplate makePatchDrawTemplate(const DatasetView& dataset, const NodeKe
   return t;
 }
 
-PatchDrawConstants patchDrawConstants(const DatasetView& dataset) noexcept {
+PatchDrawConstants patchDrawConstants(const DatasetView& dataset, double exaggeration) noexcept {
   const Manifest& m = dataset.manifest();
-  return {m.heightStepMeters, m.maxHeightMeters - m.minHeightMeters};
+  return {m.heightStepMeters, (m.maxHeightMeters - m.minHeightMeters) * exaggeration};
 }
 
 void placePatchDraw(const PatchDrawTemplate& t, const PatchDrawConstants& constants,
@@ -210,12 +211,12 @@ void placePatchDraw(const PatchDrawTemplate& t, const PatchDrawConstants& consta
 }
 
 PatchDrawRecord makePatchDrawRecord(const DatasetView& dataset, const PatchDrawInput& input,
-                                    const glm::dvec3& cam) noexcept {
+                                    const glm::dvec3& cam, double exaggeration) noexcept {
   const PatchDrawTemplate t =
       makePatchDrawTemplate(dataset, input.node, input.record, input.textureLayer, input.morphTile,
-                            input.morphTextureLayer);
+                            input.morphTextureLayer, exaggeration);
   PatchDrawRecord d = t.record;
-  placePatchDraw(t, patchDrawConstants(dataset), cam, d);
+  placePatchDraw(t, patchDrawConstants(dataset, exaggeration), cam, d);
   d.morph = {input.morph[0], input.morph[1], 0.0f, 0.0f};
   if (input.morphTile) {
     d.morph[2] = input.morph[0];
@@ -256,11 +257,12 @@ PatchVertexDisplacement patchVertexDisplacement(const PatchVertexBase& base,
 }
 
 PatchVertexPlacement::PatchVertexPlacement(const DatasetView& dataset, const NodeKey& node,
-                                           const NodeRecord& record) noexcept
+                                           const NodeRecord& record, double exaggeration) noexcept
     : planet_(&dataset.planet()),
       latticeCells_(dataset.latticeCells()),
       face_(node.face),
-      heightStepMeters_(dataset.manifest().heightStepMeters) {
+      heightStepMeters_(dataset.manifest().heightStepMeters),
+      exaggeration_(exaggeration) {
   const BinTriangle tri = dataset.triangle(node);
   apex_ = tri.apex;
   leg1_ = tri.left - tri.apex;
@@ -303,7 +305,8 @@ bool PatchVertexPlacement::latticePoint(std::uint16_t b1, std::uint16_t b2,
 
 glm::dvec3 PatchVertexPlacement::terrainPoint(LatticeXY q,
                                               std::int32_t heightSteps) const noexcept {
-  const double h = static_cast<double>(heightSteps) * heightStepMeters_;
+  // Times exaggeration_ last, so that F = 1 gives the true height's bits.
+  const double h = static_cast<double>(heightSteps) * heightStepMeters_ * exaggeration_;
   // A point inside the face is its own canonical alias (latticeDirection): its direction from
   // the cached plane coordinates is the same bits. Points on face edges take the full path.
   const auto n = static_cast<std::int32_t>(latticeCells_);

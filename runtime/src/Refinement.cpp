@@ -2,6 +2,7 @@
 #include "pbdam/runtime/Refinement.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <sstream>
 #include <unordered_set>
@@ -17,6 +18,7 @@ class Refiner {
       : dataset_(dataset),
         camera_(camera),
         options_(options),
+        bounds_(exaggerationBounds(dataset, options.exaggeration)),
         maxLevel_(options.maxLevel < 0 ? dataset.depth()
                                        : std::min(options.maxLevel, dataset.depth())) {}
 
@@ -26,15 +28,12 @@ class Refiner {
     ++cut_.nodesVisited;
     const FaceView& face = dataset_.face(key.face);
     const NodeRecord node = face.nodeAt(row);
-    const glm::dvec3 centre(node.sphereCenter[0], node.sphereCenter[1], node.sphereCenter[2]);
-    const double radius = static_cast<double>(node.sphereRadiusMeters);
-    if (options_.frustumCulling && !camera_.sphereInFrustum(centre, radius)) {
+    const RefinementBounds b = refinementBounds(dataset_, node, level, bounds_);
+    if (options_.frustumCulling && !camera_.sphereInFrustum(b.centre, b.radiusMeters)) {
       ++cut_.nodesCulled;
       return;
     }
-    const double error =
-        refinementErrorMeters(dataset_, level, static_cast<double>(node.errorMeters));
-    const double screen = camera_.screenError(error, centre, radius);
+    const double screen = camera_.screenError(b.errorMeters, b.centre, b.radiusMeters);
     const bool descend = screen > options_.tolerancePixels && level < maxLevel_ && !node.leaf();
     const std::uint64_t first = descend ? face.firstChildOf(row) : 0;
     if (descend && options_.residentRecordsOnly &&
@@ -64,6 +63,7 @@ class Refiner {
   const DatasetView& dataset_;
   const Camera& camera_;
   const RefinementOptions& options_;
+  ExaggerationBounds bounds_;
   int maxLevel_;
   Cut cut_;
   std::unordered_set<std::uint64_t> seenTiles_;  // packKey() of the tiles listed
@@ -74,6 +74,22 @@ class Refiner {
 double refinementErrorMeters(const DatasetView& dataset, int level,
                              double geometryErrorMeters) noexcept {
   return std::max(geometryErrorMeters, dataset.textureTermOfLevel(level));
+}
+
+ExaggerationBounds exaggerationBounds(const DatasetView& dataset, double exaggeration) noexcept {
+  const Manifest& m = dataset.manifest();
+  // Stored heights are the lattice's rounded to the height step: within a step of its range.
+  const double largest =
+      std::max(std::abs(m.minHeightMeters), std::abs(m.maxHeightMeters)) + m.heightStepMeters;
+  return {std::max(exaggeration, 1.0), std::abs(exaggeration - 1.0) * largest};
+}
+
+RefinementBounds refinementBounds(const DatasetView& dataset, const NodeRecord& record, int level,
+                                  const ExaggerationBounds& bounds) noexcept {
+  return {glm::dvec3(record.sphereCenter[0], record.sphereCenter[1], record.sphereCenter[2]),
+          static_cast<double>(record.sphereRadiusMeters) + bounds.radiusGrowthMeters,
+          refinementErrorMeters(dataset, level, static_cast<double>(record.errorMeters)) *
+              bounds.errorScale};
 }
 
 void addCutPatch(Cut& cut, const CutPatch& patch, std::uint32_t triangles, std::uint32_t vertices,
@@ -109,19 +125,16 @@ void refreshMorph(const DatasetView& dataset, const Camera& camera,
                   const RefinementOptions& options, Cut& cut) {
   constexpr double kNone = std::numeric_limits<double>::infinity();
   cut.tiles.clear();
+  const ExaggerationBounds bounds = exaggerationBounds(dataset, options.exaggeration);
   std::unordered_set<std::uint64_t> seen;
   for (CutPatch& patch : cut.patches) {
     std::array<double, 2> up{kNone, kNone};
     NodeKey ancestor = patch.node;
     for (std::size_t k = 0; k < 2 && ancestor.heap > 0; ++k) {
       ancestor.heap = (ancestor.heap - 1) / 2;
-      const NodeRecord record = dataset.node(ancestor);
-      const glm::dvec3 centre(record.sphereCenter[0], record.sphereCenter[1],
-                              record.sphereCenter[2]);
-      up[k] =
-          camera.screenError(refinementErrorMeters(dataset, patch.level - 1 - static_cast<int>(k),
-                                                   static_cast<double>(record.errorMeters)),
-                             centre, static_cast<double>(record.sphereRadiusMeters));
+      const RefinementBounds b = refinementBounds(dataset, dataset.node(ancestor),
+                                                  patch.level - 1 - static_cast<int>(k), bounds);
+      up[k] = camera.screenError(b.errorMeters, b.centre, b.radiusMeters);
     }
     setPatchMorph(dataset, options, up[0], up[1], patch);
     if (seen.insert(packKey(patch.tile)).second) cut.tiles.push_back(patch.tile);

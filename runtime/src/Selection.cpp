@@ -136,6 +136,7 @@ Cut CutSelector::select(const Camera& camera, const SelectionOptions& options,
   const int maxLevel = r.maxLevel < 0 ? dataset.depth() : std::min(r.maxLevel, dataset.depth());
   constexpr double kNone = std::numeric_limits<double>::infinity();
   const std::size_t count = index_.nodes.size();
+  const ExaggerationBounds bounds = exaggerationBounds(dataset, r.exaggeration);
   // 1. The predicate, per node.
   std::vector<double> screen(count, 0.0);
   std::vector<char> bySize(count, 0);  // split because its screen error exceeds the tolerance
@@ -143,11 +144,10 @@ Cut CutSelector::select(const Camera& camera, const SelectionOptions& options,
   for (std::uint32_t i = 0; i < count; ++i) {
     const DiamondIndex::Node& n = index_.nodes[i];
     const NodeRecord record = dataset.node(n.key);
-    const glm::dvec3 centre(record.sphereCenter[0], record.sphereCenter[1], record.sphereCenter[2]);
-    const double radius = static_cast<double>(record.sphereRadiusMeters);
-    screen[i] = camera.screenError(
-        refinementErrorMeters(dataset, n.level, static_cast<double>(record.errorMeters)), centre,
-        radius);
+    const RefinementBounds b = refinementBounds(dataset, record, n.level, bounds);
+    const glm::dvec3& centre = b.centre;
+    const double radius = b.radiusMeters;
+    screen[i] = camera.screenError(b.errorMeters, centre, radius);
     if (n.leaf || n.level >= maxLevel) continue;
     bySize[i] = static_cast<char>(screen[i] > r.tolerancePixels);
     bool wants = bySize[i] != 0;
@@ -182,10 +182,8 @@ Cut CutSelector::select(const Camera& camera, const SelectionOptions& options,
     const DiamondIndex::Node& n = index_.nodes[i];
     ++cut.nodesVisited;
     const NodeRecord record = dataset.node(n.key);
-    if (r.frustumCulling &&
-        !camera.sphereInFrustum(
-            {record.sphereCenter[0], record.sphereCenter[1], record.sphereCenter[2]},
-            static_cast<double>(record.sphereRadiusMeters))) {
+    const RefinementBounds b = refinementBounds(dataset, record, n.level, bounds);
+    if (r.frustumCulling && !camera.sphereInFrustum(b.centre, b.radiusMeters)) {
       ++cut.nodesCulled;
       return;
     }

@@ -28,9 +28,11 @@ std::uint64_t alignUp(std::uint64_t value, std::uint64_t alignment) {
 
 }  // namespace
 
-DecodeScheduler::DecodeScheduler(const DatasetView& dataset, TexelFormat tileTexels) noexcept
+DecodeScheduler::DecodeScheduler(const DatasetView& dataset, TexelFormat tileTexels,
+                                 double exaggeration) noexcept
     : dataset_(&dataset),
       tileTexels_(tileTexels),
+      exaggeration_(exaggeration),
       tileBytes_(textureTileDataBytes(dataset.manifest().textureTileTexels, tileTexels)) {}
 
 TexelFormat DecodeScheduler::datasetTexels(const DatasetView& dataset) noexcept {
@@ -100,7 +102,7 @@ Result<void> DecodeScheduler::decodePatch(const NodeKey& key, std::span<std::byt
                          " triangles, its node record says " + std::to_string(record.vertexCount) +
                          " and " + std::to_string(record.triangleCount));
   }
-  const runtime::PatchVertexPlacement placement(*dataset_, key, record);
+  const runtime::PatchVertexPlacement placement(*dataset_, key, record, exaggeration_);
   std::byte* dst = out.data();
   for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
     const PatchVertex& pv = mesh.vertices[v];

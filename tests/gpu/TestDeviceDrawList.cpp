@@ -42,8 +42,10 @@ class DeviceDrawListTest : public test::GpuTest {
   }
 
   /// A renderer whose private cache holds `budgetBytes` in one pool chunk.
-  Result<TerrainRenderer> makeRenderer(const DatasetView& view, std::uint64_t budgetBytes) {
+  Result<TerrainRenderer> makeRenderer(const DatasetView& view, std::uint64_t budgetBytes,
+                                       double exaggeration = 1.0) {
     TerrainRendererOptions ro;
+    ro.exaggeration = exaggeration;
     ro.widthPixels = kDrawListWidth;
     ro.heightPixels = kDrawListHeight;
     ro.gpuCacheBytes = budgetBytes;
@@ -52,7 +54,7 @@ class DeviceDrawListTest : public test::GpuTest {
   }
 
   void expectReadBackFrames(const std::filesystem::path& dir, std::uint64_t seed, bool focus,
-                            std::uint32_t groupsPerRow = 65535) {
+                            std::uint32_t groupsPerRow = 65535, double exaggeration = 1.0) {
     if (!supported()) GTEST_SKIP() << "no indirect draw counts or draw parameters";
     const auto dataset = test::openDataset(dir);
     ASSERT_NE(dataset, nullptr);
@@ -63,7 +65,7 @@ class DeviceDrawListTest : public test::GpuTest {
       ASSERT_GT(selector->index().nodes.size(), std::size_t{256} * groupsPerRow * 2)
           << "the scan spans several rows of groups";
     }
-    auto renderer = makeRenderer(view, GpuCache::bytesForEverything(context(), view));
+    auto renderer = makeRenderer(view, GpuCache::bytesForEverything(context(), view), exaggeration);
     ASSERT_TRUE(renderer.ok()) << renderer.error().message;
     const double radius = view.planet().equatorialRadiusMeters();
     std::mt19937_64 rng(seed);
@@ -81,6 +83,7 @@ class DeviceDrawListTest : public test::GpuTest {
       SelectionOptions selection;
       selection.refinement.tolerancePixels = 2.0 + 3.0 * unit(rng);
       selection.refinement.morphRange = c % 3 == 2 ? 0.0 : 0.25;
+      selection.refinement.exaggeration = exaggeration;
       if (focus) {
         auto circle = focusCircle(view.planet(), pose.latDegrees, pose.lonDegrees, 300e3, 0.0);
         ASSERT_TRUE(circle.ok()) << circle.error().message;
@@ -113,7 +116,8 @@ class DeviceDrawListTest : public test::GpuTest {
           input.morphTile = patch.morphTile;
           input.morphTextureLayer = static_cast<std::uint32_t>(got.morph[3]);
         }
-        const PatchDrawRecord expected = makePatchDrawRecord(view, input, camera.position());
+        const PatchDrawRecord expected =
+            makePatchDrawRecord(view, input, camera.position(), exaggeration);
         using Words = std::array<float, sizeof(PatchDrawRecord) / 4>;
         using Bits = std::array<std::uint32_t, sizeof(PatchDrawRecord) / 4>;
         const Bits gotBits = std::bit_cast<Bits>(got), expectedBits = std::bit_cast<Bits>(expected);
@@ -143,6 +147,13 @@ TEST_F(DeviceDrawListTest, EarthFramesAreTheReadBackCutsFramesOnLavapipe) {
 TEST_F(DeviceDrawListTest, FocusCutsAreDrawnFromTheDeviceList) {
   PBDAM_REQUIRE_DATASET(dir, "mola");
   expectReadBackFrames(dir, 13, true);
+}
+
+// With four-fold heights: the device's records are the host's for that exaggeration (reference
+// height ranges scaled), and the frames the read-back cut's.
+TEST_F(DeviceDrawListTest, ExaggeratedMarsFramesAreTheReadBackCutsFrames) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  expectReadBackFrames(dir, 15, false, 65535, 4.0);
 }
 
 // The list's scan in rows of 2 groups of 256 nodes (past 65,535 groups, 16.8 M nodes, a

@@ -2,7 +2,7 @@
 // random cameras on Mars and Earth, with and without culling and level caps, it is refine()'s
 // cut patch for patch — order, screen errors bit for bit, geomorph weights, tiles — also when
 // its dispatches are split into rows of groups, and a node-table budget below the tables' size
-// is refused naming both.
+// is refused naming both. With vertical exaggeration (three-fold, half) too.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -24,7 +24,7 @@ namespace {
 class GpuSelectorTest : public test::GpuTest {
  protected:
   void expectSameCuts(const std::filesystem::path& dir, int cameras, std::uint64_t seed,
-                      std::uint32_t groupsPerRow = 65535) {
+                      std::uint32_t groupsPerRow = 65535, double exaggeration = 1.0) {
     if (!context().caps().shaderFloat64) GTEST_SKIP() << "no 64-bit floats in shaders";
     const auto dataset = test::openDataset(dir);
     ASSERT_NE(dataset, nullptr);
@@ -51,6 +51,7 @@ class GpuSelectorTest : public test::GpuTest {
       RefinementOptions options;
       options.tolerancePixels = 1.0 + 4.0 * unit(rng);
       options.frustumCulling = c % 4 != 3;
+      options.exaggeration = exaggeration;
       if (c % 5 == 4) options.maxLevel = view.depth() - 2;
       const Cut cpu = refine(view, camera, options);
       SelectionOptions selection;
@@ -83,6 +84,19 @@ TEST_F(GpuSelectorTest, MarsCutsAreTheCpusOnLavapipe) {
 TEST_F(GpuSelectorTest, EarthCutsAreTheCpusOnLavapipe) {
   PBDAM_REQUIRE_DATASET(dir, "earth");
   expectSameCuts(dir, 100, 42);
+}
+
+// Vertical exaggeration widens the spheres and scales the errors in select.comp as on the host
+// (runtime::refinementBounds): the same cuts, bit for bit, at three-fold and at half heights.
+TEST_F(GpuSelectorTest, ExaggeratedMarsCutsAreTheCpusOnLavapipe) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  expectSameCuts(dir, 40, 44, 65535, 3.0);
+  expectSameCuts(dir, 20, 45, 65535, 0.5);
+}
+
+TEST_F(GpuSelectorTest, ExaggeratedEarthCutsAreTheCpusOnLavapipe) {
+  PBDAM_REQUIRE_DATASET(dir, "earth");
+  expectSameCuts(dir, 40, 46, 65535, 3.0);
 }
 
 // Past 65,535 groups a dispatch is made of rows of groups (4.2 M nodes at 64 a group; the

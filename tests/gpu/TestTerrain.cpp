@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -256,6 +257,31 @@ TEST_F(TerrainTest, BadOptionsAndMisuseAreRefusedByName) {
   auto frame = t.collect();
   ASSERT_TRUE(frame) << frame.error().message;
   EXPECT_GT(frame->stats.passes, 1u);
+}
+
+// A terrain's exaggeration is checked at open and fixed for its life (its GPU cache's patches
+// were decoded under it): out of (0, 100] is refused by name, and so is another one later.
+TEST_F(TerrainTest, ExaggerationIsCheckedAndFixedAtOpen) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  for (const double bad : {0.0, -1.0, 101.0, std::numeric_limits<double>::quiet_NaN()}) {
+    TerrainOptions options = smallFrames();
+    options.refinement.exaggeration = bad;
+    auto terrain = Terrain::open(context(), dir, options);
+    ASSERT_FALSE(terrain) << bad;
+    EXPECT_EQ(terrain.error().code, formats::ErrorCode::InvalidArgument);
+    EXPECT_NE(terrain.error().message.find("exaggeration"), std::string::npos);
+  }
+  TerrainOptions options = smallFrames();
+  options.refinement.exaggeration = 2.0;
+  auto terrain = Terrain::open(context(), dir, options);
+  ASSERT_TRUE(terrain) << terrain.error().message;
+  runtime::RefinementOptions refinement = options.refinement;
+  refinement.tolerancePixels = 5.0;
+  EXPECT_TRUE((*terrain)->setRefinement(refinement));
+  refinement.exaggeration = 1.0;
+  auto changed = (*terrain)->setRefinement(refinement);
+  ASSERT_FALSE(changed);
+  EXPECT_NE(changed.error().message.find("exaggeration"), std::string::npos);
 }
 
 }  // namespace

@@ -99,8 +99,9 @@ constexpr std::array<double, 5> kMorphRanges = {0.0, 0.05, 0.1, 0.175, 0.25};
 class TerrainRendererTest : public test::GpuTest {
  protected:
   Result<TerrainRenderer> makeRenderer(const DatasetView& view, std::uint64_t budgetBytes,
-                                       bool forceRgba8 = false) {
+                                       bool forceRgba8 = false, double exaggeration = 1.0) {
     TerrainRendererOptions options;
+    options.exaggeration = exaggeration;
     options.widthPixels = kWidth;
     options.heightPixels = kHeight;
     options.gpuCacheBytes = budgetBytes;
@@ -110,11 +111,11 @@ class TerrainRendererTest : public test::GpuTest {
   }
 
   void expectNoHoles(const std::filesystem::path& dir, double lowAltitude,
-                     std::vector<CameraPose> poses = {}) {
+                     std::vector<CameraPose> poses = {}, double exaggeration = 1.0) {
     const auto dataset = test::openDataset(dir);
     ASSERT_NE(dataset, nullptr);
     const DatasetView& view = dataset->view();
-    auto renderer = makeRenderer(view, std::uint64_t{256} << 20);
+    auto renderer = makeRenderer(view, std::uint64_t{256} << 20, false, exaggeration);
     ASSERT_TRUE(renderer.ok()) << renderer.error().message;
     if (poses.empty()) {
       poses =
@@ -129,14 +130,16 @@ class TerrainRendererTest : public test::GpuTest {
       const Camera camera = test::cameraAt(view, pose, kWidth, kHeight);
       RefinementOptions options;
       options.morphRange = morphRange;
+      options.exaggeration = exaggeration;
       const Cut cut = refine(view, camera, options);
       ASSERT_FALSE(cut.patches.empty());
       double maxError = 0.0;
       for (const CutPatch& p : cut.patches) {
         maxError = std::max(maxError, static_cast<double>(view.node(p.node).errorMeters));
       }
-      const double radius =
-          view.planet().polarRadiusMeters() + view.manifest().minHeightMeters - maxError - 1.0;
+      // Exaggerated, the lowest terrain and the errors scale by F too.
+      const double radius = view.planet().polarRadiusMeters() +
+                            exaggeration * (view.manifest().minHeightMeters - maxError) - 1.0;
       auto frame = renderer->render(cut, camera, magentaBackground());
       ASSERT_TRUE(frame.ok()) << frame.error().message;
       EXPECT_FALSE(frame->stats.budgetExceeded);
@@ -156,6 +159,40 @@ class TerrainRendererTest : public test::GpuTest {
 TEST_F(TerrainRendererTest, NoBackgroundInsideTheSilhouetteOfMars) {
   PBDAM_REQUIRE_DATASET(dir, "mola");
   expectNoHoles(dir, 25000.0);  // above Olympus Mons (21.3 km)
+}
+
+// Five-fold heights: Olympus Mons stands 106 km high. The crack-test cameras above it, and
+// cameras low over its flank looking at it: no background inside the silhouette.
+TEST_F(TerrainRendererTest, NoBackgroundInsideTheSilhouetteOfFiveFoldMars) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  std::vector<CameraPose> poses = crackTestCameras(3396190.0, 5.0 * 25000.0);
+  for (const double pitch : {-5.0, -20.0, -45.0}) {
+    poses.push_back({15.4, -133.8, 160000.0, 0.0, pitch, 0.0});
+  }
+  poses.push_back({18.65, -128.0, 150000.0, 270.0, -10.0, 0.0});  // from the east
+  expectNoHoles(dir, 0.0, poses, 5.0);
+}
+
+// The shared cache holds patches decoded under one exaggeration: a renderer of another is refused.
+TEST_F(TerrainRendererTest, ASharedCacheOfAnotherExaggerationIsRefused) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  const auto dataset = test::openDataset(dir);
+  ASSERT_NE(dataset, nullptr);
+  GpuCacheOptions cacheOptions;
+  cacheOptions.exaggeration = 2.0;
+  auto cache = GpuCache::create(context(), dataset->view(), cacheOptions);
+  ASSERT_TRUE(cache.ok()) << cache.error().message;
+  TerrainRendererOptions options;
+  options.widthPixels = 64;
+  options.heightPixels = 64;
+  options.sharedCache = *cache;
+  options.exaggeration = 3.0;
+  auto refused = TerrainRenderer::create(context(), dataset->view(), options);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::InvalidArgument);
+  EXPECT_NE(refused.error().message.find("exaggeration"), std::string::npos);
+  options.exaggeration = 2.0;
+  EXPECT_TRUE(TerrainRenderer::create(context(), dataset->view(), options).ok());
 }
 
 TEST_F(TerrainRendererTest, NoBackgroundInsideTheSilhouetteOfEarth) {

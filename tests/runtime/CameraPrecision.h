@@ -22,14 +22,16 @@ using formats::PatchVertex;
 // distance from the planet centre.
 inline std::vector<glm::dvec3> highestVertices(const DatasetView& view, test::PatchStore& store,
                                                double lat, double lon, std::size_t count,
-                                               double aboveMeters) {
+                                               double aboveMeters, double exaggeration = 1.0) {
   const Camera above = Camera::fromPose(view.planet(), {lat, lon, aboveMeters, 0.0, -90.0, 0.0},
                                         Viewport{1280, 720, 60.0});
-  const Cut cut = refine(view, above, {3.0, true, -1});
+  RefinementOptions options{3.0, true, -1};
+  options.exaggeration = exaggeration;
+  const Cut cut = refine(view, above, options);
   std::vector<glm::dvec3> vertices;
   for (const CutPatch& p : cut.patches) {
     if (p.level != view.depth()) continue;
-    const PatchVertexPlacement placement(view, p.node, view.node(p.node));
+    const PatchVertexPlacement placement(view, p.node, view.node(p.node), exaggeration);
     for (const PatchVertex& v : store.mesh(p.node).vertices) {
       vertices.push_back(exactVertexPosition(placement, v, glm::dvec3(0.0)));
     }
@@ -51,27 +53,30 @@ struct PrecisionFigures {
 
 // Cameras 2 m above each of the highest vertices near (lat, lon) (leaves seen from
 // `aboveMeters`); errors of every drawn vertex within 1 km of the camera against double-precision
-// truth.
+// truth. With `exaggeration`, of the terrain drawn with its heights times that.
 inline PrecisionFigures measurePrecision(const std::filesystem::path& dir, double lat, double lon,
-                                         double aboveMeters = 60e3) {
+                                         double aboveMeters = 60e3, double exaggeration = 1.0) {
   auto dataset = streaming::MappedDataset::open(dir);
   PrecisionFigures f;
   EXPECT_TRUE(dataset.ok()) << (dataset.ok() ? "" : dataset.error().message);
   if (!dataset.ok()) return f;
   const DatasetView& view = (*dataset)->view();
   test::PatchStore store(view);
-  for (const glm::dvec3& summit : highestVertices(view, store, lat, lon, 4, aboveMeters)) {
+  for (const glm::dvec3& summit :
+       highestVertices(view, store, lat, lon, 4, aboveMeters, exaggeration)) {
     const glm::dvec3 eye = summit + 2.0 * glm::normalize(summit);
     const GeodeticPosition g = view.planet().ecefToGeodetic(eye);
     Camera camera = Camera::fromPose(view.planet(),
                                      {g.latDegrees, g.lonDegrees, g.heightMeters, 30.0, -20.0, 0.0},
                                      Viewport{1280, 720, 60.0});
-    const Cut cut = refine(view, camera, {3.0, true, -1});
+    RefinementOptions options{3.0, true, -1};
+    options.exaggeration = exaggeration;
+    const Cut cut = refine(view, camera, options);
     for (const CutPatch& p : cut.patches) {
       const NodeRecord record = view.node(p.node);
-      const PatchDrawRecord draw =
-          makePatchDrawRecord(view, PatchDrawInput{.node = p.node, .record = record}, eye);
-      const PatchVertexPlacement placement(view, p.node, record);
+      const PatchDrawRecord draw = makePatchDrawRecord(
+          view, PatchDrawInput{.node = p.node, .record = record}, eye, exaggeration);
+      const PatchVertexPlacement placement(view, p.node, record, exaggeration);
       for (const PatchVertex& v : store.mesh(p.node).vertices) {
         // Truth: the vertex's terrain point in double. Each technique adds the decoded offset.
         const glm::dvec3 truth = exactVertexPosition(placement, v, eye);

@@ -43,7 +43,8 @@ struct PositionKeyHash {
 };
 
 inline MeshCheck checkClosedManifold(const runtime::DatasetView& view, const runtime::Cut& cut,
-                                     const glm::dvec3& eye, PatchStore& store) {
+                                     const glm::dvec3& eye, PatchStore& store,
+                                     double exaggeration = 1.0) {
   std::unordered_map<PositionKey, std::uint32_t, PositionKeyHash> ids;
   ids.reserve(cut.vertices);
   std::vector<std::uint64_t> directed;  // from << 32 | to
@@ -62,7 +63,7 @@ inline MeshCheck checkClosedManifold(const runtime::DatasetView& view, const run
     PatchDrawInput input{.node = p.node, .record = record};
     input.morph = p.morph;
     const PatchDrawRecord draw = makePatchDrawRecord(view, input, eye);
-    const PatchVertexPlacement placement(view, p.node, record);
+    const PatchVertexPlacement placement(view, p.node, record, exaggeration);
     const PatchMesh& mesh = store.mesh(p.node);
     const std::vector<std::int32_t>& targets = store.targets(p.node);
     bool patchMorphs = false;

@@ -372,6 +372,58 @@ TEST(RenderCli, GpuSelectionDrawsTheSameFrameAsTheCpu) {
   }
 }
 
+// --exaggeration 1 is today's frame byte for byte; five-fold heights draw another frame of the
+// same camera (Olympus Mons, low and looking at it).
+TEST(RenderCli, ExaggerationOneIsTheTrueFrameByteForByte) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  test::TempDir tmp;
+  for (const std::string camera : {"18.65,226.2,600e3,0,-60,0", "15.4,226.2,160e3,0,-5,0"}) {
+    std::string frames[3];
+    const std::string flags[3] = {"", " --exaggeration 1", " --exaggeration 5"};
+    for (int k = 0; k < 3; ++k) {
+      const auto png = tmp / (std::to_string(k) + ".png");
+      const CliRun run = runPbdam("render " + quoted(dir) + " --camera " + camera + flags[k] +
+                                  " --out " + quoted(png) + kSmall);
+      ASSERT_EQ(run.exitCode, 0) << run.err;
+      frames[k] = test::readFile(png);
+    }
+    EXPECT_EQ(frames[0], frames[1]) << camera;
+    EXPECT_NE(frames[0], frames[2]) << camera;
+  }
+}
+
+// Out of (0, 100] or not a number: one line naming --exaggeration, exit code 2, before any
+// dataset is read (render, bench, fly). The queries keep true heights and do not take it.
+TEST(RenderCli, ABadExaggerationIsExitCode2NamingIt) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  test::TempDir tmp;
+  const std::string ds = quoted(dir);
+  for (const std::string value : {"0", "-1", "nan", "1000", "inf"}) {
+    for (const std::string& command :
+         {"render " + ds + " --camera 0,0,1e6 --out " + quoted(tmp / "x.png"),
+          "bench " + ds + " --path " + quoted(tmp / "none.csv") + " --out " +
+              quoted(tmp / "b.json"),
+          "fly " + ds}) {
+      std::string args = command;
+      args += " --exaggeration ";
+      args += value;
+      const CliRun run = runPbdam(args);
+      EXPECT_EQ(run.exitCode, 2) << args << "\n" << run.err;
+      EXPECT_EQ(lines(run.err).size(), 1u) << args << "\n" << run.err;
+      EXPECT_NE(run.err.find("--exaggeration " + value), std::string::npos) << args << "\n"
+                                                                            << run.err;
+    }
+  }
+  EXPECT_FALSE(std::filesystem::exists(tmp / "x.png"));
+  // pbdam height reports true heights and has no such option.
+  const CliRun plain = runPbdam("height " + ds + " --at 18.65,226.2");
+  ASSERT_EQ(plain.exitCode, 0) << plain.err;
+  const CliRun refused = runPbdam("height " + ds + " --at 18.65,226.2 --exaggeration 3");
+  EXPECT_EQ(refused.exitCode, 2) << refused.out;
+  EXPECT_NE(refused.err.find("--exaggeration"), std::string::npos) << refused.err;
+  EXPECT_EQ(refused.out, "");
+}
+
 // --viewshed drapes the eye's viewshed over the terrain: the frame changes where the disc is in
 // view, the same request draws the same bytes, and a view of the other side of the planet is
 // the plain frame byte for byte (the overlay touches nothing outside its disc).

@@ -303,6 +303,43 @@ TEST(Serve, FramesEqualPbdamRenderByteForByte) {
   EXPECT_EQ(jpeg->body.substr(0, 3), std::string("\xff\xd8\xff", 3));
 }
 
+// pbdam serve --exaggeration F draws every frame at F: pbdam render --exaggeration F's bytes,
+// with exaggeration=F or without it; another factor, or a bad one, is a 400 naming the
+// parameter (the shared cache holds patches decoded under F); and a bad F does not start.
+TEST(Serve, AnExaggeratedServerDrawsPbdamRendersFramesAndNamesOtherFactors) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  const std::string d = quoted(dir.string());
+  for (const char* bad : {"0", "-1", "nan", "1000"}) {
+    const test::CommandRun run =
+        capturePbdam("serve " + d + " --port 0 --exaggeration " + std::string(bad));
+    EXPECT_EQ(run.exitCode, 2) << bad;
+    EXPECT_NE(run.err.find("--exaggeration"), std::string::npos) << run.err;
+  }
+  START_SERVER(server, dir, {"--workers", "1", "--exaggeration", "5"});
+  httplib::Client client = server.client();
+  test::TempDir tmp;
+  const auto png = tmp / "render.png";
+  ASSERT_EQ(runPbdam("render " + d + " --camera 15.4,226.2,160e3,0,-5,0 --exaggeration 5" +
+                     " --width 160 --height 90 --out " + quoted(png.string()) + " --quiet"),
+            0);
+  const std::string expected = test::readFile(png);
+  const std::string query = "/frame?lat=15.4&lon=226.2&alt=160e3&pitch=-5&width=160&height=90";
+  for (const std::string extra : {"", "&exaggeration=5"}) {
+    auto res = client.Get(query + extra);
+    ASSERT_TRUE(res) << httplib::to_string(res.error());
+    ASSERT_EQ(res->status, 200) << res->body;
+    EXPECT_TRUE(res->body == expected) << "server PNG differs from pbdam render's" << extra;
+  }
+  for (const char* value : {"3", "0", "-1", "nan", "1000", "abc"}) {
+    const std::string what = query + "&exaggeration=" + value;
+    auto res = client.Get(what);
+    expectJsonError(res, what);
+    ASSERT_TRUE(res);
+    EXPECT_EQ(res->status, 400) << what;
+    EXPECT_NE(res->body.find("exaggeration"), std::string::npos) << what << ": " << res->body;
+  }
+}
+
 TEST(Serve, MalformedRequestsGet4xxWithJsonError) {
   PBDAM_REQUIRE_DATASET(dir, "mola");
   START_SERVER(server, dir, {"--workers", "1"});

@@ -29,6 +29,7 @@
 
 #include "BenchReport.h"
 #include "Commands.h"
+#include "ExaggerationOption.h"
 #include "LightOption.h"
 #include "MorphOption.h"
 #include "Progress.h"
@@ -73,6 +74,7 @@ struct BenchCliOptions {
   std::string device;
   bool quiet = false;
   MorphCliOptions morph;
+  double exaggeration = 1.0;
   LightCliOptions light;
   std::uint32_t framesInFlight = 2;
   std::string readback = "off";
@@ -154,10 +156,9 @@ void checkDeviceCut(const DatasetView& view, const Camera& camera,
     if (patch.level >= cap) continue;  // leaves and capped levels are drawn whatever their error
     const NodeRecord record = view.node(patch.node);
     if (record.leaf()) continue;
-    const glm::dvec3 centre(record.sphereCenter[0], record.sphereCenter[1], record.sphereCenter[2]);
-    const double screen = camera.screenError(
-        refinementErrorMeters(view, patch.level, static_cast<double>(record.errorMeters)), centre,
-        static_cast<double>(record.sphereRadiusMeters));
+    const RefinementBounds b = refinementBounds(view, record, patch.level,
+                                                exaggerationBounds(view, refinement.exaggeration));
+    const double screen = camera.screenError(b.errorMeters, b.centre, b.radiusMeters);
     run.selectionMaxScreenRatio =
         std::max(run.selectionMaxScreenRatio, screen / refinement.tolerancePixels);
   }
@@ -460,6 +461,7 @@ Result<BenchRun> runOnce(gpu::VulkanContext& context, const BenchCliOptions& o,
                          : (prefetch ? gpu::TerrainMode::Paging : gpu::TerrainMode::Exact);
   options.refinement.tolerancePixels = o.tolerance;
   options.refinement.morphRange = morphRangeOf(o.morph, morph);
+  options.refinement.exaggeration = o.exaggeration;
   options.selection = run.selection;
   options.draws = run.draws;
   options.reuseRefinementTree = run.cutReuse;
@@ -570,6 +572,7 @@ int runBench(const BenchCliOptions& o) {
   if (!std::isfinite(o.gpuCacheMiB) || o.gpuCacheMiB <= 0.0 || o.gpuCacheMiB > 65536.0) {
     return bad("--gpu-cache-mib (--gpu-cache-mb) must be in (0, 65536]");
   }
+  if (auto r = checkExaggeration(o.exaggeration); !r) return reportError(r.error());
   if (auto v = validateViewport({o.width, o.height, o.fovDegrees}); !v) {
     return reportError(v.error());
   }
@@ -684,6 +687,7 @@ void addBenchCommand(CLI::App& app, CommandStatus& status) {
                   "resident first, and the GPU cache sized for it)")
       ->capture_default_str();
   addMorphOptions(*cmd, o->morph, true);
+  addExaggerationOption(*cmd, o->exaggeration);
   cmd->add_option("--frames-in-flight", o->framesInFlight,
                   std::string(kFramesInFlightHelp) +
                       " (--popping and --draws indirect run one frame in flight)")

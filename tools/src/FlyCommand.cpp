@@ -28,6 +28,7 @@
 
 #include "BenchReport.h"
 #include "Commands.h"
+#include "ExaggerationOption.h"
 #include "FlyControls.h"
 #include "FlyHud.h"
 #include "FlyScriptDriver.h"
@@ -73,6 +74,7 @@ struct FlyCliOptions {
   double tolerancePixels = 3.0;
   double fovDegrees = 60.0;
   MorphCliOptions morph;
+  double exaggeration = 1.0;
   LightCliOptions light;
   std::string camera;
   std::string goTo;
@@ -117,6 +119,7 @@ int checkFlyOptions(const FlyCliOptions& c, FlyModes& modes) {
   if (!std::isfinite(c.tolerancePixels) || c.tolerancePixels <= 0.0) {
     return badInput("--tolerance-px must be a positive number of pixels");
   }
+  if (auto r = checkExaggeration(c.exaggeration); !r) return reportError(r.error());
   if (!std::isfinite(c.fovDegrees) || c.fovDegrees <= 1.0 || c.fovDegrees >= 179.0) {
     return badInput("--fov-deg must be in (1, 179) degrees");
   }
@@ -382,6 +385,7 @@ Result<void> FlySession::setUp() {
                          : (modes_.prefetch ? gpu::TerrainMode::Paging : gpu::TerrainMode::Exact);
   options.refinement.tolerancePixels = c_.tolerancePixels;
   options.refinement.morphRange = morphRangeOf(c_.morph, modes_.morph);
+  options.refinement.exaggeration = c_.exaggeration;
   options.prefetch = modes_.prefetch;
   options.lookaheadSeconds = c_.lookahead;
   options.gpuCacheBytes = static_cast<std::uint64_t>(c_.gpuCacheMiB * 1048576.0);
@@ -506,6 +510,7 @@ Result<void> FlySession::frame(FlyControls& controls, double t) {
   RefinementOptions refinement;
   refinement.tolerancePixels = c_.tolerancePixels;
   refinement.morphRange = morphRangeOf(c_.morph, controls.morph);
+  refinement.exaggeration = c_.exaggeration;
   if (auto r = terrain_->setRefinement(refinement); !r) return r;
 
   if (!lightTarget_) lightTarget_ = camera;
@@ -817,10 +822,11 @@ int runFly(const FlyCliOptions& c) {
     if (!context) return reportError(context.error());
     SurfaceLeafCache leaves;
     FlyControls controls(start, planet.equatorialRadiusMeters(),
-                         [&view, &leaves](double lat, double lon) -> std::optional<double> {
+                         [&view, &leaves, &c](double lat, double lon) -> std::optional<double> {
                            auto h = surfaceHeightAt(view, lat, lon, leaves);
                            if (!h) return std::nullopt;
-                           return h->heightMeters;
+                           // The ground drawn: exaggerated like the terrain.
+                           return h->heightMeters * c.exaggeration;
                          });
     controls.morph = modes.morph;
     if (goTo) {
@@ -858,6 +864,7 @@ void addFlyCommand(CLI::App& app, CommandStatus& status) {
   fly->add_option("--fov-deg", o->fovDegrees, "Vertical field of view in degrees")
       ->capture_default_str();
   addMorphOptions(*fly, o->morph, false);
+  addExaggerationOption(*fly, o->exaggeration);
   addLightOptions(*fly, o->light, true);
   fly->add_option("--camera", o->camera,
                   "Start pose LAT,LON,ALT[,HEADING,PITCH,ROLL] (default: the whole planet from "

@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "Commands.h"
+#include "ExaggerationOption.h"
 #include "FocusOption.h"
 #include "FrameImage.h"
 #include "FrameWriter.h"
@@ -71,6 +72,7 @@ struct RenderCliOptions {
   std::string clear = "0,0,0";
   bool quiet = false;
   MorphCliOptions morph;
+  double exaggeration = 1.0;
   FocusCliOptions focus;
   std::string viewshed;
   std::string selection = "cpu";
@@ -189,6 +191,7 @@ int checkRenderOptions(const RenderCliOptions& c, const Viewport& viewport,
   if (!std::isfinite(c.tolerancePixels) || c.tolerancePixels <= 0.0) {
     return badInput("--tolerance-px must be a positive number of pixels");
   }
+  if (auto r = checkExaggeration(c.exaggeration); !r) return reportError(r.error());
   if (c.framesInFlight < 1 || c.framesInFlight > gpu::TerrainRenderer::kMaxFramesInFlight) {
     return badInput("--frames-in-flight must be in 1.." +
                     std::to_string(gpu::TerrainRenderer::kMaxFramesInFlight));
@@ -271,6 +274,7 @@ int renderFrames(const RenderCliOptions& c, const RenderModes& modes,
   gpu::TerrainOptions options;
   options.refinement.tolerancePixels = c.tolerancePixels;
   options.refinement.morphRange = morphRangeOf(c.morph, modes.morph);
+  options.refinement.exaggeration = c.exaggeration;
   options.selection = modes.selection;
   auto focus = focusRegions(c.focus, view.planet());
   if (!focus) return reportError(focus.error());
@@ -450,6 +454,7 @@ void addRenderCommand(CLI::App& app, CommandStatus& status) {
   render->add_option("--clear", o->clear, "Background colour R,G,B (0..255)")
       ->capture_default_str();
   addMorphOptions(*render, o->morph, false);
+  addExaggerationOption(*render, o->exaggeration);
   addFocusOptions(*render, o->focus);
   render->add_option("--viewshed", o->viewshed,
                      "LAT,LON,HEIGHT_ABOVE_GROUND_M[,RADIUS_M]: drape this eye's viewshed over the "

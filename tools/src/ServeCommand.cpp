@@ -18,6 +18,7 @@
 #include <thread>
 
 #include "Commands.h"
+#include "ExaggerationOption.h"
 #include "MorphOption.h"
 #include "ServeServer.h"
 #include "pbdam/formats/GuardedCopy.h"
@@ -66,6 +67,7 @@ int runServe(const ServeCliOptions& c) {
   if (c.morph.morph != "on" && c.morph.morph != "off") {
     return badInput("--morph '" + c.morph.morph + "': expected on or off");
   }
+  if (auto r = checkExaggeration(o.exaggeration); !r) return reportError(r.error());
   if (!std::isfinite(c.morph.range) || c.morph.range <= 0.0) {
     return badInput("--morph-range must be a positive fraction of the tolerance");
   }
@@ -190,6 +192,7 @@ void addServeCommand(CLI::App& app, CommandStatus& status) {
       ->capture_default_str();
   serve->add_option("--device", o->server.device, kDeviceOptionHelp);
   addMorphOptions(*serve, o->morph, false);
+  addExaggerationOption(*serve, o->server.exaggeration);
   serve->add_flag("--log", o->server.logRequests, "One line per request on stdout");
   serve->add_flag("--quiet", o->quiet, "No start-up and shutdown lines");
   serve->callback([o, &status] { status.exitCode = runServe(*o); });

@@ -62,6 +62,7 @@ Result<std::unique_ptr<RenderPool>> RenderPool::create(const MappedDataset& data
   if (!plan) return std::move(plan).error();
   if (*plan) cacheOptions.budgetBytes = (*plan)->gpuCacheBytes;
 
+  cacheOptions.exaggeration = options.exaggeration;
   auto cache = gpu::GpuCache::create(*pool->context_, dataset.view(), cacheOptions);
   if (!cache) {
     Error error = std::move(cache).error();
@@ -74,6 +75,7 @@ Result<std::unique_ptr<RenderPool>> RenderPool::create(const MappedDataset& data
   terrainOptions.viewport.width = options.initialWidthPixels;
   terrainOptions.viewport.height = options.initialHeightPixels;
   terrainOptions.sharedCache = pool->cache_;
+  terrainOptions.refinement.exaggeration = options.exaggeration;
   // A cut over the budget is still the exact frame (drawn in passes); /stats counts them.
   terrainOptions.warnWhenBudgetExceeded = false;
   terrainOptions.framesInFlight = options.framesInFlight;
@@ -253,6 +255,7 @@ void RenderPool::workerLoop(std::uint32_t index) {
       RefinementOptions refinement;
       refinement.tolerancePixels = r.tolerancePixels;
       refinement.morphRange = r.morphRange;
+      refinement.exaggeration = r.exaggeration;
       if (Result<void> set = terrain.setRefinement(refinement); !set) {
         finishJob(job, start, std::move(set).error());
         continue;

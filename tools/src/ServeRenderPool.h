@@ -34,6 +34,8 @@ struct FrameRequest final {
   runtime::Viewport viewport;
   double tolerancePixels = 3.0;
   double morphRange = 0.25;  ///< RefinementOptions::morphRange (0: no morph)
+  /// RefinementOptions::exaggeration: must be the pool's (RenderPoolOptions::exaggeration).
+  double exaggeration = 1.0;
   std::shared_ptr<const gpu::SurfaceOverlay> overlay;  ///< draped over the terrain (a viewshed)
   Light
       light;  ///< time=, sun=, ambient= (LightOption.h); a placed sun stands over the view's target
@@ -96,6 +98,9 @@ struct RenderPoolOptions final {
   /// Memory budget in MiB (0: the memory cgroup's limit, if any): on a CPU device the shared
   /// cache is lowered to leave room for the frames and the dataset's pages (MemoryBudget.h).
   double memoryBudgetMiB = 0.0;
+  /// The vertical exaggeration every context draws with (the shared cache's patches are
+  /// decoded under it: GpuCacheOptions::exaggeration).
+  double exaggeration = 1.0;
 };
 
 class RenderPool final {

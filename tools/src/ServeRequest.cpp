@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "ExaggerationOption.h"
 #include "ViewshedSpec.h"
 #include "pbdam/formats/NumberList.h"
 
@@ -109,7 +110,8 @@ Result<double> inRange(Result<double> v, const std::string& name, double lo, dou
 Result<FrameQuery> parseFrameQuery(const QueryParams& params, const Planet& planet) {
   if (auto r = checkNames(params, {"lat", "lon", "alt", "heading", "pitch", "roll", "width",
                                    "height", "fov", "tolerance", "format", "quality", "morph",
-                                   "viewshed", "time", "sun", "ambient", "atmosphere", "exposure"});
+                                   "viewshed", "time", "sun", "ambient", "atmosphere", "exposure",
+                                   "exaggeration"});
       !r) {
     return std::move(r).error();
   }
@@ -152,6 +154,17 @@ Result<FrameQuery> parseFrameQuery(const QueryParams& params, const Planet& plan
       return invalidArgument("parameter 'morph': '" + shown(*morph) + "' is not on or off");
     }
     q.morph = *morph == "on";
+  }
+  if (params.count("exaggeration") != 0) {
+    auto f = number(params, "exaggeration", std::nullopt);
+    if (!f) return std::move(f).error();
+    if (!(*f > 0.0 && *f <= kMaxExaggeration)) {
+      char text[96];
+      std::snprintf(text, sizeof text, "parameter 'exaggeration' must be in (0, %g]",
+                    kMaxExaggeration);
+      return invalidArgument(text);
+    }
+    q.exaggeration = *f;
   }
 
   std::optional<double> ambient;

@@ -29,7 +29,9 @@ inline constexpr double kMaxTolerancePixels = 1000.0;
 /// GET /frame, validated.
 struct FrameQuery final {
   FrameRequest request;
-  std::optional<bool> morph;                         ///< morph=on|off; unset: the server's default
+  std::optional<bool> morph;  ///< morph=on|off; unset: the server's default
+  /// exaggeration=F, in (0, 100]; unset: the server's (which is the only one it draws).
+  std::optional<double> exaggeration;
   std::optional<runtime::ViewshedRequest> viewshed;  ///< viewshed=LAT,LON,H[,RADIUS_M]
   FrameEncoding encoding = FrameEncoding::Png;
   int jpegQuality = 90;
@@ -60,7 +62,8 @@ struct ViewshedQuery final {
 /// (480), fov (60), tolerance (3), morph (on|off; unset: the server's), format (png|jpeg),
 /// quality (90, JPEG only), viewshed (LAT,LON,H[,RADIUS_M]: drape that viewshed), time (ISO 8601
 /// UTC: the sun of that instant), sun (camera or AZ,EL over the view's target), ambient (0..1;
-/// LightOption.h's defaults), atmosphere (auto|on|off), exposure (> 0). InvalidArgument
+/// LightOption.h's defaults), atmosphere (auto|on|off), exposure (> 0), exaggeration ((0, 100];
+/// unset: the server's). InvalidArgument
 /// naming the parameter for anything missing, unknown, repeated, not a finite number, or out of
 /// range (width/height 1..4096, fov (0, 179), tolerance 0.5..1000, the camera as
 /// validateCameraPose on `planet`, heading/roll within ±360).

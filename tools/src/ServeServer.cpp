@@ -18,6 +18,7 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <span>
+#include <sstream>
 #include <string>
 #include <string_view>
 #include <thread>
@@ -223,7 +224,8 @@ Json makeInfo(const MappedDataset& dataset, const ServeOptions& options,
                      {"tolerance", 3},
                      {"morph", options.morph ? "on" : "off"},
                      {"format", "png"}}},
-                   {"morph_range", options.morphRange}};
+                   {"morph_range", options.morphRange},
+                   {"exaggeration", options.exaggeration}};
   info["server"] = {
       {"contexts", options.workers},           {"frames_in_flight", options.framesInFlight},
       {"queue", options.queueCapacity},        {"gpu_cache_mib", options.gpuCacheMiB},
@@ -261,6 +263,7 @@ Result<std::shared_ptr<Generation>> openGeneration(const std::string& directory,
   poolOptions.gpuCacheBytes = static_cast<std::uint64_t>(options.gpuCacheMiB * 1048576.0);
   poolOptions.memoryBudgetMiB = options.memoryBudgetMiB;
   poolOptions.device = options.device;
+  poolOptions.exaggeration = options.exaggeration;
   auto pool = RenderPool::create(*generation->dataset, poolOptions);
   if (!pool) return std::move(pool).error();
   generation->pool = std::move(*pool);
@@ -457,6 +460,14 @@ void FrameServer::Impl::handleFrame(const httplib::Request& req, httplib::Respon
   Result<FrameQuery> query = parseFrameQuery(req.params, g->dataset->view().planet());
   if (!query) return sendError(res, 400, query.error().message);
   query->request.morphRange = query->morph.value_or(options.morph) ? options.morphRange : 0.0;
+  if (query->exaggeration && *query->exaggeration != options.exaggeration) {
+    std::ostringstream what;
+    what << "parameter 'exaggeration': " << *query->exaggeration
+         << " is not this server's exaggeration " << options.exaggeration
+         << " (pbdam serve --exaggeration)";
+    return sendError(res, 400, what.str());
+  }
+  query->request.exaggeration = options.exaggeration;
   if (query->viewshed) {
     auto drape = g->queries->viewshed(*query->viewshed);
     if (drape.busy) return sendBusy(res);

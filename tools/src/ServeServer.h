@@ -35,6 +35,10 @@ struct ServeOptions final {
   /// (RefinementOptions::morphRange when on; at most the dataset's error margin).
   bool morph = true;
   double morphRange = 0.25;
+  /// Vertical exaggeration of every frame (0 < F <= 100): fixed for the server, as the render
+  /// contexts' shared cache holds patches decoded under it; a request's exaggeration= must
+  /// be this one.
+  double exaggeration = 1.0;
 };
 
 class FrameServer final {

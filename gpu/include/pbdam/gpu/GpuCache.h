@@ -29,6 +29,10 @@ struct GpuCacheOptions final {
   /// Bytes of one pool chunk (a vertex and an index buffer) and of one texture page (at most
   /// the device's array layers).
   std::uint64_t chunkBytes = std::uint64_t{16} << 20;
+  /// Vertical exaggeration of the patches decoded into the cache (their vertices drawn at
+  /// height × F: runtime::PatchVertexPlacement): fixed for the cache's life, so every renderer
+  /// sharing it must draw with the same F.
+  double exaggeration = 1.0;
 };
 
 /// What a cache holds now, and how often renderers waited for room.

@@ -67,7 +67,8 @@ enum class TerrainMode {
 struct TerrainOptions final {
   /// What a frame does about data that is not resident.
   TerrainMode mode = TerrainMode::Exact;
-  /// Tolerance in pixels, morph range and level cap of every frame's cut.
+  /// Tolerance in pixels, morph range and level cap of every frame's cut, and the vertical
+  /// exaggeration the terrain is drawn with (in (0, 100], fixed for the terrain's life).
   runtime::RefinementOptions refinement;
   /// Cuts selected on the host, or by the selection's compute passes on the device (Exact and
   /// Paging; the same cuts on lavapipe).
@@ -166,7 +167,8 @@ class Terrain final {
 
   /// Changes the tolerance, morph range or level cap of later frames' cuts (a host's controls);
   /// the prefetcher keeps predicting with the options' refinement. InvalidArgument for a
-  /// tolerance that is not a positive number of pixels.
+  /// tolerance that is not a positive number of pixels, or another exaggeration than the
+  /// terrain's (fixed at open: the GPU cache's patches were decoded with it).
   formats::Result<void> setRefinement(const runtime::RefinementOptions& refinement);
 
   /// The image size every frame is drawn at (the cameras' viewport), and changes it: a new

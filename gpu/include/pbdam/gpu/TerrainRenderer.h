@@ -63,6 +63,10 @@ struct TerrainRendererOptions final {
   /// uploaded once: frames with FrameSettings::atmosphereExposure > 0 draw the sky behind the
   /// terrain and light the terrain through the air. Null: no atmosphere.
   std::shared_ptr<const runtime::AtmosphereTables> atmosphere;
+  /// Vertical exaggeration F of the patches drawn (GpuCacheOptions::exaggeration): a private
+  /// cache is made with it, and a shared cache must have been made with it. Cuts for such a
+  /// renderer must be refined with the same F (runtime::RefinementOptions::exaggeration).
+  double exaggeration = 1.0;
 };
 
 /// A raster draped over the terrain (a viewshed: `pbdam render --viewshed`, `/frame?viewshed=`):

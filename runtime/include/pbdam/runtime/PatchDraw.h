@@ -139,9 +139,12 @@ struct PatchDrawInput final {
 };
 
 /// Computes the per-draw record of a patch for a camera at `cameraEcef` (double precision):
-/// placePatchDraw of its template, then the geomorph of `input`.
+/// placePatchDraw of its template, then the geomorph of `input`. `exaggeration`: the one its
+/// vertices were decoded with (PatchVertexPlacement), which scales the reference heights'
+/// ranges (precision only: any reference height gives the same positions up to rounding).
 PatchDrawRecord makePatchDrawRecord(const DatasetView& dataset, const PatchDrawInput& input,
-                                    const glm::dvec3& cameraEcef) noexcept;
+                                    const glm::dvec3& cameraEcef,
+                                    double exaggeration = 1.0) noexcept;
 
 /// What a patch's record needs that does not depend on the camera: the record's fixed fields
 /// and the doubles placePatchDraw starts from. The host makes one per draw; a draw list made on
@@ -184,20 +187,24 @@ struct PatchDrawTemplate final {
 };
 
 /// The template of `node` (record `record`) with its tile in `textureLayer`, and where it
-/// would blend in `morphTile` (its parent's tile, in `morphTextureLayer`).
+/// would blend in `morphTile` (its parent's tile, in `morphTextureLayer`); its height range
+/// times `exaggeration` (the one its vertices were decoded with).
 PatchDrawTemplate makePatchDrawTemplate(const DatasetView& dataset, const NodeKey& node,
                                         const formats::NodeRecord& record,
                                         std::uint32_t textureLayer,
                                         const std::optional<TileKey>& morphTile,
-                                        std::uint32_t morphTextureLayer) noexcept;
+                                        std::uint32_t morphTextureLayer,
+                                        double exaggeration = 1.0) noexcept;
 
 /// Dataset-wide numbers placePatchDraw uses.
 struct PatchDrawConstants final {
   double heightStepMeters = 0.0;  ///< the manifest's height step
   double heightSpanMeters = 0.0;  ///< highest − lowest height of the dataset
 };
-/// The constants of `dataset`.
-PatchDrawConstants patchDrawConstants(const DatasetView& dataset) noexcept;
+/// The constants of `dataset`, its height span times `exaggeration` (the one the vertices were
+/// decoded with).
+PatchDrawConstants patchDrawConstants(const DatasetView& dataset,
+                                      double exaggeration = 1.0) noexcept;
 
 /// Sets the camera's fields of `draw` (a copy of `t.record`): corners, edge and interior
 /// origins and reference weights, the tile centre — in double, seen from `cameraEcef`.
@@ -241,14 +248,17 @@ PatchVertexDisplacement patchVertexDisplacement(const PatchVertexBase& base,
 /// decoded patch from its node and record.
 class PatchVertexPlacement final {
  public:
-  /// The placement of the vertices of `node`, whose record is `record`.
+  /// The placement of the vertices of `node`, whose record is `record`, with their heights
+  /// times `exaggeration` (vertical exaggeration: each vertex drawn at T(q, F·height); 1 draws
+  /// the true terrain, bit for bit).
   PatchVertexPlacement(const DatasetView& dataset, const NodeKey& node,
-                       const formats::NodeRecord& record) noexcept;
+                       const formats::NodeRecord& record, double exaggeration = 1.0) noexcept;
 
   /// The lattice point of barycentrics (b1, b2) on the node's triangle, or false when they are
   /// not one (b1 + b2 > 2^15, or off the lattice: a blob that does not belong to the node).
   bool latticePoint(std::uint16_t b1, std::uint16_t b2, LatticeXY& q) const noexcept;
-  /// The vertex's terrain point T(q, heightSteps · heightStep), planetocentric metres.
+  /// The vertex's terrain point T(q, heightSteps · heightStep · exaggeration), planetocentric
+  /// metres.
   glm::dvec3 terrainPoint(LatticeXY q, std::int32_t heightSteps) const noexcept;
   /// patchVertexBase of (b1, b2) on the node's corner triangle.
   PatchVertexBase base(std::uint16_t b1, std::uint16_t b2) const noexcept {
@@ -263,6 +273,7 @@ class PatchVertexPlacement final {
   std::uint32_t latticeCells_;
   int face_;
   double heightStepMeters_;
+  double exaggeration_;
   LatticeXY apex_{0}, leg1_{0}, leg2_{0};
   // Plane coordinates of the columns x0.. and rows y0.. of the triangle's bounding box (the
   // tangents of the cube map, once per column and row instead of twice per vertex); empty

@@ -50,6 +50,31 @@ struct RefinementOptions final {
   /// refinement on the render thread. Where a node's children are not, it stays in the cut and
   /// Cut::unresidentRecordLevel says at which level records were missing.
   bool residentRecordsOnly = false;
+  /// Vertical exaggeration F (finite, > 0): the terrain is drawn with its heights times F, and
+  /// the nodes' errors and bounding spheres are widened to match (exaggerationBounds). 1 gives
+  /// the cuts of the true terrain, bit for bit.
+  double exaggeration = 1.0;
+};
+
+/// How vertical exaggeration F widens every node's refinement bounds. Exaggeration moves a
+/// terrain point T(h) to T(F·h), |F − 1|·|h| along the surface normal: each bounding sphere
+/// grows by |F − 1| times the dataset's largest |height| (the same for every node, so spheres
+/// stay nested and shared by diamond partners, and cuts stay conforming), and each object-space
+/// error scales by max(F, 1) (vertical differences scale by F, horizontal ones not at all), so
+/// errors stay nested too. At F = 1 both are identities on the doubles.
+struct ExaggerationBounds final {
+  double errorScale = 1.0;          ///< max(F, 1)
+  double radiusGrowthMeters = 0.0;  ///< |F − 1| · max(|lowest height|, |highest height|)
+};
+/// The bounds of `exaggeration` on `dataset` (its manifest's height range).
+ExaggerationBounds exaggerationBounds(const DatasetView& dataset, double exaggeration) noexcept;
+
+/// A node's bounding sphere and refinement error as refinement uses them: the record's,
+/// widened by exaggerationBounds.
+struct RefinementBounds final {
+  glm::dvec3 centre{0.0};     ///< the sphere's centre (the record's)
+  double radiusMeters = 0.0;  ///< the record's radius + radiusGrowthMeters
+  double errorMeters = 0.0;   ///< refinementErrorMeters · errorScale
 };
 
 /// One patch of a cut.
@@ -86,6 +111,10 @@ struct Cut final {
 /// `geometryErrorMeters` (see the file comment).
 double refinementErrorMeters(const DatasetView& dataset, int level,
                              double geometryErrorMeters) noexcept;
+
+/// The refinement bounds of `record`, a node of `level`, under `bounds`.
+RefinementBounds refinementBounds(const DatasetView& dataset, const formats::NodeRecord& record,
+                                  int level, const ExaggerationBounds& bounds) noexcept;
 
 /// Appends `patch` (`triangles` and `vertices` of its node) to `cut` and lists its tile and, where
 /// it blends one in, its morph tile, each once (`seenTiles` holds the packKey()s listed).

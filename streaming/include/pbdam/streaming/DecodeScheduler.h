@@ -49,8 +49,10 @@ class DecodeScheduler final {
   /// 8-byte BC1 block).
   static constexpr std::uint64_t kAlignment = 16;
 
-  /// Tiles are decoded to `tileTexels`: the dataset's own format, or RGBA8 (BC1 expanded).
-  DecodeScheduler(const runtime::DatasetView& dataset, formats::TexelFormat tileTexels) noexcept;
+  /// Tiles are decoded to `tileTexels`: the dataset's own format, or RGBA8 (BC1 expanded);
+  /// patch vertices with their heights times `exaggeration` (runtime::PatchVertexPlacement).
+  DecodeScheduler(const runtime::DatasetView& dataset, formats::TexelFormat tileTexels,
+                  double exaggeration = 1.0) noexcept;
 
   /// The texel format the dataset's tiles are stored in (manifest.json's texture_format).
   static formats::TexelFormat datasetTexels(const runtime::DatasetView& dataset) noexcept;
@@ -74,6 +76,7 @@ class DecodeScheduler final {
 
   const runtime::DatasetView* dataset_;
   formats::TexelFormat tileTexels_;
+  double exaggeration_;
   std::uint64_t tileBytes_;
 };
 
