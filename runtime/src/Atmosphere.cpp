@@ -368,7 +368,8 @@ std::optional<AtmosphereParameters> AtmosphereParameters::of(const Planet& plane
 glm::dvec3 AtmosphereTable::texel(std::uint32_t x, std::uint32_t y,
                                   std::uint32_t z) const noexcept {
   const std::size_t i = ((static_cast<std::size_t>(z) * height + y) * width + x) * 3;
-  return {rgb[i], rgb[i + 1], rgb[i + 2]};
+  return {static_cast<double>(rgb[i]), static_cast<double>(rgb[i + 1]),
+          static_cast<double>(rgb[i + 2])};
 }
 
 glm::dvec3 AtmosphereTable::sample(double u, double v, double w) const noexcept {
@@ -397,10 +398,10 @@ glm::dvec3 AtmosphereTable::sample(double u, double v, double w) const noexcept 
     const float* row1 = data + z * planeStride + ay.i1 * rowStride;
     Vec3 out;
     for (std::size_t c = 0; c < 3; ++c) {
-      const double a00 = row0[ax.i0 * 3 + c];
-      const double a01 = row0[ax.i1 * 3 + c];
-      const double a10 = row1[ax.i0 * 3 + c];
-      const double a11 = row1[ax.i1 * 3 + c];
+      const auto a00 = static_cast<double>(row0[ax.i0 * 3 + c]);
+      const auto a01 = static_cast<double>(row0[ax.i1 * 3 + c]);
+      const auto a10 = static_cast<double>(row1[ax.i0 * 3 + c]);
+      const auto a11 = static_cast<double>(row1[ax.i1 * 3 + c]);
       const double a = a00 + (a01 - a00) * ax.f;
       const double b = a10 + (a11 - a10) * ax.f;
       out[static_cast<int>(c)] = a + (b - a) * ay.f;
@@ -446,8 +447,7 @@ void computeDirectIrradiance(const Shell& shell, const Lookup& look, AtmosphereT
 void computeSingleScattering(const Shell& shell, const Lookup& look, AtmosphereTable& rayleighOut,
                              AtmosphereTable& mieOut) {
   const AtmosphereParameters& p = shell.p;
-  forEachTexel(rayleighOut, [&](std::uint32_t x, std::uint32_t y, std::uint32_t z,
-                                std::size_t i) {
+  forEachTexel(rayleighOut, [&](std::uint32_t x, std::uint32_t y, std::uint32_t z, std::size_t i) {
     const Shell::RMuMuSNu q = shell.texelParameters(x, y, z);
     constexpr int kSamples = 50;
     const double dx = shell.distanceToNearestBoundary(q.r, q.mu, q.ground) / kSamples;
@@ -486,8 +486,8 @@ struct Incoming final {
 };
 
 /// The directions (θ, φ) of the sphere the scattering density integrates over.
-constexpr int kThetaSamples = 8;
-constexpr double kDTheta = kPi / kThetaSamples;
+constexpr std::size_t kThetaSamples = 8;
+constexpr double kDTheta = kPi / static_cast<double>(kThetaSamples);
 struct SphereDirections final {
   std::array<double, kThetaSamples> cosTheta{};
   std::array<double, kThetaSamples> sinTheta{};
@@ -554,8 +554,7 @@ void computeScatteringDensity(const Shell& shell, const Lookup& look, const Inco
 }
 
 /// The sky's irradiance of the ground from the previous order's light, (μ_s, r).
-void computeIndirectIrradiance(const Shell& shell, const Incoming& incoming,
-                               AtmosphereTable& out) {
+void computeIndirectIrradiance(const Shell& shell, const Incoming& incoming, AtmosphereTable& out) {
   forEachTexel(out, [&](std::uint32_t x, std::uint32_t y, std::uint32_t, std::size_t i) {
     const auto [r, muS] = shell.rMuSFromIrradianceUv((x + 0.5) / shell.s.irradianceWidth,
                                                      (y + 0.5) / shell.s.irradianceHeight);

@@ -172,7 +172,8 @@ double meanBrightness(const std::filesystem::path& png) {
   double sum = 0.0;
   const std::vector<std::uint8_t>& rgba = image->rgba();
   for (std::size_t i = 0; i < rgba.size(); i += 4) sum += rgba[i] + rgba[i + 1] + rgba[i + 2];
-  return sum / static_cast<double>(rgba.size() / 4 * 3);
+  const std::size_t pixels = rgba.size() / 4;
+  return sum / static_cast<double>(pixels * 3);
 }
 
 // --time lights Mars by the sun of that instant (Mars24's example B: the sun over 13.42°S,
@@ -187,8 +188,8 @@ TEST(RenderCli, TheSunOfAnInstantLightsTheDayAndAPathFliesToNoon) {
   const std::string time = " --time 2004-01-03T13:46:31Z";
   const auto render = [&](const std::string& camera, const std::string& light,
                           const std::string& name) {
-    const CliRun run = runPbdam("render " + quoted(dir) + " --camera " + camera + light +
-                                " --out " + quoted(tmp / name) + kSmall);
+    CliRun run = runPbdam("render " + quoted(dir) + " --camera " + camera + light + " --out " +
+                          quoted(tmp / name) + kSmall);
     EXPECT_EQ(run.exitCode, 0) << run.err;
     return run;
   };

@@ -340,6 +340,38 @@ TEST(Serve, AnExaggeratedServerDrawsPbdamRendersFramesAndNamesOtherFactors) {
   }
 }
 
+// A server started without the atmosphere draws the camera light's and the sun's frames
+// without air, as `render --atmosphere off` does, and refuses atmosphere=on; a bad
+// --atmosphere is exit code 2.
+TEST(Serve, WithoutTheAtmosphereARequestForItIsRefused) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  const std::string d = quoted(dir.string());
+  const test::CommandRun bad = capturePbdam("serve " + d + " --port 0 --atmosphere thick");
+  EXPECT_EQ(bad.exitCode, 2);
+  EXPECT_NE(bad.err.find("--atmosphere 'thick'"), std::string::npos) << bad.err;
+  START_SERVER(server, dir, {"--workers", "1", "--atmosphere", "off"});
+  httplib::Client client = server.client();
+  test::TempDir tmp;
+  const auto png = tmp / "render.png";
+  ASSERT_EQ(runPbdam("render " + d + " --camera -10,-68,10e3,90,-8,0 --time 2004-01-03T20:00:00Z" +
+                     " --atmosphere off --width 160 --height 90 --out " + quoted(png.string()) +
+                     " --quiet"),
+            0);
+  const std::string query =
+      "/frame?lat=-10&lon=-68&alt=10e3&heading=90&pitch=-8&width=160&height=90"
+      "&time=2004-01-03T20:00:00Z";
+  auto res = client.Get(query);
+  ASSERT_TRUE(res) << httplib::to_string(res.error());
+  ASSERT_EQ(res->status, 200) << res->body;
+  EXPECT_TRUE(res->body == test::readFile(png)) << "server PNG differs from pbdam render's";
+  const std::string on = query + "&atmosphere=on";
+  auto refused = client.Get(on);
+  expectJsonError(refused, on);
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused->status, 400);
+  EXPECT_NE(refused->body.find("--atmosphere off"), std::string::npos) << refused->body;
+}
+
 TEST(Serve, MalformedRequestsGet4xxWithJsonError) {
   PBDAM_REQUIRE_DATASET(dir, "mola");
   START_SERVER(server, dir, {"--workers", "1"});

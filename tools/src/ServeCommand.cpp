@@ -33,6 +33,7 @@ struct ServeCliOptions {
   std::string dir;
   ServeOptions server;
   MorphCliOptions morph;
+  std::string atmosphere = "on";
   bool quiet = false;
 };
 
@@ -68,6 +69,10 @@ int runServe(const ServeCliOptions& c) {
     return badInput("--morph '" + c.morph.morph + "': expected on or off");
   }
   if (auto r = checkExaggeration(o.exaggeration); !r) return reportError(r.error());
+  if (c.atmosphere != "on" && c.atmosphere != "off") {
+    return badInput("--atmosphere '" + c.atmosphere + "': expected on or off");
+  }
+  o.atmosphere = c.atmosphere == "on";
   if (!std::isfinite(c.morph.range) || c.morph.range <= 0.0) {
     return badInput("--morph-range must be a positive fraction of the tolerance");
   }
@@ -193,6 +198,11 @@ void addServeCommand(CLI::App& app, CommandStatus& status) {
   serve->add_option("--device", o->server.device, kDeviceOptionHelp);
   addMorphOptions(*serve, o->morph, false);
   addExaggerationOption(*serve, o->server.exaggeration);
+  serve
+      ->add_option("--atmosphere", o->atmosphere,
+                   "on: load the planet's atmosphere (Earth, Mars; its tables computed once per "
+                   "machine) for the requests that ask for it; off: none, atmosphere=on refused")
+      ->capture_default_str();
   serve->add_flag("--log", o->server.logRequests, "One line per request on stdout");
   serve->add_flag("--quiet", o->quiet, "No start-up and shutdown lines");
   serve->callback([o, &status] { status.exitCode = runServe(*o); });

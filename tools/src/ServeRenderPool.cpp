@@ -80,9 +80,11 @@ Result<std::unique_ptr<RenderPool>> RenderPool::create(const MappedDataset& data
   terrainOptions.warnWhenBudgetExceeded = false;
   terrainOptions.framesInFlight = options.framesInFlight;
   // Earth's or Mars's atmosphere, for the requests that ask for it (time=, sun=, atmosphere=).
-  Light air;
-  air.air = Light::Air::On;
-  terrainOptions.atmosphere = atmosphereTablesFor(air, dataset.view().planet(), false);
+  if (options.atmosphere) {
+    Light air;
+    air.air = Light::Air::On;
+    terrainOptions.atmosphere = atmosphereTablesFor(air, dataset.view().planet(), false);
+  }
   // The server's dataset outlives the pool: the terrains share it without owning it. Each keeps
   // its refinement tree between frames, so a viewer's consecutive requests re-evaluate only the
   // decisions its movement may change (the same cuts as refine()).

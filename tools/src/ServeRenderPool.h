@@ -101,6 +101,8 @@ struct RenderPoolOptions final {
   /// The vertical exaggeration every context draws with (the shared cache's patches are
   /// decoded under it: GpuCacheOptions::exaggeration).
   double exaggeration = 1.0;
+  /// Load the planet's atmosphere tables (LightOption.h atmosphereTablesFor) for the contexts.
+  bool atmosphere = true;
 };
 
 class RenderPool final {

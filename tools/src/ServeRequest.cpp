@@ -108,10 +108,10 @@ Result<double> inRange(Result<double> v, const std::string& name, double lo, dou
 }  // namespace
 
 Result<FrameQuery> parseFrameQuery(const QueryParams& params, const Planet& planet) {
-  if (auto r = checkNames(params, {"lat", "lon", "alt", "heading", "pitch", "roll", "width",
-                                   "height", "fov", "tolerance", "format", "quality", "morph",
-                                   "viewshed", "time", "sun", "ambient", "atmosphere", "exposure",
-                                   "exaggeration"});
+  if (auto r = checkNames(params, {"lat",    "lon",     "alt",        "heading",  "pitch",
+                                   "roll",   "width",   "height",     "fov",      "tolerance",
+                                   "format", "quality", "morph",      "viewshed", "time",
+                                   "sun",    "ambient", "atmosphere", "exposure", "exaggeration"});
       !r) {
     return std::move(r).error();
   }

@@ -225,7 +225,8 @@ Json makeInfo(const MappedDataset& dataset, const ServeOptions& options,
                      {"morph", options.morph ? "on" : "off"},
                      {"format", "png"}}},
                    {"morph_range", options.morphRange},
-                   {"exaggeration", options.exaggeration}};
+                   {"exaggeration", options.exaggeration},
+                   {"atmosphere", options.atmosphere}};
   info["server"] = {
       {"contexts", options.workers},           {"frames_in_flight", options.framesInFlight},
       {"queue", options.queueCapacity},        {"gpu_cache_mib", options.gpuCacheMiB},
@@ -264,6 +265,7 @@ Result<std::shared_ptr<Generation>> openGeneration(const std::string& directory,
   poolOptions.memoryBudgetMiB = options.memoryBudgetMiB;
   poolOptions.device = options.device;
   poolOptions.exaggeration = options.exaggeration;
+  poolOptions.atmosphere = options.atmosphere;
   auto pool = RenderPool::create(*generation->dataset, poolOptions);
   if (!pool) return std::move(pool).error();
   generation->pool = std::move(*pool);
@@ -468,6 +470,14 @@ void FrameServer::Impl::handleFrame(const httplib::Request& req, httplib::Respon
     return sendError(res, 400, what.str());
   }
   query->request.exaggeration = options.exaggeration;
+  if (!options.atmosphere) {
+    if (query->request.light.air == Light::Air::On) {
+      return sendError(res, 400,
+                       "parameter 'atmosphere': this server runs without the atmosphere "
+                       "(pbdam serve --atmosphere off)");
+    }
+    query->request.light.air = Light::Air::Off;
+  }
   if (query->viewshed) {
     auto drape = g->queries->viewshed(*query->viewshed);
     if (drape.busy) return sendBusy(res);

@@ -39,6 +39,9 @@ struct ServeOptions final {
   /// contexts' shared cache holds patches decoded under it; a request's exaggeration= must
   /// be this one.
   double exaggeration = 1.0;
+  /// Whether the contexts load the planet's atmosphere (Earth's, Mars's) at start: requests
+  /// then ask for it (atmosphere=, or a real sun with auto). Off, atmosphere=on is refused.
+  bool atmosphere = true;
 };
 
 class FrameServer final {

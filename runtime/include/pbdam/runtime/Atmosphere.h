@@ -47,17 +47,17 @@ struct AtmosphereParameters final {
   double sunAngularRadius = 0.004675;  ///< radians
   double bottomRadius = 0.0;           ///< the planet's (mean) radius
   double topRadius = 0.0;              ///< where the atmosphere is taken to end
-  DensityProfile rayleighDensity;         ///< molecules' density with altitude
-  glm::dvec3 rayleighScattering{0.0};     ///< molecules' scattering at the bottom, per metre
-  DensityProfile mieDensity;              ///< aerosols' (dust's) density with altitude
-  glm::dvec3 mieScattering{0.0};          ///< aerosols' scattering at the bottom, per metre
-  glm::dvec3 mieExtinction{0.0};          ///< aerosols' scattering plus absorption, per metre
+  DensityProfile rayleighDensity;      ///< molecules' density with altitude
+  glm::dvec3 rayleighScattering{0.0};  ///< molecules' scattering at the bottom, per metre
+  DensityProfile mieDensity;           ///< aerosols' (dust's) density with altitude
+  glm::dvec3 mieScattering{0.0};       ///< aerosols' scattering at the bottom, per metre
+  glm::dvec3 mieExtinction{0.0};       ///< aerosols' scattering plus absorption, per metre
   /// Asymmetry of Mie scattering (Cornette–Shanks phase function) per channel: dust scatters
   /// blue further forward than red (Mars's blue sunsets).
   glm::dvec3 miePhaseG{0.8};
-  DensityProfile absorptionDensity;       ///< an absorbing layer's density (Earth's ozone)
-  glm::dvec3 absorptionExtinction{0.0};   ///< its absorption at density 1, per metre
-  glm::dvec3 groundAlbedo{0.1};           ///< the ground's mean reflectance (multiple scattering)
+  DensityProfile absorptionDensity;      ///< an absorbing layer's density (Earth's ozone)
+  glm::dvec3 absorptionExtinction{0.0};  ///< its absorption at density 1, per metre
+  glm::dvec3 groundAlbedo{0.1};          ///< the ground's mean reflectance (multiple scattering)
   /// The cosine of the largest sun zenith angle the tables cover (below it the sky is dark).
   double muSMin = -0.2;
 
@@ -80,13 +80,13 @@ struct AtmosphereParameters final {
 struct AtmosphereTableSizes final {
   std::uint32_t transmittanceWidth = 256;  ///< μ
   std::uint32_t transmittanceHeight = 64;  ///< r
-  std::uint32_t scatteringR = 32;    ///< radii (layers)
-  std::uint32_t scatteringMu = 128;  ///< even: half below the horizon, half above
-  std::uint32_t scatteringMuS = 32;  ///< sun zenith angles
-  std::uint32_t scatteringNu = 8;    ///< angles between the view and the sun
-  std::uint32_t irradianceWidth = 64;   ///< μ_s
-  std::uint32_t irradianceHeight = 16;  ///< r
-  std::uint32_t scatteringOrders = 4;   ///< 1: single scattering only
+  std::uint32_t scatteringR = 32;          ///< radii (layers)
+  std::uint32_t scatteringMu = 128;        ///< even: half below the horizon, half above
+  std::uint32_t scatteringMuS = 32;        ///< sun zenith angles
+  std::uint32_t scatteringNu = 8;          ///< angles between the view and the sun
+  std::uint32_t irradianceWidth = 64;      ///< μ_s
+  std::uint32_t irradianceHeight = 16;     ///< r
+  std::uint32_t scatteringOrders = 4;      ///< 1: single scattering only
 };
 
 /// A table of RGB floats with linear filtering and clamp-to-edge addressing like a GPU texture:
