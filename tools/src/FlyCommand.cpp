@@ -23,6 +23,7 @@
 #include <memory>
 #include <numeric>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -47,6 +48,7 @@
 #include "pbdam/gpu/TerrainRenderer.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/runtime/Camera.h"
+#include "pbdam/runtime/Sun.h"
 #include "pbdam/runtime/SurfaceQuery.h"
 #include "pbdam/streaming/MappedDataset.h"
 #include "pbdam/streaming/MemoryBudget.h"
@@ -339,6 +341,8 @@ class FlySession final {
   Result<void> collectOne();
   Result<void> resizeTo(std::uint32_t width, std::uint32_t height);
   std::vector<std::string> hudLines(const FlyControls& controls, double fps) const;
+  /// The light of the frame at `t` as `pbdam render` options, for a screenshot's side file.
+  std::string lightOptionsText(const FlyControls& controls, double t) const;
   Result<void> frame(FlyControls& controls, double t);
   int finish(int status);
 
@@ -447,6 +451,26 @@ Result<void> FlySession::resizeTo(std::uint32_t width, std::uint32_t height) {
   return terrain_->resize(swapchain_.extent().width, swapchain_.extent().height);
 }
 
+std::string FlySession::lightOptionsText(const FlyControls& controls, double t) const {
+  // The light of this frame as `render` options: the sun's instant (to the millisecond), or the
+  // hand-placed sun's azimuth and elevation (over this render's own target), the air and the
+  // exaggeration.
+  const Light& light = modes_.light;
+  std::ostringstream text;
+  if (light.kind == Light::Kind::Ephemeris) {
+    text << " --time "
+         << runtime::formatUtcTime(light.unixSeconds + controls.sunHours * 3600.0 +
+                                   light.timeScale * t);
+  } else if (light.kind == Light::Kind::Horizon) {
+    text << " --sun " << light.azimuthDegrees << "," << light.elevationDegrees;
+  }
+  text << " --ambient " << light.ambient << " --atmosphere "
+       << (atmosphereOn(light, view_.planet()) ? "on" : "off");
+  if (light.exposure) text << " --exposure " << *light.exposure;
+  if (c_.exaggeration != 1.0) text << " --exaggeration " << c_.exaggeration;
+  return text.str();
+}
+
 std::vector<std::string> FlySession::hudLines(const FlyControls& controls, double fps) const {
   std::vector<std::string> lines;
   char line[256];
@@ -537,7 +561,7 @@ Result<void> FlySession::frame(FlyControls& controls, double t) {
     side << "--camera " << poseText(controls.pose()) << " --width " << viewport.width
          << " --height " << viewport.height << " --fov-deg " << c_.fovDegrees << " --tolerance-px "
          << c_.tolerancePixels << " --morph " << (controls.morph ? "on" : "off")
-         << " --morph-range " << c_.morph.range << "\n";
+         << " --morph-range " << c_.morph.range << lightOptionsText(controls, t) << "\n";
     std::printf("screenshot %s camera %s\n", entry.screenshot->c_str(),
                 poseText(controls.pose()).c_str());
     std::fflush(stdout);
