@@ -7,6 +7,10 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
+#if defined(__SANITIZE_THREAD__)
+#include <tbb/global_control.h>
+#endif
+
 #include <cmath>
 #include <glm/geometric.hpp>
 
@@ -14,6 +18,15 @@
 
 namespace pbdam::runtime {
 namespace {
+
+#if defined(__SANITIZE_THREAD__)
+// As gpu/src/SanitizerSupport.cpp does for the renderer: Debian's libtbb is not instrumented, so
+// TSan reports TBB's own task handoffs as races; under TSan the tables are made on the calling
+// thread. The parallel path (and its thread-count independence) is checked by the release and
+// ASan runs.
+const tbb::global_control atmosphereSerialUnderTsan(tbb::global_control::max_allowed_parallelism,
+                                                    1);
+#endif
 
 AtmosphereTableSizes small(std::uint32_t orders = 3) {
   AtmosphereTableSizes s;
