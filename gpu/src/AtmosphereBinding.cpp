@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "ImageUpload.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/gpu/VulkanError.h"
 
@@ -15,36 +16,6 @@ using namespace pbdam::formats;
 
 namespace pbdam::gpu {
 namespace {
-
-VkImageMemoryBarrier2 layoutBarrier(VkImage image, VkImageLayout from, VkImageLayout to) {
-  VkImageMemoryBarrier2 b{};
-  b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2;
-  b.srcStageMask =
-      from == VK_IMAGE_LAYOUT_UNDEFINED ? VK_PIPELINE_STAGE_2_NONE : VK_PIPELINE_STAGE_2_COPY_BIT;
-  b.srcAccessMask =
-      from == VK_IMAGE_LAYOUT_UNDEFINED ? VK_ACCESS_2_NONE : VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  b.dstStageMask = to == VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL
-                       ? VK_PIPELINE_STAGE_2_COPY_BIT
-                       : VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
-  b.dstAccessMask = to == VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL
-                        ? VK_ACCESS_2_TRANSFER_WRITE_BIT
-                        : VK_ACCESS_2_SHADER_SAMPLED_READ_BIT;
-  b.oldLayout = from;
-  b.newLayout = to;
-  b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.image = image;
-  b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, VK_REMAINING_ARRAY_LAYERS};
-  return b;
-}
-
-void pipelineBarrier(VkCommandBuffer cmd, const VkImageMemoryBarrier2& barrier) {
-  VkDependencyInfo dependency{};
-  dependency.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
-  dependency.imageMemoryBarrierCount = 1;
-  dependency.pImageMemoryBarriers = &barrier;
-  vkCmdPipelineBarrier2(cmd, &dependency);
-}
 
 /// RGBA32F where the device filters it linearly, else RGBA16F (always filterable).
 VkFormat tableFormat(const VulkanContext& context) {
@@ -92,15 +63,15 @@ Result<GpuImage> uploadTable(VulkanContext& context, const runtime::AtmosphereTa
   VkImage target = image->image();
   Result<void> copied = context.submitAndWait(
       [&](VkCommandBuffer cmd) {
-        pipelineBarrier(cmd, layoutBarrier(target, VK_IMAGE_LAYOUT_UNDEFINED,
-                                           VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL));
+        recordBarrier(cmd, uploadLayoutBarrier(target, VK_IMAGE_LAYOUT_UNDEFINED,
+                                               VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL));
         VkBufferImageCopy region{};
         region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, layers};
         region.imageExtent = {table.width, table.height, 1};
         vkCmdCopyBufferToImage(cmd, staging->buffer(), target, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
                                1, &region);
-        pipelineBarrier(cmd, layoutBarrier(target, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                                           VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL));
+        recordBarrier(cmd, uploadLayoutBarrier(target, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                                               VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL));
       },
       name + " upload");
   if (!copied) return std::move(copied).error();

@@ -9,6 +9,7 @@
 #include <numbers>
 #include <string>
 
+#include "ImageUpload.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/gpu/VulkanError.h"
 
@@ -16,36 +17,6 @@ using namespace pbdam::formats;
 
 namespace pbdam::gpu {
 namespace {
-
-VkImageMemoryBarrier2 layoutBarrier(VkImage image, VkImageLayout from, VkImageLayout to) {
-  VkImageMemoryBarrier2 b{};
-  b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2;
-  b.srcStageMask =
-      from == VK_IMAGE_LAYOUT_UNDEFINED ? VK_PIPELINE_STAGE_2_NONE : VK_PIPELINE_STAGE_2_COPY_BIT;
-  b.srcAccessMask =
-      from == VK_IMAGE_LAYOUT_UNDEFINED ? VK_ACCESS_2_NONE : VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  b.dstStageMask = to == VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL
-                       ? VK_PIPELINE_STAGE_2_COPY_BIT
-                       : VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
-  b.dstAccessMask = to == VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL
-                        ? VK_ACCESS_2_TRANSFER_WRITE_BIT
-                        : VK_ACCESS_2_SHADER_SAMPLED_READ_BIT;
-  b.oldLayout = from;
-  b.newLayout = to;
-  b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.image = image;
-  b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-  return b;
-}
-
-void pipelineBarrier(VkCommandBuffer cmd, const VkImageMemoryBarrier2& barrier) {
-  VkDependencyInfo dependency{};
-  dependency.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
-  dependency.imageMemoryBarrierCount = 1;
-  dependency.pImageMemoryBarriers = &barrier;
-  vkCmdPipelineBarrier2(cmd, &dependency);
-}
 
 void copy3(float* to, const glm::dvec3& v, double w) {
   to[0] = static_cast<float>(v.x);
@@ -123,15 +94,15 @@ Result<void> SurfaceOverlayBinding::upload(const RgbaImage& image) {
   VkImage target = created->image();
   Result<void> copied = context_->submitAndWait(
       [&](VkCommandBuffer cmd) {
-        pipelineBarrier(cmd, layoutBarrier(target, VK_IMAGE_LAYOUT_UNDEFINED,
-                                           VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL));
+        recordBarrier(cmd, uploadLayoutBarrier(target, VK_IMAGE_LAYOUT_UNDEFINED,
+                                               VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL));
         VkBufferImageCopy region{};
         region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
         region.imageExtent = {image.widthPixels, image.heightPixels, 1};
         vkCmdCopyBufferToImage(cmd, staging->buffer(), target, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
                                1, &region);
-        pipelineBarrier(cmd, layoutBarrier(target, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                                           VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL));
+        recordBarrier(cmd, uploadLayoutBarrier(target, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                                               VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL));
       },
       "surface overlay upload");
   if (!copied) return copied;
