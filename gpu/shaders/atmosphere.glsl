@@ -111,7 +111,9 @@ vec3 scatteringLookup(sampler2DArray table, float r, float mu, float muS, float 
   const vec2 uv1 = vec2((x0 + 1.0 + t.y) / nuSize, t.z);
   const vec3 a = mix(texture(table, vec3(uv0, l0)).rgb, texture(table, vec3(uv0, l1)).rgb, fl);
   const vec3 b = mix(texture(table, vec3(uv1, l0)).rgb, texture(table, vec3(uv1, l1)).rgb, fl);
-  return mix(a, b, lerpNu);
+  // The tables end at the largest sun zenith angle they hold (μ_s min, clamped onto every lower
+  // sun): the light fades to none over the last 0.02 of μ_s, so that the night side's air is dark.
+  return mix(a, b, lerpNu) * smoothstep(atmosphere.miePhaseG.w, atmosphere.miePhaseG.w + 0.02, muS);
 }
 
 float rayleighPhase(float nu) { return 3.0 / (16.0 * kPi) * (1.0 + nu * nu); }
@@ -192,13 +194,16 @@ void sunAndSkyIrradiance(vec3 point, vec3 sun, out vec3 sunIrradiance, out vec3 
   sunIrradiance = atmosphere.solarIrradiance.xyz * transmittanceToSun(r, muS);
 }
 
-// Radiance to display: exposure, 1 − e^−x tone curve, the sRGB transfer function.
+// Radiance to display: exposure, 1 − e^−x tone curve, the sRGB transfer function. Its two pieces
+// are chosen per channel by selection, not blended: a blend by a 0/1 weight multiplies the piece
+// not taken by 0, and lavapipe's pow(0, y) is NaN (black night pixels came out grey).
 vec3 toneMap(vec3 radiance, float exposure) {
-  const vec3 x = vec3(1.0) - exp(-radiance * exposure);
-  return mix(12.92 * x, 1.055 * pow(x, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), x));
+  const vec3 x = vec3(1.0) - exp(-max(radiance, vec3(0.0)) * exposure);
+  return mix(12.92 * x, 1.055 * pow(x, vec3(1.0 / 2.4)) - 0.055,
+             greaterThanEqual(x, vec3(0.0031308)));
 }
 
 // A texel's colour (sRGB-encoded) as linear reflectance.
 vec3 srgbToLinear(vec3 c) {
-  return mix(c / 12.92, pow((c + 0.055) / 1.055, vec3(2.4)), step(vec3(0.04045), c));
+  return mix(c / 12.92, pow((c + 0.055) / 1.055, vec3(2.4)), greaterThanEqual(c, vec3(0.04045)));
 }

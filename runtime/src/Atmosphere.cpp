@@ -668,6 +668,14 @@ bool enterAtmosphere(const AtmosphereParameters& p, Vec3& camera, const Vec3& ra
   return true;
 }
 
+/// The share of a scattering table's value kept at sun cosine `muS`: the tables end at the
+/// largest sun zenith angle they were computed for (their value there is clamped onto every
+/// lower sun), so the light fades to none over the last 0.02 of μ_s before it, and the night
+/// side's air is dark instead of lit as at that last twilight. As gpu/shaders/atmosphere.glsl.
+double twilightFade(const AtmosphereParameters& p, double muS) {
+  return smoothstep(p.muSMin, p.muSMin + 0.02, muS);
+}
+
 }  // namespace
 
 AtmosphereTables::Radiance AtmosphereTables::skyRadiance(
@@ -689,7 +697,8 @@ AtmosphereTables::Radiance AtmosphereTables::skyRadiance(
   out.transmittance = ground ? Vec3(0.0) : look.transmittanceToTop(r, mu);
   const Vec3 rayleigh = look.scattering(scattering_, r, mu, muS, nu, ground);
   const Vec3 mie = look.scattering(singleMie_, r, mu, muS, nu, ground);
-  out.radiance = rayleigh * rayleighPhase(nu) + mie * miePhase(p.miePhaseG, nu);
+  out.radiance =
+      (rayleigh * rayleighPhase(nu) + mie * miePhase(p.miePhaseG, nu)) * twilightFade(p, muS);
   return out;
 }
 
@@ -715,10 +724,13 @@ AtmosphereTables::Radiance AtmosphereTables::skyRadianceToPoint(
   const double rP = shell.clampRadius(std::sqrt(d * d + 2.0 * r * mu * d + r * r));
   const double muP = clampCosine((r * mu + d) / rP);
   const double muSP = clampCosine((r * muS + d * nu) / rP);
-  const Vec3 rayleigh = look.scattering(scattering_, r, mu, muS, nu, ground) -
-                        out.transmittance * look.scattering(scattering_, rP, muP, muSP, nu, ground);
-  const Vec3 mie = look.scattering(singleMie_, r, mu, muS, nu, ground) -
-                   out.transmittance * look.scattering(singleMie_, rP, muP, muSP, nu, ground);
+  const double fade = twilightFade(p, muS);
+  const double fadeP = twilightFade(p, muSP);
+  const Vec3 rayleigh =
+      look.scattering(scattering_, r, mu, muS, nu, ground) * fade -
+      out.transmittance * look.scattering(scattering_, rP, muP, muSP, nu, ground) * fadeP;
+  const Vec3 mie = look.scattering(singleMie_, r, mu, muS, nu, ground) * fade -
+                   out.transmittance * look.scattering(singleMie_, rP, muP, muSP, nu, ground) * fadeP;
   out.radiance = glm::max(rayleigh, Vec3(0.0)) * rayleighPhase(nu) +
                  glm::max(mie, Vec3(0.0)) * miePhase(p.miePhaseG, nu);
   return out;

@@ -8,6 +8,7 @@
 // day (E moves by 0.1 min in it). The image's sun comes from the runtime's ephemeris.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <glm/geometric.hpp>
 #include <memory>
@@ -264,6 +265,27 @@ TEST_F(Atmosphere, TheDayLimbGlowsAndSpaceIsBlack) {
   EXPECT_GT(brightness(edge - 2) + brightness(edge - 3), 0) << "no glow beyond the day limb";
   EXPECT_EQ(brightness(edge - 12), 0) << "space is not black";
   EXPECT_EQ(brightness(2), 0);
+}
+
+// The night side seen from above the air, the sun on the far side of the planet: the terrain is
+// dark (the ambient share of its texel, 0 here, and no more than a faint glow of the air), and
+// never the flat grey that a NaN in the tone curve made of it (lavapipe's pow(0, y)).
+TEST_F(Atmosphere, TheNightSideFromAboveTheAirIsDark) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  auto dataset = test::openDataset(dir);
+  ASSERT_TRUE(dataset);
+  const DatasetView& view = dataset->view();
+  constexpr std::uint32_t kW = 96;
+  constexpr std::uint32_t kH = 64;
+  const CameraPose pose{-6.0, -100.0, 500e3, 99.0, -72.0, 0.0};
+  const RgbaImage image = frame(view, pose, 90.0, -89.0, 23.0f, kW, kH);
+  ASSERT_EQ(image.rgba.size(), std::size_t{kW} * kH * 4);
+  int brightest = 0;
+  for (std::size_t i = 0; i < image.rgba.size(); i += 4) {
+    brightest = std::max({brightest, int{image.rgba[i]}, int{image.rgba[i + 1]},
+                          int{image.rgba[i + 2]}});
+  }
+  EXPECT_LE(brightest, 16) << "the night side is lit";
 }
 
 }  // namespace

@@ -160,6 +160,45 @@ TEST(Atmosphere, MultipleScatteringAddsLightAndTheTablesDoNotDependOnThreads) {
   EXPECT_TRUE(serial.irradiance().rgb == earthTables().irradiance().rgb);
 }
 
+/// Every texel finite and not negative.
+void expectFiniteAndNonNegative(const AtmosphereTable& table, const char* name) {
+  std::size_t bad = 0;
+  for (const float v : table.rgb) bad += (std::isfinite(v) && v >= 0.0f) ? 0u : 1u;
+  EXPECT_EQ(bad, 0u) << name << ": " << bad << " of " << table.rgb.size() << " values";
+}
+
+TEST(Atmosphere, TheTablesHoldFiniteNonNegativeLight) {
+  for (const AtmosphereTables* tables : {&earthTables(), &marsTables()}) {
+    expectFiniteAndNonNegative(tables->transmittance(), "transmittance");
+    expectFiniteAndNonNegative(tables->scattering(), "scattering");
+    expectFiniteAndNonNegative(tables->singleMieScattering(), "single Mie");
+    expectFiniteAndNonNegative(tables->irradiance(), "irradiance");
+  }
+}
+
+TEST(Atmosphere, TheNightSideSeenFromAboveTheAirIsDarkAndFinite) {
+  // A camera 500 km over Mars looking obliquely down at ground on the night side (the sun
+  // opposite): every ray to the ground, grazing ones included, gives finite, non-negative light
+  // and transmittance, and no more in-scattered light than a faint glow.
+  const AtmosphereTables& mars = marsTables();
+  const double bottom = AtmosphereParameters::mars().bottomRadius;
+  const glm::dvec3 camera(0.0, 0.0, bottom + 500e3);
+  const glm::dvec3 sun(0.0, 0.0, -1.0);
+  for (const double degrees : {0.0, 5.0, 10.0, 15.0, 19.0, 20.0, 21.0}) {
+    SCOPED_TRACE(degrees);
+    const double angle = degrees * M_PI / 180.0;
+    const glm::dvec3 point(bottom * std::sin(angle), 0.0, bottom * std::cos(angle));
+    const AtmosphereTables::Radiance air = mars.skyRadianceToPoint(camera, point, sun);
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_TRUE(std::isfinite(air.radiance[c]) && air.radiance[c] >= 0.0) << air.radiance[c];
+      EXPECT_TRUE(std::isfinite(air.transmittance[c]) && air.transmittance[c] >= 0.0 &&
+                  air.transmittance[c] <= 1.0)
+          << air.transmittance[c];
+      EXPECT_LT(air.radiance[c], 1e-3);
+    }
+  }
+}
+
 TEST(Atmosphere, TheBodyChoosesItsAtmosphere) {
   EXPECT_TRUE(AtmosphereParameters::of(Planet::earthWgs84()).has_value());
   EXPECT_TRUE(AtmosphereParameters::of(Planet::mars()).has_value());
