@@ -729,8 +729,9 @@ AtmosphereTables::Radiance AtmosphereTables::skyRadianceToPoint(
   const Vec3 rayleigh =
       look.scattering(scattering_, r, mu, muS, nu, ground) * fade -
       out.transmittance * look.scattering(scattering_, rP, muP, muSP, nu, ground) * fadeP;
-  const Vec3 mie = look.scattering(singleMie_, r, mu, muS, nu, ground) * fade -
-                   out.transmittance * look.scattering(singleMie_, rP, muP, muSP, nu, ground) * fadeP;
+  const Vec3 mie =
+      look.scattering(singleMie_, r, mu, muS, nu, ground) * fade -
+      out.transmittance * look.scattering(singleMie_, rP, muP, muSP, nu, ground) * fadeP;
   out.radiance = glm::max(rayleigh, Vec3(0.0)) * rayleighPhase(nu) +
                  glm::max(mie, Vec3(0.0)) * miePhase(p.miePhaseG, nu);
   return out;
