@@ -282,8 +282,8 @@ TEST_F(Atmosphere, TheNightSideFromAboveTheAirIsDark) {
   ASSERT_EQ(image.rgba.size(), std::size_t{kW} * kH * 4);
   int brightest = 0;
   for (std::size_t i = 0; i < image.rgba.size(); i += 4) {
-    brightest = std::max({brightest, int{image.rgba[i]}, int{image.rgba[i + 1]},
-                          int{image.rgba[i + 2]}});
+    brightest =
+        std::max({brightest, int{image.rgba[i]}, int{image.rgba[i + 1]}, int{image.rgba[i + 2]}});
   }
   EXPECT_LE(brightest, 16) << "the night side is lit";
 }
