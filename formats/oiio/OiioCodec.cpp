@@ -71,6 +71,27 @@ Result<void> write(const std::filesystem::path& file, RgbaPixels image, int chan
   return writeTo(*out, file.string(), image, spec, ErrorCode::IoError);
 }
 
+Result<void> writeLinear(const std::filesystem::path& file, LinearRgbPixels image,
+                         const std::string& extraName, float extraValue) {
+  auto out = OIIO::ImageOutput::create(file.string());
+  if (!out) {
+    return makeError(ErrorCode::IoError,
+                     "cannot write this image format (" + OIIO::geterror() + ")");
+  }
+  OIIO::ImageSpec spec(static_cast<int>(image.width), static_cast<int>(image.height), 3,
+                       OIIO::TypeDesc::HALF);
+  if (!extraName.empty()) spec.attribute(extraName, extraValue);
+  if (!out->open(file.string(), spec)) {
+    return makeError(ErrorCode::IoError, "cannot create (" + out->geterror() + ")");
+  }
+  const bool written = out->write_image(OIIO::TypeDesc::FLOAT, image.rgb);
+  const bool closed = out->close();
+  if (!written || !closed) {
+    return makeError(ErrorCode::IoError, "write failed (" + out->geterror() + ")");
+  }
+  return {};
+}
+
 Result<std::vector<unsigned char>> encode(RgbaPixels image, const std::string& format, int channels,
                                           int jpegQuality) {
   std::vector<unsigned char> bytes;
@@ -126,7 +147,7 @@ Pixels8 drawText(const std::vector<std::string>& lines, const std::string& fontF
   return panel;
 }
 
-constexpr ImageCodec kCodec{&read, &write, &encode, &drawText};
+constexpr ImageCodec kCodec{&read, &write, &encode, &writeLinear, &drawText};
 
 }  // namespace
 }  // namespace pbdam::formats

@@ -20,7 +20,7 @@ layout(set = 4, binding = 4) uniform Atmosphere {
 vec3 toAtmosphereDirection(vec3 v) { return normalize(vec3(v.xy, v.z * atmosphere.sizes.w)); }
 vec3 toAtmosphereOffsetKm(vec3 v) { return vec3(v.xy, v.z * atmosphere.sizes.w) * 0.001; }
 
-const float kPi = 3.14159265358979;
+#include "tone.glsl"
 
 float clampCosine(float mu) { return clamp(mu, -1.0, 1.0); }
 float safeSqrt(float a) { return sqrt(max(a, 0.0)); }
@@ -192,18 +192,4 @@ void sunAndSkyIrradiance(vec3 point, vec3 sun, out vec3 sunIrradiance, out vec3 
   const vec2 uv = vec2(texCoord(muS * 0.5 + 0.5, size.x), texCoord(xR, size.y));
   skyIrradiance = texture(irradianceTable, uv).rgb;
   sunIrradiance = atmosphere.solarIrradiance.xyz * transmittanceToSun(r, muS);
-}
-
-// Radiance to display: exposure, 1 − e^−x tone curve, the sRGB transfer function. Its two pieces
-// are chosen per channel by selection, not blended: a blend by a 0/1 weight multiplies the piece
-// not taken by 0, and lavapipe's pow(0, y) is NaN (black night pixels came out grey).
-vec3 toneMap(vec3 radiance, float exposure) {
-  const vec3 x = vec3(1.0) - exp(-max(radiance, vec3(0.0)) * exposure);
-  return mix(12.92 * x, 1.055 * pow(x, vec3(1.0 / 2.4)) - 0.055,
-             greaterThanEqual(x, vec3(0.0031308)));
-}
-
-// A texel's colour (sRGB-encoded) as linear reflectance.
-vec3 srgbToLinear(vec3 c) {
-  return mix(c / 12.92, pow((c + 0.055) / 1.055, vec3(2.4)), greaterThanEqual(c, vec3(0.04045)));
 }

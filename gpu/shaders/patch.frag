@@ -12,6 +12,10 @@
 
 #include "atmosphere.glsl"
 
+// 1: the frame keeps radiance (a floating-point target, tone-mapped by tonemap.frag after the
+// last pass) where the atmosphere is on; 0: the display colour, tone-mapped here.
+layout(constant_id = 0) const bool kRadianceOutput = false;
+
 layout(push_constant) uniform PatchPush {
   mat4 viewProjection;
   vec4 sunAmbient;  // xyz: unit direction towards the sun (world), w: ambient term
@@ -91,6 +95,10 @@ void main() {
     const vec3 transmittance = exp(-inExtinctionPerKm * (length(inCameraRelative) * 0.001));
     radiance = radiance * transmittance + inInScatterLimit * (vec3(1.0) - transmittance);
     // The night side's faint light: at least the ambient share of the texel.
+    if (kRadianceOutput) {
+      outColor = vec4(max(radiance, radianceShownAs(texel * ambient, pc.camera.w)), 1.0);
+      return;
+    }
     outColor = vec4(max(toneMap(radiance, pc.camera.w), texel * ambient), 1.0);
     return;
   }

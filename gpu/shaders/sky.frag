@@ -1,9 +1,12 @@
 // The sky seen along the fragment's view ray (sky.vert): the atmosphere's scattered light, the
 // sun's disc through the air, black space beyond the limb, then the frame's exposure and tone
-// curve (atmosphere.glsl).
+// curve (tone.glsl), or the radiance itself for a later tone map.
 #version 450
 
 #include "atmosphere.glsl"
+
+// As patch.frag: 1 keeps the radiance for tonemap.frag, 0 tone-maps it here.
+layout(constant_id = 0) const bool kRadianceOutput = false;
 
 layout(push_constant) uniform PatchPush {
   mat4 viewProjection;
@@ -26,5 +29,5 @@ void main() {
   if (dot(ray, sun) > cos(sunRadius)) {
     radiance += transmittance * atmosphere.solarIrradiance.xyz / (kPi * sunRadius * sunRadius);
   }
-  outColor = vec4(toneMap(radiance, pc.camera.w), 1.0);
+  outColor = vec4(kRadianceOutput ? radiance : toneMap(radiance, pc.camera.w), 1.0);
 }

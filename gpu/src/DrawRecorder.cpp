@@ -7,27 +7,33 @@
 
 namespace pbdam::gpu {
 
-void recordSky(VkCommandBuffer cmd, const PatchPipeline& pipeline) {
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.skyPipeline());
+void recordSky(VkCommandBuffer cmd, VkPipeline sky) {
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, sky);
   vkCmdDraw(cmd, 3, 1, 0, 0);
 }
 
 void DrawRecorder::record(VkCommandBuffer cmd, const OffscreenTarget& target,
                           const PassPlacement& placement, std::span<const std::byte> push,
                           std::span<const DrawItem> items) const {
+  const bool radiance =
+      placement.toneMapExposure > 0.0f && radiance_ != nullptr && target.keepsRadiance();
   if (placement.first) {
     target.recordBeginRendering(cmd, placement.clearRgba, OffscreenTarget::kFarDepth,
-                                !placement.last);
+                                !placement.last, radiance);
   } else {
-    target.recordResumeRendering(cmd, !placement.last);
+    target.recordResumeRendering(cmd, !placement.last, radiance);
   }
-  recordBindingsAndDraws(cmd, pipeline_->pipeline(), push, items);
+  recordBindingsAndDraws(cmd, radiance ? radiance_->patch.get() : pipeline_->pipeline(), push,
+                         items);
   PatchPush values{};
   std::memcpy(&values, push.data(), std::min(push.size(), sizeof values));
   // With the atmosphere, the sky last, where no patch of any pass has drawn (the depth kept
   // across passes is still the far one there); its sets and push constants are bound.
-  if (placement.last && values.camera[3] > 0.0f) recordSky(cmd, *pipeline_);
+  if (placement.last && values.camera[3] > 0.0f) {
+    recordSky(cmd, radiance ? radiance_->sky.get() : pipeline_->skyPipeline());
+  }
   vkCmdEndRendering(cmd);
+  if (placement.last && radiance) target.recordToneMap(cmd, placement.toneMapExposure);
 }
 
 void DrawRecorder::recordDraws(VkCommandBuffer cmd, VkPipeline pipeline, std::uint32_t width,

@@ -30,20 +30,24 @@ struct PassPlacement final {
   bool first = true;  ///< clears the attachments (else resumes the previous pass's)
   bool last = true;   ///< the frame's last pass: its attachments are stored for readback
   std::array<float, 4> clearRgba{0.0f, 0.0f, 0.0f, 1.0f};
+  /// > 0: the frame keeps radiance (the target's radiance image, the radiance pipelines) and
+  /// its last pass is followed by the tone map with this exposure; 0: display colour.
+  float toneMapExposure = 0.0f;
 };
 
-/// The sky (PatchPipeline::skyPipeline): one triangle over the viewport, inside rendering begun
-/// by the caller with the patch layout's sets and push constants bound (the atmosphere's set 4
-/// and a PatchPush whose camera.w is the exposure).
-void recordSky(VkCommandBuffer cmd, const PatchPipeline& pipeline);
+/// The sky (PatchPipeline::skyPipeline, or RadiancePipelines::sky): one triangle over the
+/// viewport, inside rendering begun by the caller with the patch layout's sets and push
+/// constants bound (the atmosphere's set 4 and a PatchPush whose camera.w is the exposure).
+void recordSky(VkCommandBuffer cmd, VkPipeline sky);
 
 class DrawRecorder final {
  public:
   /// Everything referenced must outlive the recorder and the command buffers it records.
   DrawRecorder(const PatchPipeline& pipeline, const PatchPool& patches, const TilePool& tiles,
                VkDescriptorSet recordsSet, VkDescriptorSet overlaySet,
-               VkDescriptorSet atmosphereSet) noexcept
+               VkDescriptorSet atmosphereSet, const RadiancePipelines* radiance = nullptr) noexcept
       : pipeline_(&pipeline),
+        radiance_(radiance),
         patches_(&patches),
         tiles_(&tiles),
         recordsSet_(recordsSet),
@@ -69,6 +73,7 @@ class DrawRecorder final {
                               std::span<const DrawItem> items) const;
 
   const PatchPipeline* pipeline_;
+  const RadiancePipelines* radiance_;  ///< for frames that keep radiance; may be null
   const PatchPool* patches_;
   const TilePool* tiles_;
   VkDescriptorSet recordsSet_;

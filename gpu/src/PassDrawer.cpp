@@ -240,7 +240,10 @@ Result<void> PassDrawer::record(bool readback, const PresentTarget* present) {
   VkQueryPool timestamps = m_.queries.get();
   const std::uint32_t q = slot_.firstQuery;
   const DrawRecorder recorder(m_.shared->pipeline, m_.shared->patches, m_.shared->tiles,
-                              slot_.recordsSet, slot_.overlay->set(), m_.atmosphere->set());
+                              slot_.recordsSet, slot_.overlay->set(), m_.atmosphere->set(),
+                              m_.radiancePipelines ? &*m_.radiancePipelines : nullptr);
+  const bool radiance = in_.placement.last && readback && in_.placement.toneMapExposure > 0.0f &&
+                        in_.readRadiance;
   recorded = recordCommands(
       slot_.commands[FrameSlot::kDrawCommands], "terrain frame", [&](VkCommandBuffer cmd) {
         if (timestamps != VK_NULL_HANDLE) {
@@ -252,6 +255,7 @@ Result<void> PassDrawer::record(bool readback, const PresentTarget* present) {
           vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, timestamps, q + 2);
         }
         if (in_.placement.last && readback) slot_.target.recordReadback(cmd);
+        if (radiance) slot_.target.recordRadianceReadback(cmd);
       });
   if (!recorded || !in_.placement.last || present == nullptr) return recorded;
   return recordCommands(

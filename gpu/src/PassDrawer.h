@@ -34,6 +34,8 @@ struct PassInput {
   const runtime::Camera& camera;
   std::span<const std::byte> push;  ///< the PatchPush bytes
   PassPlacement placement;
+  /// The last pass of a frame that keeps radiance also copies it out for the host.
+  bool readRadiance = false;
 };
 
 /// What a reserved pass uploads and draws.

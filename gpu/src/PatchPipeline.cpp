@@ -142,13 +142,25 @@ Result<UniquePipelineLayout> createPatchLayout(
   return UniquePipelineLayout(device, rawLayout);
 }
 
+/// The fragment stage's kRadianceOutput (constant 0 of patch.frag and sky.frag): 1 keeps the
+/// radiance for the tone map after the last pass, 0 tone-maps in the stage.
+struct RadianceConstant final {
+  VkBool32 value = VK_FALSE;
+  VkSpecializationMapEntry entry{0, 0, sizeof(VkBool32)};
+  VkSpecializationInfo info{1, &entry, sizeof(VkBool32), &value};
+  explicit RadianceConstant(bool radiance) noexcept : value(radiance ? VK_TRUE : VK_FALSE) {}
+  RadianceConstant(const RadianceConstant&) = delete;
+  RadianceConstant& operator=(const RadianceConstant&) = delete;
+};
+
 /// The graphics pipeline: the patch shaders and their fixed-function state (the depth test of
 /// the pass's convention, back-face culling, dynamic viewport and scissor) for the pass's
 /// attachments.
 Result<UniquePipeline> createPatchGraphicsPipeline(VkDevice device, VkPipelineLayout layout,
                                                    const HostPass& pass,
                                                    std::span<const uint32_t> vertexSpirv,
-                                                   const char* vertexName) {
+                                                   const char* vertexName, bool radiance) {
+  const RadianceConstant constant(radiance);
   Result<UniqueShaderModule> vert = createShaderModule(device, vertexSpirv, vertexName);
   if (!vert) return std::move(vert).error();
   Result<UniqueShaderModule> frag = createShaderModule(device, kPatchFrag, "patch.frag");
@@ -162,6 +174,7 @@ Result<UniquePipeline> createPatchGraphicsPipeline(VkDevice device, VkPipelineLa
   stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
   stages[1].module = frag->get();
   stages[1].pName = "main";
+  stages[1].pSpecializationInfo = &constant.info;
 
   VkVertexInputBindingDescription binding{};
   binding.binding = 0;
@@ -262,7 +275,8 @@ Result<UniquePipeline> createPatchGraphicsPipeline(VkDevice device, VkPipelineLa
 /// (compare EQUAL, no writes: only the pixels no patch covered are shaded), for the pass's
 /// attachments and the patch layout.
 Result<UniquePipeline> createSkyPipeline(VkDevice device, VkPipelineLayout layout,
-                                         const HostPass& pass) {
+                                         const HostPass& pass, bool radiance) {
+  const RadianceConstant constant(radiance);
   Result<UniqueShaderModule> vert = createShaderModule(device, kSkyVert, "sky.vert");
   if (!vert) return std::move(vert).error();
   Result<UniqueShaderModule> frag = createShaderModule(device, kSkyFrag, "sky.frag");
@@ -276,6 +290,7 @@ Result<UniquePipeline> createSkyPipeline(VkDevice device, VkPipelineLayout layou
   stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
   stages[1].module = frag->get();
   stages[1].pName = "main";
+  stages[1].pSpecializationInfo = &constant.info;
   VkPipelineVertexInputStateCreateInfo vertexInput{};
   vertexInput.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO;
   VkPipelineInputAssemblyStateCreateInfo inputAssembly{};
@@ -385,16 +400,16 @@ Result<PatchPipeline> PatchPipeline::create(const VulkanContext& context, VkForm
   own.colorFormat = colorFormat;
   own.depthFormat = depthFormat;
   auto pipeline =
-      createPatchGraphicsPipeline(device, result.layout_.get(), own, kPatchVert, "patch.vert");
+      createPatchGraphicsPipeline(device, result.layout_.get(), own, kPatchVert, "patch.vert", false);
   if (!pipeline) return std::move(pipeline).error();
   result.pipeline_ = std::move(*pipeline);
-  auto sky = createSkyPipeline(device, result.layout_.get(), own);
+  auto sky = createSkyPipeline(device, result.layout_.get(), own, false);
   if (!sky) return std::move(sky).error();
   result.skyPipeline_ = std::move(*sky);
   const DeviceCaps& caps = context.caps();
   if (caps.shaderDrawParameters && caps.drawIndirectCount && caps.multiDrawIndirect) {
     auto indirect = createPatchGraphicsPipeline(device, result.layout_.get(), own,
-                                                kPatchIndirectVert, "patch_indirect.vert");
+                                                kPatchIndirectVert, "patch_indirect.vert", false);
     if (!indirect) return std::move(indirect).error();
     result.indirectPipeline_ = std::move(*indirect);
   }
@@ -404,7 +419,31 @@ Result<PatchPipeline> PatchPipeline::create(const VulkanContext& context, VkForm
 Result<UniquePipeline> PatchPipeline::createForHostPass(const VulkanContext& context,
                                                         const HostPass& pass) const {
   return createPatchGraphicsPipeline(context.device(), layout_.get(), pass, kPatchVert,
-                                     "patch.vert (host pass)");
+                                     "patch.vert (host pass)", false);
+}
+
+Result<RadiancePipelines> PatchPipeline::createRadiancePipelines(const VulkanContext& context,
+                                                                 VkFormat radianceFormat,
+                                                                 VkFormat depthFormat) const {
+  VkDevice device = context.device();
+  HostPass pass;
+  pass.colorFormat = radianceFormat;
+  pass.depthFormat = depthFormat;
+  RadiancePipelines out;
+  auto patch = createPatchGraphicsPipeline(device, layout_.get(), pass, kPatchVert,
+                                           "patch.vert (radiance)", true);
+  if (!patch) return std::move(patch).error();
+  out.patch = std::move(*patch);
+  auto sky = createSkyPipeline(device, layout_.get(), pass, true);
+  if (!sky) return std::move(sky).error();
+  out.sky = std::move(*sky);
+  if (indirectPipeline_) {
+    auto indirect = createPatchGraphicsPipeline(device, layout_.get(), pass, kPatchIndirectVert,
+                                                "patch_indirect.vert (radiance)", true);
+    if (!indirect) return std::move(indirect).error();
+    out.indirect = std::move(*indirect);
+  }
+  return out;
 }
 
 }  // namespace pbdam::gpu

@@ -37,6 +37,16 @@ static_assert(offsetof(PatchPush, recordIndex) == kRecordIndexOffset);
 // R16G16_UINT, h and the morph target's h (metres) as R32G32_SFLOAT, then the offset o (metres) as
 // R32G32B32_SFLOAT.
 
+/// The patch, indirect and sky pipelines of PatchPipeline for a frame that keeps radiance (a
+/// floating-point colour target, tone-mapped after its last pass: ToneMapPass.h): the same
+/// shaders and layout with their fragment stages' kRadianceOutput set. `indirect` is empty where
+/// PatchPipeline::indirectPipeline() is.
+struct RadiancePipelines final {
+  UniquePipeline patch;
+  UniquePipeline indirect;
+  UniquePipeline sky;
+};
+
 class PatchPipeline final {
  public:
   /// Creates the layouts, the sampler (linear, clamp to edge, no mipmaps) and the pipeline for
@@ -50,6 +60,11 @@ class PatchPipeline final {
   /// its formats, render pass or dynamic rendering, samples and depth test (HostPass.h).
   formats::Result<UniquePipeline> createForHostPass(const VulkanContext& context,
                                                     const HostPass& pass) const;
+
+  /// The pipelines for frames that keep radiance in `radianceFormat` + `depthFormat`.
+  formats::Result<RadiancePipelines> createRadiancePipelines(const VulkanContext& context,
+                                                            VkFormat radianceFormat,
+                                                            VkFormat depthFormat) const;
 
   VkPipeline pipeline() const noexcept { return pipeline_.get(); }
   /// The same pipeline with patch_indirect.vert (the record index from gl_DrawID) for draw

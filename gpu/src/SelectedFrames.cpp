@@ -116,7 +116,9 @@ Result<void> TerrainRenderer::Impl::recordSelectedFrame(FrameSlot& slot, GpuSele
           vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, timestamps, q + 3);
           vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, timestamps, q + 1);
         }
-        target.recordBeginRendering(cmd, clear, OffscreenTarget::kFarDepth, false);
+        const float exposure = toneMapExposure(push);
+        const bool radiance = exposure > 0.0f;
+        target.recordBeginRendering(cmd, clear, OffscreenTarget::kFarDepth, false, radiance);
         const PatchPipeline& pipeline = shared->pipeline;
         VkDescriptorSet page = shared->tiles.descriptorSet(0);
         const std::array<VkDescriptorSet, 5> sets = {deviceRecordsSet, page, page,
@@ -126,7 +128,9 @@ Result<void> TerrainRenderer::Impl::recordSelectedFrame(FrameSlot& slot, GpuSele
         vkCmdPushConstants(cmd, pipeline.layout(),
                            VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
                            sizeof push, &push);
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.indirectPipeline());
+        vkCmdBindPipeline(
+            cmd, VK_PIPELINE_BIND_POINT_GRAPHICS,
+            radiance ? radiancePipelines->indirect.get() : pipeline.indirectPipeline());
         VkBuffer vertexBuffer = shared->patches.vertexBuffer(0);
         const VkDeviceSize zero = 0;
         vkCmdBindVertexBuffers(cmd, 0, 1, &vertexBuffer, &zero);
@@ -134,12 +138,16 @@ Result<void> TerrainRenderer::Impl::recordSelectedFrame(FrameSlot& slot, GpuSele
         vkCmdDrawIndexedIndirectCount(cmd, deviceList->commands().buffer(), 0,
                                       deviceList->count().buffer(), 0, deviceList->capacity(),
                                       sizeof(VkDrawIndexedIndirectCommand));
-        if (push.camera[3] > 0.0f) recordSky(cmd, pipeline);  // where no patch drew
+        if (push.camera[3] > 0.0f) {  // where no patch drew
+          recordSky(cmd, radiance ? radiancePipelines->sky.get() : pipeline.skyPipeline());
+        }
         vkCmdEndRendering(cmd);
+        if (radiance) target.recordToneMap(cmd, exposure);
         if (timestamps != VK_NULL_HANDLE) {
           vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, timestamps, q + 2);
         }
         target.recordReadback(cmd);
+        if (radiance && settings.readRadiance) target.recordRadianceReadback(cmd);
       });
   if (!inner) return inner;
   return recorded;
@@ -230,6 +238,12 @@ Result<RenderedFrame> TerrainRenderer::renderSelected(GpuSelector& selector, con
   stats.hits = totals->draws;
   Result<RgbaImage> image = slot.target.readPixels();
   if (!image) return std::move(image).error();
+  std::vector<float> radiance;
+  if (settings.readRadiance && m.toneMapExposure(patchPush(camera, settings, *m.atmosphere)) > 0.0f) {
+    Result<std::vector<float>> linear = slot.target.readRadiance();
+    if (!linear) return std::move(linear).error();
+    radiance = std::move(*linear);
+  }
   {
     const std::lock_guard<std::mutex> lock(m.shared->mutex);
     stats.residentBytes = m.shared->lru->residentBytes();
@@ -237,7 +251,7 @@ Result<RenderedFrame> TerrainRenderer::renderSelected(GpuSelector& selector, con
     stats.poolBytes = m.shared->patches.allocatedBytes() + m.shared->tiles.allocatedBytes();
   }
   stats.frameMs = std::chrono::duration<double, std::milli>(Clock::now() - frameStart).count();
-  return RenderedFrame{std::move(*image), stats};
+  return RenderedFrame{std::move(*image), stats, std::move(radiance)};
 }
 
 Result<std::vector<PatchDrawRecord>> TerrainRenderer::lastSelectedRecords() const {

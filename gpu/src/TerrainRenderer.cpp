@@ -337,7 +337,8 @@ Result<void> TerrainRenderer::Impl::createFrameObjects(std::uint32_t count) {
     auto overlayBinding = SurfaceOverlayBinding::create(*context, shared->pipeline);
     if (!overlayBinding) return std::move(overlayBinding).error();
     slot.overlay.emplace(std::move(*overlayBinding));
-    auto target = OffscreenTarget::create(*context, options.widthPixels, options.heightPixels);
+    auto target = OffscreenTarget::create(*context, options.widthPixels, options.heightPixels,
+                                          toneMap ? &*toneMap : nullptr);
     if (!target) return std::move(target).error();
     slot.target = std::move(*target);
 
@@ -408,6 +409,15 @@ Result<TerrainRenderer> TerrainRenderer::create(VulkanContext& context, const Da
                                               dataset.planet());
   if (!atmosphere) return std::move(atmosphere).error();
   impl->atmosphere.emplace(std::move(*atmosphere));
+  if (options.atmosphere) {
+    auto toneMap = ToneMapPass::create(context, OffscreenTarget::kColorFormat);
+    if (!toneMap) return std::move(toneMap).error();
+    impl->toneMap.emplace(std::move(*toneMap));
+    auto radiance = impl->shared->pipeline.createRadiancePipelines(
+        context, OffscreenTarget::kRadianceFormat, OffscreenTarget::kDepthFormat);
+    if (!radiance) return std::move(radiance).error();
+    impl->radiancePipelines.emplace(std::move(*radiance));
+  }
   if (Result<void> r = impl->createFrameObjects(options.framesInFlight); !r) {
     return std::move(r).error();
   }
@@ -497,13 +507,15 @@ Result<void> TerrainRenderer::submit(const Cut& cut, const Camera& camera,
                          passEnds[p],
                          camera,
                          std::as_bytes(std::span(&push, 1)),
-                         {p == 0, p + 1 == passEnds.size(), clear}};
+                         {p == 0, p + 1 == passEnds.size(), clear, m.toneMapExposure(push)},
+                         settings.readRadiance};
     if (Result<void> r = PassDrawer(m, slot, pass, stats).draw(readback, present); !r) return r;
     begin = passEnds[p];
   }
   m.frameClosing(stats);
   slot.pending = true;
   slot.readback = readback;
+  slot.readRadiance = readback && settings.readRadiance && m.toneMapExposure(push) > 0.0f;
   slot.stats = stats;
   slot.start = frameStart;
   m.pendingOrder.push_back(m.nextSlot);
@@ -554,10 +566,16 @@ Result<RenderedFrame> TerrainRenderer::Impl::collectOldest() {
   FrameStats stats = slot.stats;
   readTimestamps(slot, true, stats);
   RgbaImage image;
+  std::vector<float> radiance;
   if (slot.readback) {
     Result<RgbaImage> pixels = slot.target.readPixels();
     if (!pixels) return std::move(pixels).error();
     image = std::move(*pixels);
+  }
+  if (slot.readRadiance) {
+    Result<std::vector<float>> linear = slot.target.readRadiance();
+    if (!linear) return std::move(linear).error();
+    radiance = std::move(*linear);
   }
   stats.frameMs = millisecondsSince(slot.start);
   if (auto damage = dataset->damage()) return std::move(*damage);
@@ -566,7 +584,7 @@ Result<RenderedFrame> TerrainRenderer::Impl::collectOldest() {
     lastFrame = stats;
     lastFrameSlot = index;
   }
-  return RenderedFrame{std::move(image), stats};
+  return RenderedFrame{std::move(image), stats, std::move(radiance)};
 }
 
 Result<RenderedFrame> TerrainRenderer::collect() { return impl_->collectOldest(); }
@@ -606,7 +624,8 @@ Result<void> TerrainRenderer::resize(std::uint32_t widthPixels, std::uint32_t he
   // retired until the renderer's submissions so far have completed.
   std::vector<OffscreenTarget> targets;
   for (std::size_t i = 0; i < m.slots.size(); ++i) {
-    auto target = OffscreenTarget::create(*m.context, widthPixels, heightPixels);
+    auto target = OffscreenTarget::create(*m.context, widthPixels, heightPixels,
+                                          m.toneMap ? &*m.toneMap : nullptr);
     if (!target) return std::move(target).error();
     targets.push_back(std::move(*target));
   }
@@ -686,7 +705,7 @@ Result<RenderedFrame> TerrainRenderer::redrawLast() {
   }
   stats.peakResidentBytes = stats.residentBytes;
   stats.frameMs = millisecondsSince(frameStart);
-  return RenderedFrame{std::move(*image), stats};
+  return RenderedFrame{std::move(*image), stats, {}};
 }
 
 }  // namespace pbdam::gpu

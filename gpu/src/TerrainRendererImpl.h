@@ -36,6 +36,7 @@
 #include "GpuCacheState.h"
 #include "StagingUploader.h"
 #include "SurfaceOverlayBinding.h"
+#include "ToneMapPass.h"
 #include "pbdam/gpu/HostPass.h"
 #include "pbdam/gpu/OffscreenTarget.h"
 #include "pbdam/gpu/TerrainRenderer.h"
@@ -61,6 +62,7 @@ PatchPush patchPush(const runtime::Camera& camera, const FrameSettings& settings
                     DepthConvention depth = DepthConvention::ReversedZ);
 /// The clear colour of `settings`, linear 0..1.
 std::array<float, 4> clearColour(const FrameSettings& settings);
+
 std::string mebibytes(std::uint64_t bytes);
 
 /// One frame's worth of objects (see the file comment).
@@ -90,6 +92,8 @@ struct FrameSlot final {
   /// Submitted and not yet collected (running, or complete and unread).
   bool pending = false;
   bool readback = true;
+  /// Its frame's radiance is read back too (FrameSettings::readRadiance on a radiance frame).
+  bool readRadiance = false;
   /// Cache entries its frame draws, pinned until its fence has been seen to signal.
   std::vector<streaming::ResidentKey> pins;
   /// The entries its last pass drew and their slots: redrawLast() pins them again, and
@@ -111,6 +115,10 @@ struct TerrainRenderer::Impl {
   std::optional<streaming::DecodeScheduler> decoder;
   /// Set 4: the atmosphere's tables (TerrainRendererOptions::atmosphere; 1×1 ones without).
   std::optional<AtmosphereBinding> atmosphere;
+  /// With the atmosphere: the tone map its frames end with, and the pipelines that draw them as
+  /// radiance (the slots' targets keep a radiance image).
+  std::optional<ToneMapPass> toneMap;
+  std::optional<RadiancePipelines> radiancePipelines;
 
   UniqueDescriptorPool recordsPool;
   UniqueCommandPool commandPool;
@@ -149,6 +157,12 @@ struct TerrainRenderer::Impl {
   VkDescriptorSet deviceRecordsSet = VK_NULL_HANDLE;
 
   static constexpr std::uint32_t kQueriesPerSlot = 4;
+
+  /// The exposure of the tone map a frame with `push` ends with: its atmosphere's exposure when
+  /// the renderer draws such frames as radiance (a tone map), else 0 (display colour).
+  float toneMapExposure(const PatchPush& push) const noexcept {
+    return toneMap && radiancePipelines ? push.camera[3] : 0.0f;
+  }
 
   ~Impl();
 

@@ -168,13 +168,20 @@ class Atmosphere : public test::GpuTest {
   /// `azimuth`, `elevation` over the point below the camera; `exposure` 0: no atmosphere.
   RgbaImage frame(const DatasetView& view, const CameraPose& pose, double azimuth, double elevation,
                   float exposure, std::uint32_t width, std::uint32_t height) {
+    return rendered(view, pose, azimuth, elevation, exposure, width, height, false).image;
+  }
+
+  /// As frame(), the whole RenderedFrame, with its radiance when `radiance`.
+  RenderedFrame rendered(const DatasetView& view, const CameraPose& pose, double azimuth,
+                         double elevation, float exposure, std::uint32_t width,
+                         std::uint32_t height, bool radiance) {
     TerrainRendererOptions options;
     options.widthPixels = width;
     options.heightPixels = height;
     options.atmosphere = smallAtmosphere(view.planet());
     auto renderer = TerrainRenderer::create(context(), view, options);
     EXPECT_TRUE(renderer.ok()) << renderer.error().message;
-    if (!renderer.ok()) return {};
+    if (!renderer.ok()) return RenderedFrame{};
     const Camera camera = test::cameraAt(view, pose, width, height);
     FrameSettings settings;
     settings.sunDirectionEcef = sunDirectionFromHorizon(view.planet(), pose.latDegrees,
@@ -182,9 +189,10 @@ class Atmosphere : public test::GpuTest {
     settings.sunAngularRadiusRadians = static_cast<float>(sunAngularRadiusRadians(1.0));
     settings.ambient = 0.0f;
     settings.atmosphereExposure = exposure;
+    settings.readRadiance = radiance;
     auto drawn = renderer->render(refine(view, camera, RefinementOptions{}), camera, settings);
     EXPECT_TRUE(drawn.ok()) << drawn.error().message;
-    return drawn.ok() ? std::move(drawn->image) : RgbaImage{};
+    return drawn.ok() ? std::move(*drawn) : RenderedFrame{};
   }
 };
 
@@ -286,6 +294,47 @@ TEST_F(Atmosphere, TheNightSideFromAboveTheAirIsDark) {
         std::max({brightest, int{image.rgba[i]}, int{image.rgba[i + 1]}, int{image.rgba[i + 2]}});
   }
   EXPECT_LE(brightest, 16) << "the night side is lit";
+}
+
+// A frame with the atmosphere is drawn as radiance and tone-mapped once per pixel: the linear
+// radiance read back is finite and not negative, brighter than display white where the sun's
+// disc is, and its own tone curve (1 − e^(−radiance · exposure), sRGB) is the frame's colour to
+// within the half floats' rounding, sky and terrain, day and night side alike.
+TEST_F(Atmosphere, TheFramesRadianceToneMapsToItsColour) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  auto dataset = test::openDataset(dir);
+  ASSERT_TRUE(dataset);
+  const DatasetView& view = dataset->view();
+  constexpr std::uint32_t kW = 160;
+  constexpr std::uint32_t kH = 96;
+  constexpr double kExposure = 23.0;
+  // Over the terminator, looking at the horizon towards the low sun (its disc in the frame).
+  const CameraPose pose{0.0, 0.0, 30e3, 90.0, 0.0, 0.0};
+  const RenderedFrame frame =
+      rendered(view, pose, 90.0, 2.0, static_cast<float>(kExposure), kW, kH, true);
+  ASSERT_EQ(frame.image.rgba.size(), std::size_t{kW} * kH * 4);
+  ASSERT_EQ(frame.radiance.size(), std::size_t{kW} * kH * 3);
+  const auto encode = [](double linear) {
+    const double x =
+        linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1.0 / 2.4) - 0.055;
+    return 255.0 * std::clamp(x, 0.0, 1.0);
+  };
+  double worst = 0.0;
+  double brightest = 0.0;
+  for (std::size_t p = 0; p < std::size_t{kW} * kH; ++p) {
+    for (std::size_t c = 0; c < 3; ++c) {
+      const double radiance = frame.radiance[p * 3 + c];
+      ASSERT_TRUE(std::isfinite(radiance) && radiance >= 0.0) << p << " " << radiance;
+      brightest = std::max(brightest, radiance);
+      const double shown = encode(1.0 - std::exp(-radiance * kExposure));
+      worst = std::max(worst, std::abs(shown - frame.image.rgba[p * 4 + c]));
+    }
+  }
+  EXPECT_LE(worst, 2.0) << "the tone-mapped radiance is not the frame";
+  EXPECT_GT(brightest * kExposure, 10.0) << "no sun's disc brighter than white";
+  // Without the radiance asked for, none is read back.
+  EXPECT_TRUE(rendered(view, pose, 90.0, 2.0, static_cast<float>(kExposure), kW, kH, false)
+                  .radiance.empty());
 }
 
 }  // namespace

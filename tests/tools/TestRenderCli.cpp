@@ -114,6 +114,28 @@ TEST(RenderCli, OneCameraToExr) {
   EXPECT_EQ(bytes.substr(0, 4), std::string("\x76\x2f\x31\x01", 4));  // OpenEXR magic
 }
 
+// Under the sun with the atmosphere, an EXR frame holds the frame's linear radiance (half floats,
+// unclamped) and names its exposure; the PNG of the same camera is its tone-mapped colour.
+TEST(RenderCli, AnExrWithTheAtmosphereHoldsItsRadiance) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  test::TempDir tmp;
+  const auto exr = tmp / "mars.exr";
+  const CliRun run = runPbdam("render " + quoted(dir) + " --camera 0,0,30e3,90,0,0 --out " +
+                              quoted(exr) + " --quiet --sun 90,2" + kSmall);
+  ASSERT_EQ(run.exitCode, 0) << run.err;
+  const std::string bytes = test::readFile(exr);
+  ASSERT_GT(bytes.size(), 4u);
+  EXPECT_EQ(bytes.substr(0, 4), std::string("\x76\x2f\x31\x01", 4));  // OpenEXR magic
+  EXPECT_NE(bytes.find("pbdam:exposure"), std::string::npos) << "not the frame's radiance";
+  // Without the atmosphere the EXR is the display colour, with no exposure.
+  const auto plain = tmp / "plain.exr";
+  ASSERT_EQ(runPbdam("render " + quoted(dir) + " --camera 0,0,30e3,90,0,0 --out " + quoted(plain) +
+                     " --quiet --sun 90,2 --atmosphere off" + kSmall)
+                .exitCode,
+            0);
+  EXPECT_EQ(test::readFile(plain).find("pbdam:exposure"), std::string::npos);
+}
+
 TEST(RenderCli, CameraPathToFramesAndVideo) {
   PBDAM_REQUIRE_DATASET(dir, "mola");
   test::TempDir tmp;

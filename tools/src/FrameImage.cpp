@@ -25,12 +25,12 @@ RgbaPixels pixelsOf(const gpu::RgbaImage& image) {
   return RgbaPixels{image.rgba.data(), image.widthPixels, image.heightPixels};
 }
 
-}  // namespace
-
-Result<void> writeFrameImage(const std::filesystem::path& path, const gpu::RgbaImage& image) {
+/// Writes `path` through `write(codec, temporary)` under a temporary name (keeping the
+/// extension: OpenImageIO picks the format from it), then renames it.
+template <typename Write>
+Result<void> writeThroughTemporary(const std::filesystem::path& path, Write write) {
   const Result<const ImageCodec*> codec = imageCodec();
   if (!codec) return codec.error();
-  // The temporary keeps the extension: OpenImageIO picks the format from it.
   std::filesystem::path temporary = path;
   temporary.replace_extension(".partial" + path.extension().string());
   const auto fail = [&](const std::string& what) {
@@ -38,12 +38,35 @@ Result<void> writeFrameImage(const std::filesystem::path& path, const gpu::RgbaI
     std::filesystem::remove(temporary, ignored);
     return makeError(ErrorCode::IoError, path.string() + ": " + what);
   };
-  const Result<void> written = (*codec)->write(temporary, pixelsOf(image), 3, isExrPath(path));
+  const Result<void> written = write(**codec, temporary);
   if (!written) return fail(written.error().message);
   std::error_code ec;
   std::filesystem::rename(temporary, path, ec);
   if (ec) return fail("rename failed (" + ec.message() + ")");
   return {};
+}
+
+}  // namespace
+
+Result<void> writeFrameImage(const std::filesystem::path& path, const gpu::RgbaImage& image) {
+  return writeThroughTemporary(path, [&](const ImageCodec& codec, const std::filesystem::path& to) {
+    return codec.write(to, pixelsOf(image), 3, isExrPath(path));
+  });
+}
+
+Result<void> writeFrameRadiance(const std::filesystem::path& path, std::uint32_t width,
+                                std::uint32_t height, const std::vector<float>& radiance,
+                                float exposure) {
+  if (radiance.size() != std::size_t{3} * width * height) {
+    return makeError(ErrorCode::InvalidArgument,
+                     path.string() + ": the radiance holds " + std::to_string(radiance.size()) +
+                         " values, not 3 × " + std::to_string(width) + " × " +
+                         std::to_string(height));
+  }
+  return writeThroughTemporary(path, [&](const ImageCodec& codec, const std::filesystem::path& to) {
+    return codec.writeLinear(to, LinearRgbPixels{radiance.data(), width, height}, "pbdam:exposure",
+                             exposure);
+  });
 }
 
 Result<std::vector<unsigned char>> encodeFrameImage(const gpu::RgbaImage& image,

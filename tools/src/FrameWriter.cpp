@@ -23,13 +23,19 @@ Result<void> FrameWriter::waitOldest() {
   return result;
 }
 
-Result<void> FrameWriter::write(std::filesystem::path path, gpu::RgbaImage image) {
+Result<void> FrameWriter::write(std::filesystem::path path, gpu::RgbaImage image,
+                                std::vector<float> radiance, float exposure) {
   while (running_.size() >= maxOutstanding_) {
     if (Result<void> r = waitOldest(); !r) return r;
   }
-  running_.push_back(std::async(
-      std::launch::async,
-      [path = std::move(path), image = std::move(image)] { return writeFrameImage(path, image); }));
+  running_.push_back(std::async(std::launch::async, [path = std::move(path),
+                                                     image = std::move(image),
+                                                     radiance = std::move(radiance), exposure] {
+    if (!radiance.empty() && isExrPath(path)) {
+      return writeFrameRadiance(path, image.widthPixels, image.heightPixels, radiance, exposure);
+    }
+    return writeFrameImage(path, image);
+  }));
   return {};
 }
 

@@ -287,6 +287,8 @@ int renderFrames(const RenderCliOptions& c, const RenderModes& modes,
   if (!terrain) return reportError(terrain.error());
   gpu::Terrain& t = **terrain;
   gpu::FrameSettings frameSettings = settings;
+  // EXR frames with the atmosphere keep its linear radiance (FrameImage.h).
+  frameSettings.readRadiance = isExrPath(plan.jobs.front().out);
   if (!c.viewshed.empty()) {
     auto request = parseViewshedSpec("--viewshed", c.viewshed);
     if (!request) return reportError(request.error());
@@ -312,7 +314,11 @@ int renderFrames(const RenderCliOptions& c, const RenderModes& modes,
     const Pending p = pending.front();
     pending.pop_front();
     const FrameJob& job = plan.jobs[p.index];
-    if (auto r = writer.write(job.out, std::move(frame->image)); !r) return r;
+    if (auto r = writer.write(job.out, std::move(frame->image), std::move(frame->radiance),
+                              frameSettings.atmosphereExposure);
+        !r) {
+      return r;
+    }
     const gpu::FrameStats& s = frame->stats;
     if (statsFile.is_open()) {
       statsFile << statsJson(p.index, p.traversalMs, s, p.morph).dump() << "\n";

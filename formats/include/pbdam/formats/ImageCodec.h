@@ -31,6 +31,13 @@ struct RgbaPixels final {
   std::uint32_t height = 0;            ///< rows
 };
 
+/// Linear RGB floats to write (not owned): 3 floats a pixel, rows top to bottom.
+struct LinearRgbPixels final {
+  const float* rgb = nullptr;  ///< width·height·3 values
+  std::uint32_t width = 0;     ///< pixels a row
+  std::uint32_t height = 0;    ///< rows
+};
+
 /// The module's functions. Their errors carry OpenImageIO's message; callers add the file name.
 struct ImageCodec final {
   /// Reads up to four channels of an image file (any format OpenImageIO reads) as 8 bits.
@@ -46,6 +53,10 @@ struct ImageCodec final {
   /// the bytes `write` gives; "jpg": baseline at `jpegQuality`, 1..100). Internal on failure.
   Result<std::vector<unsigned char>> (*encode)(RgbaPixels image, const std::string& format,
                                                int channels, int jpegQuality);
+  /// Writes linear RGB floats to `file` as a half-float EXR (values as given, unclamped), with
+  /// the attribute `extraName` = `extraValue` (a float) when `extraName` is not empty. IoError.
+  Result<void> (*writeLinear)(const std::filesystem::path& file, LinearRgbPixels image,
+                              const std::string& extraName, float extraValue);
   /// Draws `lines` in `fontFile` (OpenImageIO's default font when empty) at `fontPixels`, ink
   /// on an opaque dark panel just large enough for them and at most `maxWidth` wide, as RGBA.
   Pixels8 (*drawText)(const std::vector<std::string>& lines, const std::string& fontFile,

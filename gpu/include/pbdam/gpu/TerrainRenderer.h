@@ -61,7 +61,9 @@ struct TerrainRendererOptions final {
   bool warnWhenBudgetExceeded = true;
   /// The atmosphere's precomputed tables (runtime::AtmosphereTables, for this dataset's planet),
   /// uploaded once: frames with FrameSettings::atmosphereExposure > 0 draw the sky behind the
-  /// terrain and light the terrain through the air. Null: no atmosphere.
+  /// terrain and light the terrain through the air. Null: no atmosphere. Such frames are drawn
+  /// as radiance into a floating-point target (RGBA16F) and tone-mapped into the RGBA8 frame
+  /// after their last pass; RenderedFrame::radiance gives the radiance itself when asked.
   std::shared_ptr<const runtime::AtmosphereTables> atmosphere;
   /// Vertical exaggeration F of the patches drawn (GpuCacheOptions::exaggeration): a private
   /// cache is made with it, and a shared cache must have been made with it. Cuts for such a
@@ -104,6 +106,9 @@ struct FrameSettings final {
   /// Whether collect() reads the frame's pixels back; false gives its stats only (a benchmark
   /// that keeps no frames). render() and renderSelected() always read back.
   bool readback = true;
+  /// With readback, also read back the frame's linear radiance (RenderedFrame::radiance): a
+  /// frame with the atmosphere only (atmosphereExposure > 0); others have none.
+  bool readRadiance = false;
   /// A window's image the frame is also copied into by the same submission
   /// (OffscreenTarget::recordPresent; the target's semaphores waited for and signalled); none
   /// for an offscreen frame. submit() only.
@@ -137,6 +142,10 @@ struct FrameStats final {
 struct RenderedFrame final {
   RgbaImage image;   ///< empty for a frame submitted without readback
   FrameStats stats;  ///< what the frame did
+  /// With FrameSettings::readRadiance on a frame with the atmosphere: its linear radiance (the
+  /// sky's and the terrain's, before the exposure and tone curve), RGB floats, width · height ·
+  /// 3, rows top-down, as image; else empty.
+  std::vector<float> radiance;
 };
 
 /// A frame drawn into a host's pass (TerrainRenderer::drawInto): the host's submission of the
