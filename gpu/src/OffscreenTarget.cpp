@@ -125,8 +125,7 @@ Result<void> OffscreenTarget::createRadiance(const VulkanContext& context,
 }
 
 Result<OffscreenTarget> OffscreenTarget::create(const VulkanContext& context, uint32_t widthPixels,
-                                                uint32_t heightPixels,
-                                                const ToneMapPass* toneMap) {
+                                                uint32_t heightPixels, const ToneMapPass* toneMap) {
   const std::string size = std::to_string(widthPixels) + "x" + std::to_string(heightPixels);
   OffscreenTarget target;
 
@@ -258,13 +257,12 @@ void OffscreenTarget::beginRendering(VkCommandBuffer cmd, VkAttachmentLoadOp loa
 }
 
 void OffscreenTarget::recordToneMap(VkCommandBuffer cmd, float exposure) const {
-  barrier(cmd, imageBarrier(radiance_.image(), VK_IMAGE_ASPECT_COLOR_BIT,
-                            VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-                            VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
-                            VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
-                            VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
-                            VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
-                            VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL));
+  barrier(cmd, imageBarrier(
+                   radiance_.image(), VK_IMAGE_ASPECT_COLOR_BIT,
+                   VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                   VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+                   VK_ACCESS_2_SHADER_SAMPLED_READ_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                   VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL));
   // The colour image's old contents are discarded, after the previous frame's readback or
   // window copy has read them.
   barrier(cmd, imageBarrier(color_.image(), VK_IMAGE_ASPECT_COLOR_BIT,

@@ -242,8 +242,8 @@ Result<void> PassDrawer::record(bool readback, const PresentTarget* present) {
   const DrawRecorder recorder(m_.shared->pipeline, m_.shared->patches, m_.shared->tiles,
                               slot_.recordsSet, slot_.overlay->set(), m_.atmosphere->set(),
                               m_.radiancePipelines ? &*m_.radiancePipelines : nullptr);
-  const bool radiance = in_.placement.last && readback && in_.placement.toneMapExposure > 0.0f &&
-                        in_.readRadiance;
+  const bool radiance =
+      in_.placement.last && readback && in_.placement.toneMapExposure > 0.0f && in_.readRadiance;
   recorded = recordCommands(
       slot_.commands[FrameSlot::kDrawCommands], "terrain frame", [&](VkCommandBuffer cmd) {
         if (timestamps != VK_NULL_HANDLE) {

@@ -399,8 +399,8 @@ Result<PatchPipeline> PatchPipeline::create(const VulkanContext& context, VkForm
   HostPass own;
   own.colorFormat = colorFormat;
   own.depthFormat = depthFormat;
-  auto pipeline =
-      createPatchGraphicsPipeline(device, result.layout_.get(), own, kPatchVert, "patch.vert", false);
+  auto pipeline = createPatchGraphicsPipeline(device, result.layout_.get(), own, kPatchVert,
+                                              "patch.vert", false);
   if (!pipeline) return std::move(pipeline).error();
   result.pipeline_ = std::move(*pipeline);
   auto sky = createSkyPipeline(device, result.layout_.get(), own, false);

@@ -63,8 +63,8 @@ class PatchPipeline final {
 
   /// The pipelines for frames that keep radiance in `radianceFormat` + `depthFormat`.
   formats::Result<RadiancePipelines> createRadiancePipelines(const VulkanContext& context,
-                                                            VkFormat radianceFormat,
-                                                            VkFormat depthFormat) const;
+                                                             VkFormat radianceFormat,
+                                                             VkFormat depthFormat) const;
 
   VkPipeline pipeline() const noexcept { return pipeline_.get(); }
   /// The same pipeline with patch_indirect.vert (the record index from gl_DrawID) for draw

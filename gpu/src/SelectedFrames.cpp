@@ -239,7 +239,8 @@ Result<RenderedFrame> TerrainRenderer::renderSelected(GpuSelector& selector, con
   Result<RgbaImage> image = slot.target.readPixels();
   if (!image) return std::move(image).error();
   std::vector<float> radiance;
-  if (settings.readRadiance && m.toneMapExposure(patchPush(camera, settings, *m.atmosphere)) > 0.0f) {
+  if (settings.readRadiance &&
+      m.toneMapExposure(patchPush(camera, settings, *m.atmosphere)) > 0.0f) {
     Result<std::vector<float>> linear = slot.target.readRadiance();
     if (!linear) return std::move(linear).error();
     radiance = std::move(*linear);

@@ -58,10 +58,10 @@ Result<void> writeFrameRadiance(const std::filesystem::path& path, std::uint32_t
                                 std::uint32_t height, const std::vector<float>& radiance,
                                 float exposure) {
   if (radiance.size() != std::size_t{3} * width * height) {
-    return makeError(ErrorCode::InvalidArgument,
-                     path.string() + ": the radiance holds " + std::to_string(radiance.size()) +
-                         " values, not 3 × " + std::to_string(width) + " × " +
-                         std::to_string(height));
+    return makeError(ErrorCode::InvalidArgument, path.string() + ": the radiance holds " +
+                                                     std::to_string(radiance.size()) +
+                                                     " values, not 3 × " + std::to_string(width) +
+                                                     " × " + std::to_string(height));
   }
   return writeThroughTemporary(path, [&](const ImageCodec& codec, const std::filesystem::path& to) {
     return codec.writeLinear(to, LinearRgbPixels{radiance.data(), width, height}, "pbdam:exposure",
