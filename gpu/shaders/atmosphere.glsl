@@ -1,13 +1,17 @@
-// The atmosphere's precomputed tables (runtime/Atmosphere.h) and their lookups, for patch.frag
-// and sky.frag: the same parametrisations as the host's AtmosphereTables, in kilometres. The 4D
-// scattering tables are 2D arrays with one layer per radius (the shader blends two layers and two
-// ν slices). Descriptor set 4 of the patch pipeline layout.
+// The atmosphere's precomputed tables (runtime/Atmosphere.h) and their lookups, for the patch
+// vertex stage, sky.frag and sky_view.comp: the same parametrisations as the host's
+// AtmosphereTables, in kilometres. The 4D scattering tables are 2D arrays with one layer per
+// radius (the shader blends two layers and two ν slices). Descriptor set 4 of the patch pipeline
+// layout (ATMOSPHERE_SET: set 0 of sky_view.comp's). Also the sky-view table's parametrisation.
 
-layout(set = 4, binding = 0) uniform sampler2D transmittanceTable;
-layout(set = 4, binding = 1) uniform sampler2DArray scatteringTable;
-layout(set = 4, binding = 2) uniform sampler2DArray singleMieTable;
-layout(set = 4, binding = 3) uniform sampler2D irradianceTable;
-layout(set = 4, binding = 4) uniform Atmosphere {
+#ifndef ATMOSPHERE_SET
+#define ATMOSPHERE_SET 4
+#endif
+layout(set = ATMOSPHERE_SET, binding = 0) uniform sampler2D transmittanceTable;
+layout(set = ATMOSPHERE_SET, binding = 1) uniform sampler2DArray scatteringTable;
+layout(set = ATMOSPHERE_SET, binding = 2) uniform sampler2DArray singleMieTable;
+layout(set = ATMOSPHERE_SET, binding = 3) uniform sampler2D irradianceTable;
+layout(set = ATMOSPHERE_SET, binding = 4) uniform Atmosphere {
   vec4 solarIrradiance;  // xyz: at the top of the atmosphere; w: the sun's angular radius
   vec4 miePhaseG;        // xyz: Mie asymmetry per channel; w: cos of the largest sun zenith angle
   vec4 radii;            // x: bottom, y: top (km); z: ν size, w: μ_s size of the scattering table
@@ -192,4 +196,64 @@ void sunAndSkyIrradiance(vec3 point, vec3 sun, out vec3 sunIrradiance, out vec3 
   const vec2 uv = vec2(texCoord(muS * 0.5 + 0.5, size.x), texCoord(xR, size.y));
   skyIrradiance = texture(irradianceTable, uv).rgb;
   sunIrradiance = atmosphere.solarIrradiance.xyz * transmittanceToSun(r, muS);
+}
+
+// The sky-view table (sky_view.comp writes it each frame, sky.frag reads it; Hillaire 2020): the
+// sky's radiance from the frame's camera for every view direction, by its azimuth from the sun's
+// (u: 0 towards the sun, 1 away; the sky is symmetric about the plane of the sun and the zenith)
+// and its zenith angle (v: 0 at the zenith, or at the tangent to the top of the atmosphere from
+// above it; 0.5 at the tangent to the ground, the horizon; 1 at the nadir), the square root of the
+// angle from the horizon either side, so that texels crowd where the sky changes fastest: near
+// the horizon, and along the limb from orbit.
+struct SkyViewFrame {
+  vec3 up;        // the camera's zenith
+  vec3 towardsSun;  // the horizontal unit direction towards the sun (any one with the sun overhead)
+  vec3 side;      // up × towardsSun
+  float zenithTop;  // the zenith angle where the table starts (0 inside the atmosphere)
+  float zenithHorizon;  // the zenith angle of the ground's tangent (π/2 at the ground or below)
+};
+
+SkyViewFrame skyViewFrame(vec3 camera, vec3 sun) {
+  SkyViewFrame f;
+  const float r = max(length(camera), bottomRadius());
+  f.up = camera / length(camera);
+  vec3 horizontal = sun - dot(sun, f.up) * f.up;
+  if (dot(horizontal, horizontal) < 1e-12) {
+    horizontal = abs(f.up.x) < 0.9 ? cross(f.up, vec3(1.0, 0.0, 0.0)) : cross(f.up, vec3(0.0, 1.0, 0.0));
+  }
+  f.towardsSun = normalize(horizontal);
+  f.side = cross(f.up, f.towardsSun);
+  f.zenithHorizon = kPi - asin(clamp(bottomRadius() / r, 0.0, 1.0));
+  f.zenithTop = r > topRadius() ? kPi - asin(topRadius() / r) : 0.0;
+  return f;
+}
+
+// The table coordinates of a unit view direction.
+vec2 skyViewUv(SkyViewFrame f, vec3 ray) {
+  const float zenith = acos(clamp(dot(ray, f.up), -1.0, 1.0));
+  const vec2 h = vec2(dot(ray, f.towardsSun), dot(ray, f.side));
+  const float azimuth = dot(h, h) > 1e-12 ? abs(atan(h.y, h.x)) : 0.0;
+  float v;
+  if (zenith < f.zenithHorizon) {
+    const float a = clamp((f.zenithHorizon - zenith) / max(f.zenithHorizon - f.zenithTop, 1e-6), 0.0, 1.0);
+    v = 0.5 - 0.5 * sqrt(a);
+  } else {
+    const float b = clamp((zenith - f.zenithHorizon) / max(kPi - f.zenithHorizon, 1e-6), 0.0, 1.0);
+    v = 0.5 + 0.5 * sqrt(b);
+  }
+  return vec2(azimuth / kPi, v);
+}
+
+// The unit view direction at table coordinates `uv` (skyViewUv's inverse).
+vec3 skyViewRay(SkyViewFrame f, vec2 uv) {
+  float zenith;
+  if (uv.y < 0.5) {
+    const float s = (0.5 - uv.y) * 2.0;
+    zenith = f.zenithHorizon - s * s * (f.zenithHorizon - f.zenithTop);
+  } else {
+    const float s = (uv.y - 0.5) * 2.0;
+    zenith = f.zenithHorizon + s * s * (kPi - f.zenithHorizon);
+  }
+  const float azimuth = uv.x * kPi;
+  return f.up * cos(zenith) + (f.towardsSun * cos(azimuth) + f.side * sin(azimuth)) * sin(zenith);
 }

@@ -1,5 +1,5 @@
-// The sky seen along the fragment's view ray (sky.vert): the atmosphere's scattered light, the
-// sun's disc through the air, black space beyond the limb, then the frame's exposure and tone
+// The sky seen along the fragment's view ray (sky.vert): the atmosphere's scattered light (from
+// the frame's sky-view table), the sun's disc through the air, black space beyond the limb, then the frame's exposure and tone
 // curve (tone.glsl), or the radiance itself for a later tone map.
 #version 450
 
@@ -16,6 +16,9 @@ layout(push_constant) uniform PatchPush {
   vec4 camera;      // xyz: the camera, planet-centred (km); w: exposure (0: no atmosphere)
 } pc;
 
+// The frame's sky-view table (sky_view.comp; atmosphere.glsl).
+layout(set = 4, binding = 5) uniform sampler2D skyViewTable;
+
 layout(location = 0) in vec3 inRay;
 
 layout(location = 0) out vec4 outColor;
@@ -23,10 +26,16 @@ layout(location = 0) out vec4 outColor;
 void main() {
   const vec3 ray = toAtmosphereDirection(inRay);
   const vec3 sun = toAtmosphereDirection(pc.sunAmbient.xyz);
-  vec3 transmittance;
-  vec3 radiance = skyRadiance(pc.camera.xyz, ray, sun, transmittance);
+  const SkyViewFrame f = skyViewFrame(pc.camera.xyz, sun);
+  // Beyond the tangent to the top of the atmosphere (from above it) the ray meets no air.
+  vec3 radiance = acos(clamp(dot(ray, f.up), -1.0, 1.0)) < f.zenithTop
+                      ? vec3(0.0)
+                      : texture(skyViewTable, skyViewUv(f, ray)).rgb;
   const float sunRadius = atmosphere.solarIrradiance.w;
   if (dot(ray, sun) > cos(sunRadius)) {
+    // The sun's disc through the air (its pixels alone look the transmittance up).
+    vec3 transmittance;
+    skyRadiance(pc.camera.xyz, ray, sun, transmittance);
     radiance += transmittance * atmosphere.solarIrradiance.xyz / (kPi * sunRadius * sunRadius);
   }
   outColor = vec4(kRadianceOutput ? radiance : toneMap(radiance, pc.camera.w), 1.0);

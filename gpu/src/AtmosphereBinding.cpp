@@ -4,11 +4,14 @@
 
 #include <array>
 #include <cstring>
+#include <glm/geometric.hpp>
 #include <glm/gtc/packing.hpp>
 #include <string>
 #include <vector>
 
+#include "ComputeProgram.h"
 #include "ImageUpload.h"
+#include "pbdam/gpu/ShaderModule.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/gpu/VulkanError.h"
 
@@ -78,6 +81,21 @@ Result<GpuImage> uploadTable(VulkanContext& context, const runtime::AtmosphereTa
   return image;
 }
 
+// glslc -mfmt=c writes a braced initializer list, braces included.
+const uint32_t kSkyViewComp[] =
+#include "sky_view.comp.inc"
+    ;
+
+/// The sky-view table's size: azimuth × zenith angle (atmosphere.glsl).
+constexpr std::uint32_t kSkyViewWidth = 256;
+constexpr std::uint32_t kSkyViewHeight = 128;
+
+/// Mirrors `SkyViewPush` in sky_view.comp.
+struct SkyViewPush final {
+  float camera[4];
+  float sun[4];
+};
+
 runtime::AtmosphereTable emptyTable() {
   runtime::AtmosphereTable t;
   t.width = 1;
@@ -103,12 +121,13 @@ Result<AtmosphereBinding> AtmosphereBinding::create(
   b.tables_ = tables;
   b.zStretch_ = planet.equatorialRadiusMeters() / planet.polarRadiusMeters();
   VkDevice device = context.device();
-  const std::array<VkDescriptorPoolSize, 2> sizes = {
-      VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 4},
-      VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1}};
+  const std::array<VkDescriptorPoolSize, 3> sizes = {
+      VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 5},
+      VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
+      VkDescriptorPoolSize{VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1}};
   VkDescriptorPoolCreateInfo poolInfo{};
   poolInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
-  poolInfo.maxSets = 1;
+  poolInfo.maxSets = 2;
   poolInfo.poolSizeCount = static_cast<std::uint32_t>(sizes.size());
   poolInfo.pPoolSizes = sizes.data();
   VkDescriptorPool rawPool = VK_NULL_HANDLE;
@@ -164,10 +183,12 @@ Result<AtmosphereBinding> AtmosphereBinding::create(
   std::memcpy(b.block_.mappedBytes().data(), &block, sizeof block);
   if (auto r = b.block_.flushHostWrites(); !r) return std::move(r).error();
 
+  if (auto r = b.createSkyView(pipeline); !r) return std::move(r).error();
+
   const std::array<const GpuImage*, 4> images = {&b.transmittance_, &b.scattering_, &b.singleMie_,
                                                  &b.irradiance_};
-  std::array<VkDescriptorImageInfo, 4> imageInfos{};
-  std::array<VkWriteDescriptorSet, 5> writes{};
+  std::array<VkDescriptorImageInfo, 5> imageInfos{};
+  std::array<VkWriteDescriptorSet, 6> writes{};
   for (std::size_t i = 0; i < images.size(); ++i) {
     imageInfos[i] = {pipeline.sampler(), images[i]->view(),
                      VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
@@ -185,9 +206,124 @@ Result<AtmosphereBinding> AtmosphereBinding::create(
   writes[4].descriptorCount = 1;
   writes[4].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
   writes[4].pBufferInfo = &blockInfo;
+  imageInfos[4] = {pipeline.sampler(), b.skyView_.view(), VK_IMAGE_LAYOUT_GENERAL};
+  writes[5].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+  writes[5].dstSet = b.set_;
+  writes[5].dstBinding = 5;
+  writes[5].descriptorCount = 1;
+  writes[5].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  writes[5].pImageInfo = &imageInfos[4];
   vkUpdateDescriptorSets(device, static_cast<std::uint32_t>(writes.size()), writes.data(), 0,
                          nullptr);
   return b;
+}
+
+Result<void> AtmosphereBinding::createSkyView(const PatchPipeline& pipeline) {
+  VulkanContext& context = *context_;
+  VkDevice device = context.device();
+  ImageDesc desc;
+  desc.format = VK_FORMAT_R16G16B16A16_SFLOAT;
+  desc.widthPixels = tables_ ? kSkyViewWidth : 1;
+  desc.heightPixels = tables_ ? kSkyViewHeight : 1;
+  desc.usage = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
+  auto image = createImage2D(context, desc, "atmosphere sky view");
+  if (!image) return std::move(image).error();
+  skyView_ = std::move(*image);
+  VkImage raw = skyView_.image();
+  Result<void> ready = context.submitAndWait(
+      [&](VkCommandBuffer cmd) {
+        recordBarrier(cmd,
+                      uploadLayoutBarrier(raw, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL));
+      },
+      "atmosphere sky view layout");
+  if (!ready) return ready;
+
+  VkDescriptorSetLayoutBinding binding{};
+  binding.binding = 0;
+  binding.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
+  binding.descriptorCount = 1;
+  binding.stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
+  VkDescriptorSetLayoutCreateInfo setInfo{};
+  setInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
+  setInfo.bindingCount = 1;
+  setInfo.pBindings = &binding;
+  VkDescriptorSetLayout rawSet = VK_NULL_HANDLE;
+  if (VkResult r = vkCreateDescriptorSetLayout(device, &setInfo, nullptr, &rawSet);
+      r != VK_SUCCESS) {
+    return vulkanError(r, "vkCreateDescriptorSetLayout (sky view)");
+  }
+  skyViewSetLayout_ = UniqueDescriptorSetLayout(device, rawSet);
+  const std::array<VkDescriptorSetLayout, 2> setLayouts = {pipeline.atmosphereSetLayout(), rawSet};
+  const VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(SkyViewPush)};
+  VkPipelineLayoutCreateInfo layoutInfo{};
+  layoutInfo.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+  layoutInfo.setLayoutCount = static_cast<std::uint32_t>(setLayouts.size());
+  layoutInfo.pSetLayouts = setLayouts.data();
+  layoutInfo.pushConstantRangeCount = 1;
+  layoutInfo.pPushConstantRanges = &range;
+  VkPipelineLayout rawLayout = VK_NULL_HANDLE;
+  if (VkResult r = vkCreatePipelineLayout(device, &layoutInfo, nullptr, &rawLayout);
+      r != VK_SUCCESS) {
+    return vulkanError(r, "vkCreatePipelineLayout (sky view)");
+  }
+  skyViewLayout_ = UniquePipelineLayout(device, rawLayout);
+  auto module = createShaderModule(device, kSkyViewComp, "sky_view.comp");
+  if (!module) return std::move(module).error();
+  VkComputePipelineCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
+  info.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+  info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+  info.stage.module = module->get();
+  info.stage.pName = "main";
+  info.layout = rawLayout;
+  VkPipeline rawPipeline = VK_NULL_HANDLE;
+  if (VkResult r =
+          vkCreateComputePipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &rawPipeline);
+      r != VK_SUCCESS) {
+    return vulkanError(r, "vkCreateComputePipelines (sky view)");
+  }
+  skyViewPipeline_ = UniquePipeline(device, rawPipeline);
+
+  VkDescriptorSetAllocateInfo allocate{};
+  allocate.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+  allocate.descriptorPool = pool_.get();
+  allocate.descriptorSetCount = 1;
+  allocate.pSetLayouts = &rawSet;
+  if (VkResult r = vkAllocateDescriptorSets(device, &allocate, &skyViewSet_); r != VK_SUCCESS) {
+    return vulkanError(r, "vkAllocateDescriptorSets (sky view)");
+  }
+  const VkDescriptorImageInfo imageInfo{VK_NULL_HANDLE, skyView_.view(), VK_IMAGE_LAYOUT_GENERAL};
+  VkWriteDescriptorSet write{};
+  write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+  write.dstSet = skyViewSet_;
+  write.dstBinding = 0;
+  write.descriptorCount = 1;
+  write.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
+  write.pImageInfo = &imageInfo;
+  vkUpdateDescriptorSets(device, 1, &write, 0, nullptr);
+  return {};
+}
+
+void AtmosphereBinding::recordSkyView(VkCommandBuffer cmd, const PatchPush& frame) const {
+  if (!tables_ || frame.camera[3] <= 0.0f) return;
+  // After earlier frames' reads of the table (write-after-read: an execution dependency).
+  memoryBarrier(cmd, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_NONE,
+                VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, skyViewPipeline_.get());
+  const std::array<VkDescriptorSet, 2> sets = {set_, skyViewSet_};
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, skyViewLayout_.get(), 0,
+                          static_cast<std::uint32_t>(sets.size()), sets.data(), 0, nullptr);
+  SkyViewPush push{};
+  copy4(push.camera, frame.camera[0], frame.camera[1], frame.camera[2], 0.0);
+  // The sun in the atmosphere's space, as toAtmosphereDirection does in the shaders.
+  const glm::dvec3 sun =
+      glm::normalize(glm::dvec3(frame.sunAmbient[0], frame.sunAmbient[1],
+                                static_cast<double>(frame.sunAmbient[2]) * zStretch_));
+  copy4(push.sun, sun.x, sun.y, sun.z, 0.0);
+  vkCmdPushConstants(cmd, skyViewLayout_.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+  vkCmdDispatch(cmd, (kSkyViewWidth + 7) / 8, (kSkyViewHeight + 7) / 8, 1);
+  memoryBarrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
 }
 
 glm::dvec3 AtmosphereBinding::toAtmosphere(const glm::dvec3& ecefMeters) const noexcept {

@@ -227,6 +227,12 @@ Result<void> PassDrawer::recordUploads() {
           slot_.uploader.record(cmd, work_.misses, work_.missSlots, m_.shared->patches,
                                 m_.shared->tiles);
         }
+        // With the atmosphere, the frame's sky-view table before its first pass draws.
+        if (in_.placement.first) {
+          PatchPush push{};
+          std::memcpy(&push, in_.push.data(), std::min(in_.push.size(), sizeof push));
+          m_.atmosphere->recordSkyView(cmd, push);
+        }
         if (timestamps != VK_NULL_HANDLE) {
           vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, timestamps, q + 3);
         }

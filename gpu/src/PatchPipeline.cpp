@@ -96,17 +96,18 @@ Result<UniqueDescriptorSetLayout> createOverlaySetLayout(VkDevice device) {
   return UniqueDescriptorSetLayout(device, raw);
 }
 
-/// Set 4: the atmosphere's tables (transmittance, scattering, single Mie scattering, irradiance)
-/// and its uniform block, read by the patch vertex stage (the aerial perspective, per vertex)
-/// and the sky's fragment stage.
+/// Set 4: the atmosphere's tables (transmittance, scattering, single Mie scattering, irradiance),
+/// its uniform block and the frame's sky-view table, read by the patch vertex stage (the aerial
+/// perspective, per vertex), the sky's fragment stage and the sky view's compute pass (its set 0).
 Result<UniqueDescriptorSetLayout> createAtmosphereSetLayout(VkDevice device) {
-  std::array<VkDescriptorSetLayoutBinding, 5> bindings{};
+  std::array<VkDescriptorSetLayoutBinding, 6> bindings{};
   for (std::uint32_t i = 0; i < bindings.size(); ++i) {
     bindings[i].binding = i;
     bindings[i].descriptorType =
-        i < 4 ? VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER : VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+        i == 4 ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER : VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
     bindings[i].descriptorCount = 1;
-    bindings[i].stageFlags = VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
+    bindings[i].stageFlags =
+        VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
   }
   VkDescriptorSetLayoutCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;

@@ -79,7 +79,8 @@ class PatchPipeline final {
   VkDescriptorSetLayout overlaySetLayout() const noexcept { return overlaySetLayout_.get(); }
   /// Nearest, transparent black outside the image.
   VkSampler overlaySampler() const noexcept { return overlaySampler_.get(); }
-  /// Set 4: the atmosphere (bindings 0–3: its tables, binding 4: its uniform block).
+  /// Set 4: the atmosphere (bindings 0–3: its tables, binding 4: its uniform block, binding 5:
+  /// the frame's sky-view table).
   VkDescriptorSetLayout atmosphereSetLayout() const noexcept { return atmosphereSetLayout_.get(); }
   /// The sky behind the terrain (sky.vert, sky.frag) for this pipeline's attachments and layout.
   VkPipeline skyPipeline() const noexcept { return skyPipeline_.get(); }

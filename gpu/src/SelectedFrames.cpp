@@ -116,6 +116,7 @@ Result<void> TerrainRenderer::Impl::recordSelectedFrame(FrameSlot& slot, GpuSele
           vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, timestamps, q + 3);
           vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, timestamps, q + 1);
         }
+        atmosphere->recordSkyView(cmd, push);
         const float exposure = toneMapExposure(push);
         const bool radiance = exposure > 0.0f;
         target.recordBeginRendering(cmd, clear, OffscreenTarget::kFarDepth, false, radiance);
