@@ -13,7 +13,8 @@
 #include "atmosphere.glsl"
 
 // 1: the frame keeps radiance (a floating-point target, tone-mapped by tonemap.frag after the
-// last pass) where the atmosphere is on; 0: the display colour, tone-mapped here.
+// last pass: frames whose radiance is read back) where the atmosphere is on; 0: the display
+// colour, tone-mapped here.
 layout(constant_id = 0) const bool kRadianceOutput = false;
 
 layout(push_constant) uniform PatchPush {
@@ -88,18 +89,18 @@ void main() {
     // The atmosphere: the texel as albedo under the sun and the sky through the air, seen
     // through the air between the camera and the fragment (aerial perspective; patch_vertex.glsl
     // computes the air's part per vertex), then exposed and tone-mapped.
-    const vec3 albedo = srgbToLinear(texel);
+    const vec3 albedo = srgbToLinearFast(texel);
     const float lit = max(dot(shadingNormal, pc.sunAmbient.xyz), 0.0);
     const float skyShare = (1.0 + dot(shadingNormal, smoothNormal)) * 0.5;
     vec3 radiance = albedo * (1.0 / kPi) * (inSunIrradiance * lit + inSkyIrradiance * skyShare);
     const vec3 transmittance = exp(-inExtinctionPerKm * (length(inCameraRelative) * 0.001));
     radiance = radiance * transmittance + inInScatterLimit * (vec3(1.0) - transmittance);
-    // The night side's faint light: at least the ambient share of the texel.
-    if (kRadianceOutput) {
-      outColor = vec4(max(radiance, radianceShownAs(texel * ambient, pc.camera.w)), 1.0);
-      return;
-    }
-    outColor = vec4(max(toneMap(radiance, pc.camera.w), texel * ambient), 1.0);
+    // The night side's faint light: at least the albedo under the light that shows white as
+    // the ambient share of white.
+    radiance = max(radiance, albedo * radianceShownAs(vec3(ambient), pc.camera.w).x);
+    // Kept for the tone-map pass (frames whose radiance is read back), or tone-mapped here: the
+    // same colour, since nothing blends.
+    outColor = vec4(kRadianceOutput ? radiance : toneMap(radiance, pc.camera.w), 1.0);
     return;
   }
   outColor = vec4(texel * (ambient + (1.0 - ambient) * diffuse), 1.0);

@@ -314,7 +314,7 @@ void AtmosphereBinding::recordSkyView(VkCommandBuffer cmd, const PatchPush& fram
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, skyViewLayout_.get(), 0,
                           static_cast<std::uint32_t>(sets.size()), sets.data(), 0, nullptr);
   SkyViewPush push{};
-  copy4(push.camera, frame.camera[0], frame.camera[1], frame.camera[2], 0.0);
+  std::memcpy(push.camera, frame.camera, 3 * sizeof(float));
   // The sun in the atmosphere's space, as toAtmosphereDirection does in the shaders.
   const glm::dvec3 sun =
       glm::normalize(glm::dvec3(frame.sunAmbient[0], frame.sunAmbient[1],

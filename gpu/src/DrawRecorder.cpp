@@ -8,8 +8,10 @@
 namespace pbdam::gpu {
 
 void recordSky(VkCommandBuffer cmd, VkPipeline sky) {
+  // sky.vert's band: kSkySegments quads of two triangles.
+  constexpr std::uint32_t kSkyVertices = 128 * 6;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, sky);
-  vkCmdDraw(cmd, 3, 1, 0, 0);
+  vkCmdDraw(cmd, kSkyVertices, 1, 0, 0);
 }
 
 void DrawRecorder::record(VkCommandBuffer cmd, const OffscreenTarget& target,
@@ -23,15 +25,16 @@ void DrawRecorder::record(VkCommandBuffer cmd, const OffscreenTarget& target,
   } else {
     target.recordResumeRendering(cmd, !placement.last, radiance);
   }
-  recordBindingsAndDraws(cmd, radiance ? radiance_->patch.get() : pipeline_->pipeline(), push,
-                         items);
   PatchPush values{};
   std::memcpy(&values, push.data(), std::min(push.size(), sizeof values));
-  // With the atmosphere, the sky last, where no patch of any pass has drawn (the depth kept
-  // across passes is still the far one there); its sets and push constants are bound.
-  if (placement.last && values.camera[3] > 0.0f) {
+  VkPipeline patches = radiance ? radiance_->patch.get() : pipeline_->pipeline();
+  if (placement.first && values.camera[3] > 0.0f) {
+    // With the atmosphere, the sky first (no depth test; the patches cover it), with the
+    // patches' sets and push constants bound.
+    recordBindingsAndDraws(cmd, patches, push, {});
     recordSky(cmd, radiance ? radiance_->sky.get() : pipeline_->skyPipeline());
   }
+  recordBindingsAndDraws(cmd, patches, push, items);
   vkCmdEndRendering(cmd);
   if (placement.last && radiance) target.recordToneMap(cmd, placement.toneMapExposure);
 }

@@ -35,9 +35,10 @@ struct PassPlacement final {
   float toneMapExposure = 0.0f;
 };
 
-/// The sky (PatchPipeline::skyPipeline, or RadiancePipelines::sky): one triangle over the
-/// viewport, inside rendering begun by the caller with the patch layout's sets and push
-/// constants bound (the atmosphere's set 4 and a PatchPush whose camera.w is the exposure).
+/// The sky (PatchPipeline::skyPipeline, or RadiancePipelines::sky): the band of view directions
+/// that can see air (sky.vert), inside rendering begun by the caller with the patch layout's
+/// sets and push constants bound (the atmosphere's set 4 and a PatchPush whose camera.w is the
+/// exposure), before the patches, which cover it.
 void recordSky(VkCommandBuffer cmd, VkPipeline sky);
 
 class DrawRecorder final {

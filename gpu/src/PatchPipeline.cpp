@@ -98,7 +98,7 @@ Result<UniqueDescriptorSetLayout> createOverlaySetLayout(VkDevice device) {
 
 /// Set 4: the atmosphere's tables (transmittance, scattering, single Mie scattering, irradiance),
 /// its uniform block and the frame's sky-view table, read by the patch vertex stage (the aerial
-/// perspective, per vertex), the sky's fragment stage and the sky view's compute pass (its set 0).
+/// perspective, per vertex), the sky's stages and the sky view's compute pass (its set 0).
 Result<UniqueDescriptorSetLayout> createAtmosphereSetLayout(VkDevice device) {
   std::array<VkDescriptorSetLayoutBinding, 6> bindings{};
   for (std::uint32_t i = 0; i < bindings.size(); ++i) {
@@ -271,10 +271,9 @@ Result<UniquePipeline> createPatchGraphicsPipeline(VkDevice device, VkPipelineLa
   return UniquePipeline(device, rawPipeline);
 }
 
-/// The sky's pipeline: one triangle over the viewport at the far depth (sky.vert, sky.frag), no
-/// vertex input, no culling, drawn after the terrain where the depth is still the far one
-/// (compare EQUAL, no writes: only the pixels no patch covered are shaded), for the pass's
-/// attachments and the patch layout.
+/// The sky's pipeline: the band of view directions that can see air (sky.vert, sky.frag), no
+/// vertex input, no culling, no depth test or writes: drawn before the terrain, which covers it,
+/// for the pass's attachments and the patch layout.
 Result<UniquePipeline> createSkyPipeline(VkDevice device, VkPipelineLayout layout,
                                          const HostPass& pass, bool radiance) {
   const RadianceConstant constant(radiance);
@@ -312,9 +311,8 @@ Result<UniquePipeline> createSkyPipeline(VkDevice device, VkPipelineLayout layou
   multisample.rasterizationSamples = pass.samples;
   VkPipelineDepthStencilStateCreateInfo depth{};
   depth.sType = VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO;
-  depth.depthTestEnable = VK_TRUE;
+  depth.depthTestEnable = VK_FALSE;
   depth.depthWriteEnable = VK_FALSE;
-  depth.depthCompareOp = VK_COMPARE_OP_EQUAL;
   VkPipelineColorBlendAttachmentState blendAttachment{};
   blendAttachment.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
                                    VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;

@@ -117,7 +117,7 @@ Result<void> TerrainRenderer::Impl::recordSelectedFrame(FrameSlot& slot, GpuSele
           vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, timestamps, q + 1);
         }
         atmosphere->recordSkyView(cmd, push);
-        const float exposure = toneMapExposure(push);
+        const float exposure = toneMapExposure(push, settings);
         const bool radiance = exposure > 0.0f;
         target.recordBeginRendering(cmd, clear, OffscreenTarget::kFarDepth, false, radiance);
         const PatchPipeline& pipeline = shared->pipeline;
@@ -129,6 +129,9 @@ Result<void> TerrainRenderer::Impl::recordSelectedFrame(FrameSlot& slot, GpuSele
         vkCmdPushConstants(cmd, pipeline.layout(),
                            VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
                            sizeof push, &push);
+        if (push.camera[3] > 0.0f) {  // the sky first: the patches cover it
+          recordSky(cmd, radiance ? radiancePipelines->sky.get() : pipeline.skyPipeline());
+        }
         vkCmdBindPipeline(
             cmd, VK_PIPELINE_BIND_POINT_GRAPHICS,
             radiance ? radiancePipelines->indirect.get() : pipeline.indirectPipeline());
@@ -139,9 +142,6 @@ Result<void> TerrainRenderer::Impl::recordSelectedFrame(FrameSlot& slot, GpuSele
         vkCmdDrawIndexedIndirectCount(cmd, deviceList->commands().buffer(), 0,
                                       deviceList->count().buffer(), 0, deviceList->capacity(),
                                       sizeof(VkDrawIndexedIndirectCommand));
-        if (push.camera[3] > 0.0f) {  // where no patch drew
-          recordSky(cmd, radiance ? radiancePipelines->sky.get() : pipeline.skyPipeline());
-        }
         vkCmdEndRendering(cmd);
         if (radiance) target.recordToneMap(cmd, exposure);
         if (timestamps != VK_NULL_HANDLE) {
@@ -241,7 +241,7 @@ Result<RenderedFrame> TerrainRenderer::renderSelected(GpuSelector& selector, con
   if (!image) return std::move(image).error();
   std::vector<float> radiance;
   if (settings.readRadiance &&
-      m.toneMapExposure(patchPush(camera, settings, *m.atmosphere)) > 0.0f) {
+      m.toneMapExposure(patchPush(camera, settings, *m.atmosphere), settings) > 0.0f) {
     Result<std::vector<float>> linear = slot.target.readRadiance();
     if (!linear) return std::move(linear).error();
     radiance = std::move(*linear);

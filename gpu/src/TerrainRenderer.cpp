@@ -501,21 +501,22 @@ Result<void> TerrainRenderer::submit(const Cut& cut, const Camera& camera,
   const std::array<float, 4> clear = clearColour(settings);
   std::size_t begin = 0;
   for (std::size_t p = 0; p < passEnds.size(); ++p) {
-    const PassInput pass{cut,
-                         nodes,
-                         begin,
-                         passEnds[p],
-                         camera,
-                         std::as_bytes(std::span(&push, 1)),
-                         {p == 0, p + 1 == passEnds.size(), clear, m.toneMapExposure(push)},
-                         settings.readRadiance};
+    const PassInput pass{
+        cut,
+        nodes,
+        begin,
+        passEnds[p],
+        camera,
+        std::as_bytes(std::span(&push, 1)),
+        {p == 0, p + 1 == passEnds.size(), clear, m.toneMapExposure(push, settings)},
+        settings.readRadiance};
     if (Result<void> r = PassDrawer(m, slot, pass, stats).draw(readback, present); !r) return r;
     begin = passEnds[p];
   }
   m.frameClosing(stats);
   slot.pending = true;
   slot.readback = readback;
-  slot.readRadiance = readback && settings.readRadiance && m.toneMapExposure(push) > 0.0f;
+  slot.readRadiance = readback && settings.readRadiance && m.toneMapExposure(push, settings) > 0.0f;
   slot.stats = stats;
   slot.start = frameStart;
   m.pendingOrder.push_back(m.nextSlot);

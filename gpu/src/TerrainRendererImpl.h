@@ -158,10 +158,15 @@ struct TerrainRenderer::Impl {
 
   static constexpr std::uint32_t kQueriesPerSlot = 4;
 
-  /// The exposure of the tone map a frame with `push` ends with: its atmosphere's exposure when
-  /// the renderer draws such frames as radiance (a tone map), else 0 (display colour).
-  float toneMapExposure(const PatchPush& push) const noexcept {
-    return toneMap && radiancePipelines ? push.camera[3] : 0.0f;
+  /// The exposure of the tone map a frame with `push` and `settings` ends with: the frame keeps
+  /// its radiance (the float target, a tone-map pass after its last pass) only when it is read
+  /// back (FrameSettings::readRadiance); else 0: its fragments are tone-mapped as they are drawn,
+  /// the same colours (nothing blends) without a pass over the whole frame, which costs lavapipe
+  /// as much as the atmosphere (docs/decisions.md "Light and air").
+  float toneMapExposure(const PatchPush& push, const FrameSettings& settings) const noexcept {
+    return toneMap && radiancePipelines && settings.readback && settings.readRadiance
+               ? push.camera[3]
+               : 0.0f;
   }
 
   ~Impl();
