@@ -7,8 +7,9 @@
 # ffmpeg, which scripts/setup.sh installs).
 # It needs only what scripts/setup.sh installs from Debian: no npm, no network beyond apt.
 #   scripts/demo.sh [OUTDIR]     (default: build/demo/earth)
-# The demo lattice is 512 cells per face side (bintree depth 8); `--levels auto` builds ETOPO5
-# at its full density (2048 cells, depth 12), which takes several minutes on 2 cores.
+# The demo lattice is 1024 cells per face side (bintree depth 10, about 10 km a cell: ETOPO5's own
+# 9 km), built in about 30 s on 2 cores; `--levels auto` builds ETOPO5 at its full density (2048
+# cells, depth 12), which takes about a minute.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 "$root/scripts/setup.sh" release >/dev/null
@@ -18,20 +19,22 @@ earth=/usr/share/xplanet/images/earth.jpg
 out=${1:-"$root/build/demo/earth"}
 "$pbdam" dem info "$etopo5" --at 27.988,86.925
 echo
-"$pbdam" build --dem "$etopo5" --texture "$earth" --planet earth --levels 8 --out "$out" --force
+"$pbdam" build --dem "$etopo5" --texture "$earth" --planet earth --levels 10 --out "$out" --force
 echo
 "$pbdam" verify "$out" --dem "$etopo5" --quiet
 echo
 "$pbdam" info "$out"
 echo
 flight="$out/flight.csv"
-"$pbdam" path great-circle --from 12,80,3000e3 --to 24,86,250e3 --duration 4 --fps 12 \
-  --dataset "$out" --out "$flight"
+# From 3,000 km over the Indian Ocean to 150 km over the Ganges plain, looking 25° down towards
+# the Himalayas: the flight ends where the data still has detail, the range in perspective.
+"$pbdam" path great-circle --from 12,80,3000e3 --to 25,86,150e3 --duration 6 --fps 12 \
+  --pitch-deg -25 --dataset "$out" --out "$flight"
 "$pbdam" bench "$out" --path "$flight" --out "$out/bench" --cold --width 640 --height 360 --quiet
 echo
 mkdir -p "$out/frames"
-# Under the sun of a June morning (its light low from the east over the Himalayas) with Earth's
-# atmosphere: the sky and the limb, haze with distance, and the relief in long light.
+# Under the sun of a June morning (07:10 local time, its light low from the east over the
+# Himalayas) with Earth's atmosphere: the limb, haze with distance, and the relief in long light.
 "$pbdam" render "$out" --path "$flight" --out "$out/frames/himalaya" --width 640 --height 360 \
   --time 2024-06-20T01:30:00Z --stats "$out/frames/stats.jsonl" --quiet
 echo "frames: $out/frames/himalaya_*.png (per-frame statistics in $out/frames/stats.jsonl)"

@@ -460,6 +460,10 @@ TEST(Cli, PathThenColdBenchWithAndWithoutPrefetchOnMola) {
     EXPECT_EQ(run["frames_in_flight"], 2);
     EXPECT_EQ(run["readback"], false);
   }
+  // The defaults' light: the camera's, no atmosphere, true heights.
+  EXPECT_EQ(summary["light"]["kind"], "camera");
+  EXPECT_EQ(summary["light"]["atmosphere"], false);
+  EXPECT_EQ(summary["exaggeration"], 1.0);
   EXPECT_TRUE(std::filesystem::file_size(dir / "report" / "report.png") > 10000);
   const std::string frames = test::readFile(dir / "report" / "frames.csv");
   EXPECT_EQ(std::count(frames.begin(), frames.end(), '\n'), 1 + 2 * 7);
@@ -699,6 +703,33 @@ TEST(Cli, QueryViewshedWritesAGeoreferencedMaskAndRefusesBadRequests) {
 // Cut reuse changes the decisions, not the cuts: the same triangles every frame with it on and
 // off, far fewer decisions with it on; --popping measures each frame against the previous cut. The
 // device's selection passes (--selection gpu) give the same cuts too.
+// A benchmark says what lit it and how high it drew: summary.json names the sun's instant and
+// time scale, the ambient, the atmosphere and its exposure (Mars's default), the exaggeration.
+TEST(Cli, BenchSummaryNamesItsLightAndExaggeration) {
+  PBDAM_REQUIRE_DATASET(dataset, "mola");
+  test::TempDir dir;
+  const std::string path = (dir / "flight.csv").string();
+  {
+    std::ofstream out(path);
+    out << "t,lat,lon,alt,heading,pitch,roll\n0,-8,-75,50e3,90,-20,0\n0.5,-8,-74,50e3,90,-20,0\n";
+  }
+  const CliRun bench = runPbdam("bench '" + dataset.string() + "' --path '" + path + "' --out '" +
+                                (dir / "r").string() +
+                                "' --width 160 --height 90 --prefetch off --quiet --time "
+                                "2004-01-03T16:00:00Z --time-scale 600 --exaggeration 2");
+  ASSERT_EQ(bench.exitCode, 0) << bench.err;
+  std::ifstream in(dir / "r" / "summary.json");
+  const auto summary = nlohmann::json::parse(in);
+  EXPECT_EQ(summary["exaggeration"], 2.0);
+  const auto& light = summary["light"];
+  EXPECT_EQ(light["kind"], "time");
+  EXPECT_EQ(light["time"], "2004-01-03T16:00:00Z");
+  EXPECT_EQ(light["time_scale"], 600.0);
+  EXPECT_NEAR(light["ambient"].get<double>(), 0.05, 1e-6);
+  EXPECT_EQ(light["atmosphere"], true);
+  EXPECT_NEAR(light["exposure"].get<double>(), 23.2, 0.1);
+}
+
 TEST(Cli, BenchCutReuseKeepsTheCutsAndPoppingIsMeasured) {
   PBDAM_REQUIRE_DATASET(dataset, "mola");
   test::TempDir dir;

@@ -608,6 +608,8 @@ int runBench(const BenchCliOptions& o) {
   setup.lookaheadSeconds = o.lookahead;
   setup.gpuCacheBytes = static_cast<std::uint64_t>(o.gpuCacheMiB * 1048576.0);
   setup.datasetBytes = (*probe)->bytes();
+  setup.exaggeration = o.exaggeration;
+  setup.light = summarizeLight(modes.light, (*probe)->view().planet());
   probe->reset();  // unmapped, so a cold run can evict every page
 
   gpu::ContextOptions co;

@@ -253,6 +253,36 @@ void plotReport(const std::filesystem::path& png, const BenchSetup& setup,
   plend();
 }
 
+/// summary.json's description of the benchmark: dataset, path, frame size, refinement, cache,
+/// exaggeration and light.
+nlohmann::ordered_json setupJson(const BenchSetup& setup) {
+  nlohmann::ordered_json summary;
+  summary["dataset"] = setup.dataset;
+  summary["path"] = setup.path;
+  summary["width"] = setup.width;
+  summary["height"] = setup.height;
+  summary["tolerance_px"] = setup.tolerancePixels;
+  summary["morph_range"] = setup.morphRange;
+  summary["lookahead_s"] = setup.lookaheadSeconds;
+  summary["gpu_cache_mib"] = static_cast<double>(setup.gpuCacheBytes) / 1048576.0;
+  summary["dataset_mib"] = static_cast<double>(setup.datasetBytes) / 1048576.0;
+  summary["exaggeration"] = setup.exaggeration;
+  nlohmann::ordered_json light;
+  light["kind"] = setup.light.kind;
+  if (setup.light.kind == "time") {
+    light["time"] = setup.light.time;
+    light["time_scale"] = setup.light.timeScale;
+  } else if (setup.light.kind == "sun") {
+    light["azimuth_deg"] = setup.light.azimuthDegrees;
+    light["elevation_deg"] = setup.light.elevationDegrees;
+  }
+  light["ambient"] = setup.light.ambient;
+  light["atmosphere"] = setup.light.exposure > 0.0;
+  if (setup.light.exposure > 0.0) light["exposure"] = setup.light.exposure;
+  summary["light"] = light;
+  return summary;
+}
+
 }  // namespace
 
 Result<std::string> writeBenchReport(const std::filesystem::path& dir, const BenchSetup& setup,
@@ -283,16 +313,7 @@ Result<std::string> writeBenchReport(const std::filesystem::path& dir, const Ben
     if (!csv)
       return makeError(ErrorCode::IoError, (dir / "frames.csv").string() + ": write failed");
   }
-  nlohmann::ordered_json summary;
-  summary["dataset"] = setup.dataset;
-  summary["path"] = setup.path;
-  summary["width"] = setup.width;
-  summary["height"] = setup.height;
-  summary["tolerance_px"] = setup.tolerancePixels;
-  summary["morph_range"] = setup.morphRange;
-  summary["lookahead_s"] = setup.lookaheadSeconds;
-  summary["gpu_cache_mib"] = static_cast<double>(setup.gpuCacheBytes) / 1048576.0;
-  summary["dataset_mib"] = static_cast<double>(setup.datasetBytes) / 1048576.0;
+  nlohmann::ordered_json summary = setupJson(setup);
   summary["runs"] = nlohmann::ordered_json::array();
   for (const BenchRun& r : runs) summary["runs"].push_back(summarise(r, setup));
   {

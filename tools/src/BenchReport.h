@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "LightOption.h"
 #include "pbdam/formats/Result.h"
 #include "pbdam/gpu/FrameModes.h"
 
@@ -111,6 +112,8 @@ struct BenchSetup final {
   double lookaheadSeconds = 0.0;
   std::uint64_t gpuCacheBytes = 0;
   std::uint64_t datasetBytes = 0;
+  double exaggeration = 1.0;  ///< --exaggeration
+  LightSummary light;         ///< --time, --sun, --ambient, --atmosphere, --exposure
 };
 
 /// The p-quantile (0..1) of `v`, linear between ranks; 0 for an empty vector (bench's and

@@ -195,16 +195,39 @@ double meanDistanceAu(const runtime::Planet& planet) {
 
 }  // namespace
 
+double atmosphereExposure(const Light& light, const runtime::Planet& planet) {
+  if (!atmosphereOn(light, planet)) return 0.0;
+  const double sunlight = runtime::AtmosphereParameters::of(planet)->solarIrradiance.y /
+                          runtime::AtmosphereParameters::earth().solarIrradiance.y;
+  return light.exposure.value_or(kEarthExposure / sunlight);
+}
+
+LightSummary summarizeLight(const Light& light, const runtime::Planet& planet) {
+  LightSummary s;
+  switch (light.kind) {
+    case Light::Kind::Camera:
+      s.kind = "camera";
+      break;
+    case Light::Kind::Ephemeris:
+      s.kind = "time";
+      s.time = runtime::formatUtcTime(light.unixSeconds);
+      s.timeScale = light.timeScale;
+      break;
+    case Light::Kind::Horizon:
+      s.kind = "sun";
+      s.azimuthDegrees = light.azimuthDegrees;
+      s.elevationDegrees = light.elevationDegrees;
+      break;
+  }
+  s.ambient = static_cast<double>(light.ambient);
+  s.exposure = atmosphereExposure(light, planet);
+  return s;
+}
+
 void applyLight(const Light& light, const runtime::Planet& planet, const runtime::Camera& target,
                 double pathSeconds, gpu::FrameSettings& settings) {
   settings.ambient = light.ambient;
-  settings.atmosphereExposure = 0.0f;
-  if (atmosphereOn(light, planet)) {
-    const double sunlight = runtime::AtmosphereParameters::of(planet)->solarIrradiance.y /
-                            runtime::AtmosphereParameters::earth().solarIrradiance.y;
-    settings.atmosphereExposure =
-        static_cast<float>(light.exposure.value_or(kEarthExposure / sunlight));
-  }
+  settings.atmosphereExposure = static_cast<float>(atmosphereExposure(light, planet));
   switch (light.kind) {
     case Light::Kind::Camera:
       settings.sunDirectionEcef.reset();

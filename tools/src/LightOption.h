@@ -81,6 +81,22 @@ std::shared_ptr<const runtime::AtmosphereTables> atmosphereTablesFor(const Light
 /// radius, else the point beneath the camera. {lat, lon} in degrees.
 std::pair<double, double> viewTarget(const runtime::Planet& planet, const runtime::Camera& camera);
 
+/// The atmosphere's exposure of frames under `light` over `planet`: 0 when it is off, else
+/// --exposure or the body's default (kEarthExposure scaled by the body's sunlight).
+double atmosphereExposure(const Light& light, const runtime::Planet& planet);
+
+/// What lights a run, for machine-read reports (bench's summary.json).
+struct LightSummary final {
+  std::string kind;  ///< "camera", "time" or "sun" (placed by azimuth and elevation)
+  std::string time;  ///< time: the instant of path time 0 (ISO 8601 UTC)
+  double timeScale = 1.0;
+  double azimuthDegrees = 0.0;    ///< sun
+  double elevationDegrees = 0.0;  ///< sun
+  double ambient = 0.0;
+  double exposure = 0.0;  ///< the atmosphere's; 0: no atmosphere
+};
+LightSummary summarizeLight(const Light& light, const runtime::Planet& planet);
+
 /// Sets `settings`' sun and ambient for the frame at `pathSeconds`; `target`: the camera whose
 /// view's target a Horizon light stands over (a path's first camera, so the light stays put).
 void applyLight(const Light& light, const runtime::Planet& planet, const runtime::Camera& target,
