@@ -1,7 +1,7 @@
 // The pbdam serve viewer in headless Chromium (Debian's /usr/bin/chromium driven by
 // playwright-core): it loads, shows a server-rendered frame, flies with the keyboard, mouse drag
-// and wheel (the frame and camera change), drapes a viewshed (V), asks only for frames it shows,
-// and logs no console errors. Screenshots go to ARTIFACT_DIR.
+// and wheel (the frame and camera change), drapes a viewshed (V), lights the planet by the sun of
+// a time (L) and moves it an hour (]), asks only for frames it shows, and logs no console errors. Screenshots go to ARTIFACT_DIR.
 //   node viewer.test.mjs PBDAM_EXE DATASET_DIR ARTIFACT_DIR
 import { spawn } from "node:child_process";
 import { mkdtempSync, mkdirSync, rmSync, writeFileSync } from "node:fs";
@@ -133,6 +133,24 @@ try {
   const drapedShot = await page.screenshot();
   writeFileSync(join(artifacts, "viewer_viewshed.png"), drapedShot);
   check(Buffer.compare(plainShot, drapedShot) !== 0, "the viewshed is draped over the frame");
+
+  // L: the sun of a time with the atmosphere; ] moves it an hour later. Each changes the frame
+  // and the HUD names the instant.
+  const unlit = await viewer();
+  const unlitShot = await page.screenshot();
+  await page.locator("#view").focus();
+  await page.keyboard.press("l");
+  const lit = await settledAfter(unlit.framesShown);
+  check(lit.time === "2024-03-20T12:00:00Z", `L lit the planet by the sun of a time (${lit.time})`);
+  check(/sun of 2024-03-20 12:00:00 UTC/.test(await page.locator("#hud").innerText()),
+        "the HUD names the sun's instant");
+  const litShot = await page.screenshot();
+  writeFileSync(join(artifacts, "viewer_sun.png"), litShot);
+  check(Buffer.compare(unlitShot, litShot) !== 0, "the sun changed the frame");
+  await page.keyboard.press("]");
+  const later = await settledAfter(lit.framesShown);
+  check(later.time === "2024-03-20T13:00:00Z", `] moved the time an hour on (${later.time})`);
+  check(Buffer.compare(litShot, await page.screenshot()) !== 0, "an hour later the frame differs");
 
   const last = await viewer();
   check(last.errors === 0, `no failed frame requests (${last.errors})`);
