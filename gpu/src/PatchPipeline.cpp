@@ -7,7 +7,7 @@
 #include <span>
 #include <string>
 
-#include "pbdam/gpu/ShaderModule.h"
+#include "GraphicsPipeline.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/gpu/VulkanError.h"
 
@@ -155,28 +155,13 @@ struct RadianceConstant final {
 };
 
 /// The graphics pipeline: the patch shaders and their fixed-function state (the depth test of
-/// the pass's convention, back-face culling, dynamic viewport and scissor) for the pass's
+/// the pass's convention, back-face culling, the vertex layout of PatchGpuVertex) for the pass's
 /// attachments.
 Result<UniquePipeline> createPatchGraphicsPipeline(VkDevice device, VkPipelineLayout layout,
                                                    const HostPass& pass,
                                                    std::span<const uint32_t> vertexSpirv,
                                                    const char* vertexName, bool radiance) {
   const RadianceConstant constant(radiance);
-  Result<UniqueShaderModule> vert = createShaderModule(device, vertexSpirv, vertexName);
-  if (!vert) return std::move(vert).error();
-  Result<UniqueShaderModule> frag = createShaderModule(device, kPatchFrag, "patch.frag");
-  if (!frag) return std::move(frag).error();
-  std::array<VkPipelineShaderStageCreateInfo, 2> stages{};
-  stages[0].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
-  stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
-  stages[0].module = vert->get();
-  stages[0].pName = "main";
-  stages[1].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
-  stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
-  stages[1].module = frag->get();
-  stages[1].pName = "main";
-  stages[1].pSpecializationInfo = &constant.info;
-
   VkVertexInputBindingDescription binding{};
   binding.binding = 0;
   binding.stride = sizeof(PatchGpuVertex);
@@ -201,74 +186,23 @@ Result<UniquePipeline> createPatchGraphicsPipeline(VkDevice device, VkPipelineLa
   vertexInput.vertexAttributeDescriptionCount = static_cast<uint32_t>(attributes.size());
   vertexInput.pVertexAttributeDescriptions = attributes.data();
 
-  VkPipelineInputAssemblyStateCreateInfo inputAssembly{};
-  inputAssembly.sType = VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO;
-  inputAssembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
-  VkPipelineViewportStateCreateInfo viewport{};
-  viewport.sType = VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO;
-  viewport.viewportCount = 1;
-  viewport.scissorCount = 1;
-  VkPipelineRasterizationStateCreateInfo raster{};
-  raster.sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO;
-  raster.polygonMode = VK_POLYGON_MODE_FILL;
+  GraphicsPipelineDesc desc;
+  desc.vertexSpirv = vertexSpirv;
+  desc.vertexName = vertexName;
+  desc.fragmentSpirv = kPatchFrag;
+  desc.fragmentName = "patch.frag";
+  desc.fragmentSpecialization = &constant.info;
+  desc.vertexInput = &vertexInput;
   // Patch triangles wind counter-clockwise seen from outside the planet (checked on the test
   // datasets: every triangle of every patch). The projection's y flip keeps them
   // counter-clockwise in Vulkan's framebuffer convention.
-  raster.cullMode = VK_CULL_MODE_BACK_BIT;
-  raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
-  raster.lineWidth = 1.0f;
-  VkPipelineMultisampleStateCreateInfo multisample{};
-  multisample.sType = VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO;
-  multisample.rasterizationSamples = pass.samples;
-  VkPipelineDepthStencilStateCreateInfo depth{};
-  depth.sType = VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO;
-  depth.depthTestEnable = VK_TRUE;
-  depth.depthWriteEnable = VK_TRUE;
-  depth.depthCompareOp = nearerPasses(pass.depth);
-  VkPipelineColorBlendAttachmentState blendAttachment{};
-  blendAttachment.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
-                                   VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
-  VkPipelineColorBlendStateCreateInfo blend{};
-  blend.sType = VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO;
-  blend.attachmentCount = 1;
-  blend.pAttachments = &blendAttachment;
-  const std::array<VkDynamicState, 2> dynamicStates = {VK_DYNAMIC_STATE_VIEWPORT,
-                                                       VK_DYNAMIC_STATE_SCISSOR};
-  VkPipelineDynamicStateCreateInfo dynamic{};
-  dynamic.sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO;
-  dynamic.dynamicStateCount = static_cast<uint32_t>(dynamicStates.size());
-  dynamic.pDynamicStates = dynamicStates.data();
-
-  VkPipelineRenderingCreateInfo rendering{};
-  rendering.sType = VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO;
-  rendering.colorAttachmentCount = 1;
-  rendering.pColorAttachmentFormats = &pass.colorFormat;
-  rendering.depthAttachmentFormat = pass.depthFormat;
-
-  VkGraphicsPipelineCreateInfo info{};
-  info.sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO;
-  // A render pass's subpass, or dynamic rendering to the formats.
-  info.pNext = pass.renderPass == VK_NULL_HANDLE ? &rendering : nullptr;
-  info.renderPass = pass.renderPass;
-  info.subpass = pass.subpass;
-  info.stageCount = static_cast<uint32_t>(stages.size());
-  info.pStages = stages.data();
-  info.pVertexInputState = &vertexInput;
-  info.pInputAssemblyState = &inputAssembly;
-  info.pViewportState = &viewport;
-  info.pRasterizationState = &raster;
-  info.pMultisampleState = &multisample;
-  info.pDepthStencilState = &depth;
-  info.pColorBlendState = &blend;
-  info.pDynamicState = &dynamic;
-  info.layout = layout;
-  VkPipeline rawPipeline = VK_NULL_HANDLE;
-  if (VkResult r =
-          vkCreateGraphicsPipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &rawPipeline);
-      r != VK_SUCCESS) {
-    return vulkanError(r, "vkCreateGraphicsPipelines (patch)");
-  }
-  return UniquePipeline(device, rawPipeline);
+  desc.cullMode = VK_CULL_MODE_BACK_BIT;
+  desc.depthTest = true;
+  desc.depthWrite = true;
+  desc.depthCompare = nearerPasses(pass.depth);
+  desc.pass = pass;
+  desc.what = "patch";
+  return createGraphicsPipeline(device, layout, desc);
 }
 
 /// The sky's pipeline: the band of view directions that can see air (sky.vert, sky.frag), no
@@ -277,83 +211,15 @@ Result<UniquePipeline> createPatchGraphicsPipeline(VkDevice device, VkPipelineLa
 Result<UniquePipeline> createSkyPipeline(VkDevice device, VkPipelineLayout layout,
                                          const HostPass& pass, bool radiance) {
   const RadianceConstant constant(radiance);
-  Result<UniqueShaderModule> vert = createShaderModule(device, kSkyVert, "sky.vert");
-  if (!vert) return std::move(vert).error();
-  Result<UniqueShaderModule> frag = createShaderModule(device, kSkyFrag, "sky.frag");
-  if (!frag) return std::move(frag).error();
-  std::array<VkPipelineShaderStageCreateInfo, 2> stages{};
-  stages[0].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
-  stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
-  stages[0].module = vert->get();
-  stages[0].pName = "main";
-  stages[1].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
-  stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
-  stages[1].module = frag->get();
-  stages[1].pName = "main";
-  stages[1].pSpecializationInfo = &constant.info;
-  VkPipelineVertexInputStateCreateInfo vertexInput{};
-  vertexInput.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO;
-  VkPipelineInputAssemblyStateCreateInfo inputAssembly{};
-  inputAssembly.sType = VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO;
-  inputAssembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
-  VkPipelineViewportStateCreateInfo viewport{};
-  viewport.sType = VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO;
-  viewport.viewportCount = 1;
-  viewport.scissorCount = 1;
-  VkPipelineRasterizationStateCreateInfo raster{};
-  raster.sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO;
-  raster.polygonMode = VK_POLYGON_MODE_FILL;
-  raster.cullMode = VK_CULL_MODE_NONE;
-  raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
-  raster.lineWidth = 1.0f;
-  VkPipelineMultisampleStateCreateInfo multisample{};
-  multisample.sType = VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO;
-  multisample.rasterizationSamples = pass.samples;
-  VkPipelineDepthStencilStateCreateInfo depth{};
-  depth.sType = VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO;
-  depth.depthTestEnable = VK_FALSE;
-  depth.depthWriteEnable = VK_FALSE;
-  VkPipelineColorBlendAttachmentState blendAttachment{};
-  blendAttachment.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
-                                   VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
-  VkPipelineColorBlendStateCreateInfo blend{};
-  blend.sType = VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO;
-  blend.attachmentCount = 1;
-  blend.pAttachments = &blendAttachment;
-  const std::array<VkDynamicState, 2> dynamicStates = {VK_DYNAMIC_STATE_VIEWPORT,
-                                                       VK_DYNAMIC_STATE_SCISSOR};
-  VkPipelineDynamicStateCreateInfo dynamic{};
-  dynamic.sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO;
-  dynamic.dynamicStateCount = static_cast<uint32_t>(dynamicStates.size());
-  dynamic.pDynamicStates = dynamicStates.data();
-  VkPipelineRenderingCreateInfo rendering{};
-  rendering.sType = VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO;
-  rendering.colorAttachmentCount = 1;
-  rendering.pColorAttachmentFormats = &pass.colorFormat;
-  rendering.depthAttachmentFormat = pass.depthFormat;
-  VkGraphicsPipelineCreateInfo info{};
-  info.sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO;
-  info.pNext = pass.renderPass == VK_NULL_HANDLE ? &rendering : nullptr;
-  info.renderPass = pass.renderPass;
-  info.subpass = pass.subpass;
-  info.stageCount = static_cast<uint32_t>(stages.size());
-  info.pStages = stages.data();
-  info.pVertexInputState = &vertexInput;
-  info.pInputAssemblyState = &inputAssembly;
-  info.pViewportState = &viewport;
-  info.pRasterizationState = &raster;
-  info.pMultisampleState = &multisample;
-  info.pDepthStencilState = &depth;
-  info.pColorBlendState = &blend;
-  info.pDynamicState = &dynamic;
-  info.layout = layout;
-  VkPipeline rawPipeline = VK_NULL_HANDLE;
-  if (VkResult r =
-          vkCreateGraphicsPipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &rawPipeline);
-      r != VK_SUCCESS) {
-    return vulkanError(r, "vkCreateGraphicsPipelines (sky)");
-  }
-  return UniquePipeline(device, rawPipeline);
+  GraphicsPipelineDesc desc;
+  desc.vertexSpirv = kSkyVert;
+  desc.vertexName = "sky.vert";
+  desc.fragmentSpirv = kSkyFrag;
+  desc.fragmentName = "sky.frag";
+  desc.fragmentSpecialization = &constant.info;
+  desc.pass = pass;
+  desc.what = "sky";
+  return createGraphicsPipeline(device, layout, desc);
 }
 
 }  // namespace

@@ -1,7 +1,7 @@
 // TrianglePipeline: a flat-coloured push-constant triangle for end-to-end GPU tests.
 #include "pbdam/gpu/TrianglePipeline.h"
 
-#include "pbdam/gpu/ShaderModule.h"
+#include "GraphicsPipeline.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/gpu/VulkanError.h"
 
@@ -33,11 +33,6 @@ static_assert(sizeof(TrianglePush) == 72);
 Result<TrianglePipeline> TrianglePipeline::create(const VulkanContext& context,
                                                   VkFormat colorFormat, VkFormat depthFormat) {
   VkDevice device = context.device();
-  Result<UniqueShaderModule> vert = createShaderModule(device, kTriangleVert, "triangle.vert");
-  if (!vert) return std::move(vert).error();
-  Result<UniqueShaderModule> frag = createShaderModule(device, kTriangleFrag, "triangle.frag");
-  if (!frag) return std::move(frag).error();
-
   TrianglePipeline result;
   VkPushConstantRange range{};
   range.stageFlags = VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
@@ -54,79 +49,20 @@ Result<TrianglePipeline> TrianglePipeline::create(const VulkanContext& context,
   }
   result.layout_ = UniquePipelineLayout(device, rawLayout);
 
-  VkPipelineShaderStageCreateInfo stages[2]{};
-  stages[0].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
-  stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
-  stages[0].module = vert->get();
-  stages[0].pName = "main";
-  stages[1].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
-  stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
-  stages[1].module = frag->get();
-  stages[1].pName = "main";
-
-  VkPipelineVertexInputStateCreateInfo vertexInput{};
-  vertexInput.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO;
-  VkPipelineInputAssemblyStateCreateInfo inputAssembly{};
-  inputAssembly.sType = VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO;
-  inputAssembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
-  VkPipelineViewportStateCreateInfo viewport{};
-  viewport.sType = VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO;
-  viewport.viewportCount = 1;
-  viewport.scissorCount = 1;
-  VkPipelineRasterizationStateCreateInfo raster{};
-  raster.sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO;
-  raster.polygonMode = VK_POLYGON_MODE_FILL;
-  raster.cullMode = VK_CULL_MODE_NONE;
-  raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
-  raster.lineWidth = 1.0f;
-  VkPipelineMultisampleStateCreateInfo multisample{};
-  multisample.sType = VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO;
-  multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
-  VkPipelineDepthStencilStateCreateInfo depth{};
-  depth.sType = VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO;
-  depth.depthTestEnable = VK_TRUE;
-  depth.depthWriteEnable = VK_TRUE;
-  depth.depthCompareOp = VK_COMPARE_OP_GREATER_OR_EQUAL;  // reversed-Z
-  VkPipelineColorBlendAttachmentState blendAttachment{};
-  blendAttachment.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
-                                   VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
-  VkPipelineColorBlendStateCreateInfo blend{};
-  blend.sType = VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO;
-  blend.attachmentCount = 1;
-  blend.pAttachments = &blendAttachment;
-  const VkDynamicState dynamicStates[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
-  VkPipelineDynamicStateCreateInfo dynamic{};
-  dynamic.sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO;
-  dynamic.dynamicStateCount = 2;
-  dynamic.pDynamicStates = dynamicStates;
-
-  VkPipelineRenderingCreateInfo rendering{};
-  rendering.sType = VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO;
-  rendering.colorAttachmentCount = 1;
-  rendering.pColorAttachmentFormats = &colorFormat;
-  rendering.depthAttachmentFormat = depthFormat;
-
-  VkGraphicsPipelineCreateInfo info{};
-  info.sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO;
-  info.pNext = &rendering;
-  info.stageCount = 2;
-  info.pStages = stages;
-  info.pVertexInputState = &vertexInput;
-  info.pInputAssemblyState = &inputAssembly;
-  info.pViewportState = &viewport;
-  info.pRasterizationState = &raster;
-  info.pMultisampleState = &multisample;
-  info.pDepthStencilState = &depth;
-  info.pColorBlendState = &blend;
-  info.pDynamicState = &dynamic;
-  info.layout = result.layout_.get();
-  VkPipeline rawPipeline = VK_NULL_HANDLE;
-  if (VkResult r =
-          vkCreateGraphicsPipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &rawPipeline);
-      r != VK_SUCCESS) {
-    return vulkanError(r, "vkCreateGraphicsPipelines (triangle)");
-  }
-  result.pipeline_ = UniquePipeline(device, rawPipeline);
+  GraphicsPipelineDesc desc;
+  desc.vertexSpirv = kTriangleVert;
+  desc.vertexName = "triangle.vert";
+  desc.fragmentSpirv = kTriangleFrag;
+  desc.fragmentName = "triangle.frag";
+  desc.depthTest = true;
+  desc.depthWrite = true;
+  desc.depthCompare = VK_COMPARE_OP_GREATER_OR_EQUAL;  // reversed-Z
+  desc.pass.colorFormat = colorFormat;
+  desc.pass.depthFormat = depthFormat;
+  desc.what = "triangle";
+  auto pipeline = createGraphicsPipeline(device, rawLayout, desc);
+  if (!pipeline) return std::move(pipeline).error();
+  result.pipeline_ = std::move(*pipeline);
   return result;
 }
 
