@@ -129,10 +129,9 @@ TEST(RenderCli, AnExrWithTheAtmosphereHoldsItsRadiance) {
   EXPECT_NE(bytes.find("pbdam:exposure"), std::string::npos) << "not the frame's radiance";
   // Without the atmosphere the EXR is the display colour, with no exposure.
   const auto plain = tmp / "plain.exr";
-  ASSERT_EQ(runPbdam("render " + quoted(dir) + " --camera 0,0,30e3,90,0,0 --out " + quoted(plain) +
-                     " --quiet --sun 90,2 --atmosphere off" + kSmall)
-                .exitCode,
-            0);
+  const CliRun bare = runPbdam("render " + quoted(dir) + " --camera 0,0,30e3,90,0,0 --out " +
+                               quoted(plain) + " --quiet --sun 90,2 --atmosphere off" + kSmall);
+  ASSERT_EQ(bare.exitCode, 0) << bare.err;
   EXPECT_EQ(test::readFile(plain).find("pbdam:exposure"), std::string::npos);
 }
 
