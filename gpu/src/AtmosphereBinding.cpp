@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "ComputeProgram.h"
+#include "GraphicsPipeline.h"
 #include "ImageUpload.h"
-#include "pbdam/gpu/ShaderModule.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/gpu/VulkanError.h"
 
@@ -238,21 +238,11 @@ Result<void> AtmosphereBinding::createSkyView(const PatchPipeline& pipeline) {
       "atmosphere sky view layout");
   if (!ready) return ready;
 
-  VkDescriptorSetLayoutBinding binding{};
-  binding.binding = 0;
-  binding.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
-  binding.descriptorCount = 1;
-  binding.stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
-  VkDescriptorSetLayoutCreateInfo setInfo{};
-  setInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
-  setInfo.bindingCount = 1;
-  setInfo.pBindings = &binding;
-  VkDescriptorSetLayout rawSet = VK_NULL_HANDLE;
-  if (VkResult r = vkCreateDescriptorSetLayout(device, &setInfo, nullptr, &rawSet);
-      r != VK_SUCCESS) {
-    return vulkanError(r, "vkCreateDescriptorSetLayout (sky view)");
-  }
-  skyViewSetLayout_ = UniqueDescriptorSetLayout(device, rawSet);
+  auto setLayout = createSetLayout(device, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
+                                   VK_SHADER_STAGE_COMPUTE_BIT, "sky view");
+  if (!setLayout) return std::move(setLayout).error();
+  skyViewSetLayout_ = std::move(*setLayout);
+  VkDescriptorSetLayout rawSet = skyViewSetLayout_.get();
   const std::array<VkDescriptorSetLayout, 2> setLayouts = {pipeline.atmosphereSetLayout(), rawSet};
   const VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(SkyViewPush)};
   VkPipelineLayoutCreateInfo layoutInfo{};
@@ -267,22 +257,9 @@ Result<void> AtmosphereBinding::createSkyView(const PatchPipeline& pipeline) {
     return vulkanError(r, "vkCreatePipelineLayout (sky view)");
   }
   skyViewLayout_ = UniquePipelineLayout(device, rawLayout);
-  auto module = createShaderModule(device, kSkyViewComp, "sky_view.comp");
-  if (!module) return std::move(module).error();
-  VkComputePipelineCreateInfo info{};
-  info.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
-  info.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
-  info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-  info.stage.module = module->get();
-  info.stage.pName = "main";
-  info.layout = rawLayout;
-  VkPipeline rawPipeline = VK_NULL_HANDLE;
-  if (VkResult r =
-          vkCreateComputePipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &rawPipeline);
-      r != VK_SUCCESS) {
-    return vulkanError(r, "vkCreateComputePipelines (sky view)");
-  }
-  skyViewPipeline_ = UniquePipeline(device, rawPipeline);
+  auto computePipeline = createComputePipeline(device, rawLayout, kSkyViewComp, "sky_view.comp");
+  if (!computePipeline) return std::move(computePipeline).error();
+  skyViewPipeline_ = std::move(*computePipeline);
 
   VkDescriptorSetAllocateInfo allocate{};
   allocate.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;

@@ -2,7 +2,7 @@
 #include "ComputeProgram.h"
 #include <algorithm>
 
-#include "pbdam/gpu/ShaderModule.h"
+#include "GraphicsPipeline.h"
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/gpu/VulkanError.h"
 
@@ -49,22 +49,9 @@ Result<ComputeProgram> ComputeProgram::create(const VulkanContext& context,
     return vulkanError(r, what + " pipeline layout");
   }
   p.layout_ = UniquePipelineLayout(device, rawLayout);
-  auto module = createShaderModule(device, spirv, name);
-  if (!module) return std::move(module).error();
-  VkComputePipelineCreateInfo info{};
-  info.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
-  info.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
-  info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-  info.stage.module = module->get();
-  info.stage.pName = "main";
-  info.layout = rawLayout;
-  VkPipeline rawPipeline = VK_NULL_HANDLE;
-  if (VkResult r =
-          vkCreateComputePipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &rawPipeline);
-      r != VK_SUCCESS) {
-    return vulkanError(r, what + " pipeline");
-  }
-  p.pipeline_ = UniquePipeline(device, rawPipeline);
+  auto pipeline = createComputePipeline(device, rawLayout, spirv, (what + " pipeline").c_str());
+  if (!pipeline) return std::move(pipeline).error();
+  p.pipeline_ = std::move(*pipeline);
 
   const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, count};
   VkDescriptorPoolCreateInfo poolInfo{};

@@ -96,4 +96,63 @@ Result<UniquePipeline> createGraphicsPipeline(VkDevice device, VkPipelineLayout 
   return UniquePipeline(device, raw);
 }
 
+Result<UniqueDescriptorSetLayout> createSetLayout(VkDevice device, VkDescriptorType type,
+                                                  VkShaderStageFlags stages, const char* what) {
+  VkDescriptorSetLayoutBinding binding{};
+  binding.binding = 0;
+  binding.descriptorType = type;
+  binding.descriptorCount = 1;
+  binding.stageFlags = stages;
+  VkDescriptorSetLayoutCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
+  info.bindingCount = 1;
+  info.pBindings = &binding;
+  VkDescriptorSetLayout raw = VK_NULL_HANDLE;
+  if (VkResult r = vkCreateDescriptorSetLayout(device, &info, nullptr, &raw); r != VK_SUCCESS) {
+    return vulkanError(r, std::string("vkCreateDescriptorSetLayout (") + what + ")");
+  }
+  return UniqueDescriptorSetLayout(device, raw);
+}
+
+/// A sampler without mipmaps: `filter` both ways, `address` on every axis (`border` outside the
+/// image when that clamps to the border).
+Result<UniqueSampler> createSampler(VkDevice device, VkFilter filter, VkSamplerAddressMode address,
+                                    VkBorderColor border, const char* what) {
+  VkSamplerCreateInfo samplerInfo{};
+  samplerInfo.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
+  samplerInfo.magFilter = filter;
+  samplerInfo.minFilter = filter;
+  samplerInfo.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+  samplerInfo.addressModeU = address;
+  samplerInfo.addressModeV = address;
+  samplerInfo.addressModeW = address;
+  samplerInfo.borderColor = border;
+  samplerInfo.maxLod = 0.0f;
+  VkSampler rawSampler = VK_NULL_HANDLE;
+  if (VkResult r = vkCreateSampler(device, &samplerInfo, nullptr, &rawSampler); r != VK_SUCCESS) {
+    return vulkanError(r, std::string("vkCreateSampler (") + what + ")");
+  }
+  return UniqueSampler(device, rawSampler);
+}
+
+Result<UniquePipeline> createComputePipeline(VkDevice device, VkPipelineLayout layout,
+                                             std::span<const std::uint32_t> spirv,
+                                             const char* name) {
+  auto module = createShaderModule(device, spirv, name);
+  if (!module) return std::move(module).error();
+  VkComputePipelineCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
+  info.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+  info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+  info.stage.module = module->get();
+  info.stage.pName = "main";
+  info.layout = layout;
+  VkPipeline raw = VK_NULL_HANDLE;
+  if (VkResult r = vkCreateComputePipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &raw);
+      r != VK_SUCCESS) {
+    return vulkanError(r, std::string("vkCreateComputePipelines (") + name + ")");
+  }
+  return UniquePipeline(device, raw);
+}
+
 }  // namespace pbdam::gpu

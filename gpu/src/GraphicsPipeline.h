@@ -3,7 +3,8 @@
 // triangle lists, dynamic viewport and scissor, one colour attachment written whole, no blending —
 // from what differs between them: the shaders, the fragment stage's specialisation, the vertex
 // input, culling, the depth test and the pass (formats, samples; a render pass or dynamic
-// rendering). Thread-safety: a pure function of its arguments.
+// rendering). Also the pieces every pipeline of the renderer is made of: one-binding set layouts,
+// samplers, compute pipelines. Thread-safety: pure functions of their arguments.
 #pragma once
 
 #include <vulkan/vulkan.h>
@@ -39,5 +40,20 @@ struct GraphicsPipelineDesc final {
 /// Creates the pipeline with `layout`. DeviceError naming `desc.what` on failure.
 formats::Result<UniquePipeline> createGraphicsPipeline(VkDevice device, VkPipelineLayout layout,
                                                        const GraphicsPipelineDesc& desc);
+
+/// The pieces the pipelines share; DeviceError naming `what` (or `name`) on failure.
+/// A set layout of one descriptor of `type` at binding 0, read by `stages`.
+formats::Result<UniqueDescriptorSetLayout> createSetLayout(VkDevice device, VkDescriptorType type,
+                                                           VkShaderStageFlags stages,
+                                                           const char* what);
+/// A sampler without mipmaps: `filter` both ways, `address` on every axis (`border` outside the
+/// image when that clamps to the border).
+formats::Result<UniqueSampler> createSampler(VkDevice device, VkFilter filter,
+                                             VkSamplerAddressMode address, VkBorderColor border,
+                                             const char* what);
+/// The compute pipeline of `spirv` with `layout`.
+formats::Result<UniquePipeline> createComputePipeline(VkDevice device, VkPipelineLayout layout,
+                                                      std::span<const std::uint32_t> spirv,
+                                                      const char* name);
 
 }  // namespace pbdam::gpu

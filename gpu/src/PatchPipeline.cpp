@@ -35,45 +35,6 @@ const uint32_t kSkyFrag[] =
 #include "sky.frag.inc"
     ;
 
-Result<UniqueDescriptorSetLayout> createSetLayout(VkDevice device, VkDescriptorType type,
-                                                  VkShaderStageFlags stages, const char* what) {
-  VkDescriptorSetLayoutBinding binding{};
-  binding.binding = 0;
-  binding.descriptorType = type;
-  binding.descriptorCount = 1;
-  binding.stageFlags = stages;
-  VkDescriptorSetLayoutCreateInfo info{};
-  info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
-  info.bindingCount = 1;
-  info.pBindings = &binding;
-  VkDescriptorSetLayout raw = VK_NULL_HANDLE;
-  if (VkResult r = vkCreateDescriptorSetLayout(device, &info, nullptr, &raw); r != VK_SUCCESS) {
-    return vulkanError(r, std::string("vkCreateDescriptorSetLayout (") + what + ")");
-  }
-  return UniqueDescriptorSetLayout(device, raw);
-}
-
-/// A sampler without mipmaps: `filter` both ways, `address` on every axis (`border` outside the
-/// image when that clamps to the border).
-Result<UniqueSampler> createSampler(VkDevice device, VkFilter filter, VkSamplerAddressMode address,
-                                    VkBorderColor border, const char* what) {
-  VkSamplerCreateInfo samplerInfo{};
-  samplerInfo.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
-  samplerInfo.magFilter = filter;
-  samplerInfo.minFilter = filter;
-  samplerInfo.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
-  samplerInfo.addressModeU = address;
-  samplerInfo.addressModeV = address;
-  samplerInfo.addressModeW = address;
-  samplerInfo.borderColor = border;
-  samplerInfo.maxLod = 0.0f;
-  VkSampler rawSampler = VK_NULL_HANDLE;
-  if (VkResult r = vkCreateSampler(device, &samplerInfo, nullptr, &rawSampler); r != VK_SUCCESS) {
-    return vulkanError(r, std::string("vkCreateSampler (") + what + ")");
-  }
-  return UniqueSampler(device, rawSampler);
-}
-
 /// Set 3: the overlay's image and uniform block, both read by the fragment shader.
 Result<UniqueDescriptorSetLayout> createOverlaySetLayout(VkDevice device) {
   std::array<VkDescriptorSetLayoutBinding, 2> bindings{};

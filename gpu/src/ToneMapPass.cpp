@@ -39,21 +39,11 @@ Result<UniquePipeline> createToneMapPipeline(VkDevice device, VkPipelineLayout l
 Result<ToneMapPass> ToneMapPass::create(const VulkanContext& context, VkFormat displayFormat) {
   VkDevice device = context.device();
   ToneMapPass pass;
-  VkDescriptorSetLayoutBinding binding{};
-  binding.binding = 0;
-  binding.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-  binding.descriptorCount = 1;
-  binding.stageFlags = VK_SHADER_STAGE_FRAGMENT_BIT;
-  VkDescriptorSetLayoutCreateInfo setInfo{};
-  setInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
-  setInfo.bindingCount = 1;
-  setInfo.pBindings = &binding;
-  VkDescriptorSetLayout rawSet = VK_NULL_HANDLE;
-  if (VkResult r = vkCreateDescriptorSetLayout(device, &setInfo, nullptr, &rawSet);
-      r != VK_SUCCESS) {
-    return vulkanError(r, "vkCreateDescriptorSetLayout (tone map)");
-  }
-  pass.setLayout_ = UniqueDescriptorSetLayout(device, rawSet);
+  auto setLayout = createSetLayout(device, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER,
+                                   VK_SHADER_STAGE_FRAGMENT_BIT, "tone map");
+  if (!setLayout) return std::move(setLayout).error();
+  pass.setLayout_ = std::move(*setLayout);
+  VkDescriptorSetLayout rawSet = pass.setLayout_.get();
 
   VkPushConstantRange range{};
   range.stageFlags = VK_SHADER_STAGE_FRAGMENT_BIT;
@@ -71,19 +61,10 @@ Result<ToneMapPass> ToneMapPass::create(const VulkanContext& context, VkFormat d
   }
   pass.layout_ = UniquePipelineLayout(device, rawLayout);
 
-  VkSamplerCreateInfo samplerInfo{};
-  samplerInfo.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
-  samplerInfo.magFilter = VK_FILTER_NEAREST;
-  samplerInfo.minFilter = VK_FILTER_NEAREST;
-  samplerInfo.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
-  samplerInfo.addressModeU = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-  samplerInfo.addressModeV = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-  samplerInfo.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-  VkSampler rawSampler = VK_NULL_HANDLE;
-  if (VkResult r = vkCreateSampler(device, &samplerInfo, nullptr, &rawSampler); r != VK_SUCCESS) {
-    return vulkanError(r, "vkCreateSampler (tone map)");
-  }
-  pass.sampler_ = UniqueSampler(device, rawSampler);
+  auto sampler = createSampler(device, VK_FILTER_NEAREST, VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE,
+                               VK_BORDER_COLOR_FLOAT_TRANSPARENT_BLACK, "tone map");
+  if (!sampler) return std::move(sampler).error();
+  pass.sampler_ = std::move(*sampler);
 
   auto pipeline = createToneMapPipeline(device, rawLayout, displayFormat);
   if (!pipeline) return std::move(pipeline).error();
