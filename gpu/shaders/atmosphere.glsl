@@ -228,9 +228,8 @@ SkyViewFrame skyViewFrame(vec3 camera, vec3 sun) {
   return f;
 }
 
-// The table coordinates of a unit view direction.
-vec2 skyViewUv(SkyViewFrame f, vec3 ray) {
-  const float zenith = acos(clamp(dot(ray, f.up), -1.0, 1.0));
+// The table coordinates of a unit view direction at zenith angle `zenith`.
+vec2 skyViewUv(SkyViewFrame f, vec3 ray, float zenith) {
   const vec2 h = vec2(dot(ray, f.towardsSun), dot(ray, f.side));
   const float azimuth = dot(h, h) > 1e-12 ? abs(atan(h.y, h.x)) : 0.0;
   float v;

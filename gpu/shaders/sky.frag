@@ -20,17 +20,22 @@ layout(push_constant) uniform PatchPush {
 layout(set = 4, binding = 5) uniform sampler2D skyViewTable;
 
 layout(location = 0) in vec3 inRay;
+// The frame's sky-view frame (the same for every pixel: sky.vert computes it).
+layout(location = 1) flat in vec3 inUp;
+layout(location = 2) flat in vec3 inTowardsSun;
+layout(location = 3) flat in vec3 inSide;
+layout(location = 4) flat in vec2 inZeniths;  // x: zenithTop, y: zenithHorizon
 
 layout(location = 0) out vec4 outColor;
 
 void main() {
   const vec3 ray = toAtmosphereDirection(inRay);
   const vec3 sun = toAtmosphereDirection(pc.sunAmbient.xyz);
-  const SkyViewFrame f = skyViewFrame(pc.camera.xyz, sun);
+  const SkyViewFrame f = SkyViewFrame(inUp, inTowardsSun, inSide, inZeniths.x, inZeniths.y);
   // Beyond the tangent to the top of the atmosphere (from above it) the ray meets no air.
-  vec3 radiance = acos(clamp(dot(ray, f.up), -1.0, 1.0)) < f.zenithTop
-                      ? vec3(0.0)
-                      : texture(skyViewTable, skyViewUv(f, ray)).rgb;
+  const float zenith = acos(clamp(dot(ray, f.up), -1.0, 1.0));
+  vec3 radiance = zenith < f.zenithTop ? vec3(0.0)
+                                       : texture(skyViewTable, skyViewUv(f, ray, zenith)).rgb;
   const float sunRadius = atmosphere.solarIrradiance.w;
   if (dot(ray, sun) > cos(sunRadius)) {
     // The sun's disc through the air (its pixels alone look the transmittance up).

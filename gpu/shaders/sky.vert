@@ -18,6 +18,11 @@ layout(push_constant) uniform PatchPush {
 } pc;
 
 layout(location = 0) out vec3 outRay;
+// The frame's sky-view frame, for sky.frag (atmosphere.glsl).
+layout(location = 1) flat out vec3 outUp;
+layout(location = 2) flat out vec3 outTowardsSun;
+layout(location = 3) flat out vec3 outSide;
+layout(location = 4) flat out vec2 outZeniths;
 
 // Quads around the band; TerrainRenderer draws 6 vertices each (DrawRecorder.cpp kSkyVertices).
 const int kSkySegments = 128;
@@ -43,5 +48,10 @@ void main() {
   // From the atmosphere's space (the polar axis stretched onto the bottom sphere) to the world's.
   const vec3 world = normalize(vec3(direction.xy, direction.z / atmosphere.sizes.w));
   outRay = world;
+  const SkyViewFrame f = skyViewFrame(pc.camera.xyz, toAtmosphereDirection(pc.sunAmbient.xyz));
+  outUp = f.up;
+  outTowardsSun = f.towardsSun;
+  outSide = f.side;
+  outZeniths = vec2(f.zenithTop, f.zenithHorizon);
   gl_Position = pc.viewProjection * vec4(world * 1.0e7, 1.0);
 }
