@@ -453,37 +453,152 @@ void Triangulation::rescanDirty() {
   dirty_.clear();
 }
 
-void Triangulation::scan(std::uint32_t t) {
-  Tri& tri = tris_[t];
-  const std::array<LatticeXY, 3> p = {points_[tri.v[0]], points_[tri.v[1]], points_[tri.v[2]]};
-  const std::array<double, 3> z = {z_[tri.v[0]], z_[tri.v[1]], z_[tri.v[2]]};
-  // The plane through the corners' heights, z = z0 + gx (x − x0) + gy (y − y0).
-  const auto det = static_cast<double>(doubleArea(p[0], p[1], p[2]));
-  const double e1x = p[1].x - p[0].x;
-  const double e1y = p[1].y - p[0].y;
-  const double e2x = p[2].x - p[0].x;
-  const double e2y = p[2].y - p[0].y;
-  const double gx = ((z[1] - z[0]) * e2y - (z[2] - z[0]) * e1y) / det;
-  const double gy = (e1x * (z[2] - z[0]) - e2x * (z[1] - z[0])) / det;
-  // Circumcentre (relative to p0) and squared circumradius, in cells.
-  const double l1 = e1x * e1x + e1y * e1y;
-  const double l2 = e2x * e2x + e2y * e2y;
-  const double ccx = (e2y * l1 - e1y * l2) / (2.0 * det);
-  const double ccy = (e1x * l2 - e2x * l1) / (2.0 * det);
-  const double rc2 = ccx * ccx + ccy * ccy;
-  double chordBound = 0.0;  // the largest sag inside the triangle
-  {
+/// A triangle's plane through its corners' heights and its circumcircle (the chord's sag), and
+/// the worst lattice point found so far: the per-point work of a scan.
+class PlaneScan final {
+ public:
+  PlaneScan(const std::array<LatticeXY, 3>& p, const std::array<double, 3>& z,
+            double sagPerCell2) noexcept
+      : p_(p), z_(z), p0_(p[0]), z0_(z[0]), sagPerCell2_(sagPerCell2) {}
+
+  /// Sets up the plane and the circumcircle (before the first row).
+  void prepare() noexcept {
+    const std::array<LatticeXY, 3>& p = p_;
+    const std::array<double, 3>& z = z_;
+    // The plane through the corners' heights, z = z0 + gx (x − x0) + gy (y − y0).
+    const auto det = static_cast<double>(doubleArea(p[0], p[1], p[2]));
+    const double e1x = p[1].x - p[0].x;
+    const double e1y = p[1].y - p[0].y;
+    const double e2x = p[2].x - p[0].x;
+    const double e2y = p[2].y - p[0].y;
+    gx_ = ((z[1] - z[0]) * e2y - (z[2] - z[0]) * e1y) / det;
+    gy_ = (e1x * (z[2] - z[0]) - e2x * (z[1] - z[0])) / det;
+    // Circumcentre (relative to p0) and squared circumradius, in cells.
+    const double l1 = e1x * e1x + e1y * e1y;
+    const double l2 = e2x * e2x + e2y * e2y;
+    ccx_ = (e2y * l1 - e1y * l2) / (2.0 * det);
+    ccy_ = (e1x * l2 - e2x * l1) / (2.0 * det);
+    rc2_ = ccx_ * ccx_ + ccy_ * ccy_;
+    // The largest sag inside the triangle.
     const double e0x = p[2].x - p[1].x;
     const double e0y = p[2].y - p[1].y;
     const double l0 = e0x * e0x + e0y * e0y;
     const double longest = std::max({l0, l1, l2});
     const bool acute = 2.0 * longest < l0 + l1 + l2;
-    chordBound = sagPerCell2_ * (acute ? rc2 : 0.25 * longest);
+    chordBound_ = sagPerCell2_ * (acute ? rc2_ : 0.25 * longest);
   }
 
-  double worstHeight = -1.0;
-  double worstScore = -1.0;
-  LatticeXY worst{0};
+  /// Starts row y.
+  void row(int y) noexcept {
+    y_ = y;
+    const double ry = static_cast<double>(y - p0_.y);
+    gyry_ = gy_ * ry;
+    const double dcy = ry - ccy_;
+    dcy2_ = dcy * dcy;
+  }
+  /// Lattice point (x, current row) of this height.
+  void visit(std::int64_t x, float height) noexcept {
+    const double rx = static_cast<double>(x - p0_.x);
+    const double dev = std::abs(static_cast<double>(height) - (z0_ + gx_ * rx + gyry_));
+    const double dcx = rx - ccx_;
+    const double sag = sagPerCell2_ * std::max(0.0, rc2_ - (dcx * dcx + dcy2_));
+    worstHeight_ = std::max(worstHeight_, dev);
+    if (dev + sag > worstScore_) {
+      worstScore_ = dev + sag;
+      worst_ = LatticeXY{static_cast<std::int32_t>(x), y_};
+    }
+  }
+
+  /// The triangle's error (height error plus chord bound; < 0 when no point was visited) and
+  /// its candidate.
+  double error() const noexcept { return worstScore_ < 0.0 ? -1.0 : worstHeight_ + chordBound_; }
+  LatticeXY candidate() const noexcept { return worst_; }
+
+ private:
+  std::array<LatticeXY, 3> p_;
+  std::array<double, 3> z_;
+  LatticeXY p0_;
+  double z0_;
+  double sagPerCell2_;
+  double gx_ = 0.0;
+  double gy_ = 0.0;
+  double ccx_ = 0.0;
+  double ccy_ = 0.0;
+  double rc2_ = 0.0;
+  double chordBound_ = 0.0;
+  int y_ = 0;
+  double gyry_ = 0.0;
+  double dcy2_ = 0.0;
+  double worstHeight_ = -1.0;
+  double worstScore_ = -1.0;
+  LatticeXY worst_{0};
+};
+
+/// A triangle scans its box point by point (three edge functions stepped by additions) rather
+/// than row spans (six 64-bit divisions to set up) while its box holds at most this many
+/// candidates: most triangles of a half near its end cover a handful of points. Both visit the
+/// same points in the same order.
+constexpr std::int64_t kBoxScanPoints = 48;
+
+/// Visits the points of the dense-lattice triangle p (counter-clockwise) on every `step`-th row
+/// and column of its box, in row order, that are candidates: inside or on it, neither a corner
+/// nor on a locked edge (locked[k]: the edge opposite corner k).
+void scanBox(const std::array<LatticeXY, 3>& p, const std::array<bool, 3>& locked, int step,
+             int firstRow, int yMax, int firstColumn, int xMax, const float* heights,
+             std::size_t rowLength, PlaneScan& plane) {
+  std::array<std::int64_t, 3> rowEdge{};
+  std::array<std::int64_t, 3> stepX{};
+  std::array<std::int64_t, 3> stepY{};
+  for (std::size_t k = 0; k < 3; ++k) {
+    const LatticeXY q = p[(k + 1) % 3];
+    const LatticeXY r = p[(k + 2) % 3];
+    // (r − q) × (s − q): ≥ 0 inside, linear in s.
+    rowEdge[k] =
+        std::int64_t{r.x - q.x} * (firstRow - q.y) - std::int64_t{r.y - q.y} * (firstColumn - q.x);
+    stepX[k] = -std::int64_t{r.y - q.y} * step;
+    stepY[k] = std::int64_t{r.x - q.x} * step;
+  }
+  // The candidates first: a triangle without any (most of the smallest) skips the plane's set-up.
+  std::array<LatticeXY, kBoxScanPoints> found;
+  std::size_t count = 0;
+  for (int y = firstRow; y <= yMax; y += step) {
+    std::array<std::int64_t, 3> e = rowEdge;
+    for (int x = firstColumn; x <= xMax; x += step) {
+      if (e[0] >= 0 && e[1] >= 0 && e[2] >= 0) {
+        const bool z0 = e[0] == 0;
+        const bool z1 = e[1] == 0;
+        const bool z2 = e[2] == 0;
+        // Two edges through it: a corner.
+        const bool excluded =
+            (z0 && locked[0]) || (z1 && locked[1]) || (z2 && locked[2]) ||
+            static_cast<int>(z0) + static_cast<int>(z1) + static_cast<int>(z2) >= 2;
+        if (!excluded) found[count++] = LatticeXY{x, y};
+      }
+      e[0] += stepX[0];
+      e[1] += stepX[1];
+      e[2] += stepX[2];
+    }
+    rowEdge[0] += stepY[0];
+    rowEdge[1] += stepY[1];
+    rowEdge[2] += stepY[2];
+  }
+  if (count == 0) return;
+  plane.prepare();
+  int rowY = -1;
+  for (std::size_t k = 0; k < count; ++k) {
+    if (found[k].y != rowY) {
+      rowY = found[k].y;
+      plane.row(rowY);
+    }
+    plane.visit(found[k].x, heights[static_cast<std::size_t>(found[k].y) * rowLength +
+                                    static_cast<std::size_t>(found[k].x)]);
+  }
+}
+
+void Triangulation::scan(std::uint32_t t) {
+  Tri& tri = tris_[t];
+  const std::array<LatticeXY, 3> p = {points_[tri.v[0]], points_[tri.v[1]], points_[tri.v[2]]};
+  PlaneScan plane(p, {z_[tri.v[0]], z_[tri.v[1]], z_[tri.v[2]]}, sagPerCell2_);
   const int yMin = std::min({p[0].y, p[1].y, p[2].y});
   const int yMax = std::max({p[0].y, p[1].y, p[2].y});
   const int xMinBox = std::min({p[0].x, p[1].x, p[2].x});
@@ -497,6 +612,20 @@ void Triangulation::scan(std::uint32_t t) {
   // Lattice coordinates are never negative.
   const auto roundUp = [step](std::int64_t v) { return (v + step - 1) & ~std::int64_t{step - 1}; };
   const auto roundDown = [step](std::int64_t v) { return v & ~std::int64_t{step - 1}; };
+  const int firstRow = static_cast<int>(roundUp(yMin));
+  const float* heights = heights_.data;
+  const std::size_t rowLength = std::size_t{heights_.sideCells} + 1;
+  const auto firstColumn = static_cast<int>(roundUp(xMinBox));
+  const std::int64_t boxPoints =
+      ((yMax - firstRow) / step + 1) * ((xMaxBox - firstColumn) / step + 1);
+  if (heights_.tiles == nullptr && boxPoints <= kBoxScanPoints) {
+    scanBox(p, {tri.n[0] == kNone, tri.n[1] == kNone, tri.n[2] == kNone}, step, firstRow, yMax,
+            firstColumn, xMaxBox, heights, rowLength, plane);
+    tri.error = plane.error();
+    tri.candidate = plane.candidate();
+    queue_.update(t, tri.error);
+    return;
+  }
   // Not candidates: the corners and the points on a locked edge. Along a row they can only be
   // the ends of the span (or the whole row, on a locked edge along the row).
   const auto excluded = [&](LatticeXY s) {
@@ -506,10 +635,8 @@ void Triangulation::scan(std::uint32_t t) {
     }
     return false;
   };
-  const int firstRow = static_cast<int>(roundUp(yMin));
+  plane.prepare();
   RowSpans spans(p, tri.n, firstRow, step);
-  const float* heights = heights_.data;
-  const std::size_t rowLength = std::size_t{heights_.sideCells} + 1;
   // On a sparse lattice, a triangle inside one tile (no finer tile touching it) reads that
   // tile's grid directly, as a dense lattice's rows: the same points, without the row walk.
   std::optional<LatticeTiles::Window> window;
@@ -526,37 +653,23 @@ void Triangulation::scan(std::uint32_t t) {
     if (first > last) continue;
     if (excluded(LatticeXY{static_cast<std::int32_t>(first), y})) first += step;
     if (first <= last && excluded(LatticeXY{static_cast<std::int32_t>(last), y})) last -= step;
-    const double ry = static_cast<double>(y - p[0].y);
-    const double gyry = gy * ry;
-    const double dcy = ry - ccy;
-    const double dcy2 = dcy * dcy;
-    const auto visit = [&](std::int64_t x, float height) {
-      const double rx = static_cast<double>(x - p[0].x);
-      const double dev = std::abs(static_cast<double>(height) - (z[0] + gx * rx + gyry));
-      const double dcx = rx - ccx;
-      const double sag = sagPerCell2_ * std::max(0.0, rc2 - (dcx * dcx + dcy2));
-      worstHeight = std::max(worstHeight, dev);
-      if (dev + sag > worstScore) {
-        worstScore = dev + sag;
-        worst = LatticeXY{static_cast<std::int32_t>(x), y};
-      }
-    };
+    plane.row(y);
     if (window) {
-      for (std::int64_t x = first; x <= last; x += step) visit(x, window->at(heights, x, y));
+      for (std::int64_t x = first; x <= last; x += step) plane.visit(x, window->at(heights, x, y));
       continue;
     }
     if (heights_.tiles != nullptr) {
       // A sparse lattice: the points stored, each tile at its own spacing.
       heights_.tiles->forEachInRow(
           heights_.face, y, first, last, step,
-          [&](std::int64_t x, std::uint64_t at) { visit(x, heights[at]); });
+          [&](std::int64_t x, std::uint64_t at) { plane.visit(x, heights[at]); });
       continue;
     }
     const float* row = heights + static_cast<std::size_t>(y) * rowLength;
-    for (std::int64_t x = first; x <= last; x += step) visit(x, row[x]);
+    for (std::int64_t x = first; x <= last; x += step) plane.visit(x, row[x]);
   }
-  tri.error = worstScore < 0.0 ? -1.0 : worstHeight + chordBound;
-  tri.candidate = worst;
+  tri.error = plane.error();
+  tri.candidate = plane.candidate();
   queue_.update(t, tri.error);
 }
 
