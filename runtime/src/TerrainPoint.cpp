@@ -3,7 +3,9 @@
 
 #include <cmath>
 #include <glm/geometric.hpp>
+#include <new>
 #include <utility>
+#include <vector>
 
 namespace pbdam::runtime {
 
@@ -14,8 +16,36 @@ bool insideFace(std::int32_t v, std::uint32_t latticeCells) noexcept {
   return v > 0 && std::cmp_less(v, latticeCells);
 }
 
-double planeCoordinate(std::uint32_t v, std::uint32_t latticeCells) noexcept {
+double planeCoordinateOf(std::uint32_t v, std::uint32_t latticeCells) noexcept {
   return CubeMap::uvToPlaneCoordinate(static_cast<double>(v) / static_cast<double>(latticeCells));
+}
+
+/// Lattices up to this many cells a side keep their plane coordinates in a table per thread
+/// (8 bytes a lattice line: 512 KiB at most); finer ones compute each.
+constexpr std::uint32_t kTabulatedCells = 1U << 16;
+
+/// The plane coordinate of lattice line v: a tangent, the same double whether computed or
+/// looked up (the table holds exactly what planeCoordinateOf returns), so the terrain points
+/// are bit-identical either way; a builder places tens of millions of lattice points.
+double planeCoordinate(std::uint32_t v, std::uint32_t latticeCells) noexcept {
+  if (latticeCells > kTabulatedCells) return planeCoordinateOf(v, latticeCells);
+  struct Table {
+    std::uint32_t cells = 0;
+    std::vector<double> values;
+  };
+  thread_local Table table;
+  if (table.cells != latticeCells) {
+    try {
+      table.values.resize(std::size_t{latticeCells} + 1);
+    } catch (const std::bad_alloc&) {
+      return planeCoordinateOf(v, latticeCells);  // no table: computed, the same double
+    }
+    for (std::uint32_t k = 0; k <= latticeCells; ++k) {
+      table.values[k] = planeCoordinateOf(k, latticeCells);
+    }
+    table.cells = latticeCells;
+  }
+  return table.values[v];
 }
 
 }  // namespace
