@@ -406,6 +406,10 @@ std::vector<double> sampleErrors(const SampleGrid& grid, const BinTriangle& t,
     }
     return error;
   }
+  if (unitTriangles) {
+    grid.forEachSourceSampleInCells(face, {t.apex, t.left, t.right}, corners, visit);
+    return error;
+  }
   grid.forEachSourceSampleInTriangles(face, {t.apex, t.left, t.right}, corners, visit);
   return error;
 }

@@ -620,6 +620,45 @@ Result<void> SampleGrid::writeSourceBuckets(const SampleEnumerator& samples,
   return publishBucketFile(*map, tmp, samplesFile);
 }
 
+SampleGrid::CellTriangles SampleGrid::cellTriangles(
+    std::span<const std::array<LatticeXY, 3>> triangles) const {
+  CellTriangles cells;
+  int x1 = triangles[0][0].x;
+  int y1 = triangles[0][0].y;
+  cells.x0 = x1;
+  cells.y0 = y1;
+  for (const auto& t : triangles) {
+    for (const LatticeXY p : t) {
+      cells.x0 = std::min(cells.x0, p.x);
+      x1 = std::max(x1, p.x);
+      cells.y0 = std::min(cells.y0, p.y);
+      y1 = std::max(y1, p.y);
+    }
+  }
+  const std::int64_t w = std::max(1, x1 - cells.x0);
+  const std::int64_t h = std::max(1, y1 - cells.y0);
+  cells.columns = w;
+  cells.rows = h;
+  cells.margin = 1e-6 + 1e-8 * static_cast<double>(std::max(w, h));
+  cells.uv.resize(triangles.size());
+  cells.tests.resize(triangles.size());
+  cells.at.assign(static_cast<std::size_t>(w * h), {kNoTriangle, kNoTriangle});
+  for (std::size_t k = 0; k < triangles.size(); ++k) {
+    const auto& t = triangles[k];
+    cells.uv[k] = {lattice_.uv(t[0]), lattice_.uv(t[1]), lattice_.uv(t[2])};
+    const std::optional<TriangleBuckets> box =
+        bucketsOf(cells.uv[k][0], cells.uv[k][1], cells.uv[k][2]);
+    if (!box) continue;  // degenerate or clockwise: visits nothing, as forEachSourceSampleIn
+    cells.tests[k] = *box;
+    // Half a cell: its box is one cell.
+    const std::int64_t cx = std::min({t[0].x, t[1].x, t[2].x}) - cells.x0;
+    const std::int64_t cy = std::min({t[0].y, t[1].y, t[2].y}) - cells.y0;
+    auto& slots = cells.at[static_cast<std::size_t>(cy * w + cx)];
+    slots[slots[0] == kNoTriangle ? 0 : 1] = static_cast<std::uint32_t>(k);
+  }
+  return cells;
+}
+
 SampleGrid::TriangleBins SampleGrid::binTriangles(
     std::span<const std::array<LatticeXY, 3>> triangles) const {
   TriangleBins bins;

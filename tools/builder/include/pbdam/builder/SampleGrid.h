@@ -345,69 +345,88 @@ class SampleGrid final {
     };
     const std::int64_t bw = bins.columns;
     const std::int64_t bh = bins.rows;
-    // The buckets the outline reaches, row by row, widened as forEachSourceSampleIn widens
-    // each triangle's (every sample that passes a triangle's test is among them).
-    const glm::dvec2 oa = lattice_.uv(outline[0]);
-    const glm::dvec2 ob = lattice_.uv(outline[1]);
-    const glm::dvec2 oc = lattice_.uv(outline[2]);
-    const std::optional<TriangleBuckets> outer =
-        bucketsOf(oa, ob, oc) ? bucketsOf(oa, ob, oc) : bucketsOf(oa, oc, ob);
-    if (!outer) return;
     const double perCell = 1.0 / static_cast<double>(lattice_.sideCells());
-    const double cells = static_cast<double>(bucketCells_);
-    for (std::uint32_t by = outer->by0; by <= outer->by1; ++by) {
-      double xLo = 0.0;
-      double xHi = 0.0;
-      triangleSpanInRows(outline[0], outline[1], outline[2],
-                         (static_cast<double>(by) - 1.0) * cells,
-                         (static_cast<double>(by) + 2.0) * cells, xLo, xHi);
-      if (!(xLo <= xHi)) continue;
-      const auto rx0 = static_cast<std::uint32_t>(std::clamp(std::floor(xLo / cells) - 1.0,
-                                                             static_cast<double>(outer->bx0),
-                                                             static_cast<double>(outer->bx1)));
-      const auto rx1 = static_cast<std::uint32_t>(std::clamp(std::floor(xHi / cells) + 1.0,
-                                                             static_cast<double>(outer->bx0),
-                                                             static_cast<double>(outer->bx1)));
-      if (rx0 > rx1) continue;
-      for (std::size_t table = 0; table < tables_.size(); ++table) {
-        forEachRunNear(
-            table, face, by, rx0, rx1, outline,
-            [&](std::span<const SourceSample> run, std::uint32_t bx) {
-              const glm::dvec2 origin = bucketOrigin(bx, by);
-              for (const SourceSample* s = run.data(); s != run.data() + run.size(); ++s) {
-                const double x = origin.x + static_cast<double>(s->x);
-                const double y = origin.y + static_cast<double>(s->y);
-                const std::int64_t sx0 = binOf(x - x0 - margin, bw);
-                const std::int64_t sx1 = binOf(x - x0 + margin, bw);
-                const std::int64_t sy0 = binOf(y - y0 - margin, bh);
-                const std::int64_t sy1 = binOf(y - y0 + margin, bh);
-                for (std::int64_t sy = sy0; sy <= sy1; ++sy) {
-                  for (std::int64_t sx = sx0; sx <= sx1; ++sx) {
-                    const auto bin = static_cast<std::size_t>(sy * bw + sx);
-                    for (std::uint32_t i = bins.start[bin]; i < bins.start[bin + 1]; ++i) {
-                      const std::uint32_t k = bins.binned[i];
-                      // A triangle in several of the sample's bins is visited from the first.
-                      if ((sx != sx0 && bins.reach[k][0] < sx) ||
-                          (sy != sy0 && bins.reach[k][2] < sy))
-                        continue;
-                      // Only from the buckets forEachSourceSampleIn reads for triangle k.
-                      const TriangleBuckets& test = bins.tests[k];
-                      if (bx < test.bx0 || bx > test.bx1 || by < test.by0 || by > test.by1)
-                        continue;
-                      double w0 = 0.0;
-                      double w1 = 0.0;
-                      double w2 = 0.0;
-                      if (!inside(x * perCell, y * perCell, bins.uv[k][0], bins.uv[k][1],
-                                  bins.uv[k][2], test, w0, w1, w2))
-                        continue;
-                      fn(std::size_t{k}, w0 / test.total, w1 / test.total, w2 / test.total, *s);
-                    }
-                  }
+    forEachOutlineRun(
+        face, outline, [&](std::span<const SourceSample> run, std::uint32_t bx, std::uint32_t by) {
+          const glm::dvec2 origin = bucketOrigin(bx, by);
+          for (const SourceSample* s = run.data(); s != run.data() + run.size(); ++s) {
+            const double x = origin.x + static_cast<double>(s->x);
+            const double y = origin.y + static_cast<double>(s->y);
+            const std::int64_t sx0 = binOf(x - x0 - margin, bw);
+            const std::int64_t sx1 = binOf(x - x0 + margin, bw);
+            const std::int64_t sy0 = binOf(y - y0 - margin, bh);
+            const std::int64_t sy1 = binOf(y - y0 + margin, bh);
+            for (std::int64_t sy = sy0; sy <= sy1; ++sy) {
+              for (std::int64_t sx = sx0; sx <= sx1; ++sx) {
+                const auto bin = static_cast<std::size_t>(sy * bw + sx);
+                for (std::uint32_t i = bins.start[bin]; i < bins.start[bin + 1]; ++i) {
+                  const std::uint32_t k = bins.binned[i];
+                  // A triangle in several of the sample's bins is visited from the first.
+                  if ((sx != sx0 && bins.reach[k][0] < sx) || (sy != sy0 && bins.reach[k][2] < sy))
+                    continue;
+                  // Only from the buckets forEachSourceSampleIn reads for triangle k.
+                  const TriangleBuckets& test = bins.tests[k];
+                  if (bx < test.bx0 || bx > test.bx1 || by < test.by0 || by > test.by1) continue;
+                  double w0 = 0.0;
+                  double w1 = 0.0;
+                  double w2 = 0.0;
+                  if (!inside(x * perCell, y * perCell, bins.uv[k][0], bins.uv[k][1], bins.uv[k][2],
+                              test, w0, w1, w2))
+                    continue;
+                  fn(std::size_t{k}, w0 / test.total, w1 / test.total, w2 / test.total, *s);
                 }
               }
-            });
-      }
-    }
+            }
+          }
+        });
+  }
+
+  /// forEachSourceSampleInTriangles for a patch whose triangles are all half a lattice cell
+  /// (doubled area 1, as a leaf's): the same visits, with a sample's triangles found from the
+  /// cells within the bins' margin of it (each cell holds at most two such triangles) instead
+  /// of through bins of triangle boxes built for the patch.
+  template <typename Fn>
+  void forEachSourceSampleInCells(int face, const std::array<runtime::LatticeXY, 3>& outline,
+                                  std::span<const std::array<runtime::LatticeXY, 3>> triangles,
+                                  Fn&& fn) const {
+    if (triangles.empty()) return;
+    CellTriangles cells = cellTriangles(triangles);
+    const double perCell = 1.0 / static_cast<double>(lattice_.sideCells());
+    const auto x0 = static_cast<double>(cells.x0);
+    const auto y0 = static_cast<double>(cells.y0);
+    const auto cellOf = [](double v, std::int64_t count) {
+      return std::clamp<std::int64_t>(static_cast<std::int64_t>(std::floor(v)), 0, count - 1);
+    };
+    forEachOutlineRun(
+        face, outline, [&](std::span<const SourceSample> run, std::uint32_t bx, std::uint32_t by) {
+          const glm::dvec2 origin = bucketOrigin(bx, by);
+          for (const SourceSample& s : run) {
+            const double x = origin.x + static_cast<double>(s.x);
+            const double y = origin.y + static_cast<double>(s.y);
+            const std::int64_t cx0 = cellOf(x - x0 - cells.margin, cells.columns);
+            const std::int64_t cx1 = cellOf(x - x0 + cells.margin, cells.columns);
+            const std::int64_t cy0 = cellOf(y - y0 - cells.margin, cells.rows);
+            const std::int64_t cy1 = cellOf(y - y0 + cells.margin, cells.rows);
+            for (std::int64_t cy = cy0; cy <= cy1; ++cy) {
+              for (std::int64_t cx = cx0; cx <= cx1; ++cx) {
+                for (const std::uint32_t k :
+                     cells.at[static_cast<std::size_t>(cy * cells.columns + cx)]) {
+                  if (k == kNoTriangle) continue;
+                  const TriangleBuckets& test = cells.tests[k];
+                  // Only from the buckets forEachSourceSampleIn reads for triangle k.
+                  if (bx < test.bx0 || bx > test.bx1 || by < test.by0 || by > test.by1) continue;
+                  double w0 = 0.0;
+                  double w1 = 0.0;
+                  double w2 = 0.0;
+                  if (!inside(x * perCell, y * perCell, cells.uv[k][0], cells.uv[k][1],
+                              cells.uv[k][2], test, w0, w1, w2))
+                    continue;
+                  fn(std::size_t{k}, w0 / test.total, w1 / test.total, w2 / test.total, s);
+                }
+              }
+            }
+          }
+        });
   }
 
   /// The x-extent in lattice units of the triangle (a, b, c) within the rows [y0, y1] (all of
@@ -444,6 +463,54 @@ class SampleGrid final {
     std::vector<std::uint32_t> binned;
   };
   TriangleBins binTriangles(std::span<const std::array<runtime::LatticeXY, 3>> triangles) const;
+
+  static constexpr std::uint32_t kNoTriangle = 0xffffffffU;
+  /// A patch of half-cell triangles by lattice cell over its box from (x0, y0): each cell's (at
+  /// most two) triangles, and each triangle's corners and test; `margin` as TriangleBins'.
+  struct CellTriangles final {
+    int x0 = 0, y0 = 0;
+    std::int64_t columns = 1, rows = 1;
+    double margin = 0.0;
+    std::vector<std::array<glm::dvec2, 3>> uv;
+    std::vector<TriangleBuckets> tests;
+    std::vector<std::array<std::uint32_t, 2>> at;
+  };
+  CellTriangles cellTriangles(std::span<const std::array<runtime::LatticeXY, 3>> triangles) const;
+
+  /// The runs of samples a patch's triangles are tested against: those of the buckets the
+  /// outline reaches, row by row, widened as forEachSourceSampleIn widens each triangle's (every
+  /// sample that passes a triangle's test is among them); fn(run, bx, by).
+  template <typename Fn>
+  void forEachOutlineRun(int face, const std::array<runtime::LatticeXY, 3>& outline,
+                         Fn&& fn) const {
+    const glm::dvec2 oa = lattice_.uv(outline[0]);
+    const glm::dvec2 ob = lattice_.uv(outline[1]);
+    const glm::dvec2 oc = lattice_.uv(outline[2]);
+    const std::optional<TriangleBuckets> outer =
+        bucketsOf(oa, ob, oc) ? bucketsOf(oa, ob, oc) : bucketsOf(oa, oc, ob);
+    if (!outer) return;
+    const double cells = static_cast<double>(bucketCells_);
+    for (std::uint32_t by = outer->by0; by <= outer->by1; ++by) {
+      double xLo = 0.0;
+      double xHi = 0.0;
+      triangleSpanInRows(outline[0], outline[1], outline[2],
+                         (static_cast<double>(by) - 1.0) * cells,
+                         (static_cast<double>(by) + 2.0) * cells, xLo, xHi);
+      if (!(xLo <= xHi)) continue;
+      const auto rx0 = static_cast<std::uint32_t>(std::clamp(std::floor(xLo / cells) - 1.0,
+                                                             static_cast<double>(outer->bx0),
+                                                             static_cast<double>(outer->bx1)));
+      const auto rx1 = static_cast<std::uint32_t>(std::clamp(std::floor(xHi / cells) + 1.0,
+                                                             static_cast<double>(outer->bx0),
+                                                             static_cast<double>(outer->bx1)));
+      if (rx0 > rx1) continue;
+      for (std::size_t table = 0; table < tables_.size(); ++table) {
+        forEachRunNear(
+            table, face, by, rx0, rx1, outline,
+            [&](std::span<const SourceSample> run, std::uint32_t bx) { fn(run, bx, by); });
+      }
+    }
+  }
 
   /// Nothing for a degenerate or clockwise triangle.
   std::optional<TriangleBuckets> bucketsOf(glm::dvec2 a, glm::dvec2 b,
