@@ -1,4 +1,6 @@
-// The HTTP side of `pbdam serve` (ServeServer.h).
+// The HTTP side of `pbdam serve` (ServeServer.h): the bounded connection pool, the route table
+// and its JSON refusals, /info, /stats, /healthz (with its checks of the files), the viewer page,
+// reloads, and the server's start and stop. The terrain endpoints are ServeTerrainEndpoints.cpp.
 #include "ServeServer.h"
 
 #include <httplib.h>
@@ -8,32 +10,26 @@
 #include <atomic>
 #include <cerrno>
 #include <chrono>
-#include <cmath>
 #include <condition_variable>
 #include <cstdio>
 #include <cstring>
 #include <deque>
 #include <functional>
-#include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <span>
-#include <sstream>
 #include <string>
 #include <string_view>
 #include <thread>
 #include <vector>
 
-#include "FrameImage.h"
-#include "HeightJson.h"
 #include "ServeQueries.h"
 #include "ServeRequest.h"
+#include "ServeServerImpl.h"
 #include "ServeStats.h"
 #include "ServeViewerHtml.h"
-#include "ViewshedOutput.h"
 #include "pbdam/formats/DatasetFormat.h"
 #include "pbdam/formats/GuardedCopy.h"
-#include "pbdam/runtime/SurfaceQuery.h"
 #include "pbdam/streaming/MappedDataset.h"
 #include "pbdam/streaming/MemoryBudget.h"
 #include "pbdam/streaming/ProcessMemory.h"
@@ -43,10 +39,10 @@ using namespace pbdam::runtime;
 using namespace pbdam::streaming;
 
 namespace pbdam::tools {
-namespace {
 
-using Clock = std::chrono::steady_clock;
-using Json = nlohmann::ordered_json;
+using namespace serve_internal;
+
+namespace {
 
 /// httplib's connection pool with a bound: at most `maxPending` accepted connections wait for a
 /// thread; beyond that the accept loop blocks, so further clients wait in the kernel's listen
@@ -133,13 +129,15 @@ const char* reasonPhrase(int status) {
   }
 }
 
-void sendJson(httplib::Response& res, int status, const Json& body) {
+}  // namespace
+
+void serve_internal::sendJson(httplib::Response& res, int status, const Json& body) {
   res.status = status;
   res.set_header("Cache-Control", "no-store");
   res.set_content(body.dump() + "\n", "application/json");
 }
 
-void sendError(httplib::Response& res, int status, const std::string& message) {
+void serve_internal::sendError(httplib::Response& res, int status, const std::string& message) {
   Json j;
   j["status"] = status;
   j["error"] = reasonPhrase(status);
@@ -147,34 +145,7 @@ void sendError(httplib::Response& res, int status, const std::string& message) {
   sendJson(res, status, j);
 }
 
-/// A terrain query's error in the server's words: the command line's option names
-/// (runtime::viewshedGrid, gpu::sightlineOverTerrain) become the query's parameters.
-std::string queryMessage(std::string message) {
-  for (const auto& [option, parameter] :
-       {std::pair{"--at", "parameter 'at'"}, std::pair{"--radius-m", "parameter 'radius_m'"},
-        std::pair{"--cell-m", "parameter 'cell_m'"}, std::pair{"--from", "parameter 'from'"},
-        std::pair{"--to", "parameter 'to'"}}) {
-    for (std::size_t at = message.find(option); at != std::string::npos;
-         at = message.find(option, at + 1)) {
-      const std::size_t end = at + std::string_view(option).size();
-      if (end < message.size() &&
-          (std::isalnum(static_cast<unsigned char>(message[end])) != 0 || message[end] == '-')) {
-        continue;  // a longer option
-      }
-      message.replace(at, end - at, parameter);
-    }
-  }
-  return message;
-}
-
-/// 503 for a terrain query that found the device busy for the whole wait.
-void sendBusy(httplib::Response& res) {
-  res.set_header("Retry-After", "1");
-  sendError(res, 503, "busy: another terrain query held the device for the whole wait");
-}
-
-/// HTTP status for a library error: the client's fault (4xx) or ours (5xx).
-int statusFor(const Error& error) {
+int serve_internal::statusFor(const Error& error) {
   switch (error.code) {
     case ErrorCode::InvalidArgument:
       return 400;
@@ -184,6 +155,8 @@ int statusFor(const Error& error) {
       return 500;
   }
 }
+
+namespace {
 
 /// Whether a peer address is this machine's loopback (IPv4 127/8, IPv6 ::1, or IPv4-mapped).
 bool isLoopback(const std::string& address) {
@@ -233,19 +206,6 @@ Json makeInfo(const MappedDataset& dataset, const ServeOptions& options,
       {"deadline_s", options.deadlineSeconds}, {"device", device}};
   return info;
 }
-
-/// What is served: one mapping of the dataset and the render pool (contexts, GPU cache) drawing
-/// it. Requests hold it through shared_ptr; the last one to let go destroys it — the pool first
-/// (members go in reverse order), then the mapping.
-// RenderPool's destructor joins its threads, which throws only on misuse (joining itself).
-// NOLINTNEXTLINE(bugprone-exception-escape): see above
-struct Generation final {
-  std::unique_ptr<MappedDataset> dataset;
-  std::unique_ptr<RenderPool> pool;
-  std::unique_ptr<ServeQueries> queries;  ///< on the pool's context: destroyed before it
-  Json info;
-  std::uint64_t number = 1;  ///< 1 at start, +1 per successful reload
-};
 
 Result<std::shared_ptr<Generation>> openGeneration(const std::string& directory,
                                                    const ServeOptions& options,
@@ -351,81 +311,6 @@ constexpr double kTableCheckSeconds = 10.0;
 
 }  // namespace
 
-struct FrameServer::Impl {
-  ServeOptions options;
-  std::string directory;
-  httplib::Server http;
-  Clock::time_point started = Clock::now();
-  std::uint32_t httpThreads = 0;
-  int port = 0;
-
-  std::atomic<bool> stopRequested{false};
-  std::atomic<bool> running{false};
-  std::mutex stopMutex;
-  std::condition_variable stopWake;
-
-  mutable std::mutex countersMutex;
-  std::map<int, std::uint64_t> responsesByStatus;
-  std::map<std::string, std::uint64_t> requestsByPath;
-  std::uint64_t requests = 0;
-  std::atomic<std::uint64_t> served{0};
-
-  // The served generation, swapped by reload(); reloads run one at a time.
-  mutable std::mutex generationMutex;
-  std::shared_ptr<Generation> generation;
-  std::uint64_t reloads = 0;
-  std::uint64_t failedReloads = 0;
-  std::string lastReloadError;
-  std::mutex reloadMutex;
-
-  // /healthz's last table check: its generation, time and findings.
-  mutable std::mutex healthMutex;
-  std::uint64_t tablesCheckedGeneration = 0;
-  Clock::time_point tablesCheckedAt;
-  std::vector<std::string> tableProblems;
-
-  std::shared_ptr<Generation> current() const {
-    const std::lock_guard<std::mutex> lock(generationMutex);
-    return generation;
-  }
-  Result<std::uint64_t> reload();
-
-  /// The one method an endpoint answers (GET answers HEAD too); any other gets a 405.
-  enum class Method { Get, Post };
-  /// Answers one request on behalf of the server.
-  using Handler = void (*)(Impl& server, const httplib::Request& req, httplib::Response& res);
-  /// One endpoint of the server.
-  struct Route final {
-    std::string_view path;
-    Method method;
-    Handler handle;
-  };
-  /// Every endpoint, in the order routeSummary() names them: what routes() registers, what
-  /// answers 405 rather than 404 for other methods, and the paths /stats counts requests by.
-  static std::span<const Route> routeTable() noexcept;
-  /// The endpoint at exactly `path`; nullptr when there is none.
-  static const Route* findRoute(std::string_view path) noexcept;
-  /// A route's handler: calls the member function `Handle` of the server.
-  template <auto Handle>
-  static void answer(Impl& server, const httplib::Request& req, httplib::Response& res) {
-    (server.*Handle)(req, res);
-  }
-
-  void routes();
-  void handleViewer(const httplib::Request& req, httplib::Response& res) const;
-  void handleFrame(const httplib::Request& req, httplib::Response& res) const;
-  void handleHeight(const httplib::Request& req, httplib::Response& res) const;
-  void handleLos(const httplib::Request& req, httplib::Response& res) const;
-  void handleViewshed(const httplib::Request& req, httplib::Response& res) const;
-  void handleInfo(const httplib::Request& req, httplib::Response& res) const;
-  void handleStats(const httplib::Request& req, httplib::Response& res) const;
-  void handleHealth(const httplib::Request& req, httplib::Response& res);
-  void handleReload(const httplib::Request& req, httplib::Response& res);
-  std::pair<int, Json> healthJson();
-  Json statsJson() const;
-  static int retryAfterSeconds(const RenderPool& pool);
-};
-
 Result<std::uint64_t> FrameServer::Impl::reload() {
   const std::lock_guard<std::mutex> reloading(reloadMutex);
   std::shared_ptr<Generation> old = current();
@@ -444,155 +329,6 @@ Result<std::uint64_t> FrameServer::Impl::reload() {
   // `old` goes when the requests still drawing from it have been answered (the last one
   // destroys it), or here, after the lock, when none are.
   return generation->number;
-}
-
-int FrameServer::Impl::retryAfterSeconds(const RenderPool& pool) {
-  // About the time the contexts need to work off a full queue, at least a second.
-  const RenderPoolStats s = pool.stats();
-  const double meanMs = s.frames > 0 ? s.renderMsTotal / static_cast<double>(s.frames) : 100.0;
-  const double backlogMs =
-      meanMs * static_cast<double>(s.queued + s.rendering) / static_cast<double>(s.workers);
-  return std::max(1, static_cast<int>(std::ceil(backlogMs / 1000.0)));
-}
-
-void FrameServer::Impl::handleFrame(const httplib::Request& req, httplib::Response& res) const {
-  const auto received = Clock::now();
-  // The whole request draws from one generation, even when a reload swaps it meanwhile.
-  const std::shared_ptr<Generation> g = current();
-  Result<FrameQuery> query = parseFrameQuery(req.params, g->dataset->view().planet());
-  if (!query) return sendError(res, 400, query.error().message);
-  query->request.morphRange = query->morph.value_or(options.morph) ? options.morphRange : 0.0;
-  if (query->exaggeration && *query->exaggeration != options.exaggeration) {
-    std::ostringstream what;
-    what << "parameter 'exaggeration': " << *query->exaggeration
-         << " is not this server's exaggeration " << options.exaggeration
-         << " (pbdam serve --exaggeration)";
-    return sendError(res, 400, what.str());
-  }
-  query->request.exaggeration = options.exaggeration;
-  if (!options.atmosphere) {
-    if (query->request.light.air == Light::Air::On) {
-      return sendError(res, 400,
-                       "parameter 'atmosphere': this server runs without the atmosphere "
-                       "(pbdam serve --atmosphere off)");
-    }
-    query->request.light.air = Light::Air::Off;
-  }
-  if (query->viewshed) {
-    auto drape = g->queries->viewshed(*query->viewshed);
-    if (drape.busy) return sendBusy(res);
-    if (!*drape.result) {
-      return sendError(res, statusFor(drape.result->error()),
-                       "parameter 'viewshed': " + queryMessage(drape.result->error().message));
-    }
-    query->request.overlay = (**drape.result)->overlay;
-  }
-  const auto deadline = received + std::chrono::duration_cast<Clock::duration>(
-                                       std::chrono::duration<double>(options.deadlineSeconds));
-  FrameOutcome outcome = g->pool->render(query->request, deadline);
-  switch (outcome.refusal) {
-    case FrameRefusal::QueueFull:
-      res.set_header("Retry-After", std::to_string(retryAfterSeconds(*g->pool)));
-      return sendError(res, 503,
-                       "overloaded: every render context is busy and the queue of " +
-                           std::to_string(options.queueCapacity) + " requests is full");
-    case FrameRefusal::Deadline:
-      res.set_header("Retry-After", std::to_string(retryAfterSeconds(*g->pool)));
-      return sendError(res, 503,
-                       "deadline: the frame was not drawn within " +
-                           std::to_string(options.deadlineSeconds) + " s");
-    case FrameRefusal::ShuttingDown:
-      return sendError(res, 503, "the server is shutting down");
-    case FrameRefusal::None:
-      break;
-  }
-  Result<FrameResult>& frame = *outcome.frame;
-  if (!frame) return sendError(res, statusFor(frame.error()), frame.error().message);
-  const auto encodeStart = Clock::now();
-  auto bytes = encodeFrameImage(frame->image, query->encoding, query->jpegQuality);
-  if (!bytes) return sendError(res, 500, bytes.error().message);
-  const double encodeMs =
-      std::chrono::duration<double, std::milli>(Clock::now() - encodeStart).count();
-  const gpu::FrameStats& s = frame->stats;
-  char number[32];
-  const auto header = [&](const char* name, double v) {
-    std::snprintf(number, sizeof number, "%.3f", v);
-    res.set_header(name, number);
-  };
-  res.set_header("X-Pbdam-Patches", std::to_string(s.patches));
-  res.set_header("X-Pbdam-Triangles", std::to_string(s.triangles));
-  res.set_header("X-Pbdam-Tiles", std::to_string(s.tiles));
-  res.set_header("X-Pbdam-Context", std::to_string(frame->worker));
-  res.set_header("X-Pbdam-Cache-Hits", std::to_string(s.hits));
-  res.set_header("X-Pbdam-Cache-Misses", std::to_string(s.misses));
-  res.set_header("X-Pbdam-Passes", std::to_string(s.passes));
-  header("X-Pbdam-Queue-Ms", frame->queueMs);
-  header("X-Pbdam-Traversal-Ms", frame->traversalMs);
-  header("X-Pbdam-Frame-Ms", s.frameMs);
-  header("X-Pbdam-Encode-Ms", encodeMs);
-  res.set_header("Cache-Control", "no-store");
-  res.status = 200;
-  res.body.assign(reinterpret_cast<const char*>(bytes->data()), bytes->size());
-  res.set_header("Content-Type",
-                 query->encoding == FrameEncoding::Png ? "image/png" : "image/jpeg");
-}
-
-void FrameServer::Impl::handleHeight(const httplib::Request& req, httplib::Response& res) const {
-  Result<HeightQuery> query = parseHeightQuery(req.params);
-  if (!query) return sendError(res, 400, query.error().message);
-  const std::shared_ptr<Generation> g = current();
-  const DatasetView& view = g->dataset->view();
-  auto h = surfaceHeightAt(view, query->latDegrees, query->lonDegrees);
-  if (!h) return sendError(res, statusFor(h.error()), h.error().message);
-  sendJson(res, 200,
-           surfaceHeightJson(query->latDegrees, query->lonDegrees, *h, view.manifest(),
-                             g->dataset->voidAt(query->latDegrees, query->lonDegrees)));
-}
-
-void FrameServer::Impl::handleLos(const httplib::Request& req, httplib::Response& res) const {
-  Result<LosQuery> query = parseLosQuery(req.params);
-  if (!query) return sendError(res, 400, query.error().message);
-  const std::shared_ptr<Generation> g = current();
-  auto outcome = g->queries->sightline(query->from, query->to);
-  if (outcome.busy) return sendBusy(res);
-  const Result<gpu::TerrainSightline>& line = *outcome.result;
-  if (!line) return sendError(res, statusFor(line.error()), queryMessage(line.error().message));
-  sendJson(res, 200, sightlineJson(g->dataset->view().planet(), *line));
-}
-
-void FrameServer::Impl::handleViewshed(const httplib::Request& req, httplib::Response& res) const {
-  Result<ViewshedQuery> query = parseViewshedQuery(req.params);
-  if (!query) return sendError(res, 400, query.error().message);
-  const std::shared_ptr<Generation> g = current();
-  auto outcome = g->queries->viewshed(query->request);
-  if (outcome.busy) return sendBusy(res);
-  if (!*outcome.result) {
-    return sendError(res, statusFor(outcome.result->error()),
-                     queryMessage(outcome.result->error().message));
-  }
-  const ServedViewshed& answer = ***outcome.result;
-  res.set_header("Cache-Control", "no-store");
-  switch (query->format) {
-    case ViewshedFormat::Json:
-      return sendJson(res, 200, viewshedJson(answer.viewshed, answer.heightAboveGroundMeters));
-    case ViewshedFormat::GeoTiff: {
-      auto tiff = viewshedGeoTiff(answer.viewshed);
-      if (!tiff) return sendError(res, 500, tiff.error().message);
-      res.status = 200;
-      res.body.assign(reinterpret_cast<const char*>(tiff->data()), tiff->size());
-      res.set_header("Content-Type", "image/tiff");
-      res.set_header("Content-Disposition", "attachment; filename=\"viewshed.tif\"");
-      return;
-    }
-    case ViewshedFormat::Png: {
-      auto png = encodeRgbaPng(answer.overlay->image);
-      if (!png) return sendError(res, 500, png.error().message);
-      res.status = 200;
-      res.body.assign(reinterpret_cast<const char*>(png->data()), png->size());
-      res.set_header("Content-Type", "image/png");
-      return;
-    }
-  }
 }
 
 void FrameServer::Impl::handleReload(const httplib::Request& req, httplib::Response& res) {
