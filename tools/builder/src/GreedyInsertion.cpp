@@ -30,6 +30,24 @@ std::int64_t floorDiv(std::int64_t a, std::int64_t b) noexcept {  // b > 0
 /// Whether d lies strictly inside the circumcircle of the counter-clockwise triangle (a, b, c).
 /// Exact: 128-bit integers hold the determinant for any lattice up to 2^28 cells.
 bool inCircle(LatticeXY a, LatticeXY b, LatticeXY c, LatticeXY d) noexcept {
+  // Within 2^14 cells of d every product below is under 2^58 and the sum under 2^61: 64 bits
+  // hold it exactly, and the answer is the same as in 128.
+  constexpr std::int32_t kNear = 1 << 14;
+  const auto near = [d](LatticeXY p) {
+    return std::abs(p.x - d.x) < kNear && std::abs(p.y - d.y) < kNear;
+  };
+  if (near(a) && near(b) && near(c)) {
+    const std::int64_t adx = a.x - d.x;
+    const std::int64_t ady = a.y - d.y;
+    const std::int64_t bdx = b.x - d.x;
+    const std::int64_t bdy = b.y - d.y;
+    const std::int64_t cdx = c.x - d.x;
+    const std::int64_t cdy = c.y - d.y;
+    return (adx * adx + ady * ady) * (bdx * cdy - cdx * bdy) +
+               (bdx * bdx + bdy * bdy) * (cdx * ady - adx * cdy) +
+               (cdx * cdx + cdy * cdy) * (adx * bdy - bdx * ady) >
+           0;
+  }
   const Int128 adx = a.x - d.x;
   const Int128 ady = a.y - d.y;
   const Int128 bdx = b.x - d.x;
