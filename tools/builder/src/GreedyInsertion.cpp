@@ -635,7 +635,7 @@ void Triangulation::scan(std::uint32_t t) {
   const std::size_t rowLength = std::size_t{heights_.sideCells} + 1;
   const auto firstColumn = static_cast<int>(roundUp(xMinBox));
   const std::int64_t boxPoints =
-      ((yMax - firstRow) / step + 1) * ((xMaxBox - firstColumn) / step + 1);
+      std::int64_t{(yMax - firstRow) / step + 1} * ((xMaxBox - firstColumn) / step + 1);
   if (heights_.tiles == nullptr && boxPoints <= kBoxScanPoints) {
     scanBox(p, {tri.n[0] == kNone, tri.n[1] == kNone, tri.n[2] == kNone}, step, firstRow, yMax,
             firstColumn, xMaxBox, heights, rowLength, plane);
