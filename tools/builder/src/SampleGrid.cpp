@@ -620,36 +620,61 @@ Result<void> SampleGrid::writeSourceBuckets(const SampleEnumerator& samples,
   return publishBucketFile(*map, tmp, samplesFile);
 }
 
-SampleGrid::CellTriangles SampleGrid::cellTriangles(
-    std::span<const std::array<LatticeXY, 3>> triangles) const {
-  CellTriangles cells;
+namespace {
+
+/// The lattice box of a patch's triangles (each extent at least one cell) and the margin within
+/// which a sample can pass a triangle's inside test beyond its box (TriangleBins::margin).
+struct PatchBox final {
+  int x0 = 0;
+  int y0 = 0;
+  std::int64_t width = 1;
+  std::int64_t height = 1;
+  double margin = 0.0;
+};
+
+PatchBox patchBox(std::span<const std::array<LatticeXY, 3>> triangles) noexcept {
+  PatchBox box;
   int x1 = triangles[0][0].x;
   int y1 = triangles[0][0].y;
-  cells.x0 = x1;
-  cells.y0 = y1;
+  box.x0 = x1;
+  box.y0 = y1;
   for (const auto& t : triangles) {
     for (const LatticeXY p : t) {
-      cells.x0 = std::min(cells.x0, p.x);
+      box.x0 = std::min(box.x0, p.x);
       x1 = std::max(x1, p.x);
-      cells.y0 = std::min(cells.y0, p.y);
+      box.y0 = std::min(box.y0, p.y);
       y1 = std::max(y1, p.y);
     }
   }
-  const std::int64_t w = std::max(1, x1 - cells.x0);
-  const std::int64_t h = std::max(1, y1 - cells.y0);
+  box.width = std::max(1, x1 - box.x0);
+  box.height = std::max(1, y1 - box.y0);
+  box.margin = 1e-6 + 1e-8 * static_cast<double>(std::max(box.width, box.height));
+  return box;
+}
+
+}  // namespace
+
+SampleGrid::CellTriangles SampleGrid::cellTriangles(
+    std::span<const std::array<LatticeXY, 3>> triangles) const {
+  CellTriangles cells;
+  const PatchBox box = patchBox(triangles);
+  cells.x0 = box.x0;
+  cells.y0 = box.y0;
+  const std::int64_t w = box.width;
+  const std::int64_t h = box.height;
   cells.columns = w;
   cells.rows = h;
-  cells.margin = 1e-6 + 1e-8 * static_cast<double>(std::max(w, h));
+  cells.margin = box.margin;
   cells.uv.resize(triangles.size());
   cells.tests.resize(triangles.size());
   cells.at.assign(static_cast<std::size_t>(w * h), {kNoTriangle, kNoTriangle});
   for (std::size_t k = 0; k < triangles.size(); ++k) {
     const auto& t = triangles[k];
     cells.uv[k] = {lattice_.uv(t[0]), lattice_.uv(t[1]), lattice_.uv(t[2])};
-    const std::optional<TriangleBuckets> box =
+    const std::optional<TriangleBuckets> test =
         bucketsOf(cells.uv[k][0], cells.uv[k][1], cells.uv[k][2]);
-    if (!box) continue;  // degenerate or clockwise: visits nothing, as forEachSourceSampleIn
-    cells.tests[k] = *box;
+    if (!test) continue;  // degenerate or clockwise: visits nothing, as forEachSourceSampleIn
+    cells.tests[k] = *test;
     // Half a cell: its box is one cell.
     const std::int64_t cx = std::min({t[0].x, t[1].x, t[2].x}) - cells.x0;
     const std::int64_t cy = std::min({t[0].y, t[1].y, t[2].y}) - cells.y0;
@@ -662,20 +687,11 @@ SampleGrid::CellTriangles SampleGrid::cellTriangles(
 SampleGrid::TriangleBins SampleGrid::binTriangles(
     std::span<const std::array<LatticeXY, 3>> triangles) const {
   TriangleBins bins;
-  int x1 = triangles[0][0].x;
-  int y1 = triangles[0][0].y;
-  bins.x0 = x1;
-  bins.y0 = y1;
-  for (const auto& t : triangles) {
-    for (const LatticeXY p : t) {
-      bins.x0 = std::min(bins.x0, p.x);
-      x1 = std::max(x1, p.x);
-      bins.y0 = std::min(bins.y0, p.y);
-      y1 = std::max(y1, p.y);
-    }
-  }
-  const std::int64_t w = std::max(1, x1 - bins.x0);
-  const std::int64_t h = std::max(1, y1 - bins.y0);
+  const PatchBox box = patchBox(triangles);
+  bins.x0 = box.x0;
+  bins.y0 = box.y0;
+  const std::int64_t w = box.width;
+  const std::int64_t h = box.height;
   const auto binsOf = [](std::int64_t extent, std::int64_t cells) {
     return (extent + cells - 1) / cells;
   };
@@ -683,7 +699,7 @@ SampleGrid::TriangleBins SampleGrid::binTriangles(
   while (binsOf(w, bins.binCells) * binsOf(h, bins.binCells) > most) bins.binCells *= 2;
   bins.columns = binsOf(w, bins.binCells);
   bins.rows = binsOf(h, bins.binCells);
-  bins.margin = 1e-6 + 1e-8 * static_cast<double>(std::max(w, h));
+  bins.margin = box.margin;
   bins.uv.resize(triangles.size());
   bins.tests.resize(triangles.size());
   bins.reach.resize(triangles.size());
@@ -698,13 +714,13 @@ SampleGrid::TriangleBins SampleGrid::binTriangles(
   for (std::size_t k = 0; k < triangles.size(); ++k) {
     const auto& t = triangles[k];
     bins.uv[k] = {lattice_.uv(t[0]), lattice_.uv(t[1]), lattice_.uv(t[2])};
-    const std::optional<TriangleBuckets> box =
+    const std::optional<TriangleBuckets> test =
         bucketsOf(bins.uv[k][0], bins.uv[k][1], bins.uv[k][2]);
-    if (!box) {  // degenerate or clockwise: visits nothing, as forEachSourceSampleIn
+    if (!test) {  // degenerate or clockwise: visits nothing, as forEachSourceSampleIn
       bins.reach[k] = {1, 0, 1, 0};
       continue;
     }
-    bins.tests[k] = *box;
+    bins.tests[k] = *test;
     // The cells [x0, x1) × [y0, y1) of the triangle's box (positive area: both extents ≥ 1).
     const std::int64_t cx0 = std::min({t[0].x, t[1].x, t[2].x}) - bins.x0;
     const std::int64_t cx1 = std::max({t[0].x, t[1].x, t[2].x}) - bins.x0 - 1;
