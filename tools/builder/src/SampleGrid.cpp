@@ -660,14 +660,12 @@ SampleGrid::CellTriangles SampleGrid::cellTriangles(
   const PatchBox box = patchBox(triangles);
   cells.x0 = box.x0;
   cells.y0 = box.y0;
-  const std::int64_t w = box.width;
-  const std::int64_t h = box.height;
-  cells.columns = w;
-  cells.rows = h;
+  cells.columns = box.width;
+  cells.rows = box.height;
   cells.margin = box.margin;
   cells.uv.resize(triangles.size());
   cells.tests.resize(triangles.size());
-  cells.at.assign(static_cast<std::size_t>(w * h), {kNoTriangle, kNoTriangle});
+  cells.at.assign(static_cast<std::size_t>(box.width * box.height), {kNoTriangle, kNoTriangle});
   for (std::size_t k = 0; k < triangles.size(); ++k) {
     const auto& t = triangles[k];
     cells.uv[k] = {lattice_.uv(t[0]), lattice_.uv(t[1]), lattice_.uv(t[2])};
@@ -678,7 +676,7 @@ SampleGrid::CellTriangles SampleGrid::cellTriangles(
     // Half a cell: its box is one cell.
     const std::int64_t cx = std::min({t[0].x, t[1].x, t[2].x}) - cells.x0;
     const std::int64_t cy = std::min({t[0].y, t[1].y, t[2].y}) - cells.y0;
-    auto& slots = cells.at[static_cast<std::size_t>(cy * w + cx)];
+    auto& slots = cells.at[static_cast<std::size_t>(cy * box.width + cx)];
     slots[slots[0] == kNoTriangle ? 0 : 1] = static_cast<std::uint32_t>(k);
   }
   return cells;

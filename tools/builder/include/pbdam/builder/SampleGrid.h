@@ -364,16 +364,8 @@ class SampleGrid final {
                   // A triangle in several of the sample's bins is visited from the first.
                   if ((sx != sx0 && bins.reach[k][0] < sx) || (sy != sy0 && bins.reach[k][2] < sy))
                     continue;
-                  // Only from the buckets forEachSourceSampleIn reads for triangle k.
-                  const TriangleBuckets& test = bins.tests[k];
-                  if (bx < test.bx0 || bx > test.bx1 || by < test.by0 || by > test.by1) continue;
-                  double w0 = 0.0;
-                  double w1 = 0.0;
-                  double w2 = 0.0;
-                  if (!inside(x * perCell, y * perCell, bins.uv[k][0], bins.uv[k][1], bins.uv[k][2],
-                              test, w0, w1, w2))
-                    continue;
-                  fn(std::size_t{k}, w0 / test.total, w1 / test.total, w2 / test.total, *s);
+                  testSample(k, bins.uv[k], bins.tests[k], x * perCell, y * perCell, bx, by, *s,
+                             fn);
                 }
               }
             }
@@ -390,43 +382,36 @@ class SampleGrid final {
                                   std::span<const std::array<runtime::LatticeXY, 3>> triangles,
                                   Fn&& fn) const {
     if (triangles.empty()) return;
-    CellTriangles cells = cellTriangles(triangles);
+    const CellTriangles cells = cellTriangles(triangles);
     const double perCell = 1.0 / static_cast<double>(lattice_.sideCells());
     const auto x0 = static_cast<double>(cells.x0);
     const auto y0 = static_cast<double>(cells.y0);
     const auto cellOf = [](double v, std::int64_t count) {
       return std::clamp<std::int64_t>(static_cast<std::int64_t>(std::floor(v)), 0, count - 1);
     };
-    forEachOutlineRun(
-        face, outline, [&](std::span<const SourceSample> run, std::uint32_t bx, std::uint32_t by) {
-          const glm::dvec2 origin = bucketOrigin(bx, by);
-          for (const SourceSample& s : run) {
-            const double x = origin.x + static_cast<double>(s.x);
-            const double y = origin.y + static_cast<double>(s.y);
-            const std::int64_t cx0 = cellOf(x - x0 - cells.margin, cells.columns);
-            const std::int64_t cx1 = cellOf(x - x0 + cells.margin, cells.columns);
-            const std::int64_t cy0 = cellOf(y - y0 - cells.margin, cells.rows);
-            const std::int64_t cy1 = cellOf(y - y0 + cells.margin, cells.rows);
-            for (std::int64_t cy = cy0; cy <= cy1; ++cy) {
-              for (std::int64_t cx = cx0; cx <= cx1; ++cx) {
-                for (const std::uint32_t k :
-                     cells.at[static_cast<std::size_t>(cy * cells.columns + cx)]) {
-                  if (k == kNoTriangle) continue;
-                  const TriangleBuckets& test = cells.tests[k];
-                  // Only from the buckets forEachSourceSampleIn reads for triangle k.
-                  if (bx < test.bx0 || bx > test.bx1 || by < test.by0 || by > test.by1) continue;
-                  double w0 = 0.0;
-                  double w1 = 0.0;
-                  double w2 = 0.0;
-                  if (!inside(x * perCell, y * perCell, cells.uv[k][0], cells.uv[k][1],
-                              cells.uv[k][2], test, w0, w1, w2))
-                    continue;
-                  fn(std::size_t{k}, w0 / test.total, w1 / test.total, w2 / test.total, s);
-                }
-              }
-            }
-          }
-        });
+    forEachOutlineRun(face, outline,
+                      [&](std::span<const SourceSample> run, std::uint32_t bx, std::uint32_t by) {
+                        const glm::dvec2 origin = bucketOrigin(bx, by);
+                        for (const SourceSample& s : run) {
+                          const double x = origin.x + static_cast<double>(s.x);
+                          const double y = origin.y + static_cast<double>(s.y);
+                          const std::int64_t cx0 = cellOf(x - x0 - cells.margin, cells.columns);
+                          const std::int64_t cx1 = cellOf(x - x0 + cells.margin, cells.columns);
+                          const std::int64_t cy0 = cellOf(y - y0 - cells.margin, cells.rows);
+                          const std::int64_t cy1 = cellOf(y - y0 + cells.margin, cells.rows);
+                          for (std::int64_t cy = cy0; cy <= cy1; ++cy) {
+                            for (std::int64_t cx = cx0; cx <= cx1; ++cx) {
+                              for (const std::uint32_t k :
+                                   cells.at[static_cast<std::size_t>(cy * cells.columns + cx)]) {
+                                if (k != kNoTriangle) {
+                                  testSample(k, cells.uv[k], cells.tests[k], x * perCell,
+                                             y * perCell, bx, by, s, fn);
+                                }
+                              }
+                            }
+                          }
+                        }
+                      });
   }
 
   /// The x-extent in lattice units of the triangle (a, b, c) within the rows [y0, y1] (all of
@@ -546,6 +531,20 @@ class SampleGrid final {
     w1 = (a.x - c.x) * (py - c.y) - (a.y - c.y) * (px - c.x);
     w2 = (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x);
     return !(w0 < box.eps || w1 < box.eps || w2 < box.eps);
+  }
+
+  /// fn(k, l0, l1, l2, s) when the sample s at (u, v) of bucket (bx, by) passes triangle k's
+  /// inside test (corners `uv`) and forEachSourceSampleIn of triangle k reads that bucket.
+  template <typename Fn>
+  static void testSample(std::size_t k, const std::array<glm::dvec2, 3>& uv,
+                         const TriangleBuckets& test, double u, double v, std::uint32_t bx,
+                         std::uint32_t by, const SourceSample& s, Fn& fn) {
+    if (bx < test.bx0 || bx > test.bx1 || by < test.by0 || by > test.by1) return;
+    double w0 = 0.0;
+    double w1 = 0.0;
+    double w2 = 0.0;
+    if (!inside(u, v, uv[0], uv[1], uv[2], test, w0, w1, w2)) return;
+    fn(k, w0 / test.total, w1 / test.total, w2 / test.total, s);
   }
 
   /// The inside test of forEachSourceSampleIn over one run of samples of the bucket whose lower
