@@ -1,6 +1,6 @@
-// Texture tile codec and BC1 compression (TextureTile.h; byte layout in formats/TextureTile.md;
-// [P-BDAM 2003] §5: textures stored as DXT1 = BC1). LZO1X through liblzo2, BC1 through
-// libsquish, one block at a time so nothing here starts threads.
+// Texture tile codec, BC1 and BC5 compression (TextureTile.h; byte layout in
+// formats/TextureTile.md; [P-BDAM 2003] §5: textures stored as DXT1 = BC1). LZO1X through
+// liblzo2, BC1 and BC5 through libsquish, one block at a time so nothing here starts threads.
 #include "pbdam/formats/TextureTile.h"
 
 #include <lzo/lzo1x.h>
@@ -29,12 +29,45 @@ constexpr std::uint8_t kLzo1x = 1;
 
 bool validFormat(std::uint8_t format) noexcept {
   return format == static_cast<std::uint8_t>(TexelFormat::Rgba8) ||
-         format == static_cast<std::uint8_t>(TexelFormat::Bc1);
+         format == static_cast<std::uint8_t>(TexelFormat::Bc1) ||
+         format == static_cast<std::uint8_t>(TexelFormat::Bc5) ||
+         format == static_cast<std::uint8_t>(TexelFormat::Rg8);
 }
 
 const char* formatName(TexelFormat format) noexcept {
-  return format == TexelFormat::Bc1 ? "bc1" : "rgba8";
+  switch (format) {
+    case TexelFormat::Rgba8:
+      return "rgba8";
+    case TexelFormat::Bc1:
+      return "bc1";
+    case TexelFormat::Bc5:
+      return "bc5";
+    case TexelFormat::Rg8:
+      return "rg8";
+  }
+  return "unknown";
 }
+
+bool isBlockFormat(TexelFormat format) noexcept {
+  return format == TexelFormat::Bc1 || format == TexelFormat::Bc5;
+}
+
+// Bytes of one 4×4 block (block formats) or of one texel (the others).
+std::size_t unitBytes(TexelFormat format) noexcept {
+  switch (format) {
+    case TexelFormat::Rgba8:
+      return 4;
+    case TexelFormat::Bc1:
+      return 8;
+    case TexelFormat::Bc5:
+      return 16;
+    case TexelFormat::Rg8:
+      return 2;
+  }
+  return 0;
+}
+
+constexpr std::size_t kBc4BlockBytes = 8;
 
 Error corrupt(std::string_view context, const std::string& what) {
   return makeError(ErrorCode::CorruptData, std::string(context) + ": " + what);
@@ -46,7 +79,7 @@ std::string describeInconsistency(const TextureTileImage& tile) {
   if (expected == 0) {
     return "invalid size " + std::to_string(tile.sizeTexels) + " for " + formatName(tile.format) +
            " (1.." + std::to_string(kMaxTextureTileTexels) +
-           (tile.format == TexelFormat::Bc1 ? ", a multiple of 4)" : ")");
+           (isBlockFormat(tile.format) ? ", a multiple of 4)" : ")");
   }
   if (2ull * tile.borderTexels >= tile.sizeTexels) {
     return "border " + std::to_string(tile.borderTexels) + " leaves no inner texels of " +
@@ -65,14 +98,9 @@ std::string describeInconsistency(const TextureTileImage& tile) {
 std::size_t textureTileDataBytes(std::uint32_t sizeTexels, TexelFormat format) noexcept {
   if (sizeTexels == 0 || sizeTexels > kMaxTextureTileTexels) return 0;
   const std::size_t size = sizeTexels;
-  switch (format) {
-    case TexelFormat::Rgba8:
-      return size * size * 4;
-    case TexelFormat::Bc1:
-      if (size % 4 != 0) return 0;
-      return (size / 4) * (size / 4) * 8;
-  }
-  return 0;
+  if (!isBlockFormat(format)) return size * size * unitBytes(format);
+  if (size % 4 != 0) return 0;
+  return (size / 4) * (size / 4) * unitBytes(format);
 }
 
 Result<std::vector<std::byte>> encodeTextureTile(const TextureTileImage& tile) {
@@ -153,7 +181,9 @@ Result<TextureTileImage> decodeTextureTile(std::span<const std::byte> blob,
   const std::size_t expected = textureTileDataBytes(tile.sizeTexels, tile.format);
   if (expected == 0) {
     return corrupt(context, "invalid " + std::string(formatName(tile.format)) + " tile size " +
-                                std::to_string(tile.sizeTexels));
+                                std::to_string(tile.sizeTexels) + " (1.." +
+                                std::to_string(kMaxTextureTileTexels) +
+                                (isBlockFormat(tile.format) ? ", a multiple of 4)" : ")"));
   }
   if (2ull * tile.borderTexels >= tile.sizeTexels) {
     return corrupt(context, "texture tile border " + std::to_string(tile.borderTexels) +
@@ -228,6 +258,11 @@ Result<TextureTileImage> compressBc1(const TextureTileImage& rgba, Bc1Quality qu
 }
 
 Result<TextureTileImage> expandToRgba8(const TextureTileImage& tile) {
+  if (tile.format != TexelFormat::Rgba8 && tile.format != TexelFormat::Bc1) {
+    return invalidArgument(
+        std::string("texture tile: expandToRgba8 expands rgba8 and bc1 tiles, not ") +
+        formatName(tile.format) + " (normal-map tiles expand with expandToRg8)");
+  }
   if (const std::string problem = describeInconsistency(tile); !problem.empty()) {
     return invalidArgument("texture tile: " + problem);
   }
@@ -247,6 +282,81 @@ Result<TextureTileImage> expandToRgba8(const TextureTileImage& tile) {
       for (std::size_t row = 0; row < 4; ++row) {
         const std::size_t target = ((4 * by + row) * size + 4 * bx) * 4;
         std::memcpy(out.data.data() + target, block.data() + row * 16, 16);
+      }
+    }
+  }
+  return out;
+}
+
+Result<TextureTileImage> compressBc5(const TextureTileImage& rg8) {
+  if (rg8.format != TexelFormat::Rg8)
+    return invalidArgument("texture tile: compressBc5 needs an rg8 tile");
+  if (const std::string problem = describeInconsistency(rg8); !problem.empty()) {
+    return invalidArgument("texture tile: " + problem);
+  }
+  if (rg8.sizeTexels % 4 != 0) {
+    return invalidArgument("texture tile: BC5 needs a size that is a multiple of 4, not " +
+                           std::to_string(rg8.sizeTexels));
+  }
+  TextureTileImage out;
+  out.sizeTexels = rg8.sizeTexels;
+  out.format = TexelFormat::Bc5;
+  out.borderTexels = rg8.borderTexels;
+  out.data.resize(textureTileDataBytes(rg8.sizeTexels, TexelFormat::Bc5));
+  const std::size_t size = rg8.sizeTexels;
+  const std::size_t blocksPerRow = size / 4;
+  // squish's kBc5 reads R into the block's first BC4 half and G into its second (TestTextureTile
+  // checks it) and ignores B and A, which are set anyway so that every byte is defined.
+  std::array<std::uint8_t, 64> block{};
+  for (std::size_t texel = 0; texel < 16; ++texel) block[texel * 4 + 3] = 255;
+  for (std::size_t by = 0; by < blocksPerRow; ++by) {
+    for (std::size_t bx = 0; bx < blocksPerRow; ++bx) {
+      for (std::size_t row = 0; row < 4; ++row) {
+        const std::uint8_t* source = rg8.data.data() + ((4 * by + row) * size + 4 * bx) * 2;
+        for (std::size_t x = 0; x < 4; ++x) {
+          block[(row * 4 + x) * 4 + 0] = source[2 * x];
+          block[(row * 4 + x) * 4 + 1] = source[2 * x + 1];
+        }
+      }
+      squish::Compress(block.data(), out.data.data() + (by * blocksPerRow + bx) * 16, squish::kBc5);
+    }
+  }
+  return out;
+}
+
+Result<TextureTileImage> expandToRg8(const TextureTileImage& tile) {
+  if (tile.format != TexelFormat::Rg8 && tile.format != TexelFormat::Bc5) {
+    return invalidArgument(
+        std::string("texture tile: expandToRg8 expands rg8 and bc5 tiles, not ") +
+        formatName(tile.format) + " (colour tiles expand with expandToRgba8)");
+  }
+  if (const std::string problem = describeInconsistency(tile); !problem.empty()) {
+    return invalidArgument("texture tile: " + problem);
+  }
+  if (tile.format == TexelFormat::Rg8) return tile;
+  TextureTileImage out;
+  out.sizeTexels = tile.sizeTexels;
+  out.format = TexelFormat::Rg8;
+  out.borderTexels = tile.borderTexels;
+  out.data.resize(textureTileDataBytes(tile.sizeTexels, TexelFormat::Rg8));
+  const std::size_t size = tile.sizeTexels;
+  const std::size_t blocksPerRow = size / 4;
+  // libsquish 1.15's Decompress ignores kBc4/kBc5 (it would decode the bytes as a BC1 colour
+  // block), but a BC4 block is bit for bit a DXT5 alpha block: each half goes through the DXT5
+  // path as the alpha half of an otherwise zero block, and the channel comes out in A.
+  std::array<std::uint8_t, 16> dxt5{};
+  std::array<std::uint8_t, 64> decoded{};
+  for (std::size_t by = 0; by < blocksPerRow; ++by) {
+    for (std::size_t bx = 0; bx < blocksPerRow; ++bx) {
+      const std::uint8_t* bc5 = tile.data.data() + (by * blocksPerRow + bx) * 16;
+      for (std::size_t channel = 0; channel < 2; ++channel) {
+        std::memcpy(dxt5.data(), bc5 + channel * kBc4BlockBytes, kBc4BlockBytes);
+        squish::Decompress(decoded.data(), dxt5.data(), squish::kDxt5);
+        for (std::size_t row = 0; row < 4; ++row) {
+          std::uint8_t* target = out.data.data() + ((4 * by + row) * size + 4 * bx) * 2;
+          for (std::size_t x = 0; x < 4; ++x)
+            target[2 * x + channel] = decoded[(row * 4 + x) * 4 + 3];
+        }
       }
     }
   }

@@ -1,8 +1,9 @@
 // libFuzzer target for the texture-tile decoder (TextureTile.h): decodeTextureTile on arbitrary
-// bytes; an accepted tile must have exactly the data its size and format need, expand to RGBA8,
-// and encode again to bytes that decode to the same tile. Each input is also tried with its CRC
-// made right. Seeds: RGBA8 and BC1 tiles of a
-// small MOLA build (tests/fuzz/corpus/texture_tile).
+// bytes; an accepted tile must have exactly the data its size and format need, expand (a colour
+// tile, RGBA8 or BC1, with expandToRgba8; a normal-map tile, RG8 or BC5, with expandToRg8), and
+// encode again to bytes that decode to the same tile. Each input is also tried with its CRC made
+// right. Seeds (tests/fuzz/corpus/texture_tile): RGBA8 and BC1 tiles of a small MOLA build, and
+// 16² RG8 and BC5 tiles (border 1) of a smooth two-channel field.
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -20,7 +21,8 @@ void check(std::span<const std::byte> bytes) {
   auto tile = decodeTextureTile(bytes, "fuzz");
   if (!tile) return;
   if (tile->data.size() != textureTileDataBytes(tile->sizeTexels, tile->format)) __builtin_trap();
-  if (!expandToRgba8(*tile)) __builtin_trap();
+  const bool colour = tile->format == TexelFormat::Rgba8 || tile->format == TexelFormat::Bc1;
+  if (!(colour ? expandToRgba8(*tile) : expandToRg8(*tile))) __builtin_trap();
   auto again = encodeTextureTile(*tile);
   if (!again) __builtin_trap();
   auto back = decodeTextureTile(*again, "fuzz re-encoded");
