@@ -251,6 +251,7 @@ void encodeTextureRecord(const TextureRecord& t,
   w.put(t.errorMeters);
   w.put(t.heapIndex);
   w.put(t.flags);
+  w.put(t.normalBytes);
 }
 
 TextureRecord decodeTextureRecord(std::span<const std::byte, kTextureRecordBytes> bytes) noexcept {
@@ -261,6 +262,7 @@ TextureRecord decodeTextureRecord(std::span<const std::byte, kTextureRecordBytes
   t.errorMeters = r.get<float>();
   t.heapIndex = r.get<std::uint64_t>();
   t.flags = r.get<std::uint32_t>();
+  t.normalBytes = r.get<std::uint32_t>();
   return t;
 }
 
@@ -557,10 +559,12 @@ Result<void> FaceView::checkTextures() {
       return where("tiles are not in ascending heap order from the root");
     }
     if ((t.flags & ~kRecordLeaf) != 0) return where("unknown flags");
-    if (t.blobBytes != 0 && (t.blobOffset < h.blobsOffset || t.blobOffset > h.fileBytes ||
-                             t.blobBytes > h.fileBytes - t.blobOffset)) {
+    const std::uint64_t blobs = t.blobsBytes();
+    if (blobs != 0 && (t.blobOffset < h.blobsOffset || t.blobOffset > h.fileBytes ||
+                       blobs > h.fileBytes - t.blobOffset)) {
       return where("points outside the blob area");
     }
+    if (t.normalBytes != 0 && t.blobBytes == 0) return where("a normal map without a tile");
     const std::uint32_t level = textureLevelOfHeap(t.heapIndex);
     if (level >= h.textureLevels) return where("deeper than the face's texture levels");
     const std::uint64_t inLevel = t.heapIndex - textureHeapIndex(level, 0, 0);
@@ -676,6 +680,13 @@ TextureRecord FaceView::textureNode(std::uint64_t heapIndex) const noexcept {
 Result<std::span<const std::byte>> FaceView::readTextureBlob(const TextureRecord& t,
                                                              std::vector<std::byte>& buffer) const {
   return readBlob(t.blobOffset, t.blobBytes, buffer);
+}
+
+Result<TextureBlobs> FaceView::readTextureBlobs(const TextureRecord& t,
+                                                std::vector<std::byte>& buffer) const {
+  auto both = readBlob(t.blobOffset, t.blobsBytes(), buffer);
+  if (!both) return std::move(both).error();
+  return TextureBlobs{both->first(t.blobBytes), both->subspan(t.blobBytes)};
 }
 
 }  // namespace pbdam::formats

@@ -52,6 +52,7 @@ std::string manifestToJson(const Manifest& m) {
                   {"tile_texels", m.textureTileTexels},
                   {"border_texels", m.textureBorderTexels},
                   {"format", m.textureFormat},
+                  {"normal_format", m.textureNormalFormat},
                   {"source", m.textureSource}};
   j["source"] = {{"dem", m.sourceDem},
                  {"format", m.sourceFormat},
@@ -138,6 +139,7 @@ Result<Manifest> parseManifest(std::string_view text, std::string_view context) 
     m.textureTileTexels = unsignedField<std::uint32_t>(t, "tile_texels");
     m.textureBorderTexels = unsignedField<std::uint32_t>(t, "border_texels");
     m.textureFormat = t.at("format").get<std::string>();
+    m.textureNormalFormat = t.at("normal_format").get<std::string>();
     m.textureSource = t.at("source").get<std::string>();
     const auto& s = j.at("source");
     m.sourceDem = s.at("dem").get<std::string>();
@@ -203,6 +205,18 @@ Result<Manifest> parseManifest(std::string_view text, std::string_view context) 
       }
     }
     if (m.cubeMap != "tangent") return fail("unknown cube map '" + m.cubeMap + "'");
+    if ((m.textureFormat != "bc1" || m.textureNormalFormat != "bc5") &&
+        (m.textureFormat != "rgba8" || m.textureNormalFormat != "rg8")) {
+      return fail("texture format '" + m.textureFormat + "' with normal format '" +
+                  m.textureNormalFormat + "' (expected bc1 with bc5, or rgba8 with rg8)");
+    }
+    if (m.textureTileTexels % 2 != 0 || m.textureBorderTexels % 2 != 0 ||
+        (m.textureNormalFormat == "bc5" && m.textureTileTexels % 8 != 0)) {
+      return fail("texture tiles of " + std::to_string(m.textureTileTexels) + " texels, border " +
+                  std::to_string(m.textureBorderTexels) +
+                  ": normal-map tiles are half as large, so both must be even (the side a "
+                  "multiple of 8 for bc5)");
+    }
     if (m.equatorialRadiusMeters <= 0.0 || m.heightStepMeters <= 0.0 || m.latticeCells == 0 ||
         m.leafCells == 0 || m.depth > kMaxBintreeDepth || m.textureLevels > kMaxTextureLevels) {
       return fail("out-of-range numbers");

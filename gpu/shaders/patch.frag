@@ -1,8 +1,14 @@
 // P-BDAM patch shading: the tile's texel (linear filtering; tiles carry a filtering border) lit
 // by a directional sun (behind the horizon of the reference surface, for the real sun, no direct
 // light: the terminator). The shading normal averages the interpolated corner normal N(w) with the
-// facet normal of the drawn triangles (screen-space derivatives of the camera-relative position),
-// so that the relief shows on imagery too. Ambient + Lambert diffuse; nothing view-dependent.
+// terrain's normal, so that the relief shows on imagery too. Under a real sun a simplified patch
+// whose triangles are coarser than its tile's normal map reads it from the map (made by the build
+// from the lattice, so distant relief keeps its shading where the drawn triangles are coarser than
+// the data; runtime/NormalMap.h), blended with the facets where the two are alike in size
+// (PatchDraw.cpp normalMapWeight); a leaf, which draws the lattice itself, and every patch under
+// the camera light (whose frames stay those of before the normal maps, byte for byte) take the
+// facet normal of the drawn triangles (screen-space derivatives of the camera-relative position).
+// Ambient + Lambert diffuse; nothing view-dependent.
 // Where the texture quadtree steps, the texture morph blends the parent's coarser tile (set 2,
 // the page that holds it) in with the geometry's weight (docs/architecture.md "Geomorphing").
 // A surface overlay (set 3; a viewshed) is blended over the texel by its alpha before lighting:
@@ -22,11 +28,14 @@ layout(push_constant) uniform PatchPush {
   vec4 sunAmbient;  // xyz: unit direction towards the sun (world), w: ambient term
   uint recordIndex;
   float sunDisc;  // sine of the sun's angular radius; 0: a light with no horizon (the camera's)
+  float normalMaps;  // 1: simplified patches shaded by their tiles' normal maps under the sun
   vec4 camera;    // xyz: the camera, planet-centred (km); w: exposure (0: no atmosphere)
 } pc;
 
 layout(set = 1, binding = 0) uniform sampler2DArray tiles;
+layout(set = 1, binding = 1) uniform sampler2DArray normalTiles;
 layout(set = 2, binding = 0) uniform sampler2DArray morphTiles;
+layout(set = 2, binding = 1) uniform sampler2DArray morphNormalTiles;
 layout(set = 3, binding = 0) uniform sampler2D overlayImage;
 layout(set = 3, binding = 1) uniform Overlay {
   vec4 origin;  // xyz: the overlay's centre on the reference surface, camera-relative; w: 1 drawn
@@ -45,17 +54,48 @@ layout(location = 6) in vec3 inInScatterLimit;
 layout(location = 7) in vec3 inExtinctionPerKm;
 layout(location = 8) in vec3 inSunIrradiance;
 layout(location = 9) in vec3 inSkyIrradiance;
+layout(location = 10) in vec3 inUp;
+layout(location = 11) flat in vec4 inNormalMap;
+layout(location = 12) flat in float inNormalMapShare;
 
 layout(location = 0) out vec4 outColor;
+
+// The terrain normal a normal-map texel holds (runtime/NormalMap.h decodeNormalTexel: companded
+// components along the tangents T, B of the frame at `up`), its slope scaled by `slopeScale`.
+vec3 mappedNormal(vec2 stored, vec3 up, vec3 faceU, float slopeScale) {
+  const vec2 s = stored * 2.0 - 1.0;  // byte / 127.5 - 1
+  vec2 c = s * abs(s);
+  const float planar = dot(c, c);
+  if (planar > 1.0) c *= inversesqrt(planar);
+  const float z = sqrt(max(1.0 - dot(c, c), 0.0));
+  const vec3 t = normalize(faceU - dot(faceU, up) * up);
+  const vec3 b = cross(up, t);
+  return normalize(slopeScale * (c.x * t + c.y * b) + z * up);
+}
 
 void main() {
   const vec3 smoothNormal = normalize(inNormal);
   vec3 shadingNormal = smoothNormal;
   const vec3 facet = cross(dFdx(inCameraRelative), dFdy(inCameraRelative));
   const float facetLength = length(facet);
-  if (facetLength > 0.0) {
-    const vec3 f = facet / facetLength;
-    shadingNormal = normalize(smoothNormal + (dot(f, smoothNormal) < 0.0 ? -f : f));
+  // Derivatives outside the branches: their conditions are per primitive, not per quad.
+  const vec2 morphDx = dFdx(inMorphTexCoord);
+  const vec2 morphDy = dFdy(inMorphTexCoord);
+  const vec3 f = facetLength > 0.0 ? facet / facetLength : smoothNormal;
+  const vec3 facetNormal = dot(f, smoothNormal) < 0.0 ? -f : f;
+  if (inNormalMapShare > 0.0 && pc.sunDisc > 0.0 && pc.normalMaps > 0.0) {
+    vec2 stored = texture(normalTiles, vec3(inTexCoord, inLayer)).rg;
+    if (inMorphTexture.x > 0.0) {
+      const vec2 coarser =
+          textureGrad(morphNormalTiles, vec3(inMorphTexCoord, inMorphTexture.y), morphDx, morphDy)
+              .rg;
+      stored = mix(stored, coarser, inMorphTexture.x);
+    }
+    const vec3 mapped = mappedNormal(stored, normalize(inUp), inNormalMap.xyz, inNormalMap.w);
+    shadingNormal =
+        normalize(smoothNormal + normalize(mix(facetNormal, mapped, inNormalMapShare)));
+  } else if (facetLength > 0.0) {
+    shadingNormal = normalize(smoothNormal + facetNormal);
   }
   const float ambient = pc.sunAmbient.w;
   float diffuse = max(dot(shadingNormal, pc.sunAmbient.xyz), 0.0);
@@ -66,9 +106,6 @@ void main() {
                      0.0, 1.0);
   }
   vec3 texel = texture(tiles, vec3(inTexCoord, inLayer)).rgb;
-  // Derivatives outside the branch: its condition is per primitive, not per quad.
-  const vec2 morphDx = dFdx(inMorphTexCoord);
-  const vec2 morphDy = dFdy(inMorphTexCoord);
   if (inMorphTexture.x > 0.0) {
     const vec3 coarser =
         textureGrad(morphTiles, vec3(inMorphTexCoord, inMorphTexture.y), morphDx, morphDy).rgb;

@@ -8,7 +8,7 @@
 // patch_texcoord.glsl; patch_position.glsl never reads them nor the w of corner[].
 struct PatchDrawRecord {
   vec4 corner[3];           // xyz: float(P_k - camera), w: 0 layer, 1 equatorial, 2 polar radius
-  vec4 normal[3];           // xyz: N_k
+  vec4 normal[3];           // xyz: N_k; w of 0: the normal map's slope scale, of 1: its share
   vec4 edgeOrigin[3];       // xyz: Re, w: tr
   vec4 edgeVector[3];       // xyz: Ee = P_b - P_a, w: hre
   vec4 edgeNormal[3];       // xyz: Na, w: index of corner b (0..2)

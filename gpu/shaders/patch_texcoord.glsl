@@ -21,8 +21,9 @@ const vec3 kFaceV[6] = vec3[6](vec3(0, 0, 1), vec3(0, 0, 1), vec3(0, 0, 1), vec3
                                vec3(-1, 0, 0), vec3(1, 0, 0));
 
 // The tile texture coordinates of the vertex at `cameraRelative` (its position minus the camera)
-// of the patch drawn with record `r`.
-vec2 patchVertexTexCoord(uint r, vec3 cameraRelative) {
+// of the patch drawn with record `r`, and the reference surface's unit normal below it (`up`: the
+// frame its tile's normal map is stored in, runtime/NormalMap.h).
+vec2 patchVertexTexCoordAndUp(uint r, vec3 cameraRelative, out vec3 up) {
   const vec4 center = draws.records[r].texCenter;
   const vec4 plane = draws.records[r].texPlane;
   const int face = int(plane.w);
@@ -55,5 +56,11 @@ vec2 patchVertexTexCoord(uint r, vec3 cameraRelative) {
   const float dn = dot(dq, en);
   const vec2 dPlane = (vec2(dot(dq, eu), dot(dq, ev)) - plane0 * dn) / (qn + dn);
   const vec2 dUv = (2.0 / 3.14159265358979) * atan(dPlane / (1.0 + plane0 * (plane0 + dPlane)));
+  up = n1;
   return 0.5 + center.w * dUv;
+}
+
+vec2 patchVertexTexCoord(uint r, vec3 cameraRelative) {
+  vec3 up;
+  return patchVertexTexCoordAndUp(r, cameraRelative, up);
 }

@@ -10,6 +10,7 @@ layout(push_constant) uniform PatchPush {
   vec4 sunAmbient;      // xyz: unit direction towards the sun (world), w: ambient term
   uint recordIndex;     // this draw's PatchDrawRecord
   float sunDisc;        // sine of the sun's angular radius; 0: a light with no horizon
+  float normalMaps;     // 1: simplified patches shaded by their normal maps (patch.frag)
   vec4 camera;          // xyz: the camera, planet-centred (km); w: exposure (0: no atmosphere)
 } pc;
 
@@ -33,6 +34,12 @@ layout(location = 6) out vec3 outInScatterLimit;
 layout(location = 7) out vec3 outExtinctionPerKm;
 layout(location = 8) out vec3 outSunIrradiance;
 layout(location = 9) out vec3 outSkyIrradiance;
+// The normal map's frame: the reference surface's normal (interpolated), and flat: xyz the
+// face's u axis, w the map's slope scale; and the map's share of the terrain normal (0: the
+// patch is shaded by its triangles' facets alone; PatchDraw.cpp normalMapWeight).
+layout(location = 10) out vec3 outUp;
+layout(location = 11) flat out vec4 outNormalMap;
+layout(location = 12) flat out float outNormalMapShare;
 
 // The vertex of the draw whose record is `r`.
 void emitPatchVertex(uint r) {
@@ -40,7 +47,9 @@ void emitPatchVertex(uint r) {
   gl_Position = pc.viewProjection * vec4(position, 1.0);
 
   const vec3 w = patchVertexWeights(inBarycentric);
-  outTexCoord = patchVertexTexCoord(r, position);
+  outTexCoord = patchVertexTexCoordAndUp(r, position, outUp);
+  outNormalMap = vec4(kFaceU[int(draws.records[r].texPlane.w)], draws.records[r].normal[0].w);
+  outNormalMapShare = draws.records[r].normal[1].w;
   const vec4 morphTexture = draws.records[r].morphTexture;
   outMorphTexCoord = morphTexture.z * outTexCoord + morphTexture.xy;
   outMorphTexture = draws.records[r].morph.zw;

@@ -28,11 +28,10 @@ std::string mebibytes(std::uint64_t bytes) {
   return text;
 }
 
-bool deviceSamplesBc1(const VulkanContext& context) {
+bool deviceSamples(const VulkanContext& context, VkFormat format) {
   if (!context.caps().textureCompressionBC) return false;
   VkFormatProperties properties{};
-  vkGetPhysicalDeviceFormatProperties(context.physicalDevice(), VK_FORMAT_BC1_RGB_UNORM_BLOCK,
-                                      &properties);
+  vkGetPhysicalDeviceFormatProperties(context.physicalDevice(), format, &properties);
   const VkFormatFeatureFlags needed = VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT |
                                       VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT |
                                       VK_FORMAT_FEATURE_TRANSFER_DST_BIT;
@@ -46,11 +45,16 @@ TextureChoice chooseTexture(const VulkanContext& context, const DatasetView& dat
   const std::uint32_t size = dataset.manifest().textureTileTexels;
   TextureChoice choice;
   if (DecodeScheduler::datasetTexels(dataset) == TexelFormat::Bc1 && !forceRgba8 &&
-      deviceSamplesBc1(context)) {
+      deviceSamples(context, VK_FORMAT_BC1_RGB_UNORM_BLOCK) &&
+      deviceSamples(context, VK_FORMAT_BC5_UNORM_BLOCK)) {
     choice.format = VK_FORMAT_BC1_RGB_UNORM_BLOCK;
     choice.texels = TexelFormat::Bc1;
+    choice.normalFormat = VK_FORMAT_BC5_UNORM_BLOCK;
   }
-  choice.slotBytes = textureTileDataBytes(size, choice.texels);
+  const std::uint64_t colour = textureTileDataBytes(size, choice.texels);
+  const std::uint64_t normal = textureTileDataBytes(dataset.manifest().normalTileTexels(),
+                                                    DecodeScheduler::normalTexels(choice.texels));
+  choice.slotBytes = colour == 0 || normal == 0 ? 0 : colour + normal;
   return choice;
 }
 
@@ -118,9 +122,16 @@ Result<std::shared_ptr<GpuCache>> GpuCache::create(VulkanContext& context,
       std::min<std::uint64_t>(options.chunkBytes / state->texture.slotBytes,
                               formatProperties.maxArrayLayers),
       1, tileCapacity));
-  auto tiles = TilePool::create(context, state->texture.format, tileTexels,
-                                state->texture.slotBytes, tileCapacity, layersPerPage,
-                                state->pipeline.tilesSetLayout(), state->pipeline.sampler());
+  TileFormats formats;
+  formats.colour = state->texture.format;
+  formats.colourTexels = tileTexels;
+  formats.normal = state->texture.normalFormat;
+  formats.normalTexels = dataset.manifest().normalTileTexels();
+  formats.normalOffset =
+      DecodeScheduler(dataset, state->texture.texels, options.exaggeration).normalTileOffset();
+  auto tiles =
+      TilePool::create(context, formats, state->texture.slotBytes, tileCapacity, layersPerPage,
+                       state->pipeline.tilesSetLayout(), state->pipeline.sampler());
   if (!tiles) return std::move(tiles).error();
   state->tiles = std::move(*tiles);
   return std::shared_ptr<GpuCache>(new GpuCache(std::move(state)));

@@ -23,10 +23,14 @@ namespace pbdam::gpu {
 struct TextureChoice final {
   VkFormat format = VK_FORMAT_R8G8B8A8_UNORM;
   formats::TexelFormat texels = formats::TexelFormat::Rgba8;
+  /// The normal maps': BC5 beside BC1, RG8 beside RGBA8 (DecodeScheduler::normalTexels).
+  VkFormat normalFormat = VK_FORMAT_R8G8_UNORM;
+  /// A slot's device bytes: the colour tile's and its normal map's.
   std::uint64_t slotBytes = 0;
 };
 
-/// BC1 where the dataset and the device have it (and it is not refused), RGBA8 otherwise.
+/// BC1 and BC5 where the dataset and the device have them (and they are not refused), RGBA8 and
+/// RG8 otherwise.
 TextureChoice chooseTexture(const VulkanContext& context, const runtime::DatasetView& dataset,
                             bool forceRgba8);
 /// Bytes of one patch slot: the dataset's largest patch, 24-byte vertices and 16-bit indices.

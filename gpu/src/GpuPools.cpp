@@ -2,8 +2,10 @@
 #include "GpuPools.h"
 
 #include <algorithm>
+#include <array>
 #include <cassert>
 #include <string>
+#include <vector>
 
 #include "pbdam/gpu/VulkanContext.h"
 #include "pbdam/gpu/VulkanError.h"
@@ -46,13 +48,12 @@ Result<void> PatchPool::ensureSlots(const VulkanContext& context, std::uint32_t 
   return {};
 }
 
-Result<TilePool> TilePool::create(const VulkanContext& context, VkFormat format,
-                                  std::uint32_t sizeTexels, std::uint64_t slotBytes,
-                                  std::uint32_t capacitySlots, std::uint32_t layersPerPage,
-                                  VkDescriptorSetLayout setLayout, VkSampler sampler) {
+Result<TilePool> TilePool::create(const VulkanContext& context, const TileFormats& formats,
+                                  std::uint64_t slotBytes, std::uint32_t capacitySlots,
+                                  std::uint32_t layersPerPage, VkDescriptorSetLayout setLayout,
+                                  VkSampler sampler) {
   TilePool pool;
-  pool.format_ = format;
-  pool.sizeTexels_ = sizeTexels;
+  pool.formats_ = formats;
   pool.slotBytes_ = slotBytes;
   pool.capacitySlots_ = capacitySlots;
   pool.layersPerPage_ = std::max<std::uint32_t>(1, layersPerPage);
@@ -62,7 +63,7 @@ Result<TilePool> TilePool::create(const VulkanContext& context, VkFormat format,
       std::max<std::uint32_t>(1, (capacitySlots + pool.layersPerPage_ - 1) / pool.layersPerPage_);
   VkDescriptorPoolSize size{};
   size.type = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-  size.descriptorCount = maxPages;
+  size.descriptorCount = 2 * maxPages;
   VkDescriptorPoolCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
   info.maxSets = maxPages;
@@ -84,17 +85,24 @@ Result<void> TilePool::ensureSlots(VulkanContext& context, std::uint32_t slotCou
     const auto first = static_cast<std::uint32_t>(pages_.size()) * layersPerPage_;
     const std::uint32_t layers = std::min(layersPerPage_, capacitySlots_ - first);
     ImageDesc desc;
-    desc.format = format_;
-    desc.widthPixels = sizeTexels_;
-    desc.heightPixels = sizeTexels_;
+    desc.format = formats_.colour;
+    desc.widthPixels = formats_.colourTexels;
+    desc.heightPixels = formats_.colourTexels;
     desc.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
     desc.aspect = VK_IMAGE_ASPECT_COLOR_BIT;
     desc.arrayLayers = layers;
     desc.arrayView = true;
     auto image = createImage2D(context, desc, "tile page " + std::to_string(pages_.size()));
     if (!image) return std::move(image).error();
+    desc.format = formats_.normal;
+    desc.widthPixels = formats_.normalTexels;
+    desc.heightPixels = formats_.normalTexels;
+    auto normalImage =
+        createImage2D(context, desc, "normal-map page " + std::to_string(pages_.size()));
+    if (!normalImage) return std::move(normalImage).error();
     Page page;
     page.image = std::move(*image);
+    page.normalImage = std::move(*normalImage);
 
     VkDescriptorSetAllocateInfo allocate{};
     allocate.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
@@ -105,18 +113,21 @@ Result<void> TilePool::ensureSlots(VulkanContext& context, std::uint32_t slotCou
         r != VK_SUCCESS) {
       return vulkanError(r, "vkAllocateDescriptorSets (tile page)");
     }
-    VkDescriptorImageInfo imageInfo{};
-    imageInfo.sampler = sampler_;
-    imageInfo.imageView = page.image.view();
-    imageInfo.imageLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
-    VkWriteDescriptorSet write{};
-    write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-    write.dstSet = page.set;
-    write.dstBinding = 0;
-    write.descriptorCount = 1;
-    write.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-    write.pImageInfo = &imageInfo;
-    vkUpdateDescriptorSets(context.device(), 1, &write, 0, nullptr);
+    std::array<VkDescriptorImageInfo, 2> imageInfo{};
+    std::array<VkWriteDescriptorSet, 2> writes{};
+    for (std::uint32_t b = 0; b < 2; ++b) {
+      imageInfo[b].sampler = sampler_;
+      imageInfo[b].imageView = b == 0 ? page.image.view() : page.normalImage.view();
+      imageInfo[b].imageLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+      writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+      writes[b].dstSet = page.set;
+      writes[b].dstBinding = b;
+      writes[b].descriptorCount = 1;
+      writes[b].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+      writes[b].pImageInfo = &imageInfo[b];
+    }
+    vkUpdateDescriptorSets(context.device(), static_cast<std::uint32_t>(writes.size()),
+                           writes.data(), 0, nullptr);
     pages_.push_back(std::move(page));
     allocatedBytes_ += slotBytes_ * layers;
   }
@@ -125,7 +136,12 @@ Result<void> TilePool::ensureSlots(VulkanContext& context, std::uint32_t slotCou
   // Every layer of a new page goes to the sampling layout once; uploads then move single layers
   // to TRANSFER_DST and back.
   std::vector<VkImageMemoryBarrier2> barriers;
+  std::vector<VkImage> images;
   for (std::size_t p = firstNew; p < pages_.size(); ++p) {
+    images.push_back(pages_[p].image.image());
+    images.push_back(pages_[p].normalImage.image());
+  }
+  for (VkImage image : images) {
     VkImageMemoryBarrier2 b{};
     b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2;
     b.srcStageMask = VK_PIPELINE_STAGE_2_NONE;
@@ -136,7 +152,7 @@ Result<void> TilePool::ensureSlots(VulkanContext& context, std::uint32_t slotCou
     b.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
     b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
     b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b.image = pages_[p].image.image();
+    b.image = image;
     b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, VK_REMAINING_ARRAY_LAYERS};
     barriers.push_back(b);
   }

@@ -60,17 +60,29 @@ class PatchPool final {
   std::uint64_t allocatedBytes_ = 0;
 };
 
-/// Tile slots: layers of 2D-array images of `format` (sizeTexels², one mip), `layersPerPage`
-/// layers a page (the last page may hold fewer), each page with a descriptor set (set 1 of the
-/// patch pipeline) and kept in SHADER_READ_ONLY_OPTIMAL between uploads.
+/// What a tile slot holds: its colour texels and its normal map's (half the size), and where
+/// the normal map's texels start in a decoded tile (DecodeScheduler::normalTileOffset).
+struct TileFormats final {
+  VkFormat colour = VK_FORMAT_UNDEFINED;
+  std::uint32_t colourTexels = 0;
+  VkFormat normal = VK_FORMAT_UNDEFINED;
+  std::uint32_t normalTexels = 0;
+  std::uint64_t normalOffset = 0;
+};
+
+/// Tile slots: layers of two 2D-array images a page, the colour tiles (`colour`,
+/// colourTexels², one mip) and their normal maps (`normal`, normalTexels²) in the same layer,
+/// `layersPerPage` layers a page (the last page may hold fewer), each page with a descriptor set
+/// (set 1 of the patch pipeline: binding 0 the colour, 1 the normal maps) and kept in
+/// SHADER_READ_ONLY_OPTIMAL between uploads.
 class TilePool final {
  public:
   TilePool() = default;
 
   /// Creates the descriptor pool for every page the capacity can need.
-  static formats::Result<TilePool> create(const VulkanContext& context, VkFormat format,
-                                          std::uint32_t sizeTexels, std::uint64_t slotBytes,
-                                          std::uint32_t capacitySlots, std::uint32_t layersPerPage,
+  static formats::Result<TilePool> create(const VulkanContext& context, const TileFormats& formats,
+                                          std::uint64_t slotBytes, std::uint32_t capacitySlots,
+                                          std::uint32_t layersPerPage,
                                           VkDescriptorSetLayout setLayout, VkSampler sampler);
 
   /// Allocates pages until slots [0, slotCount) exist (slotCount ≤ capacity); new pages are
@@ -81,18 +93,20 @@ class TilePool final {
     return {slot / layersPerPage_, slot % layersPerPage_};
   }
   VkImage image(std::uint32_t page) const noexcept { return pages_[page].image.image(); }
+  VkImage normalImage(std::uint32_t page) const noexcept {
+    return pages_[page].normalImage.image();
+  }
   VkDescriptorSet descriptorSet(std::uint32_t page) const noexcept { return pages_[page].set; }
-  VkFormat format() const noexcept { return format_; }
-  std::uint32_t sizeTexels() const noexcept { return sizeTexels_; }
+  const TileFormats& formats() const noexcept { return formats_; }
   std::uint64_t allocatedBytes() const noexcept { return allocatedBytes_; }
 
  private:
   struct Page {
     GpuImage image;
+    GpuImage normalImage;
     VkDescriptorSet set = VK_NULL_HANDLE;  ///< freed with the descriptor pool
   };
-  VkFormat format_ = VK_FORMAT_UNDEFINED;
-  std::uint32_t sizeTexels_ = 0;
+  TileFormats formats_;
   std::uint64_t slotBytes_ = 0;
   std::uint32_t capacitySlots_ = 0;
   std::uint32_t layersPerPage_ = 1;

@@ -35,6 +35,27 @@ const uint32_t kSkyFrag[] =
 #include "sky.frag.inc"
     ;
 
+/// Sets 1 and 2: a tile page's colour tiles (binding 0) and normal-map tiles (binding 1), both
+/// sampled by the fragment shader.
+Result<UniqueDescriptorSetLayout> createTilesSetLayout(VkDevice device) {
+  std::array<VkDescriptorSetLayoutBinding, 2> bindings{};
+  for (std::uint32_t b = 0; b < 2; ++b) {
+    bindings[b].binding = b;
+    bindings[b].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    bindings[b].descriptorCount = 1;
+    bindings[b].stageFlags = VK_SHADER_STAGE_FRAGMENT_BIT;
+  }
+  VkDescriptorSetLayoutCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
+  info.bindingCount = static_cast<std::uint32_t>(bindings.size());
+  info.pBindings = bindings.data();
+  VkDescriptorSetLayout raw = VK_NULL_HANDLE;
+  if (VkResult r = vkCreateDescriptorSetLayout(device, &info, nullptr, &raw); r != VK_SUCCESS) {
+    return vulkanError(r, "vkCreateDescriptorSetLayout (tile pages)");
+  }
+  return UniqueDescriptorSetLayout(device, raw);
+}
+
 /// Set 3: the overlay's image and uniform block, both read by the fragment shader.
 Result<UniqueDescriptorSetLayout> createOverlaySetLayout(VkDevice device) {
   std::array<VkDescriptorSetLayoutBinding, 2> bindings{};
@@ -194,8 +215,7 @@ Result<PatchPipeline> PatchPipeline::create(const VulkanContext& context, VkForm
                                    VK_SHADER_STAGE_VERTEX_BIT, "patch draw records");
     if (!records) return std::move(records).error();
     result.recordsSetLayout_ = std::move(*records);
-    auto tiles = createSetLayout(device, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER,
-                                 VK_SHADER_STAGE_FRAGMENT_BIT, "tile pages");
+    auto tiles = createTilesSetLayout(device);
     if (!tiles) return std::move(tiles).error();
     result.tilesSetLayout_ = std::move(*tiles);
   }

@@ -25,7 +25,8 @@ struct PatchPush final {
   float sunAmbient[4];        ///< xyz: unit direction towards the sun (ECEF axes), w: ambient
   std::uint32_t recordIndex;  ///< the draw's PatchDrawRecord in the records buffer
   float sunDisc;              ///< sine of the sun's angular radius; 0: a light with no horizon
-  float pad[2];               ///< std430: the vec4 below starts at 96
+  float normalMaps;           ///< 1: simplified patches shaded by their normal maps under the sun
+  float pad;                  ///< std430: the vec4 below starts at 96
   float camera[4];  ///< xyz: the camera, planet-centred (km); w: exposure (0: no atmosphere)
 };
 static_assert(sizeof(PatchPush) == 112);

@@ -74,15 +74,16 @@ void StagingUploader::record(VkCommandBuffer cmd, std::span<const DecodeJob> job
   for (std::size_t j = 0; j < jobs.size(); ++j) {
     if (jobs[j].key.kind() != ResidentKind::Tile) continue;
     const PoolLocation at = tiles.locate(slots[j]);
-    VkImage image = tiles.image(at.chunk);
-    toTransfer.push_back(layerBarrier(image, at.local, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
-                                      VK_ACCESS_2_NONE, VK_PIPELINE_STAGE_2_COPY_BIT,
-                                      VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                                      VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL));
-    toSampled.push_back(layerBarrier(
-        image, at.local, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-        VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
-        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL));
+    for (VkImage image : {tiles.image(at.chunk), tiles.normalImage(at.chunk)}) {
+      toTransfer.push_back(layerBarrier(image, at.local, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+                                        VK_ACCESS_2_NONE, VK_PIPELINE_STAGE_2_COPY_BIT,
+                                        VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                                        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL));
+      toSampled.push_back(layerBarrier(
+          image, at.local, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+          VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+          VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL));
+    }
   }
   VkDependencyInfo dependency{};
   dependency.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
@@ -92,7 +93,7 @@ void StagingUploader::record(VkCommandBuffer cmd, std::span<const DecodeJob> job
   dependency.pImageMemoryBarriers = toTransfer.data();
   vkCmdPipelineBarrier2(cmd, &dependency);
 
-  const std::uint32_t size = tiles.sizeTexels();
+  const TileFormats& formats = tiles.formats();
   for (std::size_t j = 0; j < jobs.size(); ++j) {
     const DecodeJob& job = jobs[j];
     if (job.key.kind() == ResidentKind::Patch) {
@@ -110,8 +111,13 @@ void StagingUploader::record(VkCommandBuffer cmd, std::span<const DecodeJob> job
       VkBufferImageCopy region{};
       region.bufferOffset = job.offset;
       region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, at.local, 1};
-      region.imageExtent = {size, size, 1};
+      region.imageExtent = {formats.colourTexels, formats.colourTexels, 1};
       vkCmdCopyBufferToImage(cmd, staging_.buffer(), tiles.image(at.chunk),
+                             VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+      // The normal map, after the colour texels in the decoded tile.
+      region.bufferOffset = job.offset + formats.normalOffset;
+      region.imageExtent = {formats.normalTexels, formats.normalTexels, 1};
+      vkCmdCopyBufferToImage(cmd, staging_.buffer(), tiles.normalImage(at.chunk),
                              VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
     }
   }

@@ -115,6 +115,7 @@ PatchPush patchPush(const Camera& camera, const FrameSettings& settings,
   push.sunDisc = settings.sunDirectionEcef && settings.sunAngularRadiusRadians > 0.0f
                      ? std::sin(std::min(settings.sunAngularRadiusRadians, 0.1f))
                      : 0.0f;
+  push.normalMaps = settings.normalMaps ? 1.0f : 0.0f;
   if (atmosphere.present() && settings.atmosphereExposure > 0.0f) {
     const glm::dvec3 at = atmosphere.toAtmosphere(camera.position());
     push.camera[0] = static_cast<float>(at.x);

@@ -40,6 +40,22 @@ double toBaryGrid(double w) { return std::floor(std::clamp(w, 0.0, 1.0) / kBaryU
 
 double toHeightGrid(double h, double step) { return std::round(h / step) * step; }
 
+// How much of a simplified patch's terrain normal its tile's normal map gives (patch.frag): 1
+// where the map's texels (half the colour tile's resolution: twice its texture error, the
+// largest colour texel) are at most half the legs of the patch's triangles (the corner
+// triangle's area shared among them, each a right isosceles triangle of leg √(2·area)), 0 where
+// they are as large, linear between.
+float normalMapWeight(const DatasetView& dataset, const NodeKey& node, const NodeRecord& n,
+                      const std::array<glm::dvec3, 3>& corner) noexcept {
+  if (n.triangleCount == 0) return 0.0f;
+  const double area = 0.5 * glm::length(glm::cross(corner[1] - corner[0], corner[2] - corner[0]));
+  const double leg = std::sqrt(2.0 * area / static_cast<double>(n.triangleCount));
+  const double texel =
+      2.0 * static_cast<double>(dataset.textureNode(dataset.tileOf(node)).errorMeters);
+  if (!(texel > 0.0)) return 0.0f;
+  return static_cast<float>(std::clamp(leg / texel - 1.0, 0.0, 1.0));
+}
+
 // The canonical keys of a node's lattice corners (apex, left, right).
 std::array<PointKey, 3> cornerKeys(std::uint32_t latticeCells, const NodeKey& node,
                                    const BinTriangle& tri) noexcept {
@@ -77,6 +93,12 @@ PatchDrawTemplate makePatchDrawTemplate(const DatasetView& dataset, const NodeKe
   PatchDrawRecord& d = t.record;
   t.corner = p;
   for (std::size_t k = 0; k < 3; ++k) d.normal[k] = vec4(nf[k], 0.0f);
+  // Shading (patch.frag): the normal map's slopes scaled by the exaggeration, and how much of
+  // the terrain normal the map gives rather than the drawn triangles' facets — all of it where
+  // its texels are at most half the triangles' legs, none where they are as large, a linear
+  // blend between. A leaf draws the lattice itself: its facets are the finest normals there are.
+  d.normal[0][3] = static_cast<float>(exaggeration);
+  d.normal[1][3] = n.leaf() ? 0.0f : normalMapWeight(dataset, node, n, p);
 
   // Edges: computed from the edge's data only, corners in canonical key order.
   const double radius = dataset.planet().equatorialRadiusMeters();

@@ -26,6 +26,10 @@ std::uint64_t alignUp(std::uint64_t value, std::uint64_t alignment) {
   return (value + alignment - 1) / alignment * alignment;
 }
 
+TexelFormat datasetNormalTexels(const DatasetView& dataset) noexcept {
+  return dataset.manifest().textureNormalFormat == "bc5" ? TexelFormat::Bc5 : TexelFormat::Rg8;
+}
+
 }  // namespace
 
 DecodeScheduler::DecodeScheduler(const DatasetView& dataset, TexelFormat tileTexels,
@@ -33,7 +37,10 @@ DecodeScheduler::DecodeScheduler(const DatasetView& dataset, TexelFormat tileTex
     : dataset_(&dataset),
       tileTexels_(tileTexels),
       exaggeration_(exaggeration),
-      tileBytes_(textureTileDataBytes(dataset.manifest().textureTileTexels, tileTexels)) {}
+      normalOffset_(alignUp(textureTileDataBytes(dataset.manifest().textureTileTexels, tileTexels),
+                            kAlignment)),
+      tileBytes_(normalOffset_ + textureTileDataBytes(dataset.manifest().normalTileTexels(),
+                                                      normalTexels(tileTexels))) {}
 
 TexelFormat DecodeScheduler::datasetTexels(const DatasetView& dataset) noexcept {
   return dataset.manifest().textureFormat == "bc1" ? TexelFormat::Bc1 : TexelFormat::Rgba8;
@@ -134,10 +141,10 @@ Result<void> DecodeScheduler::decodeTile(const TileKey& key, std::span<std::byte
   const FaceView& face = dataset_->face(key.face);
   const TextureRecord record = dataset_->textureNode(key);
   const std::string context = blobContext(face, record.blobOffset);
-  thread_local std::vector<std::byte> blob;  // the blob copied out of the mapping, guarded
-  auto bytes = face.readTextureBlob(record, blob);
+  thread_local std::vector<std::byte> blob;  // the blobs copied out of the mapping, guarded
+  auto bytes = face.readTextureBlobs(record, blob);
   if (!bytes) return std::move(bytes).error();
-  Result<TextureTileImage> tile = decodeTextureTile(*bytes, context);
+  Result<TextureTileImage> tile = decodeTextureTile(bytes->colour, context);
   if (!tile) return std::move(tile).error();
   const Manifest& m = dataset_->manifest();
   if (tile->sizeTexels != m.textureTileTexels || tile->borderTexels != m.textureBorderTexels ||
@@ -153,10 +160,36 @@ Result<void> DecodeScheduler::decodeTile(const TileKey& key, std::span<std::byte
     tile = expandToRgba8(*tile);
     if (!tile) return makeError(ErrorCode::CorruptData, context + ": " + tile.error().message);
   }
-  if (tile->data.size() != out.size()) {
+  if (tile->data.size() > normalOffset_ || out.size() != tileBytes_) {
     return makeError(ErrorCode::Internal, context + ": tile data size differs from its slot");
   }
-  std::memcpy(out.data(), tile->data.data(), out.size());
+  std::memcpy(out.data(), tile->data.data(), tile->data.size());
+
+  // The normal map, stored right after the colour tile.
+  const std::string normalContext = blobContext(face, record.blobOffset + record.blobBytes);
+  Result<TextureTileImage> normals = decodeTextureTile(bytes->normal, normalContext);
+  if (!normals) return std::move(normals).error();
+  if (normals->sizeTexels != m.normalTileTexels() ||
+      normals->borderTexels != m.normalBorderTexels() ||
+      normals->format != datasetNormalTexels(*dataset_)) {
+    return makeError(ErrorCode::CorruptData,
+                     normalContext + ": normal-map tile of " + std::to_string(normals->sizeTexels) +
+                         " texels (border " + std::to_string(normals->borderTexels) +
+                         ") does not match manifest.json (" + std::to_string(m.normalTileTexels()) +
+                         ", border " + std::to_string(m.normalBorderTexels()) + ", " +
+                         m.textureNormalFormat + ")");
+  }
+  if (normals->format != normalTexels(tileTexels_)) {
+    normals = expandToRg8(*normals);
+    if (!normals) {
+      return makeError(ErrorCode::CorruptData, normalContext + ": " + normals.error().message);
+    }
+  }
+  if (normals->data.size() != tileBytes_ - normalOffset_) {
+    return makeError(ErrorCode::Internal,
+                     normalContext + ": normal-map data size differs from its slot");
+  }
+  std::memcpy(out.data() + normalOffset_, normals->data.data(), normals->data.size());
   return {};
 }
 

@@ -108,7 +108,7 @@ NoStallCut NoStallPolicy::cut(const Camera& camera, RefinementOptions options) c
     for (const TileKey& t : cut.tiles) {
       const TextureRecord r = view.textureNode(t);
       const bool cached = cached_.tile && cached_.tile(t);
-      if (!atHand(cached, dataset_->faceFile(t.face), r.blobOffset, r.blobBytes)) {
+      if (!atHand(cached, dataset_->faceFile(t.face), r.blobOffset, r.blobsBytes())) {
         // Tile level t is drawn with patches of levels 2t and 2t+1.
         const auto tileLevel = static_cast<int>(textureLevelOfHeap(t.heap));
         worst = std::min(worst, 2 * tileLevel);
@@ -175,7 +175,7 @@ std::vector<Error> NoStallPolicy::preloadCoarseLevels(HeldPages* keep) const {
       }
     }
     const TextureRecord root = view.textureNode(TileKey{static_cast<std::uint8_t>(f), 0});
-    touch(file, root.blobOffset, root.blobBytes);
+    touch(file, root.blobOffset, root.blobsBytes());
     // The tables stay mapped: refinement reads them every frame, and mapped pages the render
     // thread keeps referencing are the last the kernel reclaims. Only the blobs leave the RSS.
     if (keep) {

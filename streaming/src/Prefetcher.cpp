@@ -130,7 +130,7 @@ void Prefetcher::prefetch(const Cut& cut) {
   }
   for (const TileKey& t : cut.tiles) {
     const TextureRecord r = view.textureNode(t);
-    adviseRange(t.face, r.blobOffset, r.blobBytes, ResidentKey::tile(t));
+    adviseRange(t.face, r.blobOffset, r.blobsBytes(), ResidentKey::tile(t));
   }
   // Forget ranges advised long ago: the kernel may have dropped them since.
   if (cycle_ % 64 == 0) {

@@ -27,6 +27,7 @@ Manifest sampleManifest() {
   m.textureTileTexels = 16;
   m.textureBorderTexels = 2;
   m.textureFormat = "bc1";
+  m.textureNormalFormat = "bc5";
   m.textureSource = "shaded-relief";
   m.sourceDem = "megt90n000cb.lbl";
   m.sourceFormat = "PDS";
@@ -80,6 +81,42 @@ TEST(Manifest, NumbersOfTheWrongKindAreRejectedByName) {
     EXPECT_NE(m.error().message.find(std::string("'") + c.field + "'"), std::string::npos)
         << m.error().message;
   }
+}
+
+// The normal-map tiles (dataset version 5) are half the colour tiles' size and have the format
+// that goes with theirs: any other pairing, or a size that cannot be halved, is refused by name.
+TEST(Manifest, NormalMapTilesMustMatchTheColourTiles) {
+  const std::string text = manifestToJson(sampleManifest());
+  const auto m = parseManifest(text, "test");
+  ASSERT_TRUE(m) << m.error().message;
+  EXPECT_EQ(m->textureNormalFormat, "bc5");
+  EXPECT_EQ(m->normalTileTexels(), 8u);
+  EXPECT_EQ(m->normalBorderTexels(), 1u);
+  const struct {
+    const char* pointer;
+    const char* value;
+    const char* says;
+  } cases[] = {
+      {"/texture/normal_format", "\"rg8\"", "expected bc1 with bc5"},
+      {"/texture/normal_format", "\"bc1\"", "expected bc1 with bc5"},
+      {"/texture/format", "\"rgba8\"", "expected bc1 with bc5"},
+      {"/texture/tile_texels", "20", "multiple of 8 for bc5"},
+      {"/texture/border_texels", "3", "must be even"},
+  };
+  for (const auto& c : cases) {
+    const auto bad = parseManifest(withField(text, c.pointer, c.value), "test");
+    ASSERT_FALSE(bad) << c.pointer << " = " << c.value;
+    EXPECT_NE(bad.error().message.find(c.says), std::string::npos) << bad.error().message;
+  }
+  auto j = nlohmann::ordered_json::parse(text);
+  j["texture"].erase("normal_format");
+  j.erase("checksum");
+  const std::string body = j.dump(2);
+  j["checksum"] = crc32(std::as_bytes(std::span<const char>(body.data(), body.size())));
+  const auto missing = parseManifest(j.dump(2), "test");
+  ASSERT_FALSE(missing);
+  EXPECT_NE(missing.error().message.find("normal_format"), std::string::npos)
+      << missing.error().message;
 }
 
 TEST(Manifest, InsetsAreWrittenOnlyWhenThereAreSomeAndReadBack) {

@@ -38,8 +38,11 @@ void nodes(std::span<const std::byte> payload) {
 void textures(std::span<const std::byte> payload) {
   auto view = TexturePartView::parse(payload, "fuzz.tiles");
   if (!view) return;
-  (void)view->forEachTile([&](std::uint64_t, float, std::span<const std::byte> blob) {
-    if (blob.data() + blob.size() > payload.data() + payload.size()) __builtin_trap();
+  (void)view->forEachTile([&](std::uint64_t, float, std::span<const std::byte> colour,
+                              std::span<const std::byte> normal) {
+    for (const std::span<const std::byte> blob : {colour, normal}) {
+      if (blob.data() + blob.size() > payload.data() + payload.size()) __builtin_trap();
+    }
     return true;
   });
 }

@@ -70,8 +70,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   for (std::uint64_t k = 0; k < view->header().textureNodeCount; ++k) {
     const auto record = view->textureAt(k);
     if (view->findTexture(record.heapIndex) != k) __builtin_trap();
-    const auto blob = view->readTextureBlob(record, buffer);
-    if (!blob || blob->size() != record.blobBytes) __builtin_trap();
+    const auto blobs = view->readTextureBlobs(record, buffer);
+    if (!blobs || blobs->colour.size() != record.blobBytes ||
+        blobs->normal.size() != record.normalBytes) {
+      __builtin_trap();
+    }
   }
   return 0;
 }

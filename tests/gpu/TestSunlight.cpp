@@ -347,3 +347,68 @@ TEST_F(Atmosphere, TheFramesRadianceToneMapsToItsColour) {
 
 }  // namespace
 }  // namespace pbdam::gpu
+
+namespace pbdam::gpu {
+namespace {
+
+class NormalMaps : public test::GpuTest {};
+
+double meanAbsoluteDifference(const RgbaImage& a, const RgbaImage& b) {
+  double sum = 0.0;
+  for (std::size_t i = 0; i < a.rgba.size(); ++i) {
+    if (i % 4 == 3) continue;
+    sum += std::abs(static_cast<double>(a.rgba[i]) - static_cast<double>(b.rgba[i]));
+  }
+  return sum / (0.75 * static_cast<double>(a.rgba.size()));
+}
+
+// Distant relief keeps its shading: Mars's Tharsis from 3,000 km under a sun 10° high, drawn from
+// a coarse cut (12 px), looks more like the same view drawn from leaves everywhere (the lattice's
+// own triangles) with the normal maps than without them (the coarse patches' own facets): mean
+// channel difference 0.26 against 0.34 when written. Under the camera light the normal maps
+// change nothing, so its frames are those of before them.
+TEST_F(NormalMaps, KeepDistantReliefShadedAsTheLatticeIs) {
+  PBDAM_REQUIRE_DATASET(dir, "mola");
+  auto dataset = test::openDataset(dir);
+  ASSERT_TRUE(dataset);
+  const DatasetView& view = dataset->view();
+  constexpr std::uint32_t kW = 256;
+  constexpr std::uint32_t kH = 192;
+  TerrainRendererOptions options;
+  options.widthPixels = kW;
+  options.heightPixels = kH;
+  auto renderer = TerrainRenderer::create(context(), view, options);
+  ASSERT_TRUE(renderer.ok()) << renderer.error().message;
+  const CameraPose pose{5.0, -115.0, 3000e3, 0.0, -80.0, 0.0};
+  const Camera camera = test::cameraAt(view, pose, kW, kH);
+  const auto draw = [&](double tolerancePixels, bool normalMaps, bool sun) {
+    FrameSettings settings;
+    if (sun) {
+      settings.sunDirectionEcef =
+          sunDirectionFromHorizon(view.planet(), pose.latDegrees, pose.lonDegrees, 100.0, 10.0);
+      settings.sunAngularRadiusRadians = static_cast<float>(sunAngularRadiusRadians(1.52));
+      settings.ambient = 0.05f;
+    }
+    settings.normalMaps = normalMaps;
+    RefinementOptions refinement;
+    refinement.tolerancePixels = tolerancePixels;
+    auto drawn = renderer->render(refine(view, camera, refinement), camera, settings);
+    EXPECT_TRUE(drawn.ok()) << drawn.error().message;
+    return drawn.ok() ? std::move(drawn->image) : RgbaImage{};
+  };
+  const Cut leaves = refine(view, camera, RefinementOptions{0.01});
+  const Cut coarse = refine(view, camera, RefinementOptions{12.0});
+  ASSERT_GT(leaves.patches.size(), 4 * coarse.patches.size()) << "the cuts do not differ";
+  const RgbaImage reference = draw(0.01, true, true);
+  const RgbaImage mapped = draw(12.0, true, true);
+  const RgbaImage facets = draw(12.0, false, true);
+  ASSERT_EQ(reference.rgba.size(), std::size_t{kW} * kH * 4);
+  const double withMaps = meanAbsoluteDifference(mapped, reference);
+  const double without = meanAbsoluteDifference(facets, reference);
+  EXPECT_LT(withMaps, 0.85 * without) << withMaps << " vs " << without;
+  // The camera light: the same bytes either way.
+  EXPECT_EQ(draw(12.0, true, false).rgba, draw(12.0, false, false).rgba);
+}
+
+}  // namespace
+}  // namespace pbdam::gpu

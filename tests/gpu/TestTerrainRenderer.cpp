@@ -311,7 +311,10 @@ TEST_F(TerrainRendererTest, AnOverBudgetCutIsDrawnInPassesWithTheSameImage) {
   }
 }
 
-TEST_F(TerrainRendererTest, TheSmallestBudgetDrawsOnePatchAPass) {
+// The smallest budget holds one patch slot and two tile slots (its tile and its parent's): each
+// pass draws one patch, or two or three that share a tile where a tile slot (colour and normal
+// map) outweighs a patch slot, as on MOLA; the passes give the one-pass image.
+TEST_F(TerrainRendererTest, TheSmallestBudgetDrawsAFewPatchesAPass) {
   PBDAM_REQUIRE_DATASET(dir, "mola");
   const auto dataset = test::openDataset(dir);
   ASSERT_NE(dataset, nullptr);
@@ -341,7 +344,8 @@ TEST_F(TerrainRendererTest, TheSmallestBudgetDrawsOnePatchAPass) {
   ASSERT_TRUE(smallest.ok()) << smallest.error().message;
   auto frame = smallest->render(cut, camera, magentaBackground());
   ASSERT_TRUE(frame.ok()) << frame.error().message;
-  EXPECT_EQ(frame->stats.passes, cut.patches.size());
+  EXPECT_LE(frame->stats.passes, cut.patches.size());
+  EXPECT_GE(3 * frame->stats.passes, cut.patches.size());
   EXPECT_LE(frame->stats.peakResidentBytes, minimum);
   EXPECT_TRUE(frame->image.rgba == reference->image.rgba);
 }

@@ -127,18 +127,27 @@ TEST(DecodeScheduler, DecodesPatchesAndTilesIntoTheCallersMemory) {
                             job.bytes - job.vertexBytes),
                 0);
     } else {
-      // RGBA8 texels of the tile (BC1 tiles expanded).
+      // RGBA8 texels of the tile (BC1 tiles expanded), then RG8 texels of its normal map (BC5
+      // expanded) at the normal map's offset.
       const TextureRecord r = view.textureNode(job.tile);
       std::vector<std::byte> blob;
-      const auto bytes = view.face(job.tile.face).readTextureBlob(r, blob);
+      const auto bytes = view.face(job.tile.face).readTextureBlobs(r, blob);
       ASSERT_TRUE(bytes.ok());
-      auto tile = decodeTextureTile(*bytes, "test");
+      auto tile = decodeTextureTile(bytes->colour, "test");
       ASSERT_TRUE(tile.ok());
       if (tile->format != TexelFormat::Rgba8) tile = expandToRgba8(*tile);
       ASSERT_TRUE(tile.ok());
+      auto normals = decodeTextureTile(bytes->normal, "test");
+      ASSERT_TRUE(normals.ok());
+      if (normals->format != TexelFormat::Rg8) normals = expandToRg8(*normals);
+      ASSERT_TRUE(normals.ok());
       ASSERT_EQ(job.bytes, decoder.tileBytes());
-      ASSERT_EQ(tile->data.size(), job.bytes);
-      EXPECT_EQ(std::memcmp(out.data() + job.offset, tile->data.data(), job.bytes), 0);
+      ASSERT_LE(tile->data.size(), decoder.normalTileOffset());
+      ASSERT_EQ(decoder.normalTileOffset() + normals->data.size(), job.bytes);
+      EXPECT_EQ(std::memcmp(out.data() + job.offset, tile->data.data(), tile->data.size()), 0);
+      EXPECT_EQ(std::memcmp(out.data() + job.offset + decoder.normalTileOffset(),
+                            normals->data.data(), normals->data.size()),
+                0);
     }
   }
 }

@@ -38,7 +38,7 @@ bool cutResident(const MappedDataset& dataset, const Cut& cut) {
   }
   for (const TileKey& t : cut.tiles) {
     const TextureRecord r = view.textureNode(t);
-    if (!NoStallPolicy::rangeResident(dataset.faceFile(t.face), r.blobOffset, r.blobBytes)) {
+    if (!NoStallPolicy::rangeResident(dataset.faceFile(t.face), r.blobOffset, r.blobsBytes())) {
       return false;
     }
   }
@@ -88,7 +88,7 @@ void readIn(const MappedDataset& dataset, const Cut& cut) {
   }
   for (const TileKey& t : cut.tiles) {
     const TextureRecord r = view.textureNode(t);
-    touch(dataset.faceFile(t.face), r.blobOffset, r.blobBytes);
+    touch(dataset.faceFile(t.face), r.blobOffset, r.blobsBytes());
   }
 }
 

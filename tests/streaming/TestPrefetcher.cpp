@@ -163,7 +163,8 @@ void expectTheRangesOfThePredictedCut(double fovMarginDegrees, double toleranceS
     }
     for (const TileKey& t : cut.tiles) {
       const TextureRecord r = view.textureNode(t);
-      if (r.blobBytes > 0) expected[packKey(t)] = {r.blobOffset, r.blobBytes};
+      // The colour tile and its normal map after it: one range.
+      if (r.blobBytes > 0) expected[packKey(t)] = {r.blobOffset, r.blobsBytes()};
     }
   }
   ASSERT_FALSE(expected.empty());

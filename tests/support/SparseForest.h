@@ -99,12 +99,6 @@ inline std::vector<std::byte> prunedFace(const formats::FaceView& view, int face
   h.blobsOffset = (tablesEnd + 4095) / 4096 * 4096;
   std::vector<std::byte> blobs;
   std::vector<std::byte> buffer;
-  const auto copyBlob = [&](auto& record, auto read) {
-    const auto bytes = (view.*read)(record, buffer);
-    EXPECT_TRUE(bytes.ok());
-    record.blobOffset = h.blobsOffset + blobs.size();
-    if (bytes.ok()) blobs.insert(blobs.end(), bytes->begin(), bytes->end());
-  };
   for (NodeRecord& n : nodes) {  // the patch blob and its morph targets, adjacent
     const auto both = view.readPatchBlobs(n, buffer);
     EXPECT_TRUE(both.ok());
@@ -113,7 +107,14 @@ inline std::vector<std::byte> prunedFace(const formats::FaceView& view, int face
     blobs.insert(blobs.end(), both->patch.begin(), both->patch.end());
     blobs.insert(blobs.end(), both->morph.begin(), both->morph.end());
   }
-  for (TextureRecord& t : tiles) copyBlob(t, &FaceView::readTextureBlob);
+  for (TextureRecord& t : tiles) {  // the colour tile and its normal map, adjacent
+    const auto both = view.readTextureBlobs(t, buffer);
+    EXPECT_TRUE(both.ok());
+    t.blobOffset = h.blobsOffset + blobs.size();
+    if (!both.ok()) continue;
+    blobs.insert(blobs.end(), both->colour.begin(), both->colour.end());
+    blobs.insert(blobs.end(), both->normal.begin(), both->normal.end());
+  }
   h.fileBytes = h.blobsOffset + blobs.size();
   std::vector<std::byte> out(h.fileBytes);
   const auto nodeTable = std::span(out).subspan(h.nodeTableOffset, h.nodeCount * kNodeRecordBytes);

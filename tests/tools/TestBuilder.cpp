@@ -500,7 +500,7 @@ TEST(Builder, ADirectoryWithoutManifestIsNotADataset) {
   EXPECT_FALSE(readManifest(dir / "d"));
 }
 
-// Version 4 added the morph targets (formats/FORMAT.md): a version-3 dataset is refused, naming
+// Version 5 added the normal-map tiles (formats/FORMAT.md): a version-4 dataset is refused, naming
 // the file, its version and what to do, for the manifest and for each face file.
 TEST(Builder, AnOlderFormatVersionIsRefusedNamingTheFileAndTheRebuild) {
   PBDAM_REQUIRE_DATA(dem, test::dataDir() / "mars/megt90n000cb.lbl");
@@ -509,16 +509,16 @@ TEST(Builder, AnOlderFormatVersionIsRefusedNamingTheFileAndTheRebuild) {
   o.depth = 2;
   const auto built = buildDataset(o);
   ASSERT_TRUE(built) << built.error().message;
-  ASSERT_EQ(kDatasetFormatVersion, 4u);
+  ASSERT_EQ(kDatasetFormatVersion, 5u);
 
-  // A face file whose header says version 3 (its header checksum made valid again): the version
-  // is read before the node records, whose last field version 4 added.
+  // A face file whose header says version 4 (its header checksum made valid again): the version
+  // is read before the texture records, whose last field version 5 added.
   const fs::path facePath = dir / "d" / "face4.pbdam";
   std::string face = test::readFile(facePath);
   const auto headerBytes = std::as_bytes(std::span(face.data(), kFaceHeaderBytes));
   auto header = decodeFaceHeader(headerBytes, face.size(), facePath.string());
   ASSERT_TRUE(header) << header.error().message;
-  header->version = 3;
+  header->version = 4;
   std::array<std::byte, kFaceHeaderBytes> patched{};
   encodeFaceHeader(*header, patched);
   std::memcpy(face.data(), patched.data(), patched.size());
@@ -527,19 +527,19 @@ TEST(Builder, AnOlderFormatVersionIsRefusedNamingTheFileAndTheRebuild) {
   ASSERT_FALSE(old);
   EXPECT_EQ(old.error().code, ErrorCode::CorruptData);
   for (const std::string& part :
-       {facePath.string(), std::string("format version 3"), std::string("reads version 4"),
+       {facePath.string(), std::string("format version 4"), std::string("reads version 5"),
         std::string("rebuild the dataset")}) {
     EXPECT_NE(old.error().message.find(part), std::string::npos) << old.error().message;
   }
 
-  // A manifest that says version 3 (its own checksum recomputed).
+  // A manifest that says version 4 (its own checksum recomputed).
   auto manifest = readManifest(dir / "d");
   ASSERT_TRUE(manifest) << manifest.error().message;
-  manifest->version = 3;
+  manifest->version = 4;
   writeFile(dir / "d" / "manifest.json", manifestToJson(*manifest));
   const auto refused = readManifest(dir / "d");
   ASSERT_FALSE(refused);
-  for (const std::string& part : {std::string("manifest.json"), std::string("format version 3"),
+  for (const std::string& part : {std::string("manifest.json"), std::string("format version 4"),
                                   std::string("rebuild the dataset")}) {
     EXPECT_NE(refused.error().message.find(part), std::string::npos) << refused.error().message;
   }
@@ -562,6 +562,8 @@ TEST(Builder, RejectsBadOptions) {
   o = smallMola(dem, dir / "x");
   o.textureTileTexels = 30;
   expectRejected(o, "--texture-tile");
+  o.textureTileTexels = 20;  // BC1's multiple of 4, but its normal map would be 10
+  expectRejected(o, "multiple of 8");
   o = smallMola(dem, dir / "x");
   o.planetSpec = "pluto";
   expectRejected(o, "pluto");

@@ -109,8 +109,10 @@ TEST(CheckpointFormat, RejectsADamagedLevelPart) {
 
 TEST(CheckpointFormat, TexturePartRoundTripsAndRejectsDamage) {
   ByteWriter w;
-  putTileEntry(w, 1.5f, std::vector<std::byte>(3, std::byte{1}));
-  putTileEntry(w, 2.5f, std::vector<std::byte>(6, std::byte{2}));
+  putTileEntry(w, 1.5f, std::vector<std::byte>(3, std::byte{1}),
+               std::vector<std::byte>(2, std::byte{5}));
+  putTileEntry(w, 2.5f, std::vector<std::byte>(6, std::byte{2}),
+               std::vector<std::byte>(4, std::byte{6}));
   const auto entries = w.take();
   const auto payload = concat(entries, encodeTexturePartFooter(TexturePartFooter{10, 2, 0.25}));
   auto view = TexturePartView::parse(payload, "texture.part-0.tiles");
@@ -119,9 +121,12 @@ TEST(CheckpointFormat, TexturePartRoundTripsAndRejectsDamage) {
   EXPECT_EQ(view->footer().tiles, 2u);
   EXPECT_EQ(view->footer().seconds, 0.25);
   std::vector<std::pair<std::uint64_t, float>> seen;
-  auto walked = view->forEachTile([&](std::uint64_t k, float e, std::span<const std::byte> blob) {
+  auto walked = view->forEachTile([&](std::uint64_t k, float e, std::span<const std::byte> colour,
+                                      std::span<const std::byte> normal) {
     seen.emplace_back(k, e);
-    EXPECT_EQ(blob.size(), k == 10 ? 3u : 6u);
+    EXPECT_EQ(colour.size(), k == 10 ? 3u : 6u);
+    EXPECT_EQ(normal.size(), k == 10 ? 2u : 4u);
+    EXPECT_EQ(normal[0], k == 10 ? std::byte{5} : std::byte{6});
     return true;
   });
   EXPECT_TRUE(walked);
@@ -131,7 +136,7 @@ TEST(CheckpointFormat, TexturePartRoundTripsAndRejectsDamage) {
                               encodeTexturePartFooter(TexturePartFooter{10, 2, 0.25}));
   auto damagedView = TexturePartView::parse(damaged, "t.tiles");
   ASSERT_TRUE(damagedView);
-  auto failed = damagedView->forEachTile([](std::uint64_t, float, auto) { return true; });
+  auto failed = damagedView->forEachTile([](std::uint64_t, float, auto, auto) { return true; });
   ASSERT_FALSE(failed);
   EXPECT_EQ(failed.error().message, "t.tiles: incomplete");
   auto tooShort = TexturePartView::parse(std::vector<std::byte>(5), "u.tiles");

@@ -92,6 +92,12 @@ TEST(Cli, BuildInfoVerifyOnMola) {
   EXPECT_EQ(j["depth"], 2);
   EXPECT_EQ(j["patches"], 12 * 7);
   EXPECT_LT(j["compression_ratio"].get<double>(), 0.6);
+  // A BC5 normal map beside each BC1 tile: 16² texels, a quarter of the tile's area at twice
+  // BC1's bytes per block, so about half its bytes (LZO decides per tile).
+  EXPECT_EQ(j["texture_normal_format"], "bc5");
+  const double normals = j["bytes"]["normal_maps"].get<double>();
+  EXPECT_GT(normals, 0.2 * j["bytes"]["textures"].get<double>());
+  EXPECT_LT(normals, 0.8 * j["bytes"]["textures"].get<double>());
   const CliRun verify = runPbdam("verify '" + out + "' --dem '" + dem.string() + "' --json");
   ASSERT_EQ(verify.exitCode, 0) << verify.err << verify.out;
   EXPECT_TRUE(nlohmann::json::parse(verify.out)["ok"].get<bool>());
@@ -463,6 +469,7 @@ TEST(Cli, PathThenColdBenchWithAndWithoutPrefetchOnMola) {
   // The defaults' light: the camera's, no atmosphere, true heights.
   EXPECT_EQ(summary["light"]["kind"], "camera");
   EXPECT_EQ(summary["light"]["atmosphere"], false);
+  EXPECT_EQ(summary["light"]["normal_maps"], true);
   EXPECT_EQ(summary["exaggeration"], 1.0);
   EXPECT_TRUE(std::filesystem::file_size(dir / "report" / "report.png") > 10000);
   const std::string frames = test::readFile(dir / "report" / "frames.csv");
@@ -716,7 +723,8 @@ TEST(Cli, BenchSummaryNamesItsLightAndExaggeration) {
   const CliRun bench = runPbdam("bench '" + dataset.string() + "' --path '" + path + "' --out '" +
                                 (dir / "r").string() +
                                 "' --width 160 --height 90 --prefetch off --quiet --time "
-                                "2004-01-03T16:00:00Z --time-scale 600 --exaggeration 2");
+                                "2004-01-03T16:00:00Z --time-scale 600 --exaggeration 2 "
+                                "--normal-maps off");
   ASSERT_EQ(bench.exitCode, 0) << bench.err;
   std::ifstream in(dir / "r" / "summary.json");
   const auto summary = nlohmann::json::parse(in);
@@ -728,6 +736,12 @@ TEST(Cli, BenchSummaryNamesItsLightAndExaggeration) {
   EXPECT_NEAR(light["ambient"].get<double>(), 0.05, 1e-6);
   EXPECT_EQ(light["atmosphere"], true);
   EXPECT_NEAR(light["exposure"].get<double>(), 23.2, 0.1);
+  EXPECT_EQ(light["normal_maps"], false);
+  // Anything but on or off is refused by name.
+  const CliRun bad = runPbdam("bench '" + dataset.string() + "' --path '" + path + "' --out '" +
+                              (dir / "r2").string() + "' --quiet --normal-maps maybe");
+  EXPECT_EQ(bad.exitCode, 2) << bad.err;
+  EXPECT_NE(bad.err.find("--normal-maps 'maybe'"), std::string::npos) << bad.err;
 }
 
 TEST(Cli, BenchCutReuseKeepsTheCutsAndPoppingIsMeasured) {

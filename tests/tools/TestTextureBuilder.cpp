@@ -3,8 +3,10 @@
 // texture errors, determinism under concurrency.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <glm/geometric.hpp>
 #include <map>
 #include <memory>
 #include <numbers>
@@ -15,6 +17,7 @@
 #include "pbdam/builder/TextureBuilder.h"
 #include "pbdam/formats/DemReader.h"
 #include "pbdam/runtime/CubeMap.h"
+#include "pbdam/runtime/NormalMap.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
@@ -515,4 +518,113 @@ TEST(TextureBuilder, ImageryLayersBlendOverTheReliefByTheirWeightAndAlpha) {
 }
 
 }  // namespace
+}  // namespace pbdam::builder
+
+namespace pbdam::builder {
+namespace {
+
+// The unit normal normal-map texel (x, y) of `tile` (built for `colour`) holds.
+glm::dvec3 normalAt(const TextureTileImage& tile, const TextureTileRequest& colour, int x, int y,
+                    const Planet& planet) {
+  TextureTileRequest half = colour;
+  half.sizeTexels /= 2;
+  half.borderTexels /= 2;
+  const glm::dvec2 uv = textureTexelFaceUv(half, x, y);
+  const CubeFace face = cubeFaceFromIndex(colour.face);
+  const GeodeticPosition p = planet.directionToGeodetic(CubeMap::faceUvToDirection(face, uv));
+  const glm::dvec3 up = planet.surfaceNormal(p.latDegrees, p.lonDegrees);
+  const std::size_t at =
+      2 * (static_cast<std::size_t>(y) * tile.sizeTexels + static_cast<std::size_t>(x));
+  return decodeNormalTexel(normalMapFrame(face, up), tile.data[at], tile.data[at + 1]);
+}
+
+double degreesBetween(const glm::dvec3& a, const glm::dvec3& b) {
+  return std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0)) * 180.0 / std::numbers::pi;
+}
+
+}  // namespace
+
+// A normal-map tile is half the colour tile, in two channels, and holds the true relief's
+// normal: flat ground gives the surface normal, a slope rising eastwards tilts it west by the
+// slope's angle (no hillshade exaggeration).
+TEST(TextureBuilder, NormalMapHoldsTheTrueSlope) {
+  const TextureTileRequest colour{0, 2, 1, 1, 32, 2};  // face 0 around lat 0, lon 0
+  for (const double slope : {0.0, 0.02, 0.3, -0.3}) {
+    TextureSource source;
+    source.planet = Planet::mars();
+    const double metresPerDegree =
+        slope * source.planet.equatorialRadiusMeters() * std::numbers::pi / 180.0;
+    source.heightMeters = [metresPerDegree](double, double lonDegrees) {
+      return std::optional<double>(metresPerDegree * lonDegrees);
+    };
+    auto tile = buildNormalTile(source, colour);
+    ASSERT_TRUE(tile) << tile.error().message;
+    EXPECT_EQ(tile->format, TexelFormat::Rg8);
+    EXPECT_EQ(tile->sizeTexels, 16u);
+    EXPECT_EQ(tile->borderTexels, 1u);
+    double worst = 0.0;
+    for (int y = 1; y < 15; ++y) {
+      for (int x = 1; x < 15; ++x) {
+        TextureTileRequest half = colour;
+        half.sizeTexels = 16;
+        half.borderTexels = 1;
+        const glm::dvec2 uv = textureTexelFaceUv(half, x, y);
+        const GeodeticPosition p =
+            source.planet.directionToGeodetic(CubeMap::faceUvToDirection(CubeFace::PosX, uv));
+        const glm::dvec3 up = source.planet.surfaceNormal(p.latDegrees, p.lonDegrees);
+        // East at the texel; the slope is along east only, by metres per metre of parallel.
+        const double lon = p.lonDegrees * std::numbers::pi / 180.0;
+        const glm::dvec3 east(-std::sin(lon), std::cos(lon), 0.0);
+        const double along = slope / std::cos(p.latDegrees * std::numbers::pi / 180.0);
+        const glm::dvec3 expected = glm::normalize(up - along * east);
+        worst =
+            std::max(worst, degreesBetween(normalAt(*tile, colour, x, y, source.planet), expected));
+      }
+    }
+    EXPECT_LT(worst, slope == 0.0 ? 0.02 : 0.8) << "slope " << slope;
+  }
+  // Odd sizes cannot be halved.
+  TextureSource flat;
+  flat.heightMeters = [](double, double) { return std::optional<double>(0.0); };
+  EXPECT_FALSE(buildNormalTile(flat, {0, 0, 0, 0, 30, 3}));
+  EXPECT_FALSE(buildNormalTile(flat, {0, 0, 0, 0, 31, 2}));
+}
+
+// On real data: around Olympus Mons (MOLA), the flanks' normals lean away from the summit, and
+// the normal map is the same bytes on every run.
+TEST(TextureBuilder, NormalMapLeansAwayFromOlympusMons) {
+  PBDAM_REQUIRE_DATA(mola, test::dataDir() / "mars/megt90n000cb.lbl");
+  ASSERT_NE(Datasets::mola(), nullptr);
+  const Located summit = locate(18.65, 226.2 - 360.0, 3, 128);
+  const TextureSource source = marsSource(*Datasets::mola());
+  auto tile = buildNormalTile(source, summit.request);
+  ASSERT_TRUE(tile) << tile.error().message;
+  auto again = buildNormalTile(source, summit.request);
+  ASSERT_TRUE(again);
+  EXPECT_EQ(*tile, *again);
+  const glm::dvec3 top = source.planet.geodeticToEcef(18.65, 226.2 - 360.0, 0.0);
+  int flank = 0;
+  int away = 0;
+  const int size = static_cast<int>(tile->sizeTexels);
+  for (int y = 1; y < size - 1; ++y) {
+    for (int x = 1; x < size - 1; ++x) {
+      TextureTileRequest half = summit.request;
+      half.sizeTexels /= 2;
+      half.borderTexels /= 2;
+      const glm::dvec2 uv = textureTexelFaceUv(half, x, y);
+      const glm::dvec3 here = source.planet.directionToSurfaceEcef(
+          CubeMap::faceUvToDirection(cubeFaceFromIndex(summit.request.face), uv));
+      const double km = glm::distance(here, top) / 1000.0;
+      if (km < 60.0 || km > 250.0) continue;  // the flanks, not the caldera nor the scarp
+      const glm::dvec3 n = normalAt(*tile, summit.request, x, y, source.planet);
+      const glm::dvec3 up = glm::normalize(here);
+      const glm::dvec3 outward = glm::normalize((here - top) - glm::dot(here - top, up) * up);
+      ++flank;
+      if (glm::dot(n, outward) > 0.0) ++away;
+    }
+  }
+  ASSERT_GT(flank, 20);
+  EXPECT_GT(static_cast<double>(away) / flank, 0.9) << away << " of " << flank;
+}
+
 }  // namespace pbdam::builder

@@ -279,6 +279,7 @@ nlohmann::ordered_json setupJson(const BenchSetup& setup) {
   light["ambient"] = setup.light.ambient;
   light["atmosphere"] = setup.light.exposure > 0.0;
   if (setup.light.exposure > 0.0) light["exposure"] = setup.light.exposure;
+  light["normal_maps"] = setup.light.normalMaps;
   summary["light"] = light;
   return summary;
 }

@@ -59,6 +59,7 @@ int runInfo(const std::string& dir, bool json) {
   const Manifest& m = *manifest;
   std::vector<LevelStats> levels(m.depth + 1);
   std::uint64_t headerBytes = 0, nodeTableBytes = 0, textureTableBytes = 0, textureBytes = 0;
+  std::uint64_t normalBytes = 0;
   std::uint64_t fileBytes = 0, tiles = 0;
   for (const ManifestFace& f : m.faces) {
     auto file = MappedFile::open(std::filesystem::path(dir) / f.file);
@@ -73,6 +74,7 @@ int runInfo(const std::string& dir, bool json) {
     addNodeStats(*view, levels);
     for (std::uint64_t k = 0; k < h.textureNodeCount; ++k) {
       textureBytes += view->textureAt(k).blobBytes;
+      normalBytes += view->textureAt(k).normalBytes;
       ++tiles;
     }
   }
@@ -97,6 +99,7 @@ int runInfo(const std::string& dir, bool json) {
     j["depth"] = m.depth;
     j["texture_levels"] = m.textureLevels;
     j["texture_format"] = m.textureFormat;
+    j["texture_normal_format"] = m.textureNormalFormat;
     j["texture_source"] = m.textureSource;
     j["source_dem"] = m.sourceDem;
     if (!m.insets.empty()) j["insets"] = nlohmann::ordered_json::parse(manifestInsetsJson(m));
@@ -110,7 +113,8 @@ int runInfo(const std::string& dir, bool json) {
                   {"node_tables", nodeTableBytes},
                   {"texture_tables", textureTableBytes},
                   {"patches", total.compressedBytes},
-                  {"textures", textureBytes}};
+                  {"textures", textureBytes},
+                  {"normal_maps", normalBytes}};
     j["patch_bytes_uncompressed"] = rawBytes;
     j["compression_ratio"] = ratio;
     nlohmann::ordered_json per = nlohmann::ordered_json::array();
@@ -148,15 +152,17 @@ int runInfo(const std::string& dir, bool json) {
               static_cast<unsigned long long>(total.nodes),
               static_cast<unsigned long long>(total.vertices),
               static_cast<unsigned long long>(total.triangles));
-  std::printf("textures  %llu tiles of %u texels, %u levels, %s, %s\n",
+  std::printf("textures  %llu tiles of %u texels, %u levels, %s, %s; %s normal maps of %u texels\n",
               static_cast<unsigned long long>(tiles), m.textureTileTexels, m.textureLevels,
-              m.textureFormat.c_str(), m.textureSource.c_str());
+              m.textureFormat.c_str(), m.textureSource.c_str(), m.textureNormalFormat.c_str(),
+              m.normalTileTexels());
   std::printf(
       "bytes     %.2f MB: patches %.2f MB (%.2f MB raw, ratio %.2f), textures %.2f MB, "
-      "node tables %.2f MB, texture tables %.3f MB\n",
+      "normal maps %.2f MB, node tables %.2f MB, texture tables %.3f MB\n",
       static_cast<double>(fileBytes) / 1e6, static_cast<double>(total.compressedBytes) / 1e6,
       static_cast<double>(rawBytes) / 1e6, ratio, static_cast<double>(textureBytes) / 1e6,
-      static_cast<double>(nodeTableBytes) / 1e6, static_cast<double>(textureTableBytes) / 1e6);
+      static_cast<double>(normalBytes) / 1e6, static_cast<double>(nodeTableBytes) / 1e6,
+      static_cast<double>(textureTableBytes) / 1e6);
   std::printf(
       "level  nodes  leaves  triangles  per patch min / mean / max  error min .. max (m)\n");
   for (std::size_t l = 0; l < levels.size(); ++l) {

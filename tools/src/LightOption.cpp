@@ -58,6 +58,11 @@ void addLightOptions(CLI::App& cmd, LightCliOptions& o, bool withTimeScale) {
   cmd.add_option("--exposure", o.exposure,
                  "The atmosphere's exposure: radiance times this through a 1 - e^-x curve "
                  "(default 10 on Earth, 23 on Mars)");
+  cmd.add_option("--normal-maps", o.normalMaps,
+                 "on: under the sun, patches coarser than the data are shaded by the normal maps "
+                 "the build made from it (distant relief keeps its shading); off: by their drawn "
+                 "triangles, as leaves and every patch under the camera light are")
+      ->capture_default_str();
 }
 
 Result<Light> parseLight(std::string_view time, std::string_view sun, double timeScale,
@@ -124,7 +129,13 @@ Result<Light> parseLight(std::string_view time, std::string_view sun, double tim
 }
 
 Result<Light> parseLight(const LightCliOptions& o) {
-  return parseLight(o.time, o.sun, o.timeScale, o.ambient, true, o.atmosphere, o.exposure);
+  if (o.normalMaps != "on" && o.normalMaps != "off") {
+    return makeError(ErrorCode::InvalidArgument,
+                     "--normal-maps '" + o.normalMaps + "': expected on or off");
+  }
+  auto light = parseLight(o.time, o.sun, o.timeScale, o.ambient, true, o.atmosphere, o.exposure);
+  if (light) light->normalMaps = o.normalMaps == "on";
+  return light;
 }
 
 Result<void> checkLightFor(const Light& light, const runtime::Planet& planet) {
@@ -221,12 +232,14 @@ LightSummary summarizeLight(const Light& light, const runtime::Planet& planet) {
   }
   s.ambient = static_cast<double>(light.ambient);
   s.exposure = atmosphereExposure(light, planet);
+  s.normalMaps = light.normalMaps;
   return s;
 }
 
 void applyLight(const Light& light, const runtime::Planet& planet, const runtime::Camera& target,
                 double pathSeconds, gpu::FrameSettings& settings) {
   settings.ambient = light.ambient;
+  settings.normalMaps = light.normalMaps;
   settings.atmosphereExposure = static_cast<float>(atmosphereExposure(light, planet));
   switch (light.kind) {
     case Light::Kind::Camera:

@@ -25,6 +25,7 @@ struct LightCliOptions final {
   std::optional<double> ambient;    ///< unset: kCameraLightAmbient or kSunlightAmbient
   std::string atmosphere = "auto";  ///< auto (on under the real sun), on, off
   std::optional<double> exposure;   ///< unset: kEarthExposure scaled by the body's sunlight
+  std::string normalMaps = "on";    ///< on: simplified patches shaded by their normal maps
 };
 
 /// Adds the options to `cmd`; `withTimeScale`: --time-scale too (commands that replay a path).
@@ -49,6 +50,8 @@ struct Light final {
   enum class Air { Auto, On, Off };
   Air air = Air::Auto;             ///< the atmosphere: auto is on under the real sun
   std::optional<double> exposure;  ///< the atmosphere's; unset: the body's default
+  /// Under the sun, simplified patches shaded by their tiles' normal maps (FrameSettings).
+  bool normalMaps = true;
 };
 
 /// The light of the option values, named as options ("--time") or, without `cliNames`, as query
@@ -60,7 +63,7 @@ formats::Result<Light> parseLight(std::string_view time, std::string_view sun, d
                                   std::string_view atmosphere = "auto",
                                   std::optional<double> exposure = std::nullopt);
 
-/// parseLight of the command-line options.
+/// parseLight of the command-line options, and --normal-maps (on or off, else InvalidArgument).
 formats::Result<Light> parseLight(const LightCliOptions& o);
 
 /// InvalidArgument when `light` needs an ephemeris or an atmosphere `planet` has none of (the
@@ -93,7 +96,8 @@ struct LightSummary final {
   double azimuthDegrees = 0.0;    ///< sun
   double elevationDegrees = 0.0;  ///< sun
   double ambient = 0.0;
-  double exposure = 0.0;  ///< the atmosphere's; 0: no atmosphere
+  double exposure = 0.0;   ///< the atmosphere's; 0: no atmosphere
+  bool normalMaps = true;  ///< Light::normalMaps
 };
 LightSummary summarizeLight(const Light& light, const runtime::Planet& planet);
 

@@ -68,9 +68,10 @@ Result<BuildInputs> prepareInputs(const BuildOptions& o) {
         ": must be between 0.25 and 4 (a level's error is at least 1 + r times its "
         "children's)");
   }
-  if (o.textureTileTexels < 16 || o.textureTileTexels > 4096 || o.textureTileTexels % 4 != 0) {
+  if (o.textureTileTexels < 16 || o.textureTileTexels > 4096 || o.textureTileTexels % 8 != 0) {
     return invalidArgument("--texture-tile " + std::to_string(o.textureTileTexels) +
-                           ": must be a multiple of 4 between 16 and 4096");
+                           ": must be a multiple of 8 between 16 and 4096 (its normal map is "
+                           "half as large, in 4 × 4 blocks)");
   }
   if (o.depth && (*o.depth % 2 != 0 || *o.depth > 28)) {
     return invalidArgument("--levels " + std::to_string(*o.depth) +
@@ -232,6 +233,9 @@ std::vector<std::pair<std::string, std::string>> fingerprintOf(const BuildOption
   // What the levels are made from and what the carry holds: a checkpoint of another version of
   // the builder's levels cannot be continued (docs/builder.md "Checkpoints").
   f.emplace_back("builder-levels", std::to_string(kBuilderLevelsVersion));
+  // And the dataset format the tiles and patches are made for (version 5 added the normal-map
+  // tiles to the texture checkpoint's entries).
+  f.emplace_back("dataset-format", std::to_string(formats::kDatasetFormatVersion));
   f.emplace_back("dem", o.demPath.filename().string());
   f.emplace_back("dem-grid", std::to_string(g.width) + "x" + std::to_string(g.height) + "@" +
                                  exact(g.firstLatDegrees) + "," + exact(g.firstLonDegrees) + "/" +

@@ -223,10 +223,13 @@ Result<TexturePartFooter> decodeTexturePartFooter(std::span<const std::byte> byt
   return footer;
 }
 
-void putTileEntry(ByteWriter& w, float textureErrorMeters, std::span<const std::byte> blob) {
+void putTileEntry(ByteWriter& w, float textureErrorMeters, std::span<const std::byte> colour,
+                  std::span<const std::byte> normal) {
   w.put(textureErrorMeters);
-  w.put(static_cast<std::uint32_t>(blob.size()));
-  w.putBytes(blob);
+  w.put(static_cast<std::uint32_t>(colour.size()));
+  w.put(static_cast<std::uint32_t>(normal.size()));
+  w.putBytes(colour);
+  w.putBytes(normal);
 }
 
 Result<TexturePartView> TexturePartView::parse(std::span<const std::byte> payload,

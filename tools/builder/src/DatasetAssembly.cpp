@@ -49,6 +49,7 @@ struct Located {
 /// Every texture tile's blob and error, by tile index (face-major, then heap order).
 struct Tiles {
   std::vector<std::span<const std::byte>> blobs;
+  std::vector<std::span<const std::byte>> normalBlobs;
   std::vector<float> errors;
   std::uint64_t perFace = 0;
 };
@@ -288,6 +289,7 @@ Result<void> Assembly::locateTiles() {
   tileKeys_ = in_.plan.tiles(textureLevels_);
   const std::uint64_t count = tileKeys_.empty() ? 6 * tiles_.perFace : tileKeys_.size();
   tiles_.blobs.assign(count, {});
+  tiles_.normalBlobs.assign(count, {});
   tiles_.errors.assign(count, 0.0f);
   std::uint64_t seen = 0;
   const Checkpoint& checkpoint = in_.checkpoint;
@@ -298,11 +300,13 @@ Result<void> Assembly::locateTiles() {
     auto view = TexturePartView::parse(
         payload, checkpoint.file(Checkpoint::Kind::Texture, 0, part).string());
     if (!view) return std::move(view).error();
-    auto walked = view->forEachTile(
-        [&](std::uint64_t k, float textureErrorMeters, std::span<const std::byte> blob) {
+    auto walked =
+        view->forEachTile([&](std::uint64_t k, float textureErrorMeters,
+                              std::span<const std::byte> blob, std::span<const std::byte> normal) {
           if (k >= tiles_.blobs.size()) return false;
           tiles_.errors[k] = textureErrorMeters;
           tiles_.blobs[k] = blob;
+          tiles_.normalBlobs[k] = normal;
           ++seen;
           return true;
         });
@@ -333,6 +337,7 @@ Manifest Assembly::makeManifest() const {
   manifest.textureTileTexels = o.textureTileTexels;
   manifest.textureBorderTexels = kTextureBorderTexels;
   manifest.textureFormat = o.textureFormat == TexelFormat::Bc1 ? "bc1" : "rgba8";
+  manifest.textureNormalFormat = o.textureFormat == TexelFormat::Bc1 ? "bc5" : "rg8";
   manifest.textureSource = "shaded-relief";
   if (in_.hasImagery) {
     manifest.textureSource = "image:";
@@ -590,7 +595,7 @@ Result<ManifestFace> Assembly::writeFace(int face) {
   std::uint64_t known = h.blobsOffset;
   for (std::uint64_t k = 0; k < h.nodeCount; ++k) known += located_[firstSlot + k].blob.size();
   for (std::uint64_t k = 0; k < h.textureNodeCount; ++k)
-    known += tiles_.blobs[firstTile + k].size();
+    known += tiles_.blobs[firstTile + k].size() + tiles_.normalBlobs[firstTile + k].size();
   if (auto r = file->reserve(known); !r) return std::move(r).error();
   // The header and tables are written last, in place: a record holds its blobs' offset, known
   // once the morph targets before it are made, and the header the tables' CRCs. The morph
@@ -615,10 +620,16 @@ Result<ManifestFace> Assembly::writeFace(int face) {
       leaf = !std::binary_search(tileKeys_.begin(), tileKeys_.end(),
                                  faceTiles + textureHeapIndex(level + 1, 2 * qi, 2 * qj));
     }
-    TextureRecord t{at, static_cast<std::uint32_t>(blob.size()), tiles_.errors[tile], heap,
-                    leaf ? kRecordLeaf : 0};
-    at += blob.size();
+    const auto& normal = tiles_.normalBlobs[tile];
+    TextureRecord t{at,
+                    static_cast<std::uint32_t>(blob.size()),
+                    tiles_.errors[tile],
+                    heap,
+                    leaf ? kRecordLeaf : 0,
+                    static_cast<std::uint32_t>(normal.size())};
+    at += blob.size() + normal.size();
     if (auto w = file->append(blob); !w) return std::move(w).error();
+    if (auto w = file->append(normal); !w) return std::move(w).error();
     encodeTextureRecord(t, std::span<std::byte, kTextureRecordBytes>(
                                textureTable.data() + k * kTextureRecordBytes, kTextureRecordBytes));
   }

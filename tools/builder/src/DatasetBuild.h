@@ -156,8 +156,10 @@ class DatasetBuild {
                 const std::vector<std::vector<std::byte>>& gathered, Clock::time_point t0);
   TextureSource textureSource() const;
   /// Tile `k` (face-major, heap order within a face) as its blob and rounded-up error.
+  /// Builds tile `k`'s colour and normal-map blobs and its texture error; false on failure.
   bool buildTile(const TextureSource& source, std::uint64_t k, std::uint64_t tilesPerFace,
-                 std::vector<std::byte>& blob, float& errorMeters) const;
+                 std::vector<std::byte>& blob, std::vector<std::byte>& normalBlob,
+                 float& errorMeters) const;
   formats::Result<void> recordTextures(const std::vector<std::vector<std::byte>>& gathered,
                                        std::uint64_t tiles);
 

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "pbdam/runtime/CubeMap.h"
+#include "pbdam/runtime/NormalMap.h"
 
 using namespace pbdam::formats;
 using namespace pbdam::runtime;
@@ -212,6 +213,7 @@ struct ReliefSample final {
   bool valid = false;
   double tintHeightMeters = 0.0;  // centre weighted 1/2, the four neighbours 1/8 each
   double relief = 1.0;            // lit fraction relative to flat ground: 0 .. 1/sin(elevation)
+  glm::dvec2 gradient{0.0};       // true slope: metres of height per metre east, north
 };
 
 // A texel's relief reads its four grid neighbours (Horn-style central differences over the
@@ -307,6 +309,7 @@ class ReliefSampler final {
     } else if (dv.valid) {
       gradient = dv.step * (dv.dh / glm::dot(dv.step, dv.step));
     }
+    result.gradient = gradient;
     const glm::dvec2 slope = exaggeration_ * gradient;
     const glm::dvec3 normal = glm::normalize(glm::dvec3(-slope.x, -slope.y, 1.0));
     result.relief = std::max(0.0, glm::dot(normal, light_)) / sinElevation_;
@@ -627,6 +630,59 @@ Result<TextureTileResult> buildTextureTile(const TextureSource& source,
     for (int x = 0; x < size; ++x) colouring.colour(x, y, line + static_cast<std::size_t>(x) * 4);
   }
   return result;
+}
+
+Result<TextureTileImage> buildNormalTile(const TextureSource& source,
+                                         const TextureTileRequest& colour) {
+  if (Result<void> valid = validateTextureTileRequest(colour); !valid) {
+    return std::move(valid).error();
+  }
+  if (colour.sizeTexels % 2 != 0 || colour.borderTexels % 2 != 0 || colour.sizeTexels < 4) {
+    return makeError(ErrorCode::InvalidArgument,
+                     "normal-map tile: the colour tile's size " +
+                         std::to_string(colour.sizeTexels) + " and border " +
+                         std::to_string(colour.borderTexels) +
+                         " must be even (the normal map is half as large)");
+  }
+  TextureTileRequest request = colour;
+  request.sizeTexels /= 2;
+  request.borderTexels /= 2;
+  const bool haveHeights = static_cast<bool>(source.heightMeters);
+  const int size = static_cast<int>(request.sizeTexels);
+  TexelRows rows(source.planet, request, -1, size + 2, true,
+                 haveHeights ? &source.heightMeters : nullptr);
+  const ReliefSampler relief(source, rows);
+  const CubeFace face = cubeFaceFromIndex(request.face);
+
+  TextureTileImage tile;
+  tile.sizeTexels = request.sizeTexels;
+  tile.format = TexelFormat::Rg8;
+  tile.borderTexels = request.borderTexels;
+  tile.data.resize(textureTileDataBytes(request.sizeTexels, TexelFormat::Rg8));
+  rows.load(-1);
+  rows.load(0);
+  for (int y = 0; y < size; ++y) {
+    rows.load(y + 1);
+    std::uint8_t* line = tile.data.data() + static_cast<std::size_t>(y) * request.sizeTexels * 2;
+    for (int x = 0; x < size; ++x) {
+      // The true relief's normal (no exaggeration: the renderer scales the slope it reads),
+      // flat where the texel has no height.
+      const GeodeticPosition& position = rows.row(y).positions[rows.column(x)];
+      const LocalAxes axes = localAxes(position.latDegrees, position.lonDegrees);
+      glm::dvec2 gradient(0.0);
+      if (haveHeights) {
+        const ReliefSample sample = relief.sample(x, y);
+        if (sample.valid) gradient = sample.gradient;
+      }
+      const glm::dvec3 up = glm::cross(axes.east, axes.north);
+      const glm::dvec3 normal =
+          glm::normalize(up - gradient.x * axes.east - gradient.y * axes.north);
+      const std::array<std::uint8_t, 2> texel = encodeNormalTexel(normalMapFrame(face, up), normal);
+      line[2 * x] = texel[0];
+      line[2 * x + 1] = texel[1];
+    }
+  }
+  return tile;
 }
 
 std::function<std::optional<double>(double, double)> heightFunctionFromGrid(const HeightGrid& grid,

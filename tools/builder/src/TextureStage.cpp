@@ -85,7 +85,7 @@ TextureSource DatasetBuild::textureSource() const {
 
 bool DatasetBuild::buildTile(const TextureSource& source, std::uint64_t key,
                              std::uint64_t tilesPerFace, std::vector<std::byte>& blob,
-                             float& errorMeters) const {
+                             std::vector<std::byte>& normalBlob, float& errorMeters) const {
   const auto face = static_cast<int>(key / tilesPerFace);
   const std::uint64_t heap = key % tilesPerFace;
   std::uint32_t level = 0;
@@ -109,6 +109,18 @@ bool DatasetBuild::buildTile(const TextureSource& source, std::uint64_t key,
   auto encoded = encodeTextureTile(image);
   if (!encoded) return false;
   blob = std::move(encoded).value();
+  // The normal map beside it: BC5 beside BC1, else two bytes a texel.
+  auto normals = buildNormalTile(source, request);
+  if (!normals) return false;
+  TextureTileImage normalImage = std::move(normals).value();
+  if (o_.textureFormat == TexelFormat::Bc1) {
+    auto bc5 = compressBc5(normalImage);
+    if (!bc5) return false;
+    normalImage = std::move(bc5).value();
+  }
+  auto normalEncoded = encodeTextureTile(normalImage);
+  if (!normalEncoded) return false;
+  normalBlob = std::move(normalEncoded).value();
   errorMeters = roundUpToFloat(tile->textureErrorMeters);
   return true;
 }
@@ -164,6 +176,7 @@ Result<void> DatasetBuild::buildTextures() {
       static_cast<std::uint64_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
   const std::uint64_t batch = 16 * threads;  // tiles in memory at once
   std::vector<std::vector<std::byte>> blobs;
+  std::vector<std::vector<std::byte>> normalBlobs;
   std::vector<float> errors;
   std::atomic<std::uint64_t> done{0};
   std::atomic<std::int64_t> failedTile{-1};
@@ -172,10 +185,12 @@ Result<void> DatasetBuild::buildTextures() {
   for (std::uint64_t first = 0; first < mine && failedTile < 0; first += batch) {
     const std::uint64_t count = std::min(batch, mine - first);
     blobs.assign(count, {});
+    normalBlobs.assign(count, {});
     errors.assign(count, 0.0f);
     tbb::parallel_for(std::uint64_t{0}, count, [&](std::uint64_t j) {
       const std::uint64_t k = begin + first + j;
-      if (!buildTile(source, keys.empty() ? k : keys[k], tilesPerFace, blobs[j], errors[j])) {
+      if (!buildTile(source, keys.empty() ? k : keys[k], tilesPerFace, blobs[j], normalBlobs[j],
+                     errors[j])) {
         failedTile = static_cast<std::int64_t>(k);
         return;
       }
@@ -192,10 +207,11 @@ Result<void> DatasetBuild::buildTextures() {
     });
     if (failedTile >= 0) break;
     ByteWriter w;
-    for (std::uint64_t j = 0; j < count; ++j) putTileEntry(w, errors[j], blobs[j]);
+    for (std::uint64_t j = 0; j < count; ++j) putTileEntry(w, errors[j], blobs[j], normalBlobs[j]);
     if (auto r = file->append(w.bytes()); !r) return fail(item, r.error());
   }
   blobs.clear();
+  normalBlobs.clear();
   if (failedTile >= 0) {
     return fail(item,
                 makeError(ErrorCode::Internal, "texture tile " + std::to_string(failedTile.load()) +

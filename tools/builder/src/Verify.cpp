@@ -597,13 +597,13 @@ void DatasetVerifier::checkTextures() {
     const FaceView& view = *views_[f];
     for (std::uint64_t row = 0; row < view.header().textureNodeCount; ++row) {
       const TextureRecord r = view.textureAt(row);
-      auto bytes = view.readTextureBlob(r, blob);
+      auto bytes = view.readTextureBlobs(r, blob);
       if (!bytes) {
         violations_.add(bytes.error().message);
         continue;
       }
-      auto tile =
-          decodeTextureTile(*bytes, view.context() + " offset " + std::to_string(r.blobOffset));
+      auto tile = decodeTextureTile(bytes->colour,
+                                    view.context() + " offset " + std::to_string(r.blobOffset));
       if (!tile) {
         violations_.add(tile.error().message);
         continue;
@@ -611,6 +611,18 @@ void DatasetVerifier::checkTextures() {
       ++report_.tilesDecoded;
       if (tile->sizeTexels != view.header().textureTileTexels) {
         violations_.add(view.context() + ": texture tile of the wrong size");
+      }
+      // Its normal map: half the size and border, two channels.
+      auto normals = decodeTextureTile(
+          bytes->normal, view.context() + " offset " + std::to_string(r.blobOffset + r.blobBytes));
+      if (!normals) {
+        violations_.add(normals.error().message);
+      } else if (normals->sizeTexels != view.header().textureTileTexels / 2 ||
+                 normals->borderTexels != view.header().textureBorderTexels / 2 ||
+                 (normals->format != TexelFormat::Bc5 && normals->format != TexelFormat::Rg8)) {
+        violations_.add(view.context() + ": normal-map tile at offset " +
+                        std::to_string(r.blobOffset + r.blobBytes) +
+                        " is not a half-size two-channel tile");
       }
       const std::uint32_t level = textureLevelOfHeap(r.heapIndex);
       if (level == 0) continue;

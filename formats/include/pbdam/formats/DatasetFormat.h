@@ -25,7 +25,7 @@
 namespace pbdam::formats {
 
 /// The face-file version this build writes and reads (FaceHeader::version); others are refused.
-inline constexpr std::uint32_t kDatasetFormatVersion = 4;
+inline constexpr std::uint32_t kDatasetFormatVersion = 5;
 /// Bytes of a face file's header, at offset 0.
 inline constexpr std::size_t kFaceHeaderBytes = 128;
 /// Bytes of one node-table record (NodeRecord).
@@ -88,13 +88,18 @@ struct NodeRecord final {
   bool leaf() const noexcept { return (flags & kRecordLeaf) != 0; }
 };
 
-/// One texture quadtree node: its tile blob and its texture error.
+/// One texture quadtree node: its colour tile blob, its normal-map tile blob (stored right after
+/// the colour tile) and its texture error.
 struct TextureRecord final {
-  std::uint64_t blobOffset = 0;  ///< of the tile blob, from the start of the file
-  std::uint32_t blobBytes = 0;   ///< bytes of the tile blob (TextureTile.h)
+  std::uint64_t blobOffset = 0;  ///< of the colour tile blob, from the start of the file
+  std::uint32_t blobBytes = 0;   ///< bytes of the colour tile blob (TextureTile.h)
   float errorMeters = 0.0f;      ///< largest texel footprint on the ground
   std::uint64_t heapIndex = 0;   ///< textureHeapIndex(level, qi, qj)
   std::uint32_t flags = 0;       ///< kRecordLeaf
+  /// Bytes of the normal-map tile blob, which starts at blobOffset + blobBytes (version 5).
+  std::uint32_t normalBytes = 0;
+  /// The bytes of both blobs together (adjacent in the file).
+  std::uint64_t blobsBytes() const noexcept { return std::uint64_t{blobBytes} + normalBytes; }
   /// Whether the tile has no children (kRecordLeaf).
   bool leaf() const noexcept { return (flags & kRecordLeaf) != 0; }
 };
@@ -128,6 +133,12 @@ TextureRecord decodeTextureRecord(std::span<const std::byte, kTextureRecordBytes
 struct PatchBlobs final {
   std::span<const std::byte> patch;  ///< the patch blob (PatchCodec.h)
   std::span<const std::byte> morph;  ///< empty when the node has none
+};
+
+/// A tile's two blobs, read together (FaceView::readTextureBlobs).
+struct TextureBlobs final {
+  std::span<const std::byte> colour;  ///< the colour tile blob (TextureTile.h)
+  std::span<const std::byte> normal;  ///< the normal-map tile blob; empty when the tile has none
 };
 
 /// How a FaceView holds its node table.
@@ -215,9 +226,13 @@ class FaceView final {
   TextureRecord textureNode(std::uint64_t heapIndex) const noexcept;
   /// The tile at row `tableIndex` of the texture table (below header().textureNodeCount).
   TextureRecord textureAt(std::uint64_t tableIndex) const noexcept;
-  /// The same for a tile blob.
+  /// The same for a tile's colour blob.
   Result<std::span<const std::byte>> readTextureBlob(const TextureRecord& record,
                                                      std::vector<std::byte>& buffer) const;
+  /// Copies a tile's colour and normal-map blobs into `buffer` in one read; errors as for
+  /// readPatchBlob.
+  Result<TextureBlobs> readTextureBlobs(const TextureRecord& record,
+                                        std::vector<std::byte>& buffer) const;
   /// Byte offset of a table entry in the file (for error messages and prefetch).
   std::uint64_t nodeRecordOffset(std::uint64_t tableIndex) const noexcept {
     return header_.nodeTableOffset + tableIndex * kNodeRecordBytes;

@@ -60,7 +60,15 @@ struct Manifest final {
   std::uint32_t textureTileTexels = 0;  ///< texels on a tile's side, its border included
   std::uint32_t textureBorderTexels = 0;  ///< texels of border on each side of a tile
   std::string textureFormat;              ///< "rgba8" or "bc1"
-  std::string textureSource;              ///< "shaded-relief" or "image:<file name>"
+  /// The normal-map tiles' texel format: "bc5" beside bc1 colour tiles, "rg8" beside rgba8.
+  /// Their side and border are half the colour tiles' (normalTileTexels, normalBorderTexels).
+  std::string textureNormalFormat;
+  /// Texels on a normal-map tile's side, its border included: half the colour tile's, so that
+  /// the same texture coordinates address both (formats/FORMAT.md "Texture table").
+  std::uint32_t normalTileTexels() const noexcept { return textureTileTexels / 2; }
+  /// Texels of border on each side of a normal-map tile.
+  std::uint32_t normalBorderTexels() const noexcept { return textureBorderTexels / 2; }
+  std::string textureSource;          ///< "shaded-relief" or "image:<file name>"
   std::string sourceDem;              ///< file name of the DEM (no directories: builds elsewhere
                                       ///< give the same bytes)
   std::string sourceFormat;           ///< GDAL driver of the DEM

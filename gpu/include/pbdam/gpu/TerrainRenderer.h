@@ -101,6 +101,10 @@ struct FrameSettings final {
   float atmosphereExposure = 0.0f;
   /// Fraction of the texel colour that faces away from the sun keep (0..1).
   float ambient = 0.35f;
+  /// Under a real sun (sunAngularRadiusRadians > 0), simplified patches are shaded by their
+  /// tiles' normal maps (the lattice's relief, made by the build); false: by the facets of the
+  /// drawn triangles, as leaves and every patch under the camera light are.
+  bool normalMaps = true;
   /// Draped over the terrain when set.
   std::shared_ptr<const SurfaceOverlay> overlay;
   /// Whether collect() reads the frame's pixels back; false gives its stats only (a benchmark

@@ -77,7 +77,10 @@ struct alignas(16) PatchDrawRecord final {
   std::array<float, 4> corner[3];           ///< xyz: float(P_k − cam), w: see below
                                             ///< (w of corner 0: texture array layer,
                                             ///< 1: equatorial radius, 2: polar radius, metres)
-  std::array<float, 4> normal[3];           ///< xyz: N_k
+  std::array<float, 4> normal[3];           ///< xyz: N_k; w of normal 0: the normal map's
+                                            ///< slope scale (the exaggeration), of normal 1:
+                                            ///< the map's share of the terrain normal (0: the
+                                            ///< facets' alone, as for a leaf; patch.frag)
   std::array<float, 4> edgeOrigin[3];       ///< xyz: Re, w: tr
   std::array<float, 4> edgeVector[3];       ///< xyz: Ee = P_b − P_a, w: hre
   std::array<float, 4> edgeNormal[3];       ///< xyz: Na, w: index of corner b (0..2)

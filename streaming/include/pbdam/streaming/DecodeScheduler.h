@@ -38,7 +38,8 @@ struct DecodeJob final {
   runtime::NodeKey node;          ///< the patch's node (kind Patch)
   runtime::TileKey tile;          ///< the tile (kind Tile)
   std::uint64_t offset = 0;       ///< first byte in the output (layout() sets it)
-  std::uint64_t bytes = 0;        ///< patches: vertices then 16-bit indices; tiles: texels
+  std::uint64_t bytes = 0;        ///< patches: vertices then 16-bit indices; tiles: colour
+                                  ///< texels, then (at normalTileOffset()) normal-map texels
   std::uint64_t vertexBytes = 0;  ///< patches: the vertex part of `bytes`
 };
 
@@ -49,15 +50,24 @@ class DecodeScheduler final {
   /// 8-byte BC1 block).
   static constexpr std::uint64_t kAlignment = 16;
 
-  /// Tiles are decoded to `tileTexels`: the dataset's own format, or RGBA8 (BC1 expanded);
-  /// patch vertices with their heights times `exaggeration` (runtime::PatchVertexPlacement).
+  /// Tiles are decoded to `tileTexels`: the dataset's own format, or RGBA8 (BC1 expanded), and
+  /// their normal maps to normalTexels(tileTexels); patch vertices with their heights times
+  /// `exaggeration` (runtime::PatchVertexPlacement).
   DecodeScheduler(const runtime::DatasetView& dataset, formats::TexelFormat tileTexels,
                   double exaggeration = 1.0) noexcept;
 
   /// The texel format the dataset's tiles are stored in (manifest.json's texture_format).
   static formats::TexelFormat datasetTexels(const runtime::DatasetView& dataset) noexcept;
-  /// Bytes of one decoded tile.
+  /// The normal maps' texel format that goes with colour texels `tileTexels`: BC5 beside BC1
+  /// (a device that samples one samples the other), else RG8 (BC5 expanded).
+  static formats::TexelFormat normalTexels(formats::TexelFormat tileTexels) noexcept {
+    return tileTexels == formats::TexelFormat::Bc1 ? formats::TexelFormat::Bc5
+                                                   : formats::TexelFormat::Rg8;
+  }
+  /// Bytes of one decoded tile: its colour texels, then its normal-map texels.
   std::uint64_t tileBytes() const noexcept { return tileBytes_; }
+  /// Where a decoded tile's normal-map texels start (a multiple of kAlignment).
+  std::uint64_t normalTileOffset() const noexcept { return normalOffset_; }
 
   /// Sets every job's offset, bytes and vertexBytes: consecutive in job order, each offset
   /// aligned to kAlignment. Returns the bytes the output needs. Patch jobs must name drawable
@@ -77,6 +87,7 @@ class DecodeScheduler final {
   const runtime::DatasetView* dataset_;
   formats::TexelFormat tileTexels_;
   double exaggeration_;
+  std::uint64_t normalOffset_;
   std::uint64_t tileBytes_;
 };
 

@@ -322,15 +322,18 @@ std::vector<std::byte> encodeTexturePartFooter(const TexturePartFooter& footer);
 /// Decodes exactly TexturePartFooter::kBytes bytes; the error names `where` and "incomplete".
 formats::Result<TexturePartFooter> decodeTexturePartFooter(std::span<const std::byte> bytes,
                                                            const std::string& where);
-/// Appends one tile entry: f32 texture error, u32 blob size, the blob.
-void putTileEntry(ByteWriter& w, float textureErrorMeters, std::span<const std::byte> blob);
+/// Appends one tile entry: f32 texture error, u32 colour blob size, u32 normal-map blob size,
+/// the colour blob, the normal-map blob.
+void putTileEntry(ByteWriter& w, float textureErrorMeters, std::span<const std::byte> colour,
+                  std::span<const std::byte> normal);
 /// A texture part file's payload: tile entries, then the footer.
 class TexturePartView final {
  public:
   static formats::Result<TexturePartView> parse(std::span<const std::byte> payload,
                                                 std::string where);
   const TexturePartFooter& footer() const noexcept { return footer_; }
-  /// Calls `visit(tileIndex, textureErrorMeters, blob)` for the footer's tiles in order,
+  /// Calls `visit(tileIndex, textureErrorMeters, colourBlob, normalBlob)` for the footer's tiles
+  /// in order,
   /// stopping early when `visit` returns false. Errors: the entries do not fill the payload
   /// exactly ("incomplete").
   template <typename Visit>
@@ -338,9 +341,11 @@ class TexturePartView final {
     ByteReader r(entries_);
     for (std::uint64_t k = footer_.firstTile; k < footer_.firstTile + footer_.tiles; ++k) {
       const auto error = r.get<float>();
-      const auto bytes = r.get<std::uint32_t>();
-      const auto blob = r.take(bytes);
-      if (r.failed() || !visit(k, error, blob)) break;
+      const auto colourBytes = r.get<std::uint32_t>();
+      const auto normalBytes = r.get<std::uint32_t>();
+      const auto colour = r.take(colourBytes);
+      const auto normal = r.take(normalBytes);
+      if (r.failed() || !visit(k, error, colour, normal)) break;
     }
     if (r.failed() || !r.atEnd()) return incomplete();
     return {};

@@ -123,6 +123,15 @@ double textureTileErrorMeters(const runtime::Planet& planet,
 formats::Result<TextureTileResult> buildTextureTile(const TextureSource& source,
                                                     const TextureTileRequest& request);
 
+/// Makes the normal-map tile that goes with the colour tile of `colour` (whose size and border
+/// must be even): Rg8, half the colour tile's size and border, so that its inner texels cover
+/// the same square and the same texture coordinates address both. Each texel holds the true
+/// relief's unit normal (heights sampled at the texel centres, slopes by central differences
+/// as for the shaded relief, no exaggeration; flat where there is no height) in the frame of
+/// runtime/NormalMap.h. Deterministic; InvalidArgument for an invalid request or odd sizes.
+formats::Result<formats::TextureTileImage> buildNormalTile(const TextureSource& source,
+                                                           const TextureTileRequest& colour);
+
 /// Convenience height function for TextureSource: samples `grid` (bicubic, or bilinear when
 /// `bicubic` is false). The grid must outlive the returned function.
 std::function<std::optional<double>(double, double)> heightFunctionFromGrid(
