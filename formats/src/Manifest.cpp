@@ -100,6 +100,30 @@ double finiteField(const nlohmann::ordered_json& parent, const char* key) {
   return v.get<double>();
 }
 
+/// Reads the `texture` object into `m`; returns what is wrong with it (empty when nothing is):
+/// the normal maps' format must go with the colour tiles' and their sizes halve.
+std::string readTexture(const nlohmann::ordered_json& t, Manifest& m) {
+  m.textureLevels = unsignedField<std::uint32_t>(t, "levels");
+  m.textureTileTexels = unsignedField<std::uint32_t>(t, "tile_texels");
+  m.textureBorderTexels = unsignedField<std::uint32_t>(t, "border_texels");
+  m.textureFormat = t.at("format").get<std::string>();
+  m.textureNormalFormat = t.at("normal_format").get<std::string>();
+  m.textureSource = t.at("source").get<std::string>();
+  if ((m.textureFormat != "bc1" || m.textureNormalFormat != "bc5") &&
+      (m.textureFormat != "rgba8" || m.textureNormalFormat != "rg8")) {
+    return "texture format '" + m.textureFormat + "' with normal format '" + m.textureNormalFormat +
+           "' (expected bc1 with bc5, or rgba8 with rg8)";
+  }
+  if (m.textureTileTexels % 2 != 0 || m.textureBorderTexels % 2 != 0 ||
+      (m.textureNormalFormat == "bc5" && m.textureTileTexels % 8 != 0)) {
+    return "texture tiles of " + std::to_string(m.textureTileTexels) + " texels, border " +
+           std::to_string(m.textureBorderTexels) +
+           ": normal-map tiles are half as large, so both must be even (the side a multiple of 8 "
+           "for bc5)";
+  }
+  return {};
+}
+
 }  // namespace
 
 Result<Manifest> parseManifest(std::string_view text, std::string_view context) {
@@ -134,13 +158,9 @@ Result<Manifest> parseManifest(std::string_view text, std::string_view context) 
     m.minPatchTriangles = unsignedField<std::uint32_t>(j, "min_patch_triangles");
     m.errorMargin = finiteField(j, "error_margin");
     m.heightStepMeters = finiteField(j, "height_step_m");
-    const auto& t = j.at("texture");
-    m.textureLevels = unsignedField<std::uint32_t>(t, "levels");
-    m.textureTileTexels = unsignedField<std::uint32_t>(t, "tile_texels");
-    m.textureBorderTexels = unsignedField<std::uint32_t>(t, "border_texels");
-    m.textureFormat = t.at("format").get<std::string>();
-    m.textureNormalFormat = t.at("normal_format").get<std::string>();
-    m.textureSource = t.at("source").get<std::string>();
+    if (const std::string wrong = readTexture(j.at("texture"), m); !wrong.empty()) {
+      return fail(wrong);
+    }
     const auto& s = j.at("source");
     m.sourceDem = s.at("dem").get<std::string>();
     m.sourceFormat = s.at("format").get<std::string>();
@@ -205,18 +225,6 @@ Result<Manifest> parseManifest(std::string_view text, std::string_view context) 
       }
     }
     if (m.cubeMap != "tangent") return fail("unknown cube map '" + m.cubeMap + "'");
-    if ((m.textureFormat != "bc1" || m.textureNormalFormat != "bc5") &&
-        (m.textureFormat != "rgba8" || m.textureNormalFormat != "rg8")) {
-      return fail("texture format '" + m.textureFormat + "' with normal format '" +
-                  m.textureNormalFormat + "' (expected bc1 with bc5, or rgba8 with rg8)");
-    }
-    if (m.textureTileTexels % 2 != 0 || m.textureBorderTexels % 2 != 0 ||
-        (m.textureNormalFormat == "bc5" && m.textureTileTexels % 8 != 0)) {
-      return fail("texture tiles of " + std::to_string(m.textureTileTexels) + " texels, border " +
-                  std::to_string(m.textureBorderTexels) +
-                  ": normal-map tiles are half as large, so both must be even (the side a "
-                  "multiple of 8 for bc5)");
-    }
     if (m.equatorialRadiusMeters <= 0.0 || m.heightStepMeters <= 0.0 || m.latticeCells == 0 ||
         m.leafCells == 0 || m.depth > kMaxBintreeDepth || m.textureLevels > kMaxTextureLevels) {
       return fail("out-of-range numbers");

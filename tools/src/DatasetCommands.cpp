@@ -53,29 +53,80 @@ void addNodeStats(const FaceView& view, std::vector<LevelStats>& levels) {
   }
 }
 
+/// The bytes of a dataset's files by what they hold.
+struct InfoBytes {
+  std::uint64_t file = 0, headers = 0, nodeTables = 0, textureTables = 0, textures = 0;
+  std::uint64_t normals = 0, tiles = 0;
+};
+
+/// `pbdam info --json`: the manifest's essentials, the totals and the per-level statistics.
+void printInfoJson(const std::string& dir, const Manifest& m, const std::vector<LevelStats>& levels,
+                   const LevelStats& total, const InfoBytes& b, std::uint64_t rawBytes,
+                   double ratio) {
+  nlohmann::ordered_json j;
+  j["dataset"] = dir;
+  j["planet"] = m.planetSpec;
+  j["equatorial_radius_m"] = m.equatorialRadiusMeters;
+  j["lattice_cells"] = m.latticeCells;
+  j["leaf_cells"] = m.leafCells;
+  j["depth"] = m.depth;
+  j["texture_levels"] = m.textureLevels;
+  j["texture_format"] = m.textureFormat;
+  j["texture_normal_format"] = m.textureNormalFormat;
+  j["texture_source"] = m.textureSource;
+  j["source_dem"] = m.sourceDem;
+  if (!m.insets.empty()) j["insets"] = nlohmann::ordered_json::parse(manifestInsetsJson(m));
+  j["nodes"] = total.nodes;
+  j["patches"] = total.nodes;
+  j["vertices"] = total.vertices;
+  j["triangles"] = total.triangles;
+  j["texture_tiles"] = b.tiles;
+  j["bytes"] = {{"total", b.file},
+                {"headers", b.headers},
+                {"node_tables", b.nodeTables},
+                {"texture_tables", b.textureTables},
+                {"patches", total.compressedBytes},
+                {"textures", b.textures},
+                {"normal_maps", b.normals}};
+  j["patch_bytes_uncompressed"] = rawBytes;
+  j["compression_ratio"] = ratio;
+  nlohmann::ordered_json per = nlohmann::ordered_json::array();
+  for (std::size_t l = 0; l < levels.size(); ++l) {
+    per.push_back({{"level", l},
+                   {"nodes", levels[l].nodes},
+                   {"leaves", levels[l].leaves},
+                   {"triangles", levels[l].triangles},
+                   {"vertices", levels[l].vertices},
+                   {"patch_triangles_min", levels[l].nodes > 0 ? levels[l].minTriangles : 0},
+                   {"patch_triangles_max", levels[l].maxTriangles},
+                   {"error_min_m", levels[l].minError},
+                   {"error_max_m", levels[l].maxError}});
+  }
+  j["levels"] = per;
+  std::cout << j.dump(2) << "\n";
+}
+
 int runInfo(const std::string& dir, bool json) {
   auto manifest = readManifest(dir);
   if (!manifest) return reportError(manifest.error());
   const Manifest& m = *manifest;
   std::vector<LevelStats> levels(m.depth + 1);
-  std::uint64_t headerBytes = 0, nodeTableBytes = 0, textureTableBytes = 0, textureBytes = 0;
-  std::uint64_t normalBytes = 0;
-  std::uint64_t fileBytes = 0, tiles = 0;
+  InfoBytes b;
   for (const ManifestFace& f : m.faces) {
     auto file = MappedFile::open(std::filesystem::path(dir) / f.file);
     if (!file) return reportError(file.error());
     auto view = FaceView::open(file->bytes(), (std::filesystem::path(dir) / f.file).string());
     if (!view) return reportError(view.error());
     const FaceHeader& h = view->header();
-    fileBytes += h.fileBytes;
-    headerBytes += kFaceHeaderBytes;
-    nodeTableBytes += h.nodeCount * kNodeRecordBytes;
-    textureTableBytes += h.textureNodeCount * kTextureRecordBytes;
+    b.file += h.fileBytes;
+    b.headers += kFaceHeaderBytes;
+    b.nodeTables += h.nodeCount * kNodeRecordBytes;
+    b.textureTables += h.textureNodeCount * kTextureRecordBytes;
     addNodeStats(*view, levels);
     for (std::uint64_t k = 0; k < h.textureNodeCount; ++k) {
-      textureBytes += view->textureAt(k).blobBytes;
-      normalBytes += view->textureAt(k).normalBytes;
-      ++tiles;
+      b.textures += view->textureAt(k).blobBytes;
+      b.normals += view->textureAt(k).normalBytes;
+      ++b.tiles;
     }
   }
   LevelStats total;
@@ -90,47 +141,7 @@ int runInfo(const std::string& dir, bool json) {
       rawBytes > 0 ? static_cast<double>(total.compressedBytes) / static_cast<double>(rawBytes)
                    : 0.0;
   if (json) {
-    nlohmann::ordered_json j;
-    j["dataset"] = dir;
-    j["planet"] = m.planetSpec;
-    j["equatorial_radius_m"] = m.equatorialRadiusMeters;
-    j["lattice_cells"] = m.latticeCells;
-    j["leaf_cells"] = m.leafCells;
-    j["depth"] = m.depth;
-    j["texture_levels"] = m.textureLevels;
-    j["texture_format"] = m.textureFormat;
-    j["texture_normal_format"] = m.textureNormalFormat;
-    j["texture_source"] = m.textureSource;
-    j["source_dem"] = m.sourceDem;
-    if (!m.insets.empty()) j["insets"] = nlohmann::ordered_json::parse(manifestInsetsJson(m));
-    j["nodes"] = total.nodes;
-    j["patches"] = total.nodes;
-    j["vertices"] = total.vertices;
-    j["triangles"] = total.triangles;
-    j["texture_tiles"] = tiles;
-    j["bytes"] = {{"total", fileBytes},
-                  {"headers", headerBytes},
-                  {"node_tables", nodeTableBytes},
-                  {"texture_tables", textureTableBytes},
-                  {"patches", total.compressedBytes},
-                  {"textures", textureBytes},
-                  {"normal_maps", normalBytes}};
-    j["patch_bytes_uncompressed"] = rawBytes;
-    j["compression_ratio"] = ratio;
-    nlohmann::ordered_json per = nlohmann::ordered_json::array();
-    for (std::size_t l = 0; l < levels.size(); ++l) {
-      per.push_back({{"level", l},
-                     {"nodes", levels[l].nodes},
-                     {"leaves", levels[l].leaves},
-                     {"triangles", levels[l].triangles},
-                     {"vertices", levels[l].vertices},
-                     {"patch_triangles_min", levels[l].nodes > 0 ? levels[l].minTriangles : 0},
-                     {"patch_triangles_max", levels[l].maxTriangles},
-                     {"error_min_m", levels[l].minError},
-                     {"error_max_m", levels[l].maxError}});
-    }
-    j["levels"] = per;
-    std::cout << j.dump(2) << "\n";
+    printInfoJson(dir, m, levels, total, b, rawBytes, ratio);
     return kExitOk;
   }
   std::printf("dataset   %s\n", dir.c_str());
@@ -153,16 +164,16 @@ int runInfo(const std::string& dir, bool json) {
               static_cast<unsigned long long>(total.vertices),
               static_cast<unsigned long long>(total.triangles));
   std::printf("textures  %llu tiles of %u texels, %u levels, %s, %s; %s normal maps of %u texels\n",
-              static_cast<unsigned long long>(tiles), m.textureTileTexels, m.textureLevels,
+              static_cast<unsigned long long>(b.tiles), m.textureTileTexels, m.textureLevels,
               m.textureFormat.c_str(), m.textureSource.c_str(), m.textureNormalFormat.c_str(),
               m.normalTileTexels());
   std::printf(
       "bytes     %.2f MB: patches %.2f MB (%.2f MB raw, ratio %.2f), textures %.2f MB, "
       "normal maps %.2f MB, node tables %.2f MB, texture tables %.3f MB\n",
-      static_cast<double>(fileBytes) / 1e6, static_cast<double>(total.compressedBytes) / 1e6,
-      static_cast<double>(rawBytes) / 1e6, ratio, static_cast<double>(textureBytes) / 1e6,
-      static_cast<double>(normalBytes) / 1e6, static_cast<double>(nodeTableBytes) / 1e6,
-      static_cast<double>(textureTableBytes) / 1e6);
+      static_cast<double>(b.file) / 1e6, static_cast<double>(total.compressedBytes) / 1e6,
+      static_cast<double>(rawBytes) / 1e6, ratio, static_cast<double>(b.textures) / 1e6,
+      static_cast<double>(b.normals) / 1e6, static_cast<double>(b.nodeTables) / 1e6,
+      static_cast<double>(b.textureTables) / 1e6);
   std::printf(
       "level  nodes  leaves  triangles  per patch min / mean / max  error min .. max (m)\n");
   for (std::size_t l = 0; l < levels.size(); ++l) {

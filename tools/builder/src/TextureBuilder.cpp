@@ -678,8 +678,9 @@ Result<TextureTileImage> buildNormalTile(const TextureSource& source,
       const glm::dvec3 normal =
           glm::normalize(up - gradient.x * axes.east - gradient.y * axes.north);
       const std::array<std::uint8_t, 2> texel = encodeNormalTexel(normalMapFrame(face, up), normal);
-      line[2 * x] = texel[0];
-      line[2 * x + 1] = texel[1];
+      const std::size_t at = 2 * static_cast<std::size_t>(x);
+      line[at] = texel[0];
+      line[at + 1] = texel[1];
     }
   }
   return tile;
