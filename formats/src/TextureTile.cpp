@@ -93,6 +93,16 @@ std::string describeInconsistency(const TextureTileImage& tile) {
   return {};
 }
 
+// A tile of `like`'s size and border in `format`, its texels zero: what a conversion fills.
+TextureTileImage emptyTileLike(const TextureTileImage& like, TexelFormat format) {
+  TextureTileImage out;
+  out.sizeTexels = like.sizeTexels;
+  out.format = format;
+  out.borderTexels = like.borderTexels;
+  out.data.resize(textureTileDataBytes(like.sizeTexels, format));
+  return out;
+}
+
 }  // namespace
 
 std::size_t textureTileDataBytes(std::uint32_t sizeTexels, TexelFormat format) noexcept {
@@ -235,11 +245,7 @@ Result<TextureTileImage> compressBc1(const TextureTileImage& rgba, Bc1Quality qu
   }
   const int flags = squish::kDxt1 | (quality == Bc1Quality::Fast ? squish::kColourRangeFit
                                                                  : squish::kColourClusterFit);
-  TextureTileImage out;
-  out.sizeTexels = rgba.sizeTexels;
-  out.format = TexelFormat::Bc1;
-  out.borderTexels = rgba.borderTexels;
-  out.data.resize(textureTileDataBytes(rgba.sizeTexels, TexelFormat::Bc1));
+  TextureTileImage out = emptyTileLike(rgba, TexelFormat::Bc1);
   const std::size_t size = rgba.sizeTexels;
   const std::size_t blocksPerRow = size / 4;
   std::array<std::uint8_t, 64> block{};
@@ -267,11 +273,7 @@ Result<TextureTileImage> expandToRgba8(const TextureTileImage& tile) {
     return invalidArgument("texture tile: " + problem);
   }
   if (tile.format == TexelFormat::Rgba8) return tile;
-  TextureTileImage out;
-  out.sizeTexels = tile.sizeTexels;
-  out.format = TexelFormat::Rgba8;
-  out.borderTexels = tile.borderTexels;
-  out.data.resize(textureTileDataBytes(tile.sizeTexels, TexelFormat::Rgba8));
+  TextureTileImage out = emptyTileLike(tile, TexelFormat::Rgba8);
   const std::size_t size = tile.sizeTexels;
   const std::size_t blocksPerRow = size / 4;
   std::array<std::uint8_t, 64> block{};
@@ -298,11 +300,7 @@ Result<TextureTileImage> compressBc5(const TextureTileImage& rg8) {
     return invalidArgument("texture tile: BC5 needs a size that is a multiple of 4, not " +
                            std::to_string(rg8.sizeTexels));
   }
-  TextureTileImage out;
-  out.sizeTexels = rg8.sizeTexels;
-  out.format = TexelFormat::Bc5;
-  out.borderTexels = rg8.borderTexels;
-  out.data.resize(textureTileDataBytes(rg8.sizeTexels, TexelFormat::Bc5));
+  TextureTileImage out = emptyTileLike(rg8, TexelFormat::Bc5);
   const std::size_t size = rg8.sizeTexels;
   const std::size_t blocksPerRow = size / 4;
   // squish's kBc5 reads R into the block's first BC4 half and G into its second (TestTextureTile
@@ -334,11 +332,7 @@ Result<TextureTileImage> expandToRg8(const TextureTileImage& tile) {
     return invalidArgument("texture tile: " + problem);
   }
   if (tile.format == TexelFormat::Rg8) return tile;
-  TextureTileImage out;
-  out.sizeTexels = tile.sizeTexels;
-  out.format = TexelFormat::Rg8;
-  out.borderTexels = tile.borderTexels;
-  out.data.resize(textureTileDataBytes(tile.sizeTexels, TexelFormat::Rg8));
+  TextureTileImage out = emptyTileLike(tile, TexelFormat::Rg8);
   const std::size_t size = tile.sizeTexels;
   const std::size_t blocksPerRow = size / 4;
   // libsquish 1.15's Decompress ignores kBc4/kBc5 (it would decode the bytes as a BC1 colour

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "GraphicsPipeline.h"
 #include "pbdam/gpu/VulkanContext.h"
@@ -35,15 +36,18 @@ const uint32_t kSkyFrag[] =
 #include "sky.frag.inc"
     ;
 
-/// Sets 1 and 2: a tile page's colour tiles (binding 0) and normal-map tiles (binding 1), both
-/// sampled by the fragment shader.
-Result<UniqueDescriptorSetLayout> createTilesSetLayout(VkDevice device) {
-  std::array<VkDescriptorSetLayoutBinding, 2> bindings{};
-  for (std::uint32_t b = 0; b < 2; ++b) {
-    bindings[b].binding = b;
-    bindings[b].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-    bindings[b].descriptorCount = 1;
-    bindings[b].stageFlags = VK_SHADER_STAGE_FRAGMENT_BIT;
+/// A descriptor set layout of one descriptor per binding, binding k of type types[k], every
+/// binding visible to `stages`.
+Result<UniqueDescriptorSetLayout> createBindingsLayout(VkDevice device,
+                                                       std::span<const VkDescriptorType> types,
+                                                       VkShaderStageFlags stages,
+                                                       const char* what) {
+  std::vector<VkDescriptorSetLayoutBinding> bindings(types.size());
+  for (std::uint32_t k = 0; k < bindings.size(); ++k) {
+    bindings[k].binding = k;
+    bindings[k].descriptorType = types[k];
+    bindings[k].descriptorCount = 1;
+    bindings[k].stageFlags = stages;
   }
   VkDescriptorSetLayoutCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
@@ -51,55 +55,37 @@ Result<UniqueDescriptorSetLayout> createTilesSetLayout(VkDevice device) {
   info.pBindings = bindings.data();
   VkDescriptorSetLayout raw = VK_NULL_HANDLE;
   if (VkResult r = vkCreateDescriptorSetLayout(device, &info, nullptr, &raw); r != VK_SUCCESS) {
-    return vulkanError(r, "vkCreateDescriptorSetLayout (tile pages)");
+    return vulkanError(r, std::string("vkCreateDescriptorSetLayout (") + what + ")");
   }
   return UniqueDescriptorSetLayout(device, raw);
 }
 
+constexpr VkDescriptorType kSampled = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+constexpr VkDescriptorType kUniform = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+
+/// Sets 1 and 2: a tile page's colour tiles (binding 0) and normal-map tiles (binding 1), both
+/// sampled by the fragment shader.
+Result<UniqueDescriptorSetLayout> createTilesSetLayout(VkDevice device) {
+  constexpr std::array<VkDescriptorType, 2> kTypes{kSampled, kSampled};
+  return createBindingsLayout(device, kTypes, VK_SHADER_STAGE_FRAGMENT_BIT, "tile pages");
+}
+
 /// Set 3: the overlay's image and uniform block, both read by the fragment shader.
 Result<UniqueDescriptorSetLayout> createOverlaySetLayout(VkDevice device) {
-  std::array<VkDescriptorSetLayoutBinding, 2> bindings{};
-  bindings[0].binding = 0;
-  bindings[0].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-  bindings[0].descriptorCount = 1;
-  bindings[0].stageFlags = VK_SHADER_STAGE_FRAGMENT_BIT;
-  bindings[1].binding = 1;
-  bindings[1].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
-  bindings[1].descriptorCount = 1;
-  bindings[1].stageFlags = VK_SHADER_STAGE_FRAGMENT_BIT;
-  VkDescriptorSetLayoutCreateInfo info{};
-  info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
-  info.bindingCount = static_cast<std::uint32_t>(bindings.size());
-  info.pBindings = bindings.data();
-  VkDescriptorSetLayout raw = VK_NULL_HANDLE;
-  if (VkResult r = vkCreateDescriptorSetLayout(device, &info, nullptr, &raw); r != VK_SUCCESS) {
-    return vulkanError(r, "vkCreateDescriptorSetLayout (surface overlay)");
-  }
-  return UniqueDescriptorSetLayout(device, raw);
+  constexpr std::array<VkDescriptorType, 2> kTypes{kSampled, kUniform};
+  return createBindingsLayout(device, kTypes, VK_SHADER_STAGE_FRAGMENT_BIT, "surface overlay");
 }
 
 /// Set 4: the atmosphere's tables (transmittance, scattering, single Mie scattering, irradiance),
 /// its uniform block and the frame's sky-view table, read by the patch vertex stage (the aerial
 /// perspective, per vertex), the sky's stages and the sky view's compute pass (its set 0).
 Result<UniqueDescriptorSetLayout> createAtmosphereSetLayout(VkDevice device) {
-  std::array<VkDescriptorSetLayoutBinding, 6> bindings{};
-  for (std::uint32_t i = 0; i < bindings.size(); ++i) {
-    bindings[i].binding = i;
-    bindings[i].descriptorType =
-        i == 4 ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER : VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-    bindings[i].descriptorCount = 1;
-    bindings[i].stageFlags =
-        VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
-  }
-  VkDescriptorSetLayoutCreateInfo info{};
-  info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
-  info.bindingCount = static_cast<std::uint32_t>(bindings.size());
-  info.pBindings = bindings.data();
-  VkDescriptorSetLayout raw = VK_NULL_HANDLE;
-  if (VkResult r = vkCreateDescriptorSetLayout(device, &info, nullptr, &raw); r != VK_SUCCESS) {
-    return vulkanError(r, "vkCreateDescriptorSetLayout (atmosphere)");
-  }
-  return UniqueDescriptorSetLayout(device, raw);
+  constexpr std::array<VkDescriptorType, 6> kTypes{kSampled, kSampled, kSampled,
+                                                   kSampled, kUniform, kSampled};
+  return createBindingsLayout(
+      device, kTypes,
+      VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT,
+      "atmosphere");
 }
 
 /// The pipeline layout: the five descriptor sets (records, the patch's tile page, the page of
