@@ -677,11 +677,6 @@ TextureRecord FaceView::textureNode(std::uint64_t heapIndex) const noexcept {
   return row ? textureAt(*row) : TextureRecord{};
 }
 
-Result<std::span<const std::byte>> FaceView::readTextureBlob(const TextureRecord& t,
-                                                             std::vector<std::byte>& buffer) const {
-  return readBlob(t.blobOffset, t.blobBytes, buffer);
-}
-
 Result<TextureBlobs> FaceView::readTextureBlobs(const TextureRecord& t,
                                                 std::vector<std::byte>& buffer) const {
   auto both = readBlob(t.blobOffset, t.blobsBytes(), buffer);

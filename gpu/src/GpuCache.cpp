@@ -127,8 +127,7 @@ Result<std::shared_ptr<GpuCache>> GpuCache::create(VulkanContext& context,
   formats.colourTexels = tileTexels;
   formats.normal = state->texture.normalFormat;
   formats.normalTexels = dataset.manifest().normalTileTexels();
-  formats.normalOffset =
-      DecodeScheduler(dataset, state->texture.texels, options.exaggeration).normalTileOffset();
+  formats.normalOffset = DecodeScheduler::normalTileOffset(dataset, state->texture.texels);
   auto tiles =
       TilePool::create(context, formats, state->texture.slotBytes, tileCapacity, layersPerPage,
                        state->pipeline.tilesSetLayout(), state->pipeline.sampler());

@@ -37,10 +37,15 @@ DecodeScheduler::DecodeScheduler(const DatasetView& dataset, TexelFormat tileTex
     : dataset_(&dataset),
       tileTexels_(tileTexels),
       exaggeration_(exaggeration),
-      normalOffset_(alignUp(textureTileDataBytes(dataset.manifest().textureTileTexels, tileTexels),
-                            kAlignment)),
+      normalOffset_(normalTileOffset(dataset, tileTexels)),
       tileBytes_(normalOffset_ + textureTileDataBytes(dataset.manifest().normalTileTexels(),
                                                       normalTexels(tileTexels))) {}
+
+std::uint64_t DecodeScheduler::normalTileOffset(const DatasetView& dataset,
+                                                TexelFormat tileTexels) noexcept {
+  return alignUp(textureTileDataBytes(dataset.manifest().textureTileTexels, tileTexels),
+                 kAlignment);
+}
 
 TexelFormat DecodeScheduler::datasetTexels(const DatasetView& dataset) noexcept {
   return dataset.manifest().textureFormat == "bc1" ? TexelFormat::Bc1 : TexelFormat::Rgba8;

@@ -226,9 +226,6 @@ class FaceView final {
   TextureRecord textureNode(std::uint64_t heapIndex) const noexcept;
   /// The tile at row `tableIndex` of the texture table (below header().textureNodeCount).
   TextureRecord textureAt(std::uint64_t tableIndex) const noexcept;
-  /// The same for a tile's colour blob.
-  Result<std::span<const std::byte>> readTextureBlob(const TextureRecord& record,
-                                                     std::vector<std::byte>& buffer) const;
   /// Copies a tile's colour and normal-map blobs into `buffer` in one read; errors as for
   /// readPatchBlob.
   Result<TextureBlobs> readTextureBlobs(const TextureRecord& record,

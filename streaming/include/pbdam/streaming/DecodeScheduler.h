@@ -68,6 +68,9 @@ class DecodeScheduler final {
   std::uint64_t tileBytes() const noexcept { return tileBytes_; }
   /// Where a decoded tile's normal-map texels start (a multiple of kAlignment).
   std::uint64_t normalTileOffset() const noexcept { return normalOffset_; }
+  /// The same for tiles of `dataset` decoded to `tileTexels`.
+  static std::uint64_t normalTileOffset(const runtime::DatasetView& dataset,
+                                        formats::TexelFormat tileTexels) noexcept;
 
   /// Sets every job's offset, bytes and vertexBytes: consecutive in job order, each offset
   /// aligned to kAlignment. Returns the bytes the output needs. Patch jobs must name drawable
